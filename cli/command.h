@@ -1,0 +1,33 @@
+// How a `machplan` subcommand plugs into the command line.
+//
+// Each subcommand lives in its own cli/*.cpp file and registers itself:
+//
+//   namespace {
+//   void add_program(CLI::App& app) {
+//     auto* cmd = app.add_subcommand("program", "Interpret a G-code part program");
+//     ...
+//     cmd->callback([=] { ...; });   // throw InputError on bad input
+//   }
+//   const machplan::cli::Registration reg(10, add_program);
+//   }
+//
+// The rank orders subcommands in `machplan --help`. Callbacks report bad input by throwing
+// machplan::InputError (exit 2) or machplan::Infeasible (exit 3); a command that finished but
+// must signal a non-zero status calls set_exit_code().
+#pragma once
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+namespace machplan::cli {
+
+using AddCommand = std::function<void(CLI::App&)>;
+
+struct Registration {
+  Registration(int rank, AddCommand add);
+};
+
+void set_exit_code(int code);
+
+}  // namespace machplan::cli

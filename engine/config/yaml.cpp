@@ -1,0 +1,163 @@
+#include "engine/config/yaml.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include "engine/common/text_file.h"
+
+namespace machplan {
+
+Yaml Yaml::load_file(const std::string& path) { return load_string(read_text_file(path, 64u << 20), path); }
+
+Yaml Yaml::load_string(const std::string& text, const std::string& name) {
+  try {
+    YAML::Node root = YAML::Load(text);
+    if (!root.IsDefined() || root.IsNull()) throw InputError(name, 0, "the file is empty");
+    return Yaml(root, name, "");
+  } catch (const YAML::Exception& e) {
+    throw InputError(name, e.mark.is_null() ? 0 : e.mark.line + 1, "YAML syntax error: " + e.msg);
+  }
+}
+
+Yaml::Yaml(YAML::Node node, std::string file, std::string key_path)
+    : node_(std::move(node)), file_(std::move(file)), key_path_(std::move(key_path)) {}
+
+int Yaml::line() const {
+  const YAML::Mark m = node_.Mark();
+  return m.is_null() ? 0 : m.line + 1;
+}
+
+void Yaml::fail(const std::string& message) const {
+  const std::string who = key_path_.empty() ? std::string("the document") : "key '" + key_path_ + "'";
+  throw InputError(file_, line(), who + " " + message);
+}
+
+std::string Yaml::kind_name() const {
+  switch (node_.Type()) {
+    case YAML::NodeType::Map: return "a map";
+    case YAML::NodeType::Sequence: return "a list";
+    case YAML::NodeType::Scalar: return "'" + node_.Scalar() + "'";
+    case YAML::NodeType::Null: return "nothing";
+    default: return "an undefined value";
+  }
+}
+
+bool Yaml::has(const std::string& key) const { return node_.IsMap() && node_[key].IsDefined(); }
+
+Yaml Yaml::at(const std::string& key) const {
+  const std::string path = key_path_.empty() ? key : key_path_ + "." + key;
+  if (!node_.IsMap()) fail("must be a map with key '" + key + "', got " + kind_name());
+  YAML::Node child = node_[key];
+  if (!child.IsDefined()) {
+    throw InputError(file_, line(), "missing required key '" + path + "'");
+  }
+  return Yaml(child, file_, path);
+}
+
+std::optional<Yaml> Yaml::get(const std::string& key) const {
+  if (!has(key)) return std::nullopt;
+  return at(key);
+}
+
+std::vector<Yaml> Yaml::items() const {
+  if (!node_.IsSequence()) fail("must be a list, got " + kind_name());
+  std::vector<Yaml> out;
+  out.reserve(node_.size());
+  for (std::size_t i = 0; i < node_.size(); ++i)
+    out.emplace_back(node_[i], file_, key_path_ + "[" + std::to_string(i) + "]");
+  return out;
+}
+
+double Yaml::number(const NumberRule& rule) const {
+  if (!node_.IsScalar()) fail("must be a number, got " + kind_name());
+  double v = 0;
+  const std::string& s = node_.Scalar();
+  try {
+    std::size_t used = 0;
+    v = std::stod(s, &used);
+    if (used != s.size()) throw std::invalid_argument(s);
+  } catch (const std::exception&) {
+    fail("must be a number, got '" + s + "'");
+  }
+  if (!std::isfinite(v)) fail("must be a finite number, got '" + s + "'");
+  if (v < rule.min || (rule.min_exclusive && v == rule.min))
+    fail(fmt::format("must be {} {}, got {}", rule.min_exclusive ? ">" : ">=", rule.min, v));
+  if (v > rule.max) fail(fmt::format("must be <= {}, got {}", rule.max, v));
+  return v;
+}
+
+int Yaml::integer(int min, int max) const {
+  const double v = number();
+  if (v != std::floor(v)) fail(fmt::format("must be a whole number, got {}", v));
+  if (v < min || v > max) fail(fmt::format("must be between {} and {}, got {}", min, max, v));
+  return static_cast<int>(v);
+}
+
+bool Yaml::boolean() const {
+  if (!node_.IsScalar()) fail("must be true or false, got " + kind_name());
+  const std::string& s = node_.Scalar();
+  if (s == "true" || s == "yes" || s == "on") return true;
+  if (s == "false" || s == "no" || s == "off") return false;
+  fail("must be true or false, got '" + s + "'");
+}
+
+std::string Yaml::string() const {
+  if (!node_.IsScalar()) fail("must be a text value, got " + kind_name());
+  return node_.Scalar();
+}
+
+std::vector<double> Yaml::numbers(std::size_t count, const NumberRule& rule) const {
+  if (!node_.IsSequence() || (count != 0 && node_.size() != count))
+    fail(count ? fmt::format("must be a list of {} numbers, got {}", count, kind_name())
+               : "must be a list of numbers, got " + kind_name());
+  std::vector<double> out;
+  for (const Yaml& item : items()) out.push_back(item.number(rule));
+  return out;
+}
+
+Eigen::Vector2d Yaml::vec2() const {
+  const auto v = numbers(2);
+  return {v[0], v[1]};
+}
+
+Eigen::Vector3d Yaml::vec3() const {
+  const auto v = numbers(3);
+  return {v[0], v[1], v[2]};
+}
+
+double Yaml::number_or(const std::string& key, double fallback, const NumberRule& rule) const {
+  return has(key) ? at(key).number(rule) : fallback;
+}
+
+std::string Yaml::string_or(const std::string& key, const std::string& fallback) const {
+  return has(key) ? at(key).string() : fallback;
+}
+
+bool Yaml::boolean_or(const std::string& key, bool fallback) const {
+  return has(key) ? at(key).boolean() : fallback;
+}
+
+void Yaml::reject_unknown_keys(std::initializer_list<const char*> known) const {
+  if (!node_.IsMap()) fail("must be a map, got " + kind_name());
+  for (auto it = node_.begin(); it != node_.end(); ++it) {
+    const std::string key = it->first.Scalar();
+    bool ok = false;
+    for (const char* k : known) ok = ok || key == k;
+    if (!ok) {
+      std::string list;
+      for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+      const YAML::Mark m = it->first.Mark();
+      const std::string path = key_path_.empty() ? key : key_path_ + "." + key;
+      throw InputError(file_, m.is_null() ? line() : m.line + 1,
+                       "unknown key '" + path + "' (known keys here: " + list + ")");
+    }
+  }
+}
+
+std::string Yaml::resolve_path(const std::string& relative) const {
+  std::filesystem::path p(relative);
+  if (p.is_absolute()) return p.string();
+  return (std::filesystem::path(file_).parent_path() / p).lexically_normal().string();
+}
+
+}  // namespace machplan
