@@ -1,0 +1,782 @@
+#include "solvers/placement/checker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include "engine/common/error.h"
+#include "engine/interference/height_field.h"
+
+namespace machplan::placement {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kDeg = M_PI / 180.0;
+constexpr int kMaxIntervalDepth = 12;
+// Lower bounds this far above what a scan needs are kept instead of an exact query.
+constexpr double kLowerBoundSlack_mm = 50.0;
+
+double aabb_distance(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) {
+  const Eigen::Vector3d gap =
+      (a.min() - b.max()).cwiseMax(b.min() - a.max()).cwiseMax(Eigen::Vector3d::Zero());
+  return gap.norm();
+}
+
+Eigen::AlignedBox3d segment_box(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double r) {
+  Eigen::AlignedBox3d b(p0.cwiseMin(p1), p0.cwiseMax(p1));
+  b.min().array() -= r;
+  b.max().array() += r;
+  return b;
+}
+
+Eigen::Vector3d slerp_axis(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double t) {
+  const double th = std::atan2(a.cross(b).norm(), a.dot(b));
+  if (th < 1e-9) return ((1 - t) * a + t * b).normalized();
+  const double s = std::sin(th);
+  return (std::sin((1 - t) * th) / s * a + std::sin(t * th) / s * b).normalized();
+}
+}  // namespace
+
+const char* kind_name(Kind k) {
+  switch (k) {
+    case Kind::self: return "self";
+    case Kind::workpiece_class1: return "workpiece_class1";
+    case Kind::workpiece_class2: return "workpiece_class2";
+    case Kind::machine_peripheral: return "machine_peripheral";
+    case Kind::workpiece_peripheral: return "workpiece_peripheral";
+  }
+  return "?";
+}
+
+bool CheckReport::free() const {
+  return std::none_of(kinds.begin(), kinds.end(), [](const Finding& f) { return f.interferes; });
+}
+
+// What evaluate() found at one pose, for messages.
+struct Checker::Eval {
+  hexam::IkResult ik;
+  hexam::LimitMargins limits;
+  int strut_a = -1, strut_b = -1;  // closest strut pair
+  int class2_strut = -1;
+  std::vector<std::string> periph_part;  // per constraint index beyond kFirstPeripheral
+};
+
+struct Checker::ScanSettings {
+  bool report = false;                 // minimise instead of decide
+  std::vector<double> thr_ok, thr_fail;  // per constraint
+  std::vector<double> best;            // report: smallest value so far
+  std::vector<long> best_pose;
+  std::vector<double> best_t;
+  int failed_constraint = -1;
+  long failed_pose = -1;
+  double failed_t = 0, failed_value = 0;
+  unsigned all_mask = 0;
+};
+
+Checker::Checker(const Scene& scene, double rotation_deg)
+    : scene_(scene),
+      rotation_deg_(rotation_deg),
+      strut_shape_(interference::Shape::capsule(scene.machine.strut_radius_mm, 1.0)),
+      workpiece_shape_(interference::Shape::sphere(1.0)),
+      workpiece_box_shape_(interference::Shape::sphere(1.0)) {
+  const hexam::Machine& m = scene.machine;
+  const Eigen::Matrix3d Rz = Eigen::AngleAxisd(rotation_deg * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const std::size_t n = scene.tips_mm.size();
+  tips_.resize(n);
+  axes_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    tips_[i] = Rz * scene.tips_mm[i];
+    axes_[i] = Rz * scene.axes[i];
+  }
+  std::vector<Eigen::Vector3d> wv(scene.workpiece_vertices.size());
+  Eigen::AlignedBox3d wb;
+  for (std::size_t i = 0; i < wv.size(); ++i) {
+    wv[i] = Rz * scene.workpiece_vertices[i];
+    wb.extend(wv[i]);
+  }
+  workpiece_shape_ = interference::Shape::mesh(wv, scene.workpiece_triangles);
+  // Workpiece plus pad as one box in the workpiece frame: from the table (z = -pad) up; the
+  // pad's height is added per placement, so the box here spans the workpiece only and is
+  // stretched down in evaluate().
+  workpiece_box_half_ = wb.sizes() / 2;
+  workpiece_box_centre_ = wb.center();
+
+  // Tool assembly shapes: tool parts along the axis, the plate, the hinges.
+  for (const auto& part : m.tool_parts) {
+    const double len = part.to_mm - part.from_mm;
+    rigid_shapes_.push_back(part.capsule ? interference::Shape::capsule(part.radius_mm, std::max(len - 2 * part.radius_mm, 0.0))
+                                         : interference::Shape::cylinder(part.radius_mm, len));
+  }
+  rigid_shapes_.push_back(interference::Shape::cylinder(m.plate_radius_mm, m.plate_thickness_mm));
+  rigid_shapes_.push_back(interference::Shape::sphere(m.hinge_radius_mm));
+
+  // Motion bounds per interval.
+  const double rot_factor = hexam::plate_rotation_factor(m.max_tilt_rad);
+  double L_min = kInf;
+  for (const auto& s : m.struts) L_min = std::min(L_min, s.length_mm);
+  cum_rigid_.assign(n, 0.0);
+  cum_joint_.assign(n, 0.0);
+  cum_angle_.assign(n, 0.0);
+  for (std::size_t i = 1; i < n; ++i) {
+    const double dtip = (tips_[i] - tips_[i - 1]).norm();
+    const double th = std::atan2(axes_[i].cross(axes_[i - 1]).norm(), axes_[i].dot(axes_[i - 1])) * rot_factor;
+    const double dj = dtip + th * m.plate_joint_reach_mm;
+    cum_rigid_[i] = cum_rigid_[i - 1] + dtip + th * m.rigid_reach_mm;
+    cum_joint_[i] = cum_joint_[i - 1] + dj;
+    cum_angle_[i] = cum_angle_[i - 1] + (m.kappa + 1) * dj / L_min + th;
+  }
+
+  const double k = m.kappa, c = scene.safe_distance_mm;
+  // stroke, joint, strut-strut, class 2, then (rigid, struts) per peripheral
+  path_lipschitz_ = {k, 1.0, 2 * k, k};
+  travel_kind_ = {1, 2, 1, 1};
+  placement_lipschitz_ = {k, (k + 1) / L_min, 2 * k, k + 1};
+  limit_ = {0.0, 0.0, c, c};
+  for (std::size_t p = 0; p < scene.peripherals.size(); ++p) {
+    path_lipschitz_.insert(path_lipschitz_.end(), {1.0, k});
+    travel_kind_.insert(travel_kind_.end(), {0, 1});
+    placement_lipschitz_.insert(placement_lipschitz_.end(), {1.0, k});
+    limit_.insert(limit_.end(), {c, c});
+  }
+  constraint_count_ = static_cast<int>(limit_.size());
+  MACHPLAN_ASSERT(constraint_count_ <= 32, "at most 14 peripherals are supported, got {}", scene.peripherals.size());
+  cache_.assign(n * constraint_count_, 0.0);
+  cache_gen_.assign(n, 0u);
+  compute_class1();
+}
+
+Checker::Pose Checker::interpolate(long i, double t) const {
+  if (t <= 0) return {tips_[i], axes_[i]};
+  if (t >= 1) return {tips_[i + 1], axes_[i + 1]};
+  return {(1 - t) * tips_[i] + t * tips_[i + 1], slerp_axis(axes_[i], axes_[i + 1], t)};
+}
+
+void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned mask, double* v, Eval* d) const {
+  const hexam::Machine& m = scene_.machine;
+  ++const_cast<CheckCounts&>(counts_).exact_queries;
+  const Eigen::Vector3d tip = pose.tip + offset;
+  hexam::IkResult ik = hexam::inverse_kinematics(m, tip, pose.axis);
+  const double c = scene_.safe_distance_mm;
+  if (!ik.reachable) {
+    // Out of reach: every strut-related value is meaningless; report the deficit everywhere
+    // it matters, which is 1-Lipschitz in the placement (kappa >= 1 covers it).
+    for (int k = 0; k < constraint_count_; ++k) v[k] = kInf;
+    v[kStroke] = -ik.reach_deficit_mm;
+    if (d) d->ik = ik;
+    return;
+  }
+  const hexam::LimitMargins lm = hexam::limit_margins(m, ik);
+  v[kStroke] = lm.stroke_mm;
+  v[kJoint] = lm.joint_rad;
+  if (d) {
+    d->ik = ik;
+    d->limits = lm;
+  }
+  // Strut to strut: capsules, closed form.
+  double ss = kInf;
+  for (int a = 0; a < 6; ++a)
+    for (int b = a + 1; b < 6; ++b) {
+      const double dist = interference::segment_distance(ik.struts[a].slider_mm, ik.struts[a].plate_mm,
+                                                         ik.struts[b].slider_mm, ik.struts[b].plate_mm) -
+                          2 * m.strut_radius_mm;
+      if (dist < ss) {
+        ss = dist;
+        if (d) d->strut_a = a, d->strut_b = b;
+      }
+    }
+  v[kStrutStrut] = ss;
+
+  // Struts against the workpiece and its pad.
+  if (mask & (1u << kClass2)) {
+    Eigen::AlignedBox3d wbox(workpiece_box_centre_ - workpiece_box_half_ + offset,
+                             workpiece_box_centre_ + workpiece_box_half_ + offset);
+    wbox.min().z() = 0.0;  // the pad fills the footprint down to the table
+    const Eigen::Vector3d half = wbox.sizes() / 2;
+    const auto pad_box = interference::Shape::box(half * 2);
+    Eigen::Isometry3d T_box = Eigen::Isometry3d::Identity();
+    T_box.translation() = wbox.center();
+    Eigen::Isometry3d T_wp = Eigen::Isometry3d::Identity();
+    T_wp.translation() = offset;
+    double best = kInf;
+    for (int s = 0; s < 6; ++s) {
+      const auto& st = ik.struts[s];
+      const double lb = aabb_distance(segment_box(st.slider_mm, st.plate_mm, m.strut_radius_mm), wbox);
+      if (lb >= best || lb >= c + kLowerBoundSlack_mm) {
+        if (lb < best) best = lb, d ? d->class2_strut = s : 0;
+        continue;
+      }
+      const auto cap = interference::Shape::capsule(m.strut_radius_mm, (st.plate_mm - st.slider_mm).norm());
+      const auto T = interference::segment_pose(st.slider_mm, st.plate_mm);
+      double dist = interference::distance(cap, T, pad_box, T_box).distance_mm;
+      if (dist < c + kLowerBoundSlack_mm) {
+        // The box is only a hull; ask the real solid (workpiece mesh) and the pad separately.
+        Eigen::AlignedBox3d padonly = wbox;
+        padonly.max().z() = offset.z();
+        double exact = interference::distance(cap, T, workpiece_shape_, T_wp).distance_mm;
+        if (offset.z() > 1e-9) {
+          Eigen::Isometry3d Tp = Eigen::Isometry3d::Identity();
+          Tp.translation() = padonly.center();
+          exact = std::min(exact, interference::distance(cap, T, interference::Shape::box(padonly.sizes()), Tp).distance_mm);
+        }
+        dist = exact;
+      }
+      if (dist < best) {
+        best = dist;
+        if (d) d->class2_strut = s;
+      }
+    }
+    v[kClass2] = best;
+  } else {
+    v[kClass2] = kInf;
+  }
+
+  // Moving parts against each peripheral.
+  const Eigen::Matrix3d R = ik.R;
+  for (std::size_t p = 0; p < scene_.peripherals.size(); ++p) {
+    const Peripheral& per = scene_.peripherals[p];
+    const int ci = kFirstPeripheral + 2 * static_cast<int>(p);
+    if (d && d->periph_part.size() < static_cast<std::size_t>(2 * scene_.peripherals.size()))
+      d->periph_part.resize(2 * scene_.peripherals.size());
+    // Rigid tool assembly.
+    double best = kInf;
+    std::string best_part;
+    const Eigen::Vector3d top = tip + pose.axis * (m.gauge_mm + m.plate_thickness_mm);
+    const double assembly_lb = aabb_distance(segment_box(tip, top, std::max(m.plate_radius_mm, m.plate_joint_reach_mm)), per.bounds);
+    if (assembly_lb >= c + kLowerBoundSlack_mm) {
+      best = assembly_lb;
+      best_part = "tool assembly";
+    } else {
+      for (std::size_t s = 0; s < m.tool_parts.size(); ++s) {
+        const auto& part = m.tool_parts[s];
+        const Eigen::Vector3d a = tip + pose.axis * part.from_mm, b = tip + pose.axis * part.to_mm;
+        if (aabb_distance(segment_box(a, b, part.radius_mm), per.bounds) >= best) continue;
+        const double dist = interference::distance(rigid_shapes_[s], interference::segment_pose(a, b), per.shape,
+                                                   per.T_table_peripheral).distance_mm;
+        if (dist < best) best = dist, best_part = part.name;
+      }
+      const Eigen::Vector3d pa = tip + pose.axis * m.gauge_mm, pb = top;
+      if (aabb_distance(segment_box(pa, pb, m.plate_radius_mm), per.bounds) < best) {
+        const double dist = interference::distance(rigid_shapes_[m.tool_parts.size()], interference::segment_pose(pa, pb),
+                                                   per.shape, per.T_table_peripheral).distance_mm;
+        if (dist < best) best = dist, best_part = "spindle plate";
+      }
+      for (int s = 0; s < 6; ++s) {
+        const Eigen::Vector3d h = ik.struts[s].plate_mm;
+        if (aabb_distance(segment_box(h, h, m.hinge_radius_mm), per.bounds) >= best) continue;
+        Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+        T.translation() = h;
+        const double dist = interference::distance(rigid_shapes_.back(), T, per.shape, per.T_table_peripheral).distance_mm;
+        if (dist < best) best = dist, best_part = fmt::format("plate hinge {}", s + 1);
+      }
+    }
+    v[ci] = best;
+    if (d) d->periph_part[2 * p] = best_part;
+    (void)R;
+    // Struts.
+    double sbest = kInf;
+    std::string spart;
+    for (int s = 0; s < 6; ++s) {
+      const auto& st = ik.struts[s];
+      const double lb = aabb_distance(segment_box(st.slider_mm, st.plate_mm, m.strut_radius_mm), per.bounds);
+      if (lb >= sbest) continue;
+      double dist = lb;
+      if (lb < c + kLowerBoundSlack_mm) {
+        const auto cap = interference::Shape::capsule(m.strut_radius_mm, (st.plate_mm - st.slider_mm).norm());
+        dist = interference::distance(cap, interference::segment_pose(st.slider_mm, st.plate_mm), per.shape,
+                                      per.T_table_peripheral).distance_mm;
+      }
+      if (dist < sbest) sbest = dist, spart = fmt::format("strut {}", s + 1);
+    }
+    v[ci + 1] = sbest;
+    if (d) d->periph_part[2 * p + 1] = spart;
+  }
+}
+
+const double* Checker::cached_values(long i, const Eigen::Vector3d& offset, ScanSettings& s) {
+  double* v = &cache_[static_cast<std::size_t>(i) * constraint_count_];
+  if (cache_gen_[i] != gen_) {
+    evaluate({tips_[i], axes_[i]}, offset, s.all_mask, v, nullptr);
+    cache_gen_[i] = gen_;
+  }
+  return v;
+}
+
+namespace {
+double travel(const std::vector<double>& cum, long a, long b) { return std::abs(cum[b] - cum[a]); }
+}  // namespace
+
+bool Checker::scan_node(long lo, long hi, unsigned mask, const Eigen::Vector3d& offset, ScanSettings& s) {
+  ++counts_.stretches;
+  if (hi - lo <= 1) {
+    const double* v0 = cached_values(lo, offset, s);
+    std::vector<double> a(v0, v0 + constraint_count_);
+    const double* v1 = cached_values(hi, offset, s);
+    std::vector<double> b(v1, v1 + constraint_count_);
+    return scan_interval(lo, 0.0, 1.0, a.data(), b.data(), mask, offset, s, 0);
+  }
+  const long mid = (lo + hi) / 2;
+  const double* v = cached_values(mid, offset, s);
+  const std::vector<double>* cums[3] = {&cum_rigid_, &cum_joint_, &cum_angle_};
+  for (int c = 0; c < constraint_count_; ++c) {
+    if (!(mask & (1u << c))) continue;
+    if (s.report && v[c] < s.best[c]) s.best[c] = v[c], s.best_pose[c] = mid, s.best_t[c] = 0;
+    if (!s.report && v[c] <= s.thr_fail[c]) {
+      s.failed_constraint = c, s.failed_pose = mid, s.failed_t = 0, s.failed_value = v[c];
+      return false;
+    }
+    const auto& cum = *cums[travel_kind_[c]];
+    const double R = path_lipschitz_[c] * std::max(travel(cum, lo, mid), travel(cum, mid, hi));
+    const double need = s.report ? s.best[c] : s.thr_ok[c];
+    if (v[c] - R >= need) {
+      mask &= ~(1u << c);
+      ++counts_.proven_by_bound;
+    }
+  }
+  if (!mask) return true;
+  return scan_node(lo, mid, mask, offset, s) && scan_node(mid, hi, mask, offset, s);
+}
+
+bool Checker::scan_interval(long i, double t0, double t1, const double* v0, const double* v1, unsigned mask,
+                            const Eigen::Vector3d& offset, ScanSettings& s, int depth) {
+  const std::vector<double>* cums[3] = {&cum_rigid_, &cum_joint_, &cum_angle_};
+  double worst_bound = kInf;
+  int worst_c = -1;
+  for (int c = 0; c < constraint_count_; ++c) {
+    if (!(mask & (1u << c))) continue;
+    const double d = path_lipschitz_[c] * travel(*cums[travel_kind_[c]], i, i + 1) * (t1 - t0);
+    // Along the stretch the value cannot drop below this (it falls at most d in total).
+    const double bound = (v0[c] + v1[c] - d) / 2;
+    const double need = s.report ? s.best[c] : s.thr_ok[c];
+    if (bound >= need || std::min(v0[c], v1[c]) - d >= need) {
+      mask &= ~(1u << c);
+      continue;
+    }
+    if (bound < worst_bound) worst_bound = bound, worst_c = c;
+  }
+  if (!mask) return true;
+  if (depth >= kMaxIntervalDepth) {
+    // Could not be proven to the required precision: report it, never assume it free.
+    if (s.report) {
+      for (int c = 0; c < constraint_count_; ++c)
+        if ((mask & (1u << c))) {
+          const double d = path_lipschitz_[c] * travel(*cums[travel_kind_[c]], i, i + 1) * (t1 - t0);
+          const double bound = (v0[c] + v1[c] - d) / 2;
+          if (bound < s.best[c]) s.best[c] = bound, s.best_pose[c] = i, s.best_t[c] = (t0 + t1) / 2;
+        }
+      return true;
+    }
+    s.failed_constraint = worst_c, s.failed_pose = i, s.failed_t = (t0 + t1) / 2, s.failed_value = worst_bound;
+    return false;
+  }
+  const double tm = (t0 + t1) / 2;
+  std::vector<double> vm(constraint_count_);
+  evaluate(interpolate(i, tm), offset, s.all_mask, vm.data(), nullptr);
+  ++counts_.interpolated_poses;
+  for (int c = 0; c < constraint_count_; ++c) {
+    if (!(mask & (1u << c))) continue;
+    if (s.report && vm[c] < s.best[c]) s.best[c] = vm[c], s.best_pose[c] = i, s.best_t[c] = tm;
+    if (!s.report && vm[c] <= s.thr_fail[c]) {
+      s.failed_constraint = c, s.failed_pose = i, s.failed_t = tm, s.failed_value = vm[c];
+      return false;
+    }
+  }
+  return scan_interval(i, t0, tm, v0, vm.data(), mask, offset, s, depth + 1) &&
+         scan_interval(i, tm, t1, vm.data(), v1, mask, offset, s, depth + 1);
+}
+
+bool Checker::scan(const Eigen::Vector3d& offset, ScanSettings& s) {
+  if (++gen_ == 0) {
+    std::fill(cache_gen_.begin(), cache_gen_.end(), 0u);
+    gen_ = 1;
+  }
+  s.all_mask = (constraint_count_ >= 32) ? ~0u : ((1u << constraint_count_) - 1);
+  const long n = static_cast<long>(tips_.size());
+  auto check_pose = [&](long i) {
+    const double* v = cached_values(i, offset, s);
+    for (int c = 0; c < constraint_count_; ++c) {
+      if (s.report && v[c] < s.best[c]) s.best[c] = v[c], s.best_pose[c] = i, s.best_t[c] = 0;
+      if (!s.report && v[c] <= s.thr_fail[c]) {
+        s.failed_constraint = c, s.failed_pose = i, s.failed_t = 0, s.failed_value = v[c];
+        return false;
+      }
+    }
+    return true;
+  };
+  if (!s.report)
+    for (long w : witnesses_)
+      if (!check_pose(w)) return false;
+  if (!check_pose(0) || !check_pose(n - 1)) return false;
+  if (n == 1) {
+    const double* v = cached_values(0, offset, s);
+    for (int c = 0; c < constraint_count_; ++c)
+      if (!s.report && v[c] < s.thr_ok[c]) {
+        s.failed_constraint = c, s.failed_pose = 0, s.failed_value = v[c];
+        return false;
+      }
+    return true;
+  }
+  return scan_node(0, n - 1, s.all_mask, offset, s);
+}
+
+Finding Checker::describe(int c, const Pose& pose, long index, double t, const Eigen::Vector3d& offset,
+                          double value) const {
+  Finding f;
+  f.pose = index;
+  f.t = t;
+  f.clearance_mm = value;
+  Eval d;
+  std::vector<double> v(constraint_count_);
+  evaluate(pose, offset, ~0u, v.data(), &d);
+  const Eigen::Vector3d tip = pose.tip + offset;
+  const Eigen::Vector2d to_axis = -tip.head<2>();
+  const Eigen::Vector2d toward_centre = to_axis.norm() > 1e-9 ? Eigen::Vector2d(to_axis.normalized()) : Eigen::Vector2d::Zero();
+  switch (c) {
+    case kStroke:
+      if (!d.ik.reachable)
+        f.what = fmt::format("out of reach by {:.1f} mm", d.ik.reach_deficit_mm);
+      else
+        f.what = fmt::format("slider {} {:.1f} mm from its stroke end", d.limits.stroke_strut + 1, d.limits.stroke_mm);
+      f.evasion = toward_centre;
+      break;
+    case kJoint:
+      f.what = fmt::format("{} joint of strut {} {:.1f} deg from its cone limit", d.limits.joint_at_plate ? "plate" : "slider",
+                           d.limits.joint_strut + 1, d.limits.joint_rad / kDeg);
+      f.evasion = toward_centre;
+      break;
+    case kStrutStrut:
+      f.what = fmt::format("strut {} / strut {}", d.strut_a + 1, d.strut_b + 1);
+      f.evasion = toward_centre;
+      break;
+    case kClass2:
+      f.what = fmt::format("strut {} / workpiece", d.class2_strut + 1);
+      f.evasion = toward_centre;
+      break;
+    default: {
+      const int p = (c - kFirstPeripheral) / 2;
+      const Peripheral& per = scene_.peripherals[p];
+      f.what = d.periph_part.empty() ? per.name : d.periph_part[c - kFirstPeripheral] + " / " + per.name;
+      // Evade along the normal of the peripheral's side that faces the machine (horizontal).
+      const Eigen::Vector3d head = tip + pose.axis * (scene_.machine.gauge_mm * 0.5);
+      if (per.is_box) {
+        const Eigen::Vector3d q = per.T_table_peripheral.inverse() * head;
+        const int axis = std::abs(q.x()) / per.box_half_mm.x() >= std::abs(q.y()) / per.box_half_mm.y() ? 0 : 1;
+        Eigen::Vector3d n = Eigen::Vector3d::Zero();
+        n[axis] = q[axis] >= 0 ? 1.0 : -1.0;
+        f.evasion = (per.T_table_peripheral.linear() * n).head<2>().normalized();
+      } else {
+        const Eigen::Vector2d dir = head.head<2>() - per.bounds.center().head<2>();
+        f.evasion = dir.norm() > 1e-9 ? Eigen::Vector2d(dir.normalized()) : Eigen::Vector2d::Zero();
+      }
+    }
+  }
+  return f;
+}
+
+double Checker::workpiece_peripheral_value(const Eigen::Vector3d& offset, int k, Eigen::Vector2d* evasion) const {
+  const Peripheral& per = scene_.peripherals[k];
+  Eigen::AlignedBox3d wbox(workpiece_box_centre_ - workpiece_box_half_ + offset,
+                           workpiece_box_centre_ + workpiece_box_half_ + offset);
+  wbox.min().z() = 0.0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = wbox.center();
+  const auto p = interference::distance(interference::Shape::box(wbox.sizes()), T, per.shape, per.T_table_peripheral);
+  if (evasion) {
+    const Eigen::Vector2d dir = wbox.center().head<2>() - per.bounds.center().head<2>();
+    Eigen::Vector2d e = Eigen::Vector2d::Zero();
+    if (per.is_box) {
+      const Eigen::Vector3d q = per.T_table_peripheral.inverse() * wbox.center();
+      const int axis = std::abs(q.x()) / per.box_half_mm.x() >= std::abs(q.y()) / per.box_half_mm.y() ? 0 : 1;
+      Eigen::Vector3d n = Eigen::Vector3d::Zero();
+      n[axis] = q[axis] >= 0 ? 1.0 : -1.0;
+      e = (per.T_table_peripheral.linear() * n).head<2>().normalized();
+    } else if (dir.norm() > 1e-9) {
+      e = dir.normalized();
+    }
+    *evasion = e;
+  }
+  return p.distance_mm;
+}
+
+bool Checker::class1_box_clear(Eigen::AlignedBox3d b, double sweep) const {
+  // Proven clear when the solid under the swept box (grown by c sideways) stays c below it.
+  const double c = scene_.safe_distance_mm;
+  b.min().array() -= sweep;
+  b.max().array() += sweep;
+  const double h = height_field_->max_height(b.min().head<2>() - Eigen::Vector2d::Constant(c),
+                                             b.max().head<2>() + Eigen::Vector2d::Constant(c));
+  return b.min().z() - h >= c;
+}
+
+double Checker::class1_value(const Pose& pose, std::string* who) const {
+  const hexam::Machine& m = scene_.machine;
+  ++const_cast<CheckCounts&>(counts_).exact_queries;
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
+  double best = kInf;
+  for (const auto& p : class1_parts_) {
+    const Eigen::Vector3d a = pose.tip + pose.axis * p.from_mm, b = pose.tip + pose.axis * p.to_mm;
+    if (class1_box_clear(segment_box(a, b, p.radius_mm), 0.0)) continue;
+    const double dist =
+        interference::distance(rigid_shapes_[p.shape], interference::segment_pose(a, b), workpiece_shape_, I).distance_mm;
+    if (dist < best) {
+      best = dist;
+      if (who) *who = p.name;
+    }
+  }
+  const Eigen::Matrix3d R = hexam::plate_rotation(pose.axis);
+  for (int s = 0; s < 6; ++s) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = pose.tip + pose.axis * m.gauge_mm + R * m.struts[s].plate_joint_mm;
+    Eigen::AlignedBox3d hb(T.translation(), T.translation());
+    hb.min().array() -= m.hinge_radius_mm;
+    hb.max().array() += m.hinge_radius_mm;
+    if (class1_box_clear(hb, 0.0)) continue;
+    const double dist = interference::distance(rigid_shapes_.back(), T, workpiece_shape_, I).distance_mm;
+    if (dist < best) {
+      best = dist;
+      if (who) *who = fmt::format("plate hinge {}", s + 1);
+    }
+  }
+  return best;
+}
+
+void Checker::compute_class1() {
+  // Placement-independent: tool shank, chuck, head, plate and hinges against the workpiece,
+  // walked in the workpiece frame. A stretch is proven when the height field shows a vertical
+  // gap of at least the safe distance under every part's swept box; otherwise the exact
+  // distance to the workpiece mesh decides, at poses and inside intervals.
+  const hexam::Machine& m = scene_.machine;
+  const double c = scene_.safe_distance_mm;
+  const Eigen::AlignedBox3d wb(workpiece_box_centre_ - workpiece_box_half_, workpiece_box_centre_ + workpiece_box_half_);
+  std::vector<Eigen::Vector3d> wv(scene_.workpiece_vertices.size());
+  const Eigen::Matrix3d Rz = Eigen::AngleAxisd(rotation_deg_ * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (std::size_t i = 0; i < wv.size(); ++i) wv[i] = Rz * scene_.workpiece_vertices[i];
+  height_field_ = std::make_unique<interference::HeightField>(
+      wv, scene_.workpiece_triangles, 2.0, Eigen::AlignedBox2d(wb.min().head<2>(), wb.max().head<2>()), 0.0);
+  class1_parts_.clear();
+  for (std::size_t s = 0; s < m.tool_parts.size(); ++s)
+    if (m.tool_parts[s].cls == hexam::ToolPart::Class::class1)
+      class1_parts_.push_back({s, m.tool_parts[s].from_mm, m.tool_parts[s].to_mm, m.tool_parts[s].radius_mm, m.tool_parts[s].name});
+  class1_parts_.push_back({m.tool_parts.size(), m.gauge_mm, m.gauge_mm + m.plate_thickness_mm, m.plate_radius_mm, "spindle plate"});
+  auto exact = [&](const Pose& pose, std::string* who) { return class1_value(pose, who); };
+  auto stretch_clear = [&](const Pose& pose, double sweep) {
+    for (const auto& p : class1_parts_)
+      if (!class1_box_clear(segment_box(pose.tip + pose.axis * p.from_mm, pose.tip + pose.axis * p.to_mm, p.radius_mm), sweep))
+        return false;
+    const Eigen::Matrix3d R = hexam::plate_rotation(pose.axis);
+    Eigen::AlignedBox3d hb;
+    for (const auto& s : m.struts) hb.extend(pose.tip + pose.axis * m.gauge_mm + R * s.plate_joint_mm);
+    hb.min().array() -= m.hinge_radius_mm;
+    hb.max().array() += m.hinge_radius_mm;
+    return class1_box_clear(hb, sweep);
+  };
+
+  class1_ = Finding{};
+  class1_.clearance_mm = kInf;
+  const long n = static_cast<long>(tips_.size());
+  auto note = [&](double v, long i, double t, const std::string& who) {
+    if (v < class1_.clearance_mm) {
+      class1_.clearance_mm = v, class1_.pose = i, class1_.t = t, class1_.what = who + " / workpiece";
+    }
+  };
+  // Interval between poses i and i+1 over [t0, t1], with exact values at its ends.
+  std::function<void(long, double, double, double, double, int)> interval = [&](long i, double t0, double t1, double v0,
+                                                                               double v1, int depth) {
+    const double d = travel(cum_rigid_, i, i + 1) * (t1 - t0);
+    if ((v0 + v1 - d) / 2 >= c) return;
+    if (depth >= kMaxIntervalDepth) {
+      note((v0 + v1 - d) / 2, i, (t0 + t1) / 2, "unproven interval");
+      return;
+    }
+    const double tm = (t0 + t1) / 2;
+    std::string who;
+    const Pose pm = interpolate(i, tm);
+    ++counts_.interpolated_poses;
+    const double vm = exact(pm, &who);
+    note(vm, i, tm, who);
+    if (vm < c) return;  // the interference is found; deeper search only refines it
+    interval(i, t0, tm, v0, vm, depth + 1);
+    interval(i, tm, t1, vm, v1, depth + 1);
+  };
+  std::vector<double> value(n, std::nan(""));
+  auto value_at = [&](long i) {
+    if (std::isnan(value[i])) {
+      std::string who;
+      value[i] = exact({tips_[i], axes_[i]}, &who);
+      note(value[i], i, 0, who);
+    }
+    return value[i];
+  };
+  std::function<void(long, long)> node = [&](long lo, long hi) {
+    ++counts_.stretches;
+    const long mid = (lo + hi) / 2;
+    const double sweep = std::max(travel(cum_rigid_, lo, mid), travel(cum_rigid_, mid, hi));
+    if (stretch_clear({tips_[mid], axes_[mid]}, sweep)) {
+      ++counts_.proven_by_bound;
+      return;
+    }
+    if (hi - lo <= 1) {
+      interval(lo, 0.0, 1.0, value_at(lo), value_at(hi), 0);
+      return;
+    }
+    node(lo, mid);
+    node(mid, hi);
+  };
+  value_at(0);
+  if (n > 1) node(0, n - 1);
+  class1_.interferes = class1_.clearance_mm < c;
+}
+
+CheckReport Checker::report(const Placement& p) {
+  MACHPLAN_ASSERT(std::abs(p.rotation_deg - rotation_deg_) < 1e-9, "checker built for rotation {}, asked {}", rotation_deg_,
+                  p.rotation_deg);
+  const CheckCounts before = counts_;
+  ScanSettings s;
+  s.report = true;
+  s.best.assign(constraint_count_, kInf);
+  s.best_pose.assign(constraint_count_, -1);
+  s.best_t.assign(constraint_count_, 0.0);
+  s.thr_ok = s.thr_fail = std::vector<double>(constraint_count_, -kInf);
+  const Eigen::Vector3d offset = p.offset();
+  scan(offset, s);
+
+  CheckReport r;
+  r.placement = p;
+  const double c = scene_.safe_distance_mm;
+  auto fill = [&](Kind k, int constraint) {
+    Finding& f = r.kinds[static_cast<int>(k)];
+    const double v = s.best[constraint];
+    const bool violates = v < limit_[constraint];
+    // Keep the worst: a violated constraint beats a clearance; among clearances the smallest.
+    const bool take = f.pose < 0 || (violates && !f.interferes) ||
+                      (violates == f.interferes && v - limit_[constraint] < f.clearance_mm - (f.interferes ? 0 : c));
+    if (!take || s.best_pose[constraint] < 0) return;
+    f = describe(constraint, interpolate(s.best_pose[constraint], s.best_t[constraint]), s.best_pose[constraint],
+                 s.best_t[constraint], offset, v);
+    f.interferes = violates;
+  };
+  fill(Kind::self, kStrutStrut);
+  fill(Kind::self, kStroke);
+  fill(Kind::self, kJoint);
+  fill(Kind::workpiece_class2, kClass2);
+  for (std::size_t k = 0; k < scene_.peripherals.size(); ++k) {
+    fill(Kind::machine_peripheral, kFirstPeripheral + 2 * static_cast<int>(k));
+    fill(Kind::machine_peripheral, kFirstPeripheral + 2 * static_cast<int>(k) + 1);
+  }
+  r.stroke_margin_mm = s.best[kStroke];
+  r.joint_margin_deg = s.best[kJoint] / kDeg;
+  // Self: report the strut clearance as the number, the limits as the verdict.
+  Finding& self = r.kinds[static_cast<int>(Kind::self)];
+  if (!self.interferes) self.clearance_mm = s.best[kStrutStrut];
+  r.kinds[static_cast<int>(Kind::workpiece_class1)] = class1_;
+  Finding& wpp = r.kinds[static_cast<int>(Kind::workpiece_peripheral)];
+  wpp.clearance_mm = kInf;
+  for (std::size_t k = 0; k < scene_.peripherals.size(); ++k) {
+    Eigen::Vector2d e;
+    const double v = workpiece_peripheral_value(offset, static_cast<int>(k), &e);
+    if (v < wpp.clearance_mm) {
+      wpp.clearance_mm = v;
+      wpp.what = "workpiece and pad / " + scene_.peripherals[k].name;
+      wpp.evasion = e;
+      wpp.interferes = v < c;
+    }
+  }
+  r.counts = counts_;
+  r.counts.stretches -= before.stretches;
+  r.counts.exact_queries -= before.exact_queries;
+  r.counts.interpolated_poses -= before.interpolated_poses;
+  r.counts.proven_by_bound -= before.proven_by_bound;
+  return r;
+}
+
+Decision Checker::decide(const Placement& p, double radius, Finding* witness) {
+  const Eigen::Vector3d offset = p.offset();
+  const double c = scene_.safe_distance_mm;
+  // Placement-only constraint first: the workpiece block against the peripherals.
+  bool all_clear = true;
+  for (std::size_t k = 0; k < scene_.peripherals.size(); ++k) {
+    Eigen::Vector2d e;
+    const double v = workpiece_peripheral_value(offset, static_cast<int>(k), &e);
+    if (v <= c - radius && !(radius == 0 && v >= c)) {
+      if (witness) {
+        *witness = Finding{};
+        witness->interferes = true;
+        witness->clearance_mm = v;
+        witness->what = "workpiece and pad / " + scene_.peripherals[k].name;
+        witness->evasion = e;
+      }
+      return Decision::infeasible;
+    }
+    if (v < c + radius) all_clear = false;
+  }
+  if (class1_.interferes) {
+    if (witness) *witness = class1_;
+    return Decision::infeasible;
+  }
+  ScanSettings s;
+  s.thr_ok.resize(constraint_count_);
+  s.thr_fail.resize(constraint_count_);
+  for (int k = 0; k < constraint_count_; ++k) {
+    s.thr_ok[k] = limit_[k] + placement_lipschitz_[k] * radius;
+    // At radius 0 a value exactly at the limit is still allowed (not strictly below it).
+    s.thr_fail[k] = radius > 0 ? limit_[k] - placement_lipschitz_[k] * radius : std::nextafter(limit_[k], -kInf);
+  }
+  if (scan(offset, s)) return all_clear ? Decision::feasible : Decision::unknown;
+  const bool proven_bad = s.failed_value <= s.thr_fail[s.failed_constraint];
+  if (proven_bad) {
+    if (s.failed_t == 0 && std::find(witnesses_.begin(), witnesses_.end(), s.failed_pose) == witnesses_.end()) {
+      witnesses_.insert(witnesses_.begin(), s.failed_pose);
+      if (witnesses_.size() > 16) witnesses_.pop_back();
+    }
+    if (witness) {
+      *witness = describe(s.failed_constraint, interpolate(s.failed_pose, s.failed_t), s.failed_pose, s.failed_t, offset,
+                          s.failed_value);
+      witness->interferes = true;
+    }
+    return Decision::infeasible;
+  }
+  if (radius == 0) {
+    // An interval that could not be proven at the finest subdivision counts against the
+    // placement: the checker never calls free what it could not prove.
+    if (witness) {
+      *witness = describe(s.failed_constraint, interpolate(s.failed_pose, s.failed_t), s.failed_pose, s.failed_t, offset,
+                          s.failed_value);
+      witness->interferes = true;
+    }
+    return Decision::infeasible;
+  }
+  return Decision::unknown;
+}
+
+CheckReport Checker::dense_check(const Placement& p, double step_mm) {
+  const Eigen::Vector3d offset = p.offset();
+  CheckReport r = report(p);  // class 1, workpiece-peripheral and the description fields
+  std::vector<double> v(constraint_count_), worst(constraint_count_, kInf);
+  const long n = static_cast<long>(tips_.size());
+  long evaluated = 0;
+  double class1_worst = kInf;
+  auto visit = [&](const Pose& pose) {
+    evaluate(pose, offset, ~0u, v.data(), nullptr);
+    class1_worst = std::min(class1_worst, class1_value(pose, nullptr));
+    ++evaluated;
+    for (int c = 0; c < constraint_count_; ++c) worst[c] = std::min(worst[c], v[c]);
+  };
+  for (long i = 0; i + 1 < n; ++i) {
+    const double dtip = (tips_[i + 1] - tips_[i]).norm();
+    const double th = std::atan2(axes_[i].cross(axes_[i + 1]).norm(), axes_[i].dot(axes_[i + 1]));
+    const int sub = std::clamp(static_cast<int>(std::ceil(std::max(dtip / step_mm, th / (0.5 * kDeg)))), 1, 100000);
+    for (int k = 0; k < sub; ++k) visit(interpolate(i, double(k) / sub));
+  }
+  visit({tips_[n - 1], axes_[n - 1]});
+  if (class1_worst < scene_.safe_distance_mm) r.kinds[static_cast<int>(Kind::workpiece_class1)].interferes = true;
+  r.counts = CheckCounts{};
+  r.counts.exact_queries = evaluated;
+  for (int c = 0; c < constraint_count_; ++c) {
+    const Kind k = c == kClass2 ? Kind::workpiece_class2 : c >= kFirstPeripheral ? Kind::machine_peripheral : Kind::self;
+    Finding& f = r.kinds[static_cast<int>(k)];
+    if (worst[c] < limit_[c]) f.interferes = true;
+  }
+  return r;
+}
+
+}  // namespace machplan::placement

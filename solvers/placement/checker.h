@@ -1,0 +1,173 @@
+// Interference checking of a whole five-axis tool path at one workpiece placement.
+//
+// Five kinds of interference are told apart, as in the HexaM placement study:
+//   self                   slider stroke, reach, joint cones, strut-to-strut clearance
+//   workpiece_class1       tool shank, chuck, spindle head, plate and plate hinges against the
+//                          workpiece: they move rigidly with the tool pose, so their clearance
+//                          does not depend on where the workpiece sits, and relocation cannot
+//                          cure it. (The study lists hinges under class 2; here the plate never
+//                          spins about the tool axis, so its hinges are as rigid as the head.)
+//   workpiece_class2       struts against the workpiece and its pad: relocation can cure it.
+//   machine_peripheral     any moving part against a peripheral (the tool magazine)
+//   workpiece_peripheral   the workpiece with its pad against a peripheral
+// A kind "interferes" when some clearance falls below the safe distance (the paper grows
+// objects by it), or when a limit is crossed.
+//
+// Soundness between tool points. The path is checked as a continuous motion: between poses
+// i and i+1 the tip moves on a line and the axis on a great circle. For every interval the
+// checker knows how far any point of each moving body can travel (delta_rigid for the tool
+// assembly, kappa * delta_joint for the struts; see models/hexam/hexam.h), so a clearance c at
+// one pose proves clearance c - delta over every pose within that travel. The path is walked
+// as a binary tree of stretches: a stretch is proven by one exact query at its middle pose
+// when the clearance there exceeds the required one plus the travel to the stretch's ends;
+// otherwise both halves are examined, down to single intervals, which are subdivided by
+// interpolated poses until proven or until an interference is found. No stretch is assumed
+// free without such a proof, so nothing can hide between checked points.
+//
+// The same bounds carry over to the placement itself: moving the workpiece by |d| moves the
+// tool assembly by |d| and the struts by at most kappa |d|, which lets the optimal search
+// decide whole boxes of placements at once (decide() with a radius).
+//
+// Thread safety: a Checker is not thread-safe (it caches per-scan values); give each thread its
+// own. Construction does the placement-independent work (class 1, motion bounds) once.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "engine/interference/height_field.h"
+#include "solvers/placement/scene.h"
+
+namespace machplan::placement {
+
+struct Placement {
+  double x_mm = 0, y_mm = 0, pad_mm = 0, rotation_deg = 0;
+  Eigen::Vector3d offset() const { return {x_mm, y_mm, pad_mm}; }
+};
+
+enum class Kind { self, workpiece_class1, workpiece_class2, machine_peripheral, workpiece_peripheral };
+inline constexpr int kKindCount = 5;
+const char* kind_name(Kind kind);
+
+// The worst spot found for one kind.
+struct Finding {
+  bool interferes = false;
+  double clearance_mm = 0;     // smallest clearance (mm); for limits, see `what`
+  long pose = -1;              // tool-path index (the interval starting there when t > 0)
+  double t = 0;                // position inside the interval [pose, pose + 1]
+  std::string what;            // the parts or the limit involved
+  Eigen::Vector2d evasion = Eigen::Vector2d::Zero();  // direction the paper moves the workpiece
+};
+
+struct CheckCounts {
+  long stretches = 0;          // tree nodes examined
+  long exact_queries = 0;      // poses evaluated exactly
+  long interpolated_poses = 0; // poses added inside intervals that needed it
+  long proven_by_bound = 0;    // stretches certified without looking inside
+  void add(const CheckCounts& o) {
+    stretches += o.stretches, exact_queries += o.exact_queries, interpolated_poses += o.interpolated_poses,
+        proven_by_bound += o.proven_by_bound;
+  }
+};
+
+struct CheckReport {
+  Placement placement;
+  std::array<Finding, kKindCount> kinds;
+  double stroke_margin_mm = 0;  // smallest slider distance to a stroke end
+  double joint_margin_deg = 0;  // smallest angle left in a joint cone
+  bool free() const;
+  CheckCounts counts;
+};
+
+enum class Decision { feasible, infeasible, unknown };
+
+class Checker {
+ public:
+  explicit Checker(const Scene& scene, double rotation_deg = 0.0);
+
+  // Class 1 clearance over the whole path (placement-independent, computed at construction).
+  const Finding& class1() const { return class1_; }
+
+  // Full report at one placement: for each kind the smallest clearance over the whole path
+  // (exact at tool poses; between poses proven to stay above the reported value minus the
+  // safe distance) and whether it interferes.
+  CheckReport report(const Placement& p);
+
+  // Decides whether every placement within `radius_mm` (Euclidean, in x, y, pad) of p is free
+  // (feasible), none is (infeasible), or neither could be shown. With radius 0 it decides p.
+  // On infeasible, `witness` holds the interference that proved it.
+  Decision decide(const Placement& p, double radius_mm, Finding* witness = nullptr);
+
+  // Brute-force re-check: every tool pose and interpolated poses every `step_mm` of tip
+  // motion (and every 0.5 deg of axis turn), every constraint evaluated without the stretch
+  // bounds. Slow; used by tests and benchmarks to confirm an answer.
+  CheckReport dense_check(const Placement& p, double step_mm = 0.5);
+
+  const CheckCounts& counts() const { return counts_; }
+  std::size_t pose_count() const { return tips_.size(); }
+  const Scene& scene() const { return scene_; }
+  double rotation_deg() const { return rotation_deg_; }
+
+  // Constraint ids (one value per pose; larger is better).
+  enum Constraint { kStroke, kJoint, kStrutStrut, kClass2, kFirstPeripheral };
+
+ private:
+  struct Pose {
+    Eigen::Vector3d tip, axis;  // workpiece frame, rotated by the placement rotation
+  };
+  struct Eval;
+  void evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned mask, double* values, Eval* detail) const;
+  // Exact class-1 clearance at one pose (infinity when the height field proves every part at
+  // least the safe distance away); `who` names the closest part.
+  double class1_value(const Pose& pose, std::string* who) const;
+  bool class1_box_clear(Eigen::AlignedBox3d box, double sweep_mm) const;
+  void compute_class1();
+
+  struct ScanSettings;
+  bool scan(const Eigen::Vector3d& offset, ScanSettings& s);
+  bool scan_node(long lo, long hi, unsigned mask, const Eigen::Vector3d& offset, ScanSettings& s);
+  bool scan_interval(long i, double t0, double t1, const double* v0, const double* v1, unsigned mask,
+                     const Eigen::Vector3d& offset, ScanSettings& s, int depth);
+  const double* cached_values(long i, const Eigen::Vector3d& offset, ScanSettings& s);
+  Pose interpolate(long i, double t) const;
+  Finding describe(int constraint, const Pose& pose, long index, double t, const Eigen::Vector3d& offset,
+                   double value) const;
+  double workpiece_peripheral_value(const Eigen::Vector3d& offset, int k, Eigen::Vector2d* evasion) const;
+
+  const Scene& scene_;
+  double rotation_deg_;
+  int constraint_count_;
+  std::vector<Eigen::Vector3d> tips_, axes_;
+  // Per interval i (pose i to i+1): travel bounds.
+  std::vector<double> cum_rigid_, cum_joint_, cum_angle_;
+  std::vector<double> path_lipschitz_;     // per constraint: value change per unit of its travel
+  std::vector<int> travel_kind_;           // per constraint: 0 rigid, 1 joint, 2 angle
+  std::vector<double> placement_lipschitz_;  // per constraint: value change per mm of placement
+  std::vector<double> limit_;              // per constraint: the value it must reach
+  std::vector<interference::Shape> rigid_shapes_;  // tool parts, plate, then hinges (shared)
+  interference::Shape strut_shape_;
+  interference::Shape workpiece_shape_;
+  interference::Shape workpiece_box_shape_;
+  Eigen::Vector3d workpiece_box_half_;
+  Eigen::Vector3d workpiece_box_centre_;
+  struct Class1Part {
+    std::size_t shape;
+    double from_mm, to_mm, radius_mm;
+    std::string name;
+  };
+  std::vector<Class1Part> class1_parts_;
+  std::unique_ptr<interference::HeightField> height_field_;
+  Finding class1_;
+  CheckCounts counts_;
+  // Per-scan cache of exact values by pose index.
+  std::vector<double> cache_;
+  std::vector<unsigned> cache_gen_;
+  unsigned gen_ = 0;
+  std::vector<long> witnesses_;  // poses that recently proved infeasibility, tried first
+};
+
+}  // namespace machplan::placement

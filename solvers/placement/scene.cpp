@@ -1,0 +1,139 @@
+#include "solvers/placement/scene.h"
+
+#include <cmath>
+
+#include "engine/common/error.h"
+#include "engine/config/yaml.h"
+#include "engine/programs/mesh.h"
+#include "engine/programs/toolpath.h"
+
+namespace machplan::placement {
+
+namespace {
+constexpr double kDeg = M_PI / 180.0;
+
+Peripheral read_peripheral(const Yaml& y) {
+  y.reject_unknown_keys({"name", "box", "mesh", "pose"});
+  Peripheral p{y.string("name"), interference::Shape::sphere(1.0)};
+  if (y.has("box") == y.has("mesh")) y.fail("needs exactly one of 'box' or 'mesh'");
+  if (const auto box = y.get("box")) {
+    box->reject_unknown_keys({"center", "size", "yaw_deg"});
+    const Eigen::Vector3d c = box->vec3("center");
+    const Eigen::Vector3d s = box->vec3("size");
+    if ((s.array() <= 0).any()) box->at("size").fail("must be three positive sizes");
+    const double yaw = box->number_or("yaw_deg", 0.0, {.min = -360, .max = 360}) * kDeg;
+    p.shape = interference::Shape::box(s);
+    p.T_table_peripheral.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    p.T_table_peripheral.translation() = c;
+    p.is_box = true;
+    p.box_half_mm = s / 2;
+    for (int k = 0; k < 8; ++k) {
+      const Eigen::Vector3d corner(k & 1 ? s.x() / 2 : -s.x() / 2, k & 2 ? s.y() / 2 : -s.y() / 2,
+                                   k & 4 ? s.z() / 2 : -s.z() / 2);
+      p.bounds.extend(p.T_table_peripheral * corner);
+    }
+    for (int k : {0, 1, 3, 2}) {
+      const Eigen::Vector3d corner(k & 1 ? s.x() / 2 : -s.x() / 2, k & 2 ? s.y() / 2 : -s.y() / 2, 0);
+      p.outline.push_back((p.T_table_peripheral * corner).head<2>());
+    }
+  } else {
+    const std::string file = y.resolve_path(y.string("mesh"));
+    const Mesh mesh = read_stl(file);
+    if (const auto pose = y.get("pose")) {
+      pose->reject_unknown_keys({"xyz", "yaw_deg"});
+      p.T_table_peripheral.translation() = pose->vec3("xyz");
+      p.T_table_peripheral.linear() =
+          Eigen::AngleAxisd(pose->number_or("yaw_deg", 0.0) * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    }
+    p.shape = interference::Shape::mesh(mesh.vertices, mesh.triangles);
+    for (const auto& v : mesh.vertices) p.bounds.extend(p.T_table_peripheral * v);
+    const auto& b = p.bounds;
+    p.outline = {{b.min().x(), b.min().y()}, {b.max().x(), b.min().y()}, {b.max().x(), b.max().y()},
+                 {b.min().x(), b.max().y()}};
+  }
+  return p;
+}
+}  // namespace
+
+Scene load_scene(const std::string& path) {
+  const Yaml root = Yaml::load_file(path);
+  root.reject_unknown_keys({"machine", "safe_distance_mm", "tooling", "workpiece", "toolpath", "peripherals",
+                            "search", "reconstructed"});
+  Scene s;
+  s.source = path;
+  const Yaml machine_key = root.at("machine");
+  s.machine = hexam::load_machine(root.resolve_path(machine_key.string()));
+  s.safe_distance_mm = root.number_or("safe_distance_mm", 5.0, {.min = 0, .max = 1000});
+
+  const Yaml t = root.at("tooling");
+  t.reject_unknown_keys({"tool_diameter_mm", "stick_out_mm", "flute_length_mm", "chuck_diameter_mm", "chuck_length_mm"});
+  const NumberRule pos{.min = 0, .min_exclusive = true};
+  s.tooling.tool_diameter_mm = t.number("tool_diameter_mm", pos);
+  s.tooling.stick_out_mm = t.number("stick_out_mm", pos);
+  s.tooling.flute_length_mm = t.number_or("flute_length_mm", s.tooling.stick_out_mm / 2, pos);
+  s.tooling.chuck_diameter_mm = t.number("chuck_diameter_mm", pos);
+  s.tooling.chuck_length_mm = t.number("chuck_length_mm", pos);
+  if (s.tooling.flute_length_mm > s.tooling.stick_out_mm) t.at("flute_length_mm").fail("must not exceed stick_out_mm");
+  try {
+    hexam::attach_tooling(s.machine, s.tooling);
+  } catch (const InputError& e) {
+    throw InputError(path, t.line(), "tooling does not fit machine " + s.machine.source + ": " + e.message());
+  }
+
+  const Yaml w = root.at("workpiece");
+  w.reject_unknown_keys({"mesh", "box"});
+  if (w.has("mesh") == w.has("box")) w.fail("needs exactly one of 'mesh' or 'box'");
+  Mesh mesh;
+  if (const auto m = w.get("mesh")) {
+    const std::string file = root.resolve_path(m->string());
+    MeshReport report;
+    mesh = read_stl(file, &report);
+    if (!report.closed)
+      m->fail(fmt::format("names {}, which is not a closed solid ({} boundary and {} non-manifold edges)", file,
+                          report.boundary_edges, report.non_manifold_edges));
+  } else {
+    const Yaml box = w.at("box");
+    box.reject_unknown_keys({"size"});
+    const Eigen::Vector3d size = box.vec3("size");
+    if ((size.array() <= 0).any()) box.at("size").fail("must be three positive sizes");
+    mesh = make_box_mesh({-size.x() / 2, -size.y() / 2, 0}, {size.x() / 2, size.y() / 2, size.z()});
+  }
+  s.workpiece_vertices = mesh.vertices;
+  s.workpiece_triangles = mesh.triangles;
+  for (const auto& v : mesh.vertices) s.workpiece_bounds.extend(v);
+  if (s.workpiece_bounds.min().z() < -1e-6)
+    w.fail(fmt::format("solid reaches z = {:.3f} mm; the workpiece frame has its origin on the bottom face, so "
+                       "nothing may lie below z = 0",
+                       s.workpiece_bounds.min().z()));
+
+  s.toolpath_file = root.resolve_path(root.string("toolpath"));
+  ToolPath tp = read_toolpath_file(s.toolpath_file);
+  if (tp.poses.empty()) root.at("toolpath").fail("names a tool path with no poses");
+  s.tips_mm.reserve(tp.poses.size());
+  s.axes.reserve(tp.poses.size());
+  for (const auto& p : tp.poses) {
+    if (p.axis.z() <= std::cos(s.machine.max_tilt_rad) - 1e-12)
+      throw InputError(s.toolpath_file, p.line,
+                       fmt::format("tool axis tilts {:.1f} deg from +z; this machine accepts at most {:.1f} deg",
+                                   std::acos(std::clamp(p.axis.z(), -1.0, 1.0)) / kDeg, s.machine.max_tilt_rad / kDeg));
+    s.tips_mm.push_back(p.tip_mm);
+    s.axes.push_back(p.axis);
+  }
+
+  if (const auto per = root.get("peripherals"))
+    for (const Yaml& item : per->items()) s.peripherals.push_back(read_peripheral(item));
+
+  if (const auto se = root.get("search")) {
+    se->reject_unknown_keys({"pad_max_mm", "paper_step_mm", "paper_pad_step_mm", "reversal_deg", "resolution_mm",
+                             "paper_max_steps"});
+    s.search.pad_max_mm = se->number_or("pad_max_mm", s.search.pad_max_mm, {.min = 0});
+    s.search.paper_step_mm = se->number_or("paper_step_mm", s.search.paper_step_mm, pos);
+    s.search.paper_pad_step_mm = se->number_or("paper_pad_step_mm", s.search.paper_pad_step_mm, pos);
+    s.search.reversal_deg = se->number_or("reversal_deg", s.search.reversal_deg, {.min = 0, .max = 180});
+    s.search.resolution_mm = se->number_or("resolution_mm", s.search.resolution_mm, {.min = 0.01, .max = 100});
+    if (se->has("paper_max_steps")) s.search.paper_max_steps = se->at("paper_max_steps").integer(1, 1000000);
+  }
+  return s;
+}
+
+}  // namespace machplan::placement

@@ -1,0 +1,70 @@
+// A placement problem as the process planner writes it: the machine, the tooling, the
+// workpiece and its tool path (in workpiece coordinates), the peripherals on the table and the
+// clearance to keep. Read from YAML; every path inside is relative to the scene file.
+//
+//   machine: machine.yaml
+//   safe_distance_mm: 5            # objects are grown by this much (the paper's safe distance)
+//   tooling: {tool_diameter_mm: 10, stick_out_mm: 50, flute_length_mm: 20,
+//             chuck_diameter_mm: 60, chuck_length_mm: 45}
+//   workpiece: {mesh: workpiece.stl}          # or {box: {size: [dx, dy, dz]}}
+//   toolpath: toolpath.csv                    # CL (APT) or CSV, workpiece frame
+//   peripherals:
+//     - {name: tool magazine, box: {center: [x, y, z], size: [dx, dy, dz], yaw_deg: 45}}
+//     - {name: fixture, mesh: fixture.stl, pose: {xyz: [x, y, z], yaw_deg: 0}}
+//   search: {pad_max_mm: 300, paper_step_mm: 10, paper_pad_step_mm: 10, resolution_mm: 1}
+//
+// Workpiece frame: origin at the centre of the workpiece's bottom face, z up. A placement
+// (x, y, pad, rotation) puts that origin at (x, y, pad) in the table frame, turned by rotation
+// about z; the pad is a block under the workpiece's footprint from the table top to z = pad.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "engine/interference/collision.h"
+#include "models/hexam/hexam.h"
+
+namespace machplan::placement {
+
+struct Peripheral {
+  std::string name;
+  interference::Shape shape;
+  Eigen::Isometry3d T_table_peripheral = Eigen::Isometry3d::Identity();
+  Eigen::AlignedBox3d bounds;           // table frame
+  std::vector<Eigen::Vector2d> outline;  // xy outline (box corners) for plots
+  bool is_box = false;
+  Eigen::Vector3d box_half_mm = Eigen::Vector3d::Zero();
+};
+
+struct SearchSettings {
+  double pad_max_mm = 300.0;        // highest pad considered
+  double paper_step_mm = 10.0;      // the paper's evasion step
+  double paper_pad_step_mm = 10.0;  // the paper's pad increment
+  double reversal_deg = 150.0;      // evasion directions further apart than this raise the pad
+  double resolution_mm = 1.0;       // grid of the optimal search (x, y and pad)
+  int paper_max_steps = 2000;       // the paper's search gives up after this many moves
+};
+
+struct Scene {
+  std::string source;
+  hexam::Machine machine;
+  hexam::Tooling tooling;
+  double safe_distance_mm = 5.0;
+  std::string toolpath_file;
+  std::vector<Eigen::Vector3d> tips_mm;  // workpiece frame
+  std::vector<Eigen::Vector3d> axes;     // unit
+  // Workpiece solid in its own frame.
+  std::vector<Eigen::Vector3d> workpiece_vertices;
+  std::vector<Eigen::Vector3i> workpiece_triangles;
+  Eigen::AlignedBox3d workpiece_bounds;
+  std::vector<Peripheral> peripherals;
+  SearchSettings search;
+};
+
+Scene load_scene(const std::string& path);
+
+}  // namespace machplan::placement

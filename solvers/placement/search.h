@@ -1,0 +1,67 @@
+// Where to put the workpiece: the study's evasion search and a certified lexicographic optimum.
+//
+// Both strategies use the same Checker and the same rule for "best": the lowest pad first,
+// then the placement nearest the table centre.
+//
+// paper   Starts at the table centre on pad 0. At an interference it moves the workpiece one
+//         step (10 mm) along the evasion direction of the interference found: towards the table
+//         axis for self-interference and struts, away from the peripheral's facing side for
+//         peripherals. When two successive evasion directions are more than 150 deg apart, the
+//         plane is judged exhausted and the pad is raised one step (10 mm), keeping x, y.
+//
+// optimal Branch and bound over boxes of placements (x, y, pad on a grid of `resolution_mm`).
+//         Boxes are taken in order of (lowest pad in the box, distance of the box to the centre);
+//         a box is dropped when one interference is provably present everywhere in it, accepted
+//         when the whole path is provably free everywhere in it (Checker::decide with the box's
+//         radius), and split otherwise. The first box accepted holds the optimum on the grid,
+//         which is then re-checked at radius 0. The result is certified: every interval of the
+//         path was proven free at the answer.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "solvers/placement/checker.h"
+
+namespace machplan::placement {
+
+struct PlacementOptions {
+  enum class Strategy { paper, optimal } strategy = Strategy::optimal;
+  // Workpiece rotations about z tried by the optimal strategy (degrees); the best wins, ties
+  // go to the first listed.
+  std::vector<double> rotations_deg = {0.0};
+  // Polled during the search; returning true stops it with status `cancelled`.
+  std::function<bool()> should_stop;
+  // Called with a fraction in [0, 1] as the search advances (for a progress bar).
+  std::function<void(double)> progress;
+};
+
+enum class PlacementStatus {
+  found,         // a free placement, certified over the whole path
+  unavoidable,   // class-1 interference: no relocation can cure it
+  no_placement,  // no placement within the table and the pad limit is free
+  gave_up,       // the paper's search ran out of steps
+  cancelled,
+};
+const char* to_string(PlacementStatus s);
+
+struct PlacementResult {
+  PlacementStatus status = PlacementStatus::no_placement;
+  std::string message;
+  Placement placement;
+  CheckReport report;   // at the answer (or at the last placement tried)
+  bool verified = false;
+  CheckCounts counts;   // all checking done by the search
+  long placements_examined = 0;
+  double seconds = 0;
+  std::vector<Placement> trail;  // paper: every placement visited, in order
+  Eigen::AlignedBox2d region;    // x, y range searched (workpiece origin)
+};
+
+PlacementResult place(const Scene& scene, const PlacementOptions& options);
+
+// The x, y range where the workpiece's footprint (rotated) stays on the table.
+Eigen::AlignedBox2d placement_region(const Scene& scene, double rotation_deg);
+
+}  // namespace machplan::placement
