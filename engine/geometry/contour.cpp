@@ -331,11 +331,21 @@ int winding_number(const Contour& c, const Vector2d& p) {
   for (std::size_t i = 0; i < c.size(); ++i) {
     const Segment s = c.span(i);
     const Vector2d a = s.start - p, b = s.end - p;
+    const Vector2d chord = s.end - s.start;
+    const double side_p = cross(chord, p - s.start);
+    if (s.is_arc()) {
+      // p on the chord itself, strictly between the ends: the chord's angle is +-pi with an
+      // undetermined sign, but the arc turns half way round p in its own sense.
+      const double c2 = chord.squaredNorm();
+      const double t = (p - s.start).dot(chord) / c2;
+      if (std::abs(side_p) <= 1e-12 * c2 && t > 0 && t < 1) {
+        total += s.sweep > 0 ? kPi : -kPi;
+        continue;
+      }
+    }
     total += std::atan2(cross(a, b), a.dot(b));
     if (s.is_arc() && (p - s.center).norm() < s.radius) {
       // Inside the circular segment between chord and arc: the arc goes once more around p.
-      const Vector2d chord = s.end - s.start;
-      const double side_p = cross(chord, p - s.start);
       const double side_m = cross(chord, point_at(s, 0.5) - s.start);
       if (side_p * side_m > 0) total += s.sweep > 0 ? kTwoPi : -kTwoPi;
     }

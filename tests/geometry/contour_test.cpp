@@ -113,6 +113,11 @@ TEST(Contour, ContainmentWithArcsBothOrientations) {
     EXPECT_FALSE(contains(c, {5, -0.01}));
   }
   EXPECT_EQ(winding_number(slot, {5, 5}), 1);
+  // Points on the chord of a half circle (the circle's own diameter) are inside.
+  const Contour circ = Contour::circle({360, 150}, 100);
+  EXPECT_TRUE(contains(circ, {420, 150}));
+  EXPECT_TRUE(contains(circ.reversed(), {300, 150}));
+  EXPECT_FALSE(contains(circ, {470, 150}));
   EXPECT_EQ(winding_number(slot.reversed(), {5, 5}), -1);
   // Major arc: a 300-degree arc closed by its chord holds its centre.
   const double bulge = std::tan(300.0 / 180.0 * kPi / 4);
