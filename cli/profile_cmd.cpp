@@ -1,0 +1,84 @@
+// `machplan profile FILE.dxf [--json] [--tolerance MM]`: the closed contours of a DXF profile
+// and every problem found in the drawing. Exit 2 when the file is malformed or a problem of
+// severity error was found (after printing everything).
+#include <cstdio>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "engine/common/error.h"
+#include "engine/programs/dxf.h"
+
+namespace {
+
+nlohmann::json to_json(const machplan::ProfileReadResult& r) {
+  using nlohmann::json;
+  json out;
+  out["units"] = "mm";
+  out["source"] = r.source;
+  out["mm_per_drawing_unit"] = r.mm_per_unit;
+  json contours = json::array();
+  for (const auto& c : r.contours) {
+    json v = json::array();
+    for (const auto& p : c.contour.vertices()) v.push_back({p.x(), p.y()});
+    const auto box = machplan::bounding_box(c.contour);
+    contours.push_back({{"vertices", v},
+                        {"bulges", c.contour.bulges()},
+                        {"area_mm2", std::abs(c.area_mm2)},
+                        {"signed_area_mm2", c.area_mm2},
+                        {"orientation", machplan::to_string(machplan::orientation(c.contour))},
+                        {"perimeter_mm", c.perimeter_mm},
+                        {"bbox_mm", {{box.min().x(), box.min().y()}, {box.max().x(), box.max().y()}}},
+                        {"parent", c.parent >= 0 ? json(c.parent) : json(nullptr)},
+                        {"holes", c.children},
+                        {"depth", c.depth},
+                        {"role", c.depth % 2 == 0 ? "outer" : "hole"},
+                        {"layer", c.layer},
+                        {"handles", c.handles}});
+  }
+  out["contours"] = contours;
+  json problems = json::array();
+  for (const auto& p : r.problems) {
+    problems.push_back({{"severity", machplan::to_string(p.severity)},
+                        {"kind", p.kind},
+                        {"handles", p.handles},
+                        {"message", p.message},
+                        {"at", p.at ? json::array({p.at->x(), p.at->y()}) : json(nullptr)}});
+  }
+  out["problems"] = problems;
+  return out;
+}
+
+void add_profile(CLI::App& app) {
+  auto* cmd = app.add_subcommand("profile", "Read a DXF cutting profile: closed contours, holes and drawing problems");
+  auto file = std::make_shared<std::string>();
+  auto json_out = std::make_shared<bool>(false);
+  auto tolerance = std::make_shared<double>(machplan::DxfOptions{}.chain_tolerance_mm);
+  cmd->add_option("file", *file, "DXF drawing (ASCII)")->required();
+  cmd->add_flag("--json", *json_out, "Print JSON instead of the readable report");
+  cmd->add_option("--tolerance", *tolerance, "Largest gap (mm) still joined when chaining entities")
+      ->capture_default_str();
+  cmd->callback([=] {
+    machplan::DxfOptions options;
+    options.chain_tolerance_mm = *tolerance;
+    try {
+      options.validate();
+    } catch (const machplan::InputError& e) {
+      throw machplan::InputError("--tolerance", 0, e.message());
+    }
+    const auto result = machplan::read_dxf_profile(*file, options);
+    if (*json_out)
+      std::printf("%s\n", to_json(result).dump(2).c_str());
+    else
+      std::fputs(result.report().c_str(), stdout);
+    if (result.has_errors()) {
+      if (!*json_out) std::fprintf(stderr, "%s: the profile has errors (see above)\n", file->c_str());
+      machplan::cli::set_exit_code(2);
+    }
+  });
+}
+
+const machplan::cli::Registration reg(20, add_profile);
+
+}  // namespace
