@@ -29,17 +29,20 @@ constexpr std::size_t kBinaryRecordBytes = 50;
 
 bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
 
-// Plain text that starts with "solid": read as ASCII.
-bool looks_ascii(std::string_view bytes) {
-  std::size_t k = 0;
-  while (k < bytes.size() && is_space(bytes[k])) ++k;
-  if (bytes.size() - k < 5 || !iequals(bytes.substr(k, 5), "solid")) return false;
+// No control bytes other than whitespace. A binary STL is never plain text: its triangle
+// count at byte 80 would need four printable bytes, that is more than 539 million triangles.
+bool is_plain_text(std::string_view bytes) {
   for (const char ch : bytes) {
     const auto c = static_cast<unsigned char>(ch);
-    if (c < 0x20 && !is_space(ch)) return false;
-    if (c == 0x7f) return false;
+    if ((c < 0x20 && !is_space(ch)) || c == 0x7f) return false;
   }
   return true;
+}
+
+bool starts_with_solid(std::string_view bytes) {
+  std::size_t k = 0;
+  while (k < bytes.size() && is_space(bytes[k])) ++k;
+  return bytes.size() - k >= 5 && iequals(bytes.substr(k, 5), "solid");
 }
 
 class AsciiScanner {
@@ -331,7 +334,10 @@ Mesh read_stl_bytes(std::string_view bytes, const std::string& source, MeshRepor
   std::string ascii;  // lower-cased copy handed to assimp (its keywords are case-sensitive)
   std::size_t expected = 0;
   std::string_view to_assimp = bytes;
-  if (looks_ascii(bytes)) {
+  const bool text = is_plain_text(bytes);
+  if (text && !starts_with_solid(bytes))
+    throw InputError(source, 0, "not an STL file: plain text that does not start with 'solid'");
+  if (text) {
     expected = AsciiScanner(bytes, source, options.max_triangles).scan();
     ascii.assign(bytes);
     for (char& c : ascii) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));

@@ -16,8 +16,9 @@
 //     ending with "endsolid [name]". A break in that structure is named with its line
 //     ("part.stl:12: expected 'vertex', found 'endloop'"); facets with more than three
 //     vertices are refused.
-//   * A file that starts with "solid" and is plain text is ASCII; anything else at least 84
-//     bytes long is taken to be binary.
+//   * A file of plain text (no control bytes but whitespace) is ASCII and must start with
+//     "solid"; anything else is taken to be binary (binary headers that start with "solid",
+//     as many exporters write, are fine).
 //
 // Refused, always as InputError naming the file: the cases above, non-finite coordinates,
 // an STL with no triangle, more than StlReadOptions::max_triangles triangles, and any failure
