@@ -53,6 +53,13 @@ class Reader {
     path_.source = source;
   }
 
+  // Reserves room for about one pose per line (never more than 4 M ahead of time): growing
+  // the vector by doubling costs more than the parsing on large paths.
+  void reserve_for(std::string_view text) {
+    const auto lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1;
+    path_.poses.reserve(std::min({lines, options_.max_poses, std::size_t{1} << 22}));
+  }
+
   [[noreturn]] void fail(int line, const std::string& message) const {
     throw InputError(path_.source, line, message);
   }
@@ -103,6 +110,7 @@ class AptReader : public Reader {
   using Reader::Reader;
 
   ToolPath read(std::string_view text) {
+    reserve_for(text);
     LineReader lines(text);
     std::string joined;       // a statement spread over '$' continuation lines
     int joined_line = 0;      // its first line; 0 when no continuation is pending
@@ -312,6 +320,7 @@ class CsvReader : public Reader {
   using Reader::Reader;
 
   ToolPath read(std::string_view text) {
+    reserve_for(text);
     LineReader lines(text);
     std::string_view line;
     while (lines.next(line)) {
