@@ -1,0 +1,60 @@
+// `machplan mesh FILE.stl [--json]`: reads an STL and reports its topology and size.
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "engine/programs/mesh.h"
+
+namespace {
+
+void add_mesh(CLI::App& app) {
+  struct Args {
+    std::string file;
+    bool json = false;
+    machplan::StlReadOptions options;
+  };
+  auto args = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("mesh", "Read an STL (binary or ASCII) and report whether it is a sound solid");
+  cmd->add_option("FILE", args->file, "STL file")->required();
+  cmd->add_flag("--json", args->json, "print the report as JSON");
+  cmd->add_option("--scale", args->options.scale_to_mm, "millimetres per file unit (25.4 for inches)")
+      ->capture_default_str();
+  cmd->add_option("--weld-tolerance", args->options.weld_tolerance_mm,
+                  "merge vertices closer than this, mm (0: identical only)")
+      ->capture_default_str();
+  cmd->callback([args] {
+    machplan::MeshReport r;
+    machplan::read_stl(args->file, &r, args->options);
+    if (args->json) {
+      nlohmann::json j;
+      j["source"] = args->file;
+      j["vertices"] = r.vertices;
+      j["triangles"] = r.triangles;
+      j["edges"] = r.edges;
+      j["boundary_edges"] = r.boundary_edges;
+      j["non_manifold_edges"] = r.non_manifold_edges;
+      j["closed"] = r.closed;
+      j["consistently_oriented"] = r.consistently_oriented;
+      j["degenerate_triangles"] = r.degenerate_triangles;
+      if (r.closed && r.consistently_oriented) {
+        j["volume_mm3"] = r.volume_mm3;
+        j["outward"] = r.outward;
+      } else {
+        j["volume_mm3"] = nullptr;
+        j["outward"] = nullptr;
+      }
+      j["min_mm"] = {r.bounds.min().x(), r.bounds.min().y(), r.bounds.min().z()};
+      j["max_mm"] = {r.bounds.max().x(), r.bounds.max().y(), r.bounds.max().z()};
+      std::printf("%s\n", j.dump(2).c_str());
+      return;
+    }
+    std::printf("%s:\n%s", args->file.c_str(), r.brief().c_str());
+  });
+}
+
+const machplan::cli::Registration reg(40, add_mesh);
+
+}  // namespace

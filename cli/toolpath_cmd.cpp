@@ -1,0 +1,73 @@
+// `machplan toolpath FILE [--json]`: reads an APT/CLDATA or CSV tool path and summarises it.
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "engine/programs/toolpath.h"
+
+namespace {
+
+constexpr double kDegPerRad = 180.0 / M_PI;
+
+void add_toolpath(CLI::App& app) {
+  struct Args {
+    std::string file;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("toolpath", "Read a CL tool path (APT/CLDATA .cl/.apt/.cls or CSV) and summarise it");
+  cmd->add_option("FILE", args->file, "tool-path file")->required();
+  cmd->add_flag("--json", args->json, "print the summary as JSON");
+  cmd->callback([args] {
+    const machplan::ToolPath path = machplan::read_toolpath_file(args->file);
+    const machplan::ToolPathSummary s = machplan::summarize(path);
+    if (args->json) {
+      nlohmann::json j;
+      j["source"] = path.source;
+      j["part_name"] = path.part_name;
+      j["poses"] = s.poses;
+      j["rapid_poses"] = s.rapid_poses;
+      j["multiaxis"] = path.multiaxis;
+      j["min_mm"] = {s.min_mm.x(), s.min_mm.y(), s.min_mm.z()};
+      j["max_mm"] = {s.max_mm.x(), s.max_mm.y(), s.max_mm.z()};
+      j["tilt_min_deg"] = s.min_tilt_rad * kDegPerRad;
+      j["tilt_max_deg"] = s.max_tilt_rad * kDegPerRad;
+      j["max_step_mm"] = s.max_step_mm;
+      j["max_step_line"] = s.max_step_line;
+      j["feed_length_mm"] = s.feed_length_mm;
+      j["rapid_length_mm"] = s.rapid_length_mm;
+      if (path.cutter)
+        j["cutter"] = {{"diameter_mm", path.cutter->diameter_mm},
+                       {"corner_radius_mm", path.cutter->corner_radius_mm},
+                       {"length_mm", path.cutter->length_mm}};
+      else
+        j["cutter"] = nullptr;
+      std::printf("%s\n", j.dump(2).c_str());
+      return;
+    }
+    std::string out = fmt::format("{}: {} poses ({} rapid){}\n", path.source, s.poses, s.rapid_poses,
+                                  path.multiaxis ? ", multi-axis" : "");
+    if (!path.part_name.empty()) out += fmt::format("part: {}\n", path.part_name);
+    out += fmt::format("tips: x {:.4f} .. {:.4f}, y {:.4f} .. {:.4f}, z {:.4f} .. {:.4f} mm\n", s.min_mm.x(),
+                       s.max_mm.x(), s.min_mm.y(), s.max_mm.y(), s.min_mm.z(), s.max_mm.z());
+    out += fmt::format("tool axis tilt from +Z: {:.3f} .. {:.3f} deg\n", s.min_tilt_rad * kDegPerRad,
+                       s.max_tilt_rad * kDegPerRad);
+    out += fmt::format("largest step between tips: {:.4f} mm (ending at line {})\n", s.max_step_mm, s.max_step_line);
+    out += fmt::format("path length: {:.3f} mm at feed, {:.3f} mm rapid\n", s.feed_length_mm, s.rapid_length_mm);
+    if (path.cutter)
+      out += fmt::format("cutter: diameter {:.4g} mm, corner radius {:.4g} mm, length {:.4g} mm\n",
+                         path.cutter->diameter_mm, path.cutter->corner_radius_mm, path.cutter->length_mm);
+    else
+      out += "cutter: not given\n";
+    std::fputs(out.c_str(), stdout);
+  });
+}
+
+const machplan::cli::Registration reg(30, add_toolpath);
+
+}  // namespace

@@ -1,0 +1,474 @@
+#include "engine/programs/toolpath.h"
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cctype>
+#include <cmath>
+#include <limits>
+#include <filesystem>
+#include <system_error>
+
+#include "engine/common/error.h"
+#include "engine/common/text_file.h"
+#include "engine/programs/text_scan.h"
+
+namespace machplan {
+namespace {
+
+using text_scan::iequals;
+using text_scan::LineReader;
+using text_scan::printable;
+using text_scan::trim;
+
+constexpr double kMinAxisNorm = 1e-9;
+constexpr double kMmPerInch = 25.4;
+constexpr std::size_t kMaxFields = 8;
+
+// Up to kMaxFields comma-separated fields; `count` may exceed kMaxFields (then only the
+// first kMaxFields are stored) so that the caller can report how many there were.
+struct Fields {
+  std::array<std::string_view, kMaxFields> at;
+  std::size_t count = 0;
+};
+
+Fields split_commas(std::string_view s) {
+  Fields f;
+  if (trim(s).empty()) return f;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = s.find(',', start);
+    const std::string_view field = trim(s.substr(start, comma == std::string_view::npos ? s.npos : comma - start));
+    if (f.count < kMaxFields) f.at[f.count] = field;
+    ++f.count;
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return f;
+}
+
+class Reader {
+ public:
+  Reader(const std::string& source, const ToolPathReadOptions& options) : options_(options) {
+    path_.source = source;
+  }
+
+  // Reserves room for about one pose per line (never more than 4 M ahead of time): growing
+  // the vector by doubling costs more than the parsing on large paths.
+  void reserve_for(std::string_view text) {
+    const auto lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1;
+    path_.poses.reserve(std::min({lines, options_.max_poses, std::size_t{1} << 22}));
+  }
+
+  [[noreturn]] void fail(int line, const std::string& message) const {
+    throw InputError(path_.source, line, message);
+  }
+
+  double number(std::string_view field, int line, const char* what) const {
+    std::string_view s = field;
+    if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+    double value = 0.0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
+    if (s.empty() || ec == std::errc::invalid_argument || end != s.data() + s.size())
+      fail(line, fmt::format("{}: expected a number, found '{}'", what, printable(field)));
+    if (ec == std::errc::result_out_of_range)
+      fail(line, fmt::format("{}: number '{}' is out of range", what, printable(field)));
+    if (!std::isfinite(value))
+      fail(line, fmt::format("{}: number '{}' is not finite", what, printable(field)));
+    return value;
+  }
+
+  Eigen::Vector3d unit_axis(const Eigen::Vector3d& v, int line) const {
+    const double n = v.norm();
+    if (!(n >= kMinAxisNorm))
+      fail(line, fmt::format("tool axis ({}, {}, {}) has length {:g}; it must be at least {:g}", v.x(), v.y(),
+                             v.z(), n, kMinAxisNorm));
+    return v / n;
+  }
+
+  void add_pose(const ToolPose& pose) {
+    if (path_.poses.size() >= options_.max_poses)
+      fail(pose.line, fmt::format("more than {} poses; the reader's limit (ToolPathReadOptions::max_poses) is {}",
+                                  options_.max_poses, options_.max_poses));
+    path_.poses.push_back(pose);
+  }
+
+  ToolPath finish() {
+    if (path_.poses.empty()) fail(0, "the tool path holds no pose");
+    return std::move(path_);
+  }
+
+  const ToolPathReadOptions& options_;
+  ToolPath path_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// APT / CLDATA
+
+class AptReader : public Reader {
+ public:
+  using Reader::Reader;
+
+  ToolPath read(std::string_view text) {
+    reserve_for(text);
+    LineReader lines(text);
+    std::string joined;       // a statement spread over '$' continuation lines
+    int joined_line = 0;      // its first line; 0 when no continuation is pending
+    std::string_view line;
+    while (lines.next(line)) {
+      const int number = lines.line_number();
+      if (line.size() > options_.max_line_bytes)
+        fail(number, fmt::format("line is longer than {} bytes", options_.max_line_bytes));
+      if (const auto comment = line.find("$$"); comment != std::string_view::npos) line = line.substr(0, comment);
+      line = trim(line);
+      const bool continues = !line.empty() && line.back() == '$';
+      if (continues) line.remove_suffix(1);
+      if (continues || joined_line > 0) {
+        if (joined_line == 0) joined_line = number;
+        if (joined.size() + line.size() > options_.max_statement_bytes)
+          fail(joined_line, fmt::format("statement continued with '$' is longer than {} bytes",
+                                        options_.max_statement_bytes));
+        joined.append(line);
+        if (continues) continue;
+        statement(joined, joined_line);
+        joined.clear();
+        joined_line = 0;
+      } else {
+        statement(line, number);
+      }
+    }
+    if (joined_line > 0) fail(joined_line, "statement continued with '$' but the file ends");
+    return finish();
+  }
+
+ private:
+  void statement(std::string_view s, int line) {
+    s = trim(s);
+    if (s.empty()) return;
+    std::size_t word_end = 0;
+    while (word_end < s.size() && (std::isalnum(static_cast<unsigned char>(s[word_end])) || s[word_end] == '_'))
+      ++word_end;
+    const std::string_view word = s.substr(0, word_end);
+    std::string_view rest = trim(s.substr(word_end));
+    if (word.empty() || !std::isalpha(static_cast<unsigned char>(word.front())))
+      fail(line, fmt::format("expected an APT statement (WORD or WORD/values), found '{}'", printable(s, 40)));
+    if (after_fini_) fail(line, fmt::format("APT statement '{}' after FINI", printable(word)));
+
+    if (iequals(word, "PARTNO")) {
+      if (!rest.empty() && rest.front() == '/') rest.remove_prefix(1);
+      path_.part_name = std::string(trim(rest));
+      return;
+    }
+    const bool has_slash = !rest.empty() && rest.front() == '/';
+    if (!rest.empty() && !has_slash)
+      fail(line, fmt::format("APT statement '{}': expected '/' or the end of the statement, found '{}'",
+                             printable(word), printable(rest, 40)));
+    const Fields args = split_commas(has_slash ? rest.substr(1) : std::string_view{});
+    if (has_slash && args.count == 0)
+      fail(line, fmt::format("APT statement '{}': no values after '/'", printable(word)));
+
+    if (iequals(word, "GOTO")) return go_to(args, line);
+    if (iequals(word, "TLAXIS")) return tool_axis(args, line);
+    if (iequals(word, "FEDRAT")) return feed(args, line);
+    if (iequals(word, "CUTTER")) return cutter(args, line);
+    if (iequals(word, "RAPID")) {
+      no_values(word, args, line);
+      rapid_ = true;
+      return;
+    }
+    if (iequals(word, "MULTAX")) {
+      if (args.count == 0 || (args.count == 1 && iequals(args.at[0], "ON"))) {
+        path_.multiaxis = true;
+      } else if (!(args.count == 1 && iequals(args.at[0], "OFF"))) {
+        fail(line, "MULTAX: expected MULTAX, MULTAX/ON or MULTAX/OFF");
+      }
+      return;
+    }
+    if (iequals(word, "UNITS")) {
+      if (args.count == 1 && iequals(args.at[0], "MM")) {
+        mm_per_unit_ = 1.0;
+      } else if (args.count == 1 && (iequals(args.at[0], "INCHES") || iequals(args.at[0], "INCH"))) {
+        mm_per_unit_ = kMmPerInch;
+      } else {
+        fail(line, "UNITS: expected UNITS/MM or UNITS/INCHES");
+      }
+      return;
+    }
+    if (iequals(word, "FINI")) {
+      no_values(word, args, line);
+      after_fini_ = true;
+      return;
+    }
+    fail(line, fmt::format("APT statement '{}' is not supported", printable(word)));
+  }
+
+  void no_values(std::string_view word, const Fields& args, int line) const {
+    if (args.count != 0) fail(line, fmt::format("{} takes no values", printable(word)));
+  }
+
+  void go_to(const Fields& args, int line) {
+    if (args.count != 3 && args.count != 6)
+      fail(line, fmt::format("GOTO: expected 3 values (x, y, z) or 6 (x, y, z, i, j, k), found {}", args.count));
+    ToolPose pose;
+    pose.line = line;
+    pose.tip_mm = Eigen::Vector3d(number(args.at[0], line, "GOTO x"), number(args.at[1], line, "GOTO y"),
+                                  number(args.at[2], line, "GOTO z")) *
+                  mm_per_unit_;
+    if (args.count == 6) {
+      pose.axis = unit_axis({number(args.at[3], line, "GOTO i"), number(args.at[4], line, "GOTO j"),
+                             number(args.at[5], line, "GOTO k")},
+                            line);
+      path_.multiaxis = true;
+    } else {
+      pose.axis = axis_;
+    }
+    pose.feed_mm_per_min = feed_mm_per_min_;
+    pose.rapid = rapid_;
+    rapid_ = false;
+    add_pose(pose);
+  }
+
+  void tool_axis(const Fields& args, int line) {
+    if (args.count != 3)
+      fail(line, fmt::format("TLAXIS: only the form TLAXIS/i, j, k is supported (found {} values)", args.count));
+    axis_ = unit_axis({number(args.at[0], line, "TLAXIS i"), number(args.at[1], line, "TLAXIS j"),
+                       number(args.at[2], line, "TLAXIS k")},
+                      line);
+  }
+
+  void feed(const Fields& args, int line) {
+    // FEDRAT/f, FEDRAT/MMPM, f, FEDRAT/f, MMPM (and IPM); MMPR / IPR are per revolution.
+    std::string_view value, mode;
+    if (args.count == 1) {
+      value = args.at[0];
+    } else if (args.count == 2) {
+      const bool first_is_word = !args.at[0].empty() && std::isalpha(static_cast<unsigned char>(args.at[0][0]));
+      mode = first_is_word ? args.at[0] : args.at[1];
+      value = first_is_word ? args.at[1] : args.at[0];
+    } else {
+      fail(line, fmt::format("FEDRAT: expected FEDRAT/f or FEDRAT/MMPM, f, found {} values", args.count));
+    }
+    double scale = mm_per_unit_;
+    if (!mode.empty()) {
+      if (iequals(mode, "MMPM")) {
+        scale = 1.0;
+      } else if (iequals(mode, "IPM")) {
+        scale = kMmPerInch;
+      } else if (iequals(mode, "MMPR") || iequals(mode, "IPR")) {
+        fail(line, fmt::format("FEDRAT: per-revolution feed '{}' is not supported", printable(mode)));
+      } else {
+        fail(line, fmt::format("FEDRAT: unknown feed mode '{}' (expected MMPM or IPM)", printable(mode)));
+      }
+    }
+    const double f = number(value, line, "FEDRAT");
+    if (!(f > 0.0)) fail(line, fmt::format("FEDRAT: feed {} must be positive", f));
+    feed_mm_per_min_ = f * scale;
+  }
+
+  void cutter(const Fields& args, int line) {
+    if (args.count < 1 || args.count > 7)
+      fail(line, fmt::format("CUTTER: expected 1 to 7 values (d, r, e, f, a, b, h), found {}", args.count));
+    std::array<double, 7> v{};
+    for (std::size_t k = 0; k < args.count; ++k) v[k] = number(args.at[k], line, "CUTTER");
+    ToolPath::Cutter c;
+    c.diameter_mm = v[0] * mm_per_unit_;
+    c.corner_radius_mm = v[1] * mm_per_unit_;
+    c.length_mm = args.count == 7 ? v[6] * mm_per_unit_ : 0.0;
+    if (!(c.diameter_mm > 0.0)) fail(line, fmt::format("CUTTER: diameter {} must be positive", v[0]));
+    if (c.corner_radius_mm < 0.0 || c.corner_radius_mm > c.diameter_mm / 2 * (1 + 1e-12))
+      fail(line, fmt::format("CUTTER: corner radius {} must lie between 0 and half the diameter ({})", v[1],
+                             v[0] / 2));
+    if (c.length_mm < 0.0) fail(line, fmt::format("CUTTER: length {} must not be negative", v[6]));
+    path_.cutter = c;
+  }
+
+  Eigen::Vector3d axis_ = Eigen::Vector3d::UnitZ();
+  double feed_mm_per_min_ = 0.0;
+  double mm_per_unit_ = 1.0;
+  bool rapid_ = false;
+  bool after_fini_ = false;
+};
+
+// ---------------------------------------------------------------------------------------------
+// CSV
+
+enum Column { cx, cy, cz, ci, cj, ck, cfeed, kColumns };
+
+bool column_of(std::string_view name, Column& c) {
+  static constexpr std::array<std::pair<const char*, Column>, 8> names{
+      {{"x", cx}, {"y", cy}, {"z", cz}, {"i", ci}, {"j", cj}, {"k", ck}, {"feed", cfeed}, {"f", cfeed}}};
+  for (const auto& [n, col] : names)
+    if (iequals(name, n)) {
+      c = col;
+      return true;
+    }
+  return false;
+}
+
+bool looks_like_header(std::string_view line) {
+  const Fields f = split_commas(line);
+  if (f.count == 0 || f.count > kMaxFields) return false;
+  for (std::size_t k = 0; k < f.count; ++k) {
+    Column c;
+    if (!column_of(f.at[k], c)) return false;
+  }
+  return true;
+}
+
+class CsvReader : public Reader {
+ public:
+  using Reader::Reader;
+
+  ToolPath read(std::string_view text) {
+    reserve_for(text);
+    LineReader lines(text);
+    std::string_view line;
+    while (lines.next(line)) {
+      const int number = lines.line_number();
+      if (line.size() > options_.max_line_bytes)
+        fail(number, fmt::format("line is longer than {} bytes", options_.max_line_bytes));
+      line = trim(line);
+      if (line.empty() || line.front() == '#') continue;
+      const Fields f = split_commas(line);
+      if (width_ == 0) {
+        if (!f.at[0].empty() && std::isalpha(static_cast<unsigned char>(f.at[0][0])) &&
+            !iequals(f.at[0], "inf") && !iequals(f.at[0], "nan")) {
+          header(f, number);
+          continue;
+        }
+        headerless(f, number);
+      }
+      row(f, number);
+    }
+    return finish();
+  }
+
+ private:
+  void header(const Fields& f, int line) {
+    if (f.count > kColumns)
+      fail(line, fmt::format("CSV header has {} columns; at most x, y, z, i, j, k, feed are known", f.count));
+    bool seen[kColumns] = {};
+    for (std::size_t k = 0; k < f.count; ++k) {
+      Column c;
+      if (!column_of(f.at[k], c))
+        fail(line, fmt::format("CSV header: unknown column '{}' (known: x, y, z, i, j, k, feed)", printable(f.at[k])));
+      if (seen[c]) fail(line, fmt::format("CSV header: column '{}' appears twice", printable(f.at[k])));
+      seen[c] = true;
+      column_at_[k] = c;
+    }
+    if (!seen[cx] || !seen[cy] || !seen[cz]) fail(line, "CSV header: columns x, y and z are required");
+    if ((seen[ci] || seen[cj] || seen[ck]) && !(seen[ci] && seen[cj] && seen[ck]))
+      fail(line, "CSV header: columns i, j and k go together (all three or none)");
+    has_axis_ = seen[ci];
+    has_feed_ = seen[cfeed];
+    width_ = f.count;
+  }
+
+  void headerless(const Fields& f, int line) {
+    if (f.count != 3 && f.count != 6 && f.count != 7)
+      fail(line, fmt::format("CSV row has {} fields; without a header a row holds 3 (x, y, z), 6 (x, y, z, i, j, k) "
+                             "or 7 (x, y, z, i, j, k, feed)",
+                             f.count));
+    for (std::size_t k = 0; k < f.count; ++k) column_at_[k] = static_cast<Column>(k);
+    has_axis_ = f.count >= 6;
+    has_feed_ = f.count == 7;
+    width_ = f.count;
+  }
+
+  void row(const Fields& f, int line) {
+    if (f.count != width_)
+      fail(line, fmt::format("CSV row has {} fields, expected {}", f.count, width_));
+    static constexpr const char* names[kColumns] = {"x", "y", "z", "i", "j", "k", "feed"};
+    std::array<double, kColumns> v{0, 0, 0, 0, 0, 1, 0};
+    for (std::size_t k = 0; k < width_; ++k) v[column_at_[k]] = number(f.at[k], line, names[column_at_[k]]);
+    ToolPose pose;
+    pose.line = line;
+    pose.tip_mm = {v[cx], v[cy], v[cz]};
+    if (has_axis_) {
+      pose.axis = unit_axis({v[ci], v[cj], v[ck]}, line);
+      path_.multiaxis = true;
+    }
+    if (has_feed_) {
+      if (!(v[cfeed] > 0.0)) fail(line, fmt::format("feed {} must be positive", v[cfeed]));
+      pose.feed_mm_per_min = v[cfeed];
+    }
+    add_pose(pose);
+  }
+
+  std::size_t width_ = 0;  // fields per row; 0 until the header or first row is seen
+  std::array<Column, kMaxFields> column_at_{};
+  bool has_axis_ = false, has_feed_ = false;
+};
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+}  // namespace
+
+ToolPath read_apt(std::string_view text, const std::string& source, const ToolPathReadOptions& options) {
+  return AptReader(source, options).read(text);
+}
+
+ToolPath read_toolpath_csv(std::string_view text, const std::string& source, const ToolPathReadOptions& options) {
+  return CsvReader(source, options).read(text);
+}
+
+ToolPathFormat sniff_toolpath_format(std::string_view text, const std::string& source) {
+  LineReader lines(text);
+  std::string_view line;
+  while (lines.next(line)) {
+    line = trim(line.substr(0, std::min<std::size_t>(line.size(), 4096)));
+    if (line.empty() || line.front() == '#' || line.rfind("$$", 0) == 0) continue;
+    const auto c = static_cast<unsigned char>(line.front());
+    if (std::isdigit(c) || c == '+' || c == '-' || c == '.' || looks_like_header(line)) return ToolPathFormat::csv;
+    if (std::isalpha(c)) return ToolPathFormat::apt;
+    throw InputError(source, lines.line_number(),
+                     fmt::format("cannot tell whether this is an APT/CLDATA or a CSV tool path: line starts with '{}'",
+                                 printable(line, 20)));
+  }
+  throw InputError(source, 0, "the tool path holds no pose");
+}
+
+ToolPath read_toolpath(std::string_view text, const std::string& source, const ToolPathReadOptions& options) {
+  return sniff_toolpath_format(text, source) == ToolPathFormat::csv ? read_toolpath_csv(text, source, options)
+                                                                    : read_apt(text, source, options);
+}
+
+ToolPath read_toolpath_file(const std::string& path, const ToolPathReadOptions& options) {
+  const std::string text = read_text_file(path, options.max_file_bytes);
+  const std::string ext = lower_extension(path);
+  if (ext == ".cl" || ext == ".apt" || ext == ".cls") return read_apt(text, path, options);
+  if (ext == ".csv") return read_toolpath_csv(text, path, options);
+  return read_toolpath(text, path, options);
+}
+
+ToolPathSummary summarize(const ToolPath& path) {
+  ToolPathSummary s;
+  s.poses = path.poses.size();
+  if (path.poses.empty()) return s;
+  s.min_mm = s.max_mm = path.poses.front().tip_mm;
+  s.min_tilt_rad = std::numeric_limits<double>::infinity();
+  s.max_tilt_rad = -s.min_tilt_rad;
+  for (std::size_t k = 0; k < path.poses.size(); ++k) {
+    const ToolPose& p = path.poses[k];
+    s.min_mm = s.min_mm.cwiseMin(p.tip_mm);
+    s.max_mm = s.max_mm.cwiseMax(p.tip_mm);
+    const double tilt = std::atan2(p.axis.head<2>().norm(), p.axis.z());
+    s.min_tilt_rad = std::min(s.min_tilt_rad, tilt);
+    s.max_tilt_rad = std::max(s.max_tilt_rad, tilt);
+    if (p.rapid) ++s.rapid_poses;
+    if (k == 0) continue;
+    const double step = (p.tip_mm - path.poses[k - 1].tip_mm).norm();
+    (p.rapid ? s.rapid_length_mm : s.feed_length_mm) += step;
+    if (step > s.max_step_mm) {
+      s.max_step_mm = step;
+      s.max_step_line = p.line;
+    }
+  }
+  return s;
+}
+
+}  // namespace machplan

@@ -1,0 +1,129 @@
+// A CAM tool path: the sequence of tool poses (tip position and tool axis) that a 5-axis or
+// 3-axis program visits, as read from an APT/CLDATA file or a CSV table.
+//
+// This is what placement and interference checking consume: for every pose the tool tip must
+// reach `tip_mm` with the spindle along `axis`. Everything is in millimetres, in the
+// workpiece frame of the CAM system; `axis` is a unit vector pointing from the tip up into the
+// spindle (so a vertical 3-axis tool has axis (0, 0, 1)).
+//
+// Formats accepted
+// ----------------
+// APT / CLDATA (extensions .cl, .apt, .cls). One statement per line, keywords case-insensitive,
+// "WORD/arg, arg, ..." with any blanks around the separators:
+//
+//   PARTNO any text              part name, kept in ToolPath::part_name
+//   UNITS/MM | UNITS/INCHES      unit of the numbers that follow (default MM); INCHES are
+//                                converted to mm (x 25.4) as they are read
+//   CUTTER/d[, r[, e, f, a, b, h]]
+//                                APT cutter: diameter d, corner radius r (default 0), and with
+//                                all seven values the flute length h. d > 0, 0 <= r <= d/2.
+//   FEDRAT/f | FEDRAT/MMPM, f | FEDRAT/f, MMPM | FEDRAT/IPM, f | FEDRAT/f, IPM
+//                                feed for the following GOTOs, per minute in the current unit
+//                                (MMPM forces mm/min, IPM inch/min); f > 0. Per-revolution
+//                                feeds (MMPR, IPR) are refused.
+//   MULTAX | MULTAX/ON | MULTAX/OFF
+//                                multi-axis output on or off; informational (GOTO decides by
+//                                its number of values)
+//   TLAXIS/i, j, k               tool axis for the following three-value GOTOs
+//   RAPID                        the next GOTO is a rapid move (ToolPose::rapid)
+//   GOTO/x, y, z                 a pose with the current TLAXIS (initially +Z)
+//   GOTO/x, y, z, i, j, k        a pose with its own axis (does not change TLAXIS)
+//   FINI                         end of the path; only comments and blanks may follow
+//   $$ text                      comment (anywhere on a line; the rest of the line is ignored)
+//   ... $                        a '$' ending a line continues the statement on the next line
+//
+// CSV (extension .csv): one pose per line, comma separated, blanks around fields ignored,
+// lines starting with '#' and blank lines skipped. An optional header names the columns:
+// x, y, z (required), i, j, k (together or not at all) and feed (mm/min), in any order. Without
+// a header a row holds 3 (x, y, z), 6 (x, y, z, i, j, k) or 7 (..., feed) numbers. Every row
+// must have the header's (or the first row's) number of fields. Without i, j, k the axis is +Z.
+//
+// Other extensions: the content decides. A first statement that starts with a letter and is
+// not a CSV header is read as APT; a first line of numbers or a CSV header as CSV.
+//
+// Refused, always with "FILE:LINE: what" (InputError)
+// --------------------------------------------------
+//   * any APT statement outside the list above ("APT statement 'CIRCLE' is not supported"),
+//     a wrong number of values, a word where a number belongs;
+//   * non-finite or out-of-range numbers (inf, nan, 1e999);
+//   * a tool axis shorter than 1e-9 (it is normalised to unit length otherwise);
+//   * a line longer than ReadOptions::max_line_bytes, a statement (with its continuations)
+//     longer than ReadOptions::max_statement_bytes, more than ReadOptions::max_poses poses;
+//   * an empty path (no pose at all).
+// The line of an APT statement that spans several lines is the line it starts on.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace machplan {
+
+struct ToolPose {
+  Eigen::Vector3d tip_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit, from the tip up into the spindle
+  double feed_mm_per_min = 0.0;  // feed in force at this pose; 0 when the file gave none
+  int line = 0;                  // 1-based source line of the statement or row
+  bool rapid = false;            // APT: this GOTO followed a RAPID
+};
+
+struct ToolPath {
+  struct Cutter {
+    double diameter_mm = 0.0;
+    double corner_radius_mm = 0.0;  // 0 flat end mill, diameter/2 ball end mill
+    double length_mm = 0.0;         // flute length (APT h); 0 when not given
+  };
+
+  std::string source;     // file name (or the name given to a string reader), for messages
+  std::string part_name;  // APT PARTNO text, empty otherwise
+  std::vector<ToolPose> poses;
+  std::optional<Cutter> cutter;  // last CUTTER statement in the file, if any
+  bool multiaxis = false;        // MULTAX/ON seen, or some pose carried its own axis
+};
+
+struct ToolPathReadOptions {
+  // Most poses accepted. A pose costs 64 bytes, so the default bounds memory near 3.2 GB.
+  std::size_t max_poses = 50'000'000;
+  // Longest physical line, in bytes (CL and CSV lines are short; this stops binary garbage
+  // or a file without newlines from building a huge statement).
+  std::size_t max_line_bytes = 64 * 1024;
+  // Longest APT statement after joining '$' continuations.
+  std::size_t max_statement_bytes = 1024 * 1024;
+  // Largest file read by read_toolpath_file.
+  std::size_t max_file_bytes = std::size_t{512} << 20;
+};
+
+enum class ToolPathFormat { apt, csv };
+
+// Reads `path`, choosing the format by extension (.cl, .apt, .cls: APT; .csv: CSV, case
+// insensitive) or, for any other extension, by content. Throws InputError.
+ToolPath read_toolpath_file(const std::string& path, const ToolPathReadOptions& options = {});
+
+// The same readers on text in memory; `source` names it in messages and in ToolPath::source.
+ToolPath read_apt(std::string_view text, const std::string& source,
+                  const ToolPathReadOptions& options = {});
+ToolPath read_toolpath_csv(std::string_view text, const std::string& source,
+                           const ToolPathReadOptions& options = {});
+// Picks APT or CSV by content (see above); throws InputError when neither fits.
+ToolPath read_toolpath(std::string_view text, const std::string& source,
+                       const ToolPathReadOptions& options = {});
+ToolPathFormat sniff_toolpath_format(std::string_view text, const std::string& source);
+
+// Figures for a readable report of a tool path.
+struct ToolPathSummary {
+  std::size_t poses = 0, rapid_poses = 0;
+  Eigen::Vector3d min_mm = Eigen::Vector3d::Zero(), max_mm = Eigen::Vector3d::Zero();  // tips
+  double min_tilt_rad = 0.0, max_tilt_rad = 0.0;  // angle of the axis from +Z
+  double max_step_mm = 0.0;   // largest distance between consecutive tips
+  int max_step_line = 0;      // line of the pose that ends that step
+  double feed_length_mm = 0.0;   // summed distance of steps ending in a non-rapid pose
+  double rapid_length_mm = 0.0;  // summed distance of steps ending in a rapid pose
+};
+
+ToolPathSummary summarize(const ToolPath& path);
+
+}  // namespace machplan

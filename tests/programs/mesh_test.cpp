@@ -1,0 +1,291 @@
+// STL reading (binary and ASCII through assimp, after our own structure check) and the mesh
+// report: closed cube, open box, non-manifold edge, orientation, garbage and truncated files.
+#include "engine/programs/mesh.h"
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "engine/common/error.h"
+
+namespace machplan {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+namespace fs = std::filesystem;
+
+class TempDir {
+ public:
+  TempDir() : dir_(fs::temp_directory_path() / fmt::format("machplan_mesh_test_{}", ::getpid())) {
+    fs::create_directories(dir_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  std::string write(const std::string& name, const std::string& bytes) const {
+    const std::string path = (dir_ / name).string();
+    std::ofstream(path, std::ios::binary) << bytes;
+    return path;
+  }
+
+ private:
+  fs::path dir_;
+};
+
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "<no InputError>";
+}
+
+Mesh cube() { return make_box_mesh({-1, -2, -3}, {4, 5, 6}); }  // 5 x 7 x 9
+constexpr double kCubeVolume = 5.0 * 7.0 * 9.0;
+
+void expect_closed_cube(const MeshReport& r) {
+  EXPECT_EQ(r.vertices, 8u);
+  EXPECT_EQ(r.triangles, 12u);
+  EXPECT_EQ(r.edges, 18u);
+  EXPECT_EQ(r.boundary_edges, 0u);
+  EXPECT_EQ(r.non_manifold_edges, 0u);
+  EXPECT_EQ(r.degenerate_triangles, 0u);
+  EXPECT_TRUE(r.closed);
+  EXPECT_TRUE(r.consistently_oriented);
+  EXPECT_TRUE(r.outward);
+  EXPECT_NEAR(r.volume_mm3, kCubeVolume, 1e-9);
+  EXPECT_TRUE(r.bounds.min().isApprox(Eigen::Vector3d(-1, -2, -3)));
+  EXPECT_TRUE(r.bounds.max().isApprox(Eigen::Vector3d(4, 5, 6)));
+}
+
+TEST(MeshReport, BoxIsClosedAndOutward) { expect_closed_cube(analyze_mesh(cube())); }
+
+TEST(MeshReport, FlippedBoxFacesInward) {
+  Mesh m = cube();
+  for (auto& t : m.triangles) std::swap(t[1], t[2]);
+  const MeshReport r = analyze_mesh(m);
+  EXPECT_TRUE(r.closed);
+  EXPECT_TRUE(r.consistently_oriented);
+  EXPECT_FALSE(r.outward);
+  EXPECT_NEAR(r.volume_mm3, kCubeVolume, 1e-9);
+}
+
+TEST(MeshReport, OneFlippedTriangleBreaksOrientation) {
+  Mesh m = cube();
+  std::swap(m.triangles[3][1], m.triangles[3][2]);
+  const MeshReport r = analyze_mesh(m);
+  EXPECT_TRUE(r.closed);
+  EXPECT_FALSE(r.consistently_oriented);
+  EXPECT_EQ(r.volume_mm3, 0.0);
+}
+
+TEST(MeshReport, OpenBoxHasBoundary) {
+  Mesh m = cube();
+  m.triangles.erase(m.triangles.begin() + 2, m.triangles.begin() + 4);  // the z = max face
+  const MeshReport r = analyze_mesh(m);
+  EXPECT_FALSE(r.closed);
+  EXPECT_EQ(r.boundary_edges, 4u);
+  EXPECT_EQ(r.non_manifold_edges, 0u);
+  EXPECT_TRUE(r.consistently_oriented);
+  EXPECT_EQ(r.volume_mm3, 0.0);
+}
+
+Mesh three_fins() {
+  // Three triangles on the edge (0,0,0)-(0,0,1): a non-manifold "book" of three pages.
+  Mesh m;
+  m.vertices = {{0, 0, 0}, {0, 0, 1}, {1, 0, 0}, {0, 1, 0}, {-1, -1, 0}};
+  m.triangles = {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}};
+  return m;
+}
+
+TEST(MeshReport, ThreeTrianglesOnAnEdgeAreNonManifold) {
+  const MeshReport r = analyze_mesh(three_fins());
+  EXPECT_EQ(r.non_manifold_edges, 1u);
+  EXPECT_EQ(r.boundary_edges, 6u);
+  EXPECT_FALSE(r.closed);
+  EXPECT_FALSE(r.consistently_oriented);
+}
+
+TEST(MeshReport, DegenerateTrianglesAreCounted) {
+  Mesh m = cube();
+  m.vertices.push_back({10, 0, 0});
+  m.vertices.push_back({20, 0, 0});
+  m.triangles.push_back({0, 8, 9});   // a proper (if thin) triangle: not degenerate
+  m.triangles.push_back({8, 8, 9});   // repeated index
+  const Eigen::Vector3d a = m.vertices[0];
+  m.vertices.push_back(a + 2 * (m.vertices[8] - a));  // on the line through 0 and 8
+  m.triangles.push_back({0, 8, 10});  // zero area
+  const MeshReport r = analyze_mesh(m);
+  EXPECT_EQ(r.degenerate_triangles, 2u);
+}
+
+TEST(Weld, ToleranceMergesNearbyCorners) {
+  const Mesh m = cube();
+  std::vector<Eigen::Vector3d> corners;
+  int k = 0;
+  for (const auto& t : m.triangles)
+    for (int c = 0; c < 3; ++c) corners.push_back(m.vertices[t[c]] + Eigen::Vector3d::Constant(1e-7 * (k++ % 3)));
+  EXPECT_GT(weld(corners, 0.0).vertices.size(), 8u);
+  const Mesh welded = weld(corners, 1e-5);
+  EXPECT_EQ(welded.vertices.size(), 8u);
+  EXPECT_TRUE(analyze_mesh(welded).closed);
+}
+
+TEST(Stl, AsciiCube) {
+  TempDir dir;
+  MeshReport r;
+  const Mesh m = read_stl(dir.write("cube.stl", to_ascii_stl(cube())), &r);
+  EXPECT_EQ(m.vertices.size(), 8u);
+  expect_closed_cube(r);
+}
+
+TEST(Stl, BinaryCube) {
+  TempDir dir;
+  MeshReport r;
+  read_stl(dir.write("cube.stl", to_binary_stl(cube())), &r);
+  expect_closed_cube(r);
+}
+
+TEST(Stl, BinaryWithSolidInItsHeader) {
+  std::string bytes = to_binary_stl(cube());
+  bytes.replace(0, 12, "solid cube  ");
+  MeshReport r;
+  read_stl_bytes(bytes, "solid_header.stl", &r);
+  expect_closed_cube(r);
+}
+
+TEST(Stl, UpperCaseAsciiAndSeveralSolids) {
+  const Mesh a = make_box_mesh({0, 0, 0}, {1, 1, 1});
+  const Mesh b = make_box_mesh({5, 0, 0}, {6, 2, 1});
+  std::string text = to_ascii_stl(a, "first") + to_ascii_stl(b, "second");
+  for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  MeshReport r;
+  read_stl_bytes(text, "two.stl", &r);
+  EXPECT_EQ(r.vertices, 16u);
+  EXPECT_EQ(r.triangles, 24u);
+  EXPECT_TRUE(r.closed);
+  EXPECT_NEAR(r.volume_mm3, 1.0 + 2.0, 1e-9);
+}
+
+TEST(Stl, ScaleOption) {
+  StlReadOptions o;
+  o.scale_to_mm = 25.4;
+  MeshReport r;
+  read_stl_bytes(to_binary_stl(make_box_mesh({0, 0, 0}, {1, 2, 3})), "inch.stl", &r, o);
+  EXPECT_TRUE(r.bounds.max().isApprox(Eigen::Vector3d(25.4, 50.8, 76.2)));
+  o.scale_to_mm = 0;
+  EXPECT_THAT(error_of([&] { read_stl_bytes("solid", "x.stl", nullptr, o); }),
+              HasSubstr("StlReadOptions::scale_to_mm"));
+}
+
+TEST(Stl, OpenBoxAndNonManifoldFromFiles) {
+  Mesh open = cube();
+  open.triangles.pop_back();
+  MeshReport r;
+  read_stl_bytes(to_ascii_stl(open), "open.stl", &r);
+  EXPECT_FALSE(r.closed);
+  EXPECT_EQ(r.boundary_edges, 3u);
+  read_stl_bytes(to_binary_stl(three_fins()), "fins.stl", &r);
+  EXPECT_EQ(r.non_manifold_edges, 1u);
+  EXPECT_EQ(r.boundary_edges, 6u);
+}
+
+TEST(Stl, TruncatedBinaryNamesBothCounts) {
+  const std::string bytes = to_binary_stl(cube());
+  EXPECT_EQ(error_of([&] { read_stl_bytes(bytes.substr(0, bytes.size() - 50), "cut.stl"); }),
+            "cut.stl: binary STL declares 12 triangles but the file holds 11 (634 bytes; a binary STL is 84 bytes "
+            "plus 50 per triangle)");
+  EXPECT_THAT(error_of([&] { read_stl_bytes(bytes.substr(0, bytes.size() - 7), "cut.stl"); }),
+              StartsWith("cut.stl: binary STL declares 12 triangles but the file holds 11 and 43 bytes more"));
+  EXPECT_THAT(error_of([&] { read_stl_bytes(bytes + "xx", "long.stl"); }),
+              StartsWith("long.stl: binary STL declares 12 triangles but the file holds 12 and 2 bytes more"));
+  EXPECT_THAT(error_of([&] { read_stl_bytes(bytes.substr(0, 40), "head.stl"); }),
+              HasSubstr("head.stl: not an STL file: 40 bytes, too short"));
+}
+
+TEST(Stl, BinaryRefusals) {
+  std::string empty = to_binary_stl(Mesh{});
+  EXPECT_EQ(error_of([&] { read_stl_bytes(empty, "empty.stl"); }), "empty.stl: binary STL holds no triangle");
+  std::string nan = to_binary_stl(cube());
+  const float q = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(nan.data() + 84 + 50 * 4 + 12 + 4, &q, 4);
+  EXPECT_EQ(error_of([&] { read_stl_bytes(nan, "nan.stl"); }), "nan.stl: binary STL triangle 5 has a non-finite coordinate");
+  StlReadOptions o;
+  o.max_triangles = 10;
+  EXPECT_THAT(error_of([&] { read_stl_bytes(to_binary_stl(cube()), "big.stl", nullptr, o); }),
+              HasSubstr("big.stl: binary STL holds 12 triangles, more than the limit of 10"));
+}
+
+TEST(Stl, AsciiStructureErrorsNameTheLine) {
+  const std::string good = to_ascii_stl(cube());
+  auto broken = [&](const std::string& from, const std::string& to) {
+    std::string s = good;
+    s.replace(s.find(from), from.size(), to);
+    return error_of([&] { read_stl_bytes(s, "part.stl"); });
+  };
+  // Line 1 "solid", facet k starts at line 2 + 7 k: facet, outer loop, 3 vertices, endloop, endfacet.
+  EXPECT_EQ(broken("    endloop\n", ""), "part.stl:7: expected 'endloop', found 'endfacet'");
+  EXPECT_EQ(broken("      vertex", "      vortex"), "part.stl:4: expected 'vertex', found 'vortex'");
+  EXPECT_THAT(broken("facet normal 0 0 -1", "facet normal 0 0 x"), HasSubstr("part.stl:2: expected a number, found 'x'"));
+  EXPECT_THAT(broken("    endloop\n", "      vertex 1 2 3\n    endloop\n"),
+              HasSubstr("part.stl:7: facet with more than three vertices"));
+  EXPECT_THAT(broken("      vertex", "      vertex 1e999 1 1\n      vertex"), HasSubstr("part.stl:4: number '1e999'"));
+  EXPECT_THAT(error_of([&] { read_stl_bytes(good.substr(0, good.rfind("endsolid")), "cut.stl"); }),
+              HasSubstr("cut.stl:86: the file ends before 'endsolid'"));
+  EXPECT_THAT(error_of([&] { read_stl_bytes("solid empty\nendsolid empty\n", "e.stl"); }),
+              HasSubstr("e.stl: ASCII STL holds no facet"));
+  EXPECT_THAT(error_of([&] { read_stl_bytes(good + "junk\n", "tail.stl"); }),
+              HasSubstr("tail.stl:87: expected 'solid' or the end of the file, found 'junk'"));
+}
+
+TEST(Stl, GarbageIsRefused) {
+  TempDir dir;
+  const std::string text = dir.write("notes.stl", "these are not triangles\n");
+  EXPECT_EQ(error_of([&] { read_stl(text); }), text + ": not an STL file: plain text that does not start with 'solid'");
+  std::string noise(1000, '\0');
+  for (std::size_t k = 0; k < noise.size(); ++k) noise[k] = static_cast<char>((k * 7919) % 251);
+  const std::string bin = dir.write("noise.stl", noise);
+  EXPECT_THAT(error_of([&] { read_stl(bin); }), StartsWith(bin + ": binary STL declares"));
+  const std::string empty = dir.write("empty.stl", "");
+  EXPECT_THAT(error_of([&] { read_stl(empty); }), StartsWith(empty + ": "));
+  EXPECT_THAT(error_of([] { read_stl("/nonexistent/x.stl"); }), StartsWith("/nonexistent/x.stl: "));
+  // An OBJ file is text without 'solid': never handed to assimp's other importers.
+  const std::string obj = dir.write("box.stl", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_THAT(error_of([&] { read_stl(obj); }), HasSubstr("does not start with 'solid'"));
+}
+
+TEST(Cli, MeshCommand) {
+  TempDir dir;
+  const std::string good = dir.write("cube.stl", to_binary_stl(cube()));
+  const std::string out = dir.write("out.json", "");
+  const int ok = std::system(fmt::format("'{}' mesh '{}' --json > '{}'", MACHPLAN_CLI, good, out).c_str());
+  ASSERT_TRUE(WIFEXITED(ok));
+  EXPECT_EQ(WEXITSTATUS(ok), 0);
+  std::ifstream in(out);
+  const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(json, HasSubstr("\"closed\": true"));
+  EXPECT_THAT(json, HasSubstr(fmt::format("\"volume_mm3\": {}", kCubeVolume)));
+
+  const std::string bad = dir.write("bad.stl", "solid x\nfacet normal 0 0 1\nendsolid\n");
+  const std::string err = dir.write("err.txt", "");
+  const int rc = std::system(fmt::format("'{}' mesh '{}' 2> '{}' > /dev/null", MACHPLAN_CLI, bad, err).c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 2);
+  std::ifstream ein(err);
+  const std::string message((std::istreambuf_iterator<char>(ein)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(message, HasSubstr(bad + ":3: expected 'outer', found 'endsolid'"));
+}
+
+}  // namespace
+}  // namespace machplan
