@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "machplan: planning engine and runtime for machine tools.\n"
       "Places workpieces on parallel-kinematic machines, calibrates and tunes axes, and runs\n"
-      "part programs. Exit codes: 0 done, 1 internal error, 2 bad input, 3 cannot be done.",
+      "part programs. Exit codes: 0 done, 1 internal error, 2 bad input, 3 cannot be done\n(or, for `check`, interference found).",
       "machplan"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "machplan 0.1.0");
