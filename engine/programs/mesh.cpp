@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <iterator>
 #include <unordered_map>
 
 #include <assimp/Importer.hpp>
@@ -51,29 +52,37 @@ class AsciiScanner {
       : text_(text), source_(source), max_triangles_(max_triangles) {}
 
   // Returns the number of facets; throws InputError at the first break in the structure.
+  // Fills canonical() with the same facets in assimp's safest layout.
   std::size_t scan() {
+    out_.reserve(text_.size());
     std::string_view tok;
     if (!next(tok) || !iequals(tok, "solid")) fail("expected 'solid' at the start of an ASCII STL");
     skip_rest_of_line();
+    out_ += "solid\n";
     std::size_t facets = 0;
     while (true) {
       if (!next(tok)) fail(line_, "the file ends before 'endsolid'");
       if (iequals(tok, "endsolid")) {
         skip_rest_of_line();
+        out_ += "endsolid\n";
         if (!next(tok)) break;  // end of file: done
         if (!iequals(tok, "solid")) fail(tok_line_, fmt::format("expected 'solid' or the end of the file, found '{}'", printable(tok)));
         skip_rest_of_line();
+        out_ += "solid\n";
         continue;
       }
       if (!iequals(tok, "facet")) fail(tok_line_, fmt::format("expected 'facet' or 'endsolid', found '{}'", printable(tok)));
       if (++facets > max_triangles_)
         fail(tok_line_, fmt::format("more than {} triangles (StlReadOptions::max_triangles)", max_triangles_));
       expect("normal");
+      out_ += "facet normal";
       numbers(3);
       expect("outer");
       expect("loop");
+      out_ += "outer loop\n";
       for (int v = 0; v < 3; ++v) {
         expect("vertex");
+        out_ += "vertex";
         numbers(3);
       }
       if (!next(tok)) fail(line_, "the file ends inside a facet");
@@ -81,10 +90,13 @@ class AsciiScanner {
         fail(tok_line_, "facet with more than three vertices; only triangles are supported");
       if (!iequals(tok, "endloop")) fail(tok_line_, fmt::format("expected 'endloop', found '{}'", printable(tok)));
       expect("endfacet");
+      out_ += "endloop\nendfacet\n";
     }
     if (facets == 0) fail(0, "ASCII STL holds no facet");
     return facets;
   }
+
+  std::string& canonical() { return out_; }
 
  private:
   [[noreturn]] void fail(int line, const std::string& message) const { throw InputError(source_, line, message); }
@@ -125,12 +137,17 @@ class AsciiScanner {
         fail(tok_line_, fmt::format("expected a number, found '{}'", printable(tok)));
       if (ec == std::errc::result_out_of_range || !std::isfinite(value) || std::abs(value) > 3.4e38)
         fail(tok_line_, fmt::format("number '{}' is out of range or not finite", printable(tok)));
+      // Shortest round-trip form: digits, '.', 'e' and signs only, which assimp's fast_atof
+      // reads without surprises (it misreads integer parts beyond 19 digits, for one).
+      fmt::format_to(std::back_inserter(out_), " {}", value);
     }
+    out_.push_back('\n');
   }
 
   std::string_view text_;
   const std::string& source_;
   std::size_t max_triangles_;
+  std::string out_;
   std::size_t pos_ = 0;
   int line_ = 1;
   int tok_line_ = 1;
@@ -331,23 +348,37 @@ Mesh read_stl_bytes(std::string_view bytes, const std::string& source, MeshRepor
                     const StlReadOptions& options) {
   options.validate();
   // 1. Our own structural check; it decides the format and the expected triangle count.
-  std::string ascii;  // lower-cased copy handed to assimp (its keywords are case-sensitive)
+  // assimp's ASCII STL parser has layout quirks (numbers must share the keyword's line, a
+  // name on the 'solid' line is read as keywords, long names or a failed number throw and
+  // leak the meshes built so far), and its text loader strips byte-order marks even from
+  // binary files. So assimp gets, for ASCII, a canonical copy of the facets we checked (one
+  // statement per line, lower-case keywords, numbers in shortest form, names dropped) and,
+  // for a binary file whose header starts like a byte-order mark, a copy with a blank header.
+  std::string copy;
   std::size_t expected = 0;
   std::string_view to_assimp = bytes;
   const bool text = is_plain_text(bytes);
   if (text && !starts_with_solid(bytes))
     throw InputError(source, 0, "not an STL file: plain text that does not start with 'solid'");
   if (text) {
-    expected = AsciiScanner(bytes, source, options.max_triangles).scan();
-    ascii.assign(bytes);
-    for (char& c : ascii) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    AsciiScanner scanner(bytes, source, options.max_triangles);
+    expected = scanner.scan();
+    copy = std::move(scanner.canonical());
     // assimp calls any file of size 84 + 50 * (uint32 at byte 80) binary; keep text out of that.
-    if (ascii.size() >= kBinaryHeaderBytes &&
-        ascii.size() == kBinaryHeaderBytes + kBinaryRecordBytes * std::size_t{read_u32_le(ascii.data() + 80)})
-      ascii.push_back('\n');
-    to_assimp = ascii;
+    if (copy.size() >= kBinaryHeaderBytes &&
+        copy.size() == kBinaryHeaderBytes + kBinaryRecordBytes * std::size_t{read_u32_le(copy.data() + 80)})
+      copy.push_back('\n');
+    to_assimp = copy;
   } else {
     expected = check_binary(bytes, source, options.max_triangles);
+    const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
+    const bool bom_like = (b[0] == 0xEF && b[1] == 0xBB && b[2] == 0xBF) || (b[0] == 0xFF && b[1] == 0xFE) ||
+                          (b[0] == 0xFE && b[1] == 0xFF) || (b[0] == 0 && b[1] == 0 && b[2] == 0xFE && b[3] == 0xFF);
+    if (bom_like) {
+      copy.assign(bytes);
+      std::fill(copy.begin(), copy.begin() + 80, ' ');
+      to_assimp = copy;
+    }
   }
 
   // 2. assimp reads it. No post-processing: welding is ours.

@@ -20,6 +20,12 @@
 //     "solid"; anything else is taken to be binary (binary headers that start with "solid",
 //     as many exporters write, are fine).
 //
+// assimp then imports what we checked: for ASCII a canonical copy of the checked facets (one
+// statement per line, names dropped), because its own ASCII parser throws, and leaks, on
+// layouts this grammar allows; for binary the bytes themselves (with the header blanked if it
+// starts like a text byte-order mark, which assimp would strip). Its triangle count must
+// match ours.
+//
 // Refused, always as InputError naming the file: the cases above, non-finite coordinates,
 // an STL with no triangle, more than StlReadOptions::max_triangles triangles, and any failure
 // inside assimp (its message is quoted). Normals stored in the file are ignored: orientation

@@ -178,6 +178,33 @@ TEST(Stl, UpperCaseAsciiAndSeveralSolids) {
   EXPECT_NEAR(r.volume_mm3, 1.0 + 2.0, 1e-9);
 }
 
+// Layouts the grammar allows but assimp's own ASCII parser does not (it needs the numbers on
+// the keyword's line and reads words in a solid's name as keywords); found by the fuzzer,
+// where assimp threw and leaked. The reader must read them all the same.
+TEST(Stl, AsciiLayoutsAssimpWouldMisread) {
+  const std::string text =
+      "\n\n  solid part vertex 1 2 3 facet normal\n"
+      "facet\nnormal 0 0\n-1 outer loop vertex 0 0 0 vertex\n0 1 0\n vertex 1 0 0 endloop endfacet\n"
+      "facet normal 0 0 1 outer loop vertex 12345678901234567890123 0 0 vertex 0 1 0 vertex 0 0 1 endloop endfacet\n"
+      "endsolid part\n";
+  MeshReport r;
+  const Mesh m = read_stl_bytes(text, "layout.stl", &r);
+  EXPECT_EQ(r.triangles, 2u);
+  EXPECT_EQ(r.vertices, 5u);
+  EXPECT_NEAR(r.bounds.max().x(), 12345678901234567890123.0, 1e16);  // float precision
+}
+
+TEST(Stl, BinaryHeaderThatLooksLikeAByteOrderMark) {
+  for (const std::string bom : {std::string("\xEF\xBB\xBF"), std::string("\xFF\xFE"), std::string("\xFE\xFF"),
+                                std::string("\x00\x00\xFE\xFF", 4)}) {
+    std::string bytes = to_binary_stl(cube());
+    bytes.replace(0, bom.size(), bom);
+    MeshReport r;
+    read_stl_bytes(bytes, "bom.stl", &r);
+    expect_closed_cube(r);
+  }
+}
+
 TEST(Stl, ScaleOption) {
   StlReadOptions o;
   o.scale_to_mm = 25.4;
