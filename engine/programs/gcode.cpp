@@ -230,6 +230,7 @@ Block Reader::split(const std::string& code) const {
     if (c == '#') fail("parameters (#) are not supported");
     if (c == '[') fail("expressions ([...]) are not supported");
     if (c == '%') fail("'%' is only allowed on a line of its own opening and closing the program");
+    if (c == '@' || c == '^') fail("polar coordinates (@ and ^ words) are not supported");
     if (c == 'o') fail("O-word subroutines are not supported");
     if (c == 'n') fail("N word (line number) is only allowed at the start of a line");
     if (!std::isalpha(static_cast<unsigned char>(c))) {

@@ -59,7 +59,8 @@
 //     expressions ('[...]' and functions), G18 / G19 planes, cutter compensation, tool length
 //     offsets, work offsets and coordinate systems other than G54, canned cycles, probing,
 //     threading, splines, inverse-time and per-revolution feed, tool changes (T, M6), coolant,
-//     overrides, I/O M codes, user M codes, A/B/C/U/V/W axes, E/L/Q/D/H words. Messages read
+//     overrides, I/O M codes, user M codes, A/B/C/U/V/W axes, E/L/Q/D/H words, polar
+//     coordinates (@ and ^). Messages read
 //     "G41 (cutter radius compensation) is not supported".
 //   * LinuxCNC's errors: unknown G or M code; a repeated word letter on a line ("multiple X
 //     words on one line"); two G codes or two M codes of the same modal group on a line; more
