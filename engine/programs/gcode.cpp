@@ -445,6 +445,7 @@ void Reader::arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_mm) 
     const double r = *b.w('r');
     if (x0 == x1 && y0 == y1) fail("current point same as end point of arc (R format cannot make a full circle)");
     const double abs_r = std::abs(r);
+    if (abs_r == 0) fail("zero-radius arc: R0");
     const double mid_x = (x0 + x1) / 2.0, mid_y = (y0 + y1) / 2.0;
     double half = std::hypot(mid_x - x1, mid_y - y1);
     if (!(half - abs_r <= radius_tolerance))
@@ -473,6 +474,7 @@ void Reader::arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_mm) 
     if (abs_err > spiral_abs_tolerance * 100.0 || (rel_err > kSpiralRelativeTolerance && abs_err > spiral_abs_tolerance))
       fail("radius to end of arc differs from radius to start: " + where());
   }
+  if (!std::isfinite(cx) || !std::isfinite(cy)) fail("arc centre cannot be computed (numbers too large or too small)");
   Move m;
   m.kind = Move::Kind::arc;
   m.end = end_mm;

@@ -69,6 +69,8 @@
 //     words with no code that uses them; axis words with G80 or after G80 with no motion code;
 //     malformed numbers; non-integer M codes; a program that ends with neither M2/M30 nor a
 //     closing '%' (unless GcodeOptions::require_program_end is false).
+//   * Where rs274 accepts nonsense, this reader refuses it: R0 on an arc (rs274 prints a NaN
+//     centre) and a doubled sign such as "X--1" (rs274 reads it as X1).
 //   * Limits that keep any input bounded: GcodeOptions::max_moves moves, max_arc_turns turns
 //     on one arc, max_line_chars characters on a line.
 //

@@ -234,6 +234,7 @@ TEST(GcodeErrors, Arcs) {
   expect_error("F1\nG2 X3 R1\nM2\n", 2, "too small to reach end point");
   expect_error("F1\nG2 X0 Y0 R1\nM2\n", 2, "current point same as end point of arc");
   expect_error("F1\nG2 X0 Y0 I0.00001\nM2\n", 2, "zero-radius arc");
+  expect_error("F1\nG2 X0.001 R0\nM2\n", 2, "zero-radius arc: R0");  // rs274 prints a NaN centre
   expect_error("F1\nG2 X0 I1 P0\nM2\n", 2, "must be 1 or greater");
   expect_error("F1\nG2 X0 I1 P1.5\nM2\n", 2, "P word on G2/G3 is not an integer");
   expect_error("F1\nG2 X0 I1 P20000\nM2\n", 2, "more than 10000 turns");
