@@ -1,0 +1,106 @@
+#include "engine/programs/program.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace machplan {
+
+const char* to_string(Move::Kind kind) {
+  switch (kind) {
+    case Move::Kind::rapid: return "rapid";
+    case Move::Kind::line: return "line";
+    case Move::Kind::arc: return "arc";
+    case Move::Kind::dwell: return "dwell";
+    case Move::Kind::torch_on: return "torch_on";
+    case Move::Kind::torch_off: return "torch_off";
+  }
+  return "unknown";
+}
+
+namespace {
+
+constexpr double kTwoPi = 2.0 * M_PI;
+
+// Angle swept by an arc from `start` to `move.end`, in radians, > 0, including extra turns.
+// Start equal to end (within 1e-9 mm) is a full circle, as in LinuxCNC.
+double arc_sweep_rad(const Eigen::Vector3d& start, const Move& move) {
+  const double a0 = std::atan2(start.y() - move.center.y(), start.x() - move.center.x());
+  const double a1 = std::atan2(move.end.y() - move.center.y(), move.end.x() - move.center.x());
+  double sweep = move.clockwise ? a0 - a1 : a1 - a0;
+  while (sweep < 0) sweep += kTwoPi;
+  while (sweep >= kTwoPi) sweep -= kTwoPi;
+  if ((start.head<2>() - move.end.head<2>()).norm() < 1e-9 || sweep < 1e-12) sweep = kTwoPi;
+  return sweep + kTwoPi * move.turns;
+}
+
+}  // namespace
+
+ProgramSummary summarize(const Program& program, double rapid_mm_per_min) {
+  ProgramSummary s;
+  Eigen::Vector3d pos = program.start;
+  s.min = s.max = pos;
+  auto grow = [&](const Eigen::Vector3d& p) {
+    s.min = s.min.cwiseMin(p);
+    s.max = s.max.cwiseMax(p);
+  };
+  for (const Move& m : program.moves) {
+    switch (m.kind) {
+      case Move::Kind::rapid: {
+        ++s.rapid_count;
+        const double length = (m.end - pos).norm();
+        s.rapid_length_mm += length;
+        if (rapid_mm_per_min > 0) s.estimated_seconds += length / rapid_mm_per_min * 60.0;
+        grow(m.end);
+        pos = m.end;
+        break;
+      }
+      case Move::Kind::line: {
+        ++s.line_count;
+        const double length = (m.end - pos).norm();
+        s.feed_length_mm += length;
+        if (m.feed_mm_per_min > 0) s.estimated_seconds += length / m.feed_mm_per_min * 60.0;
+        grow(m.end);
+        pos = m.end;
+        break;
+      }
+      case Move::Kind::arc: {
+        ++s.arc_count;
+        const double sweep = arc_sweep_rad(pos, m);
+        const double r0 = (pos.head<2>() - m.center).norm();
+        const double r1 = (m.end.head<2>() - m.center).norm();
+        const double planar = sweep * 0.5 * (r0 + r1);
+        const double length = std::hypot(planar, m.end.z() - pos.z());
+        s.feed_length_mm += length;
+        if (m.feed_mm_per_min > 0) s.estimated_seconds += length / m.feed_mm_per_min * 60.0;
+        // Bounding box: the end points and the quadrant points the arc passes through.
+        const double a0 = std::atan2(pos.y() - m.center.y(), pos.x() - m.center.x());
+        const double r = std::max(r0, r1);
+        for (int q = 0; q < 4; ++q) {
+          const double aq = q * M_PI_2;
+          double delta = m.clockwise ? a0 - aq : aq - a0;
+          while (delta < 0) delta += kTwoPi;
+          while (delta >= kTwoPi) delta -= kTwoPi;
+          if (delta <= sweep) {
+            const double z = pos.z() + (m.end.z() - pos.z()) * (delta / sweep);
+            grow(Eigen::Vector3d(m.center.x() + r * std::cos(aq), m.center.y() + r * std::sin(aq), z));
+          }
+        }
+        grow(m.end);
+        pos = m.end;
+        break;
+      }
+      case Move::Kind::dwell:
+        ++s.dwell_count;
+        s.estimated_seconds += m.seconds;
+        break;
+      case Move::Kind::torch_on:
+        ++s.torch_on_count;
+        break;
+      case Move::Kind::torch_off:
+        break;
+    }
+  }
+  return s;
+}
+
+}  // namespace machplan

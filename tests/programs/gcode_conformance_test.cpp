@@ -1,0 +1,326 @@
+// Conformance of machplan's G-code reader with LinuxCNC's interpreter.
+//
+// For every program in datasets/programs/conformance/ and every sample LinuxCNC installs under
+// /usr/share/linuxcnc/ncfiles/, this runs `machplan program FILE --json` and `rs274 -g FILE`,
+// turns rs274's canonical calls into moves, and requires:
+//   * both accept: the same sequence of moves (kind, end point and arc centre within the
+//     tolerance below, feed, direction, turns, dwell seconds, spindle speed);
+//   * rs274 rejects: machplan rejects too (exit 2, "FILE:LINE: message");
+//   * rs274 accepts and machplan refuses: only for a feature machplan does not support, so the
+//     message must say "not supported".
+// Our own programs state what they expect on their first line:
+//   (expect: match)           both accept and the moves match
+//   (expect: refuse TEXT)     rs274 accepts; machplan refuses with a message containing TEXT
+//   (expect: error TEXT)      rs274 rejects; machplan rejects with a message containing TEXT
+//
+// rs274 prints coordinates in the program's current length units (USE_LENGTH_UNITS) with four
+// decimals; SET_FEED_RATE takes the units in effect when it is issued. ARC_FEED's rotation is
+// +n for n counter-clockwise turns and -n for clockwise; machplan's Move::turns is n - 1.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) {
+    if (c == '\'') q += "'\\''";
+    else q += c;
+  }
+  return q + "'";
+}
+
+// Runs `command` (through the shell) with stdout and stderr captured in files under `dir`.
+RunResult run(const std::string& command, const fs::path& dir) {
+  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
+  const std::string full = command + " </dev/null >" + quote(out.string()) + " 2>" + quote(err.string());
+  const int status = std::system(full.c_str());
+  RunResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+// One move in a common form for comparison.
+struct Expected {
+  std::string kind;
+  std::array<double, 3> end{0, 0, 0};
+  std::array<double, 2> center{0, 0};
+  double feed = 0, seconds = 0, speed = 0;
+  bool clockwise = false;
+  int turns = 0;
+  std::string text;  // the canonical call, for messages
+};
+
+struct Rs274Program {
+  std::vector<Expected> moves;
+  std::vector<std::string> unmodelled;  // canonical calls that move or change tools, that we do not model
+  bool inches_seen = false;
+};
+
+std::vector<double> numbers(const std::string& args) {
+  std::vector<double> v;
+  std::stringstream ss(args);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      v.push_back(std::stod(item));
+    } catch (...) {
+      v.push_back(NAN);
+    }
+  }
+  return v;
+}
+
+Rs274Program parse_rs274(const std::string& out) {
+  Rs274Program p;
+  static const std::regex call(R"(^\s*\d+\s+N\S*\s+([A-Z_0-9]+)\((.*)\)\s*$)");
+  double scale = 1.0, feed = 0.0, speed = 0.0;
+  std::stringstream ss(out);
+  std::string line;
+  while (std::getline(ss, line)) {
+    std::smatch m;
+    if (!std::regex_match(line, m, call)) continue;
+    const std::string name = m[1], args = m[2];
+    const auto v = numbers(args);
+    Expected e;
+    e.text = line;
+    if (name == "USE_LENGTH_UNITS") {
+      scale = args.find("INCHES") != std::string::npos ? 25.4 : 1.0;
+      if (scale != 1.0) p.inches_seen = true;
+      continue;
+    } else if (name == "SET_FEED_RATE") {
+      feed = v.at(0) * scale;
+      continue;
+    } else if (name == "SET_SPINDLE_SPEED") {
+      speed = v.at(1);
+      continue;
+    } else if (name == "STRAIGHT_TRAVERSE" || name == "STRAIGHT_FEED") {
+      e.kind = name == "STRAIGHT_TRAVERSE" ? "rapid" : "line";
+      e.end = {v.at(0) * scale, v.at(1) * scale, v.at(2) * scale};
+      e.feed = name == "STRAIGHT_FEED" ? feed : 0.0;
+    } else if (name == "ARC_FEED") {
+      e.kind = "arc";
+      e.end = {v.at(0) * scale, v.at(1) * scale, v.at(5) * scale};
+      e.center = {v.at(2) * scale, v.at(3) * scale};
+      const int rotation = static_cast<int>(std::lround(v.at(4)));
+      e.clockwise = rotation < 0;
+      e.turns = std::abs(rotation) - 1;
+      e.feed = feed;
+    } else if (name == "DWELL") {
+      e.kind = "dwell";
+      e.seconds = v.at(0);
+    } else if (name == "START_SPINDLE_CLOCKWISE" || name == "START_SPINDLE_COUNTERCLOCKWISE") {
+      e.kind = "torch_on";
+      e.speed = speed;
+    } else if (name == "STOP_SPINDLE_TURNING") {
+      e.kind = "torch_off";
+    } else if (name == "PROGRAM_END") {
+      // M2 / M30 issue one STOP_SPINDLE_TURNING of their own: the latest one.
+      for (auto it = p.moves.rbegin(); it != p.moves.rend(); ++it) {
+        if (it->kind == "torch_off") {
+          p.moves.erase(std::next(it).base());
+          break;
+        }
+      }
+      break;
+    } else if (name == "USE_TOOL_LENGTH_OFFSET" && std::regex_match(args, std::regex(R"([-0., ]*)"))) {
+      continue;  // G49: no offset, LinuxCNC's start state
+    } else {
+      static const std::regex moving("PROBE|TAP|NURBS|SPLINE|TOOL|SPINDLE_RETRACT|ORIENT|MOTION|WAIT|DIGITAL|ANALOG|COOLANT|FLOOD|MIST");
+      if (std::regex_search(name, moving) && name.rfind("SET_", 0) != 0) p.unmodelled.push_back(line);
+      continue;
+    }
+    p.moves.push_back(e);
+  }
+  return p;
+}
+
+std::vector<Expected> from_json(const nlohmann::json& j) {
+  std::vector<Expected> moves;
+  for (const auto& m : j.at("moves")) {
+    Expected e;
+    e.kind = m.at("kind");
+    if (m.contains("end")) e.end = {m["end"][0], m["end"][1], m["end"][2]};
+    if (m.contains("center")) e.center = {m["center"][0], m["center"][1]};
+    if (m.contains("feed")) e.feed = m["feed"];
+    if (m.contains("clockwise")) e.clockwise = m["clockwise"];
+    if (m.contains("turns")) e.turns = m["turns"];
+    if (m.contains("seconds")) e.seconds = m["seconds"];
+    if (m.contains("spindle_speed")) e.speed = m["spindle_speed"];
+    e.text = m.dump();
+    moves.push_back(e);
+  }
+  return moves;
+}
+
+std::vector<fs::path> programs() {
+  std::vector<fs::path> files;
+  const fs::path ours = fs::path(MACHPLAN_SOURCE_DIR) / "datasets/programs/conformance";
+  if (fs::is_directory(ours))
+    for (const auto& e : fs::directory_iterator(ours))
+      if (e.path().extension() == ".ngc") files.push_back(e.path());
+  for (const auto& e : fs::directory_iterator(ours.parent_path()))
+    if (e.path().extension() == ".ngc") files.push_back(e.path());  // demo_plate.ngc and friends
+  const fs::path samples = "/usr/share/linuxcnc/ncfiles";
+  if (fs::is_directory(samples))
+    for (const auto& e : fs::directory_iterator(samples))
+      if (e.path().extension() == ".ngc") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+class GcodeConformance : public ::testing::TestWithParam<fs::path> {};
+
+TEST(GcodeConformanceSetup, CorpusAndReferenceArePresent) {
+  const fs::path ours = fs::path(MACHPLAN_SOURCE_DIR) / "datasets/programs/conformance";
+  std::size_t count = 0;
+  for (const auto& e : fs::directory_iterator(ours)) count += e.path().extension() == ".ngc";
+  EXPECT_GE(count, 25u) << "the conformance corpus should hold at least 25 programs";
+  EXPECT_TRUE(fs::exists("/usr/bin/rs274")) << "LinuxCNC's rs274 is the reference (package linuxcnc-uspace)";
+  EXPECT_TRUE(fs::is_directory("/usr/share/linuxcnc/ncfiles")) << "LinuxCNC's sample programs are missing";
+}
+
+TEST_P(GcodeConformance, MatchesRs274) {
+  const fs::path file = GetParam();
+  const std::string text = slurp(file);
+  // Expectation line, for our own corpus.
+  std::string expect = "auto", expect_text;
+  {
+    static const std::regex header(R"(^\(expect:\s*(match|refuse|error)\s*(.*?)\s*\))");
+    std::smatch m;
+    // The first line, or the second after an opening '%'.
+    std::string first = text.substr(0, text.find('\n'));
+    if (!first.empty() && first[0] == '%') {
+      const auto next = text.find('\n');
+      first = next == std::string::npos ? "" : text.substr(next + 1, text.find('\n', next + 1) - next - 1);
+    }
+    if (std::regex_search(first, m, header)) {
+      expect = m[1];
+      expect_text = m[2];
+    }
+  }
+
+  const fs::path dir = fs::temp_directory_path() /
+                       ("machplan_conf_" + std::to_string(::getpid()) + "_" + file.stem().string());
+  fs::create_directories(dir);
+  {
+    // rs274 refuses samples that ask for tools not in its table: give it tools 1..20.
+    std::ofstream tbl(dir / "tool.tbl");
+    for (int t = 1; t <= 20; ++t) tbl << "T" << t << " P" << t << " D0.125 Z0 ;tool " << t << "\n";
+  }
+  const RunResult ref = run("cd " + quote(dir.string()) + " && timeout 60 /usr/bin/rs274 -g -t tool.tbl " +
+                                quote(file.string()),
+                            dir);
+  const RunResult ours = run(std::string(MACHPLAN_CLI) + " program " + quote(file.string()) + " --json", dir);
+  fs::remove_all(dir);
+
+  const bool ref_ok = ref.exit_code == 0;
+  std::string ref_error;
+  {
+    std::stringstream ss(ref.err);
+    std::string l;
+    while (std::getline(ss, l))
+      if (l != "executing" && ref_error.empty()) ref_error = l;
+  }
+  SCOPED_TRACE("file: " + file.string() + "\nrs274 exit " + std::to_string(ref.exit_code) +
+               (ref_error.empty() ? "" : " (" + ref_error + ")") + "\nmachplan exit " +
+               std::to_string(ours.exit_code) + ": " + ours.err);
+  ASSERT_TRUE(ours.exit_code == 0 || ours.exit_code == 2) << "machplan must accept (0) or refuse (2)";
+  if (ours.exit_code == 2) {
+    EXPECT_NE(ours.err.find(file.string() + ":"), std::string::npos) << "the message must name the file";
+  }
+
+  if (expect == "match") {
+    ASSERT_TRUE(ref_ok) << "this program is meant to be accepted by rs274";
+    ASSERT_EQ(ours.exit_code, 0) << "this program is meant to be accepted by machplan";
+  } else if (expect == "refuse") {
+    ASSERT_TRUE(ref_ok) << "this program is meant to be accepted by rs274 (a feature machplan refuses)";
+    ASSERT_EQ(ours.exit_code, 2);
+    EXPECT_NE(ours.err.find(expect_text), std::string::npos) << "expected the message to name: " << expect_text;
+    return;
+  } else if (expect == "error") {
+    ASSERT_FALSE(ref_ok) << "this program is meant to be rejected by rs274";
+    ASSERT_EQ(ours.exit_code, 2);
+    EXPECT_NE(ours.err.find(expect_text), std::string::npos) << "expected the message to contain: " << expect_text;
+    return;
+  }
+
+  if (!ref_ok) {
+    EXPECT_EQ(ours.exit_code, 2) << "rs274 rejects this program, so must machplan";
+    return;
+  }
+  if (ours.exit_code == 2) {
+    EXPECT_NE(ours.err.find("not supported"), std::string::npos)
+        << "rs274 accepts this program; machplan may refuse it only for an unsupported feature, named";
+    return;
+  }
+
+  // Both accept: compare the moves.
+  const Rs274Program expected = parse_rs274(ref.out);
+  EXPECT_TRUE(expected.unmodelled.empty()) << "rs274 issues calls machplan does not model, yet machplan accepted: "
+                                          << expected.unmodelled.front();
+  nlohmann::json j;
+  ASSERT_NO_THROW(j = nlohmann::json::parse(ours.out));
+  EXPECT_EQ(j.at("units"), "mm");
+  const std::vector<Expected> got = from_json(j);
+  // rs274 prints 4 decimals in program units: in inches that is 0.00127 mm of rounding.
+  const double tol_mm = expected.inches_seen ? 1.6e-3 : 1e-3;
+  ASSERT_EQ(got.size(), expected.moves.size()) << "number of moves";
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    const Expected& a = got[i];
+    const Expected& b = expected.moves[i];
+    SCOPED_TRACE("move " + std::to_string(i) + "\n  machplan: " + a.text + "\n  rs274:    " + b.text);
+    ASSERT_EQ(a.kind, b.kind);
+    if (a.kind == "rapid" || a.kind == "line" || a.kind == "arc")
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(a.end[k], b.end[k], tol_mm) << "end[" << k << "]";
+    if (a.kind == "line" || a.kind == "arc") EXPECT_NEAR(a.feed, b.feed, 1e-4 * std::max(1.0, b.feed)) << "feed";
+    if (a.kind == "arc") {
+      for (int k = 0; k < 2; ++k) EXPECT_NEAR(a.center[k], b.center[k], tol_mm) << "center[" << k << "]";
+      EXPECT_EQ(a.clockwise, b.clockwise);
+      EXPECT_EQ(a.turns, b.turns);
+    }
+    if (a.kind == "dwell") EXPECT_NEAR(a.seconds, b.seconds, 1e-4);
+    if (a.kind == "torch_on") EXPECT_NEAR(a.speed, b.speed, 1e-4 * std::max(1.0, b.speed));
+  }
+}
+
+std::string test_name(const ::testing::TestParamInfo<fs::path>& info) {
+  std::string prefix = info.param.string().find("/usr/share/linuxcnc") == 0 ? "linuxcnc_" : "corpus_";
+  std::string name = prefix + info.param.stem().string();
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Programs, GcodeConformance, ::testing::ValuesIn(programs()), test_name);
+
+}  // namespace
