@@ -64,8 +64,8 @@ LimitMargins limit_margins(const Machine& m, const IkResult& ik) {
       lm.stroke_strut = i;
     }
     const Eigen::Vector3d dir = (s.plate_mm - s.slider_mm).normalized();
-    const double base = m.joint_half_angle_rad - angle_between(dir, m.home_dir_base[i]);
-    const double plate = m.joint_half_angle_rad - angle_between(ik.R.transpose() * dir, m.home_dir_plate[i]);
+    const double base = m.slider_joint_half_angle_rad - angle_between(dir, m.home_dir_base[i]);
+    const double plate = m.plate_joint_half_angle_rad - angle_between(ik.R.transpose() * dir, m.home_dir_plate[i]);
     if (base < lm.joint_rad) {
       lm.joint_rad = base;
       lm.joint_strut = i;
@@ -127,7 +127,7 @@ void Machine::finalize(const Yaml* where) {
     home_dir_plate[i] = home_dir_base[i];  // R = I at home
     // Angle between the strut (pointing down from the slider) and the rail line.
     const double a = angle_between(-home_dir_base[i], -struts[i].rail_direction);
-    alpha_max = std::max(alpha_max, std::min(a, M_PI - a) + joint_half_angle_rad);
+    alpha_max = std::max(alpha_max, std::min(a, M_PI - a) + slider_joint_half_angle_rad);
   }
   if (alpha_max >= 80.0 * kDeg)
     fail(fmt::format("struts may reach {:.1f} deg from their rails within the joint cones; the "
@@ -179,9 +179,10 @@ Machine machine_from_yaml(const Yaml& root) {
     }
   }
   const Yaml struts = root.at("struts");
-  struts.reject_unknown_keys({"radius_mm", "joint_half_angle_deg"});
+  struts.reject_unknown_keys({"radius_mm", "slider_joint_half_angle_deg", "plate_joint_half_angle_deg"});
   m.strut_radius_mm = struts.number("radius_mm", pos);
-  m.joint_half_angle_rad = struts.number("joint_half_angle_deg", {.min = 1, .max = 89}) * kDeg;
+  m.slider_joint_half_angle_rad = struts.number("slider_joint_half_angle_deg", {.min = 1, .max = 89}) * kDeg;
+  m.plate_joint_half_angle_rad = struts.number("plate_joint_half_angle_deg", {.min = 1, .max = 89}) * kDeg;
   const Yaml sl = root.at("sliders");
   sl.reject_unknown_keys({"stroke_min_mm", "stroke_max_mm"});
   m.stroke_min_mm = sl.number("stroke_min_mm");

@@ -72,7 +72,8 @@ struct Machine {
   std::string source;  // file it came from
   std::array<Strut, 6> struts;
   double stroke_min_mm = 0.0, stroke_max_mm = 0.0;
-  double joint_half_angle_rad = 0.0;
+  double slider_joint_half_angle_rad = 0.0;  // cone of the slider-side joints
+  double plate_joint_half_angle_rad = 0.0;   // cone of the plate hinges (they also see the tilt)
   double strut_radius_mm = 0.0;     // struts are capsules of this radius
   double hinge_radius_mm = 0.0;     // plate hinges are spheres of this radius at p_i
   double plate_radius_mm = 0.0;     // spindle plate: a disc of this radius ...

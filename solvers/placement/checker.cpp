@@ -30,6 +30,14 @@ Eigen::AlignedBox3d segment_box(const Eigen::Vector3d& p0, const Eigen::Vector3d
   return b;
 }
 
+// Exact bounds of a flat-ended cylinder from p0 to p1: each rim circle reaches r sqrt(1 - d_k^2)
+// along world axis k, d being the unit cylinder axis.
+Eigen::AlignedBox3d cylinder_box(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double r) {
+  const Eigen::Vector3d d = (p1 - p0).normalized();
+  const Eigen::Vector3d e = r * (Eigen::Vector3d::Ones() - d.cwiseProduct(d)).cwiseMax(0.0).cwiseSqrt();
+  return Eigen::AlignedBox3d(p0.cwiseMin(p1) - e, p0.cwiseMax(p1) + e);
+}
+
 Eigen::Vector3d slerp_axis(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double t) {
   const double th = std::atan2(a.cross(b).norm(), a.dot(b));
   if (th < 1e-9) return ((1 - t) * a + t * b).normalized();
@@ -140,6 +148,9 @@ Checker::Checker(const Scene& scene, double rotation_deg)
     limit_.insert(limit_.end(), {c, c});
   }
   constraint_count_ = static_cast<int>(limit_.size());
+  // A report finds each smallest value to within this (mm; rad for the joints).
+  report_tolerance_.assign(constraint_count_, 0.25);
+  report_tolerance_[kJoint] = 0.005;
   MACHPLAN_ASSERT(constraint_count_ <= 32, "at most 14 peripherals are supported, got {}", scene.peripherals.size());
   cache_.assign(n * constraint_count_, 0.0);
   cache_gen_.assign(n, 0u);
@@ -250,13 +261,14 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
       for (std::size_t s = 0; s < m.tool_parts.size(); ++s) {
         const auto& part = m.tool_parts[s];
         const Eigen::Vector3d a = tip + pose.axis * part.from_mm, b = tip + pose.axis * part.to_mm;
-        if (aabb_distance(segment_box(a, b, part.radius_mm), per.bounds) >= best) continue;
+        const auto box = part.capsule ? segment_box(a, b, part.radius_mm) : cylinder_box(a, b, part.radius_mm);
+        if (aabb_distance(box, per.bounds) >= best) continue;
         const double dist = interference::distance(rigid_shapes_[s], interference::segment_pose(a, b), per.shape,
                                                    per.T_table_peripheral).distance_mm;
         if (dist < best) best = dist, best_part = part.name;
       }
       const Eigen::Vector3d pa = tip + pose.axis * m.gauge_mm, pb = top;
-      if (aabb_distance(segment_box(pa, pb, m.plate_radius_mm), per.bounds) < best) {
+      if (aabb_distance(cylinder_box(pa, pb, m.plate_radius_mm), per.bounds) < best) {
         const double dist = interference::distance(rigid_shapes_[m.tool_parts.size()], interference::segment_pose(pa, pb),
                                                    per.shape, per.T_table_peripheral).distance_mm;
         if (dist < best) best = dist, best_part = "spindle plate";
@@ -327,7 +339,7 @@ bool Checker::scan_node(long lo, long hi, unsigned mask, const Eigen::Vector3d& 
     }
     const auto& cum = *cums[travel_kind_[c]];
     const double R = path_lipschitz_[c] * std::max(travel(cum, lo, mid), travel(cum, mid, hi));
-    const double need = s.report ? s.best[c] : s.thr_ok[c];
+    const double need = s.report ? s.best[c] - report_tolerance_[c] : s.thr_ok[c];
     if (v[c] - R >= need) {
       mask &= ~(1u << c);
       ++counts_.proven_by_bound;
@@ -347,7 +359,7 @@ bool Checker::scan_interval(long i, double t0, double t1, const double* v0, cons
     const double d = path_lipschitz_[c] * travel(*cums[travel_kind_[c]], i, i + 1) * (t1 - t0);
     // Along the stretch the value cannot drop below this (it falls at most d in total).
     const double bound = (v0[c] + v1[c] - d) / 2;
-    const double need = s.report ? s.best[c] : s.thr_ok[c];
+    const double need = s.report ? s.best[c] - report_tolerance_[c] : s.thr_ok[c];
     if (bound >= need || std::min(v0[c], v1[c]) - d >= need) {
       mask &= ~(1u << c);
       continue;
@@ -515,7 +527,7 @@ double Checker::class1_value(const Pose& pose, std::string* who) const {
   double best = kInf;
   for (const auto& p : class1_parts_) {
     const Eigen::Vector3d a = pose.tip + pose.axis * p.from_mm, b = pose.tip + pose.axis * p.to_mm;
-    if (class1_box_clear(segment_box(a, b, p.radius_mm), 0.0)) continue;
+    if (class1_box_clear(cylinder_box(a, b, p.radius_mm), 0.0)) continue;
     const double dist =
         interference::distance(rigid_shapes_[p.shape], interference::segment_pose(a, b), workpiece_shape_, I).distance_mm;
     if (dist < best) {
@@ -561,7 +573,7 @@ void Checker::compute_class1() {
   auto exact = [&](const Pose& pose, std::string* who) { return class1_value(pose, who); };
   auto stretch_clear = [&](const Pose& pose, double sweep) {
     for (const auto& p : class1_parts_)
-      if (!class1_box_clear(segment_box(pose.tip + pose.axis * p.from_mm, pose.tip + pose.axis * p.to_mm, p.radius_mm), sweep))
+      if (!class1_box_clear(cylinder_box(pose.tip + pose.axis * p.from_mm, pose.tip + pose.axis * p.to_mm, p.radius_mm), sweep))
         return false;
     const Eigen::Matrix3d R = hexam::plate_rotation(pose.axis);
     Eigen::AlignedBox3d hb;

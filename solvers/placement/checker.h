@@ -93,8 +93,8 @@ class Checker {
   const Finding& class1() const { return class1_; }
 
   // Full report at one placement: for each kind the smallest clearance over the whole path
-  // (exact at tool poses; between poses proven to stay above the reported value minus the
-  // safe distance) and whether it interferes.
+  // (found to within 0.25 mm, or 0.3 deg for joints; an interval is never reported above what
+  // was proven for it) and whether it interferes.
   CheckReport report(const Placement& p);
 
   // Decides whether every placement within `radius_mm` (Euclidean, in x, y, pad) of p is free
@@ -148,6 +148,7 @@ class Checker {
   std::vector<int> travel_kind_;           // per constraint: 0 rigid, 1 joint, 2 angle
   std::vector<double> placement_lipschitz_;  // per constraint: value change per mm of placement
   std::vector<double> limit_;              // per constraint: the value it must reach
+  std::vector<double> report_tolerance_;   // per constraint: precision of report() minima
   std::vector<interference::Shape> rigid_shapes_;  // tool parts, plate, then hinges (shared)
   interference::Shape strut_shape_;
   interference::Shape workpiece_shape_;
