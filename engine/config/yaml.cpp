@@ -9,7 +9,30 @@ namespace machplan {
 
 Yaml Yaml::load_file(const std::string& path) { return load_string(read_text_file(path, 64u << 20), path); }
 
+namespace {
+// yaml-cpp parses nesting by recursion; a hostile file could nest deep enough to overflow the
+// stack. Configuration files never nest more than a few levels, so refuse deep nesting first.
+void check_nesting(const std::string& text, const std::string& name) {
+  constexpr int kMaxDepth = 64;
+  int depth = 0, line = 1, dashes = 0;
+  bool line_start = true;
+  for (char ch : text) {
+    if (ch == '\n') {
+      ++line, dashes = 0, line_start = true;
+      continue;
+    }
+    if (ch == '[' || ch == '{') ++depth;
+    if ((ch == ']' || ch == '}') && depth > 0) --depth;
+    if (line_start && ch == '-') ++dashes;
+    else if (ch != ' ' && ch != '\t') line_start = false;
+    if (depth > kMaxDepth || dashes > kMaxDepth)
+      throw InputError(name, line, fmt::format("nesting deeper than {} levels", kMaxDepth));
+  }
+}
+}  // namespace
+
 Yaml Yaml::load_string(const std::string& text, const std::string& name) {
+  check_nesting(text, name);
   try {
     YAML::Node root = YAML::Load(text);
     if (!root.IsDefined() || root.IsNull()) throw InputError(name, 0, "the file is empty");

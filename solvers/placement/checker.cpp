@@ -38,6 +38,20 @@ Eigen::AlignedBox3d cylinder_box(const Eigen::Vector3d& p0, const Eigen::Vector3
   return Eigen::AlignedBox3d(p0.cwiseMin(p1) - e, p0.cwiseMax(p1) + e);
 }
 
+// The paper's evasion from a peripheral: the horizontal normal of its side that faces `point`
+// (a box), or the direction from its centre to the point (a mesh).
+Eigen::Vector2d evasion_from(const Peripheral& per, const Eigen::Vector3d& point) {
+  if (per.is_box) {
+    const Eigen::Vector3d q = per.T_table_peripheral.inverse() * point;
+    const int axis = std::abs(q.x()) / per.box_half_mm.x() >= std::abs(q.y()) / per.box_half_mm.y() ? 0 : 1;
+    Eigen::Vector3d n = Eigen::Vector3d::Zero();
+    n[axis] = q[axis] >= 0 ? 1.0 : -1.0;
+    return (per.T_table_peripheral.linear() * n).head<2>().normalized();
+  }
+  const Eigen::Vector2d dir = point.head<2>() - per.bounds.center().head<2>();
+  return dir.norm() > 1e-9 ? Eigen::Vector2d(dir.normalized()) : Eigen::Vector2d::Zero();
+}
+
 Eigen::Vector3d slerp_axis(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double t) {
   const double th = std::atan2(a.cross(b).norm(), a.dot(b));
   if (th < 1e-9) return ((1 - t) * a + t * b).normalized();
@@ -469,17 +483,7 @@ Finding Checker::describe(int c, const Pose& pose, long index, double t, const E
       const Peripheral& per = scene_.peripherals[p];
       f.what = d.periph_part.empty() ? per.name : d.periph_part[c - kFirstPeripheral] + " / " + per.name;
       // Evade along the normal of the peripheral's side that faces the machine (horizontal).
-      const Eigen::Vector3d head = tip + pose.axis * (scene_.machine.gauge_mm * 0.5);
-      if (per.is_box) {
-        const Eigen::Vector3d q = per.T_table_peripheral.inverse() * head;
-        const int axis = std::abs(q.x()) / per.box_half_mm.x() >= std::abs(q.y()) / per.box_half_mm.y() ? 0 : 1;
-        Eigen::Vector3d n = Eigen::Vector3d::Zero();
-        n[axis] = q[axis] >= 0 ? 1.0 : -1.0;
-        f.evasion = (per.T_table_peripheral.linear() * n).head<2>().normalized();
-      } else {
-        const Eigen::Vector2d dir = head.head<2>() - per.bounds.center().head<2>();
-        f.evasion = dir.norm() > 1e-9 ? Eigen::Vector2d(dir.normalized()) : Eigen::Vector2d::Zero();
-      }
+      f.evasion = evasion_from(per, tip + pose.axis * (scene_.machine.gauge_mm * 0.5));
     }
   }
   return f;
@@ -493,20 +497,7 @@ double Checker::workpiece_peripheral_value(const Eigen::Vector3d& offset, int k,
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() = wbox.center();
   const auto p = interference::distance(interference::Shape::box(wbox.sizes()), T, per.shape, per.T_table_peripheral);
-  if (evasion) {
-    const Eigen::Vector2d dir = wbox.center().head<2>() - per.bounds.center().head<2>();
-    Eigen::Vector2d e = Eigen::Vector2d::Zero();
-    if (per.is_box) {
-      const Eigen::Vector3d q = per.T_table_peripheral.inverse() * wbox.center();
-      const int axis = std::abs(q.x()) / per.box_half_mm.x() >= std::abs(q.y()) / per.box_half_mm.y() ? 0 : 1;
-      Eigen::Vector3d n = Eigen::Vector3d::Zero();
-      n[axis] = q[axis] >= 0 ? 1.0 : -1.0;
-      e = (per.T_table_peripheral.linear() * n).head<2>().normalized();
-    } else if (dir.norm() > 1e-9) {
-      e = dir.normalized();
-    }
-    *evasion = e;
-  }
+  if (evasion) *evasion = evasion_from(per, wbox.center());
   return p.distance_mm;
 }
 

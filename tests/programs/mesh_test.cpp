@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "engine/common/error.h"
+#include "tests/support/temp_dir.h"
 
 namespace machplan {
 namespace {
@@ -22,34 +23,8 @@ using ::testing::StartsWith;
 
 namespace fs = std::filesystem;
 
-class TempDir {
- public:
-  TempDir() : dir_(fs::temp_directory_path() / fmt::format("machplan_mesh_test_{}", ::getpid())) {
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  std::string write(const std::string& name, const std::string& bytes) const {
-    const std::string path = (dir_ / name).string();
-    std::ofstream(path, std::ios::binary) << bytes;
-    return path;
-  }
-
- private:
-  fs::path dir_;
-};
-
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "<no InputError>";
-}
+using test::TempDir;
+using test::error_of;
 
 Mesh cube() { return make_box_mesh({-1, -2, -3}, {4, 5, 6}); }  // 5 x 7 x 9
 constexpr double kCubeVolume = 5.0 * 7.0 * 9.0;

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "engine/common/error.h"
+#include "tests/support/temp_dir.h"
 
 namespace machplan {
 namespace {
@@ -23,35 +24,8 @@ using ::testing::HasSubstr;
 
 namespace fs = std::filesystem;
 
-class TempDir {
- public:
-  TempDir() : dir_(fs::temp_directory_path() / fmt::format("machplan_toolpath_test_{}", ::getpid())) {
-    fs::create_directories(dir_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  std::string write(const std::string& name, const std::string& text) const {
-    const std::string path = (dir_ / name).string();
-    std::ofstream(path, std::ios::binary) << text;
-    return path;
-  }
-
- private:
-  fs::path dir_;
-};
-
-// The message of the InputError thrown by `f`, or a note that none was thrown.
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "<no InputError>";
-}
+using test::TempDir;
+using test::error_of;
 
 std::string apt_error(const std::string& text) {
   return error_of([&] { read_apt(text, "path.cl"); });

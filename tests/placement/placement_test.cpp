@@ -1,0 +1,160 @@
+// Contracts of the HexaM model and the placement checker.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "engine/common/error.h"
+#include "engine/interference/collision.h"
+#include "engine/interference/height_field.h"
+#include "engine/programs/mesh.h"
+#include "models/hexam/hexam.h"
+#include "solvers/placement/checker.h"
+#include "solvers/placement/scene.h"
+
+namespace machplan {
+namespace {
+
+const std::string kData = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/hexam-paper/";
+
+hexam::Machine paper_machine() {
+  hexam::Machine m = hexam::load_machine(kData + "machine.yaml");
+  hexam::attach_tooling(m, hexam::Tooling{});
+  return m;
+}
+
+TEST(Hexam, InverseThenForwardKinematicsRecoversThePlatePose) {
+  const hexam::Machine m = paper_machine();
+  for (const auto& [tip, axis] : std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>{
+           {{0, 0, 250}, {0, 0, 1}}, {{80, -40, 180}, Eigen::Vector3d(0.3, 0.1, 1).normalized()},
+           {{-120, 60, 220}, Eigen::Vector3d(-0.2, 0.35, 1).normalized()}}) {
+    const hexam::IkResult ik = hexam::inverse_kinematics(m, tip, axis);
+    ASSERT_TRUE(ik.reachable);
+    for (int i = 0; i < 6; ++i)  // every strut closes at its length
+      EXPECT_NEAR((ik.struts[i].slider_mm - ik.struts[i].plate_mm).norm(), m.struts[i].length_mm, 1e-9);
+    std::array<double, 6> s;
+    for (int i = 0; i < 6; ++i) s[i] = ik.struts[i].s_mm;
+    const hexam::PlatePose guess{Eigen::Matrix3d::Identity(), ik.plate_centre_mm + Eigen::Vector3d(5, -4, 3)};
+    const auto fk = hexam::forward_kinematics(m, s, guess);
+    ASSERT_TRUE(fk.has_value());
+    EXPECT_LT((fk->centre_mm - ik.plate_centre_mm).norm(), 1e-6);
+    EXPECT_LT((fk->R - ik.R).norm(), 1e-8);
+  }
+}
+
+TEST(Hexam, FarPosesAreOutOfReachWithADeficit) {
+  const hexam::Machine m = paper_machine();
+  const auto ik = hexam::inverse_kinematics(m, {2000, 0, 100}, {0, 0, 1});
+  EXPECT_FALSE(ik.reachable);
+  EXPECT_GT(ik.reach_deficit_mm, 0.0);
+}
+
+TEST(Hexam, SliderSpeedBoundHoldsForSmallMoves) {
+  // kappa bounds |ds| / |dP| while the slider joints stay in their cones.
+  const hexam::Machine m = paper_machine();
+  const Eigen::Vector3d axis = Eigen::Vector3d(0.2, -0.1, 1).normalized();
+  const auto a = hexam::inverse_kinematics(m, {30, 20, 200}, axis);
+  for (const Eigen::Vector3d d : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0, 1),
+                                  Eigen::Vector3d(0.6, -0.8, 0)}) {
+    const auto b = hexam::inverse_kinematics(m, Eigen::Vector3d(30, 20, 200) + d, axis);
+    for (int i = 0; i < 6; ++i) EXPECT_LE(std::abs(b.struts[i].s_mm - a.struts[i].s_mm), m.kappa * d.norm() + 1e-9);
+  }
+}
+
+TEST(Hexam, BadMachineFileNamesTheKey) {
+  const auto dir = std::filesystem::temp_directory_path() / "machplan_hexam_test";
+  std::filesystem::create_directories(dir);
+  std::ifstream in(kData + "machine.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.replace(text.find("strut_length_mm: 1100"), 21, "strut_length_mm: -5");
+  std::ofstream(dir / "machine.yaml") << text;
+  try {
+    hexam::load_machine((dir / "machine.yaml").string());
+    FAIL() << "a negative strut length was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("layout.strut_length_mm"), std::string::npos) << e.what();
+    EXPECT_GT(e.line(), 0);
+  }
+}
+
+TEST(Interference, SegmentDistanceMatchesFclCapsules) {
+  using interference::Shape;
+  const Eigen::Vector3d a0(0, 0, 0), a1(0, 0, 100), b0(30, -50, 40), b1(30, 50, 70);
+  const double closed = interference::segment_distance(a0, a1, b0, b1);
+  EXPECT_NEAR(closed, 30.0, 1e-9);
+  const auto p = interference::distance(Shape::capsule(5, 100), interference::segment_pose(a0, a1), Shape::capsule(5, (b1 - b0).norm()),
+                                        interference::segment_pose(b0, b1));
+  EXPECT_NEAR(p.distance_mm, closed - 10.0, 1e-4);
+}
+
+TEST(Interference, HeightFieldNeverUnderestimates) {
+  const Mesh box = make_box_mesh({-50, -30, 0}, {50, 30, 40});
+  const interference::HeightField hf(box.vertices, box.triangles, 2.0, Eigen::AlignedBox2d(Eigen::Vector2d(-60, -30), Eigen::Vector2d(50, 30)), 0.0);
+  EXPECT_GE(hf.max_height({-10, -10}, {10, 10}), 40.0);
+  EXPECT_GE(hf.max_height({-59, 0}, {-58, 1}), 0.0);  // the floor rectangle (pad) counts
+  EXPECT_EQ(hf.max_height({200, 200}, {210, 210}), -std::numeric_limits<double>::infinity());
+}
+
+// A small scene from the bundled machine and workpiece with a short stretch of the path.
+placement::Scene small_scene(int rows) {
+  const auto dir = std::filesystem::temp_directory_path() / ("machplan_place_test_" + std::to_string(rows));
+  std::filesystem::create_directories(dir);
+  std::ifstream in(kData + "toolpath.csv");
+  std::ofstream out(dir / "toolpath.csv");
+  std::string line;
+  for (int i = 0; i <= rows * 351 && std::getline(in, line); ++i) out << line << '\n';
+  out.close();
+  std::ifstream sc(kData + "scene.yaml");
+  std::string text((std::istreambuf_iterator<char>(sc)), std::istreambuf_iterator<char>());
+  for (const char* f : {"machine.yaml", "workpiece.stl"}) {
+    const auto pos = text.find(f);
+    text.replace(pos, std::string(f).size(), kData + f);
+  }
+  std::ofstream(dir / "scene.yaml") << text;
+  return placement::load_scene((dir / "scene.yaml").string());
+}
+
+TEST(Checker, CertifiedReportAgreesWithDenseRecheck) {
+  const placement::Scene scene = small_scene(3);
+  placement::Checker checker(scene);
+  for (const placement::Placement p : {placement::Placement{0, 0, 0, 0}, placement::Placement{-40, -40, 70, 0},
+                                       placement::Placement{120, 120, 0, 0}}) {
+    const auto fast = checker.report(p);
+    const auto dense = checker.dense_check(p, 0.5);
+    for (int k = 0; k < placement::kKindCount; ++k)
+      EXPECT_EQ(fast.kinds[k].interferes, dense.kinds[k].interferes)
+          << placement::kind_name(static_cast<placement::Kind>(k)) << " at " << p.x_mm << "," << p.y_mm << "," << p.pad_mm;
+    // The certified scan must need fewer exact queries than the brute-force one.
+    EXPECT_LT(fast.counts.exact_queries, dense.counts.exact_queries);
+  }
+}
+
+TEST(Checker, WorkpieceOnTheMagazineIsFlaggedWithItsEvasion) {
+  const placement::Scene scene = small_scene(1);
+  placement::Checker checker(scene);
+  placement::Finding w;
+  const placement::Placement on_magazine{220, 220, 0, 0};
+  EXPECT_EQ(checker.decide(on_magazine, 0.0, &w), placement::Decision::infeasible);
+  EXPECT_TRUE(w.interferes);
+  // The magazine sits on the first-quadrant diagonal: evasion points back towards the third.
+  EXPECT_LT(w.evasion.x(), 0.0);
+  EXPECT_LT(w.evasion.y(), 0.0);
+  const auto r = checker.report(on_magazine);
+  EXPECT_FALSE(r.free());
+  EXPECT_TRUE(r.kinds[static_cast<int>(placement::Kind::workpiece_peripheral)].interferes);
+}
+
+TEST(Checker, ABoxProvenFreeIsFreeAtItsCorners) {
+  // Lifted over the centre the bundled machine clears this stretch by tens of millimetres, so a
+  // 4 mm box must be provable, and then every corner must pass the brute-force re-check.
+  const placement::Scene scene = small_scene(2);
+  placement::Checker checker(scene);
+  const placement::Placement centre{0, 0, 60, 0};
+  ASSERT_EQ(checker.decide(centre, 4.0), placement::Decision::feasible);
+  for (const Eigen::Vector3d d : {Eigen::Vector3d(2.3, 2.3, 2.3), Eigen::Vector3d(-2.3, 2.3, -2.3), Eigen::Vector3d(0, 0, -4)})
+    EXPECT_TRUE(checker.dense_check({centre.x_mm + d.x(), centre.y_mm + d.y(), centre.pad_mm + d.z(), 0}).free());
+}
+
+}  // namespace
+}  // namespace machplan
