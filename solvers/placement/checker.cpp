@@ -668,9 +668,12 @@ CheckReport Checker::report(const Placement& p) {
   }
   r.stroke_margin_mm = s.best[kStroke];
   r.joint_margin_deg = s.best[kJoint] / kDeg;
-  // Self: report the strut clearance as the number, the limits as the verdict.
+  // Self: when no limit is crossed, the row reports the strut clearance and where it is
+  // smallest (the margins of the limits are printed separately).
   Finding& self = r.kinds[static_cast<int>(Kind::self)];
-  if (!self.interferes) self.clearance_mm = s.best[kStrutStrut];
+  if (!self.interferes && s.best_pose[kStrutStrut] >= 0)
+    self = describe(kStrutStrut, interpolate(s.best_pose[kStrutStrut], s.best_t[kStrutStrut]), s.best_pose[kStrutStrut],
+                    s.best_t[kStrutStrut], offset, s.best[kStrutStrut]);
   r.kinds[static_cast<int>(Kind::workpiece_class1)] = class1_;
   Finding& wpp = r.kinds[static_cast<int>(Kind::workpiece_peripheral)];
   wpp.clearance_mm = kInf;
