@@ -228,7 +228,10 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
       const auto& st = ik.struts[s];
       const double lb = aabb_distance(segment_box(st.slider_mm, st.plate_mm, m.strut_radius_mm), wbox);
       if (lb >= best || lb >= c + kLowerBoundSlack_mm) {
-        if (lb < best) best = lb, d ? d->class2_strut = s : 0;
+        if (lb < best) {
+          best = lb;
+          if (d) d->class2_strut = s;
+        }
         continue;
       }
       const auto cap = interference::Shape::capsule(m.strut_radius_mm, (st.plate_mm - st.slider_mm).norm());
@@ -257,7 +260,6 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
   }
 
   // Moving parts against each peripheral.
-  const Eigen::Matrix3d R = ik.R;
   for (std::size_t p = 0; p < scene_.peripherals.size(); ++p) {
     const Peripheral& per = scene_.peripherals[p];
     const int ci = kFirstPeripheral + 2 * static_cast<int>(p);
@@ -298,7 +300,6 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
     }
     v[ci] = best;
     if (d) d->periph_part[2 * p] = best_part;
-    (void)R;
     // Struts.
     double sbest = kInf;
     std::string spart;
