@@ -1,0 +1,82 @@
+// The executor's plan of work: a part program cut into motion stretches and torch events,
+// and the trajectory interface the real-time loop samples.
+//
+// Data flow (issue 4):
+//
+//   Program --make_job--> Job (stretches of programmed XY geometry + steps)
+//           --kerf (engine/motion/kerf)--> Job with compensated cutting stretches
+//           --rapid planning (solvers/motion, OMPL)--> Job with rapid stretches re-routed
+//           --feed planning (engine/motion/feed_planner)--> one Trajectory per move step
+//           --executor (engine/executor)--> servo loop at 1 kHz against a Backend
+//
+// A Stretch is the geometry the program asks for between two events that require the tool
+// to be at rest (torch on/off, dwell, program start/end, a change between rapid and feed).
+// Everything is in the XY plane: the thermal gantry's torch height and the XY table's
+// operator are not programmed through Z (make_job refuses Z motion, naming the line).
+//
+// Units: mm, s, rad. Feeds are mm/s here; the program's F (mm/min) is converted by make_job.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "engine/geometry/contour.h"
+
+namespace machplan {
+struct Program;
+}
+
+namespace machplan::motion {
+
+// The commanded state of the tool point at one instant.
+struct Setpoint {
+  Eigen::Vector2d position_mm = Eigen::Vector2d::Zero();
+  Eigen::Vector2d velocity_mm_per_s = Eigen::Vector2d::Zero();
+  Eigen::Vector2d acceleration_mm_per_s2 = Eigen::Vector2d::Zero();
+};
+
+// One rest-to-rest motion, planned completely before execution starts.
+//
+// Real-time contract: sample() neither allocates, throws, locks nor does I/O, and runs in
+// bounded time (the executor calls it once per servo period). It is const and may be called
+// from any thread. Times outside [0, duration_s()] are clamped: before 0 the start state,
+// after the end the end state with zero velocity and acceleration.
+class Trajectory {
+ public:
+  virtual ~Trajectory() = default;
+  virtual double duration_s() const = 0;
+  virtual void sample(double t_s, Setpoint& out) const = 0;
+};
+
+// Programmed geometry between two rest events. `segments` are contiguous (each starts where
+// the previous ended, within 1e-6 mm). Per-segment vectors have the same length as
+// `segments`.
+struct Stretch {
+  bool cutting = false;                 // torch on during this stretch
+  bool rapid = false;                   // G0 (feed is the machine's rapid speed)
+  std::vector<Segment> segments;        // programmed path in the XY plane, mm
+  std::vector<double> feed_mm_per_s;    // programmed feed per segment (rapid: rapid feed)
+  std::vector<int> source_lines;        // 1-based program line per segment
+};
+
+// One thing the executor does, in order.
+struct Step {
+  enum class Kind { move, torch_on, torch_off, dwell };
+  Kind kind = Kind::move;
+  int source_line = 0;
+  std::size_t stretch = 0;  // move: index into Job::stretches
+  double seconds = 0.0;     // dwell
+};
+
+struct Job {
+  std::string source;                               // program file, for messages
+  Eigen::Vector2d start_mm = Eigen::Vector2d::Zero();  // tool position before the first step
+  std::vector<Stretch> stretches;
+  std::vector<Step> steps;
+};
+
+}  // namespace machplan::motion
