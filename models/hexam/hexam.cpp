@@ -153,7 +153,8 @@ Machine machine_from_yaml(const Yaml& root) {
 
   const Yaml lay = root.at("layout");
   lay.reject_unknown_keys({"base_radius_mm", "base_pair_half_angle_deg", "rail_foot_z_mm", "rail_inclination_deg",
-                           "plate_joint_radius_mm", "plate_pair_half_angle_deg", "strut_length_mm"});
+                           "plate_joint_radius_mm", "plate_pair_half_angle_deg", "strut_length_mm",
+                           "first_rail_pair_deg"});
   const NumberRule pos{.min = 0, .min_exclusive = true};
   const double Rb = lay.number("base_radius_mm", pos);
   const double phib = lay.number("base_pair_half_angle_deg", {.min = 0, .max = 59}) * kDeg;
@@ -162,11 +163,13 @@ Machine machine_from_yaml(const Yaml& root) {
   const double Rp = lay.number("plate_joint_radius_mm", pos);
   const double phip = lay.number("plate_pair_half_angle_deg", {.min = 0, .max = 59}) * kDeg;
   const double L = lay.number("strut_length_mm", pos);
-  // Three rail pairs at 90, 210, 330 deg; three plate joint pairs half-way between them. Each
+  const double th0 = lay.number_or("first_rail_pair_deg", 90.0, {.min = -360, .max = 360});
+  // Three rail pairs at th0, th0 + 120 and th0 + 240 deg (90, 210, 330 unless the layout
+  // says otherwise); three plate joint pairs half-way between them. Each
   // rail's strut goes to the nearer joint of the neighbouring plate pair (the usual crossed
   // 6-6 layout, which keeps the platform away from singular poses).
   for (int k = 0; k < 3; ++k) {
-    const double th = (90.0 + 120.0 * k) * kDeg;
+    const double th = (th0 + 120.0 * k) * kDeg;
     for (int side = 0; side < 2; ++side) {
       const double sgn = side == 0 ? 1.0 : -1.0;
       const double tb = th + sgn * phib;

@@ -90,6 +90,8 @@ struct Checker::ScanSettings {
   std::vector<double> best;            // report: smallest value so far
   std::vector<long> best_pose;
   std::vector<double> best_t;
+  unsigned mask = 0;                   // constraints this scan settles (0: all)
+  bool keep_cache = false;             // the previous scan was at the same offset
   int failed_constraint = -1;
   long failed_pose = -1;
   double failed_t = 0, failed_value = 0;
@@ -413,15 +415,17 @@ bool Checker::scan_interval(long i, double t0, double t1, const double* v0, cons
 }
 
 bool Checker::scan(const Eigen::Vector3d& offset, ScanSettings& s) {
-  if (++gen_ == 0) {
+  if (!s.keep_cache && ++gen_ == 0) {
     std::fill(cache_gen_.begin(), cache_gen_.end(), 0u);
     gen_ = 1;
   }
   s.all_mask = (constraint_count_ >= 32) ? ~0u : ((1u << constraint_count_) - 1);
+  const unsigned mask = s.mask ? s.mask & s.all_mask : s.all_mask;
   const long n = static_cast<long>(tips_.size());
   auto check_pose = [&](long i) {
     const double* v = cached_values(i, offset, s);
     for (int c = 0; c < constraint_count_; ++c) {
+      if (!(mask & (1u << c))) continue;
       if (s.report && v[c] < s.best[c]) s.best[c] = v[c], s.best_pose[c] = i, s.best_t[c] = 0;
       if (!s.report && v[c] <= s.thr_fail[c]) {
         s.failed_constraint = c, s.failed_pose = i, s.failed_t = 0, s.failed_value = v[c];
@@ -437,13 +441,13 @@ bool Checker::scan(const Eigen::Vector3d& offset, ScanSettings& s) {
   if (n == 1) {
     const double* v = cached_values(0, offset, s);
     for (int c = 0; c < constraint_count_; ++c)
-      if (!s.report && v[c] < s.thr_ok[c]) {
+      if ((mask & (1u << c)) && !s.report && v[c] < s.thr_ok[c]) {
         s.failed_constraint = c, s.failed_pose = 0, s.failed_value = v[c];
         return false;
       }
     return true;
   }
-  return scan_node(0, n - 1, s.all_mask, offset, s);
+  return scan_node(0, n - 1, mask, offset, s);
 }
 
 Finding Checker::describe(int c, const Pose& pose, long index, double t, const Eigen::Vector3d& offset,
@@ -456,7 +460,12 @@ Finding Checker::describe(int c, const Pose& pose, long index, double t, const E
   std::vector<double> v(constraint_count_);
   evaluate(pose, offset, ~0u, v.data(), &d);
   const Eigen::Vector3d tip = pose.tip + offset;
-  const Eigen::Vector2d to_axis = -tip.head<2>();
+  // Self and class-2 interference come from reaching too far, so the paper's evasion for them
+  // moves the workpiece back toward the table centre; at the centre itself, the way that brings
+  // the spindle plate toward the machine's axis.
+  const Eigen::Vector2d to_axis = offset.head<2>().norm() > 1e-6
+                                      ? Eigen::Vector2d(-offset.head<2>())
+                                      : Eigen::Vector2d(-(tip + pose.axis * scene_.machine.gauge_mm).head<2>());
   const Eigen::Vector2d toward_centre = to_axis.norm() > 1e-9 ? Eigen::Vector2d(to_axis.normalized()) : Eigen::Vector2d::Zero();
   switch (c) {
     case kStroke:
@@ -696,7 +705,7 @@ CheckReport Checker::report(const Placement& p) {
   return r;
 }
 
-Decision Checker::decide(const Placement& p, double radius, Finding* witness) {
+Decision Checker::decide(const Placement& p, double radius, Finding* witness, bool peripherals_first) {
   const Eigen::Vector3d offset = p.offset();
   const double c = scene_.safe_distance_mm;
   // Placement-only constraint first: the workpiece block against the peripherals.
@@ -728,7 +737,14 @@ Decision Checker::decide(const Placement& p, double radius, Finding* witness) {
     // At radius 0 a value exactly at the limit is still allowed (not strictly below it).
     s.thr_fail[k] = radius > 0 ? limit_[k] - placement_lipschitz_[k] * radius : std::nextafter(limit_[k], -kInf);
   }
-  if (scan(offset, s)) return all_clear ? Decision::feasible : Decision::unknown;
+  bool ok = true;
+  if (peripherals_first && constraint_count_ > kFirstPeripheral) {
+    s.mask = ~((1u << kFirstPeripheral) - 1);
+    ok = scan(offset, s);
+    s.mask = 0;
+    s.keep_cache = true;  // same placement: the values found by the first pass stay valid
+  }
+  if (ok && scan(offset, s)) return all_clear ? Decision::feasible : Decision::unknown;
   const bool proven_bad = s.failed_value <= s.thr_fail[s.failed_constraint];
   if (proven_bad) {
     if (s.failed_t == 0 && std::find(witnesses_.begin(), witnesses_.end(), s.failed_pose) == witnesses_.end()) {

@@ -99,8 +99,11 @@ class Checker {
 
   // Decides whether every placement within `radius_mm` (Euclidean, in x, y, pad) of p is free
   // (feasible), none is (infeasible), or neither could be shown. With radius 0 it decides p.
-  // On infeasible, `witness` holds the interference that proved it.
-  Decision decide(const Placement& p, double radius_mm, Finding* witness = nullptr);
+  // On infeasible, `witness` holds the interference that proved it. With
+  // `peripherals_first`, the peripheral constraints are scanned over the whole path before
+  // the others, so the witness is a peripheral interference whenever there is one (the
+  // paper's search evades the magazine before anything else); the verdict is the same.
+  Decision decide(const Placement& p, double radius_mm, Finding* witness = nullptr, bool peripherals_first = false);
 
   // Brute-force re-check: every tool pose and interpolated poses every `step_mm` of tip
   // motion (and every 0.5 deg of axis turn), every constraint evaluated without the stretch

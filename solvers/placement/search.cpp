@@ -47,7 +47,7 @@ PlacementResult paper_search(const Scene& scene, const PlacementOptions& o) {
     res.trail.push_back(p);
     ++res.placements_examined;
     Finding w;
-    const Decision d = checker.decide(p, 0.0, &w);
+    const Decision d = checker.decide(p, 0.0, &w, /*peripherals_first=*/true);
     if (d == Decision::feasible) {
       res.status = PlacementStatus::found;
       res.placement = p;
