@@ -123,6 +123,7 @@ void add_place(CLI::App& app) {
       if (o->verify) j["dense_check_free"] = dense_free;
       j["checks"] = counts_json(r.counts, scene.tips_mm.size());
       j["checks"]["placements_examined"] = r.placements_examined;
+      j["checks"]["certifications"] = r.certifications;
       j["seconds"] = r.seconds;
       if (!r.trail.empty()) {
         nlohmann::json t = nlohmann::json::array();
@@ -143,9 +144,11 @@ void add_place(CLI::App& app) {
         std::printf("%s\n", r.message.c_str());
       }
       print_report(r.report, scene.safe_distance_mm);
-      std::printf("checks: %ld placements examined, %ld exact pose queries, %ld interpolated poses, %ld stretches "
+      std::printf("checks: %ld placements examined%s, %ld exact pose queries, %ld interpolated poses, %ld tree nodes "
                   "(%ld proven by bound)\n",
-                  r.placements_examined, r.counts.exact_queries, r.counts.interpolated_poses, r.counts.stretches,
+                  r.placements_examined,
+                  o->strategy == "optimal" ? fmt::format(" ({} certified over the whole path)", r.certifications).c_str() : "",
+                  r.counts.exact_queries, r.counts.interpolated_poses, r.counts.stretches,
                   r.counts.proven_by_bound);
       std::printf("time: %.3f s\n", r.seconds);
       if (!o->plot.empty()) std::printf("picture: %s\n", o->plot.c_str());

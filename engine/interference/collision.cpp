@@ -63,6 +63,7 @@ Proximity distance(const Shape& a, const Eigen::Isometry3d& Ta, const Shape& b, 
   fcl::DistanceRequestd request;
   request.enable_nearest_points = true;
   request.enable_signed_distance = false;
+  request.gjk_solver_type = fcl::GST_INDEP;
   fcl::DistanceResultd result;
   fcl::Transform3d fa(Ta.matrix()), fb(Tb.matrix());
   fcl::distance(a.impl().geometry.get(), fa, b.impl().geometry.get(), fb, request, result);

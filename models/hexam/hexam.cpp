@@ -1,5 +1,6 @@
 #include "models/hexam/hexam.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/LU>
@@ -52,7 +53,21 @@ IkResult inverse_kinematics(const Machine& m, const Eigen::Vector3d& tip_mm, con
   return r;
 }
 
-LimitMargins limit_margins(const Machine& m, const IkResult& ik) {
+double strut_rail_angle(const Machine& m, const IkResult& ik) {
+  if (!ik.reachable) return m.alpha_max_rad;
+  double cmin = 1.0;
+  for (int i = 0; i < 6; ++i) {
+    const StrutState& s = ik.struts[i];
+    cmin = std::min(cmin, std::abs(m.struts[i].rail_direction.dot(s.plate_mm - s.slider_mm)) / m.struts[i].length_mm);
+  }
+  return std::acos(std::clamp(cmin, 0.0, 1.0));
+}
+
+double slider_rate_bound(const Machine& m, double angle_rad) {
+  return 1.0 / std::cos(std::min(angle_rad, m.alpha_max_rad));
+}
+
+LimitMargins limit_margins(const Machine& m, const IkResult& ik, bool joints) {
   LimitMargins lm;
   lm.stroke_mm = std::numeric_limits<double>::infinity();
   lm.joint_rad = std::numeric_limits<double>::infinity();
@@ -63,6 +78,7 @@ LimitMargins limit_margins(const Machine& m, const IkResult& ik) {
       lm.stroke_mm = stroke;
       lm.stroke_strut = i;
     }
+    if (!joints) continue;
     const Eigen::Vector3d dir = (s.plate_mm - s.slider_mm).normalized();
     const double base = m.slider_joint_half_angle_rad - angle_between(dir, m.home_dir_base[i]);
     const double plate = m.plate_joint_half_angle_rad - angle_between(ik.R.transpose() * dir, m.home_dir_plate[i]);
@@ -134,6 +150,7 @@ void Machine::finalize(const Yaml* where) {
                      "model needs less than 80 deg to bound slider speed",
                      alpha_max / kDeg));
   kappa = 1.0 / std::cos(alpha_max);
+  alpha_max_rad = alpha_max;
   plate_joint_reach_mm = 0;
   for (const auto& s : struts)
     plate_joint_reach_mm = std::max(plate_joint_reach_mm, (Eigen::Vector3d(0, 0, gauge_mm) + s.plate_joint_mm).norm());

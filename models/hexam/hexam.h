@@ -88,6 +88,7 @@ struct Machine {
   std::array<Eigen::Vector3d, 6> home_dir_base;   // strut direction (slider -> plate) at home
   std::array<Eigen::Vector3d, 6> home_dir_plate;  // same, in the plate frame
   double kappa = 1.0;          // slider speed / plate-joint speed bound (see header)
+  double alpha_max_rad = 0.0;  // largest strut-to-rail angle inside the joint cones
   double plate_joint_reach_mm = 0.0;  // largest distance from the tip to a plate joint
   double rigid_reach_mm = 0.0;        // largest distance from the tip to any rigid part point
 
@@ -128,7 +129,15 @@ struct LimitMargins {
   int stroke_strut = -1, joint_strut = -1;
   bool joint_at_plate = false;
 };
-LimitMargins limit_margins(const Machine& m, const IkResult& ik);
+// Without `joints`, only the stroke margin is computed (joint_rad stays infinite).
+LimitMargins limit_margins(const Machine& m, const IkResult& ik, bool joints = true);
+
+// Largest angle between a strut and its rail at one pose (radians; alpha_max_rad when the
+// pose is out of reach). A slider moves at most 1 / cos(angle) times as fast as its plate
+// joint, so near a pose whose struts stand close to their rails the bound kappa is loose.
+double strut_rail_angle(const Machine& m, const IkResult& ik);
+// The slider-speed factor for struts at most `angle_rad` from their rails (kappa at most).
+double slider_rate_bound(const Machine& m, double angle_rad);
 
 // Forward kinematics: plate pose (R, c) from slider positions, by Newton iteration from a
 // starting guess. Returns nullopt when it does not converge.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <queue>
 
 #include "engine/common/error.h"
 #include "engine/interference/height_field.h"
@@ -16,6 +17,8 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr int kMaxIntervalDepth = 12;
 // Lower bounds this far above what a scan needs are kept instead of an exact query.
 constexpr double kLowerBoundSlack_mm = 50.0;
+// Tree nodes a probe opens before it gives up.
+constexpr long kProbeBudget = 30;
 
 double aabb_distance(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) {
   const Eigen::Vector3d gap =
@@ -91,10 +94,14 @@ struct Checker::ScanSettings {
   std::vector<long> best_pose;
   std::vector<double> best_t;
   unsigned mask = 0;                   // constraints this scan settles (0: all)
-  bool keep_cache = false;             // the previous scan was at the same offset
   int failed_constraint = -1;
   long failed_pose = -1;
   double failed_t = 0, failed_value = 0;
+  bool failed_exact = false;           // failed_value is an exact value (else a lower bound)
+  double radius = 0;                   // decisions: the radius of the ball of placements
+  bool skip_learned = false;           // do not try the learned interferences first
+  bool poses_only = false;             // a search for interferences at the tool poses only
+  long budget = -1;                    // nodes to open before giving up (-1: no limit)
   unsigned all_mask = 0;
 };
 
@@ -150,25 +157,41 @@ Checker::Checker(const Scene& scene, double rotation_deg)
     cum_joint_[i] = cum_joint_[i - 1] + dj;
     cum_angle_[i] = cum_angle_[i - 1] + (m.kappa + 1) * dj / L_min + th;
   }
+  rot_factor_ = rot_factor;
+  min_strut_mm_ = L_min;
+  if (n > 1) {
+    std::vector<long> intervals(n - 1);
+    for (std::size_t i = 0; i + 1 < n; ++i) intervals[i] = static_cast<long>(i);
+    nodes_.reserve(2 * n);
+    const double w = rot_factor_ * m.rigid_reach_mm;
+    tree_keys_.resize(6, static_cast<long>(n - 1));
+    for (std::size_t i = 0; i + 1 < n; ++i)
+      tree_keys_.col(static_cast<long>(i)) << (tips_[i] + tips_[i + 1]) / 2, w * (axes_[i] + axes_[i + 1]) / 2;
+    build_tree(intervals, 0, intervals.size());
+    tree_keys_.resize(0, 0);
+  }
 
-  const double k = m.kappa, c = scene.safe_distance_mm;
+  const double c = scene.safe_distance_mm;
   // stroke, joint, strut-strut, class 2, then (rigid, struts) per peripheral
-  path_lipschitz_ = {k, 1.0, 2 * k, k};
+  // Lipschitz constants as a kappa + b: the slider-speed factor kappa can be replaced by a
+  // local one where the struts are known to stand closer to their rails than alpha_max.
+  path_lipschitz_ = {{1, 0}, {0, 1}, {2, 0}, {1, 0}};
   travel_kind_ = {1, 2, 1, 1};
-  placement_lipschitz_ = {k, (k + 1) / L_min, 2 * k, k + 1};
+  placement_lipschitz_ = {{1, 0}, {1 / L_min, 1 / L_min}, {2, 0}, {1, 1}};
   limit_ = {0.0, 0.0, c, c};
   for (std::size_t p = 0; p < scene.peripherals.size(); ++p) {
-    path_lipschitz_.insert(path_lipschitz_.end(), {1.0, k});
+    path_lipschitz_.insert(path_lipschitz_.end(), {{0, 1}, {1, 0}});
     travel_kind_.insert(travel_kind_.end(), {0, 1});
-    placement_lipschitz_.insert(placement_lipschitz_.end(), {1.0, k});
+    placement_lipschitz_.insert(placement_lipschitz_.end(), {{0, 1}, {1, 0}});
     limit_.insert(limit_.end(), {c, c});
   }
   constraint_count_ = static_cast<int>(limit_.size());
+  stride_ = constraint_count_ + 1;
   // A report finds each smallest value to within this (mm; rad for the joints).
   report_tolerance_.assign(constraint_count_, 0.25);
   report_tolerance_[kJoint] = 0.005;
   MACHPLAN_ASSERT(constraint_count_ <= 32, "at most 14 peripherals are supported, got {}", scene.peripherals.size());
-  cache_.assign(n * constraint_count_, 0.0);
+  cache_.assign(n * stride_, 0.0);
   cache_gen_.assign(n, 0u);
   compute_class1();
 }
@@ -190,19 +213,21 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
     // it matters, which is 1-Lipschitz in the placement (kappa >= 1 covers it).
     for (int k = 0; k < constraint_count_; ++k) v[k] = kInf;
     v[kStroke] = -ik.reach_deficit_mm;
+    v[constraint_count_] = m.alpha_max_rad;
     if (d) d->ik = ik;
     return;
   }
-  const hexam::LimitMargins lm = hexam::limit_margins(m, ik);
+  const hexam::LimitMargins lm = hexam::limit_margins(m, ik, (mask & (1u << kJoint)) != 0);
   v[kStroke] = lm.stroke_mm;
   v[kJoint] = lm.joint_rad;
+  v[constraint_count_] = hexam::strut_rail_angle(m, ik);
   if (d) {
     d->ik = ik;
     d->limits = lm;
   }
   // Strut to strut: capsules, closed form.
   double ss = kInf;
-  for (int a = 0; a < 6; ++a)
+  for (int a = 0; a < 6 && (mask & (1u << kStrutStrut)); ++a)
     for (int b = a + 1; b < 6; ++b) {
       const double dist = interference::segment_distance(ik.struts[a].slider_mm, ik.struts[a].plate_mm,
                                                          ik.struts[b].slider_mm, ik.struts[b].plate_mm) -
@@ -265,13 +290,25 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
   for (std::size_t p = 0; p < scene_.peripherals.size(); ++p) {
     const Peripheral& per = scene_.peripherals[p];
     const int ci = kFirstPeripheral + 2 * static_cast<int>(p);
+    if (!(mask & (3u << ci))) {
+      v[ci] = v[ci + 1] = kInf;
+      continue;
+    }
     if (d && d->periph_part.size() < static_cast<std::size_t>(2 * scene_.peripherals.size()))
       d->periph_part.resize(2 * scene_.peripherals.size());
     // Rigid tool assembly.
     double best = kInf;
     std::string best_part;
     const Eigen::Vector3d top = tip + pose.axis * (m.gauge_mm + m.plate_thickness_mm);
-    const double assembly_lb = aabb_distance(segment_box(tip, top, std::max(m.plate_radius_mm, m.plate_joint_reach_mm)), per.bounds);
+    // Lower bound of the distance from a segment grown by r to the peripheral: box gaps, taken
+    // in the peripheral's own frame when it is a box (tight for a turned box).
+    const Eigen::Isometry3d to_local = per.T_table_peripheral.inverse();
+    const Eigen::AlignedBox3d local_box(-per.box_half_mm, per.box_half_mm);
+    auto gap = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r) {
+      return per.is_box ? aabb_distance(segment_box(to_local * a, to_local * b, r), local_box)
+                        : aabb_distance(segment_box(a, b, r), per.bounds);
+    };
+    const double assembly_lb = gap(tip, top, std::max(m.plate_radius_mm, m.plate_joint_reach_mm));
     if (assembly_lb >= c + kLowerBoundSlack_mm) {
       best = assembly_lb;
       best_part = "tool assembly";
@@ -279,21 +316,20 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
       for (std::size_t s = 0; s < m.tool_parts.size(); ++s) {
         const auto& part = m.tool_parts[s];
         const Eigen::Vector3d a = tip + pose.axis * part.from_mm, b = tip + pose.axis * part.to_mm;
-        const auto box = part.capsule ? segment_box(a, b, part.radius_mm) : cylinder_box(a, b, part.radius_mm);
-        if (aabb_distance(box, per.bounds) >= best) continue;
+        if (gap(a, b, part.radius_mm) >= best) continue;
         const double dist = interference::distance(rigid_shapes_[s], interference::segment_pose(a, b), per.shape,
                                                    per.T_table_peripheral).distance_mm;
         if (dist < best) best = dist, best_part = part.name;
       }
       const Eigen::Vector3d pa = tip + pose.axis * m.gauge_mm, pb = top;
-      if (aabb_distance(cylinder_box(pa, pb, m.plate_radius_mm), per.bounds) < best) {
+      if (gap(pa, pb, m.plate_radius_mm) < best) {
         const double dist = interference::distance(rigid_shapes_[m.tool_parts.size()], interference::segment_pose(pa, pb),
                                                    per.shape, per.T_table_peripheral).distance_mm;
         if (dist < best) best = dist, best_part = "spindle plate";
       }
       for (int s = 0; s < 6; ++s) {
         const Eigen::Vector3d h = ik.struts[s].plate_mm;
-        if (aabb_distance(segment_box(h, h, m.hinge_radius_mm), per.bounds) >= best) continue;
+        if (gap(h, h, m.hinge_radius_mm) >= best) continue;
         Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
         T.translation() = h;
         const double dist = interference::distance(rigid_shapes_.back(), T, per.shape, per.T_table_peripheral).distance_mm;
@@ -307,7 +343,7 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
     std::string spart;
     for (int s = 0; s < 6; ++s) {
       const auto& st = ik.struts[s];
-      const double lb = aabb_distance(segment_box(st.slider_mm, st.plate_mm, m.strut_radius_mm), per.bounds);
+      const double lb = gap(st.slider_mm, st.plate_mm, m.strut_radius_mm);
       if (lb >= sbest) continue;
       double dist = lb;
       if (lb < c + kLowerBoundSlack_mm) {
@@ -323,7 +359,7 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
 }
 
 const double* Checker::cached_values(long i, const Eigen::Vector3d& offset, ScanSettings& s) {
-  double* v = &cache_[static_cast<std::size_t>(i) * constraint_count_];
+  double* v = &cache_[static_cast<std::size_t>(i) * stride_];
   if (cache_gen_[i] != gen_) {
     evaluate({tips_[i], axes_[i]}, offset, s.all_mask, v, nullptr);
     cache_gen_[i] = gen_;
@@ -335,35 +371,84 @@ namespace {
 double travel(const std::vector<double>& cum, long a, long b) { return std::abs(cum[b] - cum[a]); }
 }  // namespace
 
-bool Checker::scan_node(long lo, long hi, unsigned mask, const Eigen::Vector3d& offset, ScanSettings& s) {
-  ++counts_.stretches;
-  if (hi - lo <= 1) {
-    const double* v0 = cached_values(lo, offset, s);
-    std::vector<double> a(v0, v0 + constraint_count_);
-    const double* v1 = cached_values(hi, offset, s);
-    std::vector<double> b(v1, v1 + constraint_count_);
-    return scan_interval(lo, 0.0, 1.0, a.data(), b.data(), mask, offset, s, 0);
+int Checker::build_tree(std::vector<long>& iv, std::size_t lo, std::size_t hi) {
+  const int id = static_cast<int>(nodes_.size());
+  nodes_.emplace_back();
+  // Key of an interval: its mid tip and its mid axis scaled so that an axis turn weighs what
+  // it moves the rigid parts (tree_keys_, filled by the constructor).
+  auto key = [&](long i) { return tree_keys_.col(i); };
+  Eigen::Matrix<double, 6, 1> kmin = Eigen::Matrix<double, 6, 1>::Constant(kInf), kmax = -kmin;
+  for (std::size_t j = lo; j < hi; ++j) {
+    kmin = kmin.cwiseMin(key(iv[j])), kmax = kmax.cwiseMax(key(iv[j]));
   }
-  const long mid = (lo + hi) / 2;
-  const double* v = cached_values(mid, offset, s);
-  const std::vector<double>* cums[3] = {&cum_rigid_, &cum_joint_, &cum_angle_};
+  // Centre: the member pose nearest the middle of the keys' box.
+  const Eigen::Matrix<double, 6, 1> mid = (kmin + kmax) / 2;
+  const double w = rot_factor_ * scene_.machine.rigid_reach_mm;
+  long centre = iv[lo];
+  double best = kInf;
+  for (std::size_t j = lo; j < hi; ++j)
+    for (long i : {iv[j], iv[j] + 1}) {
+      const double d = (tips_[i] - mid.head<3>()).squaredNorm() + (w * axes_[i] - mid.tail<3>()).squaredNorm();
+      if (d < best) best = d, centre = i;
+    }
+  double tip2 = 0, chord2 = 0;
+  for (std::size_t j = lo; j < hi; ++j)
+    for (long i : {iv[j], iv[j] + 1}) {
+      tip2 = std::max(tip2, (tips_[i] - tips_[centre]).squaredNorm());
+      chord2 = std::max(chord2, (axes_[i] - axes_[centre]).squaredNorm());
+    }
+  Node node;
+  node.centre = centre;
+  // Rounded up a little so the bound stays a bound in floating point.
+  node.tip_mm = std::sqrt(tip2) * (1 + 1e-12) + 1e-9;
+  node.angle_rad = 2 * std::asin(std::min(1.0, std::sqrt(chord2) / 2)) * (1 + 1e-12) + 1e-12;
+  if (hi - lo == 1) {
+    node.left = static_cast<int>(iv[lo]);
+  } else {
+    int dim = 0;
+    (kmax - kmin).maxCoeff(&dim);
+    const std::size_t m = lo + (hi - lo) / 2;
+    std::nth_element(iv.begin() + lo, iv.begin() + m, iv.begin() + hi,
+                     [&](long a, long b) { return tree_keys_(dim, a) < tree_keys_(dim, b); });
+    node.left = build_tree(iv, lo, m);
+    node.right = build_tree(iv, m, hi);
+  }
+  nodes_[id] = node;
+  return id;
+}
+
+double Checker::node_travel(int kind, const Node& n) const {
+  // The same travel measures as along the path (see the constructor), from the node's centre.
+  const hexam::Machine& m = scene_.machine;
+  const double th = n.angle_rad * rot_factor_;
+  const double joint = n.tip_mm + th * m.plate_joint_reach_mm;
+  switch (kind) {
+    case 0: return n.tip_mm + th * m.rigid_reach_mm;
+    case 1: return joint;
+    default: return (m.kappa + 1) * joint / min_strut_mm_ + th;
+  }
+}
+
+double Checker::report_need(int c, double best) const {
+  // A minimum is pinned to within the absolute tolerance near the limit; far above it, to
+  // within half its distance to the limit (a 40 mm clearance to within 17.5 mm), which keeps
+  // a report of flat, distant constraints from visiting every pose. While nothing below the
+  // limit has been seen, nothing that could be below it is left unexamined, so a report that
+  // finds every kind free is also a proof.
+  const double need = best - std::max(report_tolerance_[c], 0.5 * (best - limit_[c]));
+  return best >= limit_[c] ? std::max(need, limit_[c]) : need;
+}
+
+bool Checker::check_exact(long i, double t, const double* v, unsigned mask, ScanSettings& s) {
   for (int c = 0; c < constraint_count_; ++c) {
     if (!(mask & (1u << c))) continue;
-    if (s.report && v[c] < s.best[c]) s.best[c] = v[c], s.best_pose[c] = mid, s.best_t[c] = 0;
-    if (!s.report && v[c] <= s.thr_fail[c]) {
-      s.failed_constraint = c, s.failed_pose = mid, s.failed_t = 0, s.failed_value = v[c];
+    if (s.report && v[c] < s.best[c]) s.best[c] = v[c], s.best_pose[c] = i, s.best_t[c] = t;
+    if (!s.report && v[c] <= fail_threshold(c, v, s)) {
+      s.failed_constraint = c, s.failed_pose = i, s.failed_t = t, s.failed_value = v[c], s.failed_exact = true;
       return false;
     }
-    const auto& cum = *cums[travel_kind_[c]];
-    const double R = path_lipschitz_[c] * std::max(travel(cum, lo, mid), travel(cum, mid, hi));
-    const double need = s.report ? s.best[c] - report_tolerance_[c] : s.thr_ok[c];
-    if (v[c] - R >= need) {
-      mask &= ~(1u << c);
-      ++counts_.proven_by_bound;
-    }
   }
-  if (!mask) return true;
-  return scan_node(lo, mid, mask, offset, s) && scan_node(mid, hi, mask, offset, s);
+  return true;
 }
 
 bool Checker::scan_interval(long i, double t0, double t1, const double* v0, const double* v1, unsigned mask,
@@ -373,10 +458,10 @@ bool Checker::scan_interval(long i, double t0, double t1, const double* v0, cons
   int worst_c = -1;
   for (int c = 0; c < constraint_count_; ++c) {
     if (!(mask & (1u << c))) continue;
-    const double d = path_lipschitz_[c] * travel(*cums[travel_kind_[c]], i, i + 1) * (t1 - t0);
+    const double d = lipschitz(path_lipschitz_[c], scene_.machine.kappa) * travel(*cums[travel_kind_[c]], i, i + 1) * (t1 - t0);
     // Along the stretch the value cannot drop below this (it falls at most d in total).
     const double bound = (v0[c] + v1[c] - d) / 2;
-    const double need = s.report ? s.best[c] - report_tolerance_[c] : s.thr_ok[c];
+    const double need = s.report ? report_need(c, s.best[c]) : s.thr_ok[c];
     if (bound >= need || std::min(v0[c], v1[c]) - d >= need) {
       mask &= ~(1u << c);
       continue;
@@ -389,7 +474,7 @@ bool Checker::scan_interval(long i, double t0, double t1, const double* v0, cons
     if (s.report) {
       for (int c = 0; c < constraint_count_; ++c)
         if ((mask & (1u << c))) {
-          const double d = path_lipschitz_[c] * travel(*cums[travel_kind_[c]], i, i + 1) * (t1 - t0);
+          const double d = lipschitz(path_lipschitz_[c], scene_.machine.kappa) * travel(*cums[travel_kind_[c]], i, i + 1) * (t1 - t0);
           const double bound = (v0[c] + v1[c] - d) / 2;
           if (bound < s.best[c]) s.best[c] = bound, s.best_pose[c] = i, s.best_t[c] = (t0 + t1) / 2;
         }
@@ -399,47 +484,40 @@ bool Checker::scan_interval(long i, double t0, double t1, const double* v0, cons
     return false;
   }
   const double tm = (t0 + t1) / 2;
-  std::vector<double> vm(constraint_count_);
+  std::vector<double> vm(stride_);
   evaluate(interpolate(i, tm), offset, s.all_mask, vm.data(), nullptr);
   ++counts_.interpolated_poses;
-  for (int c = 0; c < constraint_count_; ++c) {
-    if (!(mask & (1u << c))) continue;
-    if (s.report && vm[c] < s.best[c]) s.best[c] = vm[c], s.best_pose[c] = i, s.best_t[c] = tm;
-    if (!s.report && vm[c] <= s.thr_fail[c]) {
-      s.failed_constraint = c, s.failed_pose = i, s.failed_t = tm, s.failed_value = vm[c];
-      return false;
-    }
-  }
+  if (!check_exact(i, tm, vm.data(), mask, s)) return false;
   return scan_interval(i, t0, tm, v0, vm.data(), mask, offset, s, depth + 1) &&
          scan_interval(i, tm, t1, vm.data(), v1, mask, offset, s, depth + 1);
 }
 
 bool Checker::scan(const Eigen::Vector3d& offset, ScanSettings& s) {
-  if (!s.keep_cache && ++gen_ == 0) {
+  s.all_mask = (constraint_count_ >= 32) ? ~0u : ((1u << constraint_count_) - 1);
+  const unsigned mask = s.mask ? s.mask & s.all_mask : s.all_mask;
+  // Exact values found by the previous scan at the same placement are kept (a report right
+  // after the decision that certified the placement reuses them), unless that scan evaluated
+  // only some constraints.
+  if (!(cache_complete_ && offset == cache_offset_) && ++gen_ == 0) {
     std::fill(cache_gen_.begin(), cache_gen_.end(), 0u);
     gen_ = 1;
   }
-  s.all_mask = (constraint_count_ >= 32) ? ~0u : ((1u << constraint_count_) - 1);
-  const unsigned mask = s.mask ? s.mask & s.all_mask : s.all_mask;
+  if (s.poses_only) s.all_mask = mask;  // a probe evaluates only what it looks for
+  cache_offset_ = offset;
+  cache_complete_ = s.all_mask == ((constraint_count_ >= 32) ? ~0u : ((1u << constraint_count_) - 1));
   const long n = static_cast<long>(tips_.size());
-  auto check_pose = [&](long i) {
-    const double* v = cached_values(i, offset, s);
-    for (int c = 0; c < constraint_count_; ++c) {
-      if (!(mask & (1u << c))) continue;
-      if (s.report && v[c] < s.best[c]) s.best[c] = v[c], s.best_pose[c] = i, s.best_t[c] = 0;
-      if (!s.report && v[c] <= s.thr_fail[c]) {
-        s.failed_constraint = c, s.failed_pose = i, s.failed_t = 0, s.failed_value = v[c];
-        return false;
-      }
+  if (!s.report && !s.skip_learned) {
+    // Interferences met before are the likeliest to recur: try them first.
+    std::vector<double> v(stride_);
+    for (const Witness& w : learned_) {
+      if (!(mask & (1u << w.constraint))) continue;
+      evaluate(interpolate(w.pose, w.t), offset, 1u << w.constraint, v.data(), nullptr);
+      if (!check_exact(w.pose, w.t, v.data(), 1u << w.constraint, s)) return false;
     }
-    return true;
-  };
-  if (!s.report)
-    for (long w : witnesses_)
-      if (!check_pose(w)) return false;
-  if (!check_pose(0) || !check_pose(n - 1)) return false;
+  }
   if (n == 1) {
     const double* v = cached_values(0, offset, s);
+    if (!check_exact(0, 0, v, mask, s)) return false;
     for (int c = 0; c < constraint_count_; ++c)
       if ((mask & (1u << c)) && !s.report && v[c] < s.thr_ok[c]) {
         s.failed_constraint = c, s.failed_pose = 0, s.failed_value = v[c];
@@ -447,7 +525,65 @@ bool Checker::scan(const Eigen::Vector3d& offset, ScanSettings& s) {
       }
     return true;
   }
-  return scan_node(0, n - 1, mask, offset, s);
+  return scan_best_first(mask, offset, s);
+}
+
+bool Checker::scan_best_first(unsigned mask, const Eigen::Vector3d& offset, ScanSettings& s) {
+  // Nodes are opened in order of the smallest lower bound any of their constraints may reach
+  // (relative to what it must reach; radians weigh as 100 mm), so an interference, when there
+  // is one, is met early and is among the deepest.
+  struct Item {
+    double key;
+    int node;
+    unsigned mask;
+    bool operator>(const Item& o) const { return key > o.key; }
+  };
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> open;
+  open.push({-kInf, 0, mask});
+  while (!open.empty()) {
+    if (s.budget >= 0 && s.budget-- == 0) return true;
+    const Item it = open.top();
+    open.pop();
+    ++counts_.stretches;
+    const Node& node = nodes_[it.node];
+    unsigned m = it.mask;
+    if (node.right < 0) {
+      const long i = node.left;
+      const double* v0 = cached_values(i, offset, s);
+      if (!check_exact(i, 0, v0, m, s)) return false;
+      std::vector<double> a(v0, v0 + stride_);
+      const double* v1 = cached_values(i + 1, offset, s);
+      if (!check_exact(i + 1, 0, v1, m, s)) return false;
+      if (s.poses_only) continue;
+      std::vector<double> b(v1, v1 + stride_);
+      if (!scan_interval(i, 0.0, 1.0, a.data(), b.data(), m, offset, s, 0)) return false;
+      continue;
+    }
+    const double* v = cached_values(node.centre, offset, s);
+    if (!check_exact(node.centre, 0, v, m, s)) return false;
+    double travel_of_kind[3] = {-1, -1, -1};
+    double key = kInf;
+    // Every pose of the node has its struts within this angle of their rails.
+    const double kappa = hexam::slider_rate_bound(
+        scene_.machine, v[constraint_count_] + (scene_.machine.kappa + 1) * node_travel(1, node) / min_strut_mm_);
+    for (int c = 0; c < constraint_count_; ++c) {
+      if (!(m & (1u << c))) continue;
+      double& tr = travel_of_kind[travel_kind_[c]];
+      if (tr < 0) tr = node_travel(travel_kind_[c], node);
+      const double low = v[c] - lipschitz(path_lipschitz_[c], kappa) * tr;
+      const double need = s.report ? report_need(c, s.best[c]) : s.thr_ok[c];
+      if (low >= need) {
+        m &= ~(1u << c);
+        ++counts_.proven_by_bound;
+      } else {
+        key = std::min(key, (low - need) * (c == kJoint ? 100.0 : 1.0));
+      }
+    }
+    if (!m) continue;
+    open.push({key, node.left, m});
+    open.push({key, node.right, m});
+  }
+  return true;
 }
 
 Finding Checker::describe(int c, const Pose& pose, long index, double t, const Eigen::Vector3d& offset,
@@ -457,7 +593,7 @@ Finding Checker::describe(int c, const Pose& pose, long index, double t, const E
   f.t = t;
   f.clearance_mm = value;
   Eval d;
-  std::vector<double> v(constraint_count_);
+  std::vector<double> v(stride_);
   evaluate(pose, offset, ~0u, v.data(), &d);
   const Eigen::Vector3d tip = pose.tip + offset;
   // Self and class-2 interference come from reaching too far, so the paper's evasion for them
@@ -499,15 +635,19 @@ Finding Checker::describe(int c, const Pose& pose, long index, double t, const E
   return f;
 }
 
-double Checker::workpiece_peripheral_value(const Eigen::Vector3d& offset, int k, Eigen::Vector2d* evasion) const {
+double Checker::workpiece_peripheral_value(const Eigen::Vector3d& offset, int k, Eigen::Vector2d* evasion,
+                                           double enough) const {
   const Peripheral& per = scene_.peripherals[k];
   Eigen::AlignedBox3d wbox(workpiece_box_centre_ - workpiece_box_half_ + offset,
                            workpiece_box_centre_ + workpiece_box_half_ + offset);
   wbox.min().z() = 0.0;
+  if (evasion) *evasion = evasion_from(per, wbox.center());
+  // When a lower bound is all the caller needs, the boxes' bounds settle most placements.
+  const double lower = aabb_distance(wbox, per.bounds);
+  if (lower >= enough) return lower;
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() = wbox.center();
   const auto p = interference::distance(interference::Shape::box(wbox.sizes()), T, per.shape, per.T_table_peripheral);
-  if (evasion) *evasion = evasion_from(per, wbox.center());
   return p.distance_mm;
 }
 
@@ -620,23 +760,22 @@ void Checker::compute_class1() {
     }
     return value[i];
   };
-  std::function<void(long, long)> node = [&](long lo, long hi) {
+  std::function<void(int)> node = [&](int id) {
     ++counts_.stretches;
-    const long mid = (lo + hi) / 2;
-    const double sweep = std::max(travel(cum_rigid_, lo, mid), travel(cum_rigid_, mid, hi));
-    if (stretch_clear({tips_[mid], axes_[mid]}, sweep)) {
+    const Node& nd = nodes_[id];
+    if (stretch_clear({tips_[nd.centre], axes_[nd.centre]}, node_travel(0, nd))) {
       ++counts_.proven_by_bound;
       return;
     }
-    if (hi - lo <= 1) {
-      interval(lo, 0.0, 1.0, value_at(lo), value_at(hi), 0);
+    if (nd.right < 0) {
+      interval(nd.left, 0.0, 1.0, value_at(nd.left), value_at(nd.left + 1), 0);
       return;
     }
-    node(lo, mid);
-    node(mid, hi);
+    node(nd.left);
+    node(nd.right);
   };
   value_at(0);
-  if (n > 1) node(0, n - 1);
+  if (n > 1) node(0);
   class1_.interferes = class1_.clearance_mm < c;
 }
 
@@ -712,7 +851,7 @@ Decision Checker::decide(const Placement& p, double radius, Finding* witness, bo
   bool all_clear = true;
   for (std::size_t k = 0; k < scene_.peripherals.size(); ++k) {
     Eigen::Vector2d e;
-    const double v = workpiece_peripheral_value(offset, static_cast<int>(k), &e);
+    const double v = workpiece_peripheral_value(offset, static_cast<int>(k), &e, c + radius);
     if (v <= c - radius && !(radius == 0 && v >= c)) {
       if (witness) {
         *witness = Finding{};
@@ -729,28 +868,16 @@ Decision Checker::decide(const Placement& p, double radius, Finding* witness, bo
     if (witness) *witness = class1_;
     return Decision::infeasible;
   }
-  ScanSettings s;
-  s.thr_ok.resize(constraint_count_);
-  s.thr_fail.resize(constraint_count_);
-  for (int k = 0; k < constraint_count_; ++k) {
-    s.thr_ok[k] = limit_[k] + placement_lipschitz_[k] * radius;
-    // At radius 0 a value exactly at the limit is still allowed (not strictly below it).
-    s.thr_fail[k] = radius > 0 ? limit_[k] - placement_lipschitz_[k] * radius : std::nextafter(limit_[k], -kInf);
-  }
+  ScanSettings s = decision_settings(radius);
   bool ok = true;
   if (peripherals_first && constraint_count_ > kFirstPeripheral) {
     s.mask = ~((1u << kFirstPeripheral) - 1);
     ok = scan(offset, s);
     s.mask = 0;
-    s.keep_cache = true;  // same placement: the values found by the first pass stay valid
   }
   if (ok && scan(offset, s)) return all_clear ? Decision::feasible : Decision::unknown;
-  const bool proven_bad = s.failed_value <= s.thr_fail[s.failed_constraint];
-  if (proven_bad) {
-    if (s.failed_t == 0 && std::find(witnesses_.begin(), witnesses_.end(), s.failed_pose) == witnesses_.end()) {
-      witnesses_.insert(witnesses_.begin(), s.failed_pose);
-      if (witnesses_.size() > 16) witnesses_.pop_back();
-    }
+  if (s.failed_exact) {
+    learn({s.failed_pose, s.failed_t, s.failed_constraint});
     if (witness) {
       *witness = describe(s.failed_constraint, interpolate(s.failed_pose, s.failed_t), s.failed_pose, s.failed_t, offset,
                           s.failed_value);
@@ -771,10 +898,102 @@ Decision Checker::decide(const Placement& p, double radius, Finding* witness, bo
   return Decision::unknown;
 }
 
+Checker::ScanSettings Checker::decision_settings(double radius) const {
+  ScanSettings s;
+  s.radius = radius;
+  s.thr_ok.resize(constraint_count_);
+  s.thr_fail.resize(constraint_count_);
+  for (int k = 0; k < constraint_count_; ++k) {
+    s.thr_ok[k] = limit_[k] + lipschitz(placement_lipschitz_[k], scene_.machine.kappa) * radius;
+    // At radius 0 a value exactly at the limit is still allowed (not strictly below it).
+    s.thr_fail[k] = radius > 0 ? limit_[k] - lipschitz(placement_lipschitz_[k], scene_.machine.kappa) * radius
+                               : std::nextafter(limit_[k], -kInf);
+  }
+  return s;
+}
+
+double Checker::fail_threshold(int c, const double* v, const ScanSettings& s) const {
+  if (s.radius == 0) return s.thr_fail[c];
+  // Moving the workpiece by at most the radius turns a strut by at most (kappa + 1) r / L, so
+  // the pose's own strut angles give a tighter slider-speed factor than kappa.
+  const double kappa = hexam::slider_rate_bound(
+      scene_.machine, v[constraint_count_] + (scene_.machine.kappa + 1) * s.radius / min_strut_mm_);
+  return limit_[c] - lipschitz(placement_lipschitz_[c], kappa) * s.radius;
+}
+
+Decision Checker::probe(const Placement& p, double radius) {
+  // Looks only for an interference deep enough to condemn the whole ball, at tool poses, with
+  // a bounded effort: first the limits and strut clearance (inverse kinematics only), then
+  // the peripherals (FCL). Nodes whose lower bounds stay above the failure threshold are
+  // dropped at once.
+  if (class1_.interferes) return Decision::infeasible;
+  const unsigned cheap = (1u << kStroke) | (1u << kJoint) | (1u << kStrutStrut);
+  const unsigned all = (constraint_count_ >= 32) ? ~0u : ((1u << constraint_count_) - 1);
+  for (unsigned mask : {cheap, all & ~cheap & ~(1u << kClass2)}) {
+    if (!mask) continue;
+    ScanSettings s = decision_settings(radius);
+    s.skip_learned = s.poses_only = true;
+    s.mask = mask;
+    s.budget = kProbeBudget;
+    s.thr_ok = s.thr_fail;
+    if (!scan(p.offset(), s) && s.failed_exact) {
+      learn({s.failed_pose, s.failed_t, s.failed_constraint});
+      return Decision::infeasible;
+    }
+  }
+  return Decision::unknown;
+}
+
+void Checker::learn(const Witness& w) {
+  auto same = [&](const Witness& o) { return o.pose == w.pose && o.t == w.t && o.constraint == w.constraint; };
+  const auto it = std::find_if(learned_.begin(), learned_.end(), same);
+  if (it != learned_.end()) {
+    std::rotate(learned_.begin(), it, it + 1);
+    return;
+  }
+  Witness fresh = w;
+  fresh.id = static_cast<int>(learned_.size());
+  learned_.insert(learned_.begin(), fresh);
+}
+
+Decision Checker::screen(const Placement& p, double radius, std::uint64_t* settled) {
+  const Eigen::Vector3d offset = p.offset();
+  const double c = scene_.safe_distance_mm;
+  if (class1_.interferes) return Decision::infeasible;
+  bool all_clear = true;
+  for (std::size_t k = 0; k < scene_.peripherals.size(); ++k) {
+    const double v = workpiece_peripheral_value(offset, static_cast<int>(k), nullptr, c + radius);
+    if (v <= c - radius && !(radius == 0 && v >= c)) return Decision::infeasible;
+    if (v < c + radius) all_clear = false;
+  }
+  std::vector<double> v(stride_);
+  for (std::size_t j = 0; j < learned_.size(); ++j) {
+    const Witness w = learned_[j];
+    const std::uint64_t bit = w.id < 64 ? std::uint64_t{1} << w.id : 0;
+    if (settled && (*settled & bit)) continue;
+    evaluate(interpolate(w.pose, w.t), offset, 1u << w.constraint, v.data(), nullptr);
+    // Moving the workpiece by at most `radius` turns a strut by at most (kappa + 1) radius / L.
+    const double kappa =
+        hexam::slider_rate_bound(scene_.machine, v[constraint_count_] + (scene_.machine.kappa + 1) * radius / min_strut_mm_);
+    const double value = v[w.constraint], lip = lipschitz(placement_lipschitz_[w.constraint], kappa) * radius;
+    const bool bad = radius > 0 ? value <= limit_[w.constraint] - lip : value < limit_[w.constraint];
+    if (bad) {
+      // Move it to the front: neighbouring boxes are likely to fall to the same one.
+      std::rotate(learned_.begin(), learned_.begin() + static_cast<long>(j), learned_.begin() + static_cast<long>(j) + 1);
+      return Decision::infeasible;
+    }
+    if (value < limit_[w.constraint] + lip)
+      all_clear = false;
+    else if (settled)
+      *settled |= bit;
+  }
+  return all_clear ? Decision::feasible : Decision::unknown;
+}
+
 CheckReport Checker::dense_check(const Placement& p, double step_mm) {
   const Eigen::Vector3d offset = p.offset();
   CheckReport r = report(p);  // class 1, workpiece-peripheral and the description fields
-  std::vector<double> v(constraint_count_), worst(constraint_count_, kInf);
+  std::vector<double> v(stride_), worst(constraint_count_, kInf);
   const long n = static_cast<long>(tips_.size());
   long evaluated = 0;
   double class1_worst = kInf;

@@ -17,22 +17,26 @@
 // i and i+1 the tip moves on a line and the axis on a great circle. For every interval the
 // checker knows how far any point of each moving body can travel (delta_rigid for the tool
 // assembly, kappa * delta_joint for the struts; see models/hexam/hexam.h), so a clearance c at
-// one pose proves clearance c - delta over every pose within that travel. The path is walked
-// as a binary tree of stretches: a stretch is proven by one exact query at its middle pose
-// when the clearance there exceeds the required one plus the travel to the stretch's ends;
-// otherwise both halves are examined, down to single intervals, which are subdivided by
-// interpolated poses until proven or until an interference is found. No stretch is assumed
+// one pose proves clearance c - delta over every pose within that travel. The intervals are
+// held in a bounding-volume tree built on pose proximity (tip and axis): a node is proven by
+// one exact query at its centre pose when the clearance there exceeds the required one plus
+// the travel to the farthest pose of its intervals (kappa taken from the struts' actual angles
+// to their rails, widened by how far they can turn inside the node); otherwise its children
+// are opened, lowest bound first, down to single intervals, which are subdivided by
+// interpolated poses until proven or until an interference is found. No interval is assumed
 // free without such a proof, so nothing can hide between checked points.
 //
 // The same bounds carry over to the placement itself: moving the workpiece by |d| moves the
 // tool assembly by |d| and the struts by at most kappa |d|, which lets the optimal search
-// decide whole boxes of placements at once (decide() with a radius).
+// decide whole boxes of placements at once (screen(), probe() and decide() with a radius).
 //
 // Thread safety: a Checker is not thread-safe (it caches per-scan values); give each thread its
 // own. Construction does the placement-independent work (class 1, motion bounds) once.
 #pragma once
 
 #include <array>
+#include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -93,8 +97,9 @@ class Checker {
   const Finding& class1() const { return class1_; }
 
   // Full report at one placement: for each kind the smallest clearance over the whole path
-  // (found to within 0.25 mm, or 0.3 deg for joints; an interval is never reported above what
-  // was proven for it) and whether it interferes.
+  // and whether it interferes. Near the safe distance a minimum is found to within 0.25 mm
+  // (0.3 deg for joints); a clearance far above it, to within half its excess (the value shown
+  // is one actually met). A report that finds every kind free is a certificate like decide().
   CheckReport report(const Placement& p);
 
   // Decides whether every placement within `radius_mm` (Euclidean, in x, y, pad) of p is free
@@ -104,6 +109,22 @@ class Checker {
   // the others, so the witness is a peripheral interference whenever there is one (the
   // paper's search evades the magazine before anything else); the verdict is the same.
   Decision decide(const Placement& p, double radius_mm, Finding* witness = nullptr, bool peripherals_first = false);
+
+  // Screens a box of placements (radius around p, as in decide) against the interferences
+  // this checker has already met (each a tool pose, possibly inside an interval, and the
+  // constraint it broke) plus the workpiece-vs-peripheral and class-1 checks. `infeasible` is
+  // proven as in decide(); `feasible` only means that no known interference objects, and must
+  // be confirmed with decide() before it is trusted. Cheap: a handful of pose queries.
+  // `settled` (optional) marks the known interferences already shown absent over a larger
+  // ball containing this one (bits by learning order, the first 64); they are skipped, and
+  // the ones shown absent here are added.
+  Decision screen(const Placement& p, double radius_mm, std::uint64_t* settled = nullptr);
+  std::size_t known_interferences() const { return learned_.size(); }
+
+  // Looks over the whole path for one interference deep enough to make every placement within
+  // `radius_mm` of p infeasible (learned for screen() when found); `unknown` otherwise. Much
+  // cheaper than decide() when the radius is large, since it follows only deep interferences.
+  Decision probe(const Placement& p, double radius_mm);
 
   // Brute-force re-check: every tool pose and interpolated poses every `step_mm` of tip
   // motion (and every 0.5 deg of axis turn), every constraint evaluated without the stretch
@@ -130,26 +151,59 @@ class Checker {
   bool class1_box_clear(Eigen::AlignedBox3d box, double sweep_mm) const;
   void compute_class1();
 
+  // The path's intervals in a bounding-volume tree built on pose proximity (tip position
+  // and tool axis), not on path order: a node holds a set of intervals, one of their poses as
+  // its centre, and how far (tip distance, axis angle) any pose of its intervals, including
+  // poses inside them, lies from that centre. A raster path's neighbouring rows share nodes,
+  // so a node's travel bound is far smaller than that of a path stretch of as many poses.
+  struct Node {
+    long centre = 0;
+    double tip_mm = 0, angle_rad = 0;  // largest distances of a member pose from the centre
+    int left = -1, right = -1;         // children; a leaf has right = -1 and left = its interval
+  };
+  int build_tree(std::vector<long>& intervals, std::size_t lo, std::size_t hi);
+  double node_travel(int kind, const Node& node) const;
+  struct Witness {
+    long pose;
+    double t;
+    int constraint;
+    int id = 0;  // order of learning
+  };
+  void learn(const Witness& w);
+
   struct ScanSettings;
   bool scan(const Eigen::Vector3d& offset, ScanSettings& s);
-  bool scan_node(long lo, long hi, unsigned mask, const Eigen::Vector3d& offset, ScanSettings& s);
+  bool scan_best_first(unsigned mask, const Eigen::Vector3d& offset, ScanSettings& s);
+  double report_need(int constraint, double best) const;
+  ScanSettings decision_settings(double radius_mm) const;
+  // The value at or below which constraint c at a pose (values v) condemns the whole ball.
+  double fail_threshold(int c, const double* v, const ScanSettings& s) const;
+  bool check_exact(long i, double t, const double* v, unsigned mask, ScanSettings& s);
   bool scan_interval(long i, double t0, double t1, const double* v0, const double* v1, unsigned mask,
                      const Eigen::Vector3d& offset, ScanSettings& s, int depth);
   const double* cached_values(long i, const Eigen::Vector3d& offset, ScanSettings& s);
   Pose interpolate(long i, double t) const;
   Finding describe(int constraint, const Pose& pose, long index, double t, const Eigen::Vector3d& offset,
                    double value) const;
-  double workpiece_peripheral_value(const Eigen::Vector3d& offset, int k, Eigen::Vector2d* evasion) const;
+  // Workpiece and pad against peripheral k; a lower bound when that bound is at least `enough`.
+  double workpiece_peripheral_value(const Eigen::Vector3d& offset, int k, Eigen::Vector2d* evasion,
+                                    double enough = std::numeric_limits<double>::infinity()) const;
 
   const Scene& scene_;
   double rotation_deg_;
   int constraint_count_;
+  int stride_;  // values per pose: the constraints, then the largest strut-to-rail angle
   std::vector<Eigen::Vector3d> tips_, axes_;
   // Per interval i (pose i to i+1): travel bounds.
   std::vector<double> cum_rigid_, cum_joint_, cum_angle_;
-  std::vector<double> path_lipschitz_;     // per constraint: value change per unit of its travel
+  // A Lipschitz constant a kappa + b, kappa being the slider-speed factor in force.
+  struct Lipschitz {
+    double a, b;
+  };
+  static double lipschitz(const Lipschitz& l, double kappa) { return l.a * kappa + l.b; }
+  std::vector<Lipschitz> path_lipschitz_;  // per constraint: value change per unit of its travel
   std::vector<int> travel_kind_;           // per constraint: 0 rigid, 1 joint, 2 angle
-  std::vector<double> placement_lipschitz_;  // per constraint: value change per mm of placement
+  std::vector<Lipschitz> placement_lipschitz_;  // per constraint: value change per mm of placement
   std::vector<double> limit_;              // per constraint: the value it must reach
   std::vector<double> report_tolerance_;   // per constraint: precision of report() minima
   std::vector<interference::Shape> rigid_shapes_;  // tool parts, plate, then hinges (shared)
@@ -171,7 +225,12 @@ class Checker {
   std::vector<double> cache_;
   std::vector<unsigned> cache_gen_;
   unsigned gen_ = 0;
-  std::vector<long> witnesses_;  // poses that recently proved infeasibility, tried first
+  Eigen::Vector3d cache_offset_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  bool cache_complete_ = false;
+  std::vector<Node> nodes_;  // nodes_[0] is the root (empty for a single-pose path)
+  Eigen::Matrix<double, 6, Eigen::Dynamic> tree_keys_;  // while building: one key per interval
+  double rot_factor_ = 1.0, min_strut_mm_ = 0.0;
+  std::vector<Witness> learned_;  // interferences met so far, most recently useful first
 };
 
 }  // namespace machplan::placement

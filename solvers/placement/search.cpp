@@ -13,6 +13,9 @@ namespace machplan::placement {
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
+// Boxes at least this large (radius, mm) that the known interferences leave undecided are
+// probed for a deep interference before they are split.
+constexpr double kProbeRadius_mm = 32.0;
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -92,6 +95,7 @@ PlacementResult paper_search(const Scene& scene, const PlacementOptions& o) {
 struct Box {
   long x0, x1, y0, y1, p0, p1;  // grid indices, inclusive
   double dist2;                 // squared grid distance of the nearest xy point to the centre
+  std::uint64_t settled = 0;    // known interferences shown absent over the box (Checker::screen)
   bool operator>(const Box& o) const {
     return std::tie(p0, dist2, x0, y0) > std::tie(o.p0, o.dist2, o.x0, o.y0);
   }
@@ -99,9 +103,9 @@ struct Box {
 
 long nearest_to_zero(long a, long b) { return std::clamp(0L, a, b); }
 
-Box make_box(long x0, long x1, long y0, long y1, long p0, long p1) {
+Box make_box(long x0, long x1, long y0, long y1, long p0, long p1, std::uint64_t settled = 0) {
   const double nx = static_cast<double>(nearest_to_zero(x0, x1)), ny = static_cast<double>(nearest_to_zero(y0, y1));
-  return {x0, x1, y0, y1, p0, p1, nx * nx + ny * ny};
+  return {x0, x1, y0, y1, p0, p1, nx * nx + ny * ny, settled};
 }
 
 PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, const PlacementOptions& o) {
@@ -127,8 +131,9 @@ PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, co
   std::priority_queue<Box, std::vector<Box>, std::greater<>> open;
   open.push(make_box(x0, x1, y0, y1, 0, p1));
   const double total = static_cast<double>(x1 - x0 + 1) * (y1 - y0 + 1) * (p1 + 1);
-  double settled = 0;
+  double done_volume = 0;
   Finding last;
+  std::set<std::tuple<long, long, long>> rejected;  // grid points refused by a certification
   while (!open.empty()) {
     if (o.should_stop && o.should_stop()) {
       res.status = PlacementStatus::cancelled;
@@ -141,23 +146,40 @@ PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, co
     const Placement centre{(b.x0 + b.x1) * 0.5 * g, (b.y0 + b.y1) * 0.5 * g, (b.p0 + b.p1) * 0.5 * g, rotation_deg};
     const double radius = 0.5 * g * std::sqrt(double((b.x1 - b.x0) * (b.x1 - b.x0) + (b.y1 - b.y0) * (b.y1 - b.y0) +
                                                      (b.p1 - b.p0) * (b.p1 - b.p0)));
-    Finding w;
-    const Decision d = checker.decide(centre, radius, &w);
+    if (radius == 0 && rejected.count({b.x0, b.y0, b.p0})) continue;
+    std::uint64_t settled = b.settled;
+    Decision d = checker.screen(centre, radius, &settled);
+    // A large box no known interference settles: look for a deep one at its centre.
+    if (d == Decision::unknown && radius >= kProbeRadius_mm) d = checker.probe(centre, radius);
     const double volume = double(b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1) * (b.p1 - b.p0 + 1);
     if (d == Decision::infeasible) {
-      last = w;
-      settled += volume;
-      if (o.progress) o.progress(settled / total);
+      done_volume += volume;
+      if (o.progress) o.progress(done_volume / total);
       continue;
     }
     if (d == Decision::feasible) {
-      Placement best{nearest_to_zero(b.x0, b.x1) * g, nearest_to_zero(b.y0, b.y1) * g, b.p0 * g, rotation_deg};
-      if (radius > 0 && checker.decide(best, 0.0, &w) != Decision::feasible)
-        throw InternalError("a box proven free has an interfering corner; the motion bounds are wrong");
-      res.status = PlacementStatus::found;
-      res.placement = best;
-      res.message = fmt::format("lowest pad, then nearest the centre, on a {:.3g} mm grid", g);
-      break;
+      // No interference met so far objects anywhere in the box, so its best point is the best
+      // candidate left: certify it over the whole path. If that fails, the checker has learned
+      // the interference and the box is screened again (now infeasible, or split).
+      const Placement best{nearest_to_zero(b.x0, b.x1) * g, nearest_to_zero(b.y0, b.y1) * g, b.p0 * g, rotation_deg};
+      Finding w;
+      ++res.certifications;
+      const std::size_t known = checker.known_interferences();
+      if (checker.decide(best, 0.0, &w) == Decision::feasible) {
+        res.status = PlacementStatus::found;
+        res.placement = best;
+        res.message = fmt::format("lowest pad, then nearest the centre, on a {:.3g} mm grid", g);
+        break;
+      }
+      last = w;
+      if (checker.known_interferences() > known) {
+        open.push(b);
+        continue;
+      }
+      // Refused without an exact interfering pose (an interval that could not be proven): the
+      // point is out, and the rest of the box is split as usual.
+      rejected.insert({nearest_to_zero(b.x0, b.x1), nearest_to_zero(b.y0, b.y1), b.p0});
+      if (radius == 0) continue;
     }
     // Split the longest side (grid units); a single grid point is never "unknown" (decide at
     // radius 0 always answers).
@@ -165,23 +187,23 @@ PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, co
     MACHPLAN_ASSERT(sx + sy + sp > 0, "undecided single placement");
     if (sp >= sx && sp >= sy) {
       const long m = b.p0 + sp / 2;
-      open.push(make_box(b.x0, b.x1, b.y0, b.y1, b.p0, m));
-      open.push(make_box(b.x0, b.x1, b.y0, b.y1, m + 1, b.p1));
+      open.push(make_box(b.x0, b.x1, b.y0, b.y1, b.p0, m, settled));
+      open.push(make_box(b.x0, b.x1, b.y0, b.y1, m + 1, b.p1, settled));
     } else if (sx >= sy) {
       const long m = b.x0 + sx / 2;
-      open.push(make_box(b.x0, m, b.y0, b.y1, b.p0, b.p1));
+      open.push(make_box(b.x0, m, b.y0, b.y1, b.p0, b.p1, settled));
       open.push(make_box(m + 1, b.x1, b.y0, b.y1, b.p0, b.p1));
     } else {
       const long m = b.y0 + sy / 2;
-      open.push(make_box(b.x0, b.x1, b.y0, m, b.p0, b.p1));
-      open.push(make_box(b.x0, b.x1, m + 1, b.y1, b.p0, b.p1));
+      open.push(make_box(b.x0, b.x1, b.y0, m, b.p0, b.p1, settled));
+      open.push(make_box(b.x0, b.x1, m + 1, b.y1, b.p0, b.p1, settled));
     }
   }
   if (res.status != PlacementStatus::found && res.status != PlacementStatus::cancelled) {
     res.status = PlacementStatus::no_placement;
     res.message = fmt::format("cannot be machined on this machine: no placement on the table with a pad up to {:.0f} mm is "
-                              "free of interference (e.g. {})",
-                              scene.search.pad_max_mm, last.what);
+                              "free of interference{}",
+                              scene.search.pad_max_mm, last.what.empty() ? "" : fmt::format(" (e.g. {})", last.what));
   }
   res.report = checker.report(res.status == PlacementStatus::found ? res.placement : Placement{0, 0, 0, rotation_deg});
   res.verified = res.status == PlacementStatus::found && res.report.free();

@@ -9,13 +9,18 @@
 //         peripherals. When two successive evasion directions are more than 150 deg apart, the
 //         plane is judged exhausted and the pad is raised one step (10 mm), keeping x, y.
 //
-// optimal Branch and bound over boxes of placements (x, y, pad on a grid of `resolution_mm`).
-//         Boxes are taken in order of (lowest pad in the box, distance of the box to the centre);
-//         a box is dropped when one interference is provably present everywhere in it, accepted
-//         when the whole path is provably free everywhere in it (Checker::decide with the box's
-//         radius), and split otherwise. The first box accepted holds the optimum on the grid,
-//         which is then re-checked at radius 0. The result is certified: every interval of the
-//         path was proven free at the answer.
+// optimal Branch and bound over boxes of placements (x, y, pad on a grid of `resolution_mm`),
+//         taken in order of (lowest pad in the box, distance of the box to the centre). A box
+//         is screened against the interferences met so far (Checker::screen: one pose query
+//         each, bounded over the box by the placement Lipschitz constants); a large box they
+//         leave undecided is probed for a deep interference at its centre (Checker::probe).
+//         A box is dropped when one interference is provably present everywhere in it, split
+//         when undecided, and when no known interference objects anywhere in it, its best point
+//         is certified over the whole path (Checker::decide). If that fails, the interference
+//         found is learned and the box goes back to be screened again; the first certified
+//         point is the optimum on the grid (all boxes before it were proven infeasible).
+//         Learning interferences lazily is what makes this fast: the optimum of the bundled
+//         scene needs about 30 whole-path certifications, not one per box.
 #pragma once
 
 #include <functional>
@@ -54,6 +59,7 @@ struct PlacementResult {
   bool verified = false;
   CheckCounts counts;   // all checking done by the search
   long placements_examined = 0;
+  long certifications = 0;       // optimal: candidate answers checked over the whole path
   double seconds = 0;
   std::vector<Placement> trail;  // paper: every placement visited, in order
   Eigen::AlignedBox2d region;    // x, y range searched (workpiece origin)

@@ -55,7 +55,7 @@ TEST(Hexam, SliderSpeedBoundHoldsForSmallMoves) {
   const hexam::Machine m = paper_machine();
   const Eigen::Vector3d axis = Eigen::Vector3d(0.2, -0.1, 1).normalized();
   const auto a = hexam::inverse_kinematics(m, {30, 20, 200}, axis);
-  for (const Eigen::Vector3d d : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0, 1),
+  for (const Eigen::Vector3d& d : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0, 1),
                                   Eigen::Vector3d(0.6, -0.8, 0)}) {
     const auto b = hexam::inverse_kinematics(m, Eigen::Vector3d(30, 20, 200) + d, axis);
     for (int i = 0; i < 6; ++i) EXPECT_LE(std::abs(b.struts[i].s_mm - a.struts[i].s_mm), m.kappa * d.norm() + 1e-9);
@@ -150,8 +150,38 @@ TEST(Checker, ABoxProvenFreeIsFreeAtItsCorners) {
   placement::Checker checker(scene);
   const placement::Placement centre{0, 0, 60, 0};
   ASSERT_EQ(checker.decide(centre, 4.0), placement::Decision::feasible);
-  for (const Eigen::Vector3d d : {Eigen::Vector3d(2.3, 2.3, 2.3), Eigen::Vector3d(-2.3, 2.3, -2.3), Eigen::Vector3d(0, 0, -4)})
+  for (const Eigen::Vector3d& d : {Eigen::Vector3d(2.3, 2.3, 2.3), Eigen::Vector3d(-2.3, 2.3, -2.3), Eigen::Vector3d(0, 0, -4)})
     EXPECT_TRUE(checker.dense_check({centre.x_mm + d.x(), centre.y_mm + d.y(), centre.pad_mm + d.z(), 0}).free());
+}
+
+TEST(Checker, ScreensAndProbesNeverCondemnAFreePlacement) {
+  // Teach the checker interferences by deciding a few placements, then screen and probe boxes
+  // around free and interfering placements: a box called infeasible must have no free point
+  // (checked at its centre and corners by the brute-force re-check).
+  const placement::Scene scene = small_scene(2);
+  placement::Checker checker(scene);
+  for (const placement::Placement p : {placement::Placement{0, 0, 0, 0}, placement::Placement{-150, 150, 0, 0},
+                                       placement::Placement{200, -200, 0, 0}, placement::Placement{220, 220, 0, 0}})
+    checker.decide(p, 0.0);
+  EXPECT_GT(checker.known_interferences(), 0u);
+  int condemned = 0;
+  for (double x : {-200.0, -60.0, 0.0, 60.0, 200.0})
+    for (double pad : {0.0, 40.0, 80.0})
+      for (double half : {2.0, 10.0, 40.0}) {
+        const placement::Placement c{x, -x / 2, pad + half, 0};
+        const double radius = half * std::sqrt(3.0);
+        std::uint64_t settled = 0;
+        const bool screened = checker.screen(c, radius, &settled) == placement::Decision::infeasible;
+        const bool probed = !screened && checker.probe(c, radius) == placement::Decision::infeasible;
+        if (!screened && !probed) continue;
+        ++condemned;
+        for (const Eigen::Vector3d& d : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(half, half, half),
+                                         Eigen::Vector3d(-half, -half, -half), Eigen::Vector3d(half, -half, -half)})
+          EXPECT_FALSE(checker.dense_check({c.x_mm + d.x(), c.y_mm + d.y(), c.pad_mm + d.z(), 0}).free())
+              << "box at " << c.x_mm << "," << c.y_mm << "," << c.pad_mm << " half " << half
+              << (screened ? " (screen)" : " (probe)");
+      }
+  EXPECT_GT(condemned, 5);  // the test must exercise both
 }
 
 }  // namespace
