@@ -14,7 +14,8 @@ constexpr double kDeg = M_PI / 180.0;
 
 Peripheral read_peripheral(const Yaml& y) {
   y.reject_unknown_keys({"name", "box", "mesh", "pose"});
-  Peripheral p{y.string("name"), interference::Shape::sphere(1.0)};
+  Peripheral p{.name = y.string("name"), .shape = interference::Shape::sphere(1.0), .T_table_peripheral = Eigen::Isometry3d::Identity(), .bounds = {},
+               .outline = {}, .is_box = false, .box_half_mm = Eigen::Vector3d::Zero()};
   if (y.has("box") == y.has("mesh")) y.fail("needs exactly one of 'box' or 'mesh'");
   if (const auto box = y.get("box")) {
     box->reject_unknown_keys({"center", "size", "yaw_deg"});
