@@ -12,6 +12,7 @@
 #include "models/hexam/hexam.h"
 #include "solvers/placement/checker.h"
 #include "solvers/placement/scene.h"
+#include "tests/support/temp_dir.h"
 
 namespace machplan {
 namespace {
@@ -182,6 +183,34 @@ TEST(Checker, ScreensAndProbesNeverCondemnAFreePlacement) {
               << (screened ? " (screen)" : " (probe)");
       }
   EXPECT_GT(condemned, 5);  // the test must exercise both
+}
+
+// `machplan place` on a scene that cannot be machined: exit code 3 and the reason, quickly.
+void expect_cannot_be_machined(const std::string& workpiece, const std::string& toolpath, const std::string& reason) {
+  test::TempDir dir;
+  const std::string tooling =
+      "tooling: {tool_diameter_mm: 10, stick_out_mm: 50, flute_length_mm: 20, chuck_diameter_mm: 60, chuck_length_mm: 45}\n";
+  const std::string scene =
+      dir.write("scene.yaml", fmt::format("machine: {}machine.yaml\n{}workpiece: {}\ntoolpath: path.csv\nsearch: {{pad_max_mm: 60}}\n",
+                                          kData, tooling, workpiece));
+  dir.write("path.csv", "x,y,z,i,j,k\n" + toolpath);
+  const std::string err = (dir.path() / "err.txt").string();
+  const int rc = std::system(fmt::format("'{}' place '{}' > /dev/null 2> '{}'", MACHPLAN_CLI, scene, err).c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  std::ifstream in(err);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("cannot be machined on this machine"), std::string::npos) << text;
+  EXPECT_NE(text.find(reason), std::string::npos) << text;
+}
+
+TEST(Place, AWorkpieceLargerThanTheTableCannotBeMachined) {
+  expect_cannot_be_machined("{box: {size: [1000, 1000, 100]}}", "0,0,100,0,0,1\n", "does not fit on the table");
+}
+
+TEST(Place, APathOutOfReachEverywhereCannotBeMachined) {
+  // 900 mm above the table: beyond every slider's stroke wherever the workpiece goes.
+  expect_cannot_be_machined("{box: {size: [100, 100, 50]}}", "0,0,50,0,0,1\n0,0,900,0,0,1\n", "no placement");
 }
 
 }  // namespace
