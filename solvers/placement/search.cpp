@@ -165,6 +165,10 @@ PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, co
       Finding w;
       ++res.certifications;
       const std::size_t known = checker.known_interferences();
+      if (checker.probe(best, 0.0) == Decision::infeasible) {  // a quick look first
+        open.push(b);
+        continue;
+      }
       if (checker.decide(best, 0.0, &w) == Decision::feasible) {
         res.status = PlacementStatus::found;
         res.placement = best;
