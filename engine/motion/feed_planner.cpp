@@ -124,38 +124,58 @@ double sampled_deviation(const std::vector<Segment>& pieces, const Segment& a, c
 
 // ---- S-curve transitions -------------------------------------------------------------
 
-// Duration of one jerk-limited speed change by dv >= 0.
-double transition_time(double dv, double a, double j) {
+// Duration of one jerk-limited speed change by dv >= 0 with acceleration <= a.
+double pulse_time(double dv, double a, double j) {
   if (dv <= 0.0) return 0.0;
   if (dv <= a * a / j) return 2.0 * std::sqrt(dv / j);
   return dv / a + a / j;
 }
-// Distance covered by it.
-double transition_distance(double v0, double v1, double a, double j) {
-  return 0.5 * (v0 + v1) * transition_time(std::abs(v1 - v0), a, j);
-}
-// Highest v1 in [v0, cap] that one transition from v0 reaches within `len`.
-double reachable(double v0, double len, double a, double j, double cap) {
-  if (cap <= v0) return cap;
-  if (transition_distance(v0, cap, a, j) <= len) return cap;
-  double lo = v0, hi = cap;
-  for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
-    const double mid = 0.5 * (lo + hi);
-    (transition_distance(v0, mid, a, j) <= len ? lo : hi) = mid;
-  }
-  return lo;
-}
 
 struct PieceInfo {
-  double cap = 0.0;    // speed cap, mm/s
-  double accel = 0.0;  // tangential acceleration cap, mm/s^2
+  double cap = 0.0;  // speed cap, mm/s
+  double a_line = std::numeric_limits<double>::infinity();  // lines: tangential acceleration cap
+  double kappa = 0.0;                                       // arcs: curvature 1/r
   bool stop_before = false;
 };
 
+// A run of pieces planned as one accelerate / cruise / decelerate block. Its tangential
+// acceleration cap depends on the speed through the normal acceleration v^2 kappa of its
+// sharpest arc: A(v) = min(a_line, sqrt(a^2 - (v^2 kappa)^2)). A speed change is made of
+// pulses in two bands, below and above v_split = 0.7 cap, each with the A of its top speed.
 struct Zone {
   std::size_t first = 0, last = 0;  // piece range [first, last]
-  double s0 = 0.0, length = 0.0, cap = 0.0, accel = 0.0;
+  double s0 = 0.0, length = 0.0, cap = 0.0;
+  double a_line = std::numeric_limits<double>::infinity(), kappa = 0.0;
+  double a_curve = 0.0;  // the a of A(v) for arcs (smaller axis limit)
+
+  double accel(double v_top) const {
+    double a = a_line;
+    if (kappa > 0.0) {
+      const double an = v_top * v_top * kappa;
+      a = std::min(a, std::sqrt(std::max(0.0, a_curve * a_curve - an * an)));
+    }
+    return a;
+  }
+  double split() const { return kappa > 0.0 ? 0.7 * cap : cap; }
 };
+
+// Distance covered by the speed change v0 -> v1 in zone z.
+double transition_distance(double v0, double v1, const Zone& z, double j) {
+  const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
+  if (hi <= m || lo >= m) return 0.5 * (lo + hi) * pulse_time(hi - lo, z.accel(hi), j);
+  return 0.5 * (lo + m) * pulse_time(m - lo, z.accel(m), j) + 0.5 * (m + hi) * pulse_time(hi - m, z.accel(hi), j);
+}
+// Highest v1 in [v0, cap] that one transition from v0 reaches within the zone's length.
+double reachable(double v0, const Zone& z, double j, double cap) {
+  if (cap <= v0) return cap;
+  if (transition_distance(v0, cap, z, j) <= z.length) return cap;
+  double lo = v0, hi = cap;
+  for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (transition_distance(v0, mid, z, j) <= z.length ? lo : hi) = mid;
+  }
+  return lo;
+}
 
 class ProfileBuilder {
  public:
@@ -176,7 +196,8 @@ class ProfileBuilder {
     a_ += jerk * dur;
     t_ += dur;
   }
-  void transition(double v0, double v1, double a, double j) {
+  // One symmetric pulse from v0 to v1 with acceleration <= a.
+  void pulse(double v0, double v1, double a, double j) {
     const double dv = std::abs(v1 - v0);
     if (dv <= 0.0) return;
     const double sg = v1 > v0 ? 1.0 : -1.0;
@@ -192,6 +213,17 @@ class ProfileBuilder {
     }
     v_ = v1;  // remove rounding: the pulse ends exactly at v1 with zero acceleration
     a_ = 0.0;
+  }
+  void transition(double v0, double v1, const Zone& z, double j) {
+    const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
+    if (hi <= m || lo >= m) return pulse(v0, v1, z.accel(hi), j);
+    if (v1 > v0) {
+      pulse(v0, m, z.accel(m), j);
+      pulse(m, v1, z.accel(v1), j);
+    } else {
+      pulse(v0, m, z.accel(v0), j);
+      pulse(m, v1, z.accel(m), j);
+    }
   }
   double t() const { return t_; }
 
@@ -245,8 +277,8 @@ void PlannerOptions::validate() const {
           "must be finite and > 0");
   require(std::isfinite(servo_period_s) && servo_period_s > 0 && servo_period_s <= 1.0, "servo_period_s",
           servo_period_s, "must be in (0, 1]");
-  require(curve_tangential_fraction > 0 && curve_tangential_fraction < 1, "curve_tangential_fraction",
-          curve_tangential_fraction, "must be in (0, 1)");
+  require(curve_normal_fraction > 0 && curve_normal_fraction < 1, "curve_normal_fraction", curve_normal_fraction,
+          "must be in (0, 1)");
 }
 
 std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch, const PlannerOptions& o) {
@@ -328,7 +360,7 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
   const Vector2d& vmax = o.max_velocity_mm_per_s;
   const Vector2d& amax = o.max_acceleration_mm_per_s2;
   const double a_min = amax.minCoeff(), v_min = vmax.minCoeff();
-  const double f_t = o.curve_tangential_fraction, f_n = std::sqrt(1.0 - f_t * f_t);
+  const double f_n = o.curve_normal_fraction;
   bool pending_stop = false;
   auto add = [&](const Segment& s, double feed, int line) {
     PieceInfo pi;
@@ -337,11 +369,11 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
     if (s.is_arc()) {
       const double r = s.radius;
       pi.cap = std::min({feed, v_min, std::sqrt(f_n * a_min * r), std::sqrt(8.0 * r * tol) / o.servo_period_s});
-      pi.accel = f_t * a_min;
+      pi.kappa = 1.0 / r;
     } else {
       const Vector2d u = (s.end - s.start).normalized();
       pi.cap = std::min(feed, axis_cap(vmax, std::abs(u.x()), std::abs(u.y())));
-      pi.accel = axis_cap(amax, std::abs(u.x()), std::abs(u.y()));
+      pi.a_line = axis_cap(amax, std::abs(u.x()), std::abs(u.y()));
     }
     path.segments.push_back(s);
     path.feed_mm_per_s.push_back(feed);
@@ -372,33 +404,27 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
   }
   traj->length_mm_ = total;
 
-  // 3. Zones.
+  // 3. Zones: consecutive pieces whose speed caps agree within kZoneMergeRel.
   std::vector<Zone> zones;
   for (std::size_t k = 0; k < info.size(); ++k) {
     const PieceInfo& pi = info[k];
     const double l = length(path.segments[k]);
     bool join = !zones.empty() && !pi.stop_before;
-    if (join) {
-      const Zone& z = zones.back();
-      const PieceInfo& ref = info[z.first];
-      join = std::abs(pi.cap - ref.cap) <= kZoneMergeRel * ref.cap &&
-             std::abs(pi.accel - ref.accel) <= kZoneMergeRel * ref.accel;
-    }
-    if (join) {
-      Zone& z = zones.back();
-      z.last = k;
-      z.length += l;
-      z.cap = std::min(z.cap, pi.cap);
-      z.accel = std::min(z.accel, pi.accel);
-    } else {
+    if (join) join = std::abs(pi.cap - info[zones.back().first].cap) <= kZoneMergeRel * info[zones.back().first].cap;
+    if (!join) {
       Zone z;
-      z.first = z.last = k;
+      z.first = k;
       z.s0 = traj->piece_s0_[k];
-      z.length = l;
       z.cap = pi.cap;
-      z.accel = pi.accel;
+      z.a_curve = a_min;
       zones.push_back(z);
     }
+    Zone& z = zones.back();
+    z.last = k;
+    z.length += l;
+    z.cap = std::min(z.cap, pi.cap);
+    z.a_line = std::min(z.a_line, pi.a_line);
+    z.kappa = std::max(z.kappa, pi.kappa);
   }
 
   // 4. Node speeds: caps, then the reverse and forward passes.
@@ -408,16 +434,16 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
   for (std::size_t k = 1; k < nz; ++k)
     node[k] = info[zones[k].first].stop_before ? 0.0 : std::min(zones[k - 1].cap, zones[k].cap);
   for (std::size_t k = nz; k-- > 1;)
-    node[k] = std::min(node[k], reachable(node[k + 1], zones[k].length, zones[k].accel, j, node[k]));
+    node[k] = std::min(node[k], reachable(node[k + 1], zones[k], j, node[k]));
   for (std::size_t k = 1; k < nz; ++k)
-    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1].length, zones[k - 1].accel, j, node[k]));
+    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1], j, node[k]));
 
   // 5. One accelerate / cruise / decelerate profile per zone.
   ProfileBuilder pb(traj->phases_);
   for (std::size_t k = 0; k < nz; ++k) {
     const Zone& z = zones[k];
-    const double v0 = node[k], v1 = node[k + 1], a = z.accel;
-    auto need = [&](double vp) { return transition_distance(v0, vp, a, j) + transition_distance(vp, v1, a, j); };
+    const double v0 = node[k], v1 = node[k + 1];
+    auto need = [&](double vp) { return transition_distance(v0, vp, z, j) + transition_distance(vp, v1, z, j); };
     double vp = z.cap;
     if (need(vp) > z.length) {
       double lo = std::max(v0, v1), hi = z.cap;
@@ -428,10 +454,10 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
       vp = lo;
     }
     pb.anchor(pb.t(), z.s0, v0);
-    pb.transition(v0, vp, a, j);
+    pb.transition(v0, vp, z, j);
     const double cruise = z.length - need(vp);
     if (cruise > 0.0 && vp > 0.0) pb.phase(0.0, cruise / vp);
-    pb.transition(vp, v1, a, j);
+    pb.transition(vp, v1, z, j);
   }
   traj->duration_s_ = pb.t();
   for (const ProfilePhase& p : traj->phases_) traj->phase_t0_.push_back(p.t0_s);

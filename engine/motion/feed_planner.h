@@ -32,11 +32,12 @@
 //    direction u: speed <= min(feed, min_i vmax_i / |u_i|) and tangential acceleration
 //    <= min_i amax_i / |u_i| (this is exactly the largest that keeps every axis in its limit).
 //    On an arc of radius r (programmed or blend) the acceleration has a tangential part a_t and
-//    a normal part v^2 / r; we split the smaller axis limit a = min_i amax_i as LinuxCNC does:
-//    a_t <= f a, v^2 / r <= sqrt(1 - f^2) a, f = curve_tangential_fraction, so |a| <= a and
-//    each axis is within its limit. The speed is also <= min_i vmax_i and small enough that the
-//    chord between two servo samples (Koren's V T step) stays within delta of the arc:
-//    (v T)^2 / (8 r) <= delta.
+//    a normal part v^2 / r, and over a range of directions every axis sees its full norm at
+//    some point, so we keep |a| = sqrt(a_t^2 + (v^2/r)^2) <= a = min_i amax_i: the speed is
+//    capped by v^2 / r <= f a (f = curve_normal_fraction) and the tangential acceleration at
+//    speed v is A(v) = sqrt(a^2 - (v^2/r)^2), at least sqrt(1 - f^2) a. The speed is also
+//    <= min_i vmax_i and small enough that the chord between two servo samples (Koren's V T
+//    step) stays within delta of the arc: (v T)^2 / (8 r) <= delta.
 //
 // 3. Velocity profile (look-ahead). Consecutive pieces whose caps agree within 0.5 % form a
 //    zone (taking the smaller caps). Inside a zone the speed follows jerk-limited S-curves;
@@ -53,7 +54,9 @@
 //    each node is lowered so that the next node can still be reached by braking within the
 //    zone between; forward, so that it can be reached by accelerating. Each zone then gets
 //    accelerate / cruise / decelerate at the highest peak speed that fits its length. All of
-//    this is computed in plan_stretch; sample() only evaluates the stored pieces.
+//    this is computed in plan_stretch; sample() only evaluates the stored pieces. On zones with
+//    arcs A depends on the speed; a speed change is split at 0.7 of the zone's cap into two
+//    pulses, each using A at its top speed (low speeds leave more room for a_t).
 //
 //    The zero-acceleration nodes cost a little time where caps change often (a spline cut
 //    into segments of varying length); the figures in tests/motion show the price on the
@@ -106,9 +109,11 @@ struct PlannerOptions {
   double path_tolerance_mm = 0.01;
   // The executor's sampling period, s (Koren's T): bounds the chord between two samples.
   double servo_period_s = 0.001;
-  // On curves, the share f of the acceleration limit given to the tangential acceleration; the
-  // normal acceleration gets sqrt(1 - f^2). LinuxCNC's blends use 0.5; 0.6 gives 0.8 normal.
-  double curve_tangential_fraction = 0.6;
+  // On curves, the largest share f of the acceleration limit a the normal acceleration v^2 / r
+  // may take at the cap speed; the tangential acceleration gets the rest, sqrt(a^2 - (v^2/r)^2),
+  // at least sqrt(1 - f^2) a. LinuxCNC's blends give 0.87 to the normal part and 0.5 to the
+  // tangential one; 0.8 leaves at least 0.6 a for speed changes.
+  double curve_normal_fraction = 0.8;
 
   // The two machines' defaults: the thermal gantry (v 81.8 mm/s, a 500 mm/s^2, j 20000) and
   // the NSK XY table (v 1200 mm/s, a 5000 mm/s^2, j 200000).

@@ -18,7 +18,10 @@ namespace {
 using ::testing::HasSubstr;
 constexpr double kPi = std::numbers::pi;
 
-Job job_of(const std::string& gcode, const JobOptions& o = {}) { return make_job(read_gcode(gcode, "part.ngc"), o); }
+// The reader wants a program end; append one after the lines under test.
+Job job_of(const std::string& gcode, const JobOptions& o = {}) {
+  return make_job(read_gcode(gcode + "M2\n", "part.ngc"), o);
+}
 
 double stretch_length(const Stretch& s) {
   double l = 0;
@@ -38,8 +41,7 @@ TEST(MakeJob, GroupsRapidsFeedsAndTorchEvents) {
       "G1 X40 Y20 F1200\n"     // 8
       "M5\n"                   // 9
       "G4 P0.5\n"              // 10
-      "G0 X0 Y0\n"             // 11
-      "M2\n");
+      "G0 X0 Y0\n");           // 11
   ASSERT_EQ(job.stretches.size(), 5u);
   EXPECT_EQ(job.source, "part.ngc");
   EXPECT_TRUE(job.stretches[0].rapid);
