@@ -149,7 +149,7 @@ class PlannedTrajectory final : public Trajectory {
   // blend deviation; 0 when nothing was blended). At most path_tolerance_mm.
   double max_deviation_mm() const { return max_deviation_mm_; }
   double length_mm() const { return length_mm_; }
-  // Path speed at arc length `s_mm` is not stored; the profile is:
+  // The path-speed profile: constant-jerk phases in time order, covering [0, duration_s()].
   const std::vector<ProfilePhase>& profile() const { return phases_; }
   // Number of junctions blended and of junctions where the tool stops (start/end excluded).
   int blended_junctions() const { return blended_; }
