@@ -20,6 +20,10 @@ void ServoGains::validate() const {
   require(nonneg(velocity_ff) && velocity_ff <= 3, "velocity_ff", velocity_ff, "must be in [0, 3]");
   require(nonneg(acceleration_ff_s) && acceleration_ff_s <= 1, "acceleration_ff_s", acceleration_ff_s,
           "must be in [0, 1] s");
+  require(nonneg(ff_adaptation_per_s2) && ff_adaptation_per_s2 <= 1e5, "ff_adaptation_per_s2", ff_adaptation_per_s2,
+          "must be in [0, 1e5]");
+  require(std::isfinite(ff_adaptation_min_speed_mm_per_s) && ff_adaptation_min_speed_mm_per_s > 0,
+          "ff_adaptation_min_speed_mm_per_s", ff_adaptation_min_speed_mm_per_s, "must be > 0");
   require(std::isfinite(following_error_limit_mm) && following_error_limit_mm > 0, "following_error_limit_mm",
           following_error_limit_mm, "must be > 0");
   require(nonneg(backlash_compensation_mm) && backlash_compensation_mm <= 5, "backlash_compensation_mm",

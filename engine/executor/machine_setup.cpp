@@ -22,6 +22,10 @@ void MachineSetup::validate() const {
     require(s.dac_bits >= 8 && s.dac_bits <= 24, ax + "dac_bits", s.dac_bits, "must be 8 .. 24");
     require(std::isfinite(s.dac_full_scale_mm_per_s) && s.dac_full_scale_mm_per_s > 0, ax + "dac_full_scale_mm_per_s",
             s.dac_full_scale_mm_per_s, "must be > 0");
+    require(s.command_latency_ticks >= 0 && s.command_latency_ticks <= 100, ax + "command_latency_ticks",
+            s.command_latency_ticks, "must be 0 .. 100");
+    require(s.reading_latency_ticks >= 0 && s.reading_latency_ticks <= 100, ax + "reading_latency_ticks",
+            s.reading_latency_ticks, "must be 0 .. 100");
     require(std::isfinite(max_speed_mm_per_s[i]) && max_speed_mm_per_s[i] > 0, ax + "max_speed_mm_per_s",
             max_speed_mm_per_s[i], "must be > 0");
     servo[i].validate();

@@ -55,6 +55,8 @@ struct AxisSignals {
   int counter_bits = 16;
   int dac_bits = 12;
   double dac_full_scale_mm_per_s = 0.0;  // speed commanded by the largest DAC code (nominal)
+  int command_latency_ticks = 0;         // periods between exchange() and the drive acting
+  int reading_latency_ticks = 0;         // age of the counter values exchange() returns, periods
 };
 
 class Backend {

@@ -65,7 +65,7 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
   }
 
   const Yaml s = a.at("servo");
-  s.reject_unknown_keys({"kp_per_s", "ki_per_s2", "kd", "velocity_ff", "acceleration_ff_s", "following_error_limit_mm",
+  s.reject_unknown_keys({"kp_per_s", "ki_per_s2", "kd", "velocity_ff", "acceleration_ff_s", "ff_adaptation_per_s2", "ff_adaptation_min_speed_mm_per_s", "following_error_limit_mm",
                          "backlash_compensation_mm", "backlash_compensation_time_s"});
   control::ServoGains& g = ax.servo;
   g.kp_per_s = s.number("kp_per_s", kNonNegative);
@@ -73,6 +73,9 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
   g.kd = s.number_or("kd", 0.0, kNonNegative);
   g.velocity_ff = s.number_or("velocity_ff", 1.0, {.min = 0, .max = 3});
   g.acceleration_ff_s = s.number_or("acceleration_ff_s", 0.0, {.min = 0, .max = 1});
+  g.ff_adaptation_per_s2 = s.number_or("ff_adaptation_per_s2", 0.0, {.min = 0, .max = 1e5});
+  g.ff_adaptation_min_speed_mm_per_s =
+      s.number_or("ff_adaptation_min_speed_mm_per_s", g.ff_adaptation_min_speed_mm_per_s, kPositive);
   g.following_error_limit_mm = s.number("following_error_limit_mm", kPositive);
   g.backlash_compensation_mm = s.number_or("backlash_compensation_mm", 0.0, {.min = 0, .max = 5});
   g.backlash_compensation_time_s = s.number_or("backlash_compensation_time_s", g.backlash_compensation_time_s, kPositive);
@@ -175,7 +178,8 @@ executor::MachineSetup MachineConfig::setup() const {
   s.name = name;
   for (int i = 0; i < 2; ++i) {
     const auto& p = axes[i].plant;
-    s.signals[i] = {p.mm_per_count(), p.counter_bits, p.dac_bits, p.dac_full_scale_mm_per_s()};
+    s.signals[i] = {p.mm_per_count(), p.counter_bits, p.dac_bits, p.dac_full_scale_mm_per_s(), p.command_latency_ticks,
+                    p.reading_latency_ticks};
     s.servo[i] = axes[i].servo;
     s.max_speed_mm_per_s[i] = p.max_speed_mm_per_s();
   }
