@@ -612,6 +612,10 @@ void Runner::sequence() {
     case Phase::stop_disable:
     case Phase::done: break;
   }
+  // A step that ended in this tick hands over at once (torch off, next move) rather than one
+  // period later.
+  for (std::size_t guard = 0; phase_ == Phase::dispatch && !faulted_ && guard <= job_.steps.size() + 1; ++guard)
+    begin_step();
 }
 
 void Runner::account_contour_error() {
