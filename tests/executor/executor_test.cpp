@@ -210,6 +210,27 @@ TEST(Executor, ReportJsonAndCsv) {
   EXPECT_NE(test::error_of([] { mode_from_string("fast"); }).find("--mode: unknown mode 'fast'"), std::string::npos);
 }
 
+TEST(Executor, XyTableRunsAFastMoveToItsEnd) {
+  const auto m = cutting::load_machine(cutting::find_machine("xy_table"));
+  motion::Job job;
+  job.source = "table.ngc";
+  job.start_mm = {50, 50};
+  job.stretches.push_back(test::make_stretch(test::polyline_segments({{50, 50}, {350, 300}}, false), 1000, false, true));
+  job.steps.push_back({Step::Kind::move, 1, 0, 0.0});
+  Trajectories tr;
+  tr.push_back(std::make_unique<test::LineTrajectory>(Eigen::Vector2d(50, 50), Eigen::Vector2d(350, 300), 1000,
+                                                      m.limits.acceleration_mm_per_s2));
+  sim::SimOptions so;
+  so.start_mm = job.start_mm;
+  sim::SimBackend sim(m, so);
+  const ExecutionResult r = Executor(m.setup(), {}).run(job, tr, sim);
+  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  Eigen::Vector2d at;
+  sim.true_position(at);
+  EXPECT_LT((at - Eigen::Vector2d(350, 300)).norm(), 0.02);
+  EXPECT_NEAR(r.rapid_distance_mm, std::hypot(300.0, 250.0), 1e-9);
+}
+
 TEST(ExecutorOptions, ValidateNamesTheField) {
   ExecutorOptions o;
   o.blu_mm = 0;
