@@ -42,13 +42,14 @@
 // machine (see engine/hardware/backend.h). The report keeps the last trusted position.
 //
 // Time budget: the servo period is 1 ms (the backend's). The executor's own work per tick
-// (decoding two counters, two PID updates, a few Trajectory::sample calls, a handful of comparisons,
-// a bounded nearest-segment search over at most 10 segments for the contour error, one trace
-// store) must stay under 50 us on the target PC, leaving the rest of the period to the
-// backend's I/O; bench/executor_bench.cpp measures it (about 0.09 us here, bench/results/executor.txt). The tick allocates
-// nothing, takes no lock, does no I/O and logs nothing: all buffers (trace, paper-mode
-// vectors) are filled or reserved before the first tick, and fault messages are composed
-// after the run from the numbers recorded in the tick.
+// (decoding two counters, two PID updates, a few Trajectory::sample calls, a handful of
+// comparisons, a bounded nearest-segment search over at most 10 segments for the contour
+// error, one trace store) must stay under 50 us on the target PC, leaving the rest of the
+// period to the backend's I/O; bench/executor_bench.cpp measures about 0.09 us here
+// (bench/results/executor.txt). The tick allocates nothing, takes no lock, does no I/O and
+// logs nothing: all buffers (trace, paper-mode vectors) are filled or reserved before the
+// first tick, and fault messages are composed after the run from the numbers recorded in the
+// tick.
 //
 // Threading: run() occupies the calling thread until the job ends. request_stop() may be
 // called from any thread.
