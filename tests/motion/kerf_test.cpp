@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -363,6 +364,53 @@ TEST(Kerf, LeadOutBackToThePierceIsNotPartOfTheLoop) {
   const Contour l = loop_of(s, 1, s.segments.size() - 2);
   EXPECT_NEAR(signed_area(l), 100 + 40 * 0.5 + kPi * 0.25, 1e-9);
   expect_continuous(job);
+}
+
+TEST(Kerf, RandomStarPartsWithHolesKeepTheDistanceProperty) {
+  // Seeded random star-shaped parts (about the origin, pierced outside on the ray through
+  // their first vertex) with a round hole at the origin (pierced at its centre).
+  std::mt19937 rng(1234);
+  std::uniform_real_distribution<double> ur(8.0, 25.0), ua(0.0, 2 * kPi), uk(0.3, 3.0);
+  int used = 0;
+  for (int trial = 0; trial < 80; ++trial) {
+    const int n = 3 + trial % 13;
+    std::vector<double> ang(n);
+    for (auto& a : ang) a = ua(rng);
+    std::sort(ang.begin(), ang.end());
+    std::vector<Vector2d> v;
+    for (double a : ang) v.push_back(ur(rng) * Vector2d(std::cos(a), std::sin(a)));
+    if (trial % 2) std::reverse(v.begin(), v.end());
+    std::vector<Segment> part;
+    for (int i = 0; i < n; ++i) part.push_back(line(v[i], v[(i + 1) % n]));
+    const Contour part_c = loop_of(cut(part, 1), 0, n);
+    if (std::abs(signed_area(part_c)) < 1.0 || !self_intersections(part_c, 1e-6).empty()) continue;
+    if (!contains(part_c, Vector2d::Zero())) continue;  // the origin must be inside for a hole there
+    const double kerf = uk(rng);
+    // A hole well clear of the part's edge and larger than the kerf.
+    const double hole_r = 0.5 * distance(part_c, Vector2d::Zero());
+    if (hole_r < kerf) continue;
+    ++used;
+    const Vector2d pierce = 1.2 * v[0];
+    Job job = make({rapid({-60, -60}, Vector2d::Zero(), 1),
+                    cut(concat({line(Vector2d::Zero(), {hole_r, 0})}, circle_loop({0, 0}, hole_r, trial % 3 == 0)), 10),
+                    rapid({hole_r, 0}, pierce, 20), cut(concat({line(pierce, v[0])}, part), 30)});
+    const KerfReport r = apply_kerf(job, kerf);
+    const std::string what = "trial " + std::to_string(trial);
+    ASSERT_EQ(r.compensated_count(), 2u) << what << "\n" << r.brief();
+    expect_continuous(job);
+    const Stretch& hole = job.stretches[1];
+    const Stretch& p = job.stretches[3];
+    EXPECT_EQ(hole.segments.front().start, Vector2d::Zero()) << what;
+    EXPECT_EQ(p.segments.front().start, pierce) << what;
+    for (std::size_t i = 1; i < hole.segments.size(); ++i)
+      for (double t : {0.0, 0.5, 1.0})
+        ASSERT_NEAR(point_at(hole.segments[i], t).norm(), hole_r - kerf / 2, 1e-9) << what;
+    expect_all_at({p.segments.begin() + 1, p.segments.end()}, part_c, kerf / 2);
+    const Contour new_part = loop_of(p, 1, p.segments.size() - 1);
+    EXPECT_EQ(orientation(new_part), orientation(part_c)) << what;
+    for (const auto& q : part_c.vertices()) EXPECT_TRUE(contains(new_part, q)) << what;
+  }
+  EXPECT_GE(used, 20);  // the generator gives enough usable parts
 }
 
 TEST(Kerf, FirstMoveWithoutLeadInGetsAConnector) {
