@@ -103,7 +103,8 @@ const char* to_string(OffsetProblem::Kind k);
 struct OffsetResult {
   std::vector<Contour> contours;
   // source_spans[k][j]: the original span whose offset produced span j of contours[k]; for
-  // a corner arc, the span that ends at that corner (as walked in the input's direction).
+  // a corner arc, one of the two spans meeting at that corner (the one ending there for a
+  // counter-clockwise input, the one starting there for a clockwise input).
   std::vector<std::vector<std::size_t>> source_spans;
   std::vector<OffsetProblem> problems;
 
