@@ -386,7 +386,7 @@ Polyline drop_collinear(const Polyline& p, const Zones& zones, double tol_mm) {
   return out;
 }
 
-Polyline shorten(const Polyline& raw, const Zones& zones, og::PathSimplifier& simplifier, og::PathGeometric& path) {
+Polyline shorten(const Zones& zones, og::PathSimplifier& simplifier, og::PathGeometric& path) {
   simplifier.reduceVertices(path);
   simplifier.shortcutPath(path, 200, 50);
   Polyline p = pull_string(to_polyline(path), zones);
@@ -396,7 +396,6 @@ Polyline shorten(const Polyline& raw, const Zones& zones, og::PathSimplifier& si
     p = drop_collinear(p, zones, 1e-6);
     if (gained < 1e-6) break;
   }
-  (void)raw;
   return p;
 }
 
@@ -523,7 +522,8 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector
     return plan;
   }
 
-  plan.straight_blocked = !zones.segment_clear(from, to);
+  // A rapid that goes nowhere moves nothing, wherever it is.
+  plan.straight_blocked = from != to && !zones.segment_clear(from, to);
   const auto finish = [&](RapidStatus status, Polyline inner, const Escape& s, const Escape& e, std::string msg) {
     plan.status = status;
     plan.min_clearance_mm = zones.polyline_distance(inner);
@@ -608,7 +608,7 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector
     Polyline p = raw;
     if (options.simplify) {
       SeededSimplifier simplifier(si, derive_seed(options.seed, attempt, 3));
-      p = shorten(raw, zones, simplifier, *path);
+      p = shorten(zones, simplifier, *path);
       p.front() = a, p.back() = b;
     }
     if (!zones.polyline_clear(p)) p = raw;  // cannot happen; never return an unchecked path

@@ -112,6 +112,14 @@ TEST(RapidPlanner, StraightWhenFree) {
   EXPECT_NEAR(p.min_clearance_mm, polyline_box_distance(p.polyline, {kClamp}), 1e-9);
 }
 
+TEST(RapidPlanner, ZeroLengthRapidOnAZoneMovesNothing) {
+  const RapidPlan p = plan_rapid({50, 0}, {50, 0}, contours({kClamp}), RapidOptions{});
+  EXPECT_EQ(p.status, RapidStatus::straight);
+  EXPECT_FALSE(p.straight_blocked);
+  EXPECT_EQ(p.polyline.size(), 2u);
+  EXPECT_EQ(p.length_mm, 0.0);
+}
+
 TEST(RapidPlanner, StraightTestIsExactAtTheClearance) {
   // A horizontal move passing the clamp's top edge at clearance + 1 um is straight; at
   // clearance - 1 um it is blocked (the straight check is not sampled).
