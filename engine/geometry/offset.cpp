@@ -14,26 +14,8 @@ namespace {
 
 using Eigen::Vector2d;
 constexpr double kPi = std::numbers::pi;
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
-
-double cross(const Vector2d& a, const Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
-
-double wrap_positive(double a) {
-  double w = std::fmod(a, kTwoPi);
-  if (w < 0) w += kTwoPi;
-  if (w >= kTwoPi) w = 0.0;
-  return w;
-}
 
 Vector2d unit(double angle) { return {std::cos(angle), std::sin(angle)}; }
-
-// Unit tangent at the start / end of a segment of positive length.
-Vector2d tangent_at(const Segment& s, bool at_end) {
-  if (!s.is_arc()) return (s.end - s.start).normalized();
-  const double phi = at_end ? s.end_angle() : s.start_angle;
-  const Vector2d t(-std::sin(phi), std::cos(phi));
-  return s.sweep > 0 ? t : Vector2d(-t);
-}
 
 Segment make_line(const Vector2d& a, const Vector2d& b) {
   Segment s;
@@ -53,23 +35,6 @@ Segment make_arc(const Vector2d& c, double r, double start_angle, double sweep) 
   s.start = c + r * unit(start_angle);
   s.end = c + r * unit(start_angle + sweep);
   return s;
-}
-
-// Parameter in [0, 1] (uniform in length) of the point of `s` at or nearest to `p`, which is
-// assumed to lie on the segment up to rounding.
-double param_of(const Segment& s, const Vector2d& p) {
-  if (!s.is_arc()) {
-    const Vector2d d = s.end - s.start;
-    const double l2 = d.squaredNorm();
-    if (l2 == 0.0) return 0.0;
-    return std::clamp((p - s.start).dot(d) / l2, 0.0, 1.0);
-  }
-  const Vector2d v = p - s.center;
-  const double a = std::atan2(v.y(), v.x());
-  const double span = std::abs(s.sweep);
-  const double delta = s.sweep > 0 ? wrap_positive(a - s.start_angle) : wrap_positive(s.start_angle - a);
-  if (delta <= span) return span > 0 ? delta / span : 0.0;
-  return (delta - span) < (kTwoPi - delta) ? 1.0 : 0.0;
 }
 
 // The piece of `s` between parameters t0 < t1 whose end points are p0, p1 (exact values
@@ -230,7 +195,7 @@ OffsetResult offset_contour(const Contour& contour, double d, const OffsetOption
   std::vector<double> turn(m);
   for (std::size_t j = 0; j < m; ++j) {
     const std::size_t k = (j + 1) % m;
-    const Vector2d t1 = tangent_at(spans[j], true), t2 = tangent_at(spans[k], false);
+    const Vector2d t1 = end_tangent(spans[j]), t2 = start_tangent(spans[k]);
     const double cr = cross(t1, t2), dt = t1.dot(t2);
     double theta = std::atan2(cr, dt);
     if (dt < 0 && std::abs(cr) <= 1e-12) theta = d > 0 ? kPi : -kPi;  // a cusp: go round its tip
@@ -255,7 +220,7 @@ OffsetResult offset_contour(const Contour& contour, double d, const OffsetOption
         const double lj = length(off[j].seg), lk = length(off[k].seg);
         double best_cut = 0.0;
         for (const auto& p : hit.points) {
-          const double tj = param_of(off[j].seg, p), tk = param_of(off[k].seg, p);
+          const double tj = parameter_at(off[j].seg, p), tk = parameter_at(off[k].seg, p);
           const double cut = (1.0 - tj) * lj + tk * lk;
           if (!best || cut < best_cut) {
             best_cut = cut;
@@ -319,8 +284,8 @@ OffsetResult offset_contour(const Contour& contour, double d, const OffsetOption
           if (b == a + 1) at_joint = at_joint || (p - raw[a].seg.end).norm() <= tol;
           if (a == 0 && b == nr - 1) at_joint = at_joint || (p - raw[b].seg.end).norm() <= tol;
           if (at_joint) continue;
-          splits[a].push_back({param_of(raw[a].seg, p), p});
-          splits[b].push_back({param_of(raw[b].seg, p), p});
+          splits[a].push_back({parameter_at(raw[a].seg, p), p});
+          splits[b].push_back({parameter_at(raw[b].seg, p), p});
         }
       }
   }

@@ -22,7 +22,6 @@ constexpr double kMinBlendMm = 1e-6;        // shorter blends become stops
 constexpr double kZoneMergeRel = 0.005;     // caps within 0.5 % share a zone
 constexpr int kDeviationSamples = 64;
 
-double cross(const Vector2d& a, const Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
 Vector2d left_normal(const Vector2d& t) { return Vector2d(-t.y(), t.x()); }
 
 void require(bool ok, const char* field, double value, const char* rule) {

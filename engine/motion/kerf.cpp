@@ -15,30 +15,8 @@ namespace {
 
 using Eigen::Vector2d;
 constexpr double kPi = std::numbers::pi;
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 double bulge_of(const Segment& s) { return s.is_arc() ? std::tan(s.sweep / 4.0) : 0.0; }
-
-double wrap_positive(double a) {
-  double w = std::fmod(a, kTwoPi);
-  if (w < 0) w += kTwoPi;
-  if (w >= kTwoPi) w = 0.0;
-  return w;
-}
-
-// Parameter in [0, 1] of the point of `s` nearest to `p` (assumed on or near it).
-double param_of(const Segment& s, const Vector2d& p) {
-  if (!s.is_arc()) {
-    const Vector2d d = s.end - s.start;
-    const double l2 = d.squaredNorm();
-    return l2 == 0.0 ? 0.0 : std::clamp((p - s.start).dot(d) / l2, 0.0, 1.0);
-  }
-  const Vector2d v = p - s.center;
-  const double a = std::atan2(v.y(), v.x()), span = std::abs(s.sweep);
-  const double delta = s.sweep > 0 ? wrap_positive(a - s.start_angle) : wrap_positive(s.start_angle - a);
-  if (delta <= span) return span > 0 ? delta / span : 0.0;
-  return (delta - span) < (kTwoPi - delta) ? 1.0 : 0.0;
-}
 
 // The part of `s` from its start to parameter t.
 Segment head_of(const Segment& s, double t) { return make_segment(s.start, point_at(s, t), std::tan(s.sweep * t / 4)); }
@@ -120,7 +98,7 @@ std::pair<Contour, std::vector<std::size_t>> start_near(const Contour& c, const 
       v.push_back(c.vertices()[i]), b.push_back(c.bulges()[i]), ids.push_back(src[i]);
     }
   } else {
-    const double t = param_of(s, cp.point);
+    const double t = parameter_at(s, cp.point);
     v.push_back(cp.point), b.push_back(std::tan(s.sweep * (1 - t) / 4)), ids.push_back(src[cp.span]);
     for (std::size_t k = 1; k < n; ++k) {
       const std::size_t i = (cp.span + k) % n;
@@ -303,9 +281,7 @@ KerfReport apply_kerf(Job& job, double kerf_width_mm, const KerfOptions& options
     const Contour& c = lc.contour;
     const Segment first = c.span(0);
     const Vector2d p0 = c.vertices()[0];
-    Vector2d tangent = first.is_arc() ? Vector2d(-std::sin(first.start_angle), std::cos(first.start_angle))
-                                      : Vector2d((first.end - first.start).normalized());
-    if (first.is_arc() && first.sweep < 0) tangent = -tangent;
+    const Vector2d tangent = start_tangent(first);
     const Vector2d right(tangent.y(), -tangent.x());
     const Orientation orient = orientation(c);
     const Vector2d outward = orient == Orientation::ccw ? right : Vector2d(-right);

@@ -33,15 +33,6 @@ using Polyline = std::vector<Vector2d>;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-double cross(const Vector2d& a, const Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
-
-double point_line_distance(const Vector2d& p, const Vector2d& a, const Vector2d& b) {
-  const Vector2d d = b - a;
-  const double l2 = d.squaredNorm();
-  const double t = l2 > 0.0 ? std::clamp((p - a).dot(d) / l2, 0.0, 1.0) : 0.0;
-  return (a + t * d - p).norm();
-}
-
 double path_length(const Polyline& p) {
   double s = 0.0;
   for (std::size_t i = 1; i < p.size(); ++i) s += (p[i] - p[i - 1]).norm();
@@ -167,19 +158,6 @@ struct Escape {
   std::string why;
 };
 
-// Unit tangent of a span at its point q.
-Vector2d span_tangent(const Segment& s, const Vector2d& q) {
-  if (!s.is_arc()) {
-    const Vector2d d = s.end - s.start;
-    return d.norm() > 0.0 ? Vector2d(d.normalized()) : Vector2d(1.0, 0.0);
-  }
-  const Vector2d r = q - s.center;
-  const Vector2d t(-r.y(), r.x());
-  const double n = t.norm();
-  if (n == 0.0) return {1.0, 0.0};
-  return (s.sweep >= 0 ? 1.0 : -1.0) * t / n;
-}
-
 Escape escape_from(const Vector2d& p, const Zones& zones, const Eigen::AlignedBox2d& bounds) {
   Escape e;
   e.point = p;
@@ -211,7 +189,7 @@ Escape escape_from(const Vector2d& p, const Zones& zones, const Eigen::AlignedBo
       if (inside) n = -n;
     } else {
       // On the boundary: the normal of the span, on the side that is not inside.
-      const Vector2d t = span_tangent(zones.spans(worst)[cp.span], cp.point);
+      const Vector2d t = tangent_at(zones.spans(worst)[cp.span], cp.point);
       n = Vector2d(t.y(), -t.x());
       const bool plus_in = contains(zones.contour(worst), cp.point + c * n);
       const bool minus_in = contains(zones.contour(worst), cp.point - c * n);
@@ -351,9 +329,7 @@ double tighten_vertices(Polyline& p, const Zones& zones) {
   const double before = path_length(p);
   for (std::size_t i = 1; i + 1 < p.size(); ++i) {
     const Vector2d a = p[i - 1], v = p[i], b = p[i + 1];
-    const Vector2d d = b - a;
-    const double l2 = d.squaredNorm();
-    const Vector2d target = l2 > 0 ? Vector2d(a + std::clamp((v - a).dot(d) / l2, 0.0, 1.0) * d) : a;
+    const Vector2d target = closest_point_on_segment(a, b, v);
     const auto clear_at = [&](double t) {
       const Vector2d q = v + t * (target - v);
       return zones.segment_clear(a, q) && zones.segment_clear(q, b);
@@ -379,7 +355,7 @@ Polyline drop_collinear(const Polyline& p, const Zones& zones, double tol_mm) {
   Polyline out{p.front()};
   for (std::size_t i = 1; i + 1 < p.size(); ++i) {
     const Vector2d& a = out.back();
-    if (point_line_distance(p[i], a, p[i + 1]) <= tol_mm && zones.segment_clear(a, p[i + 1])) continue;
+    if (point_segment_distance(p[i], a, p[i + 1]) <= tol_mm && zones.segment_clear(a, p[i + 1])) continue;
     out.push_back(p[i]);
   }
   out.push_back(p.back());
@@ -425,12 +401,12 @@ double segment_distance_mm(const Vector2d& a, const Vector2d& b, const Segment& 
     const double o1 = cross(b - a, c - a), o2 = cross(b - a, d - a);
     const double o3 = cross(d - c, a - c), o4 = cross(d - c, b - c);
     if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0))) return 0.0;
-    return std::min({point_line_distance(c, a, b), point_line_distance(d, a, b), point_line_distance(a, c, d),
-                     point_line_distance(b, c, d)});
+    return std::min({point_segment_distance(c, a, b), point_segment_distance(d, a, b), point_segment_distance(a, c, d),
+                     point_segment_distance(b, c, d)});
   }
   const auto to_arc = [&](const Vector2d& q) { return (closest_point(span, q) - q).norm(); };
-  double best = std::min({to_arc(a), to_arc(b), point_line_distance(span.start, a, b),
-                          point_line_distance(span.end, a, b)});
+  double best = std::min({to_arc(a), to_arc(b), point_segment_distance(span.start, a, b),
+                          point_segment_distance(span.end, a, b)});
   const Vector2d d = b - a;
   const double l2 = d.squaredNorm();
   if (l2 > 0.0) {

@@ -11,6 +11,7 @@
 #include "engine/geometry/contour.h"
 #include "engine/motion/feed_planner.h"
 #include "engine/motion/interpolator.h"
+#include "tests/support/stretches.h"
 
 namespace machplan::motion {
 namespace {
@@ -20,26 +21,10 @@ using ::testing::HasSubstr;
 constexpr double kPi = std::numbers::pi;
 constexpr double kT = 0.001;  // servo period
 
-Segment line(Vector2d a, Vector2d b) {
-  Segment s;
-  s.start = a;
-  s.end = b;
-  return s;
-}
-
-Stretch stretch_of(const std::vector<Segment>& segs, double feed) {
-  Stretch s;
-  s.cutting = true;
-  s.segments = segs;
-  s.feed_mm_per_s.assign(segs.size(), feed);
-  for (std::size_t i = 0; i < segs.size(); ++i) s.source_lines.push_back(static_cast<int>(i) + 1);
-  return s;
-}
-
+Segment line(Vector2d a, Vector2d b) { return make_segment(a, b, 0.0); }
+Stretch stretch_of(const std::vector<Segment>& segs, double feed) { return test::make_stretch(segs, feed, true, false, 1); }
 Stretch polyline(const std::vector<Vector2d>& pts, double feed) {
-  std::vector<Segment> segs;
-  for (std::size_t i = 0; i + 1 < pts.size(); ++i) segs.push_back(line(pts[i], pts[i + 1]));
-  return stretch_of(segs, feed);
+  return stretch_of(test::polyline_segments(pts, false), feed);
 }
 
 // The shapes of the issue, cut at 80 mm/s.

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "tests/support/stretches.h"
 
 namespace machplan::motion {
 namespace {
@@ -24,24 +25,10 @@ Segment line(Vector2d a, Vector2d b) { return make_segment(a, b, 0.0); }
 
 // A cutting stretch through `segs`; source lines first_line, first_line + 1, ...
 Stretch cut(std::vector<Segment> segs, int first_line, double feed = 20.0) {
-  Stretch s;
-  s.cutting = true;
-  for (std::size_t i = 0; i < segs.size(); ++i) {
-    s.feed_mm_per_s.push_back(feed);
-    s.source_lines.push_back(first_line + static_cast<int>(i));
-  }
-  s.segments = std::move(segs);
-  return s;
+  return test::make_stretch(std::move(segs), feed, true, false, first_line);
 }
 
-Stretch rapid(Vector2d a, Vector2d b, int line_no) {
-  Stretch s;
-  s.rapid = true;
-  s.segments = {line(a, b)};
-  s.feed_mm_per_s = {200.0};
-  s.source_lines = {line_no};
-  return s;
-}
+Stretch rapid(Vector2d a, Vector2d b, int line_no) { return test::make_stretch({line(a, b)}, 200.0, false, true, line_no); }
 
 // Steps: a move per stretch, cuts wrapped in torch on / off.
 Job make(std::vector<Stretch> stretches) {

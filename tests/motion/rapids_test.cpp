@@ -14,6 +14,7 @@
 #include "engine/programs/zones.h"
 #include "solvers/motion/rapid_planner.h"
 #include "solvers/motion/rapids.h"
+#include "tests/support/stretches.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::motion {
@@ -352,15 +353,7 @@ TEST(RapidPlanner, SegmentDistanceMatchesDenseSampling) {
 // --- plan_rapids on a Job ------------------------------------------------------------------
 
 Stretch line_stretch(const Polyline& pts, bool cutting, bool rapid, double feed, int line) {
-  Stretch s;
-  s.cutting = cutting;
-  s.rapid = rapid;
-  for (std::size_t i = 1; i < pts.size(); ++i) {
-    s.segments.push_back(make_segment(pts[i - 1], pts[i], 0.0));
-    s.feed_mm_per_s.push_back(feed);
-    s.source_lines.push_back(line + static_cast<int>(i) - 1);
-  }
-  return s;
+  return test::make_stretch(test::polyline_segments(pts, false), feed, cutting, rapid, line);
 }
 
 // Rapid to part A's pierce point, cut A (a lead-in and the square [100, 200] x [0, 100]),
