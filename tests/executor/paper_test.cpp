@@ -7,10 +7,17 @@
 // The paper gives no numbers for its controller's computation time; ExecutorOptions'
 // paper_compute_s (0.2 s, reconstructed) is what makes very small vectors worse, as the paper
 // explains it ("inadequate real time computation").
+// The shapes are the bundled rebuilds of the paper's samples (datasets/parts), each cut run
+// from its pierce point, the torch set on the start point as the paper's operator did;
+// tests/executor/run_parts_test.cpp runs the same programs whole, rapids included.
+#include <algorithm>
 #include <cstdio>
+#include <string>
 
 #include <gtest/gtest.h>
 
+#include "engine/motion/make_job.h"
+#include "engine/programs/gcode.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
 #include "models/sim/simulate.h"
@@ -27,17 +34,22 @@ cutting::MachineConfig paper_gantry() {
   return m;
 }
 
-// The 45-degree triangle, legs 100 mm, and a line/arc slot (two 60 mm lines, two R20 ends).
-motion::Stretch triangle() {
-  const Eigen::Vector2d o(200, 200);
-  return test::make_stretch(test::polyline_segments({o, o + Eigen::Vector2d(100, 0), o + Eigen::Vector2d(100, 100)}, true),
-                            kFeed, true);
+// The cut of a bundled part program (datasets/parts), run at the paper's feed.
+motion::Stretch bundled_cut(const std::string& file) {
+  const Program program = read_gcode_file(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + file);
+  const motion::Job job = motion::make_job(program);
+  for (motion::Stretch s : job.stretches)
+    if (s.cutting) {
+      std::fill(s.feed_mm_per_s.begin(), s.feed_mm_per_s.end(), kFeed);
+      return s;
+    }
+  ADD_FAILURE() << file << " has no cut";
+  return {};
 }
-motion::Stretch slot() {
-  return test::make_stretch({make_segment({500, 500}, {560, 500}, 0), make_segment({560, 500}, {560, 540}, 1),
-                             make_segment({560, 540}, {500, 540}, 0), make_segment({500, 540}, {500, 500}, 1)},
-                            kFeed, true);
-}
+// The 45-degree triangle, legs 100 mm, and the contour of lines and arcs (R20 and R30 arcs,
+// a concave notch, sharp corners), as rebuilt in datasets/parts.
+motion::Stretch triangle() { return bundled_cut("triangle_45.ngc"); }
+motion::Stretch contour() { return bundled_cut("contour_lines_arcs.ngc"); }
 
 double run(const cutting::MachineConfig& m, const motion::Stretch& s, Mode mode, double blu, double cal) {
   auto cut = test::one_cut(s, nullptr);
@@ -85,10 +97,10 @@ TEST(PaperOpenLoop, GainErrorIsVisibleUntilCalibrated) {
   EXPECT_GT(plus30, 2 * calibrated);   // 1.3 x 0.7 = 0.91: still short
   EXPECT_LT(calibrated, 2.0);          // about +-1 mm
   EXPECT_GT(calibrated, 0.2);
-  // Long vectors cut the arcs as chords: worse on the slot.
-  const double slot3 = run(m, slot(), Mode::paper_open, 3.0, k);
-  const double slot20 = run(m, slot(), Mode::paper_open, 20.0, k);
-  EXPECT_GT(slot20, slot3 + 0.4);
+  // Long vectors cut the arcs as chords: worse on the contour.
+  const double contour3 = run(m, contour(), Mode::paper_open, 3.0, k);
+  const double contour20 = run(m, contour(), Mode::paper_open, 20.0, k);
+  EXPECT_GT(contour20, contour3 + 0.4);
 }
 
 TEST(PaperClosedLoop, BestAroundThreeMillimetreVectors) {
@@ -100,12 +112,12 @@ TEST(PaperClosedLoop, BestAroundThreeMillimetreVectors) {
   EXPECT_LT(best, 1.5);  // about +-1 mm
   EXPECT_GT(small, best * 1.5);
   EXPECT_GT(large, best * 3.0);
-  const double slot_small = run(m, slot(), Mode::paper_closed, 0.3, 1.0);
-  const double slot_best = run(m, slot(), Mode::paper_closed, 3.0, 1.0);
-  const double slot_large = run(m, slot(), Mode::paper_closed, 20.0, 1.0);
-  EXPECT_LT(slot_best, 1.5);
-  EXPECT_GT(slot_small, slot_best);
-  EXPECT_GT(slot_large, slot_best * 3.0);
+  const double contour_small = run(m, contour(), Mode::paper_closed, 0.3, 1.0);
+  const double contour_best = run(m, contour(), Mode::paper_closed, 3.0, 1.0);
+  const double contour_large = run(m, contour(), Mode::paper_closed, 20.0, 1.0);
+  EXPECT_LT(contour_best, 1.5);
+  EXPECT_GT(contour_small, contour_best);
+  EXPECT_GT(contour_large, contour_best * 3.0);
   // Re-aiming from the measurement keeps the uncalibrated drive from accumulating error: far
   // better than open loop without a factor.
   EXPECT_LT(best, run(m, triangle(), Mode::paper_open, 3.0, 1.0) / 10);
