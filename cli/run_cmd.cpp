@@ -12,6 +12,7 @@
 
 #include "cli/command.h"
 #include "engine/common/error.h"
+#include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
 #include "solvers/motion/run_plot.h"
 
@@ -81,11 +82,8 @@ void add_run(CLI::App& app) {
     }
     const double magnify = number_of("--magnify", a->magnify);
     if (!(magnify > 0 && magnify <= 1e6)) throw InputError("--magnify", 0, fmt::format("{} must be > 0 and <= 1e6", a->magnify));
-    if (!a->plot.empty()) {
-      const std::string& p = a->plot;
-      const bool ok = p.size() > 4 && (p.substr(p.size() - 4) == ".png" || p.substr(p.size() - 4) == ".svg");
-      if (!ok) throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", p));
-    }
+    if (!a->plot.empty() && !is_picture_path(a->plot))
+      throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", a->plot));
     if (!a->seed.empty()) {
       std::size_t used = 0;
       unsigned long long s = 0;

@@ -79,7 +79,7 @@ struct RunOptions {
   void validate() const;
 };
 
-// One cut's figures in the run's terms.
+// What a run made, what it did, and what it is measured against.
 struct RunOutcome {
   cutting::MachineConfig machine;
   PlannerOptions planner;

@@ -1,6 +1,5 @@
 #include "solvers/motion/run_plot.h"
 
-#include <cairo-svg.h>
 #include <cairo.h>
 
 #include <algorithm>
@@ -10,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "solvers/common/picture.h"
 
 namespace machplan::motion {
 namespace {
@@ -257,29 +257,11 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
 void write_run_plot(const std::string& path, const RunOutcome& run, double magnify) {
   if (!(std::isfinite(magnify) && magnify > 0 && magnify <= 1e6))
     throw InputError("--magnify", 0, fmt::format("{} must be a number > 0 and <= 1e6", magnify));
-  const bool svg = path.size() > 4 && path.substr(path.size() - 4) == ".svg";
-  const bool png = path.size() > 4 && path.substr(path.size() - 4) == ".png";
-  if (!svg && !png) throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", path));
   // Canvas shaped like the job (within limits), so a long sheet does not shrink to a strip.
   const Eigen::AlignedBox2d box = job_extent(run);
   const double aspect = std::clamp(box.sizes().y() / std::max(box.sizes().x(), 1.0), 0.45, 1.2);
   const double W = 1400, H = std::round(134 + (W - 80) * aspect);
-  cairo_surface_t* surface = svg ? cairo_svg_surface_create(path.c_str(), W, H)
-                                 : cairo_image_surface_create(CAIRO_FORMAT_ARGB32, static_cast<int>(W), static_cast<int>(H));
-  if (cairo_surface_status(surface) != CAIRO_STATUS_SUCCESS) {
-    cairo_surface_destroy(surface);
-    throw InputError(path, 0, "cannot create the picture");
-  }
-  cairo_t* cr = cairo_create(surface);
-  draw(cr, W, H, run, magnify);
-  cairo_destroy(cr);
-  cairo_status_t st = CAIRO_STATUS_SUCCESS;
-  if (png) st = cairo_surface_write_to_png(surface, path.c_str());
-  cairo_surface_finish(surface);
-  if (st == CAIRO_STATUS_SUCCESS) st = cairo_surface_status(surface);
-  cairo_surface_destroy(surface);
-  if (st != CAIRO_STATUS_SUCCESS)
-    throw InputError(path, 0, std::string("cannot write the picture: ") + cairo_status_to_string(st));
+  write_picture(path, "--plot", W, H, [&](cairo_t* cr) { draw(cr, W, H, run, magnify); });
 }
 
 }  // namespace machplan::motion
