@@ -18,21 +18,11 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // and 1/|b| in the radius formula stays finite.
 constexpr double kStraightBulge = 1e-12;
 
-double cross(const Vector2d& a, const Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
-
-// Angle a - b wrapped into [0, 2 pi).
-double wrap_positive(double a) {
-  double w = std::fmod(a, kTwoPi);
-  if (w < 0) w += kTwoPi;
-  if (w >= kTwoPi) w = 0.0;
-  return w;
-}
-
 // True when direction angle `phi` lies on the arc's angular range, widened by tol_rad at
 // each end.
 bool angle_on_arc(const Segment& s, double phi, double tol_rad) {
   const double span = std::abs(s.sweep);
-  const double d = s.sweep >= 0 ? wrap_positive(phi - s.start_angle) : wrap_positive(s.start_angle - phi);
+  const double d = s.sweep >= 0 ? wrap_angle_positive(phi - s.start_angle) : wrap_angle_positive(s.start_angle - phi);
   return d <= span + tol_rad || d >= kTwoPi - tol_rad;
 }
 
@@ -182,16 +172,71 @@ Vector2d point_at(const Segment& s, double t) {
 }
 
 Vector2d closest_point(const Segment& s, const Vector2d& p) {
-  if (!s.is_arc()) {
-    const Vector2d d = s.end - s.start;
-    const double l2 = d.squaredNorm();
-    if (l2 == 0.0) return s.start;
-    return s.start + std::clamp((p - s.start).dot(d) / l2, 0.0, 1.0) * d;
-  }
+  if (!s.is_arc()) return closest_point_on_segment(s.start, s.end, p);
   const Vector2d v = p - s.center;
   if (v.norm() > 0.0 && angle_on_arc(s, std::atan2(v.y(), v.x()), 0.0))
     return s.center + s.radius * v.normalized();
   return (s.start - p).squaredNorm() <= (s.end - p).squaredNorm() ? s.start : s.end;
+}
+
+double wrap_angle_positive(double angle_rad) {
+  double w = std::fmod(angle_rad, kTwoPi);
+  if (w < 0) w += kTwoPi;
+  if (w >= kTwoPi) w = 0.0;
+  return w;
+}
+
+Vector2d closest_point_on_segment(const Vector2d& a, const Vector2d& b, const Vector2d& p) {
+  const Vector2d d = b - a;
+  const double l2 = d.squaredNorm();
+  if (l2 == 0.0) return a;
+  return a + std::clamp((p - a).dot(d) / l2, 0.0, 1.0) * d;
+}
+
+double point_segment_distance(const Vector2d& p, const Vector2d& a, const Vector2d& b) {
+  return (closest_point_on_segment(a, b, p) - p).norm();
+}
+
+double parameter_at(const Segment& s, const Vector2d& p) {
+  if (!s.is_arc()) {
+    const Vector2d d = s.end - s.start;
+    const double l2 = d.squaredNorm();
+    return l2 == 0.0 ? 0.0 : std::clamp((p - s.start).dot(d) / l2, 0.0, 1.0);
+  }
+  const Vector2d v = p - s.center;
+  const double a = std::atan2(v.y(), v.x()), span = std::abs(s.sweep);
+  const double delta = s.sweep > 0 ? wrap_angle_positive(a - s.start_angle) : wrap_angle_positive(s.start_angle - a);
+  if (delta <= span) return span > 0 ? delta / span : 0.0;
+  return (delta - span) < (kTwoPi - delta) ? 1.0 : 0.0;
+}
+
+namespace {
+Vector2d arc_tangent_at_angle(const Segment& s, double phi) {
+  const Vector2d t(-std::sin(phi), std::cos(phi));
+  return s.sweep > 0 ? t : Vector2d(-t);
+}
+}  // namespace
+
+Vector2d start_tangent(const Segment& s) {
+  if (!s.is_arc()) return (s.end - s.start).normalized();
+  return arc_tangent_at_angle(s, s.start_angle);
+}
+
+Vector2d end_tangent(const Segment& s) {
+  if (!s.is_arc()) return (s.end - s.start).normalized();
+  return arc_tangent_at_angle(s, s.end_angle());
+}
+
+Vector2d tangent_at(const Segment& s, const Vector2d& q) {
+  if (!s.is_arc()) {
+    const Vector2d d = s.end - s.start;
+    return d.norm() > 0.0 ? Vector2d(d.normalized()) : Vector2d(1.0, 0.0);
+  }
+  const Vector2d r = q - s.center;
+  const Vector2d t(-r.y(), r.x());
+  const double n = t.norm();
+  if (n == 0.0) return {1.0, 0.0};
+  return (s.sweep >= 0 ? 1.0 : -1.0) * t / n;
 }
 
 Eigen::AlignedBox2d bounding_box(const Segment& s) {

@@ -86,6 +86,30 @@ Eigen::Vector2d point_at(const Segment& s, double t);
 // equally near; the start is returned.
 Eigen::Vector2d closest_point(const Segment& s, const Eigen::Vector2d& p);
 
+// The point of the straight segment a -> b nearest to `p` (a when a == b), and its distance.
+// These are the one place the plane's point-to-segment distance is written.
+Eigen::Vector2d closest_point_on_segment(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& p);
+double point_segment_distance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b);
+
+// Parameter t in [0, 1] (uniform in length, as point_at) of the point of `s` at or nearest
+// to `p`, for a `p` that lies on the segment up to rounding. On an arc, a p whose angle falls
+// outside the arc's range gives the end (0 or 1) nearer in angle. A zero-length line gives 0.
+double parameter_at(const Segment& s, const Eigen::Vector2d& p);
+
+// Unit direction of travel at the start / end of a segment of positive length (for an arc,
+// computed from its angles, so exact to rounding).
+Eigen::Vector2d start_tangent(const Segment& s);
+Eigen::Vector2d end_tangent(const Segment& s);
+// Unit direction of travel at a point q of the segment (an arc: perpendicular to q - centre,
+// turned with the sweep). Degenerate cases (zero-length line, q at the centre) give +x.
+Eigen::Vector2d tangent_at(const Segment& s, const Eigen::Vector2d& q);
+
+// z component of the cross product of two plane vectors: a.x b.y - a.y b.x.
+inline double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+// An angle wrapped into [0, 2 pi), rad.
+double wrap_angle_positive(double angle_rad);
+
 // Smallest axis-aligned box holding the segment (arcs: end points plus the extreme points at
 // 0, 90, 180, 270 degrees that the arc passes).
 Eigen::AlignedBox2d bounding_box(const Segment& s);

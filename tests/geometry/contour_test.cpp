@@ -101,6 +101,42 @@ TEST(Contour, DistancesAndClosestPoints) {
   EXPECT_NEAR(distance(circ, {1, 1 - 1}), 2, 1e-12);
 }
 
+// The shared span helpers: point-to-segment distance, parameters, tangents, angle wrapping.
+TEST(SegmentHelpers, PointSegmentDistanceFootAndEnds) {
+  const Vector2d a(1, 1), b(7, 9);  // length 10, direction (0.6, 0.8)
+  // A point 2 mm off the middle along the left normal (-0.8, 0.6): foot at the middle.
+  const Vector2d mid = 0.5 * (a + b), off = mid + 2.0 * Vector2d(-0.8, 0.6);
+  EXPECT_NEAR(point_segment_distance(off, a, b), 2.0, 1e-12);
+  EXPECT_NEAR((closest_point_on_segment(a, b, off) - mid).norm(), 0.0, 1e-12);
+  // Beyond either end the nearest point is that end.
+  EXPECT_NEAR(point_segment_distance(a - Vector2d(3, 4), a, b), 5.0, 1e-12);
+  EXPECT_EQ(closest_point_on_segment(a, b, b + Vector2d(0.6, 0.8)), b);
+  // A degenerate segment is its point.
+  EXPECT_NEAR(point_segment_distance({4, 5}, a, a), 5.0, 1e-12);
+}
+
+TEST(SegmentHelpers, ParameterAndTangents) {
+  const Segment l = make_segment({0, 0}, {10, 0}, 0.0);
+  EXPECT_NEAR(parameter_at(l, {2.5, 0}), 0.25, 1e-12);
+  EXPECT_EQ(parameter_at(l, {-3, 0}), 0.0);
+  EXPECT_EQ(start_tangent(l), Vector2d(1, 0));
+  // A clockwise quarter circle of radius 5 about the origin from (0, 5) to (5, 0).
+  const Segment cw = make_segment({0, 5}, {5, 0}, -std::tan(kPi / 8));
+  ASSERT_TRUE(cw.is_arc());
+  const Vector2d q(5 * std::cos(kPi / 3), 5 * std::sin(kPi / 3));  // 30 degrees into the arc
+  EXPECT_NEAR(parameter_at(cw, q), 1.0 / 3.0, 1e-12);
+  EXPECT_NEAR((start_tangent(cw) - Vector2d(1, 0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((end_tangent(cw) - Vector2d(0, -1)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((tangent_at(cw, q) - Vector2d(std::sin(kPi / 3), -std::cos(kPi / 3))).norm(), 0.0, 1e-12);
+  // Angles just outside the arc map to the nearer end.
+  EXPECT_EQ(parameter_at(cw, {-1, 5}), 0.0);
+  EXPECT_EQ(parameter_at(cw, {5, -1}), 1.0);
+  EXPECT_NEAR(cross({1, 0}, {0, 1}), 1.0, 0.0);
+  EXPECT_NEAR(wrap_angle_positive(-kPi / 2), 1.5 * kPi, 1e-12);
+  EXPECT_NEAR(wrap_angle_positive(5 * kPi), kPi, 1e-12);
+  EXPECT_EQ(wrap_angle_positive(2 * kPi), 0.0);
+}
+
 TEST(Contour, ContainmentWithArcsBothOrientations) {
   const double w = 10, r = 5;
   Contour slot({{0, 0}, {w, 0}, {w, 2 * r}, {0, 2 * r}}, {0, 1, 0, 1});

@@ -237,8 +237,11 @@ TEST_P(GcodeConformance, MatchesRs274) {
     std::ofstream tbl(dir / "tool.tbl");
     for (int t = 1; t <= 20; ++t) tbl << "T" << t << " P" << t << " D0.125 Z0 ;tool " << t << "\n";
   }
-  const RunResult ref = run("cd " + quote(dir.string()) + " && timeout 60 /usr/bin/rs274 -g -t tool.tbl " +
-                                quote(file.string()),
+  // rs274 instances running at the same time crash now and then with SIGBUS (seen with
+  // ctest -j2: about one run in four), so every call takes the same lock (flock, util-linux).
+  const std::string lock = (fs::temp_directory_path() / "machplan_rs274.lock").string();
+  const RunResult ref = run("cd " + quote(dir.string()) + " && flock " + quote(lock) +
+                                " timeout 60 /usr/bin/rs274 -g -t tool.tbl " + quote(file.string()),
                             dir);
   const RunResult ours = run(std::string(MACHPLAN_CLI) + " program " + quote(file.string()) + " --json", dir);
   fs::remove_all(dir);

@@ -1,0 +1,132 @@
+// `machplan run PROGRAM.ngc --machine NAME|FILE.yaml [...]`: runs a part program on the
+// simulated cutting machine (solvers/motion/run.h) and reports cycle time, torch time,
+// rapids, contour error per cut, faults and the cycle time against its lower bound.
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "engine/common/error.h"
+#include "solvers/common/picture.h"
+#include "solvers/motion/run.h"
+#include "solvers/motion/run_plot.h"
+
+namespace machplan::cli {
+namespace {
+
+// A number given to `flag`; the message names the flag and the text.
+double number_of(const std::string& flag, const std::string& text) {
+  std::size_t used = 0;
+  double v = std::numeric_limits<double>::quiet_NaN();
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(v)) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  return v;
+}
+
+executor::Mode mode_of(const std::string& text) {
+  if (text == "planned") return executor::Mode::planned;
+  if (text == "paper-open") return executor::Mode::paper_open;
+  if (text == "paper-closed") return executor::Mode::paper_closed;
+  throw InputError("--mode", 0, fmt::format("unknown mode '{}' (known: planned, paper-open, paper-closed)", text));
+}
+
+void add_run(CLI::App& app) {
+  struct Args {
+    std::string program, machine, mode = "planned", blu, calibration, kerf, feed, no_go, trace, plot, magnify = "1", seed;
+    bool json = false, realtime = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("run", "Run a part program on the simulated XY table or thermal-cutting gantry");
+  cmd->add_option("program", a->program, "G-code part program (.ngc)")->required();
+  cmd->add_option("--machine", a->machine, "thermal_gantry, xy_table, or a machine YAML file")->required();
+  cmd->add_option("--mode", a->mode,
+                  "planned (ours: feed planner + servo loop), paper-open (the paper's BLU vectors, open-loop time "
+                  "control), paper-closed (vectors re-aimed from the encoders)");
+  cmd->add_option("--blu", a->blu, "paper modes: vector length, mm (default 3)");
+  cmd->add_option("--calibration", a->calibration, "paper modes: commanded speed / programmed speed (default 1)");
+  cmd->add_option("--kerf", a->kerf, "kerf width, mm: closed cuts are offset by half of it (default 0: as programmed)");
+  cmd->add_option("--feed", a->feed, "run every feed move at this speed, mm/s, instead of its F (the paper: 4)");
+  cmd->add_option("--no-go", a->no_go, "YAML file of no-go zones (clamps) the rapids must avoid");
+  cmd->add_option("--trace", a->trace, "write the servo-period trace as CSV");
+  cmd->add_option("--plot", a->plot, "write a top view, programmed against executed path (.png or .svg)");
+  cmd->add_option("--magnify", a->magnify, "draw the contour error this many times larger in the plot (default 1)");
+  cmd->add_option("--seed", a->seed, "seed of the simulated machine's noise and faults (default 1)");
+  cmd->add_flag("--json", a->json, "machine-readable output");
+  cmd->add_flag("--realtime", a->realtime, "pace the simulation to the wall clock");
+  cmd->callback([a] {
+    motion::RunOptions o;
+    o.machine = a->machine;
+    o.executor.mode = mode_of(a->mode);
+    const bool paper = o.executor.mode != executor::Mode::planned;
+    if (!a->blu.empty()) {
+      if (!paper) throw InputError("--blu", 0, "applies to the paper modes only (--mode paper-open or paper-closed)");
+      o.executor.blu_mm = number_of("--blu", a->blu);
+    }
+    if (!a->calibration.empty()) {
+      if (!paper) throw InputError("--calibration", 0, "applies to the paper modes only (--mode paper-open or paper-closed)");
+      o.executor.calibration_factor = number_of("--calibration", a->calibration);
+    }
+    if (!a->kerf.empty()) o.kerf_mm = number_of("--kerf", a->kerf);
+    if (!a->feed.empty()) {
+      o.feed_override_mm_per_s = number_of("--feed", a->feed);
+      if (!(o.feed_override_mm_per_s > 0)) throw InputError("--feed", 0, fmt::format("{} must be > 0 mm/s", a->feed));
+    }
+    const double magnify = number_of("--magnify", a->magnify);
+    if (!(magnify > 0 && magnify <= 1e6)) throw InputError("--magnify", 0, fmt::format("{} must be > 0 and <= 1e6", a->magnify));
+    if (!a->plot.empty() && !is_picture_path(a->plot))
+      throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", a->plot));
+    if (!a->seed.empty()) {
+      std::size_t used = 0;
+      unsigned long long s = 0;
+      try {
+        s = std::stoull(a->seed, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != a->seed.size() || a->seed[0] == '-')
+        throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", a->seed));
+      o.executor.seed = s;
+    }
+    o.executor.realtime = a->realtime;
+    o.no_go_path = a->no_go;
+    o.executor.record_trace = !a->trace.empty() || !a->plot.empty();
+
+    const motion::RunOutcome run = motion::run_program(a->program, o);
+    if (!a->trace.empty()) run.result.write_trace_csv(a->trace);
+    if (!a->plot.empty()) motion::write_run_plot(a->plot, run, magnify);
+
+    if (a->json) {
+      nlohmann::json j = run.to_json();
+      if (!a->trace.empty()) j["trace"] = a->trace;
+      if (!a->plot.empty()) j["plot"] = a->plot;
+      std::printf("%s\n", j.dump(2).c_str());
+    } else {
+      if (run.kerf) std::printf("kerf compensation\n%s\n", run.kerf->brief(run.job.source).c_str());
+      std::printf("rapids (straight G0 against planned, mm)\n%s\n", run.rapids.summary().c_str());
+      if (paper && o.paper_x1_decoding)
+        std::printf("paper mode: encoders counted x1 as in the paper (%.4f mm per count), BLU %g mm, calibration %g\n\n",
+                    run.machine.axes[0].plant.mm_per_count(), o.executor.blu_mm, o.executor.calibration_factor);
+      std::printf("%s", run.report().c_str());
+      if (!a->trace.empty()) std::printf("trace: %s (%zu samples)\n", a->trace.c_str(), run.result.trace.size());
+      if (!a->plot.empty()) std::printf("picture: %s\n", a->plot.c_str());
+    }
+    if (run.faulted()) {
+      for (const auto& f : run.result.faults) std::fprintf(stderr, "machplan run: fault: %s\n", f.message.c_str());
+      set_exit_code(3);
+    }
+  });
+}
+
+const Registration reg(60, add_run);
+
+}  // namespace
+}  // namespace machplan::cli

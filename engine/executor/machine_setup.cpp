@@ -1,0 +1,42 @@
+#include "engine/executor/machine_setup.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace machplan::executor {
+
+namespace {
+void require(bool ok, const std::string& field, double value, const char* rule) {
+  if (!ok) throw std::invalid_argument(fmt::format("MachineSetup::{} = {}: {}", field, value, rule));
+}
+}  // namespace
+
+void MachineSetup::validate() const {
+  for (int i = 0; i < hardware::kAxes; ++i) {
+    const auto& s = signals[i];
+    const std::string ax = fmt::format("axis[{}].", i);
+    require(std::isfinite(s.mm_per_count) && s.mm_per_count > 0, ax + "mm_per_count", s.mm_per_count, "must be > 0");
+    require(s.counter_bits >= 8 && s.counter_bits <= 32, ax + "counter_bits", s.counter_bits, "must be 8 .. 32");
+    require(s.dac_bits >= 8 && s.dac_bits <= 24, ax + "dac_bits", s.dac_bits, "must be 8 .. 24");
+    require(std::isfinite(s.dac_full_scale_mm_per_s) && s.dac_full_scale_mm_per_s > 0, ax + "dac_full_scale_mm_per_s",
+            s.dac_full_scale_mm_per_s, "must be > 0");
+    require(s.command_latency_ticks >= 0 && s.command_latency_ticks <= 100, ax + "command_latency_ticks",
+            s.command_latency_ticks, "must be 0 .. 100");
+    require(s.reading_latency_ticks >= 0 && s.reading_latency_ticks <= 100, ax + "reading_latency_ticks",
+            s.reading_latency_ticks, "must be 0 .. 100");
+    require(std::isfinite(max_speed_mm_per_s[i]) && max_speed_mm_per_s[i] > 0, ax + "max_speed_mm_per_s",
+            max_speed_mm_per_s[i], "must be > 0");
+    servo[i].validate();
+  }
+  require(std::isfinite(max_acceleration_mm_per_s2) && max_acceleration_mm_per_s2 > 0, "max_acceleration_mm_per_s2",
+          max_acceleration_mm_per_s2, "must be > 0");
+  require(std::isfinite(rapid_mm_per_s) && rapid_mm_per_s > 0, "rapid_mm_per_s", rapid_mm_per_s, "must be > 0");
+  require(torch.arc_ok_timeout_s > 0, "torch.arc_ok_timeout_s", torch.arc_ok_timeout_s, "must be > 0");
+  require(torch.pierce_delay_s >= 0, "torch.pierce_delay_s", torch.pierce_delay_s, "must be >= 0");
+  require(torch.preheat_s >= 0, "torch.preheat_s", torch.preheat_s, "must be >= 0");
+  require(torch.height_timeout_s > 0, "torch.height_timeout_s", torch.height_timeout_s, "must be > 0");
+}
+
+}  // namespace machplan::executor

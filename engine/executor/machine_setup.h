@@ -1,0 +1,39 @@
+// What the executor must know about a machine, in engine terms. models/cutting builds it from
+// a machine YAML (MachineConfig::setup()); the executor never reads files itself.
+#pragma once
+
+#include <array>
+#include <string>
+
+#include "engine/control/servo.h"
+#include "engine/hardware/backend.h"
+
+namespace machplan::executor {
+
+struct TorchSetup {
+  enum class Kind { none, plasma, oxy_fuel };
+  Kind kind = Kind::none;
+  double arc_ok_timeout_s = 2.0;       // plasma: fire -> arc OK must come within this
+  double pierce_delay_s = 0.5;         // material default when no G4 follows the torch-on
+  double preheat_s = 0.0;              // oxy-fuel: heating before the cutting oxygen
+  double arc_loss_debounce_s = 0.02;   // arc OK may drop this long while cutting before it is a fault
+  bool height_axis = false;            // a torch height axis is fitted
+  double pierce_height_mm = 3.8;
+  double cut_height_mm = 1.5;
+  double retract_height_mm = 15.0;
+  double height_tolerance_mm = 0.05;
+  double height_timeout_s = 3.0;       // the height axis must reach its target within this
+};
+
+struct MachineSetup {
+  std::string name;
+  std::array<hardware::AxisSignals, hardware::kAxes> signals{};
+  std::array<control::ServoGains, hardware::kAxes> servo{};
+  std::array<double, hardware::kAxes> max_speed_mm_per_s{};  // physical top speed per axis
+  double max_acceleration_mm_per_s2 = 500.0;  // used for the controlled stop
+  double rapid_mm_per_s = 80.0;
+  TorchSetup torch;
+  void validate() const;  // throws std::invalid_argument naming field, value and rule
+};
+
+}  // namespace machplan::executor

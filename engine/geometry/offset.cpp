@@ -1,0 +1,442 @@
+#include "engine/geometry/offset.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+
+namespace machplan {
+namespace {
+
+using Eigen::Vector2d;
+constexpr double kPi = std::numbers::pi;
+
+Vector2d unit(double angle) { return {std::cos(angle), std::sin(angle)}; }
+
+Segment make_line(const Vector2d& a, const Vector2d& b) {
+  Segment s;
+  s.start = a;
+  s.end = b;
+  return s;
+}
+
+// An arc given by centre, radius, start angle and sweep; end points computed from them.
+Segment make_arc(const Vector2d& c, double r, double start_angle, double sweep) {
+  Segment s;
+  s.kind = Segment::Kind::arc;
+  s.center = c;
+  s.radius = r;
+  s.start_angle = std::atan2(std::sin(start_angle), std::cos(start_angle));
+  s.sweep = sweep;
+  s.start = c + r * unit(start_angle);
+  s.end = c + r * unit(start_angle + sweep);
+  return s;
+}
+
+// The piece of `s` between parameters t0 < t1 whose end points are p0, p1 (exact values
+// shared with the neighbouring pieces).
+Segment sub_segment(const Segment& s, double t0, double t1, const Vector2d& p0, const Vector2d& p1) {
+  if (!s.is_arc()) return make_line(p0, p1);
+  Segment r = s;
+  r.start_angle = s.start_angle + t0 * s.sweep;
+  r.sweep = (t1 - t0) * s.sweep;
+  r.start = p0;
+  r.end = p1;
+  return r;
+}
+
+double bulge_of(const Segment& s) { return s.is_arc() ? std::tan(s.sweep / 4.0) : 0.0; }
+
+// The offset of one span of the counter-clockwise working contour.
+struct SpanOffset {
+  bool has_segment = true;  // false: an arc that collapsed to its centre
+  bool collapsed = false;   // the arc's offset radius would be <= tolerance
+  double offset_radius = 0.0;
+  Segment seg;
+  Vector2d start = Vector2d::Zero(), end = Vector2d::Zero();
+};
+
+// How a corner between the offsets of span j and span j+1 is closed.
+struct Corner {
+  enum class Kind { none, arc, trim } kind = Kind::none;
+  Segment arc;                      // Kind::arc (forward or backward)
+  Vector2d at = Vector2d::Zero();   // Kind::trim: the intersection
+  double t_before = 1.0, t_after = 0.0;  // its parameters on span j's and span j+1's offset
+};
+
+// One piece of the raw offset: a span offset or a corner arc.
+struct Raw {
+  Segment seg;
+  std::size_t span = 0;  // index in the cleaned contour (corner: the span ending there)
+  bool corner = false;
+};
+
+struct Split {
+  double t;
+  Vector2d p;
+};
+
+struct Piece {
+  Segment seg;
+  std::size_t raw = 0;
+  double t0 = 0.0, t1 = 1.0;
+};
+
+Eigen::AlignedBox2d grown_box(const Segment& s, double by) {
+  const auto b = bounding_box(s);
+  return {b.min() - Vector2d::Constant(by), b.max() + Vector2d::Constant(by)};
+}
+
+}  // namespace
+
+void OffsetOptions::validate() const {
+  if (!std::isfinite(tolerance_mm) || !(tolerance_mm > 0.0) || tolerance_mm > 0.1)
+    throw InputError("tolerance_mm", 0, fmt::format("is {}, must be finite, > 0 and <= 0.1 mm", tolerance_mm));
+}
+
+const char* to_string(OffsetProblem::Kind k) {
+  switch (k) {
+    case OffsetProblem::Kind::arc_collapsed: return "arc_collapsed";
+    case OffsetProblem::Kind::feature_too_small: return "feature_too_small";
+    case OffsetProblem::Kind::contour_vanished: return "contour_vanished";
+  }
+  return "?";
+}
+
+OffsetResult offset_contour(const Contour& contour, double d, const OffsetOptions& options) {
+  options.validate();
+  if (!std::isfinite(d) || std::abs(d) > kMaxCoordinateMm)
+    throw InputError("distance_mm", 0, fmt::format("is {}, must be finite and within {} mm", d, kMaxCoordinateMm));
+  const double tol = options.tolerance_mm;
+  if (const auto crossings = self_intersections(contour, tol); !crossings.empty()) {
+    const auto& x = crossings.front();
+    throw InputError("", 0,
+                     fmt::format("offset: the contour crosses itself at ({:.6f}, {:.6f}) mm, spans {} and {}",
+                                 x.point.x(), x.point.y(), x.span_a, x.span_b));
+  }
+
+  const double area0 = signed_area(contour), per0 = perimeter(contour);
+  if (contour.empty() || !(std::abs(area0) > tol * per0))
+    throw InputError("", 0,
+                     fmt::format("offset: the contour encloses no area ({} mm^2 for a perimeter of {} mm)", area0,
+                                 per0));
+  OffsetResult result;
+  const std::size_t n = contour.size();
+  if (d == 0.0) {
+    result.contours.push_back(contour);
+    std::vector<std::size_t> ids(n);
+    for (std::size_t i = 0; i < n; ++i) ids[i] = i;
+    result.source_spans.push_back(std::move(ids));
+    return result;
+  }
+
+  // 1. Counter-clockwise working copy without spans shorter than the tolerance.
+  const bool ccw = area0 > 0;
+  const Contour work = ccw ? contour : contour.reversed();
+  std::vector<Vector2d> cv;
+  std::vector<double> cb;
+  std::vector<std::size_t> to_orig;  // cleaned span index -> original span index
+  for (std::size_t k = 0; k < n; ++k) {
+    if (length(work.span(k)) <= tol) continue;
+    cv.push_back(work.vertices()[k]);
+    cb.push_back(work.bulges()[k]);
+    to_orig.push_back(ccw ? k : n - 1 - k);
+  }
+  const Contour clean(cv, cb);
+  const std::size_t m = clean.size();
+  const std::vector<Segment> spans = clean.segments();
+  const double ad = std::abs(d);
+  // Intersection tolerance: far below the user's, so that only true crossings split pieces.
+  const double eps = 1e-3 * tol;
+
+  // 2. Span offsets.
+  std::vector<SpanOffset> off(m);
+  for (std::size_t j = 0; j < m; ++j) {
+    const Segment& s = spans[j];
+    SpanOffset& o = off[j];
+    if (!s.is_arc()) {
+      const Vector2d t = (s.end - s.start).normalized(), nrm(t.y(), -t.x());
+      o.seg = make_line(s.start + d * nrm, s.end + d * nrm);
+    } else {
+      const double rr = s.radius + (s.sweep > 0 ? d : -d);
+      o.offset_radius = rr;
+      if (rr > tol) {
+        o.seg = make_arc(s.center, rr, s.start_angle, s.sweep);
+      } else {
+        o.collapsed = true;
+        if (rr < -tol) {
+          o.seg = make_arc(s.center, -rr, s.start_angle + kPi, s.sweep);  // mirror image, pruned later
+        } else {
+          o.has_segment = false;
+          o.seg = make_line(s.center, s.center);
+        }
+      }
+    }
+    o.start = o.seg.start;
+    o.end = o.seg.end;
+  }
+
+  // 3. Corners. Corner j joins the offset of span j to that of span j+1 at vertex V.
+  std::vector<Corner> corners(m);
+  auto backward_or_forward_arc = [&](std::size_t j, double theta) {
+    const std::size_t k = (j + 1) % m;
+    const Vector2d v = spans[k].start;
+    const Vector2d e = off[j].end, s = off[k].start;
+    Segment a = make_arc(v, ad, std::atan2(e.y() - v.y(), e.x() - v.x()), theta);
+    a.start = e;
+    a.end = s;
+    corners[j].kind = Corner::Kind::arc;
+    corners[j].arc = a;
+  };
+  std::vector<double> turn(m);
+  for (std::size_t j = 0; j < m; ++j) {
+    const std::size_t k = (j + 1) % m;
+    const Vector2d t1 = end_tangent(spans[j]), t2 = start_tangent(spans[k]);
+    const double cr = cross(t1, t2), dt = t1.dot(t2);
+    double theta = std::atan2(cr, dt);
+    if (dt < 0 && std::abs(cr) <= 1e-12) theta = d > 0 ? kPi : -kPi;  // a cusp: go round its tip
+    turn[j] = theta;
+    Corner& c = corners[j];
+    if ((off[j].end - off[k].start).norm() <= tol) {
+      c.kind = Corner::Kind::none;  // tangent continuous: snap the next offset's start
+      off[k].start = off[j].end;
+      off[k].seg.start = off[j].end;
+      if (!off[k].has_segment) off[k].end = off[k].seg.end = off[j].end;
+      continue;
+    }
+    if (d * theta > 0) {
+      backward_or_forward_arc(j, theta);
+      continue;
+    }
+    // Concave: trim both offsets at their intersection nearest the corner.
+    std::optional<Corner> best;
+    if (off[j].has_segment && off[k].has_segment) {
+      const Intersection hit = intersect(off[j].seg, off[k].seg, eps);
+      if (!hit.overlap) {
+        const double lj = length(off[j].seg), lk = length(off[k].seg);
+        double best_cut = 0.0;
+        for (const auto& p : hit.points) {
+          const double tj = parameter_at(off[j].seg, p), tk = parameter_at(off[k].seg, p);
+          const double cut = (1.0 - tj) * lj + tk * lk;
+          if (!best || cut < best_cut) {
+            best_cut = cut;
+            best = Corner{Corner::Kind::trim, {}, p, tj, tk};
+          }
+        }
+      }
+    }
+    if (best)
+      c = *best;
+    else
+      backward_or_forward_arc(j, theta);
+  }
+  // A span offset trimmed at both ends past itself is wholly invalid: its corners fall back
+  // to arcs (removing trims only lengthens the other spans, so one pass is enough).
+  {
+    std::vector<bool> revert(m, false);
+    for (std::size_t j = 0; j < m; ++j) {
+      if (!off[j].has_segment) continue;
+      const std::size_t before = (j + m - 1) % m;
+      const double lo = corners[before].kind == Corner::Kind::trim ? corners[before].t_after : 0.0;
+      const double hi = corners[j].kind == Corner::Kind::trim ? corners[j].t_before : 1.0;
+      const double len = length(off[j].seg);
+      if ((hi - lo) * len <= tol) revert[before] = revert[j] = true;
+    }
+    for (std::size_t j = 0; j < m; ++j)
+      if (revert[j] && corners[j].kind == Corner::Kind::trim) backward_or_forward_arc(j, turn[j]);
+  }
+
+  // The raw offset as one closed chain.
+  std::vector<Raw> raw;
+  for (std::size_t j = 0; j < m; ++j) {
+    const std::size_t before = (j + m - 1) % m;
+    if (off[j].has_segment) {
+      const bool trim_lo = corners[before].kind == Corner::Kind::trim;
+      const bool trim_hi = corners[j].kind == Corner::Kind::trim;
+      const double lo = trim_lo ? corners[before].t_after : 0.0, hi = trim_hi ? corners[j].t_before : 1.0;
+      const Vector2d p0 = trim_lo ? corners[before].at : off[j].start;
+      const Vector2d p1 = trim_hi ? corners[j].at : off[j].end;
+      raw.push_back({sub_segment(off[j].seg, lo, hi, p0, p1), j, false});
+    }
+    if (corners[j].kind == Corner::Kind::arc) raw.push_back({corners[j].arc, j, true});
+  }
+  const std::size_t nr = raw.size();
+  for (std::size_t i = 0; i < nr; ++i)
+    MACHPLAN_ASSERT((raw[i].seg.end - raw[(i + 1) % nr].seg.start).norm() <= 4 * tol,
+                    "raw offset piece {} ends {} mm from the next one's start", i,
+                    (raw[i].seg.end - raw[(i + 1) % nr].seg.start).norm());
+
+  // 4. Split the raw offset at its self-intersections.
+  std::vector<std::vector<Split>> splits(nr);
+  {
+    std::vector<Eigen::AlignedBox2d> boxes;
+    for (const auto& r : raw) boxes.push_back(grown_box(r.seg, 2 * eps));
+    for (std::size_t a = 0; a < nr; ++a)
+      for (std::size_t b = a + 1; b < nr; ++b) {
+        if (!boxes[a].intersects(boxes[b])) continue;
+        const Intersection hit = intersect(raw[a].seg, raw[b].seg, eps);
+        for (const auto& p : hit.points) {
+          bool at_joint = false;
+          if (b == a + 1) at_joint = at_joint || (p - raw[a].seg.end).norm() <= tol;
+          if (a == 0 && b == nr - 1) at_joint = at_joint || (p - raw[b].seg.end).norm() <= tol;
+          if (at_joint) continue;
+          splits[a].push_back({parameter_at(raw[a].seg, p), p});
+          splits[b].push_back({parameter_at(raw[b].seg, p), p});
+        }
+      }
+  }
+  std::vector<Piece> pieces;
+  for (std::size_t i = 0; i < nr; ++i) {
+    auto& sp = splits[i];
+    std::sort(sp.begin(), sp.end(), [](const Split& x, const Split& y) { return x.t < y.t; });
+    const Segment& s = raw[i].seg;
+    Split last{0.0, s.start};
+    for (const auto& x : sp) {
+      if ((x.p - last.p).norm() <= tol || (x.p - s.end).norm() <= tol || x.t <= last.t) continue;
+      pieces.push_back({sub_segment(s, last.t, x.t, last.p, x.p), i, last.t, x.t});
+      last = x;
+    }
+    pieces.push_back({sub_segment(s, last.t, 1.0, last.p, s.end), i, last.t, 1.0});
+  }
+
+  // 5. Keep the pieces at distance >= |d| from the contour, on the correct side.
+  const bool want_inside = d < 0;
+  std::vector<std::size_t> kept;
+  for (std::size_t p = 0; p < pieces.size(); ++p) {
+    bool ok = true;
+    for (double f : {0.25, 0.5, 0.75}) {
+      const Vector2d q = point_at(pieces[p].seg, f);
+      if (distance(clean, q) < ad - tol || contains(clean, q) != want_inside) {
+        ok = false;
+        break;
+      }
+    }
+    if (ok) kept.push_back(p);
+  }
+
+  // 6. Chain the kept pieces into closed contours.
+  const double ctol = 2 * tol;
+  std::vector<bool> used(kept.size(), false);
+  std::vector<double> surviving(m, 0.0);  // length of each span's own offset that survives
+  for (std::size_t first = 0; first < kept.size(); ++first) {
+    if (used[first]) continue;
+    std::vector<std::size_t> chain{first};
+    used[first] = true;
+    const Vector2d origin = pieces[kept[first]].seg.start;
+    while (true) {
+      const std::size_t cur = chain.back();
+      const Vector2d at = pieces[kept[cur]].seg.end;
+      if ((at - origin).norm() <= ctol) break;
+      std::optional<std::size_t> next;
+      const std::size_t follow = (cur + 1) % kept.size();
+      if (!used[follow] && (pieces[kept[follow]].seg.start - at).norm() <= ctol) {
+        next = follow;
+      } else {
+        double best = ctol;
+        for (std::size_t q = 0; q < kept.size(); ++q) {
+          if (used[q]) continue;
+          const double g = (pieces[kept[q]].seg.start - at).norm();
+          if (g <= best) {
+            best = g;
+            next = q;
+          }
+        }
+      }
+      MACHPLAN_ASSERT(next.has_value(), "offset by {} mm: a kept piece ends at ({}, {}) with nothing to continue it",
+                      d, at.x(), at.y());
+      used[*next] = true;
+      chain.push_back(*next);
+    }
+    // Merge neighbouring pieces of one raw piece that a crossing cut apart.
+    std::vector<Piece> merged;
+    for (std::size_t q : chain) {
+      const Piece& pc = pieces[kept[q]];
+      if (!merged.empty() && merged.back().raw == pc.raw && merged.back().t1 == pc.t0) {
+        Piece& b = merged.back();
+        b.seg = sub_segment(raw[pc.raw].seg, b.t0, pc.t1, b.seg.start, pc.seg.end);
+        b.t1 = pc.t1;
+      } else {
+        merged.push_back(pc);
+      }
+    }
+    if (merged.size() > 1 && merged.back().raw == merged.front().raw && merged.back().t1 == merged.front().t0) {
+      Piece& b = merged.back();
+      b.seg = sub_segment(raw[b.raw].seg, b.t0, merged.front().t1, b.seg.start, merged.front().seg.end);
+      b.t1 = merged.front().t1;
+      merged.erase(merged.begin());
+    }
+    std::vector<Vector2d> vs;
+    std::vector<double> bs;
+    std::vector<std::size_t> src;
+    for (const auto& pc : merged) {
+      if (length(pc.seg) <= tol) continue;
+      vs.push_back(pc.seg.start);
+      bs.push_back(bulge_of(pc.seg));
+      src.push_back(to_orig[raw[pc.raw].span]);
+    }
+    if (vs.size() < 2) continue;
+    Contour out(std::move(vs), std::move(bs));
+    if (!(std::abs(signed_area(out)) > tol * perimeter(out))) continue;  // a sliver
+    for (const auto& pc : merged)
+      if (!raw[pc.raw].corner) surviving[raw[pc.raw].span] += length(pc.seg);
+    if (!ccw) {
+      out = out.reversed();
+      std::reverse(src.begin(), src.end());
+    }
+    result.contours.push_back(std::move(out));
+    result.source_spans.push_back(std::move(src));
+  }
+
+  // Problems, named by original span.
+  for (std::size_t j = 0; j < m; ++j)
+    if (off[j].collapsed)
+      result.problems.push_back(
+          {OffsetProblem::Kind::arc_collapsed, to_orig[j], 1,
+           fmt::format("span {}: an arc of radius {:.6g} mm cannot be offset by {:.6g} mm (its offset radius "
+                       "would be {:.6g} mm); it is lost",
+                       to_orig[j], spans[j].radius, d, off[j].offset_radius)});
+  if (result.contours.empty()) {
+    result.problems.push_back({OffsetProblem::Kind::contour_vanished, OffsetProblem::kNoSpan, 0,
+                               fmt::format("the contour vanishes when offset by {:.6g} mm: it is nowhere wider "
+                                           "than {:.6g} mm",
+                                           d, 2 * ad)});
+    return result;
+  }
+  std::vector<bool> lost(m);
+  for (std::size_t j = 0; j < m; ++j) lost[j] = surviving[j] <= tol;
+  std::size_t start = 0;
+  while (start < m && lost[(start + m - 1) % m]) ++start;  // a span whose predecessor survives
+  if (start == m) start = 0;                               // everything lost (cannot happen here)
+  for (std::size_t step = 0; step < m;) {
+    const std::size_t j = (start + step) % m;
+    if (!lost[j]) {
+      ++step;
+      continue;
+    }
+    std::size_t count = 0;
+    bool any_plain = false;
+    while (step + count < m && lost[(start + step + count) % m]) {
+      any_plain = any_plain || !off[(start + step + count) % m].collapsed;
+      ++count;
+    }
+    const std::size_t last = (start + step + count - 1) % m;
+    if (any_plain) {
+      const std::size_t a = ccw ? to_orig[j] : to_orig[last];
+      const std::size_t b = ccw ? to_orig[last] : to_orig[j];
+      const std::size_t spanned = (b + n - a) % n + 1;
+      result.problems.push_back(
+          {OffsetProblem::Kind::feature_too_small, a, spanned,
+           a == b ? fmt::format("span {}: narrower than {:.6g} mm, none of its offset survives", a, 2 * ad)
+                  : fmt::format("spans {} to {}: a feature narrower than {:.6g} mm, none of their offset survives",
+                                a, b, 2 * ad)});
+    }
+    step += count;
+  }
+  return result;
+}
+
+}  // namespace machplan

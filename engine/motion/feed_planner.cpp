@@ -1,0 +1,565 @@
+#include "engine/motion/feed_planner.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "engine/motion/interpolator.h"
+
+namespace machplan::motion {
+namespace {
+
+using Eigen::Vector2d;
+constexpr double kPi = std::numbers::pi;
+constexpr double kTangentRad = 1e-9;        // planner: junctions this straight are passed as they are
+constexpr double kBoundTangentRad = 1e-6;   // bound: junctions this straight are not counted as stops
+constexpr double kMinPieceMm = 1e-9;        // shorter pieces are dropped
+constexpr double kMinBlendMm = 1e-6;        // shorter blends become stops
+constexpr double kZoneMergeRel = 0.005;     // caps within 0.5 % share a zone
+constexpr int kDeviationSamples = 64;
+
+Vector2d left_normal(const Vector2d& t) { return Vector2d(-t.y(), t.x()); }
+
+void require(bool ok, const char* field, double value, const char* rule) {
+  if (!ok) throw std::invalid_argument(fmt::format("PlannerOptions::{} = {}: {}", field, value, rule));
+}
+
+void check_stretch(const Stretch& st) {
+  if (st.segments.empty()) throw std::invalid_argument("plan_stretch: the stretch has no segments");
+  if (st.feed_mm_per_s.size() != st.segments.size() || st.source_lines.size() != st.segments.size())
+    throw std::invalid_argument(fmt::format(
+        "plan_stretch: {} segments but {} feeds and {} source lines", st.segments.size(),
+        st.feed_mm_per_s.size(), st.source_lines.size()));
+  for (std::size_t i = 0; i < st.segments.size(); ++i) {
+    const double f = st.feed_mm_per_s[i];
+    if (!(std::isfinite(f) && f > 0.0))
+      throw std::invalid_argument(fmt::format("plan_stretch: segment {} has feed {} mm/s (must be > 0)", i, f));
+    const Segment& s = st.segments[i];
+    if (s.is_arc() && !(std::isfinite(s.radius) && s.radius > 0.0 && std::isfinite(s.sweep)))
+      throw std::invalid_argument(fmt::format("plan_stretch: arc segment {} has radius {} and sweep {}", i,
+                                              s.radius, s.sweep));
+    if (i > 0 && (s.start - st.segments[i - 1].end).norm() > 1e-6)
+      throw std::invalid_argument(fmt::format(
+          "plan_stretch: segment {} starts {} mm away from the end of segment {}", i,
+          (s.start - st.segments[i - 1].end).norm(), i - 1));
+  }
+}
+
+// The part of `s` between path lengths a and b (0 <= a <= b <= length).
+Segment sub_segment(const Segment& s, double a, double b) {
+  Segment r = s;
+  r.start = interpolate(s, a).position_mm;
+  r.end = interpolate(s, b).position_mm;
+  if (s.is_arc()) {
+    const double sign = s.sweep >= 0 ? 1.0 : -1.0;
+    r.start_angle = s.start_angle + sign * a / s.radius;
+    r.sweep = sign * (b - a) / s.radius;
+  }
+  return r;
+}
+
+// The circular arc that leaves `a` along unit tangent `t` and ends at `b` (a line when
+// straight enough).
+Segment arc_from(const Vector2d& a, const Vector2d& t, const Vector2d& b) {
+  Segment s;
+  s.start = a;
+  s.end = b;
+  const Vector2d c = b - a;
+  const double cc = c.squaredNorm();
+  const double cr = cross(t, c);
+  if (cc == 0.0 || std::abs(cr) <= 1e-12 * cc) return s;  // straight
+  const double k = 2.0 * cr / cc;                        // signed curvature
+  s.kind = Segment::Kind::arc;
+  s.radius = 1.0 / std::abs(k);
+  s.center = a + left_normal(t) / k;
+  s.start_angle = std::atan2(a.y() - s.center.y(), a.x() - s.center.x());
+  s.sweep = 2.0 * std::atan2(cr, t.dot(c));
+  return s;
+}
+
+// Biarc from (p1, t1) to (p2, t2) with equal control lengths; empty when degenerate.
+std::vector<Segment> biarc(const Vector2d& p1, const Vector2d& t1, const Vector2d& p2, const Vector2d& t2) {
+  const Vector2d v = p2 - p1;
+  const Vector2d t = t1 + t2;
+  const double vv = v.squaredNorm(), vt = v.dot(t), tt = t.squaredNorm();
+  if (vv <= 1e-24) return {};
+  double d;
+  if (std::abs(tt - 4.0) < 1e-12) {
+    if (vt <= 0.0) return {};
+    d = vv / (2.0 * vt);
+  } else {
+    const double disc = vt * vt - (tt - 4.0) * vv;
+    d = (vt - std::sqrt(std::max(0.0, disc))) / (tt - 4.0);
+  }
+  if (!(d > 0.0) || !std::isfinite(d)) return {};
+  const Vector2d q1 = p1 + d * t1, q2 = p2 - d * t2;
+  const Vector2d j = 0.5 * (q1 + q2);
+  const Vector2d dq = q2 - q1;
+  if (dq.norm() <= 0.0) return {};
+  const Vector2d tj = dq / dq.norm();
+  std::vector<Segment> out;
+  for (const Segment& s : {arc_from(p1, t1, j), arc_from(j, tj, p2)})
+    if (length(s) > kMinPieceMm) out.push_back(s);
+  return out;
+}
+
+// Largest distance from the pieces to the union of segments a and b, sampled.
+double sampled_deviation(const std::vector<Segment>& pieces, const Segment& a, const Segment& b) {
+  double worst = 0.0;
+  for (const Segment& p : pieces) {
+    const double len = length(p);
+    for (int k = 0; k <= kDeviationSamples; ++k) {
+      const Vector2d q = interpolate(p, len * k / kDeviationSamples).position_mm;
+      const double da = (closest_point(a, q) - q).norm(), db = (closest_point(b, q) - q).norm();
+      worst = std::max(worst, std::min(da, db));
+    }
+  }
+  return worst;
+}
+
+// ---- S-curve transitions -------------------------------------------------------------
+
+// Duration of one jerk-limited speed change by dv >= 0 with acceleration <= a.
+double pulse_time(double dv, double a, double j) {
+  if (dv <= 0.0) return 0.0;
+  if (dv <= a * a / j) return 2.0 * std::sqrt(dv / j);
+  return dv / a + a / j;
+}
+
+struct PieceInfo {
+  double cap = 0.0;  // speed cap, mm/s
+  double a_line = std::numeric_limits<double>::infinity();  // lines: tangential acceleration cap
+  double kappa = 0.0;                                       // arcs: curvature 1/r
+  bool stop_before = false;
+};
+
+// A run of pieces planned as one accelerate / cruise / decelerate block. Its tangential
+// acceleration cap depends on the speed through the normal acceleration v^2 kappa of its
+// sharpest arc: A(v) = min(a_line, sqrt(a^2 - (v^2 kappa)^2)). A speed change is made of
+// pulses in two bands, below and above v_split = 0.7 cap, each with the A of its top speed.
+struct Zone {
+  std::size_t first = 0, last = 0;  // piece range [first, last]
+  double s0 = 0.0, length = 0.0, cap = 0.0;
+  double a_line = std::numeric_limits<double>::infinity(), kappa = 0.0;
+  double a_curve = 0.0;  // the a of A(v) for arcs (smaller axis limit)
+
+  double accel(double v_top) const {
+    double a = a_line;
+    if (kappa > 0.0) {
+      const double an = v_top * v_top * kappa;
+      a = std::min(a, std::sqrt(std::max(0.0, a_curve * a_curve - an * an)));
+    }
+    return a;
+  }
+  double split() const { return kappa > 0.0 ? 0.7 * cap : cap; }
+};
+
+// Distance covered by the speed change v0 -> v1 in zone z.
+double transition_distance(double v0, double v1, const Zone& z, double j) {
+  const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
+  if (hi <= m || lo >= m) return 0.5 * (lo + hi) * pulse_time(hi - lo, z.accel(hi), j);
+  return 0.5 * (lo + m) * pulse_time(m - lo, z.accel(m), j) + 0.5 * (m + hi) * pulse_time(hi - m, z.accel(hi), j);
+}
+// Highest v1 in [v0, cap] that one transition from v0 reaches within the zone's length.
+double reachable(double v0, const Zone& z, double j, double cap) {
+  if (cap <= v0) return cap;
+  if (transition_distance(v0, cap, z, j) <= z.length) return cap;
+  double lo = v0, hi = cap;
+  for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (transition_distance(v0, mid, z, j) <= z.length ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+class ProfileBuilder {
+ public:
+  explicit ProfileBuilder(std::vector<ProfilePhase>& out) : out_(out) {}
+  void anchor(double t, double s, double v) { t_ = t; s_ = s; v_ = v; a_ = 0.0; }
+  void phase(double jerk, double dur) {
+    if (!(dur > 0.0)) return;
+    ProfilePhase p;
+    p.t0_s = t_;
+    p.duration_s = dur;
+    p.s0_mm = s_;
+    p.v0_mm_per_s = v_;
+    p.a0_mm_per_s2 = a_;
+    p.jerk_mm_per_s3 = jerk;
+    out_.push_back(p);
+    s_ += v_ * dur + a_ * dur * dur / 2.0 + jerk * dur * dur * dur / 6.0;
+    v_ += a_ * dur + jerk * dur * dur / 2.0;
+    a_ += jerk * dur;
+    t_ += dur;
+  }
+  // One symmetric pulse from v0 to v1 with acceleration <= a.
+  void pulse(double v0, double v1, double a, double j) {
+    const double dv = std::abs(v1 - v0);
+    if (dv <= 0.0) return;
+    const double sg = v1 > v0 ? 1.0 : -1.0;
+    if (dv <= a * a / j) {
+      const double tj = std::sqrt(dv / j);
+      phase(sg * j, tj);
+      phase(-sg * j, tj);
+    } else {
+      const double tj = a / j;
+      phase(sg * j, tj);
+      phase(0.0, dv / a - a / j);
+      phase(-sg * j, tj);
+    }
+    v_ = v1;  // remove rounding: the pulse ends exactly at v1 with zero acceleration
+    a_ = 0.0;
+  }
+  void transition(double v0, double v1, const Zone& z, double j) {
+    const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
+    if (hi <= m || lo >= m) return pulse(v0, v1, z.accel(hi), j);
+    if (v1 > v0) {
+      pulse(v0, m, z.accel(m), j);
+      pulse(m, v1, z.accel(v1), j);
+    } else {
+      pulse(v0, m, z.accel(v0), j);
+      pulse(m, v1, z.accel(m), j);
+    }
+  }
+  double t() const { return t_; }
+
+ private:
+  std::vector<ProfilePhase>& out_;
+  double t_ = 0.0, s_ = 0.0, v_ = 0.0, a_ = 0.0;
+};
+
+// Smallest |cos| (which = 0) or |sin| (which = 1) over angles [lo, hi].
+double min_abs_trig(double lo, double hi, int which) {
+  // zeros of cos at pi/2 + k pi, of sin at k pi
+  const double offset = which == 0 ? kPi / 2 : 0.0;
+  const double k = std::ceil((lo - offset) / kPi);
+  if (offset + k * kPi <= hi) return 0.0;
+  auto f = [which](double x) { return which == 0 ? std::abs(std::cos(x)) : std::abs(std::sin(x)); };
+  return std::min(f(lo), f(hi));
+}
+
+// min_i lim_i / |w_i| for a direction whose components are bounded below by (wx, wy).
+double axis_cap(const Vector2d& lim, double wx, double wy) {
+  double r = std::numeric_limits<double>::infinity();
+  if (wx > 0) r = std::min(r, lim.x() / wx);
+  if (wy > 0) r = std::min(r, lim.y() / wy);
+  return r;
+}
+
+}  // namespace
+
+PlannerOptions PlannerOptions::thermal_gantry() { return PlannerOptions{}; }
+
+PlannerOptions PlannerOptions::xy_table() {
+  PlannerOptions o;
+  o.max_velocity_mm_per_s = Vector2d(1200.0, 1200.0);
+  o.max_acceleration_mm_per_s2 = Vector2d(5000.0, 5000.0);
+  o.max_jerk_mm_per_s3 = 200000.0;
+  return o;
+}
+
+void PlannerOptions::validate() const {
+  for (int i = 0; i < 2; ++i) {
+    require(std::isfinite(max_velocity_mm_per_s[i]) && max_velocity_mm_per_s[i] > 0,
+            i == 0 ? "max_velocity_mm_per_s.x" : "max_velocity_mm_per_s.y", max_velocity_mm_per_s[i],
+            "must be finite and > 0");
+    require(std::isfinite(max_acceleration_mm_per_s2[i]) && max_acceleration_mm_per_s2[i] > 0,
+            i == 0 ? "max_acceleration_mm_per_s2.x" : "max_acceleration_mm_per_s2.y",
+            max_acceleration_mm_per_s2[i], "must be finite and > 0");
+  }
+  require(std::isfinite(max_jerk_mm_per_s3) && max_jerk_mm_per_s3 > 0, "max_jerk_mm_per_s3", max_jerk_mm_per_s3,
+          "must be finite and > 0");
+  require(std::isfinite(path_tolerance_mm) && path_tolerance_mm > 0, "path_tolerance_mm", path_tolerance_mm,
+          "must be finite and > 0");
+  require(std::isfinite(servo_period_s) && servo_period_s > 0 && servo_period_s <= 1.0, "servo_period_s",
+          servo_period_s, "must be in (0, 1]");
+  require(curve_normal_fraction > 0 && curve_normal_fraction < 1, "curve_normal_fraction", curve_normal_fraction,
+          "must be in (0, 1)");
+}
+
+std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch, const PlannerOptions& o) {
+  o.validate();
+  check_stretch(stretch);
+  auto traj = std::make_unique<PlannedTrajectory>();
+  const double tol = o.path_tolerance_mm;
+
+  // Non-degenerate programmed segments.
+  std::vector<std::size_t> idx;
+  for (std::size_t i = 0; i < stretch.segments.size(); ++i)
+    if (length(stretch.segments[i]) > kMinPieceMm) idx.push_back(i);
+  Stretch& path = traj->path_;
+  path.cutting = stretch.cutting;
+  path.rapid = stretch.rapid;
+  if (idx.empty()) {  // nothing moves: a zero-length trajectory at the start point
+    Segment s;
+    s.start = s.end = stretch.segments.front().start;
+    path.segments.push_back(s);
+    path.feed_mm_per_s.push_back(stretch.feed_mm_per_s.front());
+    path.source_lines.push_back(stretch.source_lines.front());
+    traj->piece_s0_.push_back(0.0);
+    return traj;
+  }
+
+  // 1. Junctions: blend, pass or stop.
+  const std::size_t n = idx.size();
+  std::vector<double> len(n), trim_start(n, 0.0), trim_end(n, 0.0);
+  for (std::size_t k = 0; k < n; ++k) len[k] = length(stretch.segments[idx[k]]);
+  std::vector<std::vector<Segment>> blends(n);  // blends[k]: between k and k+1
+  std::vector<bool> stop_after(n, false);
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const Segment& a = stretch.segments[idx[k]];
+    const Segment& b = stretch.segments[idx[k + 1]];
+    const Vector2d te = interpolate(a, len[k]).tangent, ts = interpolate(b, 0.0).tangent;
+    const double phi = std::atan2(std::abs(cross(te, ts)), te.dot(ts));
+    if (phi <= kTangentRad) continue;
+    if (phi > kStopAngleRad) {
+      stop_after[k] = true;
+      continue;
+    }
+    const double d_max = std::min(0.5 * len[k], 0.5 * len[k + 1]);
+    const double q = std::tan(phi / 4.0);
+    std::vector<Segment> pieces;
+    double dev = 0.0;
+    double d = std::min(0.999 * tol / q, d_max);
+    if (!a.is_arc() && !b.is_arc()) {
+      if (d >= kMinBlendMm) {
+        const Vector2d p1 = interpolate(a, len[k] - d).position_mm, p2 = interpolate(b, d).position_mm;
+        Segment s = arc_from(p1, te, p2);
+        s.end = p2;
+        pieces.push_back(s);
+        dev = d * q;
+      }
+    } else {
+      d = std::min(tol / q, d_max);
+      for (int it = 0; it < 60 && d >= kMinBlendMm; ++it, d *= 0.5) {
+        const PathPoint p1 = interpolate(a, len[k] - d), p2 = interpolate(b, d);
+        pieces = biarc(p1.position_mm, p1.tangent, p2.position_mm, p2.tangent);
+        if (pieces.empty()) continue;
+        dev = sampled_deviation(pieces, a, b);
+        if (dev <= 0.9 * tol) break;
+        pieces.clear();
+      }
+    }
+    if (pieces.empty()) {
+      stop_after[k] = true;
+      continue;
+    }
+    trim_end[k] = d;
+    trim_start[k + 1] = d;
+    blends[k] = std::move(pieces);
+    traj->max_deviation_mm_ = std::max(traj->max_deviation_mm_, dev);
+    ++traj->blended_;
+  }
+
+  // 2. The executed path and the caps of each piece.
+  std::vector<PieceInfo> info;
+  const Vector2d& vmax = o.max_velocity_mm_per_s;
+  const Vector2d& amax = o.max_acceleration_mm_per_s2;
+  const double a_min = amax.minCoeff(), v_min = vmax.minCoeff();
+  const double f_n = o.curve_normal_fraction;
+  bool pending_stop = false;
+  auto add = [&](const Segment& s, double feed, int line) {
+    PieceInfo pi;
+    pi.stop_before = pending_stop && !path.segments.empty();
+    pending_stop = false;
+    if (s.is_arc()) {
+      const double r = s.radius;
+      pi.cap = std::min({feed, v_min, std::sqrt(f_n * a_min * r), std::sqrt(8.0 * r * tol) / o.servo_period_s});
+      pi.kappa = 1.0 / r;
+    } else {
+      const Vector2d u = (s.end - s.start).normalized();
+      pi.cap = std::min(feed, axis_cap(vmax, std::abs(u.x()), std::abs(u.y())));
+      pi.a_line = axis_cap(amax, std::abs(u.x()), std::abs(u.y()));
+    }
+    path.segments.push_back(s);
+    path.feed_mm_per_s.push_back(feed);
+    path.source_lines.push_back(line);
+    info.push_back(pi);
+  };
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = idx[k];
+    const double a = trim_start[k], b = len[k] - trim_end[k];
+    if (b - a > kMinPieceMm) add(sub_segment(stretch.segments[i], a, b), stretch.feed_mm_per_s[i], stretch.source_lines[i]);
+    if (k + 1 < n) {
+      if (stop_after[k]) {
+        pending_stop = true;
+        ++traj->stops_;
+      }
+      const double feed = std::min(stretch.feed_mm_per_s[i], stretch.feed_mm_per_s[idx[k + 1]]);
+      for (const Segment& s : blends[k]) add(s, feed, stretch.source_lines[idx[k + 1]]);
+    }
+  }
+  // Make consecutive pieces share their end points exactly (trimmed ends are computed from
+  // either side with the same formula; blends end where the next piece starts).
+  for (std::size_t k = 1; k < path.segments.size(); ++k) path.segments[k].start = path.segments[k - 1].end;
+
+  double total = 0.0;
+  for (const Segment& s : path.segments) {
+    traj->piece_s0_.push_back(total);
+    total += length(s);
+  }
+  traj->length_mm_ = total;
+
+  // 3. Zones: consecutive pieces whose speed caps agree within kZoneMergeRel.
+  std::vector<Zone> zones;
+  for (std::size_t k = 0; k < info.size(); ++k) {
+    const PieceInfo& pi = info[k];
+    const double l = length(path.segments[k]);
+    bool join = !zones.empty() && !pi.stop_before;
+    if (join) join = std::abs(pi.cap - info[zones.back().first].cap) <= kZoneMergeRel * info[zones.back().first].cap;
+    if (!join) {
+      Zone z;
+      z.first = k;
+      z.s0 = traj->piece_s0_[k];
+      z.cap = pi.cap;
+      z.a_curve = a_min;
+      zones.push_back(z);
+    }
+    Zone& z = zones.back();
+    z.last = k;
+    z.length += l;
+    z.cap = std::min(z.cap, pi.cap);
+    z.a_line = std::min(z.a_line, pi.a_line);
+    z.kappa = std::max(z.kappa, pi.kappa);
+  }
+
+  // 4. Node speeds: caps, then the reverse and forward passes.
+  const double j = o.max_jerk_mm_per_s3;
+  const std::size_t nz = zones.size();
+  std::vector<double> node(nz + 1, 0.0);
+  for (std::size_t k = 1; k < nz; ++k)
+    node[k] = info[zones[k].first].stop_before ? 0.0 : std::min(zones[k - 1].cap, zones[k].cap);
+  for (std::size_t k = nz; k-- > 1;)
+    node[k] = std::min(node[k], reachable(node[k + 1], zones[k], j, node[k]));
+  for (std::size_t k = 1; k < nz; ++k)
+    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1], j, node[k]));
+
+  // 5. One accelerate / cruise / decelerate profile per zone.
+  ProfileBuilder pb(traj->phases_);
+  for (std::size_t k = 0; k < nz; ++k) {
+    const Zone& z = zones[k];
+    const double v0 = node[k], v1 = node[k + 1];
+    auto need = [&](double vp) { return transition_distance(v0, vp, z, j) + transition_distance(vp, v1, z, j); };
+    double vp = z.cap;
+    if (need(vp) > z.length) {
+      double lo = std::max(v0, v1), hi = z.cap;
+      for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (need(mid) <= z.length ? lo : hi) = mid;
+      }
+      vp = lo;
+    }
+    pb.anchor(pb.t(), z.s0, v0);
+    pb.transition(v0, vp, z, j);
+    const double cruise = z.length - need(vp);
+    if (cruise > 0.0 && vp > 0.0) pb.phase(0.0, cruise / vp);
+    pb.transition(vp, v1, z, j);
+  }
+  traj->duration_s_ = pb.t();
+  for (const ProfilePhase& p : traj->phases_) traj->phase_t0_.push_back(p.t0_s);
+  return traj;
+}
+
+std::unique_ptr<Trajectory> plan_stretch(const Stretch& stretch, const PlannerOptions& options) {
+  return plan_stretch_detailed(stretch, options);
+}
+
+void PlannedTrajectory::sample(double t_s, Setpoint& out) const {
+  double s = 0.0, v = 0.0, a = 0.0;
+  if (!(t_s > 0.0)) {  // also NaN: the start state
+    s = 0.0;
+  } else if (t_s >= duration_s_ || phases_.empty()) {
+    s = length_mm_;
+  } else {
+    const auto it = std::upper_bound(phase_t0_.begin(), phase_t0_.end(), t_s);
+    const std::size_t k = it == phase_t0_.begin() ? 0 : static_cast<std::size_t>(it - phase_t0_.begin()) - 1;
+    const ProfilePhase& p = phases_[k];
+    const double tau = std::min(t_s - p.t0_s, p.duration_s);
+    s = p.s0_mm + tau * (p.v0_mm_per_s + tau * (p.a0_mm_per_s2 / 2.0 + tau * p.jerk_mm_per_s3 / 6.0));
+    v = std::max(0.0, p.v0_mm_per_s + tau * (p.a0_mm_per_s2 + tau * p.jerk_mm_per_s3 / 2.0));
+    a = p.a0_mm_per_s2 + tau * p.jerk_mm_per_s3;
+    s = std::clamp(s, 0.0, length_mm_);
+  }
+  const auto it = std::upper_bound(piece_s0_.begin(), piece_s0_.end(), s);
+  const std::size_t k = it == piece_s0_.begin() ? 0 : static_cast<std::size_t>(it - piece_s0_.begin()) - 1;
+  const PathPoint pp = interpolate(path_.segments[k], s - piece_s0_[k]);
+  out.position_mm = pp.position_mm;
+  out.velocity_mm_per_s = v * pp.tangent;
+  out.acceleration_mm_per_s2 = a * pp.tangent + v * v * pp.curvature_per_mm * left_normal(pp.tangent);
+}
+
+double time_lower_bound_s(const Stretch& stretch, const PlannerOptions& o) {
+  o.validate();
+  check_stretch(stretch);
+  const Vector2d& vmax = o.max_velocity_mm_per_s;
+  const Vector2d& amax = o.max_acceleration_mm_per_s2;
+
+  // Pieces with relaxed (largest over the piece) caps; `stop_before` at direction jumps.
+  struct P {
+    double len, cap, accel;
+    bool stop_before;
+  };
+  std::vector<P> ps;
+  bool have_prev = false;
+  Vector2d prev_tangent = Vector2d::Zero();
+  for (std::size_t i = 0; i < stretch.segments.size(); ++i) {
+    const Segment& s = stretch.segments[i];
+    const double l = length(s);
+    if (l <= kMinPieceMm) continue;
+    const double feed = stretch.feed_mm_per_s[i];
+    const Vector2d t0 = interpolate(s, 0.0).tangent;
+    bool stop = false;
+    if (have_prev) stop = std::atan2(std::abs(cross(prev_tangent, t0)), prev_tangent.dot(t0)) > kBoundTangentRad;
+    prev_tangent = interpolate(s, l).tangent;
+    have_prev = true;
+    if (!s.is_arc()) {
+      const double ux = std::abs(t0.x()), uy = std::abs(t0.y());
+      ps.push_back({l, std::min(feed, axis_cap(vmax, ux, uy)), axis_cap(amax, ux, uy), stop});
+      continue;
+    }
+    const int parts = std::max(1, static_cast<int>(std::ceil(std::abs(s.sweep) / (kPi / 32.0))));
+    const double sign = s.sweep >= 0 ? 1.0 : -1.0;
+    for (int k = 0; k < parts; ++k) {
+      // Radial angle range of this part; the tangent angle is the radial one + sign pi/2.
+      const double th0 = s.start_angle + s.sweep * k / parts, th1 = s.start_angle + s.sweep * (k + 1) / parts;
+      const double lo = std::min(th0, th1), hi = std::max(th0, th1);
+      const double tlo = lo + sign * kPi / 2, thi = hi + sign * kPi / 2;
+      const double ux = min_abs_trig(tlo, thi, 0), uy = min_abs_trig(tlo, thi, 1);
+      const double nx = min_abs_trig(lo, hi, 0), ny = min_abs_trig(lo, hi, 1);
+      const double a_n = axis_cap(amax, nx, ny);
+      const double cap = std::min({feed, axis_cap(vmax, ux, uy), std::sqrt(a_n * s.radius)});
+      ps.push_back({l / parts, cap, axis_cap(amax, ux, uy), k == 0 && stop});
+    }
+  }
+  if (ps.empty()) return 0.0;
+
+  // Node values of V^2 between pieces; 0 at the ends and at stops.
+  const std::size_t m = ps.size();
+  std::vector<double> w(m + 1, 0.0);
+  for (std::size_t k = 1; k < m; ++k)
+    w[k] = ps[k].stop_before ? 0.0 : std::min(ps[k - 1].cap * ps[k - 1].cap, ps[k].cap * ps[k].cap);
+  for (std::size_t k = m; k-- > 1;) w[k] = std::min(w[k], w[k + 1] + 2.0 * ps[k].accel * ps[k].len);
+  for (std::size_t k = 1; k < m; ++k) w[k] = std::min(w[k], w[k - 1] + 2.0 * ps[k - 1].accel * ps[k - 1].len);
+
+  // integral ds / V over each piece, V = min(cap, sqrt(wa + 2 A x), sqrt(wb + 2 A (L - x))).
+  double time = 0.0;
+  for (std::size_t k = 0; k < m; ++k) {
+    const P& p = ps[k];
+    const double A = p.accel, L = p.len, c2 = p.cap * p.cap;
+    const double wa = std::min(w[k], c2), wb = std::min(w[k + 1], c2);
+    const double x1 = (c2 - wa) / (2.0 * A), x2 = L - (c2 - wb) / (2.0 * A);
+    if (x1 <= x2) {
+      time += (p.cap - std::sqrt(wa)) / A + (x2 - x1) / p.cap + (p.cap - std::sqrt(wb)) / A;
+    } else {
+      const double xm = std::clamp((wb - wa + 2.0 * A * L) / (4.0 * A), 0.0, L);
+      const double wm = wa + 2.0 * A * xm;
+      time += (std::sqrt(wm) - std::sqrt(wa)) / A + (std::sqrt(wm) - std::sqrt(wb)) / A;
+    }
+  }
+  return time;
+}
+
+}  // namespace machplan::motion

@@ -1,0 +1,58 @@
+// Turning an interpreted part program into the executor's plan of work (a Job).
+//
+// make_job walks the canonical moves of a Program once and groups them:
+//
+//   * consecutive rapids form one rapid Stretch (feed = JobOptions::rapid_feed_mm_per_s);
+//   * consecutive lines and arcs form one feed Stretch, `cutting` when the torch is on
+//     (an M3 was seen and no M5 since);
+//   * torch_on, torch_off and dwell become Steps of their own and end the current stretch,
+//     because the tool must be at rest for them; a change between rapid and feed ends it too.
+//     Every stretch is therefore one rest-to-rest motion, and Job::steps lists, in program
+//     order, a `move` step per stretch and the torch and dwell steps between them.
+//
+// Geometry: lines become line Segments; an arc becomes one or more arc Segments about the
+// programmed centre with the radius of its start point. A Segment holds |sweep| < 2 pi, so a
+// full circle (start = end) and the extra turns of a P word are split into equal parts of at
+// most pi each. Zero-length moves (end = start within 1e-9 mm, or a degenerate arc of zero
+// radius) are dropped, since they carry no motion. Feeds: F is mm/min in the program,
+// mm/s in the Job.
+//
+// What is refused (InputError naming the program and line):
+//   * any change of Z: these machines (plasma/oxy-fuel gantry, XY table) have no programmable
+//     Z axis, so a Z word that moves the tool is not silently flattened;
+//   * a helical arc (an arc whose Z changes), named as such;
+//   * a line or arc with no feed (F missing or zero).
+//
+// Thread safety: pure function. Example:
+//
+//     Program p = read_gcode("part.ngc");
+//     Job job = make_job(p, JobOptions{});
+//     for (const Step& s : job.steps) ...
+#pragma once
+
+#include "engine/motion/job.h"
+
+namespace machplan {
+struct Program;
+}
+
+namespace machplan::motion {
+
+struct JobOptions {
+  // Speed given to rapid stretches (G0), mm/s. The default is the thermal gantry's top feed
+  // (4910 mm/min); the feed planner further caps it by the axis limits.
+  double rapid_feed_mm_per_s = 4910.0 / 60.0;
+  // Moves whose XY length is at most this are dropped as zero-length, mm.
+  double zero_length_mm = 1e-9;
+  // Largest change of Z accepted as "no change" (rounding in the program), mm.
+  double z_tolerance_mm = 1e-9;
+
+  // Throws std::invalid_argument naming the field, its value and the rule.
+  void validate() const;
+};
+
+// See the file comment. Throws InputError(program.source, line, ...) on refused input and
+// std::invalid_argument when `options` is invalid.
+Job make_job(const Program& program, const JobOptions& options = {});
+
+}  // namespace machplan::motion

@@ -1,0 +1,233 @@
+#include "models/cutting/machine_config.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <stdexcept>
+#include <vector>
+
+#include "engine/common/error.h"
+#include "engine/config/yaml.h"
+
+namespace machplan::cutting {
+
+namespace {
+
+const NumberRule kPositive{.min = 0, .min_exclusive = true};
+const NumberRule kNonNegative{.min = 0};
+
+AxisConfig read_axis(const Yaml& a, const std::string& name) {
+  a.reject_unknown_keys({"travel_mm", "drive", "encoder", "counter", "dac_bits", "latency", "servo"});
+  AxisConfig ax;
+  ax.name = name;
+  ax.travel_mm = a.number("travel_mm", kPositive);
+  axis::AxisPlantParams& p = ax.plant;
+
+  const Yaml d = a.at("drive");
+  d.reject_unknown_keys({"motor_max_rpm", "gear_ratio", "mm_per_rev", "dac_full_scale_rpm",
+                         "velocity_loop_time_constant_s", "max_acceleration_mm_per_s2", "gain_factor",
+                         "coulomb_friction_mm_per_s", "viscous_friction_ratio", "speed_noise_mm_per_s", "backlash_mm",
+                         "start_shock_mm_per_s", "substeps"});
+  p.motor_max_rpm = d.number("motor_max_rpm", kPositive);
+  p.gear_ratio = d.number("gear_ratio", kPositive);
+  p.mm_per_rev = d.number("mm_per_rev", kPositive);
+  p.dac_full_scale_rpm = d.number_or("dac_full_scale_rpm", p.motor_max_rpm, kPositive);
+  p.velocity_loop_time_constant_s = d.number("velocity_loop_time_constant_s", {.min = 1e-5, .max = 10});
+  p.max_acceleration_mm_per_s2 = d.number_or("max_acceleration_mm_per_s2", 0.0, kNonNegative);
+  p.gain_factor = d.number_or("gain_factor", 1.0, {.min = 0, .max = 2, .min_exclusive = true});
+  p.coulomb_friction_mm_per_s = d.number_or("coulomb_friction_mm_per_s", 0.0, kNonNegative);
+  p.viscous_friction_ratio = d.number_or("viscous_friction_ratio", 0.0, {.min = 0, .max = 10});
+  p.speed_noise_mm_per_s = d.number_or("speed_noise_mm_per_s", 0.0, kNonNegative);
+  p.backlash_mm = d.number_or("backlash_mm", 0.0, {.min = 0, .max = 10});
+  p.start_shock_mm_per_s = d.number_or("start_shock_mm_per_s", 0.0, kNonNegative);
+  if (d.has("substeps")) p.substeps = d.at("substeps").integer(1, 1000);
+
+  const Yaml e = a.at("encoder");
+  e.reject_unknown_keys({"lines_per_rev", "mm_per_rev", "decoding"});
+  p.encoder_lines_per_rev = e.at("lines_per_rev").integer(1, 10'000'000);
+  p.encoder_mm_per_rev = e.number("mm_per_rev", kPositive);
+  p.decoding = e.at("decoding").integer(1, 4);
+  if (p.decoding == 3) e.at("decoding").fail("must be 1, 2 or 4 (edges counted per encoder line), got 3");
+
+  const Yaml c = a.at("counter");
+  c.reject_unknown_keys({"bits", "direction_bit"});
+  p.counter_bits = c.at("bits").integer(8, 32);
+  if (!c.boolean_or("direction_bit", true))
+    c.at("direction_bit").fail("must be true: only down counters with a direction bit are modelled");
+
+  p.dac_bits = a.at("dac_bits").integer(8, 24);
+  if (const auto l = a.get("latency")) {
+    l->reject_unknown_keys({"command_ticks", "reading_ticks"});
+    if (l->has("command_ticks")) p.command_latency_ticks = l->at("command_ticks").integer(0, axis::AxisPlantParams::kMaxLatencyTicks);
+    if (l->has("reading_ticks")) p.reading_latency_ticks = l->at("reading_ticks").integer(0, axis::AxisPlantParams::kMaxLatencyTicks);
+  }
+
+  const Yaml s = a.at("servo");
+  s.reject_unknown_keys({"kp_per_s", "ki_per_s2", "kd", "velocity_ff", "acceleration_ff_s", "ff_adaptation_per_s2", "ff_adaptation_min_speed_mm_per_s", "following_error_limit_mm",
+                         "backlash_compensation_mm", "backlash_compensation_time_s"});
+  control::ServoGains& g = ax.servo;
+  g.kp_per_s = s.number("kp_per_s", kNonNegative);
+  g.ki_per_s2 = s.number_or("ki_per_s2", 0.0, kNonNegative);
+  g.kd = s.number_or("kd", 0.0, kNonNegative);
+  g.velocity_ff = s.number_or("velocity_ff", 1.0, {.min = 0, .max = 3});
+  g.acceleration_ff_s = s.number_or("acceleration_ff_s", 0.0, {.min = 0, .max = 1});
+  g.ff_adaptation_per_s2 = s.number_or("ff_adaptation_per_s2", 0.0, {.min = 0, .max = 1e5});
+  g.ff_adaptation_min_speed_mm_per_s =
+      s.number_or("ff_adaptation_min_speed_mm_per_s", g.ff_adaptation_min_speed_mm_per_s, kPositive);
+  g.following_error_limit_mm = s.number("following_error_limit_mm", kPositive);
+  g.backlash_compensation_mm = s.number_or("backlash_compensation_mm", 0.0, {.min = 0, .max = 5});
+  g.backlash_compensation_time_s = s.number_or("backlash_compensation_time_s", g.backlash_compensation_time_s, kPositive);
+
+  try {
+    p.validate();
+    g.validate();
+  } catch (const std::invalid_argument& ex) {
+    a.fail(ex.what());
+  }
+  return ax;
+}
+
+}  // namespace
+
+MachineConfig machine_from_yaml(const Yaml& root) {
+  root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height"});
+  MachineConfig m;
+  m.source = root.file();
+  m.name = root.string("name");
+  m.description = root.string_or("description", "");
+  m.servo_period_s = root.number_or("servo_period_s", 0.001, {.min = 1e-5, .max = 0.1});
+
+  const Yaml l = root.at("limits");
+  l.reject_unknown_keys({"velocity_mm_per_s", "acceleration_mm_per_s2", "jerk_mm_per_s3", "rapid_mm_per_s"});
+  m.limits.velocity_mm_per_s = l.number("velocity_mm_per_s", kPositive);
+  m.limits.acceleration_mm_per_s2 = l.number("acceleration_mm_per_s2", kPositive);
+  m.limits.jerk_mm_per_s3 = l.number("jerk_mm_per_s3", kPositive);
+  m.limits.rapid_mm_per_s = l.number("rapid_mm_per_s", kPositive);
+
+  const Yaml axes = root.at("axes");
+  axes.reject_unknown_keys({"x", "y"});
+  m.axes[0] = read_axis(axes.at("x"), "x");
+  m.axes[1] = read_axis(axes.at("y"), "y");
+  for (const AxisConfig& ax : m.axes) {
+    const double top = ax.plant.max_speed_mm_per_s();
+    if (m.limits.velocity_mm_per_s > top * (1 + 1e-3))
+      l.at("velocity_mm_per_s")
+          .fail(fmt::format("is {} but axis {} tops out at {:.2f} mm/s (motor rpm / gear ratio * mm per rev)",
+                            m.limits.velocity_mm_per_s, ax.name, top));
+    if (m.limits.rapid_mm_per_s > top * (1 + 1e-3))
+      l.at("rapid_mm_per_s").fail(fmt::format("is {} but axis {} tops out at {:.2f} mm/s", m.limits.rapid_mm_per_s,
+                                              ax.name, top));
+  }
+
+  if (const auto t = root.get("torch")) {
+    t->reject_unknown_keys({"kind", "plasma", "oxy_fuel"});
+    if (const auto p = t->get("plasma")) {
+      p->reject_unknown_keys({"arc_start_delay_s", "arc_ok_timeout_s", "pierce_delay_s", "arc_start_failure_probability"});
+      m.torch.has_plasma = true;
+      m.torch.plasma.arc_start_delay_s = p->number("arc_start_delay_s", kNonNegative);
+      m.torch.plasma.arc_ok_timeout_s = p->number("arc_ok_timeout_s", kPositive);
+      m.torch.plasma.pierce_delay_s = p->number("pierce_delay_s", kNonNegative);
+      m.torch.plasma.arc_start_failure_probability =
+          p->number_or("arc_start_failure_probability", 0.0, {.min = 0, .max = 1});
+      if (m.torch.plasma.arc_start_delay_s >= m.torch.plasma.arc_ok_timeout_s)
+        p->at("arc_ok_timeout_s").fail("must be longer than arc_start_delay_s, or no arc could ever start in time");
+    }
+    if (const auto o = t->get("oxy_fuel")) {
+      o->reject_unknown_keys({"preheat_s", "pierce_delay_s"});
+      m.torch.has_oxy_fuel = true;
+      m.torch.oxy_fuel.preheat_s = o->number("preheat_s", kNonNegative);
+      m.torch.oxy_fuel.pierce_delay_s = o->number("pierce_delay_s", kNonNegative);
+    }
+    const std::string kind = t->string("kind");
+    if (kind == "plasma") {
+      if (!m.torch.has_plasma) t->at("kind").fail("is 'plasma' but there is no 'torch.plasma' section");
+      m.torch.kind = executor::TorchSetup::Kind::plasma;
+    } else if (kind == "oxy_fuel") {
+      if (!m.torch.has_oxy_fuel) t->at("kind").fail("is 'oxy_fuel' but there is no 'torch.oxy_fuel' section");
+      m.torch.kind = executor::TorchSetup::Kind::oxy_fuel;
+    } else {
+      t->at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + kind + "'");
+    }
+  }
+  if (const auto h = root.get("torch_height")) {
+    h->reject_unknown_keys({"initial_height_sense_s", "pierce_height_mm", "cut_height_mm", "retract_height_mm",
+                            "speed_mm_per_s", "timeout_s"});
+    TorchHeightConfig& th = m.torch_height;
+    th.fitted = true;
+    th.initial_height_sense_s = h->number("initial_height_sense_s", kNonNegative);
+    th.pierce_height_mm = h->number("pierce_height_mm", kPositive);
+    th.cut_height_mm = h->number("cut_height_mm", kPositive);
+    th.retract_height_mm = h->number("retract_height_mm", kPositive);
+    th.speed_mm_per_s = h->number("speed_mm_per_s", kPositive);
+    th.timeout_s = h->number("timeout_s", kPositive);
+    if (th.retract_height_mm < th.pierce_height_mm)
+      h->at("retract_height_mm").fail("must be at least pierce_height_mm");
+    const double worst = th.initial_height_sense_s + th.retract_height_mm / th.speed_mm_per_s;
+    if (th.timeout_s <= worst)
+      h->at("timeout_s").fail(fmt::format("must exceed the sense time plus a full stroke ({:.3f} s)", worst));
+  }
+  return m;
+}
+
+MachineConfig load_machine(const std::string& path) { return machine_from_yaml(Yaml::load_file(path)); }
+
+executor::MachineSetup MachineConfig::setup() const {
+  executor::MachineSetup s;
+  s.name = name;
+  for (int i = 0; i < 2; ++i) {
+    const auto& p = axes[i].plant;
+    s.signals[i] = {p.mm_per_count(), p.counter_bits, p.dac_bits, p.dac_full_scale_mm_per_s(), p.command_latency_ticks,
+                    p.reading_latency_ticks};
+    s.servo[i] = axes[i].servo;
+    s.max_speed_mm_per_s[i] = p.max_speed_mm_per_s();
+  }
+  s.max_acceleration_mm_per_s2 = limits.acceleration_mm_per_s2;
+  s.rapid_mm_per_s = limits.rapid_mm_per_s;
+  s.torch.kind = torch.kind;
+  s.torch.arc_ok_timeout_s = torch.plasma.arc_ok_timeout_s;
+  s.torch.pierce_delay_s =
+      torch.kind == executor::TorchSetup::Kind::oxy_fuel ? torch.oxy_fuel.pierce_delay_s : torch.plasma.pierce_delay_s;
+  s.torch.preheat_s = torch.oxy_fuel.preheat_s;
+  s.torch.height_axis = torch_height.fitted;
+  s.torch.pierce_height_mm = torch_height.pierce_height_mm;
+  s.torch.cut_height_mm = torch_height.cut_height_mm;
+  s.torch.retract_height_mm = torch_height.retract_height_mm;
+  s.torch.height_timeout_s = torch_height.timeout_s;
+  return s;
+}
+
+std::string find_machine(const std::string& name_or_path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_regular_file(name_or_path, ec)) return name_or_path;
+  const bool looks_like_name = name_or_path.find('/') == std::string::npos && name_or_path.find('.') == std::string::npos &&
+                               !name_or_path.empty();
+  std::vector<fs::path> places;
+  if (looks_like_name) {
+    if (const char* env = std::getenv("MACHPLAN_MACHINES_DIR")) places.emplace_back(env);
+    places.emplace_back(fs::path("datasets") / "machines");
+    char buf[4096];
+    const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
+    if (n > 0) {
+      buf[n] = 0;
+      for (fs::path dir = fs::path(buf).parent_path(); !dir.empty(); dir = dir.parent_path()) {
+        places.push_back(dir / "datasets" / "machines");
+        if (dir == dir.root_path()) break;
+      }
+    }
+    for (const fs::path& dir : places) {
+      const fs::path candidate = dir / (name_or_path + ".yaml");
+      if (fs::is_regular_file(candidate, ec)) return candidate.string();
+    }
+  }
+  std::string searched;
+  for (const auto& p : places) searched += (searched.empty() ? "" : ", ") + p.string();
+  throw InputError("--machine", 0,
+                   looks_like_name ? fmt::format("no machine named '{}' (looked for {}.yaml in {})", name_or_path,
+                                                 name_or_path, searched)
+                                   : fmt::format("no such machine file '{}'", name_or_path));
+}
+
+}  // namespace machplan::cutting

@@ -1,0 +1,95 @@
+// Cutting machines as data: the thermal gantry and the XY table, read from YAML.
+//
+// A machine file (datasets/machines/NAME.yaml, documented in datasets/machines/README.md)
+// holds, per axis, the physics the simulator needs (models/axis/plant.h: drive, friction,
+// backlash, encoder, counter, DAC, latency) and the servo gains the executor uses; for the
+// machine, the path limits, the torch and the torch height axis. The reader validates every
+// number, refuses unknown keys and names FILE:LINE and the key in every complaint.
+//
+// Example:
+//
+//   auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
+//   executor::MachineSetup setup = m.setup();        // what the executor needs
+//   axis::AxisPlant x(m.axes[0].plant);              // what the simulator needs
+#pragma once
+
+#include <array>
+#include <string>
+
+#include "engine/control/servo.h"
+#include "engine/executor/machine_setup.h"
+#include "models/axis/plant.h"
+
+namespace machplan {
+class Yaml;
+}
+
+namespace machplan::cutting {
+
+struct AxisConfig {
+  std::string name;              // "x", "y"
+  double travel_mm = 0.0;
+  axis::AxisPlantParams plant;
+  control::ServoGains servo;
+};
+
+struct Limits {
+  double velocity_mm_per_s = 0.0;
+  double acceleration_mm_per_s2 = 0.0;
+  double jerk_mm_per_s3 = 0.0;
+  double rapid_mm_per_s = 0.0;
+};
+
+struct PlasmaConfig {
+  double arc_start_delay_s = 0.15;
+  double arc_ok_timeout_s = 2.0;
+  double pierce_delay_s = 0.5;
+  double arc_start_failure_probability = 0.0;  // simulation only
+};
+
+struct OxyFuelConfig {
+  double preheat_s = 20.0;
+  double pierce_delay_s = 2.0;
+};
+
+struct TorchConfig {
+  executor::TorchSetup::Kind kind = executor::TorchSetup::Kind::none;
+  bool has_plasma = false, has_oxy_fuel = false;
+  PlasmaConfig plasma;
+  OxyFuelConfig oxy_fuel;
+};
+
+struct TorchHeightConfig {
+  bool fitted = false;
+  double initial_height_sense_s = 0.4;
+  double pierce_height_mm = 3.8;
+  double cut_height_mm = 1.5;
+  double retract_height_mm = 15.0;
+  double speed_mm_per_s = 50.0;
+  double timeout_s = 3.0;
+};
+
+struct MachineConfig {
+  std::string name, description, source;
+  double servo_period_s = 0.001;
+  Limits limits;
+  std::array<AxisConfig, 2> axes;
+  TorchConfig torch;
+  TorchHeightConfig torch_height;
+
+  // The executor's view: signals, gains, stop deceleration, torch timing.
+  executor::MachineSetup setup() const;
+};
+
+// Reads and validates a machine file. Throws InputError "FILE:LINE: key 'a.b' ...".
+MachineConfig load_machine(const std::string& path);
+MachineConfig machine_from_yaml(const Yaml& root);
+
+// `name_or_path` is an existing file, or the name of a bundled machine ("thermal_gantry",
+// "xy_table"), looked up as NAME.yaml in, in order: $MACHPLAN_MACHINES_DIR,
+// ./datasets/machines, and datasets/machines in each parent folder of the running
+// executable (so a build tree inside the source tree finds the bundled files). Throws
+// InputError naming the flag value and the places searched when nothing matches.
+std::string find_machine(const std::string& name_or_path);
+
+}  // namespace machplan::cutting

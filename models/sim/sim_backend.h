@@ -1,0 +1,113 @@
+// The simulated machine behind the executor's Backend interface: two axis plants
+// (models/axis/plant.h), a plasma or oxy-fuel torch, a torch height axis, an E-stop input, a
+// hardware watchdog, and fault injection for tests.
+//
+// Torch model. Plasma: on a rising `torch_fire` the arc starts after `arc_start_delay_s`
+// unless the start fails (probability `arc_start_failure_probability`, drawn from the seeded
+// RNG), and `arc_ok` is reported while the arc burns; dropping `torch_fire` ends the arc at
+// once. Oxy-fuel: the cutting oxygen follows `torch_fire`; there is no arc-OK signal (the
+// input reads true while firing). The height axis moves to its target at `speed_mm_per_s`;
+// the first descent after a retract starts with an initial height sense of
+// `initial_height_sense_s` during which it does not move.
+//
+// Watchdog: once the link is lost (injected) the simulated hardware disables the drives and
+// the torch by itself, as a real controller's watchdog must; `coast()` lets a test run the
+// machine on after the executor has gone.
+//
+// Fault injection (inject() before the run; each fires once at its time):
+//   encoder_glitch       the counter of `axis` jumps by `counts` and stays off (lost pulses)
+//   counter_wrap_misread one read of `axis` returns the value with its high byte off by one,
+//                        as when the two bytes of an 8253 are read across a carry
+//   estop                the E-stop input opens and stays open
+//   lost_backend         exchange() returns Health::lost from then on
+//   stuck_axis           `axis` jams (its load cannot move) from then on
+//   arc_loss             the plasma arc goes out from then on
+//
+// Determinism: one std::mt19937_64 seeded from SimOptions::seed drives all randomness.
+// Real time: exchange() allocates nothing. With `realtime`, it sleeps until the period's
+// deadline on the steady clock before returning.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "engine/hardware/backend.h"
+#include "models/axis/plant.h"
+#include "models/cutting/machine_config.h"
+
+namespace machplan::sim {
+
+struct SimOptions {
+  std::uint64_t seed = 1;
+  bool realtime = false;                  // pace exchange() to the wall clock
+  Eigen::Vector2d start_mm = Eigen::Vector2d::Zero();
+  // Counter values at start: arbitrary, and not zero, so runs exercise the wrap.
+  std::array<std::uint32_t, 2> counter_start{{40000u, 123u}};
+};
+
+struct FaultInjection {
+  enum class Kind { encoder_glitch, counter_wrap_misread, estop, lost_backend, stuck_axis, arc_loss };
+  Kind kind = Kind::estop;
+  double at_s = 0.0;
+  int axis = 0;
+  std::int32_t counts = 100;  // encoder_glitch only
+};
+
+class SimBackend final : public hardware::Backend {
+ public:
+  explicit SimBackend(const cutting::MachineConfig& machine, const SimOptions& options = {});
+
+  void inject(const FaultInjection& f);
+
+  double period_s() const override { return period_s_; }
+  hardware::AxisSignals axis_signals(int axis) const override;
+  hardware::Inputs initial_inputs() override;
+  hardware::Health exchange(const hardware::Outputs& out, hardware::Inputs& in) noexcept override;
+  bool true_position(Eigen::Vector2d& out_mm) const noexcept override;
+
+  // Runs the machine on for `seconds` with the drives disabled and the torch off (what the
+  // hardware does once the controller is gone or finished).
+  void coast(double seconds);
+
+  double time_s() const { return time_s_; }
+  const axis::AxisPlant& plant(int axis) const { return *plants_[axis]; }
+  bool arc_burning() const { return arc_burning_; }
+  bool torch_firing() const { return fire_; }
+  double torch_height_mm() const { return height_mm_; }
+  bool drives_enabled() const { return enabled_; }
+  bool link_lost() const { return lost_; }
+  int arc_starts() const { return arc_starts_; }
+
+ private:
+  void advance(const hardware::Outputs& out);
+  hardware::Inputs sample();
+  bool uniform_fail() {
+    const double p = m_.torch.kind == executor::TorchSetup::Kind::plasma ? m_.torch.plasma.arc_start_failure_probability : 0.0;
+    return p > 0 && axis::uniform01(rng_) < p;
+  }
+
+  cutting::MachineConfig m_;
+  SimOptions opt_;
+  double period_s_;
+  std::mt19937_64 rng_;
+  std::array<std::unique_ptr<axis::AxisPlant>, 2> plants_;
+  std::vector<FaultInjection> pending_;
+  std::vector<char> fired_;
+  double time_s_ = 0.0;
+  long ticks_ = 0;
+  bool enabled_ = false, fire_ = false, arc_burning_ = false, arc_fails_ = false, arc_lost_ = false;
+  double arc_timer_s_ = 0.0;
+  int arc_starts_ = 0;
+  double height_mm_ = 0.0, height_target_mm_ = 0.0, ihs_left_s_ = 0.0;
+  bool height_retracted_ = true;
+  bool estop_ = false, lost_ = false;
+  std::array<int, 2> misread_{{0, 0}};  // pending misread per axis: +-256 counts on the next read
+  std::chrono::steady_clock::time_point t0_;
+  bool started_ = false;
+};
+
+}  // namespace machplan::sim

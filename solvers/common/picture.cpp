@@ -1,0 +1,52 @@
+#include "solvers/common/picture.h"
+
+#include <cairo-svg.h>
+#include <cairo.h>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+
+namespace machplan {
+namespace {
+
+bool ends_with(const std::string& s, const char* tail) {
+  const std::string t(tail);
+  return s.size() > t.size() && s.compare(s.size() - t.size(), t.size(), t) == 0;
+}
+
+}  // namespace
+
+bool is_picture_path(const std::string& path) { return ends_with(path, ".png") || ends_with(path, ".svg"); }
+
+void write_picture(const std::string& path, const std::string& flag, double width, double height,
+                   const std::function<void(cairo_t*)>& draw) {
+  const bool svg = ends_with(path, ".svg");
+  const bool png = ends_with(path, ".png");
+  if (!svg && !png) throw InputError(flag, 0, fmt::format("'{}' must end in .png or .svg", path));
+  cairo_surface_t* surface = svg ? cairo_svg_surface_create(path.c_str(), width, height)
+                                 : cairo_image_surface_create(CAIRO_FORMAT_ARGB32, static_cast<int>(width),
+                                                              static_cast<int>(height));
+  if (cairo_surface_status(surface) != CAIRO_STATUS_SUCCESS) {
+    cairo_surface_destroy(surface);
+    throw InputError(path, 0, "cannot create the picture");
+  }
+  cairo_t* cr = cairo_create(surface);
+  try {
+    draw(cr);
+  } catch (...) {
+    cairo_destroy(cr);
+    cairo_surface_destroy(surface);
+    throw;
+  }
+  cairo_destroy(cr);
+  cairo_status_t st = CAIRO_STATUS_SUCCESS;
+  if (png) st = cairo_surface_write_to_png(surface, path.c_str());
+  cairo_surface_finish(surface);
+  if (st == CAIRO_STATUS_SUCCESS) st = cairo_surface_status(surface);
+  cairo_surface_destroy(surface);
+  if (st != CAIRO_STATUS_SUCCESS)
+    throw InputError(path, 0, std::string("cannot write the picture: ") + cairo_status_to_string(st));
+}
+
+}  // namespace machplan

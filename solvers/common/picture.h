@@ -1,0 +1,23 @@
+// Writing a Cairo drawing to a file, PNG or SVG by the file's extension: the part every plot
+// in solvers/ shares (placement, run).
+#pragma once
+
+#include <functional>
+#include <string>
+
+// Cairo's own declaration (cairo.h), repeated so that callers need not see Cairo's headers.
+typedef struct _cairo cairo_t;
+
+namespace machplan {
+
+// Creates a `width` x `height` surface (pixels for PNG, points for SVG), calls `draw` on it and
+// writes `path`. Throws InputError naming `flag` when the extension is neither .png nor .svg,
+// and naming the file when it cannot be created or written. Exceptions from `draw` propagate
+// after the surface is released.
+void write_picture(const std::string& path, const std::string& flag, double width, double height,
+                   const std::function<void(cairo_t*)>& draw);
+
+// True when `path` ends in .png or .svg (what write_picture accepts).
+bool is_picture_path(const std::string& path);
+
+}  // namespace machplan

@@ -1,0 +1,180 @@
+// Torch-off moves (rapids) that keep away from no-go zones: clamps, and parts already cut
+// that may tip up in the skeleton.
+//
+// Problem. The tool centre travels from `from` to `to` in the XY plane. Each no-go zone is a
+// closed Contour, read as a filled region. A point is *clear* when its distance to every zone
+// region (0 inside the region, else the distance to its boundary) is at least
+// RapidOptions::clearance_mm; a straight move is clear when every point of it is. A rapid is
+// a polyline whose every segment is clear.
+//
+// Algorithm.
+//
+//  1. Straight first. If the straight segment from -> to is clear it is the answer
+//     (status straight) and OMPL is not called. A rapid with from == to is straight whatever
+//     the zones (it moves nothing).
+//
+//  2. Leaving an end point's zone. A rapid often starts on a contour that was just cut (the
+//     torch stops on the part's edge) or ends at a pierce point under or beside a clamp. Such
+//     an end point is not clear, so no planner could start there. Rule: the zones whose region
+//     is within clearance_mm of the end point are *relaxed* for one short straight "escape"
+//     leg that leaves them by the shortest way: from the nearest boundary point along the
+//     outward normal to clearance_mm (for a point inside a zone this crosses the zone: there is
+//     no other way out). At most a few such pushes are made when the escape point falls into
+//     another zone's band. The escape leg must be clear of every zone that was not relaxed,
+//     and the escape point must be clear of all zones; otherwise the status is
+//     endpoint_blocked. The relaxed zones are reported; every other part of the rapid keeps
+//     the full clearance from every zone. With escapes, step 1 tests the segment between the
+//     two escape points.
+//
+//  3. Sampling-based search with OMPL's RRT-Connect in a 2-D RealVectorStateSpace bounded by
+//     the machine's travel box. Why RRT-Connect: a rapid is a single query whose zones change
+//     from one rapid to the next (each cut adds a part), so PRM's reusable roadmap buys
+//     nothing; RRT* spends its time on asymptotic optimality that the exact shortcutting of
+//     step 4 delivers far more cheaply in the plane; RRT-Connect's two greedy trees find a
+//     path around a few obstacles in a handful of samples and cope with the narrow gaps
+//     between clamps. Validity is exact, never sampled along a motion:
+//       - a state is valid when it lies in the bounds and, for every zone, it is outside the
+//         zone (winding number) and its distance to the contour is >= clearance_mm;
+//       - a motion is valid when the exact distance from the segment to every span of every
+//         zone (line-line and line-arc distance computed from the span geometry, see
+//         segment_distance_mm) is >= clearance_mm and its start is outside the zone. A
+//         segment that stays clearance_mm > 0 away from the boundary cannot cross it, so
+//         "start outside" makes the whole segment outside. Nothing can hide between samples.
+//     Several attempts with derived seeds run one after the other; the shortest result
+//     after step 4 is kept (a single tree may go round the long side of a zone).
+//
+//  4. Shortening: OMPL's PathSimplifier (vertex reduction and shortcutting between points
+//     on the path, both with the exact motion check), then a deterministic tightening of our
+//     own: greedy string pulling (each vertex is joined to the farthest later vertex it sees)
+//     and moving each interior vertex towards the chord of its neighbours by bisection while
+//     both adjacent segments stay clear (the path length is convex in the vertex position,
+//     so every accepted move shortens the path).
+//
+//  5. Smoothing: OMPL's B-spline smoothing (repeated subdivision and corner averaging, every
+//     change checked with the exact motion check) followed by removal of vertices that are
+//     nearly collinear with their neighbours. The result is validated again, segment by
+//     segment; should it fail, the unsmoothed path is returned (and the message says so).
+//     On a path that is already taut around a zone the corners that touch the clearance band
+//     cannot be rounded without entering it, so smoothing mostly rounds the other corners.
+//
+// Termination. The search stops after RapidOptions::max_samples sampled states in total
+// (all attempts), or after max_time_s of wall-clock time, whichever comes first. When the
+// goal is walled in, no_path is returned once the budget is spent. The sample budget is the
+// deterministic limit; the time limit is a backstop for pathological inputs and, if it is
+// what stops the search, the result may differ from run to run (the message says so).
+//
+// Determinism. OMPL's RNG::setSeed() only seeds the process-wide generator that hands out
+// seeds to RNG instances, and it has an effect only before the first RNG is created in the
+// process (later calls log an error and change nothing), so it cannot make two plans in one
+// process repeat. We therefore never rely on the global seed: the state sampler, the planner
+// and the path simplifier each get a local seed (RNG::setLocalSeed) derived from
+// RapidOptions::seed and the attempt number, the trees use the linear nearest-neighbour
+// structure (OMPL's default GNAT picks pivots with its own unseeded RNG), and the budget is
+// counted in samples, not seconds. Same inputs + seed -> same polyline, in any process and
+// in any order of calls. plan_rapid is thread-safe (it shares nothing but OMPL's
+// mutex-protected seed generator).
+//
+// Units: mm. Nothing here throws on geometry; RapidOptions::validate() throws
+// std::invalid_argument naming field, value and rule, and plan_rapid calls it.
+//
+// Example:
+//
+//     std::vector<Contour> clamps = {Contour({{-50, -20}, {50, -20}, {50, 20}, {-50, 20}},
+//                                            {0, 0, 0, 0})};
+//     RapidOptions o;                  // 5 mm clearance, seed 1
+//     RapidPlan p = plan_rapid({-150, 0}, {150, 0}, clamps, o);
+//     // p.status == RapidStatus::planned, p.straight_blocked, p.length_mm about 306.2 (the shortest
+//     // clear curve is 306.17),
+//     // p.min_clearance_mm >= 5
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "engine/geometry/contour.h"
+
+namespace machplan::motion {
+
+struct RapidOptions {
+  // How far the tool centre keeps from every zone, mm. Must be > 0 (with 0 a segment could
+  // graze a boundary and the "outside" test of a motion would no longer be exact).
+  double clearance_mm = 5.0;
+  // The machine's travel box, mm. Every point of a planned rapid stays inside it. Empty (the
+  // default): a box around the end points and all zones, grown by auto_margin_mm.
+  Eigen::AlignedBox2d bounds;
+  // Margin of the automatic box, mm (>= 0). It must leave room to pass round the outermost
+  // zones: at least 2 * clearance_mm is sensible.
+  double auto_margin_mm = 50.0;
+  // Total number of sampled states over all attempts before giving up with no_path (>= 1).
+  // A rapid round a few zones needs tens to a few hundred.
+  int max_samples = 20000;
+  // Wall-clock backstop for the whole search, s (> 0). See "Termination" above.
+  double max_time_s = 5.0;
+  // Independent RRT-Connect runs (derived seeds); the shortest shortened path wins (>= 1).
+  int attempts = 3;
+  // Seed of all random choices. Same inputs and seed give the same path.
+  std::uint32_t seed = 1;
+  // Shorten the planner's path (step 4). Without it the raw tree path is returned.
+  bool simplify = true;
+  // Smooth the shortened path (step 5).
+  bool smooth = true;
+
+  // Throws std::invalid_argument naming the field, its value and the rule it breaks.
+  void validate() const;
+};
+
+enum class RapidStatus {
+  straight,          // the straight move is clear; polyline = {from, to}
+  planned,           // a clear detour (or a straight move between escape legs)
+  no_path,           // budget spent without a path (goal or start walled in)
+  endpoint_blocked,  // an end point cannot leave its zones' clearance band (see step 2)
+  out_of_bounds,     // from or to lies outside RapidOptions::bounds
+};
+const char* to_string(RapidStatus s);
+
+struct RapidPlan {
+  RapidStatus status = RapidStatus::no_path;
+  // from ... to, for straight and planned; empty otherwise.
+  std::vector<Eigen::Vector2d> polyline;
+  double length_mm = 0.0;           // length of polyline (0 when empty)
+  double straight_length_mm = 0.0;  // |to - from|
+  // The straight segment from -> to comes closer than clearance_mm to some zone (always true
+  // when an end point lies in a zone's clearance band).
+  bool straight_blocked = false;
+  // Smallest distance from the polyline, escape legs excluded, to any zone region, mm
+  // (+infinity with no zones or an empty polyline). >= clearance_mm for straight / planned,
+  // except a rapid of zero length.
+  double min_clearance_mm = 0.0;
+  // Zones (indices into no_go) relaxed for the escape leg at the start / at the end.
+  std::vector<std::size_t> start_zones, end_zones;
+  bool smoothed = false;  // the smoothing step changed the returned path
+  int samples = 0;        // states sampled by the planner (0 when OMPL was not called)
+  std::string message;
+
+  bool ok() const { return status == RapidStatus::straight || status == RapidStatus::planned; }
+};
+
+// Plans one rapid; see the file comment. Throws std::invalid_argument when the options are
+// invalid or from/to are not finite; every other outcome is a status.
+RapidPlan plan_rapid(const Eigen::Vector2d& from, const Eigen::Vector2d& to,
+                     const std::vector<Contour>& no_go, const RapidOptions& options);
+
+// Exact distance between the straight segment a -> b and a span (line or arc), mm: 0 when
+// they meet. Computed from the candidates where the minimum can lie (end points, the foot of
+// the arc centre on the line, the line's crossings of the circle), each an actual distance
+// between two points of the curves, so the value is never too small and, by the argument in
+// rapid_planner.cpp, never too large.
+double segment_distance_mm(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Segment& span);
+
+// Distance from the segment a -> b to the region of a zone (0 when it enters or touches it).
+double region_distance_mm(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Contour& zone);
+
+// Smallest region distance of a polyline to any zone, mm (+infinity with no zones; for a
+// single point, the point's distance).
+double polyline_clearance_mm(const std::vector<Eigen::Vector2d>& polyline, const std::vector<Contour>& zones);
+
+}  // namespace machplan::motion

@@ -1,0 +1,163 @@
+#include "solvers/motion/rapids.h"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <fmt/format.h>
+
+namespace machplan::motion {
+namespace {
+
+using Eigen::Vector2d;
+
+double stretch_length(const Stretch& s) {
+  double sum = 0.0;
+  for (const Segment& g : s.segments) sum += length(g);
+  return sum;
+}
+
+// Appends span g to a vertex/bulge list (its start vertex and bulge), splitting arcs of more
+// than half a turn so that every bulge stays within [-1, 1].
+void append_span(const Segment& g, std::vector<Vector2d>& v, std::vector<double>& b) {
+  if (!g.is_arc()) {
+    v.push_back(g.start);
+    b.push_back(0.0);
+    return;
+  }
+  if (std::abs(g.sweep) > std::numbers::pi) {
+    v.push_back(g.start);
+    b.push_back(std::tan(g.sweep / 8.0));
+    v.push_back(point_at(g, 0.5));
+    b.push_back(std::tan(g.sweep / 8.0));
+    return;
+  }
+  v.push_back(g.start);
+  b.push_back(std::tan(g.sweep / 4.0));
+}
+
+}  // namespace
+
+std::optional<Contour> closed_loop(const Stretch& stretch, double tolerance_mm) {
+  const auto& segs = stretch.segments;
+  for (std::size_t j = 0; j < segs.size(); ++j)
+    for (std::size_t i = 0; i <= j; ++i) {
+      if ((segs[j].end - segs[i].start).norm() > tolerance_mm) continue;
+      // A single line cannot close; a zero-length segment closes nothing.
+      if (length(segs[j]) == 0.0) continue;
+      std::vector<Vector2d> v;
+      std::vector<double> b;
+      for (std::size_t k = i; k <= j; ++k) append_span(segs[k], v, b);
+      try {
+        Contour c(std::move(v), std::move(b));
+        if (orientation(c, 1e-6) == Orientation::degenerate) return std::nullopt;
+        return c;
+      } catch (const std::invalid_argument&) {
+        return std::nullopt;  // non-finite or absurd coordinates: no zone
+      }
+    }
+  return std::nullopt;
+}
+
+RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, const RapidOptions& options,
+                         bool zones_from_cuts) {
+  options.validate();
+  RapidsReport report;
+  std::vector<Contour> zones = declared_zones;
+  std::vector<char> done(job.stretches.size(), 0);
+
+  for (const Step& step : job.steps) {
+    if (step.kind != Step::Kind::move || step.stretch >= job.stretches.size() || done[step.stretch]) continue;
+    done[step.stretch] = 1;
+    Stretch& s = job.stretches[step.stretch];
+    if (s.segments.empty()) continue;
+
+    if (s.cutting && !s.rapid) {
+      if (!zones_from_cuts) continue;
+      if (auto loop = closed_loop(s)) {
+        zones.push_back(std::move(*loop));
+        ++report.cut_zones;
+      } else {
+        ++report.open_cuts;
+      }
+      continue;
+    }
+    if (!s.rapid) continue;
+
+    RapidReport r;
+    r.stretch = step.stretch;
+    r.source_line = s.source_lines.empty() ? step.source_line : s.source_lines.front();
+    r.from = s.segments.front().start;
+    r.to = s.segments.back().end;
+    r.straight_length_mm = (r.to - r.from).norm();
+    r.programmed_length_mm = stretch_length(s);
+    r.zone_count = zones.size();
+
+    const RapidPlan plan = plan_rapid(r.from, r.to, zones, options);
+    r.status = plan.status;
+    r.straight_blocked = plan.straight_blocked;
+    r.message = plan.message;
+
+    // Keep the programmed route when it is straight lines and clear of every zone.
+    bool programmed_clear = true;
+    std::vector<Vector2d> programmed{r.from};
+    for (const Segment& g : s.segments) {
+      programmed_clear = programmed_clear && !g.is_arc();
+      programmed.push_back(g.end);
+    }
+    const double programmed_clearance = polyline_clearance_mm(programmed, zones);
+    programmed_clear = programmed_clear && programmed_clearance >= options.clearance_mm;
+
+    if (programmed_clear) {
+      r.programmed_clear = true;
+      r.min_clearance_mm = programmed_clearance;
+      if (plan.status != RapidStatus::straight) r.message = "the programmed route is clear; kept";
+    } else if (plan.ok()) {
+      const double feed = s.feed_mm_per_s.empty() ? 0.0 : s.feed_mm_per_s.front();
+      const int line = s.source_lines.empty() ? step.source_line : s.source_lines.front();
+      s.segments.clear();
+      s.feed_mm_per_s.clear();
+      s.source_lines.clear();
+      for (std::size_t i = 1; i < plan.polyline.size(); ++i) {
+        s.segments.push_back(make_segment(plan.polyline[i - 1], plan.polyline[i], 0.0));
+        s.feed_mm_per_s.push_back(feed);
+        s.source_lines.push_back(line);
+      }
+      r.replaced = true;
+      r.min_clearance_mm = plan.min_clearance_mm;
+    } else {
+      r.min_clearance_mm = programmed_clearance;
+    }
+    r.length_mm = stretch_length(s);
+
+    report.blocked += r.straight_blocked ? 1 : 0;
+    report.replaced += r.replaced ? 1 : 0;
+    report.failed += (!plan.ok() && !programmed_clear) ? 1 : 0;
+    report.straight_length_mm += r.straight_length_mm;
+    report.programmed_length_mm += r.programmed_length_mm;
+    report.length_mm += r.length_mm;
+    report.rapids.push_back(std::move(r));
+  }
+  return report;
+}
+
+std::string RapidsReport::summary() const {
+  std::string out = fmt::format("{:>7} {:>5} {:>16} {:>10} {:>10} {:>10} {:>8}  {}\n", "stretch", "line", "status",
+                                "straight", "programmed", "final", "clear", "note");
+  for (const RapidReport& r : rapids) {
+    const std::string clear =
+        std::isinf(r.min_clearance_mm) ? std::string("-") : fmt::format("{:.2f}", r.min_clearance_mm);
+    out += fmt::format("{:>7} {:>5} {:>16} {:>10.2f} {:>10.2f} {:>10.2f} {:>8}  {}{}\n", r.stretch, r.source_line,
+                       to_string(r.status), r.straight_length_mm, r.programmed_length_mm, r.length_mm, clear,
+                       r.replaced ? "re-routed; " : (r.programmed_clear ? "as programmed; " : "NOT CLEAR; "),
+                       r.message);
+  }
+  out += fmt::format(
+      "{} rapids: {} blocked straight, {} re-routed, {} without a clear route; {} zones from cuts, {} open cuts\n"
+      "length: straight {:.2f} mm, programmed {:.2f} mm, final {:.2f} mm\n",
+      rapids.size(), blocked, replaced, failed, cut_zones, open_cuts, straight_length_mm, programmed_length_mm,
+      length_mm);
+  return out;
+}
+
+}  // namespace machplan::motion

@@ -1,0 +1,83 @@
+// Re-routing a Job's rapids round no-go zones (issue 4, the step between kerf compensation
+// and feed planning; see engine/motion/job.h).
+//
+// plan_rapids walks the Job's steps in order, tracking which stretches have been cut. For
+// each rapid stretch (Stretch::rapid) it plans a rapid from the stretch's first point to its
+// last (solvers/motion/rapid_planner.h) among these zones:
+//
+//   - the declared zones (clamps and the like, read with engine/programs/zones.h), and
+//   - when zones_from_cuts is set, every closed cutting contour cut before this rapid: the
+//     parts (and slugs) that now lie loose in the skeleton and may tip up.
+//
+// A cutting stretch becomes a zone when its path closes: the first segment whose end returns
+// to the start of an earlier (or the same) segment of the stretch closes the loop, so a
+// lead-in before the loop and a lead-out after it are left out. Lines become vertices with
+// bulge 0; arcs become vertices with bulge tan(sweep / 4), an arc sweeping more than half a
+// turn being split in two. A stretch that never closes (a slit, an overcut that stops mid-span)
+// or whose loop encloses no area gives no zone; it is counted in open_cuts.
+//
+// What is replaced. A rapid stretch keeps its programmed segments when they are all straight
+// and clear (the program's own route is respected; this includes a straight single-segment
+// G0). Otherwise, when the plan succeeds, the segments are replaced by the planned polyline:
+// one line per polyline edge, all with the feed and source line of the stretch's first
+// segment. When the plan fails (no_path, endpoint_blocked, out_of_bounds) the stretch is left
+// as programmed and the failure is reported; the caller decides whether to run the job.
+//
+// Complexity: one plan per rapid; zones from cuts grow with the job, so a job of n closed
+// cuts checks O(n) zones per rapid (bounding boxes prune the far ones).
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "engine/geometry/contour.h"
+#include "engine/motion/job.h"
+#include "solvers/motion/rapid_planner.h"
+
+namespace machplan::motion {
+
+struct RapidReport {
+  std::size_t stretch = 0;  // index into Job::stretches
+  int source_line = 0;      // of the stretch's first segment
+  RapidStatus status = RapidStatus::straight;
+  Eigen::Vector2d from = Eigen::Vector2d::Zero(), to = Eigen::Vector2d::Zero();
+  double straight_length_mm = 0.0;    // |to - from|
+  double programmed_length_mm = 0.0;  // the stretch as programmed
+  double length_mm = 0.0;             // the stretch after this pass
+  bool straight_blocked = false;      // see RapidPlan::straight_blocked
+  bool programmed_clear = false;      // the programmed route was kept because it is clear
+  bool replaced = false;              // the segments were replaced by the planned polyline
+  std::size_t zone_count = 0;         // zones this rapid avoided (declared + from cuts)
+  double min_clearance_mm = 0.0;      // see RapidPlan::min_clearance_mm
+  std::string message;
+};
+
+struct RapidsReport {
+  std::vector<RapidReport> rapids;
+  std::size_t blocked = 0;    // rapids whose straight move was blocked
+  std::size_t replaced = 0;   // rapids re-routed
+  std::size_t failed = 0;     // rapids with no clear route (left as programmed)
+  std::size_t cut_zones = 0;  // closed cutting contours turned into zones
+  std::size_t open_cuts = 0;  // cutting stretches that gave no zone
+  double straight_length_mm = 0.0;    // sum over rapids
+  double programmed_length_mm = 0.0;  // sum over rapids
+  double length_mm = 0.0;             // sum over rapids, after this pass
+
+  bool ok() const { return failed == 0; }
+  // A human-readable table: one row per rapid, then the totals.
+  std::string summary() const;
+};
+
+// Plans every rapid of `job` in place (see the file comment). Throws std::invalid_argument
+// when the options are invalid; a rapid that cannot be planned is a report entry, not an
+// exception.
+RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, const RapidOptions& options,
+                         bool zones_from_cuts);
+
+// The closed loop of a cutting stretch as a Contour (see the file comment), or nothing.
+// tolerance_mm: how near a segment's end must come to an earlier start to close the loop.
+std::optional<Contour> closed_loop(const Stretch& stretch, double tolerance_mm = 1e-3);
+
+}  // namespace machplan::motion

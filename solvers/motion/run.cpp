@@ -1,0 +1,288 @@
+#include "solvers/motion/run.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+#include "engine/motion/make_job.h"
+#include "engine/programs/gcode.h"
+#include "models/sim/simulate.h"
+
+namespace machplan::motion {
+namespace {
+
+using executor::Mode;
+
+void check_range(const char* flag, double v, double lo, double hi, bool lo_open, const char* unit) {
+  const bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
+  if (!ok)
+    throw InputError(flag, 0, fmt::format("{} is out of range: must be {} {} and <= {}{}", v, lo_open ? ">" : ">=", lo, hi,
+                                          unit));
+}
+
+// The machine's travel box, mm (axes run from 0 to their travel).
+Eigen::AlignedBox2d travel_box(const cutting::MachineConfig& m) {
+  return Eigen::AlignedBox2d(Eigen::Vector2d::Zero(), Eigen::Vector2d(m.axes[0].travel_mm, m.axes[1].travel_mm));
+}
+
+// Throws Infeasible naming the first program line whose motion leaves the travel.
+void check_travel(const Job& job, const cutting::MachineConfig& m) {
+  const Eigen::AlignedBox2d box = travel_box(m);
+  const double tol = 1e-6;
+  const auto inside = [&](const Eigen::AlignedBox2d& b) {
+    return b.min().x() >= box.min().x() - tol && b.min().y() >= box.min().y() - tol && b.max().x() <= box.max().x() + tol &&
+           b.max().y() <= box.max().y() + tol;
+  };
+  if (!inside(Eigen::AlignedBox2d(job.start_mm, job.start_mm)))
+    throw Infeasible(fmt::format("{}: the start position ({:.3f}, {:.3f}) lies outside the travel of machine '{}' "
+                                 "(X 0 .. {:g}, Y 0 .. {:g} mm)",
+                                 job.source, job.start_mm.x(), job.start_mm.y(), m.name, box.max().x(), box.max().y()));
+  for (const Stretch& s : job.stretches)
+    for (std::size_t i = 0; i < s.segments.size(); ++i) {
+      const Eigen::AlignedBox2d b = bounding_box(s.segments[i]);
+      if (inside(b)) continue;
+      throw Infeasible(fmt::format("{}:{}: the move reaches X {:.3f} .. {:.3f}, Y {:.3f} .. {:.3f} mm, outside the travel "
+                                   "of machine '{}' (X 0 .. {:g}, Y 0 .. {:g} mm)",
+                                   job.source, s.source_lines[i], b.min().x(), b.max().x(), b.min().y(), b.max().y(), m.name,
+                                   box.max().x(), box.max().y()));
+    }
+}
+
+// Throws Infeasible naming the first cut that enters (or touches) a declared no-go zone: the
+// zones are clamps and the like, which the torch must never burn.
+void check_cuts_clear_of(const Job& job, const std::vector<NoGoZone>& zones, const std::string& zones_path) {
+  for (const Stretch& s : job.stretches) {
+    if (!s.cutting || s.rapid) continue;
+    for (std::size_t i = 0; i < s.segments.size(); ++i) {
+      const Segment& g = s.segments[i];
+      for (const NoGoZone& z : zones) {
+        bool enters = contains(z.contour, g.start);
+        for (std::size_t k = 0; !enters && k < z.contour.size(); ++k) enters = !intersect(g, z.contour.span(k)).empty();
+        if (enters)
+          throw Infeasible(fmt::format("{}:{}: the cut enters the no-go zone '{}' declared at {}:{}", job.source,
+                                       s.source_lines[i], z.name, zones_path, z.line));
+      }
+    }
+  }
+}
+
+double height_move_s(double from_mm, double to_mm, double tolerance_mm, double speed_mm_per_s) {
+  return std::max(0.0, std::abs(from_mm - to_mm) - tolerance_mm) / speed_mm_per_s;
+}
+
+}  // namespace
+
+void RunOptions::validate() const {
+  if (machine.empty()) throw InputError("--machine", 0, "names no machine");
+  check_range("--kerf", kerf_mm, 0.0, 100.0, false, " mm");
+  check_range("--blu", executor.blu_mm, 0.01, 1000.0, false, " mm");
+  check_range("--calibration", executor.calibration_factor, 0.1, 10.0, true, "");
+  if (feed_override_mm_per_s != 0.0) check_range("--feed", feed_override_mm_per_s, 0.0, 10000.0, true, " mm/s");
+  try {
+    executor.validate();
+    rapids.validate();
+  } catch (const std::invalid_argument& e) {
+    throw InputError("", 0, e.what());
+  }
+}
+
+PlannerOptions planner_options_for(const cutting::MachineConfig& m) {
+  PlannerOptions p;
+  p.max_velocity_mm_per_s = Eigen::Vector2d::Constant(m.limits.velocity_mm_per_s);
+  p.max_acceleration_mm_per_s2 = Eigen::Vector2d::Constant(m.limits.acceleration_mm_per_s2);
+  p.max_jerk_mm_per_s3 = m.limits.jerk_mm_per_s3;
+  p.servo_period_s = m.servo_period_s;
+  return p;
+}
+
+double process_time_s(const Job& job, const cutting::MachineConfig& m, double tol) {
+  const auto& th = m.torch_height;
+  const bool plasma = m.torch.kind == executor::TorchSetup::Kind::plasma;
+  const bool oxy = m.torch.kind == executor::TorchSetup::Kind::oxy_fuel;
+  const double default_pierce_s = oxy ? m.torch.oxy_fuel.pierce_delay_s : m.torch.plasma.pierce_delay_s;
+  double t = 0.0;
+  for (std::size_t i = 0; i < job.steps.size(); ++i) {
+    const Step& s = job.steps[i];
+    switch (s.kind) {
+      case Step::Kind::torch_on: {
+        if (th.fitted)
+          t += th.initial_height_sense_s + height_move_s(th.retract_height_mm, th.pierce_height_mm, tol, th.speed_mm_per_s) +
+               height_move_s(th.pierce_height_mm, th.cut_height_mm, tol, th.speed_mm_per_s);
+        if (plasma) t += m.torch.plasma.arc_start_delay_s;
+        if (oxy) t += m.torch.oxy_fuel.preheat_s;
+        const bool programmed = i + 1 < job.steps.size() && job.steps[i + 1].kind == Step::Kind::dwell;
+        if (!programmed) t += default_pierce_s;  // a following G4 is counted as a dwell below
+        break;
+      }
+      case Step::Kind::torch_off:
+        if (th.fitted) t += height_move_s(th.cut_height_mm, th.retract_height_mm, tol, th.speed_mm_per_s);
+        break;
+      case Step::Kind::dwell: t += s.seconds; break;
+      case Step::Kind::move: break;
+    }
+  }
+  return t;
+}
+
+RunOutcome run_program(const std::string& program_path, const RunOptions& options) {
+  options.validate();
+  const cutting::MachineConfig machine = cutting::load_machine(cutting::find_machine(options.machine));
+  const Program program = read_gcode_file(program_path);
+  JobOptions jo;
+  jo.rapid_feed_mm_per_s = machine.limits.rapid_mm_per_s;
+  return run_job(make_job(program, jo), options);
+}
+
+RunOutcome run_job(Job programmed, const RunOptions& options) {
+  options.validate();
+  RunOutcome o;
+  o.machine = cutting::load_machine(cutting::find_machine(options.machine));
+  const bool planned = options.executor.mode == Mode::planned;
+  if (!planned && options.paper_x1_decoding)
+    for (auto& a : o.machine.axes) a.plant.decoding = 1;
+  o.planner = planner_options_for(o.machine);
+  o.programmed = std::move(programmed);
+  if (options.feed_override_mm_per_s > 0)
+    for (Stretch& s : o.programmed.stretches)
+      if (!s.rapid) std::fill(s.feed_mm_per_s.begin(), s.feed_mm_per_s.end(), options.feed_override_mm_per_s);
+  if (!planned && options.paper_rapids_at_feed) {
+    double slowest = std::numeric_limits<double>::infinity();
+    for (const Stretch& s : o.programmed.stretches)
+      if (!s.rapid)
+        for (double f : s.feed_mm_per_s) slowest = std::min(slowest, f);
+    if (std::isfinite(slowest))
+      for (Stretch& s : o.programmed.stretches)
+        if (s.rapid)
+          for (double& f : s.feed_mm_per_s) f = std::min(f, slowest);
+  }
+  o.job = o.programmed;
+
+  if (options.kerf_mm > 0) o.kerf = apply_kerf(o.job, options.kerf_mm);
+  check_travel(o.job, o.machine);
+
+  if (!options.no_go_path.empty()) o.declared_zones = load_zones(options.no_go_path);
+  const std::vector<Contour> declared = zone_contours(o.declared_zones);
+  check_cuts_clear_of(o.job, o.declared_zones, options.no_go_path);
+  RapidOptions ro = options.rapids;
+  ro.bounds = travel_box(o.machine);
+  o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts);
+  for (const Stretch& s : o.job.stretches)
+    if (s.cutting && !s.rapid)
+      if (auto loop = closed_loop(s)) o.cut_zones.push_back(std::move(*loop));
+  // A rapid left as programmed must at least not run into a declared zone (a clamp).
+  for (const RapidReport& r : o.rapids.rapids) {
+    if (r.replaced || r.programmed_clear || declared.empty()) continue;
+    const Stretch& s = o.job.stretches[r.stretch];
+    std::vector<Eigen::Vector2d> route{s.segments.front().start};
+    for (const Segment& g : s.segments) route.push_back(g.end);
+    if (polyline_clearance_mm(route, declared) <= 0.0)
+      throw Infeasible(fmt::format("{}:{}: the rapid from ({:.3f}, {:.3f}) to ({:.3f}, {:.3f}) has no clear route ({}: {}) "
+                                   "and its programmed route enters a declared no-go zone",
+                                   o.job.source, r.source_line, r.from.x(), r.from.y(), r.to.x(), r.to.y(),
+                                   to_string(r.status), r.message));
+  }
+
+  // Feed planning (also for the paper modes, for the bound).
+  o.trajectories.resize(o.job.steps.size());
+  for (std::size_t i = 0; i < o.job.steps.size(); ++i) {
+    const Step& st = o.job.steps[i];
+    if (st.kind != Step::Kind::move) continue;
+    auto tr = plan_stretch_detailed(o.job.stretches[st.stretch], o.planner);
+    o.planned_motion_s += tr->duration_s();
+    o.motion_lower_bound_s += time_lower_bound_s(tr->executed_path(), o.planner);
+    o.trajectories[i] = std::move(tr);
+  }
+  const executor::MachineSetup setup = o.machine.setup();
+  o.process_time_s = process_time_s(o.job, o.machine, setup.torch.height_tolerance_mm);
+  o.lower_bound_s = o.motion_lower_bound_s + o.process_time_s;
+  o.motion_ratio = o.motion_lower_bound_s > 0 ? o.planned_motion_s / o.motion_lower_bound_s : 1.0;
+
+  static const executor::Trajectories kNone;
+  o.result = sim::simulate(o.machine, o.job, planned ? o.trajectories : kNone, options.executor);
+  o.cycle_ratio = o.lower_bound_s > 0 ? o.result.cycle_time_s / o.lower_bound_s : 1.0;
+
+  double sum2 = 0, sum2_true = 0;
+  std::size_t n = 0;
+  for (const executor::CutError& c : o.result.cuts) {
+    sum2 += c.rms_mm * c.rms_mm * static_cast<double>(c.samples);
+    if (!std::isnan(c.rms_true_mm)) sum2_true += c.rms_true_mm * c.rms_true_mm * static_cast<double>(c.samples);
+    n += c.samples;
+  }
+  o.rms_contour_error_mm = n ? std::sqrt(sum2 / static_cast<double>(n)) : 0.0;
+  o.rms_true_contour_error_mm = n ? std::sqrt(sum2_true / static_cast<double>(n)) : 0.0;
+  return o;
+}
+
+std::string RunOutcome::report() const {
+  const executor::ExecutionResult& r = result;
+  std::string s = fmt::format("{} on {} ({} mode): {}\n", r.source, r.machine, executor::to_string(r.mode),
+                              faulted() ? "FAULTED" : "completed");
+  s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
+  s += fmt::format("  torch on         {:9.3f} s\n", r.torch_on_s);
+  s += fmt::format("  rapid distance   {:9.1f} mm\n", r.rapid_distance_mm);
+  s += fmt::format("  lower bound      {:9.3f} s  (motion {:.3f} s on the planned paths at the machine's limits + "
+                   "torch sequence and dwells {:.3f} s)\n",
+                   lower_bound_s, motion_lower_bound_s, process_time_s);
+  s += fmt::format("  cycle ratio      {:9.4f}    (cycle time / lower bound; planned motion / motion bound {:.4f})\n",
+                   cycle_ratio, motion_ratio);
+  s += fmt::format("  contour error    max {:.4f} mm, rms {:.4f} mm over {} cuts, torch on, from the encoders",
+                   r.max_contour_error_mm(), rms_contour_error_mm, r.cuts.size());
+  const double mt = r.max_true_contour_error_mm();
+  if (!std::isnan(mt)) s += fmt::format(" (simulated truth: max {:.4f}, rms {:.4f})", mt, rms_true_contour_error_mm);
+  s += "\n";
+  s += fmt::format("  {:>4} {:>7} {:>6} {:>10} {:>10} {:>10} {:>10}\n", "cut", "line", "samples", "max mm", "rms mm",
+                   "true max", "true rms");
+  for (std::size_t i = 0; i < r.cuts.size(); ++i) {
+    const executor::CutError& c = r.cuts[i];
+    s += fmt::format("  {:>4} {:>7} {:>6} {:>10.4f} {:>10.4f} {:>10.4f} {:>10.4f}{}\n", i + 1, c.source_line, c.samples,
+                     c.max_mm, c.rms_mm, c.max_true_mm, c.rms_true_mm, c.complete ? "" : "  interrupted");
+  }
+  if (r.faults.empty()) {
+    s += "  faults           none; torch off at the end\n";
+  } else {
+    for (const executor::FaultReport& f : r.faults) s += fmt::format("  FAULT {}: {}\n", executor::to_string(f.kind), f.message);
+    s += fmt::format("  torch {} at the end; machine {}\n", r.torch_off_at_end ? "off" : "ON",
+                     r.stopped_at_rest ? "stopped at rest" : "stop not confirmed");
+  }
+  if (r.trace_truncated) s += "  trace truncated (buffer full)\n";
+  return s;
+}
+
+nlohmann::json RunOutcome::to_json() const {
+  nlohmann::json j = result.to_json(false);
+  const double mt = result.max_true_contour_error_mm();
+  j["max_contour_error_mm"] = result.max_contour_error_mm();
+  j["rms_contour_error_mm"] = rms_contour_error_mm;
+  j["max_true_contour_error_mm"] = std::isnan(mt) ? nlohmann::json(nullptr) : nlohmann::json(mt);
+  j["rms_true_contour_error_mm"] = rms_true_contour_error_mm;
+  j["lower_bound_s"] = lower_bound_s;
+  j["motion_lower_bound_s"] = motion_lower_bound_s;
+  j["process_time_s"] = process_time_s;
+  j["planned_motion_s"] = planned_motion_s;
+  j["cycle_ratio"] = cycle_ratio;
+  j["motion_ratio"] = motion_ratio;
+  j["rapids"] = {{"count", rapids.rapids.size()},
+                 {"re_routed", rapids.replaced},
+                 {"blocked_straight", rapids.blocked},
+                 {"without_clear_route", rapids.failed},
+                 {"zones_from_cuts", rapids.cut_zones},
+                 {"declared_zones", declared_zones.size()},
+                 {"straight_length_mm", rapids.straight_length_mm},
+                 {"programmed_length_mm", rapids.programmed_length_mm},
+                 {"planned_length_mm", rapids.length_mm}};
+  if (kerf) {
+    nlohmann::json issues = nlohmann::json::array();
+    for (const KerfIssue& i : kerf->issues)
+      issues.push_back({{"kind", to_string(i.kind)}, {"source_line", i.source_line}, {"message", i.message}});
+    j["kerf"] = {{"width_mm", kerf->kerf_width_mm},
+                 {"loops", kerf->loops.size()},
+                 {"compensated", kerf->compensated_count()},
+                 {"issues", issues}};
+  }
+  return j;
+}
+
+}  // namespace machplan::motion

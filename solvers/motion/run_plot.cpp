@@ -1,0 +1,267 @@
+#include "solvers/motion/run_plot.h"
+
+#include <cairo.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+#include "solvers/common/picture.h"
+
+namespace machplan::motion {
+namespace {
+
+using Eigen::Vector2d;
+
+// screen = (ox + scale * x, oy - scale * y), as in solvers/placement/plot.cpp.
+struct View {
+  double ox, oy, scale;
+  double sx(double x) const { return ox + scale * x; }
+  double sy(double y) const { return oy - scale * y; }
+};
+
+void text(cairo_t* cr, double x, double y, const std::string& s, double size = 13) {
+  cairo_set_font_size(cr, size);
+  cairo_move_to(cr, x, y);
+  cairo_show_text(cr, s.c_str());
+}
+
+// Traces a segment as a path (arcs with cairo's arc, y flipped: screen angles are negated).
+void trace_segment(cairo_t* cr, const View& v, const Segment& s, bool move_first) {
+  if (move_first) cairo_move_to(cr, v.sx(s.start.x()), v.sy(s.start.y()));
+  if (!s.is_arc()) {
+    cairo_line_to(cr, v.sx(s.end.x()), v.sy(s.end.y()));
+    return;
+  }
+  const double a0 = -s.start_angle, a1 = -s.end_angle();
+  if (s.sweep > 0) cairo_arc_negative(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
+  else cairo_arc(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
+}
+
+void trace_stretch(cairo_t* cr, const View& v, const Stretch& st) {
+  for (std::size_t i = 0; i < st.segments.size(); ++i) trace_segment(cr, v, st.segments[i], i == 0);
+}
+
+void trace_contour(cairo_t* cr, const View& v, const Contour& c) {
+  for (std::size_t i = 0; i < c.size(); ++i) trace_segment(cr, v, c.span(i), i == 0);
+  cairo_close_path(cr);
+}
+
+void extend(Eigen::AlignedBox2d& box, const Stretch& st) {
+  for (const Segment& s : st.segments) box.extend(bounding_box(s));
+}
+
+// Nearest point of the stretch's segments to p.
+Vector2d nearest_on(const Stretch& st, const Vector2d& p) {
+  double best = std::numeric_limits<double>::infinity();
+  Vector2d q = p;
+  for (const Segment& s : st.segments) {
+    const Vector2d c = closest_point(s, p);
+    const double d = (c - p).squaredNorm();
+    if (d < best) best = d, q = c;
+  }
+  return q;
+}
+
+// What the picture frames: the cutting stretches and the declared zones, or every stretch
+// when nothing is cut.
+Eigen::AlignedBox2d job_extent(const RunOutcome& run) {
+  Eigen::AlignedBox2d box;
+  for (const Stretch& st : run.job.stretches)
+    if (st.cutting && !st.rapid) extend(box, st);
+  for (const NoGoZone& z : run.declared_zones) box.extend(bounding_box(z.contour));
+  if (box.isEmpty()) {
+    box.extend(run.job.start_mm);
+    for (const Stretch& st : run.job.stretches) extend(box, st);
+  }
+  return box;
+}
+
+// Draws one legend entry at x and returns where the next one starts.
+double legend_item(cairo_t* cr, double x, double y, double r, double g, double b, bool dashed, const std::string& label,
+                   double width = 2.0) {
+  cairo_save(cr);
+  cairo_set_source_rgb(cr, r, g, b);
+  cairo_set_line_width(cr, width);
+  if (dashed) {
+    const double dash[] = {6.0, 4.0};
+    cairo_set_dash(cr, dash, 2, 0);
+  }
+  cairo_move_to(cr, x, y - 4);
+  cairo_line_to(cr, x + 28, y - 4);
+  cairo_stroke(cr);
+  cairo_restore(cr);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  text(cr, x + 34, y, label, 12);
+  cairo_text_extents_t ext;
+  cairo_text_extents(cr, label.c_str(), &ext);
+  return x + 34 + ext.x_advance + 24;
+}
+
+void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
+  const Job& job = run.job;
+  const executor::ExecutionResult& res = run.result;
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_paint(cr);
+
+  // Extent: the cuts and the declared zones; rapids from and to a far-away home leave the
+  // frame (clipped) rather than shrink the parts to a corner.
+  Eigen::AlignedBox2d box = job_extent(run);
+  const double top = 64, bottom = 70, side = 40;
+  const double span = std::max({box.sizes().x(), box.sizes().y(), 1.0});
+  const double margin = 0.08 * span;
+  box.extend(box.min() - Vector2d::Constant(margin));
+  box.extend(box.max() + Vector2d::Constant(margin));
+  const double scale = std::min((W - 2 * side) / box.sizes().x(), (H - top - bottom) / box.sizes().y());
+  const double used_w = box.sizes().x() * scale, used_h = box.sizes().y() * scale;
+  View v{side + (W - 2 * side - used_w) / 2 - scale * box.min().x(), top + (H - top - bottom - used_h) / 2 + used_h + scale * box.min().y(),
+         scale};
+
+  // Frame of the drawn area; everything up to the title is clipped to it.
+  cairo_set_source_rgb(cr, 0.97, 0.97, 0.97);
+  cairo_rectangle(cr, v.sx(box.min().x()), v.sy(box.max().y()), used_w, used_h);
+  cairo_fill_preserve(cr);
+  cairo_save(cr);
+  cairo_clip(cr);
+
+  // Parts cut (closed cuts), then declared zones.
+  cairo_set_line_width(cr, 1.0);
+  for (const Contour& c : run.cut_zones) {
+    trace_contour(cr, v, c);
+    cairo_set_source_rgba(cr, 0.55, 0.55, 0.55, 0.18);
+    cairo_set_fill_rule(cr, CAIRO_FILL_RULE_EVEN_ODD);
+    cairo_fill(cr);
+  }
+  for (const NoGoZone& z : run.declared_zones) {
+    trace_contour(cr, v, z.contour);
+    cairo_set_source_rgba(cr, 0.9, 0.2, 0.1, 0.3);
+    cairo_fill_preserve(cr);
+    cairo_set_source_rgb(cr, 0.75, 0.1, 0.05);
+    cairo_stroke(cr);
+    const Eigen::AlignedBox2d b = bounding_box(z.contour);
+    cairo_set_source_rgb(cr, 0.6, 0.05, 0.0);
+    text(cr, v.sx(b.min().x()), v.sy(b.max().y()) - 4, z.name, 11);
+  }
+
+  // Outline before kerf compensation.
+  if (run.kerf) {
+    cairo_set_source_rgb(cr, 0.6, 0.6, 0.6);
+    cairo_set_line_width(cr, 0.8);
+    for (const Stretch& st : run.programmed.stretches)
+      if (st.cutting && !st.rapid) {
+        trace_stretch(cr, v, st);
+        cairo_stroke(cr);
+      }
+  }
+
+  // Rapids as planned, dashed; programmed cutting path, black; pierce points.
+  const double dash[] = {6.0, 4.0};
+  cairo_set_line_width(cr, 1.0);
+  cairo_set_source_rgb(cr, 0.2, 0.4, 0.85);
+  cairo_set_dash(cr, dash, 2, 0);
+  for (const Stretch& st : job.stretches)
+    if (st.rapid) {
+      trace_stretch(cr, v, st);
+      cairo_stroke(cr);
+    }
+  cairo_set_dash(cr, nullptr, 0, 0);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  cairo_set_line_width(cr, 1.0);
+  for (const Stretch& st : job.stretches)
+    if (st.cutting && !st.rapid) {
+      trace_stretch(cr, v, st);
+      cairo_stroke(cr);
+      const Vector2d p = st.segments.front().start;
+      cairo_arc(cr, v.sx(p.x()), v.sy(p.y()), 3.0, 0, 2 * M_PI);
+      cairo_stroke(cr);
+    }
+
+  // Executed path while the torch burned, error magnified K times.
+  cairo_set_source_rgb(cr, 0.85, 0.1, 0.1);
+  cairo_set_line_width(cr, 1.3);
+  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  bool open = false;
+  int last_step = -2;
+  for (const executor::TraceSample& s : res.trace) {
+    const bool cutting = s.step >= 0 && static_cast<std::size_t>(s.step) < job.steps.size() &&
+                         job.steps[s.step].kind == Step::Kind::move && job.stretches[job.steps[s.step].stretch].cutting &&
+                         s.torch_fire && s.arc_ok;
+    if (!cutting || s.step != last_step) {
+      if (open) cairo_stroke(cr);
+      open = false;
+    }
+    last_step = s.step;
+    if (!cutting) continue;
+    const Stretch& st = job.stretches[job.steps[s.step].stretch];
+    const Vector2d p = std::isnan(s.true_mm.x()) ? s.measured_mm : s.true_mm;
+    const Vector2d q = nearest_on(st, p);
+    const Vector2d d = q + K * (p - q);
+    if (!open) cairo_move_to(cr, v.sx(d.x()), v.sy(d.y()));
+    else cairo_line_to(cr, v.sx(d.x()), v.sy(d.y()));
+    open = true;
+  }
+  if (open) cairo_stroke(cr);
+  cairo_restore(cr);  // end of the clip
+
+  // Title.
+  const bool truth = !std::isnan(res.max_true_contour_error_mm());
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  text(cr, side, 26,
+       fmt::format("{} on {}, {} mode: {}   cycle {:.2f} s ({:.3f} x the lower bound)", res.source, res.machine,
+                   executor::to_string(res.mode), run.faulted() ? "FAULTED" : "completed", res.cycle_time_s, run.cycle_ratio),
+       15);
+  text(cr, side, 48,
+       fmt::format("max contour error, torch on: {:.4f} mm from the encoders{}, rms {:.4f} mm over {} cuts;   "
+                   "error drawn x{:g}",
+                   res.max_contour_error_mm(),
+                   truth ? fmt::format(", {:.4f} mm true", res.max_true_contour_error_mm()) : std::string(),
+                   run.rms_contour_error_mm, res.cuts.size(), K),
+       13);
+  for (const executor::FaultReport& f : res.faults) {
+    cairo_set_source_rgb(cr, 0.8, 0, 0);
+    text(cr, side, H - bottom + 18, fmt::format("FAULT {}: {}", executor::to_string(f.kind), f.message), 12);
+    const Vector2d p = f.last_known_mm;
+    cairo_arc(cr, v.sx(p.x()), v.sy(p.y()), 7, 0, 2 * M_PI);
+    cairo_stroke(cr);
+  }
+
+  // Legend and scale bar.
+  const double ly = H - 22;
+  double lx = side;
+  lx = legend_item(cr, lx, ly, 0, 0, 0, false, "programmed torch path (o: pierce)", 1.0);
+  lx = legend_item(cr, lx, ly, 0.85, 0.1, 0.1, false, fmt::format("executed, torch on (error x{:g})", K), 1.3);
+  lx = legend_item(cr, lx, ly, 0.2, 0.4, 0.85, true, "rapids as planned", 1.0);
+  if (run.kerf)
+    lx = legend_item(cr, lx, ly, 0.6, 0.6, 0.6, false, fmt::format("outline before kerf ({:g} mm)", run.kerf->kerf_width_mm),
+                     0.8);
+  if (!run.declared_zones.empty()) lx = legend_item(cr, lx, ly, 0.75, 0.1, 0.05, false, "no-go zones", 6.0);
+  if (!run.cut_zones.empty()) legend_item(cr, lx, ly, 0.8, 0.8, 0.8, false, "parts cut", 6.0);
+  // Scale bar: a round length near a fifth of the drawn width.
+  const double want = 0.2 * box.sizes().x();
+  const double p10 = std::pow(10.0, std::floor(std::log10(want)));
+  const double bar = want >= 5 * p10 ? 5 * p10 : (want >= 2 * p10 ? 2 * p10 : p10);
+  const double bx = W - side - bar * scale, by = H - 40;
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  cairo_set_line_width(cr, 2.0);
+  cairo_move_to(cr, bx, by);
+  cairo_line_to(cr, bx + bar * scale, by);
+  cairo_stroke(cr);
+  text(cr, bx, by - 6, fmt::format("{:g} mm", bar), 11);
+}
+
+}  // namespace
+
+void write_run_plot(const std::string& path, const RunOutcome& run, double magnify) {
+  if (!(std::isfinite(magnify) && magnify > 0 && magnify <= 1e6))
+    throw InputError("--magnify", 0, fmt::format("{} must be a number > 0 and <= 1e6", magnify));
+  // Canvas shaped like the job (within limits), so a long sheet does not shrink to a strip.
+  const Eigen::AlignedBox2d box = job_extent(run);
+  const double aspect = std::clamp(box.sizes().y() / std::max(box.sizes().x(), 1.0), 0.45, 1.2);
+  const double W = 1400, H = std::round(134 + (W - 80) * aspect);
+  write_picture(path, "--plot", W, H, [&](cairo_t* cr) { draw(cr, W, H, run, magnify); });
+}
+
+}  // namespace machplan::motion

@@ -1,0 +1,559 @@
+// Rapid planning round no-go zones: solvers/motion/rapid_planner.h, solvers/motion/rapids.h
+// and the declared-zones reader engine/programs/zones.h.
+//
+// Clearance is checked here with geometry of the test's own (axis-aligned boxes and
+// segment-to-segment distance by a separate formula), not with the planner's functions.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "engine/programs/zones.h"
+#include "solvers/motion/rapid_planner.h"
+#include "solvers/motion/rapids.h"
+#include "tests/support/stretches.h"
+#include "tests/support/temp_dir.h"
+
+namespace machplan::motion {
+namespace {
+
+using Eigen::Vector2d;
+using Polyline = std::vector<Vector2d>;
+constexpr double kPi = std::numbers::pi;
+
+// --- the test's own geometry ------------------------------------------------------------
+
+struct Box {
+  double x0, y0, x1, y1;
+  Contour contour() const { return Contour({{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}, {0, 0, 0, 0}); }
+  bool inside(const Vector2d& p) const { return p.x() > x0 && p.x() < x1 && p.y() > y0 && p.y() < y1; }
+};
+
+double point_seg(const Vector2d& p, const Vector2d& a, const Vector2d& b) {
+  // Minimum over the segment by the closed form of the quadratic |a + t (b - a) - p|^2.
+  const Vector2d d = b - a;
+  double t = d.squaredNorm() > 0 ? (p - a).dot(d) / d.squaredNorm() : 0.0;
+  t = std::min(1.0, std::max(0.0, t));
+  return (a + t * d - p).norm();
+}
+
+// Segment-segment distance: 0 when the parametric solution lies in both unit intervals,
+// else the least end-point-to-segment distance.
+double seg_seg(const Vector2d& a, const Vector2d& b, const Vector2d& c, const Vector2d& d) {
+  const Vector2d r = b - a, s = d - c;
+  const double den = r.x() * s.y() - r.y() * s.x();
+  if (std::abs(den) > 1e-15) {
+    const Vector2d w = c - a;
+    const double t = (w.x() * s.y() - w.y() * s.x()) / den, u = (w.x() * r.y() - w.y() * r.x()) / den;
+    if (t >= 0 && t <= 1 && u >= 0 && u <= 1) return 0.0;
+  }
+  return std::min({point_seg(a, c, d), point_seg(b, c, d), point_seg(c, a, b), point_seg(d, a, b)});
+}
+
+double box_distance(const Vector2d& a, const Vector2d& b, const Box& box) {
+  if (box.inside(a) || box.inside(b)) return 0.0;
+  const Vector2d p[4] = {{box.x0, box.y0}, {box.x1, box.y0}, {box.x1, box.y1}, {box.x0, box.y1}};
+  double best = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 4; ++i) best = std::min(best, seg_seg(a, b, p[i], p[(i + 1) % 4]));
+  return best;
+}
+
+double polyline_box_distance(const Polyline& p, const std::vector<Box>& boxes, std::size_t first = 0,
+                             std::size_t last = std::numeric_limits<std::size_t>::max()) {
+  last = std::min(last, p.size() - 1);
+  double best = std::numeric_limits<double>::infinity();
+  for (const Box& box : boxes)
+    for (std::size_t i = first + 1; i <= last; ++i) best = std::min(best, box_distance(p[i - 1], p[i], box));
+  return best;
+}
+
+double length_of(const Polyline& p) {
+  double s = 0;
+  for (std::size_t i = 1; i < p.size(); ++i) s += (p[i] - p[i - 1]).norm();
+  return s;
+}
+
+std::vector<Contour> contours(const std::vector<Box>& boxes) {
+  std::vector<Contour> out;
+  for (const Box& b : boxes) out.push_back(b.contour());
+  return out;
+}
+
+// Shortest curve from P to Q = (-P.x, P.y) over the top of the box grown by r (a rounded
+// rectangle), P level with the box and left of it, the box centred on x = 0: two tangents,
+// two corner arcs and the top edge. No clear curve is shorter.
+double optimum_over_box(const Vector2d& P, const Box& box, double r) {
+  const Vector2d C(box.x0, box.y1);  // upper-left corner, centre of the corner arc
+  const Vector2d v = P - C;
+  const double dist = v.norm();
+  const double tangent = std::sqrt(dist * dist - r * r);
+  const double beta = std::acos(r / dist);
+  const double angle_t = std::atan2(v.y(), v.x()) + (v.y() < 0 ? 2 * kPi : 0.0) - beta;
+  const double arc = r * (angle_t - kPi / 2);
+  return 2 * (tangent + arc) + (box.x1 - box.x0);
+}
+
+// --- plan_rapid -----------------------------------------------------------------------------
+
+const Box kClamp{-50, -20, 50, 20};
+
+TEST(RapidPlanner, StraightWhenFree) {
+  RapidOptions o;
+  const RapidPlan p = plan_rapid({-150, 40}, {150, 60}, contours({kClamp}), o);
+  ASSERT_EQ(p.status, RapidStatus::straight) << p.message;
+  EXPECT_FALSE(p.straight_blocked);
+  ASSERT_EQ(p.polyline.size(), 2u);
+  EXPECT_EQ(p.polyline[0], Vector2d(-150, 40));
+  EXPECT_EQ(p.polyline[1], Vector2d(150, 60));
+  EXPECT_EQ(p.samples, 0);  // OMPL not called
+  EXPECT_NEAR(p.length_mm, std::hypot(300.0, 20.0), 1e-9);
+  EXPECT_NEAR(p.min_clearance_mm, polyline_box_distance(p.polyline, {kClamp}), 1e-9);
+}
+
+TEST(RapidPlanner, ZeroLengthRapidOnAZoneMovesNothing) {
+  const RapidPlan p = plan_rapid({50, 0}, {50, 0}, contours({kClamp}), RapidOptions{});
+  EXPECT_EQ(p.status, RapidStatus::straight);
+  EXPECT_FALSE(p.straight_blocked);
+  EXPECT_EQ(p.polyline.size(), 2u);
+  EXPECT_EQ(p.length_mm, 0.0);
+}
+
+TEST(RapidPlanner, StraightTestIsExactAtTheClearance) {
+  // A horizontal move passing the clamp's top edge at clearance + 1 um is straight; at
+  // clearance - 1 um it is blocked (the straight check is not sampled).
+  RapidOptions o;
+  const double y_free = kClamp.y1 + o.clearance_mm + 1e-3;
+  const double y_near = kClamp.y1 + o.clearance_mm - 1e-3;
+  EXPECT_EQ(plan_rapid({-150, y_free}, {150, y_free}, contours({kClamp}), o).status, RapidStatus::straight);
+  const RapidPlan p = plan_rapid({-150, y_near}, {150, y_near}, contours({kClamp}), o);
+  EXPECT_TRUE(p.straight_blocked);
+  ASSERT_EQ(p.status, RapidStatus::planned) << p.message;
+  EXPECT_GE(polyline_box_distance(p.polyline, {kClamp}), o.clearance_mm - 1e-9);
+  // A diagonal move passing the corner (50, 20) at clearance +- 1 um: the line x + y = k is
+  // (k - 70) / sqrt(2) from the corner.
+  for (const double delta : {1e-3, -1e-3}) {
+    const double k = 70 + std::sqrt(2.0) * (o.clearance_mm + delta);
+    const RapidPlan q = plan_rapid({0, k}, {k, 0}, contours({kClamp}), o);
+    EXPECT_EQ(q.straight_blocked, delta < 0) << delta;
+    EXPECT_EQ(q.straight_blocked, box_distance({0, k}, {k, 0}, kClamp) < o.clearance_mm);
+  }
+}
+
+TEST(RapidPlanner, AroundABoxClampKeepsClearanceAndIsNearTheShortest) {
+  RapidOptions o;
+  const Vector2d from(-150, 0), to(150, 0);
+  const RapidPlan p = plan_rapid(from, to, contours({kClamp}), o);
+  ASSERT_EQ(p.status, RapidStatus::planned) << p.message;
+  EXPECT_TRUE(p.straight_blocked);
+  EXPECT_GT(p.samples, 0);
+  ASSERT_GE(p.polyline.size(), 3u);
+  EXPECT_EQ(p.polyline.front(), from);
+  EXPECT_EQ(p.polyline.back(), to);
+  EXPECT_TRUE(p.start_zones.empty() && p.end_zones.empty());
+
+  // Clearance, checked against the box itself.
+  const double clear = polyline_box_distance(p.polyline, {kClamp});
+  EXPECT_GE(clear, o.clearance_mm - 1e-9);
+  EXPECT_NEAR(p.min_clearance_mm, clear, 1e-6);
+  EXPECT_NEAR(p.length_mm, length_of(p.polyline), 1e-9);
+  EXPECT_DOUBLE_EQ(p.straight_length_mm, 300.0);
+
+  // No clear curve is shorter than the optimum; the plan is within 0.5 % of it, and far
+  // shorter than the naive detour (up to clearance above the box, across, down).
+  const double best = optimum_over_box(from, kClamp, o.clearance_mm);
+  EXPECT_GE(p.length_mm, best - 1e-6);
+  EXPECT_LE(p.length_mm, best * 1.005);
+  const double naive = 300.0 + 2 * (kClamp.y1 + o.clearance_mm);
+  EXPECT_LT(p.length_mm - 300.0, 0.2 * (naive - 300.0));
+}
+
+TEST(RapidPlanner, SeveralZonesClearanceOnEverySegment) {
+  const std::vector<Box> boxes = {{-60, -40, -40, 40}, {0, -100, 20, 10}, {60, -10, 80, 100}, {-20, 30, 30, 45}};
+  RapidOptions o;
+  o.clearance_mm = 4.0;
+  const RapidPlan p = plan_rapid({-120, 0}, {140, 0}, contours(boxes), o);
+  ASSERT_EQ(p.status, RapidStatus::planned) << p.message;
+  EXPECT_GE(polyline_box_distance(p.polyline, boxes), o.clearance_mm - 1e-9);
+  EXPECT_GE(p.min_clearance_mm, o.clearance_mm - 1e-9);
+}
+
+TEST(RapidPlanner, ArcZoneClearance) {
+  // A round zone (two half circles): the planned path keeps the clearance from the circle.
+  RapidOptions o;
+  const Vector2d centre(10, -5);
+  const double radius = 30;
+  const RapidPlan p = plan_rapid({-100, -5}, {120, -4}, {Contour::circle(centre, radius)}, o);
+  ASSERT_EQ(p.status, RapidStatus::planned) << p.message;
+  double clear = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 1; i < p.polyline.size(); ++i)
+    clear = std::min(clear, point_seg(centre, p.polyline[i - 1], p.polyline[i]) - radius);
+  EXPECT_GE(clear, o.clearance_mm - 1e-9);
+  // Round a circle the shortest curve is two tangents and an arc of radius R = r + c
+  // sweeping the angle between the end points seen from the centre less the two tangent
+  // angles.
+  const double R = radius + o.clearance_mm;
+  const Vector2d ua = Vector2d(-100, -5) - centre, ub = Vector2d(120, -4) - centre;
+  const double sweep = std::acos(ua.normalized().dot(ub.normalized())) - std::acos(R / ua.norm()) -
+                       std::acos(R / ub.norm());
+  const double best =
+      std::sqrt(ua.squaredNorm() - R * R) + std::sqrt(ub.squaredNorm() - R * R) + R * sweep;
+  EXPECT_GE(p.length_mm, best - 1e-6);
+  EXPECT_LE(p.length_mm, best * 1.01);
+}
+
+TEST(RapidPlanner, DeterministicForASeedWhateverRanBefore) {
+  const std::vector<Box> boxes = {{-50, -20, 50, 20}, {80, -60, 100, 30}};
+  RapidOptions o;
+  o.seed = 7;
+  const RapidPlan a = plan_rapid({-150, 0}, {150, 0}, contours(boxes), o);
+  RapidOptions other = o;
+  other.seed = 8;
+  (void)plan_rapid({-150, 5}, {150, -5}, contours(boxes), other);  // a different plan in between
+  const RapidPlan b = plan_rapid({-150, 0}, {150, 0}, contours(boxes), o);
+  ASSERT_EQ(a.status, RapidStatus::planned);
+  EXPECT_EQ(a.polyline, b.polyline);
+  EXPECT_EQ(a.samples, b.samples);
+
+  // The seed is really used: the raw tree paths of two seeds differ.
+  RapidOptions raw = o;
+  raw.simplify = raw.smooth = false;
+  raw.attempts = 1;
+  const RapidPlan r1 = plan_rapid({-150, 0}, {150, 0}, contours(boxes), raw);
+  raw.seed = 8;
+  const RapidPlan r2 = plan_rapid({-150, 0}, {150, 0}, contours(boxes), raw);
+  ASSERT_TRUE(r1.ok() && r2.ok());
+  EXPECT_NE(r1.polyline, r2.polyline);
+  EXPECT_GE(polyline_box_distance(r1.polyline, boxes), o.clearance_mm - 1e-9);  // unshortened paths are clear too
+}
+
+// Four walls round the goal with gaps of `gap` mm at the middle of each side.
+std::vector<Box> walls_with_gaps(double gap) {
+  const double h = gap / 2;
+  return {{-60, 50, -h, 60},  {h, 50, 60, 60},  {-60, -60, -h, -50}, {h, -60, 60, -50},
+          {-60, -50, -50, -h}, {-60, h, -50, 50}, {50, -50, 60, -h},   {50, h, 60, 50}};
+}
+
+TEST(RapidPlanner, WalledInGoalGivesNoPath) {
+  RapidOptions o;  // clearance 5: a gap narrower than 10 mm cannot be passed
+  o.max_samples = 1500;
+  const RapidPlan p = plan_rapid({-150, 0}, {0, 0}, contours(walls_with_gaps(8.0)), o);
+  EXPECT_EQ(p.status, RapidStatus::no_path) << p.message;
+  EXPECT_TRUE(p.polyline.empty());
+  EXPECT_GE(p.samples, o.max_samples);
+  EXPECT_LE(p.samples, o.max_samples + 2);
+  EXPECT_FALSE(p.ok());
+
+  // The same walls with 24 mm gaps: a way in through a gap (not in line with the start).
+  o.max_samples = 20000;
+  const std::vector<Box> open = walls_with_gaps(24.0);
+  const RapidPlan q = plan_rapid({-150, 40}, {0, 0}, contours(open), o);
+  EXPECT_TRUE(q.straight_blocked);
+  ASSERT_EQ(q.status, RapidStatus::planned) << q.message;
+  EXPECT_GE(polyline_box_distance(q.polyline, open), o.clearance_mm - 1e-9);
+}
+
+TEST(RapidPlanner, StartOnAZoneLeavesItByTheShortestWay) {
+  // The torch stops on the clamp's right edge; the goal is beyond its left side.
+  RapidOptions o;
+  const Vector2d from(50, 3), to(-150, 0);
+  const RapidPlan p = plan_rapid(from, to, contours({kClamp}), o);
+  ASSERT_EQ(p.status, RapidStatus::planned) << p.message;
+  EXPECT_EQ(p.start_zones, std::vector<std::size_t>{0});
+  EXPECT_TRUE(p.end_zones.empty());
+  ASSERT_GE(p.polyline.size(), 3u);
+  EXPECT_EQ(p.polyline.front(), from);
+  // The escape leg runs along the outward normal (+x) to the edge of the band.
+  EXPECT_NEAR(p.polyline[1].y(), 3.0, 1e-9);
+  EXPECT_NEAR(p.polyline[1].x(), 50 + o.clearance_mm, 1e-4);
+  EXPECT_GE(p.polyline[1].x(), 50 + o.clearance_mm);
+  // Everything after the escape leg keeps the clearance.
+  EXPECT_GE(polyline_box_distance(p.polyline, {kClamp}, 1), o.clearance_mm - 1e-9);
+  EXPECT_GE(p.min_clearance_mm, o.clearance_mm - 1e-9);
+}
+
+TEST(RapidPlanner, EndInsideAClampCrossesOnlyInTheLastLeg) {
+  RapidOptions o;
+  const Vector2d from(-150, 0), to(40, 15);  // pierce point under the clamp, 5 mm from its top
+  const RapidPlan p = plan_rapid(from, to, contours({kClamp}), o);
+  ASSERT_EQ(p.status, RapidStatus::planned) << p.message;
+  EXPECT_EQ(p.end_zones, std::vector<std::size_t>{0});
+  const std::size_t n = p.polyline.size();
+  ASSERT_GE(n, 3u);
+  EXPECT_EQ(p.polyline.back(), to);
+  EXPECT_NEAR(p.polyline[n - 2].x(), 40, 1e-9);  // the shortest way out is through the top
+  EXPECT_NEAR(p.polyline[n - 2].y(), kClamp.y1 + o.clearance_mm, 1e-4);
+  EXPECT_GE(polyline_box_distance(p.polyline, {kClamp}, 0, n - 2), o.clearance_mm - 1e-9);
+}
+
+TEST(RapidPlanner, StartWedgedBetweenTwoZonesIsBlocked) {
+  // 6 mm between two clamps: the start is within 5 mm of both, and pushing out of one
+  // pushes into the other.
+  RapidOptions o;
+  const std::vector<Box> boxes = {{-50, -20, -3, 20}, {3, -20, 50, 20}};
+  const RapidPlan p = plan_rapid({0, 0}, {0, 200}, contours(boxes), o);
+  EXPECT_EQ(p.status, RapidStatus::endpoint_blocked) << p.message;
+  EXPECT_TRUE(p.polyline.empty());
+  EXPECT_EQ(p.start_zones, (std::vector<std::size_t>{0, 1}));
+}
+
+TEST(RapidPlanner, OutsideTheTravelBox) {
+  RapidOptions o;
+  o.bounds = Eigen::AlignedBox2d(Vector2d(-100, -100), Vector2d(100, 100));
+  EXPECT_EQ(plan_rapid({-150, 0}, {50, 50}, contours({kClamp}), o).status, RapidStatus::out_of_bounds);
+  // Inside a tight box the detour must stay inside it too.
+  const RapidPlan p = plan_rapid({-90, 0}, {90, 0}, contours({kClamp}), o);
+  ASSERT_EQ(p.status, RapidStatus::planned) << p.message;
+  for (const Vector2d& q : p.polyline) EXPECT_TRUE(o.bounds.contains(q));
+}
+
+TEST(RapidPlanner, OptionsAreValidated) {
+  RapidOptions o;
+  o.clearance_mm = 0.0;
+  try {
+    o.validate();
+    FAIL() << "clearance 0 accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("clearance_mm = 0"), std::string::npos) << e.what();
+  }
+  o = RapidOptions{};
+  o.max_samples = 0;
+  EXPECT_THROW(plan_rapid({0, 0}, {1, 1}, {}, o), std::invalid_argument);
+  o = RapidOptions{};
+  o.attempts = 0;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+}
+
+TEST(RapidPlanner, SegmentDistanceMatchesDenseSampling) {
+  // The exact distance lies between the sampled minimum minus half the sample spacing and
+  // the sampled minimum (a sampled value is an actual distance, so never below the exact).
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<double> u(-50, 50), bulge(-3, 3);
+  int arcs = 0;
+  for (int k = 0; k < 400; ++k) {
+    const Vector2d a(u(rng), u(rng)), b(u(rng), u(rng)), p(u(rng), u(rng)), q(u(rng), u(rng));
+    const Segment span = make_segment(p, q, k % 4 == 0 ? 0.0 : bulge(rng));
+    arcs += span.is_arc();
+    const double exact = segment_distance_mm(a, b, span);
+    constexpr int kN = 4000;
+    double sampled = std::numeric_limits<double>::infinity();
+    for (int i = 0; i <= kN; ++i) {
+      const Vector2d x = a + (b - a) * (double(i) / kN);
+      sampled = std::min(sampled, (closest_point(span, x) - x).norm());
+    }
+    const double spacing = (b - a).norm() / kN;
+    EXPECT_LE(exact, sampled + 1e-9) << k;
+    EXPECT_GE(exact, sampled - spacing) << k;
+  }
+  EXPECT_GT(arcs, 200);
+}
+
+// --- plan_rapids on a Job ------------------------------------------------------------------
+
+Stretch line_stretch(const Polyline& pts, bool cutting, bool rapid, double feed, int line) {
+  return test::make_stretch(test::polyline_segments(pts, false), feed, cutting, rapid, line);
+}
+
+// Rapid to part A's pierce point, cut A (a lead-in and the square [100, 200] x [0, 100]),
+// rapid straight across A to part B's pierce point, cut B.
+Job two_parts() {
+  Job job;
+  job.source = "two_parts.ngc";
+  job.start_mm = {0, 0};
+  job.stretches.push_back(line_stretch({{0, 0}, {90, 50}}, false, true, 400, 10));
+  job.stretches.push_back(
+      line_stretch({{90, 50}, {100, 50}, {100, 0}, {200, 0}, {200, 100}, {100, 100}, {100, 50}}, true, false, 20, 11));
+  job.stretches.push_back(line_stretch({{100, 50}, {300, 50}}, false, true, 400, 20));
+  job.stretches.push_back(line_stretch({{300, 50}, {310, 50}, {310, 0}, {360, 0}, {310, 50}}, true, false, 20, 21));
+  using K = Step::Kind;
+  job.steps = {{K::move, 10, 0, 0}, {K::torch_on, 11, 0, 0}, {K::move, 11, 1, 0}, {K::torch_off, 17, 0, 0},
+               {K::move, 20, 2, 0}, {K::torch_on, 21, 0, 0}, {K::move, 21, 3, 0}, {K::torch_off, 25, 0, 0}};
+  return job;
+}
+
+TEST(Rapids, ZonesFromCutsReRouteRoundTheCutPart) {
+  Job job = two_parts();
+  RapidOptions o;
+  const RapidsReport r = plan_rapids(job, {}, o, true);
+  ASSERT_EQ(r.rapids.size(), 2u);
+  EXPECT_EQ(r.cut_zones, 2u);  // A and the triangle B (B counts after the last rapid)
+  EXPECT_EQ(r.open_cuts, 0u);
+
+  // The first rapid sees no zone and stays.
+  EXPECT_EQ(r.rapids[0].zone_count, 0u);
+  EXPECT_EQ(r.rapids[0].status, RapidStatus::straight);
+  EXPECT_FALSE(r.rapids[0].replaced);
+  EXPECT_EQ(job.stretches[0].segments.size(), 1u);
+
+  // The second crossed part A: re-routed, starting with the way off A's edge.
+  const RapidReport& second = r.rapids[1];
+  EXPECT_EQ(second.stretch, 2u);
+  EXPECT_EQ(second.zone_count, 1u);
+  EXPECT_TRUE(second.straight_blocked);
+  ASSERT_TRUE(second.replaced) << second.message;
+  const Stretch& s = job.stretches[2];
+  ASSERT_GE(s.segments.size(), 3u);
+  EXPECT_TRUE(s.rapid);
+  EXPECT_FALSE(s.cutting);
+  ASSERT_EQ(s.feed_mm_per_s.size(), s.segments.size());
+  ASSERT_EQ(s.source_lines.size(), s.segments.size());
+  Polyline route{s.segments.front().start};
+  for (std::size_t i = 0; i < s.segments.size(); ++i) {
+    EXPECT_FALSE(s.segments[i].is_arc());
+    EXPECT_EQ(s.feed_mm_per_s[i], 400);
+    EXPECT_EQ(s.source_lines[i], 20);
+    if (i > 0) EXPECT_LT((s.segments[i].start - s.segments[i - 1].end).norm(), 1e-9);
+    route.push_back(s.segments[i].end);
+  }
+  EXPECT_EQ(route.front(), Vector2d(100, 50));
+  EXPECT_EQ(route.back(), Vector2d(300, 50));
+  const Box part_a{100, 0, 200, 100};
+  EXPECT_NEAR(route[1].x(), 100 - o.clearance_mm, 1e-4);  // leaves A outwards, to the left
+  EXPECT_GE(polyline_box_distance(route, {part_a}, 1), o.clearance_mm - 1e-9);
+  EXPECT_NEAR(second.length_mm, length_of(route), 1e-9);
+  EXPECT_NEAR(r.length_mm, r.rapids[0].length_mm + second.length_mm, 1e-9);
+  EXPECT_GT(second.length_mm, second.straight_length_mm + 50);  // round the 100 mm part
+  EXPECT_EQ(r.replaced, 1u);
+  EXPECT_EQ(r.blocked, 1u);
+  EXPECT_TRUE(r.ok());
+  EXPECT_NE(r.summary().find("re-routed"), std::string::npos);
+}
+
+TEST(Rapids, WithoutZonesFromCutsNothingChanges) {
+  Job job = two_parts();
+  const Job before = two_parts();
+  const RapidsReport r = plan_rapids(job, {}, RapidOptions{}, false);
+  EXPECT_EQ(r.cut_zones, 0u);
+  EXPECT_EQ(r.replaced, 0u);
+  for (std::size_t i = 0; i < job.stretches.size(); ++i)
+    EXPECT_EQ(job.stretches[i].segments.size(), before.stretches[i].segments.size());
+}
+
+TEST(Rapids, DeclaredClampReRoutesTheFirstRapid) {
+  Job job = two_parts();
+  const Box clamp{40, 15, 50, 35};  // on the line from (0, 0) to (90, 50)
+  const RapidsReport r = plan_rapids(job, contours({clamp}), RapidOptions{}, false);
+  ASSERT_EQ(r.rapids.size(), 2u);
+  EXPECT_TRUE(r.rapids[0].replaced);
+  Polyline route{job.stretches[0].segments.front().start};
+  for (const Segment& g : job.stretches[0].segments) route.push_back(g.end);
+  EXPECT_GE(polyline_box_distance(route, {clamp}), 5.0 - 1e-9);
+  EXPECT_FALSE(r.rapids[1].straight_blocked);  // the clamp is not near the second rapid
+}
+
+TEST(Rapids, ProgrammedDetourThatIsClearIsKept) {
+  Job job = two_parts();
+  // Program the second rapid as a dog-leg over part A, high enough to be clear.
+  job.stretches[2] = line_stretch({{100, 50}, {100, 120}, {300, 120}, {300, 50}}, false, true, 400, 20);
+  const RapidsReport r = plan_rapids(job, {}, RapidOptions{}, true);
+  // It starts on A's edge, so it is not clear in the strict sense; it must be re-planned.
+  EXPECT_TRUE(r.rapids[1].replaced);
+  Job job2 = two_parts();
+  job2.stretches[2] = line_stretch({{100, 50}, {90, 50}, {90, 120}, {300, 120}, {300, 50}}, false, true, 400, 20);
+  // Declared clamp only (no cut zones): the programmed dog-leg keeps 5 mm from it.
+  const RapidsReport r2 = plan_rapids(job2, contours({Box{150, 40, 200, 60}}), RapidOptions{}, false);
+  EXPECT_TRUE(r2.rapids[1].programmed_clear);
+  EXPECT_FALSE(r2.rapids[1].replaced);
+  EXPECT_EQ(job2.stretches[2].segments.size(), 4u);
+}
+
+TEST(Rapids, ClosedLoopTakesTheLoopAfterALeadInAndArcs) {
+  // Lead-in, then a circle of radius 20 about (50, 50) as two half arcs, then a lead-out.
+  Stretch s;
+  s.cutting = true;
+  s.segments = {make_segment({50, 50}, {70, 50}, 0.0), make_segment({70, 50}, {30, 50}, 1.0),
+                make_segment({30, 50}, {70, 50}, 1.0), make_segment({70, 50}, {75, 55}, 0.0)};
+  const auto loop = closed_loop(s);
+  ASSERT_TRUE(loop.has_value());
+  EXPECT_EQ(loop->size(), 2u);
+  EXPECT_NEAR(std::abs(signed_area(*loop)), kPi * 400, 1e-6);
+  EXPECT_TRUE(contains(*loop, {50, 50}));
+  EXPECT_FALSE(contains(*loop, {75, 55}));
+
+  // A single arc of three quarters closed by a line: the arc is split, bulges stay <= 1.
+  Stretch t;
+  t.cutting = true;
+  t.segments = {make_segment({0, 0}, {10, 10}, std::tan(3 * kPi / 8)), make_segment({10, 10}, {0, 0}, 0.0)};
+  const auto loop2 = closed_loop(t);
+  ASSERT_TRUE(loop2.has_value());
+  EXPECT_EQ(loop2->size(), 3u);
+  for (double b : loop2->bulges()) EXPECT_LE(std::abs(b), 1.0);
+  EXPECT_NEAR(std::abs(signed_area(*loop2)), std::abs(signed_area(Contour({{0, 0}, {10, 10}}, {std::tan(3 * kPi / 8), 0}))),
+              1e-6);
+
+  // A slit never closes.
+  Stretch slit;
+  slit.cutting = true;
+  slit.segments = {make_segment({0, 0}, {10, 0}, 0.0), make_segment({10, 0}, {10, 10}, 0.0)};
+  EXPECT_FALSE(closed_loop(slit).has_value());
+}
+
+TEST(Rapids, OpenCutsAreCounted) {
+  Job job = two_parts();
+  job.stretches[1] = line_stretch({{90, 50}, {100, 50}, {100, 0}, {200, 0}}, true, false, 20, 11);
+  const RapidsReport r = plan_rapids(job, {}, RapidOptions{}, true);
+  EXPECT_EQ(r.open_cuts, 1u);
+  EXPECT_EQ(r.cut_zones, 1u);  // B only
+  EXPECT_FALSE(r.rapids[1].straight_blocked);
+}
+
+// --- declared zones file ----------------------------------------------------------------------
+
+TEST(Zones, ReadsPolygons) {
+  test::TempDir dir;
+  const std::string path = dir.write("zones.yaml",
+                                     "no_go:\n"
+                                     "  - name: clamp 1\n"
+                                     "    polygon: [[-50, -20], [50, -20], [50, 20], [-50, 20]]\n"
+                                     "  - name: magnet\n"
+                                     "    polygon:\n"
+                                     "      - [400, 0]\n"
+                                     "      - [420, 0]\n"
+                                     "      - [420, 30]\n");
+  const auto zones = load_zones(path);
+  ASSERT_EQ(zones.size(), 2u);
+  EXPECT_EQ(zones[0].name, "clamp 1");
+  EXPECT_EQ(zones[0].line, 2);
+  EXPECT_EQ(zones[1].line, 4);
+  EXPECT_NEAR(std::abs(signed_area(zones[0].contour)), 4000.0, 1e-9);
+  EXPECT_NEAR(std::abs(signed_area(zones[1].contour)), 300.0, 1e-9);
+  EXPECT_EQ(zone_contours(zones).size(), 2u);
+  EXPECT_TRUE(load_zones(dir.write("none.yaml", "no_go: []\n")).empty());
+}
+
+TEST(Zones, BadFilesNameFileAndLine) {
+  test::TempDir dir;
+  const auto err = [&](const std::string& text) {
+    const std::string path = dir.write("z.yaml", text);
+    return test::error_of([&] { load_zones(path); });
+  };
+  const std::string f = (dir.path() / "z.yaml").string();
+  EXPECT_EQ(err("no_go:\n  - name: a\n"), f + ":2: missing required key 'no_go[0].polygon'");
+  EXPECT_EQ(err("no_go:\n  - name: a\n    polygon: [[0, 0], [1, 0]]\n"),
+            f + ":3: key 'no_go[0].polygon' must hold at least 3 points, got 2");
+  EXPECT_EQ(err("no_go:\n  - name: a\n    polygon:\n      - [0, 0]\n      - [1, x]\n      - [1, 1]\n"),
+            f + ":5: key 'no_go[0].polygon[1][1]' must be a number, got 'x'");
+  EXPECT_EQ(err("no_go:\n  - name: a\n    polygon: [[0, 0], [1, 0], [1, 1]]\n    colour: red\n"),
+            f + ":4: unknown key 'no_go[0].colour' (known keys here: name, polygon)");
+  EXPECT_EQ(err("no_go:\n  - name: a\n    polygon: [[0, 0], [1, 0], [1, 1]]\n"
+                "  - name: a\n    polygon: [[5, 0], [6, 0], [6, 1]]\n"),
+            f + ":4: key 'no_go[1].name' 'a' names another zone already");
+  const std::string bow = err("no_go:\n  - name: bow\n    polygon: [[0, 0], [10, 10], [10, 0], [0, 10]]\n");
+  EXPECT_EQ(bow.rfind(f + ":3: key 'no_go[0].polygon' of zone 'bow' crosses itself at (5, 5)", 0), 0u) << bow;
+  // Points on one line fold back over themselves.
+  EXPECT_EQ(err("no_go:\n  - name: flat\n    polygon: [[0, 0], [1, 1], [2, 2]]\n"),
+            f + ":3: key 'no_go[0].polygon' of zone 'flat' crosses itself at (1, 1) (edges 0 and 2)");
+  EXPECT_EQ(err("no_go:\n  - name: sliver\n    polygon: [[0, 0], [1000000, 0], [1000000, 0.000001]]\n"),
+            f + ":3: key 'no_go[0].polygon' of zone 'sliver' encloses no area");
+  EXPECT_EQ(err("no_go:\n  - name: a\n    polygon: [[0, 0], [1, 0], [1, 1], [0, 0]]\n"),
+            f + ":3: key 'no_go[0].polygon[3]' repeats the first point; the polygon closes by itself, leave it out");
+  EXPECT_EQ(err("no_go:\n  - name: a\n    polygon: [[0, 0], [1e12, 0], [1, 1]]\n"),
+            f + ":3: key 'no_go[0].polygon[1][0]' must be <= 1000000000, got 1000000000000");
+  EXPECT_EQ(err("zones: []\n"), f + ":1: unknown key 'zones' (known keys here: no_go)");
+  EXPECT_EQ(err("no_go:\n  - name: a\n    polygon: [[0, 0], [1, 0], [1, 1]\n").rfind(f + ":", 0), 0u);
+}
+
+}  // namespace
+}  // namespace machplan::motion
