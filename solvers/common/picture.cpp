@@ -49,4 +49,10 @@ void write_picture(const std::string& path, const std::string& flag, double widt
     throw InputError(path, 0, std::string("cannot write the picture: ") + cairo_status_to_string(st));
 }
 
+void draw_text(cairo_t* cr, double x, double y, const std::string& s, double size) {
+  cairo_set_font_size(cr, size);
+  cairo_move_to(cr, x, y);
+  cairo_show_text(cr, s.c_str());
+}
+
 }  // namespace machplan

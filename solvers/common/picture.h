@@ -20,4 +20,14 @@ void write_picture(const std::string& path, const std::string& flag, double widt
 // True when `path` ends in .png or .svg (what write_picture accepts).
 bool is_picture_path(const std::string& path);
 
+// A view of plan coordinates (mm, y up) on the picture (y down).
+struct PlotView {
+  double ox, oy, scale;  // picture = (ox + scale * x, oy - scale * y)
+  double sx(double x) const { return ox + scale * x; }
+  double sy(double y) const { return oy - scale * y; }
+};
+
+// Text with its baseline starting at (x, y), in picture units.
+void draw_text(cairo_t* cr, double x, double y, const std::string& s, double size = 13);
+
 }  // namespace machplan

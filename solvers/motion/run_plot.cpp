@@ -17,17 +17,7 @@ namespace {
 using Eigen::Vector2d;
 
 // screen = (ox + scale * x, oy - scale * y), as in solvers/placement/plot.cpp.
-struct View {
-  double ox, oy, scale;
-  double sx(double x) const { return ox + scale * x; }
-  double sy(double y) const { return oy - scale * y; }
-};
-
-void text(cairo_t* cr, double x, double y, const std::string& s, double size = 13) {
-  cairo_set_font_size(cr, size);
-  cairo_move_to(cr, x, y);
-  cairo_show_text(cr, s.c_str());
-}
+using View = PlotView;
 
 // Traces a segment as a path (arcs with cairo's arc, y flipped: screen angles are negated).
 void trace_segment(cairo_t* cr, const View& v, const Segment& s, bool move_first) {
@@ -95,7 +85,7 @@ double legend_item(cairo_t* cr, double x, double y, double r, double g, double b
   cairo_stroke(cr);
   cairo_restore(cr);
   cairo_set_source_rgb(cr, 0, 0, 0);
-  text(cr, x + 34, y, label, 12);
+  draw_text(cr, x + 34, y, label, 12);
   cairo_text_extents_t ext;
   cairo_text_extents(cr, label.c_str(), &ext);
   return x + 34 + ext.x_advance + 24;
@@ -143,7 +133,7 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
     cairo_stroke(cr);
     const Eigen::AlignedBox2d b = bounding_box(z.contour);
     cairo_set_source_rgb(cr, 0.6, 0.05, 0.0);
-    text(cr, v.sx(b.min().x()), v.sy(b.max().y()) - 4, z.name, 11);
+    draw_text(cr, v.sx(b.min().x()), v.sy(b.max().y()) - 4, z.name, 11);
   }
 
   // Outline before kerf compensation.
@@ -209,11 +199,11 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
   // Title.
   const bool truth = !std::isnan(res.max_true_contour_error_mm());
   cairo_set_source_rgb(cr, 0, 0, 0);
-  text(cr, side, 26,
+  draw_text(cr, side, 26,
        fmt::format("{} on {}, {} mode: {}   cycle {:.2f} s ({:.3f} x the lower bound)", res.source, res.machine,
                    executor::to_string(res.mode), run.faulted() ? "FAULTED" : "completed", res.cycle_time_s, run.cycle_ratio),
        15);
-  text(cr, side, 48,
+  draw_text(cr, side, 48,
        fmt::format("max contour error, torch on: {:.4f} mm from the encoders{}, rms {:.4f} mm over {} cuts;   "
                    "error drawn x{:g}",
                    res.max_contour_error_mm(),
@@ -222,7 +212,7 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
        13);
   for (const executor::FaultReport& f : res.faults) {
     cairo_set_source_rgb(cr, 0.8, 0, 0);
-    text(cr, side, H - bottom + 18, fmt::format("FAULT {}: {}", executor::to_string(f.kind), f.message), 12);
+    draw_text(cr, side, H - bottom + 18, fmt::format("FAULT {}: {}", executor::to_string(f.kind), f.message), 12);
     const Vector2d p = f.last_known_mm;
     cairo_arc(cr, v.sx(p.x()), v.sy(p.y()), 7, 0, 2 * M_PI);
     cairo_stroke(cr);
@@ -249,7 +239,7 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
   cairo_move_to(cr, bx, by);
   cairo_line_to(cr, bx + bar * scale, by);
   cairo_stroke(cr);
-  text(cr, bx, by - 6, fmt::format("{:g} mm", bar), 11);
+  draw_text(cr, bx, by - 6, fmt::format("{:g} mm", bar), 11);
 }
 
 }  // namespace

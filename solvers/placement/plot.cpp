@@ -1,33 +1,23 @@
 #include "solvers/placement/plot.h"
 
-#include <cairo-svg.h>
 #include <cairo.h>
 
 #include <algorithm>
 #include <cmath>
 
 #include "engine/common/error.h"
+#include "solvers/common/picture.h"
 
 namespace machplan::placement {
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
 
-struct View {
-  double ox, oy, scale;  // screen = (ox + scale * x, oy - scale * y)
-  double sx(double x) const { return ox + scale * x; }
-  double sy(double y) const { return oy - scale * y; }
-};
+using View = PlotView;
 
 void polygon(cairo_t* cr, const View& v, const std::vector<Eigen::Vector2d>& pts) {
   for (std::size_t i = 0; i < pts.size(); ++i) (i ? cairo_line_to : cairo_move_to)(cr, v.sx(pts[i].x()), v.sy(pts[i].y()));
   cairo_close_path(cr);
-}
-
-void text(cairo_t* cr, double x, double y, const std::string& s, double size = 13) {
-  cairo_set_font_size(cr, size);
-  cairo_move_to(cr, x, y);
-  cairo_show_text(cr, s.c_str());
 }
 
 void draw(cairo_t* cr, double W, double H, const Scene& scene, const PlacementResult& r) {
@@ -61,7 +51,7 @@ void draw(cairo_t* cr, double W, double H, const Scene& scene, const PlacementRe
     cairo_fill_preserve(cr);
     cairo_set_source_rgb(cr, 0.7, 0.2, 0.1);
     cairo_stroke(cr);
-    text(cr, top.sx(per.bounds.center().x()) - 30, top.sy(per.bounds.center().y()), per.name, 11);
+    draw_text(cr, top.sx(per.bounds.center().x()) - 30, top.sy(per.bounds.center().y()), per.name, 11);
   }
   // searched region (positions of the workpiece origin)
   const double dash[] = {6.0, 4.0};
@@ -103,9 +93,9 @@ void draw(cairo_t* cr, double W, double H, const Scene& scene, const PlacementRe
   cairo_arc(cr, top.sx(p.x_mm), top.sy(p.y_mm), 5, 0, 2 * M_PI);
   cairo_fill(cr);
   cairo_set_source_rgb(cr, 0, 0, 0);
-  text(cr, 20, 28, fmt::format("top view: {}  x {:.2f}  y {:.2f}  pad {:.1f} mm  rotation {:.0f} deg", to_string(r.status),
+  draw_text(cr, 20, 28, fmt::format("top view: {}  x {:.2f}  y {:.2f}  pad {:.1f} mm  rotation {:.0f} deg", to_string(r.status),
                                p.x_mm, p.y_mm, p.pad_mm, p.rotation_deg));
-  text(cr, 20, H - 14, "grey: table   red: peripherals   green: workpiece and tool path   dashed blue: searched region   "
+  draw_text(cr, 20, H - 14, "grey: table   red: peripherals   green: workpiece and tool path   dashed blue: searched region   "
                        "orange: paper search trail   red dot: answer", 11);
 
   // ---- side view (right): x along the table diagonal through the answer, z up ----
@@ -140,31 +130,14 @@ void draw(cairo_t* cr, double W, double H, const Scene& scene, const PlacementRe
   }
   cairo_fill(cr);
   cairo_set_source_rgb(cr, 0, 0, 0);
-  text(cr, W * 0.5 + 20, 28, fmt::format("side view (x, z): pad {:.1f} mm, workpiece top {:.1f} mm", p.pad_mm,
+  draw_text(cr, W * 0.5 + 20, 28, fmt::format("side view (x, z): pad {:.1f} mm, workpiece top {:.1f} mm", p.pad_mm,
                                          p.pad_mm + b.max().z()));
 }
 }  // namespace
 
 void write_placement_plot(const std::string& path, const Scene& scene, const PlacementResult& result) {
   const double W = 1400, H = 760;
-  const bool svg = path.size() > 4 && path.substr(path.size() - 4) == ".svg";
-  const bool png = path.size() > 4 && path.substr(path.size() - 4) == ".png";
-  if (!svg && !png) throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", path));
-  cairo_surface_t* surface = svg ? cairo_svg_surface_create(path.c_str(), W, H)
-                                 : cairo_image_surface_create(CAIRO_FORMAT_ARGB32, static_cast<int>(W), static_cast<int>(H));
-  if (cairo_surface_status(surface) != CAIRO_STATUS_SUCCESS) {
-    cairo_surface_destroy(surface);
-    throw InputError(path, 0, "cannot create the picture");
-  }
-  cairo_t* cr = cairo_create(surface);
-  draw(cr, W, H, scene, result);
-  cairo_destroy(cr);
-  cairo_status_t st = CAIRO_STATUS_SUCCESS;
-  if (png) st = cairo_surface_write_to_png(surface, path.c_str());
-  cairo_surface_finish(surface);
-  if (st == CAIRO_STATUS_SUCCESS) st = cairo_surface_status(surface);
-  cairo_surface_destroy(surface);
-  if (st != CAIRO_STATUS_SUCCESS) throw InputError(path, 0, std::string("cannot write the picture: ") + cairo_status_to_string(st));
+  write_picture(path, "--plot", W, H, [&](cairo_t* cr) { draw(cr, W, H, scene, result); });
 }
 
 }  // namespace machplan::placement
