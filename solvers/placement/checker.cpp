@@ -108,7 +108,6 @@ struct Checker::ScanSettings {
 Checker::Checker(const Scene& scene, double rotation_deg)
     : scene_(scene),
       rotation_deg_(rotation_deg),
-      strut_shape_(interference::Shape::capsule(scene.machine.strut_radius_mm, 1.0)),
       workpiece_shape_(interference::Shape::sphere(1.0)),
       workpiece_box_shape_(interference::Shape::sphere(1.0)) {
   const hexam::Machine& m = scene.machine;
@@ -133,6 +132,8 @@ Checker::Checker(const Scene& scene, double rotation_deg)
   workpiece_box_half_ = wb.sizes() / 2;
   workpiece_box_centre_ = wb.center();
 
+  // Struts have fixed lengths: one capsule each, posed per query.
+  for (const auto& st : m.struts) strut_shapes_.push_back(interference::Shape::capsule(m.strut_radius_mm, st.length_mm));
   // Tool assembly shapes: tool parts along the axis, the plate, the hinges.
   for (const auto& part : m.tool_parts) {
     const double len = part.to_mm - part.from_mm;
@@ -261,7 +262,7 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
         }
         continue;
       }
-      const auto cap = interference::Shape::capsule(m.strut_radius_mm, (st.plate_mm - st.slider_mm).norm());
+      const auto& cap = strut_shapes_[s];
       const auto T = interference::segment_pose(st.slider_mm, st.plate_mm);
       double dist = interference::distance(cap, T, pad_box, T_box).distance_mm;
       if (dist < c + kLowerBoundSlack_mm) {
@@ -304,55 +305,83 @@ void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned
     // in the peripheral's own frame when it is a box (tight for a turned box).
     const Eigen::Isometry3d to_local = per.T_table_peripheral.inverse();
     const Eigen::AlignedBox3d local_box(-per.box_half_mm, per.box_half_mm);
-    auto gap = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r) {
-      return per.is_box ? aabb_distance(segment_box(to_local * a, to_local * b, r), local_box)
-                        : aabb_distance(segment_box(a, b, r), per.bounds);
+    // A separating plane along the segment, facing the box centre, often does better for a
+    // long slanted strut passing beside the box. (A flat-ended cylinder lies inside the capsule
+    // of the same segment and radius, so both bounds hold for it too.)
+    auto gap = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r, bool cylinder = false) {
+      if (!per.is_box) return aabb_distance(cylinder ? cylinder_box(a, b, r) : segment_box(a, b, r), per.bounds);
+      const Eigen::Vector3d la = to_local * a, lb = to_local * b;
+      double lower = aabb_distance(cylinder ? cylinder_box(la, lb, r) : segment_box(la, lb, r), local_box);
+      const Eigen::Vector3d d = lb - la, mid = (la + lb) / 2;
+      const double len2 = d.squaredNorm();
+      const Eigen::Vector3d off = len2 > 1e-12 ? Eigen::Vector3d(mid - d * (mid.dot(d) / len2)) : mid;
+      const double dist = off.norm();
+      if (dist > 1e-9) {
+        const Eigen::Vector3d n = off / dist;
+        lower = std::max(lower, dist - per.box_half_mm.cwiseProduct(n.cwiseAbs()).sum() - r);
+      }
+      return lower;
     };
     const double assembly_lb = gap(tip, top, std::max(m.plate_radius_mm, m.plate_joint_reach_mm));
     if (assembly_lb >= c + kLowerBoundSlack_mm) {
       best = assembly_lb;
       best_part = "tool assembly";
     } else {
-      for (std::size_t s = 0; s < m.tool_parts.size(); ++s) {
+      // Every rigid part with a lower bound; exact distances in order of the bounds, so the
+      // closest part is usually met first and the rest are skipped by their bounds.
+      struct Part {
+        double lower;
+        std::size_t shape;
+        Eigen::Isometry3d pose;
+        int name;  // tool part index, -1 the plate, -2 - k hinge k
+      };
+      std::array<Part, 16> parts;
+      std::size_t count = 0;
+      for (std::size_t s = 0; s < m.tool_parts.size() && count < parts.size(); ++s) {
         const auto& part = m.tool_parts[s];
         const Eigen::Vector3d a = tip + pose.axis * part.from_mm, b = tip + pose.axis * part.to_mm;
-        if (gap(a, b, part.radius_mm) >= best) continue;
-        const double dist = interference::distance(rigid_shapes_[s], interference::segment_pose(a, b), per.shape,
-                                                   per.T_table_peripheral).distance_mm;
-        if (dist < best) best = dist, best_part = part.name;
+        parts[count++] = {gap(a, b, part.radius_mm, !part.capsule), s, interference::segment_pose(a, b), static_cast<int>(s)};
       }
-      const Eigen::Vector3d pa = tip + pose.axis * m.gauge_mm, pb = top;
-      if (gap(pa, pb, m.plate_radius_mm) < best) {
-        const double dist = interference::distance(rigid_shapes_[m.tool_parts.size()], interference::segment_pose(pa, pb),
-                                                   per.shape, per.T_table_peripheral).distance_mm;
-        if (dist < best) best = dist, best_part = "spindle plate";
-      }
-      for (int s = 0; s < 6; ++s) {
+      const Eigen::Vector3d pa = tip + pose.axis * m.gauge_mm;
+      if (count < parts.size())
+        parts[count++] = {gap(pa, top, m.plate_radius_mm, true), m.tool_parts.size(), interference::segment_pose(pa, top), -1};
+      for (int s = 0; s < 6 && count < parts.size(); ++s) {
         const Eigen::Vector3d h = ik.struts[s].plate_mm;
-        if (gap(h, h, m.hinge_radius_mm) >= best) continue;
         Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
         T.translation() = h;
-        const double dist = interference::distance(rigid_shapes_.back(), T, per.shape, per.T_table_peripheral).distance_mm;
-        if (dist < best) best = dist, best_part = fmt::format("plate hinge {}", s + 1);
+        parts[count++] = {gap(h, h, m.hinge_radius_mm), rigid_shapes_.size() - 1, T, -2 - s};
       }
+      std::sort(parts.begin(), parts.begin() + static_cast<long>(count),
+                [](const Part& x, const Part& y) { return x.lower < y.lower; });
+      int best_name = 0;
+      for (std::size_t k = 0; k < count && parts[k].lower < best; ++k) {
+        const double dist =
+            interference::distance(rigid_shapes_[parts[k].shape], parts[k].pose, per.shape, per.T_table_peripheral).distance_mm;
+        if (dist < best) best = dist, best_name = parts[k].name;
+      }
+      if (d && std::isfinite(best))
+        best_part = best_name >= 0 ? m.tool_parts[best_name].name
+                    : best_name == -1 ? std::string("spindle plate")
+                                      : fmt::format("plate hinge {}", -1 - best_name);
     }
     v[ci] = best;
     if (d) d->periph_part[2 * p] = best_part;
-    // Struts.
+    // Struts, closest bound first.
+    std::array<std::pair<double, int>, 6> order;
+    for (int s = 0; s < 6; ++s) order[s] = {gap(ik.struts[s].slider_mm, ik.struts[s].plate_mm, m.strut_radius_mm), s};
+    std::sort(order.begin(), order.end());
     double sbest = kInf;
-    std::string spart;
-    for (int s = 0; s < 6; ++s) {
+    int sbest_strut = -1;
+    for (const auto& [lb, s] : order) {
+      if (lb >= sbest) break;
       const auto& st = ik.struts[s];
-      const double lb = gap(st.slider_mm, st.plate_mm, m.strut_radius_mm);
-      if (lb >= sbest) continue;
       double dist = lb;
-      if (lb < c + kLowerBoundSlack_mm) {
-        const auto cap = interference::Shape::capsule(m.strut_radius_mm, (st.plate_mm - st.slider_mm).norm());
-        dist = interference::distance(cap, interference::segment_pose(st.slider_mm, st.plate_mm), per.shape,
+      if (lb < c + kLowerBoundSlack_mm)
+        dist = interference::distance(strut_shapes_[s], interference::segment_pose(st.slider_mm, st.plate_mm), per.shape,
                                       per.T_table_peripheral).distance_mm;
-      }
-      if (dist < sbest) sbest = dist, spart = fmt::format("strut {}", s + 1);
+      if (dist < sbest) sbest = dist, sbest_strut = s;
     }
+    const std::string spart = d && sbest_strut >= 0 ? fmt::format("strut {}", sbest_strut + 1) : std::string();
     v[ci + 1] = sbest;
     if (d) d->periph_part[2 * p + 1] = spart;
   }

@@ -207,7 +207,7 @@ class Checker {
   std::vector<double> limit_;              // per constraint: the value it must reach
   std::vector<double> report_tolerance_;   // per constraint: precision of report() minima
   std::vector<interference::Shape> rigid_shapes_;  // tool parts, plate, then hinges (shared)
-  interference::Shape strut_shape_;
+  std::vector<interference::Shape> strut_shapes_;  // one capsule per strut (its length)
   interference::Shape workpiece_shape_;
   interference::Shape workpiece_box_shape_;
   Eigen::Vector3d workpiece_box_half_;
