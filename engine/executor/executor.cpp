@@ -114,6 +114,7 @@ class Runner {
   void start_paper_vector(std::size_t k, const Eigen::Vector2d& origin);
   void begin_step();
   void next_step();
+  void lower_to_cut_height();  // after the pierce: torch down to cutting height, then the cut
   void raise(FK kind, int axis, double value);
   void enter_stop();
   void account_contour_error();
@@ -414,6 +415,12 @@ void Runner::begin_step() {
   }
 }
 
+void Runner::lower_to_cut_height() {
+  out_.torch_height_target_mm = ms_.torch.cut_height_mm;
+  phase_ = Phase::torch_height_cut;
+  phase_t_ = 0.0;
+}
+
 void Runner::next_step() {
   ++steps_completed_;
   ++step_;
@@ -558,13 +565,10 @@ void Runner::sequence() {
       const bool programmed = step_ + 1 < job_.steps.size() && job_.steps[step_ + 1].kind == Step::Kind::dwell;
       if (programmed || phase_t_ >= ts.pierce_delay_s) {
         torch_lit_ = true;
-        if (ts.height_axis && !programmed) {
-          out_.torch_height_target_mm = ts.cut_height_mm;
-          phase_ = Phase::torch_height_cut;
-          phase_t_ = 0.0;
-        } else {
+        if (ts.height_axis && !programmed)
+          lower_to_cut_height();
+        else
           next_step();
-        }
       }
       break;
     }
@@ -591,13 +595,10 @@ void Runner::sequence() {
       if (phase_t_ >= job_.steps[step_].seconds - 1e-12) {
         // A programmed pierce dwell ends with the move to cut height.
         const bool after_torch_on = step_ > 0 && job_.steps[step_ - 1].kind == Step::Kind::torch_on;
-        if (after_torch_on && ts.height_axis && torch_lit_) {
-          out_.torch_height_target_mm = ts.cut_height_mm;
-          phase_ = Phase::torch_height_cut;
-          phase_t_ = 0.0;
-        } else {
+        if (after_torch_on && ts.height_axis && torch_lit_)
+          lower_to_cut_height();
+        else
           next_step();
-        }
       }
       break;
     case Phase::end_hold:
