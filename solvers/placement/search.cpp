@@ -185,7 +185,7 @@ PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, co
       rejected.insert({nearest_to_zero(b.x0, b.x1), nearest_to_zero(b.y0, b.y1), b.p0});
       if (radius == 0) continue;
     }
-    // Split the longest side (grid units); a single grid point is never "unknown" (decide at
+    // Split the longest side (grid units); a single grid point is never "unknown" (screen at
     // radius 0 always answers).
     const long sx = b.x1 - b.x0, sy = b.y1 - b.y0, sp = b.p1 - b.p0;
     MACHPLAN_ASSERT(sx + sy + sp > 0, "undecided single placement");
