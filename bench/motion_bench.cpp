@@ -54,18 +54,23 @@ void BM_PlanLongContour(benchmark::State& state) {
 }
 BENCHMARK(BM_PlanLongContour)->Unit(benchmark::kMillisecond);
 
-// One sample per simulated servo period, walking through the whole trajectory as the
-// executor does.
-void BM_SampleLongContour(benchmark::State& state) {
-  const auto tr = plan_stretch_detailed(long_contour(), PlannerOptions::thermal_gantry());
+// One sample per benchmark iteration, 1 ms apart (the servo period), walking through the
+// whole trajectory and starting over, as the executor does.
+template <class T>
+void sample_every_period(benchmark::State& state, const T& trajectory) {
   Setpoint sp;
   double t = 0;
   for (auto _ : state) {
-    tr->sample(t, sp);
+    trajectory.sample(t, sp);
     benchmark::DoNotOptimize(sp);
     t += 0.001;
-    if (t > tr->duration_s()) t = 0;
+    if (t > trajectory.duration_s()) t = 0;
   }
+}
+
+void BM_SampleLongContour(benchmark::State& state) {
+  const auto tr = plan_stretch_detailed(long_contour(), PlannerOptions::thermal_gantry());
+  sample_every_period(state, *tr);
   state.counters["phases"] = static_cast<double>(tr->profile().size());
   state.counters["pieces"] = static_cast<double>(tr->executed_path().segments.size());
 }
@@ -78,14 +83,7 @@ void BM_SampleLine(benchmark::State& state) {
   st.feed_mm_per_s = {80.0};
   st.source_lines = {1};
   const auto tr = plan_stretch(st, PlannerOptions::thermal_gantry());
-  Setpoint sp;
-  double t = 0;
-  for (auto _ : state) {
-    tr->sample(t, sp);
-    benchmark::DoNotOptimize(sp);
-    t += 0.001;
-    if (t > tr->duration_s()) t = 0;
-  }
+  sample_every_period(state, *tr);
 }
 BENCHMARK(BM_SampleLine);
 

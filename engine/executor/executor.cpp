@@ -115,6 +115,9 @@ class Runner {
   void begin_step();
   void next_step();
   void lower_to_cut_height();  // after the pierce: torch down to cutting height, then the cut
+  // Torch off in this tick and up to the retract height; with `resume`, the same step runs
+  // again once the torch is up (a step that found the torch still burning).
+  void torch_off_and_retract(bool resume);
   void raise(FK kind, int axis, double value);
   void enter_stop();
   void account_contour_error();
@@ -357,11 +360,7 @@ void Runner::begin_step() {
   phase_t_ = 0.0;
   if (step_ >= job_.steps.size()) {
     if (out_.torch_fire || torch_lit_) {
-      resume_after_torch_off_ = true;
-      phase_ = Phase::torch_off_retract;
-      out_.torch_fire = false;
-      torch_lit_ = false;
-      out_.torch_height_target_mm = ms_.torch.retract_height_mm;
+      torch_off_and_retract(/*resume=*/true);
       return;
     }
     phase_ = Phase::end_hold;
@@ -373,11 +372,7 @@ void Runner::begin_step() {
       const motion::Stretch& s = job_.stretches[st.stretch];
       if (!s.cutting && (out_.torch_fire || torch_lit_)) {
         // End of a cut not closed by a torch_off step: turn the torch off before moving on.
-        resume_after_torch_off_ = true;
-        phase_ = Phase::torch_off_retract;
-        out_.torch_fire = false;
-        torch_lit_ = false;
-        out_.torch_height_target_mm = ms_.torch.retract_height_mm;
+        torch_off_and_retract(/*resume=*/true);
         return;
       }
       phase_ = Phase::move;
@@ -405,14 +400,18 @@ void Runner::begin_step() {
       if (phase_ == Phase::torch_wait_arc) out_.torch_fire = true;
       break;
     case Step::Kind::torch_off:
-      phase_ = Phase::torch_off_retract;
-      out_.torch_fire = false;
-      torch_lit_ = false;
-      out_.torch_height_target_mm = ms_.torch.retract_height_mm;
-      resume_after_torch_off_ = false;
+      torch_off_and_retract(/*resume=*/false);
       break;
     case Step::Kind::dwell: phase_ = Phase::dwell; break;
   }
+}
+
+void Runner::torch_off_and_retract(bool resume) {
+  out_.torch_fire = false;
+  torch_lit_ = false;
+  out_.torch_height_target_mm = ms_.torch.retract_height_mm;
+  resume_after_torch_off_ = resume;
+  phase_ = Phase::torch_off_retract;
 }
 
 void Runner::lower_to_cut_height() {
