@@ -522,7 +522,7 @@ bool Checker::scan_interval(long i, double t0, double t1, const double* v0, cons
 }
 
 bool Checker::scan(const Eigen::Vector3d& offset, ScanSettings& s) {
-  s.all_mask = (constraint_count_ >= 32) ? ~0u : ((1u << constraint_count_) - 1);
+  s.all_mask = all_constraints();
   const unsigned mask = s.mask ? s.mask & s.all_mask : s.all_mask;
   // Exact values found by the previous scan at the same placement are kept (a report right
   // after the decision that certified the placement reuses them), unless that scan evaluated
@@ -533,7 +533,7 @@ bool Checker::scan(const Eigen::Vector3d& offset, ScanSettings& s) {
   }
   if (s.poses_only) s.all_mask = mask;  // a probe evaluates only what it looks for
   cache_offset_ = offset;
-  cache_complete_ = s.all_mask == ((constraint_count_ >= 32) ? ~0u : ((1u << constraint_count_) - 1));
+  cache_complete_ = s.all_mask == all_constraints();
   const long n = static_cast<long>(tips_.size());
   if (!s.report && !s.skip_learned) {
     // Interferences met before are the likeliest to recur: try them first.
@@ -592,9 +592,7 @@ bool Checker::scan_best_first(unsigned mask, const Eigen::Vector3d& offset, Scan
     if (!check_exact(node.centre, 0, v, m, s)) return false;
     double travel_of_kind[3] = {-1, -1, -1};
     double key = kInf;
-    // Every pose of the node has its struts within this angle of their rails.
-    const double kappa = hexam::slider_rate_bound(
-        scene_.machine, v[constraint_count_] + (scene_.machine.kappa + 1) * node_travel(1, node) / min_strut_mm_);
+    const double kappa = local_kappa(v, node_travel(1, node));
     for (int c = 0; c < constraint_count_; ++c) {
       if (!(m & (1u << c))) continue;
       double& tr = travel_of_kind[travel_kind_[c]];
@@ -873,14 +871,12 @@ CheckReport Checker::report(const Placement& p) {
   return r;
 }
 
-Decision Checker::decide(const Placement& p, double radius, Finding* witness, bool peripherals_first) {
-  const Eigen::Vector3d offset = p.offset();
+Decision Checker::decide_workpiece_block(const Eigen::Vector3d& offset, double radius, Finding* witness) const {
   const double c = scene_.safe_distance_mm;
-  // Placement-only constraint first: the workpiece block against the peripherals.
   bool all_clear = true;
   for (std::size_t k = 0; k < scene_.peripherals.size(); ++k) {
     Eigen::Vector2d e;
-    const double v = workpiece_peripheral_value(offset, static_cast<int>(k), &e, c + radius);
+    const double v = workpiece_peripheral_value(offset, static_cast<int>(k), witness ? &e : nullptr, c + radius);
     if (v <= c - radius && !(radius == 0 && v >= c)) {
       if (witness) {
         *witness = Finding{};
@@ -893,6 +889,15 @@ Decision Checker::decide(const Placement& p, double radius, Finding* witness, bo
     }
     if (v < c + radius) all_clear = false;
   }
+  return all_clear ? Decision::feasible : Decision::unknown;
+}
+
+Decision Checker::decide(const Placement& p, double radius, Finding* witness, bool peripherals_first) {
+  const Eigen::Vector3d offset = p.offset();
+  // Placement-only constraint first: the workpiece block against the peripherals.
+  const Decision block = decide_workpiece_block(offset, radius, witness);
+  if (block == Decision::infeasible) return Decision::infeasible;
+  const bool all_clear = block == Decision::feasible;
   if (class1_.interferes) {
     if (witness) *witness = class1_;
     return Decision::infeasible;
@@ -941,13 +946,18 @@ Checker::ScanSettings Checker::decision_settings(double radius) const {
   return s;
 }
 
+double Checker::local_kappa(const double* v, double move_mm) const {
+  // Moving the plate joints by at most `move_mm` (along the path, or by moving the workpiece)
+  // turns a strut by at most (kappa + 1) move / L, so the struts' angles to their rails at the
+  // pose (v[constraint_count_]) bound the slider-speed factor over that move, often far below
+  // the machine-wide kappa.
+  return hexam::slider_rate_bound(scene_.machine,
+                                  v[constraint_count_] + (scene_.machine.kappa + 1) * move_mm / min_strut_mm_);
+}
+
 double Checker::fail_threshold(int c, const double* v, const ScanSettings& s) const {
   if (s.radius == 0) return s.thr_fail[c];
-  // Moving the workpiece by at most the radius turns a strut by at most (kappa + 1) r / L, so
-  // the pose's own strut angles give a tighter slider-speed factor than kappa.
-  const double kappa = hexam::slider_rate_bound(
-      scene_.machine, v[constraint_count_] + (scene_.machine.kappa + 1) * s.radius / min_strut_mm_);
-  return limit_[c] - lipschitz(placement_lipschitz_[c], kappa) * s.radius;
+  return limit_[c] - lipschitz(placement_lipschitz_[c], local_kappa(v, s.radius)) * s.radius;
 }
 
 Decision Checker::probe(const Placement& p, double radius) {
@@ -957,8 +967,7 @@ Decision Checker::probe(const Placement& p, double radius) {
   // dropped at once.
   if (class1_.interferes) return Decision::infeasible;
   const unsigned cheap = (1u << kStroke) | (1u << kJoint) | (1u << kStrutStrut);
-  const unsigned all = (constraint_count_ >= 32) ? ~0u : ((1u << constraint_count_) - 1);
-  for (unsigned mask : {cheap, all & ~cheap & ~(1u << kClass2)}) {
+  for (unsigned mask : {cheap, all_constraints() & ~cheap & ~(1u << kClass2)}) {
     if (!mask) continue;
     ScanSettings s = decision_settings(radius);
     s.skip_learned = s.poses_only = true;
@@ -987,24 +996,18 @@ void Checker::learn(const Witness& w) {
 
 Decision Checker::screen(const Placement& p, double radius, std::uint64_t* settled) {
   const Eigen::Vector3d offset = p.offset();
-  const double c = scene_.safe_distance_mm;
   if (class1_.interferes) return Decision::infeasible;
-  bool all_clear = true;
-  for (std::size_t k = 0; k < scene_.peripherals.size(); ++k) {
-    const double v = workpiece_peripheral_value(offset, static_cast<int>(k), nullptr, c + radius);
-    if (v <= c - radius && !(radius == 0 && v >= c)) return Decision::infeasible;
-    if (v < c + radius) all_clear = false;
-  }
+  const Decision block = decide_workpiece_block(offset, radius, nullptr);
+  if (block == Decision::infeasible) return Decision::infeasible;
+  bool all_clear = block == Decision::feasible;
   std::vector<double> v(stride_);
   for (std::size_t j = 0; j < learned_.size(); ++j) {
     const Witness w = learned_[j];
     const std::uint64_t bit = w.id < 64 ? std::uint64_t{1} << w.id : 0;
     if (settled && (*settled & bit)) continue;
     evaluate(interpolate(w.pose, w.t), offset, 1u << w.constraint, v.data(), nullptr);
-    // Moving the workpiece by at most `radius` turns a strut by at most (kappa + 1) radius / L.
-    const double kappa =
-        hexam::slider_rate_bound(scene_.machine, v[constraint_count_] + (scene_.machine.kappa + 1) * radius / min_strut_mm_);
-    const double value = v[w.constraint], lip = lipschitz(placement_lipschitz_[w.constraint], kappa) * radius;
+    const double value = v[w.constraint],
+                 lip = lipschitz(placement_lipschitz_[w.constraint], local_kappa(v.data(), radius)) * radius;
     const bool bad = radius > 0 ? value <= limit_[w.constraint] - lip : value < limit_[w.constraint];
     if (bad) {
       // Move it to the front: neighbouring boxes are likely to fall to the same one.

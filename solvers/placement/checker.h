@@ -175,6 +175,11 @@ class Checker {
   bool scan(const Eigen::Vector3d& offset, ScanSettings& s);
   bool scan_best_first(unsigned mask, const Eigen::Vector3d& offset, ScanSettings& s);
   double report_need(int constraint, double best) const;
+  // Slider-speed factor valid within `move_mm` of a pose whose values are v.
+  double local_kappa(const double* v, double move_mm) const;
+  unsigned all_constraints() const { return constraint_count_ >= 32 ? ~0u : (1u << constraint_count_) - 1; }
+  // The workpiece block (with its pad) against the peripherals over the ball of placements.
+  Decision decide_workpiece_block(const Eigen::Vector3d& offset, double radius_mm, Finding* witness) const;
   ScanSettings decision_settings(double radius_mm) const;
   // The value at or below which constraint c at a pose (values v) condemns the whole ball.
   double fail_threshold(int c, const double* v, const ScanSettings& s) const;
