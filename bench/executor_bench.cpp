@@ -7,12 +7,25 @@
 //   BM_ExecutorTickNoTrace the same without recording the trace.
 //   BM_AxisPlantStep     one axis plant, one 1 ms tick (10 substeps), gantry parameters.
 //   BM_SimBackendExchange the whole simulated gantry (two plants, torch, height), one tick.
+//   BM_TickPercentiles   the nested sheet (65 cuts, about 290 s of machine time) in planned mode
+//                        on the simulated gantry, each tick (exchange with the simulator
+//                        included) timed on the steady clock: 50th, 99th, 99.9th percentile
+//                        and maximum, with the trace in memory (Trace), streamed to a CSV file
+//                        (TraceStream) or off (NoTrace). The pages of the trace buffer are
+//                        touched before the first tick, so that recording never faults a page
+//                        inside the loop.
+#include <algorithm>
+#include <chrono>
+
 #include <benchmark/benchmark.h>
 
 #include "engine/executor/executor.h"
 #include "models/axis/plant.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
+#include "solvers/motion/run.h"
+#include "tests/support/forwarding_backend.h"
+#include "tests/support/ideal_backend.h"
 #include "tests/support/test_trajectory.h"
 
 namespace {
@@ -22,42 +35,6 @@ using namespace machplan;
 machplan::cutting::MachineConfig gantry() {
   return cutting::load_machine(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
 }
-
-// Moves exactly as commanded; counts like the real counter (down counter, direction bit).
-class IdealBackend final : public hardware::Backend {
- public:
-  explicit IdealBackend(const cutting::MachineConfig& m, Eigen::Vector2d start) : m_(m), pos_(start) {
-    for (int i = 0; i < 2; ++i) count_pos_[i] = static_cast<std::int64_t>(std::floor(pos_[i] / q(i)));
-  }
-  double period_s() const override { return 0.001; }
-  hardware::AxisSignals axis_signals(int a) const override {
-    const auto& p = m_.axes[a].plant;
-    return {p.mm_per_count(), p.counter_bits, p.dac_bits, p.dac_full_scale_mm_per_s(), 0, 0};
-  }
-  hardware::Inputs initial_inputs() override { return in_; }
-  hardware::Health exchange(const hardware::Outputs& o, hardware::Inputs& in) noexcept override {
-    for (int i = 0; i < 2; ++i) {
-      const auto& p = m_.axes[i].plant;
-      pos_[i] += o.dac_code[i] / double(p.dac_max_code() + 1) * p.dac_full_scale_mm_per_s() * 0.001;
-      const auto c = static_cast<std::int64_t>(std::floor(pos_[i] / q(i)));
-      const std::int64_t d = c - count_pos_[i];
-      if (d != 0) {
-        in_.counter[i] = static_cast<std::uint32_t>(in_.counter[i] - (d > 0 ? d : -d)) & 0xFFFFu;
-        in_.counter_direction_negative[i] = d < 0;
-        count_pos_[i] = c;
-      }
-    }
-    in = in_;
-    return hardware::Health::ok;
-  }
-
- private:
-  double q(int i) const { return m_.axes[i].plant.mm_per_count(); }
-  const cutting::MachineConfig& m_;
-  Eigen::Vector2d pos_;
-  std::array<std::int64_t, 2> count_pos_{};
-  hardware::Inputs in_{};
-};
 
 void run_ticks(benchmark::State& state, bool trace) {
   const auto m = gantry();
@@ -75,7 +52,7 @@ void run_ticks(benchmark::State& state, bool trace) {
   o.record_trace = trace;
   std::int64_t ticks = 0;
   for (auto _ : state) {
-    IdealBackend be(m, a);
+    test::IdealDacBackend be(m, a);
     executor::Executor ex(setup, o);
     const auto r = ex.run(job, tr, be);
     ticks += static_cast<std::int64_t>(std::llround(r.cycle_time_s / 0.001));
@@ -90,6 +67,64 @@ void BM_ExecutorTick(benchmark::State& s) { run_ticks(s, true); }
 void BM_ExecutorTickNoTrace(benchmark::State& s) { run_ticks(s, false); }
 BENCHMARK(BM_ExecutorTick)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ExecutorTickNoTrace)->Unit(benchmark::kMillisecond);
+
+enum class TraceKind { off, memory, stream };
+
+void tick_percentiles(benchmark::State& state, TraceKind kind) {
+  motion::RunOptions o;
+  o.machine = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml";
+  o.executor.record_trace = false;
+  const motion::RunOutcome prepared =
+      motion::run_program(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/nested_sheet.ngc", o);
+  std::vector<double> us;
+  us.reserve(400000);
+  double dropped = 0;
+  for (auto _ : state) {
+    us.clear();
+    executor::ExecutorOptions eo;
+    eo.record_trace = kind == TraceKind::memory;
+    sim::SimOptions so;
+    so.start_mm = prepared.job.start_mm;
+    sim::SimBackend sim(prepared.machine, so);
+    // Claims real time, as a machine would: the stream then never waits for its writer (a
+    // sample is dropped instead), which is the cost a real-time loop pays.
+    struct AsIfRealTime final : test::ForwardingBackend {
+      using ForwardingBackend::ForwardingBackend;
+      bool realtime() const override { return true; }
+    } be(sim);
+    executor::Executor ex(prepared.machine.setup(), eo);
+    std::unique_ptr<executor::TraceStream> stream;
+    executor::RunParts parts;
+    if (kind == TraceKind::stream) {
+      stream = std::make_unique<executor::TraceStream>("/tmp/machplan_bench_trace.csv");
+      parts.trace_stream = stream.get();
+    }
+    executor::Session s(ex, prepared.job, prepared.trajectories, be, parts);
+    for (bool more = true; more;) {
+      const auto t0 = std::chrono::steady_clock::now();
+      more = s.tick();
+      const auto t1 = std::chrono::steady_clock::now();
+      us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    }
+    const executor::ExecutionResult r = s.finish();
+    dropped = static_cast<double>(r.trace_stream_dropped);
+    benchmark::DoNotOptimize(r.cycle_time_s);
+  }
+  std::sort(us.begin(), us.end());
+  const auto at = [&](double q) { return us[std::min(us.size() - 1, static_cast<std::size_t>(q * us.size()))]; };
+  state.counters["p50_us"] = at(0.5);
+  state.counters["p99_us"] = at(0.99);
+  state.counters["p99.9_us"] = at(0.999);
+  state.counters["max_us"] = us.back();
+  state.counters["ticks"] = static_cast<double>(us.size());
+  if (kind == TraceKind::stream) state.counters["dropped"] = dropped;
+}
+void BM_TickPercentilesTrace(benchmark::State& s) { tick_percentiles(s, TraceKind::memory); }
+void BM_TickPercentilesTraceStream(benchmark::State& s) { tick_percentiles(s, TraceKind::stream); }
+void BM_TickPercentilesNoTrace(benchmark::State& s) { tick_percentiles(s, TraceKind::off); }
+BENCHMARK(BM_TickPercentilesTrace)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_TickPercentilesTraceStream)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_TickPercentilesNoTrace)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 void BM_AxisPlantStep(benchmark::State& state) {
   const auto m = gantry();

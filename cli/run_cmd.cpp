@@ -2,6 +2,7 @@
 // simulated cutting machine (solvers/motion/run.h) and reports cycle time, torch time,
 // rapids, contour error per cut, faults and the cycle time against its lower bound.
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <limits>
 #include <memory>
@@ -39,9 +40,69 @@ executor::Mode mode_of(const std::string& text) {
   throw InputError("--mode", 0, fmt::format("unknown mode '{}' (known: planned, paper-open, paper-closed)", text));
 }
 
+// `KIND@SECONDS[:AXIS]`, e.g. jam@3.5:x; the kinds are the simulator's (models/sim).
+sim::FaultInjection injection_of(const std::string& text) {
+  using K = sim::FaultInjection::Kind;
+  const auto bad = [&](const std::string& why) {
+    return InputError("--inject", 0,
+                      fmt::format("'{}': {} (form KIND@SECONDS[:x|y]; kinds: jam, encoder-glitch, counter-misread, "
+                                  "estop, lost-backend, arc-loss, arc-start-failure, watchdog)",
+                                  text, why));
+  };
+  const std::size_t at = text.find('@');
+  if (at == std::string::npos) throw bad("no '@'");
+  const std::string kind = text.substr(0, at);
+  std::string rest = text.substr(at + 1), axis;
+  if (const std::size_t c = rest.find(':'); c != std::string::npos) {
+    axis = rest.substr(c + 1);
+    rest = rest.substr(0, c);
+  }
+  sim::FaultInjection f;
+  bool found = false;
+  for (K k : {K::stuck_axis, K::encoder_glitch, K::counter_wrap_misread, K::estop, K::lost_backend, K::arc_loss,
+              K::arc_start_failure, K::watchdog})
+    if (kind == sim::to_string(k)) f.kind = k, found = true;
+  if (!found) throw bad(fmt::format("unknown kind '{}'", kind));
+  std::size_t used = 0;
+  try {
+    f.at_s = std::stod(rest, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != rest.size() || !std::isfinite(f.at_s) || f.at_s < 0) throw bad("the time is not a number >= 0");
+  if (axis == "x" || axis.empty()) f.axis = 0;
+  else if (axis == "y") f.axis = 1;
+  else throw bad(fmt::format("unknown axis '{}'", axis));
+  return f;
+}
+
+// SIGINT, SIGTERM and SIGHUP ask the run to stop (torch off, controlled stop, report, exit 3)
+// instead of killing the process mid-cut. The handler only stores to a lock-free atomic.
+StopSource g_signal_stop;
+extern "C" void on_stop_signal(int) { g_signal_stop.request_stop(); }
+
+class SignalStop {
+ public:
+  SignalStop() {
+    struct sigaction sa = {};
+    sa.sa_handler = on_stop_signal;
+    sigemptyset(&sa.sa_mask);
+    for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &sa, &old_[i]);
+  }
+  ~SignalStop() {
+    for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &old_[i], nullptr);
+  }
+
+ private:
+  static constexpr int kSignals[3] = {SIGINT, SIGTERM, SIGHUP};
+  struct sigaction old_[3];
+};
+
 void add_run(CLI::App& app) {
   struct Args {
-    std::string program, machine, mode = "planned", blu, calibration, kerf, feed, no_go, trace, plot, magnify = "1", seed;
+    std::string program, machine, mode = "planned", blu, calibration, kerf, feed, no_go, trace, plot, magnify = "1", seed,
+        backend = "sim";
+    std::vector<std::string> inject;
     bool json = false, realtime = false;
   };
   auto a = std::make_shared<Args>();
@@ -62,6 +123,10 @@ void add_run(CLI::App& app) {
   cmd->add_option("--seed", a->seed, "seed of the simulated machine's noise and faults (default 1)");
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->add_flag("--realtime", a->realtime, "pace the simulation to the wall clock");
+  cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default)");
+  cmd->add_option("--inject", a->inject,
+                  "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "
+                  "lost-backend, arc-loss, arc-start-failure, watchdog); may be repeated");
   cmd->callback([a] {
     motion::RunOptions o;
     o.machine = a->machine;
@@ -94,14 +159,21 @@ void add_run(CLI::App& app) {
       }
       if (used == 0 || used != a->seed.size() || a->seed[0] == '-')
         throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", a->seed));
-      o.executor.seed = s;
+      o.backend.sim.seed = s;
     }
-    o.executor.realtime = a->realtime;
+    o.backend.name = a->backend;
+    o.backend.sim.realtime = a->realtime;
+    for (const std::string& text : a->inject) o.backend.sim.faults.push_back(injection_of(text));
+    if (!o.backend.sim.faults.empty() && a->backend != "sim")
+      throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
     o.no_go_path = a->no_go;
-    o.executor.record_trace = !a->trace.empty() || !a->plot.empty();
+    o.executor.record_trace = !a->plot.empty();
+    o.trace_csv_path = a->trace;  // streamed during the run
+    o.stop = g_signal_stop.token();
 
+    g_signal_stop.reset();
+    const SignalStop signals;
     const motion::RunOutcome run = motion::run_program(a->program, o);
-    if (!a->trace.empty()) run.result.write_trace_csv(a->trace);
     if (!a->plot.empty()) motion::write_run_plot(a->plot, run, magnify);
 
     if (a->json) {
@@ -116,7 +188,7 @@ void add_run(CLI::App& app) {
         std::printf("paper mode: encoders counted x1 as in the paper (%.4f mm per count), BLU %g mm, calibration %g\n\n",
                     run.machine.axes[0].plant.mm_per_count(), o.executor.blu_mm, o.executor.calibration_factor);
       std::printf("%s", run.report().c_str());
-      if (!a->trace.empty()) std::printf("trace: %s (%zu samples)\n", a->trace.c_str(), run.result.trace.size());
+      if (!a->trace.empty()) std::printf("trace: %s (%zu samples)\n", a->trace.c_str(), run.result.trace_streamed);
       if (!a->plot.empty()) std::printf("picture: %s\n", a->plot.c_str());
     }
     if (run.faulted()) {

@@ -81,6 +81,7 @@ class AxisServo {
     first_ = true;
     last_error_ = 0.0;
     last_output_ = 0.0;
+    saturated_ = false;
     direction_ = 0;
     comp_left_mm_ = 0.0;
   }
@@ -119,6 +120,7 @@ class AxisServo {
     if (g_.ff_adaptation_per_s2 > 0 && !saturated && std::abs(v_r) >= g_.ff_adaptation_min_speed_mm_per_s)
       theta_ = std::clamp(theta_ + g_.ff_adaptation_per_s2 * T_ * e / v_r, 0.25, 4.0);
     last_output_ = u;
+    saturated_ = saturated;
     return u;
   }
 
@@ -127,6 +129,7 @@ class AxisServo {
   double integral_mm_per_s() const { return integral_; }
   double feed_forward_gain() const { return theta_; }  // theta
   bool following_error_exceeded() const { return std::abs(last_error_) > g_.following_error_limit_mm; }
+  bool saturated() const { return saturated_; }  // the last output was clipped to +-u_max
   const ServoGains& gains() const { return g_; }
 
  private:
@@ -134,7 +137,7 @@ class AxisServo {
   double u_max_ = 1.0, T_ = 1e-3;
   double theta_ = 1.0;
   double integral_ = 0.0, e_prev_ = 0.0, last_error_ = 0.0, last_output_ = 0.0;
-  bool first_ = true;
+  bool first_ = true, saturated_ = false;
   int direction_ = 0;
   double comp_left_mm_ = 0.0;
 };

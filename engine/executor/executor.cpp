@@ -4,24 +4,24 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
-#include "engine/control/counter_decoder.h"
-#include "engine/control/servo.h"
 
 namespace machplan::executor {
 
 using motion::Step;
-using FK = FaultReport::Kind;
+using FK = FaultKind;
 
 const char* to_string(Mode m) {
   switch (m) {
     case Mode::planned: return "planned";
     case Mode::paper_open: return "paper_open";
     case Mode::paper_closed: return "paper_closed";
+    case Mode::jog: return "jog";
   }
   return "?";
 }
@@ -30,27 +30,13 @@ Mode mode_from_string(const std::string& s) {
   if (s == "planned") return Mode::planned;
   if (s == "paper_open") return Mode::paper_open;
   if (s == "paper_closed") return Mode::paper_closed;
-  throw InputError("--mode", 0, fmt::format("unknown mode '{}' (known: planned, paper_open, paper_closed)", s));
-}
-
-const char* to_string(FaultReport::Kind k) {
-  switch (k) {
-    case FK::following_error: return "following_error";
-    case FK::encoder_glitch: return "encoder_glitch";
-    case FK::counter_wrap_misread: return "counter_wrap_misread";
-    case FK::estop: return "estop";
-    case FK::lost_backend: return "lost_backend";
-    case FK::arc_start_failed: return "arc_start_failed";
-    case FK::arc_lost: return "arc_lost";
-    case FK::torch_height_timeout: return "torch_height_timeout";
-    case FK::stop_requested: return "stop_requested";
-  }
-  return "?";
+  if (s == "jog") return Mode::jog;
+  throw InputError("--mode", 0, fmt::format("unknown mode '{}' (known: planned, paper_open, paper_closed, jog)", s));
 }
 
 void ExecutorOptions::validate() const {
   auto fail = [](const char* field, double v, const char* rule) {
-    throw std::invalid_argument(fmt::format("ExecutorOptions::{} = {}: {}", field, v, rule));
+    throw InputError("", 0, fmt::format("ExecutorOptions::{} = {}: {}", field, v, rule));
   };
   if (!(std::isfinite(blu_mm) && blu_mm >= 0.01 && blu_mm <= 1000)) fail("blu_mm", blu_mm, "must be in [0.01, 1000] mm");
   if (!(std::isfinite(calibration_factor) && calibration_factor > 0.1 && calibration_factor <= 10))
@@ -59,130 +45,28 @@ void ExecutorOptions::validate() const {
     fail("paper_compute_s", paper_compute_s, "must be in [0, 10] s");
   if (!(std::isfinite(paper_settle_s) && paper_settle_s >= 0 && paper_settle_s <= 60))
     fail("paper_settle_s", paper_settle_s, "must be in [0, 60] s");
-  if (!(std::isfinite(rest_window_s) && rest_window_s > 0 && rest_window_s <= 10))
-    fail("rest_window_s", rest_window_s, "must be in (0, 10] s");
-  if (!(std::isfinite(stop_settle_s) && stop_settle_s > 0 && stop_settle_s <= 60))
-    fail("stop_settle_s", stop_settle_s, "must be in (0, 60] s");
+  const SupervisorOptions& s = supervisor;
+  if (!(std::isfinite(s.rest_window_s) && s.rest_window_s > 0 && s.rest_window_s <= 10))
+    fail("supervisor.rest_window_s", s.rest_window_s, "must be in (0, 10] s");
+  if (!(std::isfinite(s.stop_settle_s) && s.stop_settle_s > 0 && s.stop_settle_s <= 60))
+    fail("supervisor.stop_settle_s", s.stop_settle_s, "must be in (0, 60] s");
+  if (!(std::isfinite(s.stall_min_speed_mm_per_s) && s.stall_min_speed_mm_per_s > 0 && s.stall_min_speed_mm_per_s <= 1000))
+    fail("supervisor.stall_min_speed_mm_per_s", s.stall_min_speed_mm_per_s, "must be in (0, 1000] mm/s");
+  if (!(std::isfinite(s.stall_check_travel_mm) && s.stall_check_travel_mm > 0 && s.stall_check_travel_mm <= 1000))
+    fail("supervisor.stall_check_travel_mm", s.stall_check_travel_mm, "must be in (0, 1000] mm");
+  if (!(std::isfinite(s.stall_min_fraction) && s.stall_min_fraction >= 0 && s.stall_min_fraction < 1))
+    fail("supervisor.stall_min_fraction", s.stall_min_fraction, "must be in [0, 1)");
+  if (!(std::isfinite(s.saturation_window_s) && s.saturation_window_s > 0 && s.saturation_window_s <= 60))
+    fail("supervisor.saturation_window_s", s.saturation_window_s, "must be in (0, 60] s");
+  if (!(std::isfinite(s.saturation_share) && s.saturation_share > 0 && s.saturation_share <= 1))
+    fail("supervisor.saturation_share", s.saturation_share, "must be in (0, 1]");
   if (trace_every_ticks < 1) fail("trace_every_ticks", trace_every_ticks, "must be >= 1");
+  jog.validate();
 }
 
 // ---------------------------------------------------------------------------------------------
 
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-enum class Phase {
-  dispatch,
-  move,
-  paper_settle,
-  torch_height_pierce,
-  torch_preheat,
-  torch_wait_arc,
-  torch_pierce,
-  torch_height_cut,
-  torch_off_retract,
-  dwell,
-  end_hold,
-  stop_ramp,
-  stop_settle,
-  stop_disable,
-  done
-};
-
-struct ErrorAcc {
-  std::size_t n = 0, n_true = 0;
-  double max = 0, sum2 = 0, max_true = 0, sum2_true = 0;
-  bool complete = false, touched = false;
-};
-
-// Everything one run needs; built before the first tick.
-class Runner {
- public:
-  Runner(const MachineSetup& ms, const ExecutorOptions& opt, const motion::Job& job, const Trajectories& trajs,
-         hardware::Backend& be, std::atomic<bool>& stop_flag)
-      : ms_(ms), opt_(opt), job_(job), trajs_(trajs), be_(be), stop_flag_(stop_flag), dt_(be.period_s()) {}
-
-  void validate_and_prepare(ExecutionResult& r);
-  void run(ExecutionResult& r);
-
- private:
-  // --- the real-time part -------------------------------------------------------------------
-  bool tick();  // false when the run is over
-  void sequence();
-  void paper_move_tick();
-  void start_paper_vector(std::size_t k, const Eigen::Vector2d& origin);
-  void begin_step();
-  void next_step();
-  void lower_to_cut_height();  // after the pierce: torch down to cutting height, then the cut
-  // Torch off in this tick and up to the retract height; with `resume`, the same step runs
-  // again once the torch is up (a step that found the torch still burning).
-  void torch_off_and_retract(bool resume);
-  void raise(FK kind, int axis, double value);
-  void enter_stop();
-  void account_contour_error();
-  void record_trace();
-  std::int32_t to_dac(int axis, double u_mm_per_s) const;
-  bool moving_cut() const;
-
-  // --- inputs -------------------------------------------------------------------------------
-  const MachineSetup& ms_;
-  const ExecutorOptions& opt_;
-  const motion::Job& job_;
-  const Trajectories& trajs_;
-  hardware::Backend& be_;
-  std::atomic<bool>& stop_flag_;
-  const double dt_;
-
-  // --- state --------------------------------------------------------------------------------
-  std::array<control::CounterDecoder, 2> dec_{};
-  std::array<control::AxisServo, 2> servo_{};
-  hardware::Outputs out_{};
-  hardware::Inputs in_{};
-  long tick_ = 0;
-  double t_ = 0.0;
-  std::size_t step_ = 0;
-  Phase phase_ = Phase::dispatch;
-  double phase_t_ = 0.0;
-  bool resume_after_torch_off_ = false;
-  motion::Setpoint sp_{};
-  const motion::Trajectory* cur_traj_ = nullptr;  // the move being (or last) executed, planned mode
-  double move_t_ = 0.0;
-  Eigen::Vector2d hold_mm_ = Eigen::Vector2d::Zero();
-  Eigen::Vector2d meas_mm_ = Eigen::Vector2d::Zero();
-  Eigen::Vector2d true_mm_ = Eigen::Vector2d::Constant(kNaN);
-  bool has_truth_ = false;
-  bool trusted_ = true;
-  Eigen::Vector2d u_ = Eigen::Vector2d::Zero();  // commanded speed, mm/s (nominal drive units)
-  bool torch_lit_ = false;   // the torch-on sequence completed and the torch has not been turned off
-  double arc_low_s_ = 0.0;
-  double torch_on_s_ = 0.0;
-  bool faulted_ = false;
-  FaultReport fault_{};
-  Eigen::Vector2d stop_u0_ = Eigen::Vector2d::Zero();
-  double stop_t_ = 0.0;
-  std::array<std::int64_t, 2> rest_counts_{};
-  double rest_s_ = 0.0;
-  bool stopped_at_rest_ = true;
-  int steps_completed_ = 0;
-  double rapid_mm_ = 0.0;
-  // Contour error: per stretch accumulators and the nearest-segment cursor of the current cut.
-  std::vector<ErrorAcc> acc_;
-  std::size_t cursor_ = 0;
-  // Paper modes: all vector end points, flat, with the feed and line of the vector ending there.
-  std::vector<Eigen::Vector2d> pts_;
-  std::vector<double> pt_feed_;
-  std::vector<int> pt_line_;
-  std::vector<std::size_t> step_first_pt_;  // per step: index of its first point (the stretch start)
-  std::vector<std::size_t> step_last_pt_;
-  std::size_t pk_ = 0;             // current vector: from pts_[pk_] to pts_[pk_ + 1]
-  double pv_left_s_ = 0.0, pv_T_s_ = 0.0, pv_compute_left_s_ = 0.0;
-  bool pv_zero_pending_ = false, pv_start_pending_ = false, pv_computing_ = false;
-  Eigen::Vector2d pv_origin_ = Eigen::Vector2d::Zero(), pv_latched_ = Eigen::Vector2d::Zero();
-  std::vector<double> stretch_length_;
-  std::vector<TraceSample>* trace_ = nullptr;
-  bool trace_truncated_ = false;
-};
 
 double stretch_length(const motion::Stretch& s) {
   double L = 0;
@@ -190,24 +74,144 @@ double stretch_length(const motion::Stretch& s) {
   return L;
 }
 
-void Runner::validate_and_prepare(ExecutionResult& r) {
-  const auto fail = [&](int line, const std::string& what) { throw InputError(job_.source, line, what); };
-  const bool planned = opt_.mode == Mode::planned;
-  if (planned && trajs_.size() != job_.steps.size())
-    fail(0, fmt::format("{} trajectories for {} steps: planned mode needs one per step", trajs_.size(), job_.steps.size()));
-  Eigen::Vector2d at = job_.start_mm;
-  bool torch = false;
+bool same(double a, double b) { return std::abs(a - b) <= 1e-9 * std::max({1.0, std::abs(a), std::abs(b)}); }
+
+// The backend must be the machine the machine file describes.
+void check_backend(const MachineSetup& m, double machine_period_s, hardware::Backend& be) {
+  const auto fail = [&](const std::string& what) {
+    throw InputError(fmt::format("machine '{}'", m.name), 0,
+                     fmt::format("backend '{}' disagrees with the machine file: {}", be.name(), what));
+  };
+  if (!(std::isfinite(be.period_s()) && be.period_s() > 0)) fail(fmt::format("its period {} s is not positive", be.period_s()));
+  if (machine_period_s > 0 && !same(be.period_s(), machine_period_s))
+    fail(fmt::format("its servo period is {} s, the machine file's {} s", be.period_s(), machine_period_s));
+  if (be.watchdog_periods() < 1) fail(fmt::format("its watchdog is {} periods (must be >= 1)", be.watchdog_periods()));
+  if (be.command_kind() != hardware::CommandKind::speed_dac) return;  // position backends: no raw signals to agree on
+  for (int i = 0; i < hardware::kAxes; ++i) {
+    const hardware::AxisSignals b = be.axis_signals(i), f = m.signals[i];
+    const char* ax = i == 0 ? "X" : "Y";
+    auto num = [&](const char* field, double vb, double vf) {
+      if (!same(vb, vf)) fail(fmt::format("axis {} {} is {} on the backend, {} in the machine file", ax, field, vb, vf));
+    };
+    num("mm_per_count", b.mm_per_count, f.mm_per_count);
+    num("counter_bits", b.counter_bits, f.counter_bits);
+    num("dac_bits", b.dac_bits, f.dac_bits);
+    num("dac_full_scale_mm_per_s", b.dac_full_scale_mm_per_s, f.dac_full_scale_mm_per_s);
+    num("command_latency_ticks", b.command_latency_ticks, f.command_latency_ticks);
+    num("reading_latency_ticks", b.reading_latency_ticks, f.reading_latency_ticks);
+  }
+}
+
+enum class Phase { dispatch, move, torch, dwell, end_hold, jog, done };
+
+}  // namespace
+
+struct Session::Impl {
+  Impl(Executor& ex, const motion::Job& job, const Trajectories& trajs, hardware::Backend& be, const RunParts& parts)
+      : ms(ex.setup_), opt(ex.options_), job(job), trajs(trajs), be(be), parts(parts), stop_flag(ex.stop_requested_),
+        dt(be.period_s()) {}
+
+  void prepare(double machine_period_s);
+  bool tick() noexcept;
+  ExecutionResult finish();
+
+  // --- the real-time part -------------------------------------------------------------------
+  void sequence() noexcept;
+  void begin_step() noexcept;
+  void next_step() noexcept;
+  void torch_off_and_retract(bool resume) noexcept;
+  void raise(FK kind, int axis, double value) noexcept;
+  bool moving_cut() const noexcept {
+    return phase == Phase::move && !sup.stopping() && source->travelling() && step < job.steps.size() &&
+           job.stretches[job.steps[step].stretch].cutting;
+  }
+  void record_trace() noexcept;
+
+  // --- inputs -------------------------------------------------------------------------------
+  const MachineSetup& ms;
+  const ExecutorOptions& opt;
+  const motion::Job& job;
+  const Trajectories& trajs;
+  hardware::Backend& be;
+  RunParts parts;
+  std::atomic<bool>& stop_flag;
+  const double dt;
+
+  // --- parts --------------------------------------------------------------------------------
+  std::optional<PlannedSource> planned;
+  std::optional<BluVectorSource> blu;
+  std::optional<JogSource> jogger;
+  SetpointSource* source = nullptr;
+  control::PidFfController pid_ff;
+  control::Controller* controller = nullptr;
+  FeedbackAdapter adapter;
+  Supervisor sup;
+  TorchSequencer torch;
+  ContourMonitor contour;
+  TraceRecorder recorder;
+  std::vector<TraceSample>* trace_out = nullptr;
+  ExecutionResult result;
+
+  // --- state --------------------------------------------------------------------------------
+  hardware::Outputs out{};
+  hardware::Inputs in{};
+  Demand demand{};
+  control::ControllerOutput cout{};
+  long ticks = 0;
+  double t = 0.0;
+  std::size_t step = 0;
+  Phase phase = Phase::dispatch;
+  double phase_t = 0.0;
+  bool resume_after_torch_off = false;
+  Eigen::Vector2d sp_mm = Eigen::Vector2d::Zero();  // the commanded point now
+  Eigen::Vector2d true_mm = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  bool has_truth = false;
+  Eigen::Vector2d u = Eigen::Vector2d::Zero();  // commanded speed, mm/s (nominal drive units)
+  bool clipped = false;
+  double torch_on_s = 0.0;
+  int steps_completed = 0;
+  double rapid_mm = 0.0;
+  std::vector<double> stretch_len;
+  bool over = false;
+  bool be_realtime = true;
+};
+
+void Session::Impl::prepare(double machine_period_s) {
+  check_backend(ms, machine_period_s, be);
+  be_realtime = be.realtime();
+  const auto fail = [&](int line, const std::string& what) { throw InputError(job.source, line, what); };
+
+  // The source.
+  const SourceContext ctx{&job, &trajs, &ms, dt};
+  source = parts.source;
+  if (!source) {
+    switch (opt.mode) {
+      case Mode::planned: source = &planned.emplace(); break;
+      case Mode::paper_open:
+      case Mode::paper_closed:
+        source = &blu.emplace(BluVectorOptions{opt.mode == Mode::paper_closed, opt.blu_mm, opt.calibration_factor,
+                                               opt.paper_compute_s, opt.paper_zero_first, opt.paper_settle_s});
+        break;
+      case Mode::jog: source = &jogger.emplace(opt.jog); break;
+    }
+  }
+  if (!source->runs_job() && !job.steps.empty())
+    fail(job.steps.front().source_line, fmt::format("the {} source runs no job, but the job has {} steps", source->name(),
+                                                     job.steps.size()));
+
+  // The job, independent of the source.
+  Eigen::Vector2d at = job.start_mm;
+  bool torch_on = false;
   double est_s = 1.0;
-  const TorchSetup& ts = ms_.torch;
+  const TorchSetup& ts = ms.torch;
   const double torch_seq_s = 2 * ts.height_timeout_s + ts.arc_ok_timeout_s + ts.preheat_s + ts.pierce_delay_s + 0.1;
-  std::size_t n_vectors = 0;
-  for (std::size_t i = 0; i < job_.steps.size(); ++i) {
-    const Step& st = job_.steps[i];
+  for (std::size_t i = 0; i < job.steps.size(); ++i) {
+    const Step& st = job.steps[i];
     switch (st.kind) {
       case Step::Kind::move: {
-        if (st.stretch >= job_.stretches.size())
-          fail(st.source_line, fmt::format("step {} names stretch {} of {}", i, st.stretch, job_.stretches.size()));
-        const motion::Stretch& s = job_.stretches[st.stretch];
+        if (st.stretch >= job.stretches.size())
+          fail(st.source_line, fmt::format("step {} names stretch {} of {}", i, st.stretch, job.stretches.size()));
+        const motion::Stretch& s = job.stretches[st.stretch];
         if (s.segments.empty()) fail(st.source_line, fmt::format("stretch {} has no segments", st.stretch));
         if (s.feed_mm_per_s.size() != s.segments.size() || s.source_lines.size() != s.segments.size())
           fail(st.source_line, fmt::format("stretch {}: per-segment feeds and lines must match its segments", st.stretch));
@@ -217,41 +221,19 @@ void Runner::validate_and_prepare(ExecutionResult& r) {
           fail(st.source_line, fmt::format("stretch {} starts at ({:.4f}, {:.4f}) but the tool is at ({:.4f}, {:.4f})",
                                            st.stretch, s.segments.front().start.x(), s.segments.front().start.y(), at.x(),
                                            at.y()));
-        if (s.cutting && !torch) fail(st.source_line, "cutting move with the torch off (no torch_on step before it)");
-        if (!s.cutting) torch = false;  // the executor turns the torch off before a non-cutting move
-        const Eigen::Vector2d end = s.segments.back().end;
-        const double L = stretch_length(s);
-        double fmin = std::numeric_limits<double>::infinity();
-        for (double f : s.feed_mm_per_s) fmin = std::min(fmin, f);
-        if (planned) {
-          const motion::Trajectory* tr = trajs_[i].get();
-          if (!tr) fail(st.source_line, fmt::format("move step {} has no trajectory", i));
-          motion::Setpoint a, b;
-          tr->sample(0.0, a);
-          tr->sample(tr->duration_s(), b);
-          if (!(std::isfinite(tr->duration_s()) && tr->duration_s() >= 0))
-            fail(st.source_line, fmt::format("trajectory of step {} has duration {}", i, tr->duration_s()));
-          if ((a.position_mm - at).norm() > 1e-3 || (b.position_mm - end).norm() > 1e-3)
-            fail(st.source_line, fmt::format("trajectory of step {} runs ({:.4f}, {:.4f}) -> ({:.4f}, {:.4f}) but its "
-                                             "stretch runs ({:.4f}, {:.4f}) -> ({:.4f}, {:.4f})",
-                                             i, a.position_mm.x(), a.position_mm.y(), b.position_mm.x(), b.position_mm.y(),
-                                             at.x(), at.y(), end.x(), end.y()));
-          est_s += tr->duration_s() + 0.01;
-        } else {
-          for (const Segment& seg : s.segments) n_vectors += static_cast<std::size_t>(std::ceil(length(seg) / opt_.blu_mm)) + 1;
-          est_s += L / (fmin * std::min(1.0, opt_.calibration_factor * 0.5)) + opt_.paper_settle_s + 0.01;
-        }
-        at = end;
+        if (s.cutting && !torch_on) fail(st.source_line, "cutting move with the torch off (no torch_on step before it)");
+        if (!s.cutting) torch_on = false;  // the executor turns the torch off before a non-cutting move
+        at = s.segments.back().end;
         break;
       }
       case Step::Kind::torch_on:
-        if (ts.kind == TorchSetup::Kind::none) fail(st.source_line, fmt::format("torch on, but machine '{}' has no torch", ms_.name));
-        torch = true;
+        if (ts.kind == TorchSetup::Kind::none) fail(st.source_line, fmt::format("torch on, but machine '{}' has no torch", ms.name));
+        torch_on = true;
         est_s += torch_seq_s;
         break;
       case Step::Kind::torch_off:
-        if (ts.kind == TorchSetup::Kind::none) fail(st.source_line, fmt::format("torch off, but machine '{}' has no torch", ms_.name));
-        torch = false;
+        if (ts.kind == TorchSetup::Kind::none) fail(st.source_line, fmt::format("torch off, but machine '{}' has no torch", ms.name));
+        torch_on = false;
         est_s += ts.height_timeout_s;
         break;
       case Step::Kind::dwell:
@@ -261,594 +243,342 @@ void Runner::validate_and_prepare(ExecutionResult& r) {
         break;
     }
   }
-  if (!planned) est_s += static_cast<double>(n_vectors) * (opt_.paper_compute_s + 2 * dt_);
+  source->prepare(ctx, job.start_mm);
+  est_s += source->estimate_s();
   // Stop: ramp from the top speed, settle, margins.
   double vmax = 0;
-  for (int i = 0; i < 2; ++i) vmax = std::max(vmax, ms_.signals[i].dac_full_scale_mm_per_s);
-  est_s += vmax / ms_.max_acceleration_mm_per_s2 + 4 * opt_.stop_settle_s + ts.height_timeout_s + 1.0;
+  for (int i = 0; i < hardware::kAxes; ++i) vmax = std::max(vmax, ms.signals[i].dac_full_scale_mm_per_s);
+  est_s += vmax / ms.max_acceleration_mm_per_s2 + 4 * opt.supervisor.stop_settle_s + ts.height_timeout_s + 1.0;
 
-  // Buffers.
-  acc_.assign(job_.stretches.size(), ErrorAcc{});
-  stretch_length_.resize(job_.stretches.size());
-  for (std::size_t k = 0; k < job_.stretches.size(); ++k) stretch_length_[k] = stretch_length(job_.stretches[k]);
-  if (!planned) {
-    pts_.reserve(n_vectors + job_.steps.size() + 1);
-    step_first_pt_.assign(job_.steps.size(), 0);
-    step_last_pt_.assign(job_.steps.size(), 0);
-    for (std::size_t i = 0; i < job_.steps.size(); ++i) {
-      const Step& st = job_.steps[i];
-      if (st.kind != Step::Kind::move) continue;
-      const motion::Stretch& s = job_.stretches[st.stretch];
-      step_first_pt_[i] = pts_.size();
-      pts_.push_back(s.segments.front().start);
-      pt_feed_.push_back(s.feed_mm_per_s.front());
-      pt_line_.push_back(s.source_lines.front());
-      for (std::size_t g = 0; g < s.segments.size(); ++g) {
-        const Segment& seg = s.segments[g];
-        // Equal vectors of at most blu_mm along the segment (chords for arcs).
-        const int n = std::max(1, static_cast<int>(std::ceil(length(seg) / opt_.blu_mm - 1e-9)));
-        for (int j = 1; j <= n; ++j) {
-          pts_.push_back(j == n ? seg.end : point_at(seg, static_cast<double>(j) / n));
-          pt_feed_.push_back(s.feed_mm_per_s[g]);
-          pt_line_.push_back(s.source_lines[g]);
-        }
-      }
-      step_last_pt_[i] = pts_.size() - 1;
-    }
+  // Buffers, all touched now.
+  contour.prepare(job);
+  stretch_len.resize(job.stretches.size());
+  for (std::size_t k = 0; k < job.stretches.size(); ++k) stretch_len[k] = stretch_length(job.stretches[k]);
+  trace_out = &result.trace;
+  if (opt.record_trace) {
+    const double samples = source->runs_job() ? est_s / dt / opt.trace_every_ticks * 1.1 + 1000 : 1e9;
+    recorder.prepare(result.trace, static_cast<std::size_t>(std::min(samples, 1e12)));
   }
-  const double trace_ticks = est_s / dt_ / opt_.trace_every_ticks;
-  if (opt_.record_trace) r.trace.reserve(static_cast<std::size_t>(std::min(trace_ticks * 1.1 + 1000, 5e7)));
-  trace_ = &r.trace;
 
-  // Controllers and decoders.
-  in_ = be_.initial_inputs();
-  for (int i = 0; i < 2; ++i) {
-    const hardware::AxisSignals& sig = ms_.signals[i];
-    const auto max_counts =
-        static_cast<std::int64_t>(std::ceil(1.5 * ms_.max_speed_mm_per_s[i] * dt_ / sig.mm_per_count)) + 2;
-    dec_[i].configure(sig.mm_per_count, sig.counter_bits, max_counts);
-    dec_[i].reset(in_.counter[i], job_.start_mm[i]);
-    servo_[i].configure(ms_.servo[i], sig.dac_full_scale_mm_per_s, dt_);
-  }
-  meas_mm_ = job_.start_mm;
-  fault_.last_known_mm = meas_mm_;
-  sp_.position_mm = hold_mm_ = job_.start_mm;
-  has_truth_ = be_.true_position(true_mm_);
-  out_.drives_enabled = true;  // the first exchange enables the drives with a zero command
-  out_.dac_code = {0, 0};
-  out_.torch_fire = false;
-  out_.torch_height_target_mm = ms_.torch.retract_height_mm;
+  // Controller, adapter, supervisor, torch.
+  std::array<double, hardware::kAxes> limits{};
+  for (int i = 0; i < hardware::kAxes; ++i) limits[i] = ms.signals[i].dac_full_scale_mm_per_s;
+  pid_ff.configure(ms.servo, limits, dt);
+  controller = parts.controller ? parts.controller : &pid_ff;
+  controller->reset();
+  in = be.initial_inputs();
+  adapter.configure(ms, be.command_kind(), dt);
+  adapter.reset(in, job.start_mm);
+  sup.configure(ms, opt.supervisor, dt, adapter.quantum_mm());
+  sup.reset(job.start_mm);
+  torch.configure(ms.torch, dt);
+  if (parts.filter) parts.filter->reset(job.start_mm);
+  sp_mm = job.start_mm;
+  has_truth = be.true_position(true_mm);
+  phase = source->runs_job() ? Phase::dispatch : Phase::jog;
+  out.drives_enabled = true;  // the first exchange enables the drives with a zero command
+  out.dac_code.fill(0);
+  for (int i = 0; i < hardware::kAxes; ++i) out.position_command_mm[i] = job.start_mm[i];
+  out.torch_fire = false;
+  out.torch_height_target_mm = ms.torch.retract_height_mm;
 }
 
-std::int32_t Runner::to_dac(int axis, double u) const {
-  const hardware::AxisSignals& s = ms_.signals[axis];
-  const double full = static_cast<double>(std::int64_t{1} << (s.dac_bits - 1));
-  const double code = std::round(u / s.dac_full_scale_mm_per_s * full);
-  return static_cast<std::int32_t>(std::clamp(code, -full, full - 1));
+void Session::Impl::raise(FK kind, int axis, double value) noexcept {
+  Supervisor::Where w;
+  w.t_s = t;
+  w.step = step < job.steps.size() ? static_cast<int>(step) : -1;
+  w.source_line = step < job.steps.size() ? job.steps[step].source_line : 0;
+  if (phase == Phase::move && source->source_line() > 0) w.source_line = source->source_line();
+  w.commanded_mm = sp_mm;
+  sup.raise(kind, axis, value, w);
 }
 
-bool Runner::moving_cut() const {
-  return phase_ == Phase::move && step_ < job_.steps.size() && job_.stretches[job_.steps[step_].stretch].cutting;
-}
-
-void Runner::raise(FK kind, int axis, double value) {
-  if (faulted_) return;
-  faulted_ = true;
-  fault_.kind = kind;
-  fault_.time_s = t_;
-  fault_.step = step_ < job_.steps.size() ? static_cast<int>(step_) : -1;
-  fault_.source_line = step_ < job_.steps.size() ? job_.steps[step_].source_line : 0;
-  if (phase_ == Phase::move && opt_.mode != Mode::planned && pk_ + 1 < pt_line_.size()) fault_.source_line = pt_line_[pk_ + 1];
-  fault_.axis = axis;
-  fault_.value = value;
-  fault_.commanded_mm = sp_.position_mm;
-  // last_known_mm is kept up to date while the feedback is trusted.
-}
-
-void Runner::enter_stop() {
-  // Torch off in this very tick, height to retract.
-  out_.torch_fire = false;
-  torch_lit_ = false;
-  out_.torch_height_target_mm = ms_.torch.retract_height_mm;
-  stop_u0_ = u_;
-  stop_t_ = 0.0;
-  phase_ = Phase::stop_ramp;
-  phase_t_ = 0.0;
-}
-
-void Runner::begin_step() {
-  phase_t_ = 0.0;
-  if (step_ >= job_.steps.size()) {
-    if (out_.torch_fire || torch_lit_) {
+void Session::Impl::begin_step() noexcept {
+  phase_t = 0.0;
+  if (step >= job.steps.size()) {
+    if (out.torch_fire || torch.lit()) {
       torch_off_and_retract(/*resume=*/true);
       return;
     }
-    phase_ = Phase::end_hold;
+    phase = Phase::end_hold;
     return;
   }
-  const Step& st = job_.steps[step_];
+  const Step& st = job.steps[step];
   switch (st.kind) {
     case Step::Kind::move: {
-      const motion::Stretch& s = job_.stretches[st.stretch];
-      if (!s.cutting && (out_.torch_fire || torch_lit_)) {
+      const motion::Stretch& s = job.stretches[st.stretch];
+      if (!s.cutting && (out.torch_fire || torch.lit())) {
         // End of a cut not closed by a torch_off step: turn the torch off before moving on.
         torch_off_and_retract(/*resume=*/true);
         return;
       }
-      phase_ = Phase::move;
-      cursor_ = 0;
-      if (opt_.mode == Mode::planned) {
-        cur_traj_ = trajs_[step_].get();
-        move_t_ = 0.0;
-      }
-      acc_[st.stretch].touched = true;
-      if (opt_.mode != Mode::planned) {
-        pk_ = step_first_pt_[step_];
-        u_.setZero();
-        pv_zero_pending_ = opt_.paper_zero_first;
-        pv_start_pending_ = !opt_.paper_zero_first;
-        pv_computing_ = false;
-        pv_T_s_ = pv_left_s_ = 0.0;
-        pv_origin_ = pts_[pk_];
-      }
+      phase = Phase::move;
+      contour.begin(st.stretch);
+      source->begin_move(step, adapter.position_mm());
       break;
     }
-    case Step::Kind::torch_on:
-      phase_ = ms_.torch.height_axis ? Phase::torch_height_pierce
-                                     : (ms_.torch.kind == TorchSetup::Kind::oxy_fuel ? Phase::torch_preheat : Phase::torch_wait_arc);
-      if (ms_.torch.height_axis) out_.torch_height_target_mm = ms_.torch.pierce_height_mm;
-      if (phase_ == Phase::torch_wait_arc) out_.torch_fire = true;
-      break;
-    case Step::Kind::torch_off:
-      torch_off_and_retract(/*resume=*/false);
-      break;
-    case Step::Kind::dwell: phase_ = Phase::dwell; break;
-  }
-}
-
-void Runner::torch_off_and_retract(bool resume) {
-  out_.torch_fire = false;
-  torch_lit_ = false;
-  out_.torch_height_target_mm = ms_.torch.retract_height_mm;
-  resume_after_torch_off_ = resume;
-  phase_ = Phase::torch_off_retract;
-}
-
-void Runner::lower_to_cut_height() {
-  out_.torch_height_target_mm = ms_.torch.cut_height_mm;
-  phase_ = Phase::torch_height_cut;
-  phase_t_ = 0.0;
-}
-
-void Runner::next_step() {
-  ++steps_completed_;
-  ++step_;
-  phase_ = Phase::dispatch;
-}
-
-void Runner::start_paper_vector(std::size_t k, const Eigen::Vector2d& origin) {
-  pk_ = k;
-  pv_origin_ = origin;
-  const Eigen::Vector2d d = pts_[k + 1] - origin;
-  const double L = d.norm();
-  const double F = pt_feed_[k + 1];
-  if (L < 1e-9) {
-    pv_T_s_ = pv_left_s_ = 0.0;
-    return;
-  }
-  u_ = opt_.calibration_factor * F * d / L;
-  pv_T_s_ = L / F;
-  pv_left_s_ += pv_T_s_;  // open loop carries the remainder of the previous vector's time
-}
-
-void Runner::paper_move_tick() {
-  if (pv_zero_pending_) {
-    // The paper's start-shock cure: one period of zero speed before the first vector.
-    u_.setZero();
-    pv_zero_pending_ = false;
-    pv_start_pending_ = true;
-    return;
-  }
-  if (pv_start_pending_) {
-    pv_start_pending_ = false;
-    pv_left_s_ = 0.0;
-    start_paper_vector(pk_, opt_.mode == Mode::paper_closed ? meas_mm_ : pts_[pk_]);
-    return;
-  }
-  if (pv_computing_) {
-    pv_compute_left_s_ -= dt_;
-    if (pv_compute_left_s_ <= 1e-12) {
-      pv_computing_ = false;
-      pv_left_s_ = 0.0;
-      start_paper_vector(pk_, pv_latched_);
-    }
-    return;
-  }
-  pv_left_s_ -= dt_;
-  if (pv_left_s_ > 1e-12) return;
-  const std::size_t last = step_last_pt_[step_];
-  if (pk_ + 1 >= last) {
-    u_.setZero();
-    phase_ = Phase::paper_settle;
-    phase_t_ = 0.0;
-    return;
-  }
-  if (opt_.mode == Mode::paper_open) {
-    start_paper_vector(pk_ + 1, pts_[pk_ + 1]);
-  } else {
-    // Read the counters now; the re-aimed command goes out after the computation time.
-    pv_latched_ = meas_mm_;
-    pk_ = pk_ + 1;
-    if (opt_.paper_compute_s > 0) {
-      pv_computing_ = true;
-      pv_compute_left_s_ = opt_.paper_compute_s;
-    } else {
-      pv_left_s_ = 0.0;
-      start_paper_vector(pk_, pv_latched_);
-    }
-  }
-}
-
-void Runner::sequence() {
-  // Dispatch may chain through zero-time steps, bounded by the number of steps.
-  for (std::size_t guard = 0; phase_ == Phase::dispatch && guard <= job_.steps.size() + 1; ++guard) begin_step();
-  const TorchSetup& ts = ms_.torch;
-  phase_t_ += dt_;
-  move_t_ += dt_;
-  switch (phase_) {
-    case Phase::dispatch: break;
-    case Phase::move: {
-      const Step& st = job_.steps[step_];
-      if (opt_.mode == Mode::planned) {
-        const motion::Trajectory& tr = *trajs_[step_];
-        const double T = tr.duration_s();
-        tr.sample(std::min(phase_t_, T), sp_);
-        // The move's last period: the servo keeps sampling it (clamped) until the next move.
-        if (phase_t_ >= T) {
-          sp_.velocity_mm_per_s.setZero();
-          sp_.acceleration_mm_per_s2.setZero();
-          hold_mm_ = sp_.position_mm;
-          const motion::Stretch& s = job_.stretches[st.stretch];
-          acc_[st.stretch].complete = true;
-          if (s.rapid) rapid_mm_ += stretch_length_[st.stretch];
-          next_step();
-        }
-      } else {
-        paper_move_tick();
-        // The commanded point of the vector in progress, for traces.
-        const double f = pv_T_s_ > 0 ? std::clamp(1.0 - pv_left_s_ / pv_T_s_, 0.0, 1.0) : 1.0;
-        sp_.position_mm = pv_origin_ + f * (pts_[pk_ + 1] - pv_origin_);
-      }
-      break;
-    }
-    case Phase::paper_settle:
-      u_.setZero();
-      if (phase_t_ >= opt_.paper_settle_s) {
-        const Step& st = job_.steps[step_];
-        acc_[st.stretch].complete = true;
-        if (job_.stretches[st.stretch].rapid) rapid_mm_ += stretch_length_[st.stretch];
-        sp_.position_mm = hold_mm_ = pts_[step_last_pt_[step_]];
-        next_step();
-      }
-      break;
-    case Phase::torch_height_pierce:
-      if (std::abs(in_.torch_height_mm - ts.pierce_height_mm) <= ts.height_tolerance_mm) {
-        phase_t_ = 0.0;
-        if (ts.kind == TorchSetup::Kind::oxy_fuel) {
-          phase_ = Phase::torch_preheat;
-        } else {
-          phase_ = Phase::torch_wait_arc;
-          out_.torch_fire = true;
-        }
-      } else if (phase_t_ > ts.height_timeout_s) {
-        raise(FK::torch_height_timeout, -1, ts.height_timeout_s);
-      }
-      break;
-    case Phase::torch_preheat:
-      if (phase_t_ >= ts.preheat_s) {
-        out_.torch_fire = true;
-        phase_ = Phase::torch_pierce;
-        phase_t_ = 0.0;
-      }
-      break;
-    case Phase::torch_wait_arc:
-      if (in_.arc_ok) {
-        phase_ = Phase::torch_pierce;
-        phase_t_ = 0.0;
-      } else if (phase_t_ > ts.arc_ok_timeout_s) {
-        raise(FK::arc_start_failed, -1, ts.arc_ok_timeout_s);
-      }
-      break;
-    case Phase::torch_pierce: {
+    case Step::Kind::torch_on: {
       // A dwell step right after torch_on is the programmed pierce delay (G4).
-      const bool programmed = step_ + 1 < job_.steps.size() && job_.steps[step_ + 1].kind == Step::Kind::dwell;
-      if (programmed || phase_t_ >= ts.pierce_delay_s) {
-        torch_lit_ = true;
-        if (ts.height_axis && !programmed)
-          lower_to_cut_height();
-        else
-          next_step();
-      }
+      const bool programmed = step + 1 < job.steps.size() && job.steps[step + 1].kind == Step::Kind::dwell;
+      torch.start_on(programmed, out);
+      phase = Phase::torch;
       break;
     }
-    case Phase::torch_height_cut:
-      if (std::abs(in_.torch_height_mm - ts.cut_height_mm) <= ts.height_tolerance_mm) {
+    case Step::Kind::torch_off: torch_off_and_retract(/*resume=*/false); break;
+    case Step::Kind::dwell: phase = Phase::dwell; break;
+  }
+}
+
+void Session::Impl::torch_off_and_retract(bool resume) noexcept {
+  torch.start_off(out);
+  resume_after_torch_off = resume;
+  phase = Phase::torch;
+}
+
+void Session::Impl::next_step() noexcept {
+  ++steps_completed;
+  ++step;
+  phase = Phase::dispatch;
+}
+
+void Session::Impl::sequence() noexcept {
+  // Dispatch may chain through zero-time steps, bounded by the number of steps.
+  for (std::size_t guard = 0; phase == Phase::dispatch && guard <= job.steps.size() + 1; ++guard) begin_step();
+  phase_t += dt;
+  source->advance(adapter.position_mm(), in.op);
+  switch (phase) {
+    case Phase::dispatch:
+    case Phase::done: break;
+    case Phase::move:
+      if (source->move_done()) {
+        const std::size_t k = job.steps[step].stretch;
+        contour.complete(k);
+        if (job.stretches[k].rapid) rapid_mm += stretch_len[k];
         next_step();
-      } else if (phase_t_ > ts.height_timeout_s) {
-        raise(FK::torch_height_timeout, -1, ts.height_timeout_s);
       }
       break;
-    case Phase::torch_off_retract:
-      if (!ts.height_axis || std::abs(in_.torch_height_mm - ts.retract_height_mm) <= ts.height_tolerance_mm) {
-        if (resume_after_torch_off_) {
-          resume_after_torch_off_ = false;
-          phase_ = Phase::dispatch;  // the same step again, now with the torch off
-        } else {
-          next_step();
-        }
-      } else if (phase_t_ > ts.height_timeout_s) {
-        raise(FK::torch_height_timeout, -1, ts.height_timeout_s);
+    case Phase::torch:
+      switch (torch.tick(in, out)) {
+        case TorchSequencer::Status::done:
+          if (resume_after_torch_off) {
+            resume_after_torch_off = false;
+            phase = Phase::dispatch;  // the same step again, now with the torch off
+          } else {
+            next_step();
+          }
+          break;
+        case TorchSequencer::Status::failed:
+          raise(torch.failure() == TorchSequencer::Failure::arc_start_failed ? FK::arc_start_failed
+                                                                               : FK::torch_height_timeout,
+                -1, torch.failure_value());
+          break;
+        case TorchSequencer::Status::idle:
+        case TorchSequencer::Status::busy: break;
       }
       break;
     case Phase::dwell:
-      if (phase_t_ >= job_.steps[step_].seconds - 1e-12) {
+      if (phase_t >= job.steps[step].seconds - 1e-12) {
         // A programmed pierce dwell ends with the move to cut height.
-        const bool after_torch_on = step_ > 0 && job_.steps[step_ - 1].kind == Step::Kind::torch_on;
-        if (after_torch_on && ts.height_axis && torch_lit_)
-          lower_to_cut_height();
-        else
+        const bool after_torch_on = step > 0 && job.steps[step - 1].kind == Step::Kind::torch_on;
+        if (after_torch_on && ms.torch.height_axis && torch.lit()) {
+          torch.lower_to_cut_height(out);
+          phase = Phase::torch;
+        } else {
           next_step();
+        }
       }
       break;
     case Phase::end_hold:
       // Let the servo settle on the end point, then zero the command and disable.
-      if (phase_t_ >= opt_.rest_window_s) {
-        u_.setZero();
-        phase_ = Phase::stop_disable;
+      if (phase_t >= opt.supervisor.rest_window_s) {
+        u.setZero();
+        sup.finish();
       }
       break;
-    case Phase::stop_ramp:
-    case Phase::stop_settle:
-    case Phase::stop_disable:
-    case Phase::done: break;
+    case Phase::jog:
+      // The operator ends the manual session with cycle start: a controlled stop, no fault.
+      if (in.op.cycle_start) sup.begin_stop(u, torch, out);
+      break;
   }
   // A step that ended in this tick hands over at once (torch off, next move) rather than one
   // period later.
-  for (std::size_t guard = 0; phase_ == Phase::dispatch && !faulted_ && guard <= job_.steps.size() + 1; ++guard)
+  for (std::size_t guard = 0; phase == Phase::dispatch && !sup.faulted() && guard <= job.steps.size() + 1; ++guard)
     begin_step();
 }
 
-void Runner::account_contour_error() {
-  if (!moving_cut() || !in_.arc_ok) return;
-  const std::size_t k = job_.steps[step_].stretch;
-  const std::vector<Segment>& segs = job_.stretches[k].segments;
-  // Nearest segment within a short window around the cursor: bounded work per tick. The tool
-  // moves far less than one segment per tick, so the window always holds the nearest piece.
-  const std::size_t lo = cursor_ > 0 ? cursor_ - 1 : 0;
-  const std::size_t hi = std::min(segs.size(), cursor_ + 9);
-  double best = std::numeric_limits<double>::infinity();
-  std::size_t best_i = cursor_;
-  for (std::size_t i = lo; i < hi; ++i) {
-    const double d = (closest_point(segs[i], meas_mm_) - meas_mm_).norm();
-    if (d < best) best = d, best_i = i;
-  }
-  // Advance the cursor only over segments the tool can have passed: never jump over a long
-  // segment (a closed contour ends where it starts, and a tool wobbling behind its start is
-  // nearest to the END of the contour, not there yet).
-  if (best_i > cursor_) {
-    double skipped = 0.0;
-    for (std::size_t i = cursor_ + 1; i < best_i; ++i) skipped += length(segs[i]);
-    if (skipped <= 2.0) cursor_ = best_i;
-  } else {
-    cursor_ = best_i;
-  }
-  ErrorAcc& a = acc_[k];
-  ++a.n;
-  a.max = std::max(a.max, best);
-  a.sum2 += best * best;
-  if (has_truth_) {
-    double bt = std::numeric_limits<double>::infinity();
-    for (std::size_t i = lo; i < hi; ++i) bt = std::min(bt, (closest_point(segs[i], true_mm_) - true_mm_).norm());
-    ++a.n_true;
-    a.max_true = std::max(a.max_true, bt);
-    a.sum2_true += bt * bt;
-  }
-}
-
-void Runner::record_trace() {
-  if (!opt_.record_trace || tick_ % opt_.trace_every_ticks != 0) return;
-  if (trace_->size() >= trace_->capacity()) {  // never reallocate inside the loop
-    trace_truncated_ = true;
-    return;
-  }
+void Session::Impl::record_trace() noexcept {
+  if (!(opt.record_trace || parts.trace_stream) || ticks % opt.trace_every_ticks != 0) return;
   TraceSample s;
-  s.t_s = t_;
-  s.step = step_ < job_.steps.size() ? static_cast<int>(step_) : -1;
-  s.commanded_mm = sp_.position_mm;
-  s.measured_mm = meas_mm_;
-  s.true_mm = true_mm_;
-  s.dac_x = out_.dac_code[0];
-  s.dac_y = out_.dac_code[1];
-  s.drives_enabled = out_.drives_enabled;
-  s.torch_fire = out_.torch_fire;
-  s.arc_ok = in_.arc_ok;
-  trace_->push_back(s);
+  s.t_s = t;
+  s.step = step < job.steps.size() ? static_cast<int>(step) : -1;
+  s.commanded_mm = sp_mm;
+  s.measured_mm = adapter.position_mm();
+  s.true_mm = true_mm;
+  s.dac_x = out.dac_code[0];
+  s.dac_y = out.dac_code[1];
+  s.drives_enabled = out.drives_enabled;
+  s.torch_fire = out.torch_fire;
+  s.arc_ok = in.arc_ok;
+  if (opt.record_trace) recorder.record(s);
+  if (parts.trace_stream) parts.trace_stream->push(s, !be_realtime);
 }
 
 // One servo period. Budget and rules: see executor.h.
-bool Runner::tick() {
-  const hardware::Health health = be_.exchange(out_, in_);
-  ++tick_;
-  t_ += dt_;
+bool Session::Impl::tick() noexcept {
+  if (over) return false;
+  const hardware::Health health = be.exchange(out, in);
+  ++ticks;
+  t += dt;
   if (health == hardware::Health::lost) {
     // Nothing more can be commanded; the backend's watchdog stops the machine.
     raise(FK::lost_backend, -1, 0.0);
-    stopped_at_rest_ = false;
-    out_.torch_fire = false;
-    out_.dac_code = {0, 0};
-    out_.drives_enabled = false;
-    phase_ = Phase::done;
+    sup.set_not_at_rest();
+    out.torch_fire = false;
+    out.dac_code.fill(0);
+    out.drives_enabled = false;
+    phase = Phase::done;
     record_trace();
+    over = true;
     return false;
   }
-  if (phase_ == Phase::stop_disable && !out_.drives_enabled) {
-    phase_ = Phase::done;
+  if (sup.state() == Supervisor::State::disable && !out.drives_enabled) {
+    phase = Phase::done;
     record_trace();
+    over = true;
     return false;
   }
-  has_truth_ = be_.true_position(true_mm_);
-  if (out_.torch_fire && in_.arc_ok) torch_on_s_ += dt_;
+  has_truth = be.true_position(true_mm);
+  if (out.torch_fire && in.arc_ok) torch_on_s += dt;
 
-  // Feedback.
-  if (trusted_) {
-    for (int i = 0; i < 2; ++i) {
-      const auto v = dec_[i].update(in_.counter[i], in_.counter_direction_negative[i]);
-      if (v != control::CounterDecoder::Verdict::ok) {
-        trusted_ = false;
-        raise(v == control::CounterDecoder::Verdict::byte_carry_misread ? FK::counter_wrap_misread : FK::encoder_glitch, i,
-              static_cast<double>(dec_[i].last_jump_counts()));
-      }
-    }
-    if (trusted_) {
-      meas_mm_ = {dec_[0].position_mm(), dec_[1].position_mm()};
-      fault_.last_known_mm = meas_mm_;
-    }
-  }
-  if (in_.estop) raise(FK::estop, -1, 0.0);
-  if (stop_flag_.load(std::memory_order_relaxed)) raise(FK::stop_requested, -1, 0.0);
-  if (moving_cut() && ms_.torch.kind == TorchSetup::Kind::plasma) {
-    arc_low_s_ = in_.arc_ok ? 0.0 : arc_low_s_ + dt_;
-    if (arc_low_s_ > ms_.torch.arc_loss_debounce_s) raise(FK::arc_lost, -1, arc_low_s_);
-  }
+  // Feedback and the faults the inputs show.
+  int bad_axis = -1;
+  double jump = 0.0;
+  const FeedbackAdapter::Verdict v = adapter.update(in, bad_axis, jump);
+  if (v != FeedbackAdapter::Verdict::ok)
+    raise(v == FeedbackAdapter::Verdict::counter_wrap_misread ? FK::counter_wrap_misread : FK::encoder_glitch, bad_axis, jump);
+  else if (adapter.trusted())
+    sup.note_trusted(adapter.position_mm());
+  if (in.estop) raise(FK::estop, -1, 0.0);
+  if (in.watchdog_tripped) raise(FK::watchdog, -1, be.watchdog_periods());
+  if (stop_flag.load(std::memory_order_relaxed) || parts.stop.stop_requested()) raise(FK::stop_requested, -1, 0.0);
+  if (sup.arc_lost(moving_cut() && ms.torch.kind == TorchSetup::Kind::plasma, in.arc_ok))
+    raise(FK::arc_lost, -1, sup.arc_low_s());
 
-  if (!faulted_) {
-    account_contour_error();
+  if (!sup.faulted() && !sup.stopping()) {
+    if (moving_cut() && in.arc_ok)
+      contour.account(job.steps[step].stretch, adapter.position_mm(), has_truth, true_mm);
+    else
+      contour.clear_last();
     sequence();
   }
-  if (faulted_ && !(phase_ == Phase::stop_ramp || phase_ == Phase::stop_settle || phase_ == Phase::stop_disable))
-    enter_stop();
+  if (sup.faulted() && !sup.stopping()) sup.begin_stop(u, torch, out);
 
-  switch (phase_) {
-    case Phase::stop_ramp: {
-      stop_t_ += dt_;
-      const double s0 = stop_u0_.norm();
-      const double s = std::max(0.0, s0 - ms_.max_acceleration_mm_per_s2 * stop_t_);
-      u_ = s0 > 0 ? Eigen::Vector2d(stop_u0_ * (s / s0)) : Eigen::Vector2d::Zero();
-      if (s <= 0.0) {
-        u_.setZero();
-        phase_ = Phase::stop_settle;
-        phase_t_ = 0.0;
-        rest_s_ = 0.0;
-        rest_counts_ = {dec_[0].counts(), dec_[1].counts()};
+  if (sup.stopping()) {
+    u = sup.stop_tick(adapter.position_mm(), adapter.trusted());
+  } else {
+    source->demand(demand);
+    if (parts.filter) parts.filter->filter(demand, adapter.position_mm(), adapter.velocity_mm_per_s());
+    sp_mm = demand.commanded_mm;
+    if (demand.kind == Demand::Kind::track) {
+      for (int i = 0; i < hardware::kAxes; ++i) {
+        demand.track.y_mm[i] = adapter.position_mm()[i];
+        demand.track.y_dot_mm_per_s[i] = adapter.velocity_mm_per_s()[i];
       }
-      break;
+      controller->update(demand.track, cout);
+      for (int i = 0; i < hardware::kAxes; ++i) u[i] = cout.u_mm_per_s[i];
+      for (int i = 0; i < hardware::kAxes; ++i) {
+        if (controller->following_error_exceeded(i)) {
+          raise(FK::following_error, i, controller->following_error_mm(i));
+          sup.begin_stop(u, torch, out);
+          break;
+        }
+      }
+    } else {
+      u = demand.speed_mm_per_s;
     }
-    case Phase::stop_settle: {
-      u_.setZero();
-      phase_t_ += dt_;
-      bool rest = false;
-      if (trusted_) {
-        const bool still = std::abs(dec_[0].counts() - rest_counts_[0]) <= 1 && std::abs(dec_[1].counts() - rest_counts_[1]) <= 1;
-        rest_s_ = still ? rest_s_ + dt_ : 0.0;
-        if (!still) rest_counts_ = {dec_[0].counts(), dec_[1].counts()};
-        rest = rest_s_ >= opt_.rest_window_s;
-        if (!rest && phase_t_ > 4 * opt_.stop_settle_s) {
-          stopped_at_rest_ = false;
-          rest = true;
-        }
-      } else {
-        rest = phase_t_ >= opt_.stop_settle_s;
-      }
-      if (rest) phase_ = Phase::stop_disable;
-      break;
-    }
-    case Phase::stop_disable:
-      u_.setZero();
-      break;
-    default:
-      if (opt_.mode == Mode::planned) {
-        // The measurement is reading_latency periods old: compare it with the setpoint of that
-        // instant. The command acts command_latency + 1 periods from now: feed forward the
-        // setpoint of then. Both are samples of the same rest-to-rest trajectory (clamped at
-        // its ends), so they are exact across step boundaries too.
-        motion::Setpoint fb = sp_, ff = sp_;
-        if (cur_traj_) {
-          for (int i = 0; i < 2; ++i) {
-            cur_traj_->sample(move_t_ - ms_.signals[i].reading_latency_ticks * dt_, fb);
-            cur_traj_->sample(move_t_ + (ms_.signals[i].command_latency_ticks + 1) * dt_, ff);
-            u_[i] = servo_[i].update(fb.position_mm[i], ff.velocity_mm_per_s[i], ff.acceleration_mm_per_s2[i], meas_mm_[i]);
-          }
-        } else {
-          for (int i = 0; i < 2; ++i) u_[i] = servo_[i].update(sp_.position_mm[i], 0.0, 0.0, meas_mm_[i]);
-        }
-        if (!faulted_) {
-          for (int i = 0; i < 2; ++i) {
-            if (servo_[i].following_error_exceeded()) {
-              raise(FK::following_error, i, servo_[i].last_error_mm());
-              u_ = {servo_[0].last_output_mm_per_s(), servo_[1].last_output_mm_per_s()};
-              enter_stop();
-              break;
-            }
-          }
-        }
-      }
-      break;
   }
 
-  if (phase_ == Phase::stop_disable) {
-    out_.drives_enabled = false;  // goes out with the next exchange, which ends the run
-    u_.setZero();
+  if (sup.state() == Supervisor::State::disable) {
+    out.drives_enabled = false;  // goes out with the next exchange, which ends the run
+    u.setZero();
   }
-  out_.dac_code = {to_dac(0, u_[0]), to_dac(1, u_[1])};
-  if (phase_ == Phase::stop_ramp || phase_ == Phase::stop_settle || phase_ == Phase::stop_disable) out_.torch_fire = false;
+  clipped = adapter.write(u, sp_mm, sup.stopping(), out);
+  if (!sup.stopping() && adapter.trusted()) {
+    // Progress and saturation, under every source.
+    // Under a tracking source the setpoint's own speed is what the axis is asked to do (the
+    // controller's output may be saturated against a jam); open loop, the speed command is.
+    const bool tracking = demand.kind == Demand::Kind::track;
+    const Eigen::Vector2d asked =
+        tracking ? Eigen::Vector2d(demand.track.v_ff_mm_per_s[0], demand.track.v_ff_mm_per_s[1]) : u;
+    const int stalled = sup.stalled_axis(asked, adapter.position_mm(), tracking);
+    bool saturated = clipped;
+    for (int i = 0; i < hardware::kAxes; ++i) saturated = saturated || (demand.kind == Demand::Kind::track && controller->saturated(i));
+    const bool sat_fault = sup.saturated_off_contour(moving_cut() && in.arc_ok, saturated, contour.last_mm());
+    if (stalled >= 0) raise(FK::axis_stalled, stalled, asked[stalled]);
+    else if (sat_fault) raise(FK::drive_saturated, -1, contour.last_mm());
+    if (sup.faulted()) sup.begin_stop(u, torch, out);
+  }
+  if (sup.stopping()) out.torch_fire = false;
   record_trace();
   return true;
 }
 
-void Runner::run(ExecutionResult& r) {
-  while (tick()) {
-  }
+ExecutionResult Session::Impl::finish() {
   // ---- after the loop: allocation and formatting are allowed again ----
-  r.cycle_time_s = t_;
-  r.torch_on_s = torch_on_s_;
-  r.rapid_distance_mm = rapid_mm_;
-  r.steps_completed = steps_completed_;
-  r.trace_truncated = trace_truncated_;
-  r.torch_off_at_end = !out_.torch_fire;
-  r.stopped_at_rest = stopped_at_rest_;
-  for (std::size_t k = 0; k < acc_.size(); ++k) {
-    const motion::Stretch& s = job_.stretches[k];
-    if (!s.cutting || !acc_[k].touched) continue;
+  ExecutionResult& r = result;
+  if (opt.record_trace) recorder.finish();
+  r.machine = ms.name;
+  r.source = job.source;
+  r.backend = be.name();
+  r.mode = opt.mode;
+  r.cycle_time_s = t;
+  r.torch_on_s = torch_on_s;
+  r.rapid_distance_mm = rapid_mm;
+  r.steps_completed = steps_completed;
+  r.trace_truncated = recorder.truncated();
+  r.torch_off_at_end = !out.torch_fire;
+  r.stopped_at_rest = sup.stopped_at_rest();
+  const auto& acc = contour.accumulators();
+  for (std::size_t k = 0; k < acc.size(); ++k) {
+    const motion::Stretch& s = job.stretches[k];
+    if (!s.cutting || !acc[k].touched) continue;
     CutError c;
     c.stretch = k;
     c.source_line = s.source_lines.empty() ? 0 : s.source_lines.front();
-    c.samples = acc_[k].n;
-    c.complete = acc_[k].complete;
-    if (acc_[k].n > 0) {
-      c.max_mm = acc_[k].max;
-      c.rms_mm = std::sqrt(acc_[k].sum2 / acc_[k].n);
+    c.samples = acc[k].n;
+    c.complete = acc[k].complete;
+    if (acc[k].n > 0) {
+      c.max_mm = acc[k].max;
+      c.rms_mm = std::sqrt(acc[k].sum2 / acc[k].n);
     }
-    if (acc_[k].n_true > 0) {
-      c.max_true_mm = acc_[k].max_true;
-      c.rms_true_mm = std::sqrt(acc_[k].sum2_true / acc_[k].n_true);
+    if (acc[k].n_true > 0) {
+      c.max_true_mm = acc[k].max_true;
+      c.rms_true_mm = std::sqrt(acc[k].sum2_true / acc[k].n_true);
     }
     r.cuts.push_back(c);
   }
-  if (faulted_) {
+  if (sup.faulted()) {
     r.status = ExecutionResult::Status::faulted;
-    FaultReport f = fault_;
-    const std::string where = f.source_line > 0 ? fmt::format("{}:{}", job_.source, f.source_line) : job_.source;
+    FaultReport f;
+    f.kind = sup.kind();
+    f.time_s = sup.where().t_s;
+    f.step = sup.where().step;
+    f.source_line = sup.where().source_line;
+    f.axis = sup.axis();
+    f.last_known_mm = sup.last_known_mm();
+    f.commanded_mm = sup.where().commanded_mm;
+    f.value = sup.value();
+    const std::string where = f.source_line > 0 ? fmt::format("{}:{}", job.source, f.source_line) : job.source;
     const std::string ax = f.axis == 0 ? "X" : (f.axis == 1 ? "Y" : "");
     switch (f.kind) {
       case FK::following_error:
         f.message = fmt::format("following error of {:.3f} mm on axis {} exceeds the limit of {} mm", f.value, ax,
-                                ms_.servo[f.axis].following_error_limit_mm);
+                                ms.servo[f.axis].following_error_limit_mm);
         break;
       case FK::encoder_glitch:
-        f.message = fmt::format("counter of axis {} jumped {} counts in one period (at most {:.0f} are possible); the "
+        f.message = fmt::format("counter of axis {} jumped {} counts in one period (at most {} are possible); the "
                                 "encoder signal is not trusted from here",
-                                ax, static_cast<long long>(f.value),
-                                std::ceil(1.5 * ms_.max_speed_mm_per_s[f.axis] * dt_ / ms_.signals[f.axis].mm_per_count) + 2);
+                                ax, static_cast<long long>(f.value), adapter.max_counts(f.axis));
         break;
       case FK::counter_wrap_misread:
         f.message = fmt::format("counter of axis {} read {} counts away, a whole number of 256-count carries: the counter "
@@ -859,10 +589,25 @@ void Runner::run(ExecutionResult& r) {
       case FK::lost_backend:
         f.message = "the backend stopped answering; nothing more could be commanded (its watchdog must stop the machine)";
         break;
+      case FK::watchdog:
+        f.message = fmt::format("the backend's watchdog stopped the machine: no exchange for more than {} periods",
+                                static_cast<int>(f.value));
+        break;
       case FK::arc_start_failed: f.message = fmt::format("no arc OK within {} s of firing the torch", f.value); break;
       case FK::arc_lost: f.message = fmt::format("arc OK dropped for {:.3f} s while cutting", f.value); break;
       case FK::torch_height_timeout:
         f.message = fmt::format("the torch height axis did not reach its target within {} s", f.value);
+        break;
+      case FK::axis_stalled:
+        f.message = fmt::format("axis {} does not move while commanded at {:.2f} mm/s: it covered less than {:.0f} % of "
+                                "the commanded travel (jammed axis, or a drive that does not answer)",
+                                ax, f.value, 100 * opt.supervisor.stall_min_fraction);
+        break;
+      case FK::drive_saturated:
+        f.message = fmt::format("the drive command was clipped in most periods while the contour error reached {:.3f} mm "
+                                "(limit {} mm): the loop cannot hold the path (gains too high, or a feed the drive "
+                                "cannot give)",
+                                f.value, ms.contour_error_limit_mm);
         break;
       case FK::stop_requested: f.message = "stop requested"; break;
     }
@@ -870,9 +615,24 @@ void Runner::run(ExecutionResult& r) {
                             f.time_s, f.step, f.last_known_mm.x(), f.last_known_mm.y());
     r.faults.push_back(std::move(f));
   }
+  if (parts.trace_stream) {
+    r.trace_stream_dropped = parts.trace_stream->dropped();
+    parts.trace_stream->close();
+    r.trace_streamed = parts.trace_stream->written();
+  }
+  return std::move(r);
 }
 
-}  // namespace
+Session::Session(Executor& ex, const motion::Job& job, const Trajectories& trajectories, hardware::Backend& backend,
+                 const RunParts& parts)
+    : impl_(std::make_unique<Impl>(ex, job, trajectories, backend, parts)) {
+  ex.stop_requested_.store(false);
+  impl_->prepare(ex.setup_.servo_period_s);
+}
+
+Session::~Session() = default;
+bool Session::tick() noexcept { return impl_->tick(); }
+ExecutionResult Session::finish() { return impl_->finish(); }
 
 // ---------------------------------------------------------------------------------------------
 
@@ -881,18 +641,12 @@ Executor::Executor(MachineSetup setup, ExecutorOptions options) : setup_(std::mo
   options_.validate();
 }
 
-ExecutionResult Executor::run(const motion::Job& job, const Trajectories& trajectories, hardware::Backend& backend) {
-  stop_requested_.store(false);
-  if (!(std::isfinite(backend.period_s()) && backend.period_s() > 0))
-    throw std::invalid_argument(fmt::format("backend period {} s is not positive", backend.period_s()));
-  ExecutionResult r;
-  r.machine = setup_.name;
-  r.source = job.source;
-  r.mode = options_.mode;
-  Runner runner(setup_, options_, job, trajectories, backend, stop_requested_);
-  runner.validate_and_prepare(r);
-  runner.run(r);
-  return r;
+ExecutionResult Executor::run(const motion::Job& job, const Trajectories& trajectories, hardware::Backend& backend,
+                              const RunParts& parts) {
+  Session s(*this, job, trajectories, backend, parts);
+  while (s.tick()) {
+  }
+  return s.finish();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -904,14 +658,15 @@ double ExecutionResult::max_contour_error_mm() const {
 }
 
 double ExecutionResult::max_true_contour_error_mm() const {
-  double m = kNaN;
+  double m = std::numeric_limits<double>::quiet_NaN();
   for (const CutError& c : cuts)
     if (!std::isnan(c.max_true_mm)) m = std::isnan(m) ? c.max_true_mm : std::max(m, c.max_true_mm);
   return m;
 }
 
 std::string ExecutionResult::report() const {
-  std::string s = fmt::format("{} on {} ({} mode): {}\n", source.empty() ? "job" : source, machine, to_string(mode),
+  std::string s = fmt::format("{} on {} ({} mode{}): {}\n", source.empty() ? "job" : source, machine, to_string(mode),
+                              backend.empty() || backend == "sim" ? "" : ", backend " + backend,
                               status == Status::completed ? "completed" : "FAULTED");
   s += fmt::format("  cycle time {:.3f} s, torch on {:.3f} s, rapids {:.1f} mm, {} steps done\n", cycle_time_s, torch_on_s,
                    rapid_distance_mm, steps_completed);
@@ -926,6 +681,9 @@ std::string ExecutionResult::report() const {
     s += fmt::format("  torch {} at the end; machine {}\n", torch_off_at_end ? "off" : "ON",
                      stopped_at_rest ? "stopped at rest" : "stop not confirmed (see fault)");
   if (trace_truncated) s += "  trace truncated (buffer full)\n";
+  if (trace_stream_dropped > 0)
+    s += fmt::format("  trace stream: {} samples dropped (the file could not be written fast enough)\n",
+                     trace_stream_dropped);
   return s;
 }
 
@@ -935,6 +693,7 @@ nlohmann::json ExecutionResult::to_json(bool include_trace) const {
   j["source"] = source;
   j["machine"] = machine;
   j["mode"] = to_string(mode);
+  j["backend"] = backend;
   j["status"] = status == Status::completed ? "completed" : "faulted";
   j["cycle_time_s"] = cycle_time_s;
   j["torch_on_s"] = torch_on_s;
@@ -979,11 +738,9 @@ nlohmann::json ExecutionResult::to_json(bool include_trace) const {
 void ExecutionResult::write_trace_csv(const std::string& path) const {
   std::ofstream out(path);
   if (!out) throw InputError(path, 0, "cannot open the trace file for writing");
-  out << "t_s,step,cmd_x_mm,cmd_y_mm,meas_x_mm,meas_y_mm,true_x_mm,true_y_mm,dac_x,dac_y,enabled,torch_fire,arc_ok\n";
-  for (const TraceSample& s : trace)
-    out << fmt::format("{:.4f},{},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{},{},{:d},{:d},{:d}\n", s.t_s, s.step,
-                       s.commanded_mm.x(), s.commanded_mm.y(), s.measured_mm.x(), s.measured_mm.y(), s.true_mm.x(),
-                       s.true_mm.y(), s.dac_x, s.dac_y, s.drives_enabled, s.torch_fire, s.arc_ok);
+  out << kTraceCsvHeader;
+  char line[256];
+  for (const TraceSample& s : trace) out.write(line, static_cast<std::streamsize>(format_trace_csv(s, line, sizeof line)));
   if (!out) throw InputError(path, 0, "writing the trace failed");
 }
 

@@ -1,58 +1,46 @@
 // The executor: runs a Job on a Backend, one servo period at a time, with the torch sequenced
 // and every fault ending in torch off and a controlled stop.
 //
-//   Job + one Trajectory per move step --> Executor::run(job, trajectories, backend)
-//       per tick:  backend.exchange(outputs, inputs)           (paced by the backend)
-//                  decode counters, check faults                (engine/control)
-//                  step sequencer: move / torch on / torch off / dwell
-//                  setpoint -> per-axis servo -> DAC codes      (planned mode)
-//                  or vector timing -> DAC codes                (paper modes)
-//                  contour error bookkeeping, trace sample
+// One tick (Session::tick), in this order:
 //
-// Modes (ExecutorOptions::mode):
-//   planned       ours. The feed planner's Trajectory is sampled every servo period (the
-//                 real-time interpolator) and each axis runs the PID + feed-forward loop of
-//                 engine/control/servo.h on the decoded encoder position.
-//   paper_open    the paper's open-loop time control (section 5.4.1): each stretch is cut
-//                 into equal vectors of about `blu_mm`; each vector is run by commanding the
-//                 axis speeds F dx/L, F dy/L (times `calibration_factor`) for L/F seconds,
-//                 with no position feedback.
-//   paper_closed  the paper's closed loop (section 5.4.2): the same vectors, but at the end
-//                 of each one the counters are read and the next vector is re-aimed from the
-//                 measured position to the next vector end, after a computation time
-//                 `paper_compute_s` during which the previous command still runs.
+//   backend.exchange(outputs, inputs)          paced by the backend (engine/hardware/backend.h)
+//   FeedbackAdapter: decode counters or take positions      feedback_adapter.h
+//   Supervisor: faults from the inputs (E-stop, watchdog, encoder, arc, stop request)
+//   step machine: dispatch the job's steps; moves run on the setpoint source, torch steps on
+//       the TorchSequencer (torch_sequencer.h), dwells and the end hold on the clock
+//   SetpointSource -> Demand                   planned_source.h | blu_vector_source.h | jog_source.h
+//   [DemandFilter]                             e.g. the hybrid guard, between source and controller
+//   Controller (all axes at once) -> speed command per axis, unless the demand is an open-loop
+//       speed (paper modes)                    engine/control/controller.h, pid_ff_controller.h
+//   Supervisor: following error, stalled axis, saturated drive off the contour; during a stop,
+//       the ramp, settle and disable           supervisor.h
+//   FeedbackAdapter: command -> DAC codes or position commands
+//   ContourMonitor, trace (TraceRecorder in memory, TraceStream to a CSV file)
 //
-// Torch sequence (torch_on step): height axis to pierce height -> fire -> wait for arc OK
-// (plasma, at most arc_ok_timeout_s; oxy-fuel: preheat first, no arc signal) -> pierce delay
-// (a dwell step right after the torch_on IS the pierce delay, as programmed with G4;
-// otherwise the machine's default) -> height axis to cut height. torch_off step: stop firing,
-// retract. The torch is also turned off before any non-cutting move that finds it on, at the
-// end of the job, at every fault and at every stop; it is never on while the machine is not
-// executing a cutting sequence.
+// Modes (ExecutorOptions::mode) choose the setpoint source when the caller gives none:
+//   planned       ours: the feed planner's Trajectory sampled every period, PID + feed-forward
+//   paper_open    the thermal-cutting paper's open-loop time control over vectors of `blu_mm`
+//   paper_closed  the same vectors re-aimed from the encoders after `paper_compute_s`
+//   jog           an operator's joystick through the backend's operator inputs (JogSource);
+//                 runs no job: the session lasts until the operator presses cycle start
 //
-// Faults (FaultReport::Kind): following error (planned mode), encoder glitch and counter
-// wrap misread (a counter reading no axis could produce in one period), E-stop, lost backend,
-// arc start failure, arc lost while cutting, torch height timeout, and a stop requested by
-// request_stop(). On any of them, in the same tick: torch off, height retract; then the
-// commanded speed vector (the last DAC command, in mm/s) is ramped to zero at the machine's
-// acceleration limit keeping its direction, then held at zero until the axes are at rest
-// (measured, or for `stop_settle_s` when the feedback is no longer trusted), then the drives
-// are disabled and the run ends. After the ramp no motion is commanded. A lost backend can
-// not be commanded at all: the run ends at once and the backend's own watchdog must stop the
-// machine (see engine/hardware/backend.h). The report keeps the last trusted position.
+// Faults (FaultKind, supervisor.h): following error, encoder glitch, counter wrap misread,
+// E-stop, lost backend, watchdog, arc start failure, arc lost while cutting, torch height
+// timeout, axis stalled, drive saturated off the contour, stop requested (request_stop(), a
+// StopToken, a signal in the CLI). On any of them, in the same tick: torch off and retract;
+// then the controlled stop of the supervisor; the report keeps the last trusted position.
 //
-// Time budget: the servo period is 1 ms (the backend's). The executor's own work per tick
-// (decoding two counters, two PID updates, a few Trajectory::sample calls, a handful of
-// comparisons, a bounded nearest-segment search over at most 10 segments for the contour
-// error, one trace store) must stay under 50 us on the target PC, leaving the rest of the
-// period to the backend's I/O; bench/executor_bench.cpp measures about 0.09 us here
-// (bench/results/executor.txt). The tick allocates nothing, takes no lock, does no I/O and
-// logs nothing: all buffers (trace, paper-mode vectors) are filled or reserved before the
-// first tick, and fault messages are composed after the run from the numbers recorded in the
-// tick.
+// Time budget: the servo period is 1 ms (the backend's). The executor's own work per tick (two
+// counter decodes, a few Trajectory samples, the controller, a handful of comparisons, a
+// nearest-segment search over at most 10 segments, one trace store) must stay under 50 us on
+// the target PC, leaving the rest of the period to the backend's I/O. bench/executor_bench.cpp
+// measures the distribution (bench/results/executor.txt). The tick allocates nothing, takes no
+// lock, does no I/O and logs nothing (tests/executor/realtime_test.cpp counts allocations): all
+// buffers are filled or reserved and touched before the first tick, and fault messages are
+// composed after the run from numbers recorded in the tick.
 //
-// Threading: run() occupies the calling thread until the job ends. request_stop() may be
-// called from any thread.
+// Threading: run() occupies the calling thread until the job ends. request_stop() and a
+// StopToken's source may be used from any thread (and a signal handler).
 #pragma once
 
 #include <atomic>
@@ -64,15 +52,27 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "engine/common/stop.h"
+#include "engine/control/controller.h"
+#include "engine/control/pid_ff_controller.h"
+#include "engine/executor/blu_vector_source.h"
+#include "engine/executor/contour_monitor.h"
+#include "engine/executor/feedback_adapter.h"
+#include "engine/executor/jog_source.h"
 #include "engine/executor/machine_setup.h"
+#include "engine/executor/planned_source.h"
+#include "engine/executor/setpoint_source.h"
+#include "engine/executor/supervisor.h"
+#include "engine/executor/torch_sequencer.h"
+#include "engine/executor/trace.h"
 #include "engine/hardware/backend.h"
 #include "engine/motion/job.h"
 
 namespace machplan::executor {
 
-enum class Mode { planned, paper_open, paper_closed };
+enum class Mode { planned, paper_open, paper_closed, jog };
 const char* to_string(Mode m);
-// Parses "planned", "paper_open", "paper_closed"; throws InputError("--mode", ...) otherwise.
+// Parses "planned", "paper_open", "paper_closed", "jog"; throws InputError("--mode", ...) otherwise.
 Mode mode_from_string(const std::string& s);
 
 struct ExecutorOptions {
@@ -82,10 +82,6 @@ struct ExecutorOptions {
   // Paper modes: commanded speed = calibration_factor x programmed speed. 1 is uncalibrated;
   // 1 / 0.7 undoes the paper's drive gain exactly (the paper's "+30 %" gives 1.3 x 0.7 = 0.91).
   double calibration_factor = 1.0;
-  // Seed and pacing for a simulated backend built by models/sim (simulate()); the executor
-  // itself is deterministic and does not use them.
-  std::uint64_t seed = 1;
-  bool realtime = false;
   // paper_closed: time from reading the counters at a vector end to sending the re-aimed
   // command (the PC/XT's computation). Reconstructed; see tests/executor/paper_test.cpp.
   double paper_compute_s = 0.2;
@@ -94,29 +90,20 @@ struct ExecutorOptions {
   bool paper_zero_first = true;
   // Paper modes: time at zero command after the last vector of a stretch before the next step.
   double paper_settle_s = 0.1;
-  // Controlled stop: the axes count as at rest after their measured positions stay within one
-  // count for this long; with untrusted feedback the stop waits `stop_settle_s` instead.
-  double rest_window_s = 0.05;
-  double stop_settle_s = 0.5;
-  // Trace: record every `trace_every_ticks`-th tick (1 = all); false = no trace.
+  // Jog mode: the operator's speeds and limits.
+  JogOptions jog;
+  // Controlled stop and the supervisor's checks.
+  SupervisorOptions supervisor;
+  // Trace in memory: record every `trace_every_ticks`-th tick (1 = all); false = no trace.
   bool record_trace = true;
   int trace_every_ticks = 1;
-  // Throws std::invalid_argument naming field, value and rule.
+  // Throws InputError naming the field, its value and the rule.
   void validate() const;
 };
 
+// FaultReport::Kind is the supervisor's FaultKind.
 struct FaultReport {
-  enum class Kind {
-    following_error,
-    encoder_glitch,
-    counter_wrap_misread,
-    estop,
-    lost_backend,
-    arc_start_failed,
-    arc_lost,
-    torch_height_timeout,
-    stop_requested
-  };
+  using Kind = FaultKind;
   Kind kind = Kind::estop;
   double time_s = 0.0;        // since the start of the run
   int step = -1;              // index into Job::steps (-1: before the first step)
@@ -126,19 +113,6 @@ struct FaultReport {
   Eigen::Vector2d commanded_mm = Eigen::Vector2d::Zero();   // setpoint at the fault
   double value = 0.0;         // following error mm, jump counts, timeout s ... per kind
   std::string message;
-};
-const char* to_string(FaultReport::Kind k);
-
-struct TraceSample {
-  double t_s = 0.0;
-  int step = -1;
-  Eigen::Vector2d commanded_mm = Eigen::Vector2d::Zero();
-  Eigen::Vector2d measured_mm = Eigen::Vector2d::Zero();
-  Eigen::Vector2d true_mm = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
-  std::int32_t dac_x = 0, dac_y = 0;
-  bool drives_enabled = false;
-  bool torch_fire = false;
-  bool arc_ok = false;
 };
 
 // Contour error of one cutting stretch: distance from the position to the stretch's
@@ -157,7 +131,7 @@ struct CutError {
 struct ExecutionResult {
   enum class Status { completed, faulted };
   Status status = Status::completed;
-  std::string machine, source;
+  std::string machine, source, backend;
   Mode mode = Mode::planned;
   double cycle_time_s = 0.0;
   double torch_on_s = 0.0;            // time the torch burned (arc OK / oxygen on)
@@ -167,6 +141,8 @@ struct ExecutionResult {
   std::vector<FaultReport> faults;    // empty when completed; the first one stopped the run
   std::vector<TraceSample> trace;
   bool trace_truncated = false;
+  std::size_t trace_streamed = 0;     // samples written to a TraceStream
+  std::size_t trace_stream_dropped = 0;
   bool stopped_at_rest = true;        // after a fault: the axes were seen at rest (false for lost backend)
   bool torch_off_at_end = true;
 
@@ -174,25 +150,56 @@ struct ExecutionResult {
   double max_true_contour_error_mm() const;  // over all cuts, truth (NaN if unknown)
   std::string report() const;                // human-readable summary
   nlohmann::json to_json(bool include_trace = false) const;
-  // t_s,step,cmd_x_mm,cmd_y_mm,meas_x_mm,meas_y_mm,true_x_mm,true_y_mm,dac_x,dac_y,enabled,torch_fire,arc_ok
+  // kTraceCsvHeader's columns (engine/executor/trace.h)
   void write_trace_csv(const std::string& path) const;  // throws InputError(path) on failure
 };
 
-using Trajectories = std::vector<std::unique_ptr<motion::Trajectory>>;
+// What a run is made of beyond the job and the backend; every part is optional.
+struct RunParts {
+  SetpointSource* source = nullptr;          // default: the one the mode names
+  DemandFilter* filter = nullptr;            // between source and controller (the hybrid guard)
+  control::Controller* controller = nullptr; // default: PidFfController on the machine's gains
+  TraceStream* trace_stream = nullptr;       // streams the trace to CSV during the run
+  StopToken stop;                            // a stop request from outside (signals)
+};
+
+class Executor;
+
+// One run, tick by tick, for callers that drive the loop themselves (tests, calibration
+// routines); Executor::run() is a Session run to its end.
+class Session {
+ public:
+  // Validates job, backend and parts against the machine and prepares every buffer. Throws
+  // InputError (job.source, line; or the machine and backend names) before anything moves.
+  Session(Executor& ex, const motion::Job& job, const Trajectories& trajectories, hardware::Backend& backend,
+          const RunParts& parts = {});
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+  // One servo period; false once the run is over. Real time (see the file comment).
+  bool tick() noexcept;
+  // After the last tick: the result (allocates; composes the fault messages).
+  ExecutionResult finish();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 class Executor {
  public:
-  // Throws std::invalid_argument when setup or options do not validate.
+  // Throws std::invalid_argument / InputError when setup or options do not validate.
   Executor(MachineSetup setup, ExecutorOptions options);
 
   // Runs the job to its end or to the first fault. `trajectories[i]` is the planned motion of
-  // step i when it is a move (null otherwise); paper modes do not use them (pass {}).
-  // The machine is assumed to stand at job.start_mm.
-  // Throws InputError (job.source, line) before moving anything when the job and the
-  // trajectories disagree: sizes, a missing trajectory, a trajectory that does not start where
-  // the previous motion ended or does not end at its stretch's end, a cutting move without
-  // the torch on, a torch step on a machine without torch. Never throws once motion started.
-  ExecutionResult run(const motion::Job& job, const Trajectories& trajectories, hardware::Backend& backend);
+  // step i when it is a move (null otherwise); the other sources do not use them (pass {}).
+  // The machine is assumed to stand at job.start_mm. Throws InputError before moving anything
+  // when the job, the trajectories, the backend and the machine disagree (sizes, a missing
+  // trajectory, a trajectory that does not start where the previous motion ended, a cutting
+  // move without the torch on, a torch step on a machine without torch, a backend whose
+  // period or axis signals differ from the machine file's). Never throws once motion started.
+  ExecutionResult run(const motion::Job& job, const Trajectories& trajectories, hardware::Backend& backend,
+                      const RunParts& parts = {});
 
   // Asks a running run() to stop (torch off, controlled stop, reported as stop_requested).
   void request_stop() { stop_requested_.store(true, std::memory_order_relaxed); }
@@ -201,6 +208,7 @@ class Executor {
   const ExecutorOptions& options() const { return options_; }
 
  private:
+  friend class Session;
   MachineSetup setup_;
   ExecutorOptions options_;
   std::atomic<bool> stop_requested_{false};

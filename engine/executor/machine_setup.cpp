@@ -32,6 +32,10 @@ void MachineSetup::validate() const {
   }
   require(std::isfinite(max_acceleration_mm_per_s2) && max_acceleration_mm_per_s2 > 0, "max_acceleration_mm_per_s2",
           max_acceleration_mm_per_s2, "must be > 0");
+  require(std::isfinite(max_jerk_mm_per_s3) && max_jerk_mm_per_s3 > 0, "max_jerk_mm_per_s3", max_jerk_mm_per_s3,
+          "must be > 0");
+  require(std::isfinite(contour_error_limit_mm) && contour_error_limit_mm > 0, "contour_error_limit_mm",
+          contour_error_limit_mm, "must be > 0");
   require(std::isfinite(rapid_mm_per_s) && rapid_mm_per_s > 0, "rapid_mm_per_s", rapid_mm_per_s, "must be > 0");
   require(torch.arc_ok_timeout_s > 0, "torch.arc_ok_timeout_s", torch.arc_ok_timeout_s, "must be > 0");
   require(torch.pierce_delay_s >= 0, "torch.pierce_delay_s", torch.pierce_delay_s, "must be >= 0");

@@ -27,10 +27,13 @@ struct TorchSetup {
 
 struct MachineSetup {
   std::string name;
+  double servo_period_s = 0.0;  // the machine file's; 0: not stated (the backend's is used)
   std::array<hardware::AxisSignals, hardware::kAxes> signals{};
   std::array<control::ServoGains, hardware::kAxes> servo{};
   std::array<double, hardware::kAxes> max_speed_mm_per_s{};  // physical top speed per axis
-  double max_acceleration_mm_per_s2 = 500.0;  // used for the controlled stop
+  double max_acceleration_mm_per_s2 = 500.0;  // used for the controlled stop and jogging
+  double max_jerk_mm_per_s3 = 20000.0;        // jogging
+  double contour_error_limit_mm = 0.5;        // supervisor: saturated drive off the contour
   double rapid_mm_per_s = 80.0;
   TorchSetup torch;
   void validate() const;  // throws std::invalid_argument naming field, value and rule

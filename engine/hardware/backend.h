@@ -1,26 +1,45 @@
-// The boundary between the executor and a machine: one exchange of signals per servo period.
+// The boundary between the executor and a machine, version 2: one exchange of signals per servo
+// period.
 //
-// The executor never talks to drives, counters or the torch in any other way. Per tick it
-// hands the backend an `Outputs` (speed command per axis as a DAC code, drive enable, torch
-// and torch-height commands) and gets back an `Inputs` (raw counter values with direction
-// bits, arc OK, E-stop, torch height) and a health verdict. Everything raw stays raw: the
-// executor decodes counters itself (engine/control/counter_decoder.h) so that the same code
-// checks them whatever sits behind this interface.
+// The executor never talks to drives, counters, the torch or the operator's panel in any other
+// way. Per tick it hands the backend an `Outputs` and gets back an `Inputs` and a health
+// verdict. A backend declares what it offers (`command_kind()`):
+//
+//   speed_dac   the executor closes the position loop: it sends a speed command per axis as a
+//               signed DAC code and reads raw counter values with direction bits (the thermal
+//               gantry's DAC80 and 8253 board; models/sim). Counters stay raw: the executor's
+//               feedback adapter (engine/executor/feedback_adapter.h) decodes them, so the same
+//               code checks them whatever sits behind this interface.
+//   position    the drive (or a motion controller such as LinuxCNC's HAL motion module) closes
+//               its own position loop: the executor sends a position command per axis and reads
+//               the position feedback in mm.
+//
+// Operator inputs (jog deflection per axis, feed hold, cycle start) and the E-stop chain arrive
+// in `Inputs` like every other signal, sampled with them.
 //
 // Timing contract of exchange(): the outputs take effect at the start of the period that the
 // call begins, and the inputs are those sampled at its end; the call returns when that period
 // is over. A simulator runs the period as fast as it can (or paces it to the wall clock); a
-// real controller (a later issue connects LinuxCNC through its HAL shared memory or a
-// realtime component) blocks until its servo thread has run the period. Either way the
-// executor's loop is paced by the backend, and its own computation between two exchanges must
-// fit in the period (see engine/executor/executor.h for the budget).
+// real controller blocks until its servo thread has run the period. Either way the executor's
+// loop is paced by the backend, and its own computation between two exchanges must fit in the
+// period (see engine/executor/executor.h for the budget).
 //
-// Safety contract: a backend must stop the drives and the torch on its own (a watchdog) when
-// exchanges stop arriving or when it reports `lost`; the executor can only stop what it can
-// still talk to. `lost` is final: the executor makes no further exchange after it.
+// Safety contract:
+//   * watchdog: when no exchange arrives for `watchdog_periods()` periods the backend stops
+//     the drives and the torch by itself and reports it in the next Inputs
+//     (`watchdog_tripped`, latched: the drives stay off for the rest of the session);
+//   * `lost` is final: once exchange() returned Health::lost it returns lost for ever, and the
+//     executor makes no further exchange after it; a lost backend must have stopped the
+//     machine on its own;
+//   * the E-stop chain cuts drives and torch in hardware; `estop` reports it.
+// The executor can only stop what it can still talk to.
 //
-// Threading: a backend is used by one thread, the executor's; request_stop() on the executor
-// is the only cross-thread entry.
+// Threading: a backend is used by one thread, the executor's; the executor's request_stop()
+// is the only cross-thread entry into a run.
+//
+// A new backend: implement this interface, add it to the factory
+// (models/backends/backend_factory.h) and one line to the contract test suite
+// (tests/hardware/backend_contract_test.cpp).
 #pragma once
 
 #include <array>
@@ -32,40 +51,64 @@ namespace machplan::hardware {
 
 inline constexpr int kAxes = 2;  // X and Y; the torch height is a separate output
 
+enum class CommandKind { speed_dac, position };
+const char* to_string(CommandKind k);
+
+// What the operator's panel says this period.
+struct OperatorInputs {
+  std::array<double, kAxes> jog{};  // joystick deflection per axis, -1 .. 1 (0: centred)
+  bool feed_hold = false;
+  bool cycle_start = false;
+};
+
 struct Outputs {
-  std::array<std::int32_t, kAxes> dac_code{};  // speed command, signed DAC code
-  bool drives_enabled = false;                  // power relays / drive enable
-  bool torch_fire = false;                      // plasma: start and hold the arc; oxy-fuel: cutting oxygen
-  double torch_height_target_mm = 0.0;          // height of the torch above the plate
+  std::array<std::int32_t, kAxes> dac_code{};        // speed_dac: speed command, signed DAC code
+  std::array<double, kAxes> position_command_mm{};   // position: where each axis must be
+  bool drives_enabled = false;                        // power relays / drive enable
+  bool torch_fire = false;     // plasma: start and hold the arc; oxy-fuel: cutting oxygen
+  double torch_height_target_mm = 0.0;                // height of the torch above the plate
 };
 
 struct Inputs {
-  std::array<std::uint32_t, kAxes> counter{};   // raw counter values
-  std::array<bool, kAxes> counter_direction_negative{};  // direction bits
-  bool arc_ok = false;                          // plasma source reports a transferred arc
-  bool estop = false;                           // the E-stop chain is open
-  double torch_height_mm = 0.0;                 // torch height axis position
+  std::array<std::uint32_t, kAxes> counter{};             // speed_dac: raw counter values
+  std::array<bool, kAxes> counter_direction_negative{};   // speed_dac: direction bits
+  std::array<double, kAxes> position_feedback_mm{};       // position: measured axis positions
+  bool arc_ok = false;             // plasma source reports a transferred arc
+  bool estop = false;              // the E-stop chain is open
+  bool watchdog_tripped = false;   // the backend stopped the machine: exchanges came too late
+  double torch_height_mm = 0.0;    // torch height axis position
+  OperatorInputs op;
 };
 
 enum class Health { ok, lost };
 
-// Static facts about the hardware the executor needs to interpret raw signals.
+// Static facts about one axis's signals, which the executor needs to interpret them. The
+// executor checks them against the machine file at the start of a run.
 struct AxisSignals {
-  double mm_per_count = 0.0;             // travel per counted edge
-  int counter_bits = 16;
-  int dac_bits = 12;
+  double mm_per_count = 0.0;             // speed_dac: travel per counted edge
+  int counter_bits = 16;                 // speed_dac
+  int dac_bits = 12;                     // speed_dac
   double dac_full_scale_mm_per_s = 0.0;  // speed commanded by the largest DAC code (nominal)
   int command_latency_ticks = 0;         // periods between exchange() and the drive acting
-  int reading_latency_ticks = 0;         // age of the counter values exchange() returns, periods
+  int reading_latency_ticks = 0;         // age of the feedback exchange() returns, periods
 };
 
 class Backend {
  public:
   virtual ~Backend() = default;
+  virtual const char* name() const = 0;
+  virtual CommandKind command_kind() const = 0;
   virtual double period_s() const = 0;
   virtual AxisSignals axis_signals(int axis) const = 0;
+  // Periods without an exchange after which the backend's watchdog stops the machine.
+  virtual int watchdog_periods() const = 0;
+  // True when each exchange takes one real period of wall-clock time (a machine, a paced
+  // simulator). False for a simulator running as fast as it can: then nothing depends on the
+  // loop's timing, and the executor may wait inside a tick (for its trace writer) without harm.
+  virtual bool realtime() const { return true; }
 
-  // The inputs before the first period (counters as they stand), to set the decoders.
+  // The inputs before the first period (counters or positions as they stand), to set the
+  // feedback adapter. Makes no exchange.
   virtual Inputs initial_inputs() = 0;
 
   // One servo period; see the timing contract above. Never throws.

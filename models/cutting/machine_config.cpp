@@ -100,11 +100,13 @@ MachineConfig machine_from_yaml(const Yaml& root) {
   m.servo_period_s = root.number_or("servo_period_s", 0.001, {.min = 1e-5, .max = 0.1});
 
   const Yaml l = root.at("limits");
-  l.reject_unknown_keys({"velocity_mm_per_s", "acceleration_mm_per_s2", "jerk_mm_per_s3", "rapid_mm_per_s"});
+  l.reject_unknown_keys(
+      {"velocity_mm_per_s", "acceleration_mm_per_s2", "jerk_mm_per_s3", "rapid_mm_per_s", "contour_error_mm"});
   m.limits.velocity_mm_per_s = l.number("velocity_mm_per_s", kPositive);
   m.limits.acceleration_mm_per_s2 = l.number("acceleration_mm_per_s2", kPositive);
   m.limits.jerk_mm_per_s3 = l.number("jerk_mm_per_s3", kPositive);
   m.limits.rapid_mm_per_s = l.number("rapid_mm_per_s", kPositive);
+  m.limits.contour_error_mm = l.number_or("contour_error_mm", m.limits.contour_error_mm, {.min = 1e-3, .max = 100.0});
 
   const Yaml axes = root.at("axes");
   axes.reject_unknown_keys({"x", "y"});
@@ -176,6 +178,7 @@ MachineConfig load_machine(const std::string& path) { return machine_from_yaml(Y
 executor::MachineSetup MachineConfig::setup() const {
   executor::MachineSetup s;
   s.name = name;
+  s.servo_period_s = servo_period_s;
   for (int i = 0; i < 2; ++i) {
     const auto& p = axes[i].plant;
     s.signals[i] = {p.mm_per_count(), p.counter_bits, p.dac_bits, p.dac_full_scale_mm_per_s(), p.command_latency_ticks,
@@ -184,6 +187,8 @@ executor::MachineSetup MachineConfig::setup() const {
     s.max_speed_mm_per_s[i] = p.max_speed_mm_per_s();
   }
   s.max_acceleration_mm_per_s2 = limits.acceleration_mm_per_s2;
+  s.max_jerk_mm_per_s3 = limits.jerk_mm_per_s3;
+  s.contour_error_limit_mm = limits.contour_error_mm;
   s.rapid_mm_per_s = limits.rapid_mm_per_s;
   s.torch.kind = torch.kind;
   s.torch.arc_ok_timeout_s = torch.plasma.arc_ok_timeout_s;

@@ -38,6 +38,9 @@ struct Limits {
   double acceleration_mm_per_s2 = 0.0;
   double jerk_mm_per_s3 = 0.0;
   double rapid_mm_per_s = 0.0;
+  // Largest contour error a cut may have (optional key, mm): the executor's supervisor stops a
+  // cut whose drive saturates while the error exceeds it.
+  double contour_error_mm = 0.5;
 };
 
 struct PlasmaConfig {

@@ -4,15 +4,54 @@
 #include <cmath>
 #include <thread>
 
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+
 namespace machplan::sim {
+
+const char* to_string(FaultInjection::Kind k) {
+  using K = FaultInjection::Kind;
+  switch (k) {
+    case K::encoder_glitch: return "encoder-glitch";
+    case K::counter_wrap_misread: return "counter-misread";
+    case K::estop: return "estop";
+    case K::lost_backend: return "lost-backend";
+    case K::stuck_axis: return "jam";
+    case K::arc_loss: return "arc-loss";
+    case K::arc_start_failure: return "arc-start-failure";
+    case K::watchdog: return "watchdog";
+  }
+  return "?";
+}
+
+void SimOptions::validate() const {
+  if (watchdog_periods < 1 || watchdog_periods > 100000)
+    throw InputError("SimOptions::watchdog_periods", 0, fmt::format("{} must be 1 .. 100000", watchdog_periods));
+  if (!start_mm.allFinite()) throw InputError("SimOptions::start_mm", 0, "must be finite");
+  for (const FaultInjection& f : faults) {
+    if (!(std::isfinite(f.at_s) && f.at_s >= 0 && f.at_s <= 1e7))
+      throw InputError("--inject", 0, fmt::format("{}@{}: the time must be in [0, 1e7] s", to_string(f.kind), f.at_s));
+    if (f.axis < 0 || f.axis >= hardware::kAxes)
+      throw InputError("--inject", 0, fmt::format("{}: axis {} does not exist", to_string(f.kind), f.axis));
+  }
+  double last = 0;
+  for (const OperatorEvent& e : operator_events) {
+    if (!(std::isfinite(e.at_s) && e.at_s >= last))
+      throw InputError("SimOptions::operator_events", 0, "times must be finite and in increasing order");
+    last = e.at_s;
+  }
+}
 
 SimBackend::SimBackend(const cutting::MachineConfig& machine, const SimOptions& options)
     : m_(machine), opt_(options), period_s_(machine.servo_period_s), rng_(options.seed) {
+  opt_.validate();
   for (int i = 0; i < 2; ++i)
     plants_[i] = std::make_unique<axis::AxisPlant>(m_.axes[i].plant, opt_.start_mm[i], opt_.counter_start[i]);
   height_mm_ = height_target_mm_ = m_.torch_height.fitted ? m_.torch_height.retract_height_mm : 0.0;
-  pending_.reserve(16);
-  fired_.reserve(16);
+  pending_.reserve(16 + opt_.faults.size());
+  fired_.reserve(16 + opt_.faults.size());
+  for (const FaultInjection& f : opt_.faults) inject(f);
 }
 
 void SimBackend::inject(const FaultInjection& f) {
@@ -41,6 +80,8 @@ hardware::Inputs SimBackend::sample() {
   }
   in.arc_ok = m_.torch.kind == executor::TorchSetup::Kind::oxy_fuel ? fire_ : arc_burning_;
   in.estop = estop_;
+  in.watchdog_tripped = watchdog_;
+  in.op = op_;
   in.torch_height_mm = height_mm_;
   return in;
 }
@@ -61,10 +102,14 @@ void SimBackend::advance(const hardware::Outputs& out) {
       case FaultInjection::Kind::lost_backend: lost_ = true; break;
       case FaultInjection::Kind::stuck_axis: plants_[f.axis]->set_stuck(true); break;
       case FaultInjection::Kind::arc_loss: arc_lost_ = true; break;
+      case FaultInjection::Kind::arc_start_failure: arc_start_fails_ = true; break;
+      case FaultInjection::Kind::watchdog: watchdog_ = true; break;
     }
   }
+  while (next_op_ < opt_.operator_events.size() && opt_.operator_events[next_op_].at_s <= time_s_ + 0.5 * dt)
+    op_ = opt_.operator_events[next_op_++].inputs;
   // The watchdog (lost link) and the E-stop chain cut drives and torch in hardware too.
-  const bool alive = !lost_;
+  const bool alive = !lost_ && !watchdog_;
   enabled_ = alive && !estop_ ? out.drives_enabled : false;
   const bool fire = alive && !estop_ && out.torch_fire;
 
@@ -74,7 +119,7 @@ void SimBackend::advance(const hardware::Outputs& out) {
   if (fire && !fire_) {
     ++arc_starts_;
     arc_timer_s_ = 0.0;
-    arc_fails_ = uniform_fail();
+    arc_fails_ = arc_start_fails_ || uniform_fail();
   }
   fire_ = fire;
   if (!fire_) {
@@ -106,19 +151,38 @@ void SimBackend::advance(const hardware::Outputs& out) {
   ++ticks_;
 }
 
+void SimBackend::miss_exchanges(int n) {
+  // Without a controller the hardware keeps its last outputs until the watchdog trips.
+  for (int i = 0; i < n; ++i) {
+    if (i >= opt_.watchdog_periods) watchdog_ = true;
+    advance(last_out_);
+  }
+}
+
 hardware::Health SimBackend::exchange(const hardware::Outputs& out, hardware::Inputs& in) noexcept {
   if (opt_.realtime) {
+    const auto now = std::chrono::steady_clock::now();
     if (!started_) {
-      t0_ = std::chrono::steady_clock::now();
+      t0_ = now;
       started_ = true;
+    } else if (!watchdog_ && !lost_) {
+      // Exchanges that came too late on the wall clock: the machine ran without a controller.
+      const double gap_s = std::chrono::duration<double>(now - last_return_).count();
+      const long missed = static_cast<long>(gap_s / period_s_);
+      if (missed > opt_.watchdog_periods) {
+        watchdog_ = true;
+        t0_ += now - last_return_;  // keep pacing from here
+      }
     }
   }
+  last_out_ = out;
   advance(out);
   in = sample();
   if (opt_.realtime) {
     const auto deadline = t0_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                     std::chrono::duration<double>(time_s_));
     std::this_thread::sleep_until(deadline);
+    last_return_ = std::chrono::steady_clock::now();
   }
   return lost_ ? hardware::Health::lost : hardware::Health::ok;
 }

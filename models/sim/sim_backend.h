@@ -12,7 +12,13 @@
 //
 // Watchdog: once the link is lost (injected) the simulated hardware disables the drives and
 // the torch by itself, as a real controller's watchdog must; `coast()` lets a test run the
-// machine on after the executor has gone.
+// machine on after the executor has gone. When no exchange arrives for more than
+// `watchdog_periods` periods (measured on the wall clock when paced with `realtime`; simulated
+// by `miss_exchanges()` or an injected `watchdog` fault otherwise), the watchdog trips: drives
+// and torch off, latched, and `Inputs::watchdog_tripped` reports it.
+//
+// Operator inputs: `operator_events` (time-stamped states of the joystick, feed hold and cycle
+// start) are applied at their times; set_operator() changes them at once.
 //
 // Fault injection (inject() before the run; each fires once at its time):
 //   encoder_glitch       the counter of `axis` jumps by `counts` and stays off (lost pulses)
@@ -22,6 +28,8 @@
 //   lost_backend         exchange() returns Health::lost from then on
 //   stuck_axis           `axis` jams (its load cannot move) from then on
 //   arc_loss             the plasma arc goes out from then on
+//   arc_start_failure    every arc start fails from then on
+//   watchdog             the controller misses exchanges for longer than the watchdog allows
 //
 // Determinism: one std::mt19937_64 seeded from SimOptions::seed drives all randomness.
 // Real time: exchange() allocates nothing. With `realtime`, it sleeps until the period's
@@ -41,20 +49,31 @@
 
 namespace machplan::sim {
 
+struct FaultInjection {
+  enum class Kind { encoder_glitch, counter_wrap_misread, estop, lost_backend, stuck_axis, arc_loss, arc_start_failure, watchdog };
+  Kind kind = Kind::estop;
+  double at_s = 0.0;
+  int axis = 0;
+  std::int32_t counts = 100;  // encoder_glitch only
+};
+const char* to_string(FaultInjection::Kind k);
+
+struct OperatorEvent {
+  double at_s = 0.0;
+  hardware::OperatorInputs inputs;
+};
+
+// The simulator's own settings (the executor's options know nothing of them).
 struct SimOptions {
   std::uint64_t seed = 1;
   bool realtime = false;                  // pace exchange() to the wall clock
   Eigen::Vector2d start_mm = Eigen::Vector2d::Zero();
   // Counter values at start: arbitrary, and not zero, so runs exercise the wrap.
   std::array<std::uint32_t, 2> counter_start{{40000u, 123u}};
-};
-
-struct FaultInjection {
-  enum class Kind { encoder_glitch, counter_wrap_misread, estop, lost_backend, stuck_axis, arc_loss };
-  Kind kind = Kind::estop;
-  double at_s = 0.0;
-  int axis = 0;
-  std::int32_t counts = 100;  // encoder_glitch only
+  int watchdog_periods = 50;              // 50 ms at 1 kHz
+  std::vector<FaultInjection> faults;     // injected at their times
+  std::vector<OperatorEvent> operator_events;
+  void validate() const;                  // throws InputError naming the field
 };
 
 class SimBackend final : public hardware::Backend {
@@ -62,7 +81,15 @@ class SimBackend final : public hardware::Backend {
   explicit SimBackend(const cutting::MachineConfig& machine, const SimOptions& options = {});
 
   void inject(const FaultInjection& f);
+  void set_operator(const hardware::OperatorInputs& op) { op_ = op; }
+  // `n` periods pass without an exchange (the controller stalled); past the watchdog's limit
+  // the watchdog trips.
+  void miss_exchanges(int n);
 
+  const char* name() const override { return "sim"; }
+  hardware::CommandKind command_kind() const override { return hardware::CommandKind::speed_dac; }
+  int watchdog_periods() const override { return opt_.watchdog_periods; }
+  bool realtime() const override { return opt_.realtime; }
   double period_s() const override { return period_s_; }
   hardware::AxisSignals axis_signals(int axis) const override;
   hardware::Inputs initial_inputs() override;
@@ -80,6 +107,7 @@ class SimBackend final : public hardware::Backend {
   double torch_height_mm() const { return height_mm_; }
   bool drives_enabled() const { return enabled_; }
   bool link_lost() const { return lost_; }
+  bool watchdog_tripped() const { return watchdog_; }
   int arc_starts() const { return arc_starts_; }
 
  private:
@@ -104,7 +132,11 @@ class SimBackend final : public hardware::Backend {
   int arc_starts_ = 0;
   double height_mm_ = 0.0, height_target_mm_ = 0.0, ihs_left_s_ = 0.0;
   bool height_retracted_ = true;
-  bool estop_ = false, lost_ = false;
+  bool estop_ = false, lost_ = false, watchdog_ = false, arc_start_fails_ = false;
+  hardware::OperatorInputs op_{};
+  hardware::Outputs last_out_{};
+  std::size_t next_op_ = 0;
+  std::chrono::steady_clock::time_point last_return_;
   std::array<int, 2> misread_{{0, 0}};  // pending misread per axis: +-256 counts on the next read
   std::chrono::steady_clock::time_point t0_;
   bool started_ = false;

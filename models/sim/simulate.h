@@ -1,6 +1,6 @@
 // One call to run a job on the simulated machine: builds the SimBackend from the machine file's
-// numbers (seed and real-time pacing from ExecutorOptions, start at job.start_mm) and runs the
-// executor on it. The CLI's `machplan run` is expected to call this for `--backend sim`.
+// numbers (its own options: seed, pacing, injected faults, operator inputs; start at
+// job.start_mm) and runs the executor on it.
 #pragma once
 
 #include <functional>
@@ -14,6 +14,7 @@ namespace machplan::sim {
 // `prepare` (optional) sees the backend before the run, e.g. to inject faults.
 executor::ExecutionResult simulate(const cutting::MachineConfig& machine, const motion::Job& job,
                                    const executor::Trajectories& trajectories, const executor::ExecutorOptions& options,
-                                   const std::function<void(SimBackend&)>& prepare = {});
+                                   const SimOptions& sim = {}, const std::function<void(SimBackend&)>& prepare = {},
+                                   const executor::RunParts& parts = {});
 
 }  // namespace machplan::sim

@@ -9,7 +9,7 @@
 #include "engine/common/error.h"
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
-#include "models/sim/simulate.h"
+#include "models/backends/backend_factory.h"
 
 namespace machplan::motion {
 namespace {
@@ -81,8 +81,9 @@ void RunOptions::validate() const {
   check_range("--blu", executor.blu_mm, 0.01, 1000.0, false, " mm");
   check_range("--calibration", executor.calibration_factor, 0.1, 10.0, true, "");
   if (feed_override_mm_per_s != 0.0) check_range("--feed", feed_override_mm_per_s, 0.0, 10000.0, true, " mm/s");
+  executor.validate();
+  backend.sim.validate();
   try {
-    executor.validate();
     rapids.validate();
   } catch (const std::invalid_argument& e) {
     throw InputError("", 0, e.what());
@@ -201,7 +202,16 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
   o.motion_ratio = o.motion_lower_bound_s > 0 ? o.planned_motion_s / o.motion_lower_bound_s : 1.0;
 
   static const executor::Trajectories kNone;
-  o.result = sim::simulate(o.machine, o.job, planned ? o.trajectories : kNone, options.executor);
+  backends::BackendOptions bo = options.backend;
+  bo.sim.start_mm = o.job.start_mm;
+  const std::unique_ptr<hardware::Backend> backend = backends::make_backend(o.machine, bo);
+  std::unique_ptr<executor::TraceStream> stream;
+  if (!options.trace_csv_path.empty()) stream = std::make_unique<executor::TraceStream>(options.trace_csv_path);
+  executor::RunParts parts;
+  parts.trace_stream = stream.get();
+  parts.stop = options.stop;
+  executor::Executor ex(setup, options.executor);
+  o.result = ex.run(o.job, planned ? o.trajectories : kNone, *backend, parts);
   o.cycle_ratio = o.lower_bound_s > 0 ? o.result.cycle_time_s / o.lower_bound_s : 1.0;
 
   double sum2 = 0, sum2_true = 0;

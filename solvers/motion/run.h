@@ -5,7 +5,8 @@
 //       --apply_kerf (when kerf_mm > 0)--> closed cuts moved by half the kerf
 //       --plan_rapids--> rapids routed round the declared no-go zones and the parts cut so far
 //       --plan_stretch, one per move step--> Trajectories (planned mode)
-//       --sim::simulate--> ExecutionResult (cycle time, contour error per cut, faults, trace)
+//       --Executor on the named backend (models/backends)--> ExecutionResult (cycle time,
+//         contour error per cut, faults, trace)
 //
 // Beside the run it computes what the run should be measured against:
 //
@@ -43,6 +44,8 @@
 #include "engine/motion/job.h"
 #include "engine/motion/kerf.h"
 #include "engine/programs/zones.h"
+#include "engine/common/stop.h"
+#include "models/backends/backend_factory.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/motion/rapid_planner.h"
 #include "solvers/motion/rapids.h"
@@ -52,8 +55,14 @@ namespace machplan::motion {
 struct RunOptions {
   // A bundled machine name (thermal_gantry, xy_table) or a machine YAML path (find_machine).
   std::string machine = "thermal_gantry";
-  // Mode, BLU, calibration factor, seed, real-time pacing, trace recording.
+  // Mode, BLU, calibration factor, supervision, trace recording in memory.
   executor::ExecutorOptions executor;
+  // The backend by name and its own options (the simulator's seed, pacing, injected faults).
+  backends::BackendOptions backend;
+  // When set, the trace is streamed to this CSV file during the run (any length of run).
+  std::string trace_csv_path;
+  // A stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it).
+  StopToken stop;
   // Kerf width, mm; 0 leaves the program as written. At most 100 mm.
   double kerf_mm = 0.0;
   // YAML file of declared no-go zones (engine/programs/zones.h); empty for none.

@@ -31,9 +31,9 @@ cutting::MachineConfig gantry() {
 ExecutionResult run_line(const cutting::MachineConfig& m, Eigen::Vector2d a, Eigen::Vector2d b, std::uint64_t seed) {
   auto cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b}, false), 80, true),
                            std::make_unique<test::LineTrajectory>(a, b, 80, m.limits.acceleration_mm_per_s2));
-  ExecutorOptions o;
-  o.seed = seed;
-  return sim::simulate(m, cut.job, cut.trajectories, o);
+  sim::SimOptions so;
+  so.seed = seed;
+  return sim::simulate(m, cut.job, cut.trajectories, {}, so);
 }
 
 ExecutionResult run_circle(const cutting::MachineConfig& m, double R, bool ccw, std::uint64_t seed) {
@@ -47,9 +47,9 @@ ExecutionResult run_circle(const cutting::MachineConfig& m, double R, bool ccw, 
   }
   auto cut = test::one_cut(test::make_stretch(segs, 80, true),
                            std::make_unique<test::ArcTrajectory>(c, R, 0, sweep, 80, m.limits.acceleration_mm_per_s2));
-  ExecutorOptions o;
-  o.seed = seed;
-  return sim::simulate(m, cut.job, cut.trajectories, o);
+  sim::SimOptions so;
+  so.seed = seed;
+  return sim::simulate(m, cut.job, cut.trajectories, {}, so);
 }
 
 void expect_within(const ExecutionResult& r, const char* what) {

@@ -170,14 +170,15 @@ TEST(Executor, SameSeedSameRun) {
   auto a = line_cut({100, 100}, {180, 140}, 80);
   auto b = line_cut({100, 100}, {180, 140}, 80);
   ExecutorOptions o;
-  o.seed = 11;
-  const ExecutionResult ra = sim::simulate(m, a.job, a.trajectories, o);
-  const ExecutionResult rb = sim::simulate(m, b.job, b.trajectories, o);
+  sim::SimOptions so;
+  so.seed = 11;
+  const ExecutionResult ra = sim::simulate(m, a.job, a.trajectories, o, so);
+  const ExecutionResult rb = sim::simulate(m, b.job, b.trajectories, o, so);
   ASSERT_EQ(ra.trace.size(), rb.trace.size());
   EXPECT_EQ(ra.cuts[0].max_true_mm, rb.cuts[0].max_true_mm);
   EXPECT_EQ(ra.trace.back().true_mm, rb.trace.back().true_mm);
-  o.seed = 12;
-  const ExecutionResult rc = sim::simulate(m, a.job, a.trajectories, o);
+  so.seed = 12;
+  const ExecutionResult rc = sim::simulate(m, a.job, a.trajectories, o, so);
   EXPECT_NE(ra.cuts[0].max_true_mm, rc.cuts[0].max_true_mm);
 }
 
@@ -237,7 +238,7 @@ TEST(ExecutorOptions, ValidateNamesTheField) {
   try {
     o.validate();
     FAIL();
-  } catch (const std::invalid_argument& e) {
+  } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("ExecutorOptions::blu_mm = 0"), std::string::npos);
   }
 }

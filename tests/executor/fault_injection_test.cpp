@@ -8,6 +8,7 @@
 #include "models/axis/plant.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
+#include "tests/support/forwarding_backend.h"
 #include "tests/support/test_trajectory.h"
 
 namespace machplan::executor {
@@ -126,18 +127,14 @@ TEST(StopRequest, FromAnotherPlaceEndsLikeAFault) {
   sim::SimOptions so;
   so.start_mm = cut.job.start_mm;
   // A backend wrapper that asks the executor to stop after 2.5 s of simulated time.
-  struct Stopper final : hardware::Backend {
-    sim::SimBackend& inner;
+  struct Stopper final : test::ForwardingBackend {
+    sim::SimBackend& sim;
     Executor* ex = nullptr;
-    explicit Stopper(sim::SimBackend& s) : inner(s) {}
-    double period_s() const override { return inner.period_s(); }
-    hardware::AxisSignals axis_signals(int a) const override { return inner.axis_signals(a); }
-    hardware::Inputs initial_inputs() override { return inner.initial_inputs(); }
+    explicit Stopper(sim::SimBackend& s) : ForwardingBackend(s), sim(s) {}
     hardware::Health exchange(const hardware::Outputs& o, hardware::Inputs& i) noexcept override {
-      if (inner.time_s() >= 2.5) ex->request_stop();
-      return inner.exchange(o, i);
+      if (sim.time_s() >= 2.5) ex->request_stop();
+      return ForwardingBackend::exchange(o, i);
     }
-    bool true_position(Eigen::Vector2d& p) const noexcept override { return inner.true_position(p); }
   };
   sim::SimBackend sim(m, so);
   Stopper st(sim);

@@ -1,0 +1,34 @@
+// Cooperative cancellation of long work: a StopSource owns a flag; StopTokens read it. Setting
+// the flag is a single lock-free atomic store, safe from another thread and from a signal
+// handler (std::atomic<bool> is always lock-free on our targets). Work that takes a token
+// checks it at points where stopping is safe (the executor: once per servo period, after
+// which it stops the machine in a controlled way and reports).
+#pragma once
+
+#include <atomic>
+
+namespace machplan {
+
+class StopToken {
+ public:
+  StopToken() = default;
+  explicit StopToken(const std::atomic<bool>* flag) : flag_(flag) {}
+  bool stop_requested() const noexcept { return flag_ && flag_->load(std::memory_order_relaxed); }
+
+ private:
+  const std::atomic<bool>* flag_ = nullptr;
+};
+
+class StopSource {
+ public:
+  static_assert(std::atomic<bool>::is_always_lock_free);
+  void request_stop() noexcept { flag_.store(true, std::memory_order_relaxed); }
+  void reset() noexcept { flag_.store(false, std::memory_order_relaxed); }
+  bool stop_requested() const noexcept { return flag_.load(std::memory_order_relaxed); }
+  StopToken token() const noexcept { return StopToken(&flag_); }
+
+ private:
+  std::atomic<bool> flag_{false};
+};
+
+}  // namespace machplan

@@ -1,0 +1,84 @@
+#include "engine/executor/planned_source.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+
+namespace machplan::executor {
+
+void PlannedSource::prepare(const SourceContext& ctx, const Eigen::Vector2d& start_mm) {
+  ctx_ = ctx;
+  const motion::Job& job = *ctx.job;
+  const Trajectories& trajs = *ctx.trajectories;
+  const auto fail = [&](int line, const std::string& what) { throw InputError(job.source, line, what); };
+  if (trajs.size() != job.steps.size())
+    fail(0, fmt::format("{} trajectories for {} steps: planned mode needs one per step", trajs.size(), job.steps.size()));
+  Eigen::Vector2d at = start_mm;
+  estimate_s_ = 0.0;
+  for (std::size_t i = 0; i < job.steps.size(); ++i) {
+    const motion::Step& st = job.steps[i];
+    if (st.kind != motion::Step::Kind::move) continue;
+    const motion::Trajectory* tr = trajs[i].get();
+    if (!tr) fail(st.source_line, fmt::format("move step {} has no trajectory", i));
+    const Eigen::Vector2d end = job.stretches[st.stretch].segments.back().end;
+    motion::Setpoint a, b;
+    tr->sample(0.0, a);
+    tr->sample(tr->duration_s(), b);
+    if (!(std::isfinite(tr->duration_s()) && tr->duration_s() >= 0))
+      fail(st.source_line, fmt::format("trajectory of step {} has duration {}", i, tr->duration_s()));
+    if ((a.position_mm - at).norm() > 1e-3 || (b.position_mm - end).norm() > 1e-3)
+      fail(st.source_line, fmt::format("trajectory of step {} runs ({:.4f}, {:.4f}) -> ({:.4f}, {:.4f}) but its "
+                                       "stretch runs ({:.4f}, {:.4f}) -> ({:.4f}, {:.4f})",
+                                       i, a.position_mm.x(), a.position_mm.y(), b.position_mm.x(), b.position_mm.y(),
+                                       at.x(), at.y(), end.x(), end.y()));
+    estimate_s_ += tr->duration_s() + 0.01;
+    at = end;
+  }
+  hold_mm_ = start_mm;
+  cur_ = nullptr;
+  t_ = 0.0;
+}
+
+void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d&) noexcept {
+  step_ = step;
+  cur_ = (*ctx_.trajectories)[step].get();
+  t_ = 0.0;
+}
+
+void PlannedSource::advance(const Eigen::Vector2d&, const hardware::OperatorInputs&) noexcept { t_ += ctx_.period_s; }
+
+bool PlannedSource::move_done() const noexcept { return !cur_ || t_ >= cur_->duration_s(); }
+
+void PlannedSource::demand(Demand& d) const noexcept {
+  d.kind = Demand::Kind::track;
+  d.track.path = nullptr;
+  if (!cur_) {
+    for (int i = 0; i < control::kAxes; ++i) {
+      d.track.r_mm[i] = hold_mm_[i];
+      d.track.v_ff_mm_per_s[i] = d.track.a_ff_mm_per_s2[i] = 0.0;
+    }
+    d.commanded_mm = hold_mm_;
+    return;
+  }
+  const double dt = ctx_.period_s;
+  const MachineSetup& m = *ctx_.machine;
+  motion::Setpoint fb, ff, now;
+  for (int i = 0; i < control::kAxes; ++i) {
+    cur_->sample(t_ - m.signals[i].reading_latency_ticks * dt, fb);
+    cur_->sample(t_ + (m.signals[i].command_latency_ticks + 1) * dt, ff);
+    d.track.r_mm[i] = fb.position_mm[i];
+    d.track.v_ff_mm_per_s[i] = ff.velocity_mm_per_s[i];
+    d.track.a_ff_mm_per_s2[i] = ff.acceleration_mm_per_s2[i];
+  }
+  cur_->sample(std::min(t_, cur_->duration_s()), now);
+  d.commanded_mm = now.position_mm;
+}
+
+int PlannedSource::source_line() const noexcept {
+  return cur_ && step_ < ctx_.job->steps.size() ? ctx_.job->steps[step_].source_line : 0;
+}
+
+}  // namespace machplan::executor

@@ -1,0 +1,35 @@
+// Setpoint source of the planned mode: the feed planner's Trajectory of each move step,
+// sampled every servo period (the real-time interpolator).
+//
+// The measurement the controller compares with is `reading_latency` periods old, so the
+// position setpoint is sampled that far back; the command acts `command_latency + 1` periods
+// from now, so the feed-forward is sampled that far ahead. Both are samples of the same
+// rest-to-rest trajectory (clamped at its ends), so they are exact across step boundaries
+// too: between moves the source keeps sampling the last trajectory, which holds its end.
+#pragma once
+
+#include "engine/executor/setpoint_source.h"
+
+namespace machplan::executor {
+
+class PlannedSource final : public SetpointSource {
+ public:
+  const char* name() const override { return "planned"; }
+  void prepare(const SourceContext& ctx, const Eigen::Vector2d& start_mm) override;
+  double estimate_s() const override { return estimate_s_; }
+  void begin_move(std::size_t step, const Eigen::Vector2d& measured_mm) noexcept override;
+  void advance(const Eigen::Vector2d& measured_mm, const hardware::OperatorInputs& op) noexcept override;
+  bool move_done() const noexcept override;
+  void demand(Demand& d) const noexcept override;
+  int source_line() const noexcept override;
+
+ private:
+  SourceContext ctx_;
+  Eigen::Vector2d hold_mm_ = Eigen::Vector2d::Zero();
+  const motion::Trajectory* cur_ = nullptr;  // the move being (or last) executed
+  std::size_t step_ = 0;
+  double t_ = 0.0;                             // time since the move began, s
+  double estimate_s_ = 0.0;
+};
+
+}  // namespace machplan::executor

@@ -1,0 +1,88 @@
+// Where the executor's setpoints come from: one small interface, one implementation per file.
+//
+//   planned_source.h     the feed planner's Trajectory of each move, sampled every period
+//   blu_vector_source.h  the thermal-cutting paper's equal vectors of length BLU, open loop
+//                        (time control) or closed loop (re-aimed from the encoders)
+//   jog_source.h         an operator's joystick: direction and speed, within the machine's
+//                        acceleration and jerk limits
+//
+// Per tick the executor calls, in this order: begin_move() when a move step starts (possibly
+// several times in a tick when zero-time steps chain), advance() once, move_done() while a move
+// runs, and demand() once, after which an optional filter (the hybrid guard) may change the
+// demand before it reaches the controller. Between moves a source holds its last point.
+//
+// A Demand is either `track` (a setpoint for the position controller, with feed-forward) or
+// `speed` (an open-loop speed command per axis that bypasses the controller, as the paper's
+// time control does).
+//
+// Real-time contract: every member but prepare() is O(1), allocates nothing, takes no lock,
+// does no I/O and never throws. prepare() runs before the first tick and may allocate and
+// throw InputError naming the job's file and line.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "engine/control/controller.h"
+#include "engine/executor/machine_setup.h"
+#include "engine/hardware/backend.h"
+#include "engine/motion/job.h"
+
+namespace machplan::executor {
+
+using Trajectories = std::vector<std::unique_ptr<motion::Trajectory>>;
+
+struct Demand {
+  enum class Kind { track, speed };
+  Kind kind = Kind::track;
+  control::ControllerInput track;                             // kind == track (y, y_dot filled by the executor)
+  Eigen::Vector2d speed_mm_per_s = Eigen::Vector2d::Zero();   // kind == speed
+  Eigen::Vector2d commanded_mm = Eigen::Vector2d::Zero();     // the commanded point now (traces, reports)
+};
+
+// What a source may use, fixed for one run.
+struct SourceContext {
+  const motion::Job* job = nullptr;
+  const Trajectories* trajectories = nullptr;  // planned source only
+  const MachineSetup* machine = nullptr;
+  double period_s = 0.001;
+};
+
+class SetpointSource {
+ public:
+  virtual ~SetpointSource() = default;
+  virtual const char* name() const = 0;
+  // True when the source runs the job's move steps (planned, BLU vectors); a jog source runs
+  // no job.
+  virtual bool runs_job() const { return true; }
+  // Before the first tick; the machine stands at `start_mm`.
+  virtual void prepare(const SourceContext& ctx, const Eigen::Vector2d& start_mm) = 0;
+  // Rough duration of the whole job under this source, s (sizes the trace); 0 if unknown.
+  virtual double estimate_s() const { return 0.0; }
+  // Move step `step` of the job starts now; the measured position is `measured_mm`.
+  virtual void begin_move(std::size_t step, const Eigen::Vector2d& measured_mm) noexcept = 0;
+  // One period passes.
+  virtual void advance(const Eigen::Vector2d& measured_mm, const hardware::OperatorInputs& op) noexcept = 0;
+  // The move begun last has reached its end (the source now holds it).
+  virtual bool move_done() const noexcept = 0;
+  // The move is still travelling along its path (false once it only waits for the end, e.g.
+  // the paper modes' settle time): contour error and arc loss are judged only while it does.
+  virtual bool travelling() const noexcept { return !move_done(); }
+  // The demand for this period.
+  virtual void demand(Demand& d) const noexcept = 0;
+  // Program line of the piece being executed (0 when not known).
+  virtual int source_line() const noexcept { return 0; }
+};
+
+// Sits between a source and the controller and may change the demand (the hybrid guard keeps
+// the tool out of prohibited regions this way). Same real-time contract as a source.
+class DemandFilter {
+ public:
+  virtual ~DemandFilter() = default;
+  virtual void reset(const Eigen::Vector2d& start_mm) = 0;
+  virtual void filter(Demand& d, const Eigen::Vector2d& measured_mm, const Eigen::Vector2d& velocity_mm_per_s) noexcept = 0;
+};
+
+}  // namespace machplan::executor

@@ -1,0 +1,97 @@
+#include "engine/executor/torch_sequencer.h"
+
+#include <cmath>
+
+namespace machplan::executor {
+
+using Kind = TorchSetup::Kind;
+
+void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out) noexcept {
+  programmed_ = programmed_pierce;
+  if (t_.height_axis) {
+    out.torch_height_target_mm = t_.pierce_height_mm;
+    enter(Phase::height_pierce);
+  } else if (t_.kind == Kind::oxy_fuel) {
+    enter(Phase::preheat);
+  } else {
+    out.torch_fire = true;
+    enter(Phase::wait_arc);
+  }
+}
+
+void TorchSequencer::start_off(hardware::Outputs& out) noexcept {
+  kill(out);
+  enter(Phase::off_retract);
+}
+
+void TorchSequencer::kill(hardware::Outputs& out) noexcept {
+  out.torch_fire = false;
+  out.torch_height_target_mm = t_.retract_height_mm;
+  lit_ = false;
+  phase_ = Phase::idle;
+}
+
+void TorchSequencer::lower_to_cut_height(hardware::Outputs& out) noexcept {
+  out.torch_height_target_mm = t_.cut_height_mm;
+  enter(Phase::height_cut);
+}
+
+TorchSequencer::Status TorchSequencer::tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept {
+  pt_ += dt_;
+  switch (phase_) {
+    case Phase::idle: return Status::idle;
+    case Phase::height_pierce:
+      if (at(in, t_.pierce_height_mm)) {
+        if (t_.kind == Kind::oxy_fuel) {
+          enter(Phase::preheat);
+        } else {
+          out.torch_fire = true;
+          enter(Phase::wait_arc);
+        }
+      } else if (pt_ > t_.height_timeout_s) {
+        return fail(Failure::torch_height_timeout, t_.height_timeout_s);
+      }
+      return Status::busy;
+    case Phase::preheat:
+      if (pt_ >= t_.preheat_s) {
+        out.torch_fire = true;
+        enter(Phase::pierce);
+      }
+      return Status::busy;
+    case Phase::wait_arc:
+      if (in.arc_ok) {
+        enter(Phase::pierce);
+      } else if (pt_ > t_.arc_ok_timeout_s) {
+        return fail(Failure::arc_start_failed, t_.arc_ok_timeout_s);
+      }
+      return Status::busy;
+    case Phase::pierce:
+      if (programmed_ || pt_ >= t_.pierce_delay_s) {
+        lit_ = true;
+        if (t_.height_axis && !programmed_) {
+          lower_to_cut_height(out);
+          return Status::busy;
+        }
+        phase_ = Phase::idle;
+        return Status::done;
+      }
+      return Status::busy;
+    case Phase::height_cut:
+      if (at(in, t_.cut_height_mm)) {
+        phase_ = Phase::idle;
+        return Status::done;
+      }
+      if (pt_ > t_.height_timeout_s) return fail(Failure::torch_height_timeout, t_.height_timeout_s);
+      return Status::busy;
+    case Phase::off_retract:
+      if (!t_.height_axis || at(in, t_.retract_height_mm)) {
+        phase_ = Phase::idle;
+        return Status::done;
+      }
+      if (pt_ > t_.height_timeout_s) return fail(Failure::torch_height_timeout, t_.height_timeout_s);
+      return Status::busy;
+  }
+  return Status::idle;
+}
+
+}  // namespace machplan::executor

@@ -1,0 +1,78 @@
+// The torch's part of a job: pierce, arc OK, height and retract. The executor's step machine
+// starts a sequence (a torch_on or torch_off step, or the lowering to cut height after a
+// programmed pierce dwell) and calls tick() every period until it is done or fails; while a
+// sequence runs the axes hold still.
+//
+//   torch on (plasma, height axis):  height to pierce height -> fire -> wait for arc OK (at
+//       most arc_ok_timeout_s) -> pierce delay -> height to cut height
+//   torch on (oxy-fuel):  [height to pierce height] -> preheat -> cutting oxygen -> pierce delay
+//       -> [height to cut height]
+//   a dwell step right after the torch_on IS the pierce delay (G4): the sequence then ends at
+//       the pierce, and lower_to_cut_height() follows the dwell
+//   torch off:  stop firing, height to retract height
+//
+// Every wait on the height axis fails after height_timeout_s (torch_height_timeout); a missing
+// arc OK fails the start (arc_start_failed). kill() turns the torch off and retracts in the
+// same period, whatever runs: the supervisor calls it on every fault.
+//
+// Real time: tick() is O(1), allocates nothing and never throws.
+#pragma once
+
+#include "engine/executor/machine_setup.h"
+#include "engine/hardware/backend.h"
+
+namespace machplan::executor {
+
+class TorchSequencer {
+ public:
+  enum class Status { idle, busy, done, failed };
+  enum class Failure { none, arc_start_failed, torch_height_timeout };
+
+  void configure(const TorchSetup& t, double period_s) {
+    t_ = t;
+    dt_ = period_s;
+    phase_ = Phase::idle;
+    lit_ = false;
+  }
+
+  // A torch_on step; `programmed_pierce` when a dwell step follows it.
+  void start_on(bool programmed_pierce, hardware::Outputs& out) noexcept;
+  void start_off(hardware::Outputs& out) noexcept;
+  void lower_to_cut_height(hardware::Outputs& out) noexcept;
+  // Torch off and retract now (faults, stops); the sequence in progress is abandoned.
+  void kill(hardware::Outputs& out) noexcept;
+
+  Status tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept;
+
+  bool busy() const noexcept { return phase_ != Phase::idle; }
+  // The torch-on sequence completed and the torch has not been turned off since.
+  bool lit() const noexcept { return lit_; }
+  Failure failure() const noexcept { return failure_; }
+  double failure_value() const noexcept { return failure_value_; }
+
+ private:
+  enum class Phase { idle, height_pierce, preheat, wait_arc, pierce, height_cut, off_retract };
+  void enter(Phase p) noexcept {
+    phase_ = p;
+    pt_ = 0.0;
+  }
+  Status fail(Failure f, double v) noexcept {
+    failure_ = f;
+    failure_value_ = v;
+    phase_ = Phase::idle;
+    return Status::failed;
+  }
+  bool at(const hardware::Inputs& in, double h) const noexcept {
+    return std::abs(in.torch_height_mm - h) <= t_.height_tolerance_mm;
+  }
+
+  TorchSetup t_;
+  double dt_ = 0.001;
+  Phase phase_ = Phase::idle;
+  double pt_ = 0.0;  // time in the phase
+  bool programmed_ = false, lit_ = false;
+  Failure failure_ = Failure::none;
+  double failure_value_ = 0.0;
+};
+
+}  // namespace machplan::executor

@@ -1,0 +1,26 @@
+// Backends by name: the one place that knows which backends exist. `machplan run --backend
+// NAME` and every caller that runs a machine ask here; a new backend (a LinuxCNC HAL
+// connection, a fieldbus drive) is one more entry in make_backend() and in backend_names(),
+// and one more line in the contract test suite (tests/hardware/backend_contract_test.cpp).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "engine/hardware/backend.h"
+#include "models/cutting/machine_config.h"
+#include "models/sim/sim_backend.h"
+
+namespace machplan::backends {
+
+struct BackendOptions {
+  std::string name = "sim";
+  sim::SimOptions sim;  // for "sim"
+};
+
+std::vector<std::string> backend_names();
+// Throws InputError("--backend", ...) naming the known backends when `o.name` is unknown.
+std::unique_ptr<hardware::Backend> make_backend(const cutting::MachineConfig& machine, const BackendOptions& o);
+
+}  // namespace machplan::backends

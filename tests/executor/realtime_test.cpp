@@ -1,0 +1,263 @@
+// The executor's real-time rules, measured: no heap allocation inside a tick (any mode, trace
+// in memory and streamed), a stop requested from another thread, a position-command backend
+// and an operator's jog session driven through the same loop.
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <new>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "engine/executor/executor.h"
+#include "models/cutting/machine_config.h"
+#include "models/sim/sim_backend.h"
+#include "solvers/motion/run.h"
+#include "tests/support/forwarding_backend.h"
+#include "tests/support/ideal_backend.h"
+#include "tests/support/temp_dir.h"
+#include "tests/support/test_trajectory.h"
+
+// Allocation counting: every operator new of this program goes through here; only the calls
+// made on the counting thread while `g_counting` is set are counted (the trace stream's writer
+// thread allocates freely, outside the tick).
+namespace {
+thread_local bool g_counting = false;
+thread_local long g_allocations = 0;
+void* counted(std::size_t n) {
+  if (g_counting) ++g_allocations;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+}  // namespace
+void* operator new(std::size_t n) { return counted(n); }
+void* operator new[](std::size_t n) { return counted(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace machplan::executor {
+namespace {
+
+std::string part(const char* name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+
+struct Case {
+  const char* part;
+  Mode mode;
+  bool stream;
+};
+
+class TickAllocations : public ::testing::TestWithParam<Case> {};
+
+TEST_P(TickAllocations, AreZero) {
+  const Case c = GetParam();
+  motion::RunOptions o;
+  o.machine = "thermal_gantry";
+  o.executor.mode = c.mode;
+  o.executor.record_trace = false;
+  if (c.mode != Mode::planned) o.feed_override_mm_per_s = 4.0;
+  const motion::RunOutcome prepared = motion::run_program(part(c.part), o);  // job, trajectories, machine
+  ASSERT_FALSE(prepared.faulted());
+
+  ExecutorOptions eo = o.executor;
+  eo.record_trace = true;
+  sim::SimOptions so;
+  so.start_mm = prepared.job.start_mm;
+  sim::SimBackend be(prepared.machine, so);
+  Executor ex(prepared.machine.setup(), eo);
+  test::TempDir dir;
+  std::unique_ptr<TraceStream> stream;
+  RunParts parts;
+  if (c.stream) {
+    stream = std::make_unique<TraceStream>((dir.path() / "trace.csv").string());
+    parts.trace_stream = stream.get();
+  }
+  static const Trajectories kNone;
+  Session s(ex, prepared.job, c.mode == Mode::planned ? prepared.trajectories : kNone, be, parts);
+  long ticks = 0;
+  g_allocations = 0;
+  bool more = true;
+  while (more) {
+    g_counting = true;
+    more = s.tick();
+    g_counting = false;
+    ++ticks;
+  }
+  const long during = g_allocations;
+  const ExecutionResult r = s.finish();
+  EXPECT_EQ(during, 0) << ticks << " ticks";
+  EXPECT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  EXPECT_GT(ticks, 10000);
+  EXPECT_EQ(static_cast<long>(r.trace.size()), ticks);  // every tick recorded, none dropped
+  EXPECT_FALSE(r.trace_truncated);
+  if (c.stream) {
+    EXPECT_EQ(static_cast<long>(r.trace_streamed), ticks);
+    EXPECT_EQ(r.trace_stream_dropped, 0u);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryMode, TickAllocations,
+                         ::testing::Values(Case{"contour_lines_arcs.ngc", Mode::planned, false},
+                                           Case{"contour_lines_arcs.ngc", Mode::planned, true},
+                                           Case{"triangle_45.ngc", Mode::paper_open, false},
+                                           Case{"triangle_45.ngc", Mode::paper_closed, true}),
+                         [](const auto& info) {
+                           return std::string(to_string(info.param.mode)) + (info.param.stream ? "_streamed" : "");
+                         });
+
+TEST(TraceStream, WritesWhatTheRecorderKeeps) {
+  motion::RunOptions o;
+  o.machine = "thermal_gantry";
+  test::TempDir dir;
+  o.trace_csv_path = (dir.path() / "streamed.csv").string();
+  const motion::RunOutcome run = motion::run_program(part("triangle_45.ngc"), o);
+  ASSERT_FALSE(run.faulted());
+  const std::string kept = (dir.path() / "kept.csv").string();
+  run.result.write_trace_csv(kept);
+  std::ifstream a(o.trace_csv_path), b(kept);
+  const std::string sa((std::istreambuf_iterator<char>(a)), {}), sb((std::istreambuf_iterator<char>(b)), {});
+  EXPECT_GT(sa.size(), 100000u);
+  EXPECT_EQ(sa, sb);
+}
+
+// A realtime-paced run on the simulator, stopped from another thread after `after_s`.
+TEST(StopRequest, FromAnotherThreadStopsTheMachineAndReports) {
+  const auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
+  const Eigen::Vector2d c(700, 700);
+  auto cut = test::one_cut(test::make_stretch(test::circle_segments(c, 50), 80, true),
+                           std::make_unique<test::ArcTrajectory>(c, 50, 0, 2 * M_PI, 80, 500));
+  sim::SimOptions so;
+  so.start_mm = cut.job.start_mm;
+  so.realtime = true;
+  sim::SimBackend sim(m, so);
+  Executor ex(m.setup(), {});
+  StopSource token;
+  RunParts parts;
+  parts.stop = token.token();
+  std::thread other([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // inside the cut (it starts at about 1.3 s)
+    token.request_stop();
+  });
+  const ExecutionResult r = ex.run(cut.job, cut.trajectories, sim, parts);
+  other.join();
+  ASSERT_EQ(r.faults.size(), 1u) << r.report();
+  EXPECT_EQ(r.faults[0].kind, FaultKind::stop_requested);
+  EXPECT_GT(r.faults[0].time_s, 1.5);
+  EXPECT_LT(r.faults[0].time_s, 3.0);
+  EXPECT_TRUE(r.torch_off_at_end);
+  EXPECT_TRUE(r.stopped_at_rest);
+  EXPECT_FALSE(sim.torch_firing());
+  EXPECT_FALSE(sim.drives_enabled());
+  EXPECT_FALSE(r.cuts[0].complete);
+  for (const TraceSample& t : r.trace)
+    if (t.t_s > r.faults[0].time_s) ASSERT_FALSE(t.torch_fire);
+}
+
+TEST(PositionBackend, RunsAJobThroughTheSameLoop) {
+  const auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
+  const Eigen::Vector2d a(100, 100), b(400, 250);
+  auto cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b}, false), 80, true),
+                           std::make_unique<test::LineTrajectory>(a, b, 80, 500));
+  test::IdealPositionBackend be(m, a);
+  Executor ex(m.setup(), {});
+  const ExecutionResult r = ex.run(cut.job, cut.trajectories, be);
+  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  EXPECT_EQ(r.backend, "ideal_position");
+  ASSERT_EQ(r.cuts.size(), 1u);
+  EXPECT_TRUE(r.cuts[0].complete);
+  EXPECT_LT(r.cuts[0].max_mm, 1e-6);  // the ideal drive is where it is told
+  Eigen::Vector2d end;
+  be.true_position(end);
+  EXPECT_LT((end - b).norm(), 1e-6);
+}
+
+TEST(PositionBackend, EstopStopsItToo) {
+  const auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
+  const Eigen::Vector2d a(100, 100), b(400, 250);
+  auto cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b}, false), 80, true),
+                           std::make_unique<test::LineTrajectory>(a, b, 80, 500));
+  struct Estopper final : test::ForwardingBackend {
+    test::IdealPositionBackend& p;
+    long n = 0;
+    explicit Estopper(test::IdealPositionBackend& i) : ForwardingBackend(i), p(i) {}
+    hardware::Health exchange(const hardware::Outputs& o, hardware::Inputs& in) noexcept override {
+      if (++n == 2500) p.set_estop(true);
+      return ForwardingBackend::exchange(o, in);
+    }
+  };
+  test::IdealPositionBackend inner(m, a);
+  Estopper be(inner);
+  Executor ex(m.setup(), {});
+  const ExecutionResult r = ex.run(cut.job, cut.trajectories, be);
+  ASSERT_EQ(r.faults.size(), 1u);
+  EXPECT_EQ(r.faults[0].kind, FaultKind::estop);
+  EXPECT_TRUE(r.torch_off_at_end);
+  EXPECT_FALSE(inner.drives_enabled());
+}
+
+TEST(JogSession, FollowsTheOperatorAndEndsOnCycleStart) {
+  const auto m = cutting::load_machine(cutting::find_machine("xy_table"));
+  sim::SimOptions so;
+  so.start_mm = {150, 150};
+  hardware::OperatorInputs right, centred, done;
+  right.jog = {1.0, 0.5};
+  done.cycle_start = true;
+  so.operator_events = {{0.2, right}, {1.2, centred}, {2.0, done}};
+  sim::SimBackend sim(m, so);
+  ExecutorOptions eo;
+  eo.mode = Mode::jog;
+  eo.jog.speed_mm_per_s = 40;
+  Executor ex(m.setup(), eo);
+  motion::Job none;
+  none.source = "jog";
+  none.start_mm = so.start_mm;
+  const ExecutionResult r = ex.run(none, {}, sim);
+  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  Eigen::Vector2d at;
+  sim.true_position(at);
+  // 1 s at 40 and 20 mm/s (less the ramps at 500 mm/s^2 with the jerk limit): about 38 and 19 mm.
+  EXPECT_NEAR(at.x() - 150, 40 * 1.0, 4.0);
+  EXPECT_NEAR(at.y() - 150, 20 * 1.0, 3.0);
+  EXPECT_NEAR(r.cycle_time_s, 2.0, 0.5);
+  double vmax = 0;
+  for (std::size_t k = 1; k < r.trace.size(); ++k)
+    vmax = std::max(vmax, (r.trace[k].commanded_mm - r.trace[k - 1].commanded_mm).norm() / 0.001);
+  EXPECT_LE(vmax, std::hypot(40.0, 20.0) + 1e-6);
+}
+
+TEST(JogSession, RefusesAJob) {
+  const auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
+  auto cut = test::one_cut(test::make_stretch(test::polyline_segments({{0, 0}, {10, 0}}, false), 80, true),
+                           std::make_unique<test::LineTrajectory>(Eigen::Vector2d(0, 0), Eigen::Vector2d(10, 0), 80, 500));
+  sim::SimBackend sim(m, {});
+  ExecutorOptions eo;
+  eo.mode = Mode::jog;
+  Executor ex(m.setup(), eo);
+  EXPECT_THROW(ex.run(cut.job, {}, sim), InputError);
+}
+
+TEST(BackendCheck, AMachineFileThatDisagreesWithTheBackendIsRefusedBeforeMotion) {
+  const auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
+  cutting::MachineConfig other = m;
+  other.axes[1].plant.dac_bits = 16;
+  sim::SimBackend sim(other, {});
+  const Eigen::Vector2d a(0, 0), b(10, 0);
+  auto cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b}, false), 80, true),
+                           std::make_unique<test::LineTrajectory>(a, b, 80, 500));
+  Executor ex(m.setup(), {});
+  try {
+    ex.run(cut.job, cut.trajectories, sim);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("machine 'thermal_gantry': backend 'sim' disagrees with the machine file: axis Y "
+                                         "dac_bits is 16 on the backend, 12 in the machine file"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(sim.time_s(), 0.0);
+}
+
+}  // namespace
+}  // namespace machplan::executor

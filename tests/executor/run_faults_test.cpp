@@ -1,0 +1,187 @@
+// `machplan run` under faults a user can rehearse from the command line (--inject), a signal
+// during a run, and a machine whose loop cannot hold the path: each ends with the torch off,
+// the machine at rest, a report and exit 3.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/support/temp_dir.h"
+
+namespace machplan {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string part(const char* name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+// Runs machplan with `args`; with `signal_after_s` > 0 sends `sig` that long after the start.
+CliRun machplan(const std::vector<std::string>& args, int sig = 0, double signal_after_s = 0) {
+  test::TempDir dir;
+  const std::string out = (dir.path() / "out.txt").string(), err = (dir.path() / "err.txt").string();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    FILE* o = std::freopen(out.c_str(), "w", stdout);
+    FILE* e = std::freopen(err.c_str(), "w", stderr);
+    (void)o, (void)e;
+    std::vector<char*> argv;
+    static std::string cli = MACHPLAN_CLI;
+    argv.push_back(cli.data());
+    std::vector<std::string> copy = args;
+    for (std::string& a : copy) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv(cli.c_str(), argv.data());
+    _exit(127);
+  }
+  if (sig) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(signal_after_s));
+    kill(pid, sig);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  CliRun r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  std::ifstream o(out), e(err);
+  r.out.assign(std::istreambuf_iterator<char>(o), {});
+  r.err.assign(std::istreambuf_iterator<char>(e), {});
+  return r;
+}
+
+// The last line of a trace CSV, split.
+std::vector<std::string> last_trace_row(const std::string& path, std::size_t& lines) {
+  std::ifstream in(path);
+  std::string line, last;
+  lines = 0;
+  while (std::getline(in, line)) last = line, ++lines;
+  std::vector<std::string> cols;
+  std::stringstream ss(last);
+  for (std::string c; std::getline(ss, c, ',');) cols.push_back(c);
+  return cols;
+}
+
+class Signals : public ::testing::TestWithParam<int> {};
+
+TEST_P(Signals, StopTheMachineWriteTheReportAndTraceAndExitThree) {
+  test::TempDir dir;
+  const std::string trace = (dir.path() / "trace.csv").string();
+  // The nested sheet paced to the wall clock, signalled a few seconds in (near its first pierce).
+  const CliRun r = machplan({"run", part("nested_sheet.ngc"), "--machine", "thermal_gantry", "--realtime", "--trace", trace},
+                            GetParam(), 3.5);
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("FAULT stop_requested"));
+  EXPECT_THAT(r.out, HasSubstr("torch off at the end; machine stopped at rest"));
+  EXPECT_THAT(r.err, HasSubstr("stop requested"));
+  std::size_t lines = 0;
+  const auto row = last_trace_row(trace, lines);
+  EXPECT_GT(lines, 1000u);  // a second or more of machine time, streamed
+  // t_s,...,dac_y,enabled,torch_fire,arc_ok: the state after the last period
+  ASSERT_EQ(row.size(), 13u);
+  EXPECT_EQ(row[10], "0");  // drives disabled
+  EXPECT_EQ(row[11], "0");  // torch off
+}
+
+INSTANTIATE_TEST_SUITE_P(IntTermHup, Signals, ::testing::Values(SIGINT, SIGTERM, SIGHUP),
+                         [](const auto& info) {
+                           return std::string(info.param == SIGINT ? "SIGINT" : (info.param == SIGTERM ? "SIGTERM" : "SIGHUP"));
+                         });
+
+struct JamCase {
+  const char* mode;
+  const char* expect;  // the fault that names the jam in this mode
+};
+
+class InjectedJam : public ::testing::TestWithParam<JamCase> {};
+
+TEST_P(InjectedJam, EndsTorchOffAtRestReportedExitThree) {
+  const JamCase c = GetParam();
+  std::vector<std::string> args = {"run", part("triangle_45.ngc"), "--machine", "thermal_gantry", "--json",
+                                   "--mode", c.mode, "--inject", "jam@4:x"};
+  if (std::string(c.mode) != "planned") args.insert(args.end(), {"--feed", "4"});
+  const CliRun r = machplan(args);
+  ASSERT_EQ(r.code, 3) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["status"], "faulted");
+  ASSERT_EQ(j["faults"].size(), 1u);
+  EXPECT_EQ(j["faults"][0]["kind"], c.expect);
+  EXPECT_EQ(j["faults"][0]["axis"], "x");
+  EXPECT_TRUE(j["torch_off_at_end"].get<bool>());
+  EXPECT_TRUE(j["stopped_at_rest"].get<bool>());
+  EXPECT_GE(j["faults"][0]["time_s"].get<double>(), 4.0);
+  EXPECT_THAT(r.err, HasSubstr(std::string("machplan run: fault: ")));
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryMode, InjectedJam,
+                         ::testing::Values(JamCase{"planned", "following_error"}, JamCase{"paper-open", "axis_stalled"},
+                                           JamCase{"paper-closed", "axis_stalled"}),
+                         [](const auto& info) {
+                           std::string n = info.param.mode;
+                           for (char& ch : n)
+                             if (ch == '-') ch = '_';
+                           return n;
+                         });
+
+TEST(Inject, EveryKindEndsInItsFault) {
+  const struct {
+    const char* inject;
+    const char* kind;
+  } cases[] = {{"estop@3", "estop"},
+               {"encoder-glitch@4:y", "encoder_glitch"},
+               {"counter-misread@4", "counter_wrap_misread"},
+               {"lost-backend@4", "lost_backend"},
+               {"arc-loss@9", "arc_lost"},
+               {"arc-start-failure@0", "arc_start_failed"},
+               {"watchdog@4", "watchdog"}};
+  for (const auto& c : cases) {
+    const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", "thermal_gantry", "--json", "--inject", c.inject});
+    ASSERT_EQ(r.code, 3) << c.inject << "\n" << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["faults"][0]["kind"].get<std::string>(), c.kind) << c.inject;
+    EXPECT_TRUE(j["torch_off_at_end"].get<bool>()) << c.inject;
+  }
+}
+
+TEST(Inject, BadValuesExitTwoNamingTheFlag) {
+  for (const char* bad : {"jam", "jam@", "jam@-1", "jam@x", "melt@3", "jam@3:z", "estop@nan"}) {
+    const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", "thermal_gantry", "--inject", bad});
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_THAT(r.err, HasSubstr("--inject")) << bad;
+  }
+  const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", "thermal_gantry", "--backend", "hal"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--backend: unknown backend 'hal' (known: sim)"));
+}
+
+TEST(Supervision, ALoopThatCannotHoldThePathIsAFault) {
+  // The gantry with an absurd proportional gain: the drive output flips between its limits.
+  test::TempDir dir;
+  std::ifstream in(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), {});
+  text = std::regex_replace(text, std::regex("kp_per_s: 90"), "kp_per_s: 1e9");
+  text = std::regex_replace(text, std::regex("name: thermal_gantry"), "name: gantry_kp_1e9");
+  const std::string machine = (dir.path() / "gantry_kp_1e9.yaml").string();
+  std::ofstream(machine) << text;
+  const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", machine, "--json"});
+  ASSERT_EQ(r.code, 3) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["faults"][0]["kind"], "drive_saturated");
+  EXPECT_TRUE(j["torch_off_at_end"].get<bool>());
+}
+
+}  // namespace
+}  // namespace machplan
