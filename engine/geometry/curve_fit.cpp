@@ -47,8 +47,12 @@ struct Fitter {
   ArcFitResult result;
 
   void push(const Vector2d& end, double bulge) {
-    if ((end - v.back()).norm() <= 1e-12) return;
+    const double chord = (end - v.back()).norm();
+    if (chord <= 1e-12) return;
     if (!std::isfinite(bulge) || std::abs(bulge) > kMaxBulge) bulge = 0.0;
+    // An arc whose sagitta (bulge * chord / 2) is a hundredth of the tolerance is a straight
+    // span: keeping it as an arc of enormous radius would only cost precision downstream.
+    if (std::abs(bulge) * chord / 2 <= 0.01 * tol) bulge = 0.0;
     b.push_back(bulge);
     v.push_back(end);
     ++result.spans;

@@ -42,7 +42,8 @@ struct ArcFitResult {
   double max_deviation_mm = 0.0; // largest deviation measured at the samples
 };
 
-// Appends the spans approximating `curve` on [t0, t1] to an open polyline: the caller has
+// Appends the spans approximating `curve` on [t0, t1] to an open polyline (arcs whose sagitta
+// is below a hundredth of the tolerance are written as lines): the caller has
 // already pushed c(t0) to `vertices`; for each span this pushes the span's bulge to `bulges`
 // and its end point to `vertices` (bulge convention of contour.h). The last vertex pushed is
 // c(t1) exactly. Spans shorter than 1e-12 mm are not emitted. `tolerance_mm` > 0.

@@ -399,6 +399,9 @@ struct Instance {
 // Most entities a drawing may expand to through INSERT (arrays and nesting multiply); beyond
 // it the file is refused rather than read for minutes.
 constexpr std::size_t kMaxInstances = 2'000'000;
+// Most arcs all curves of a drawing may be fitted with, and the halvings per curve piece.
+constexpr std::size_t kMaxFittedSpans = 4'000'000;
+constexpr int kFitDepth = 18;
 // Deepest nesting of INSERT within blocks.
 constexpr int kMaxInsertDepth = 32;
 
@@ -426,8 +429,15 @@ class Assembler {
   void expand(double mm_per_unit) {
     Affine units;
     units.A *= mm_per_unit;
+    // A drawing made entirely on a layout (nothing in model space) is read from the layout.
+    const bool layout_only = !scan_.entities.empty() &&
+                             std::all_of(scan_.entities.begin(), scan_.entities.end(), [](const Entity& e) { return e.paper_space; });
+    if (layout_only)
+      problem(ProfileProblem::Severity::warning, "paper_space", {},
+              fmt::format("the drawing has nothing in model space; its {} paper-space entities are read as the profile",
+                          scan_.entities.size()));
     for (const Entity& e : scan_.entities) {
-      if (e.paper_space) {
+      if (e.paper_space && !layout_only) {
         const std::size_t k = new_instance(e, e.handle, e.layer);
         problem(ProfileProblem::Severity::warning, "paper_space", {k}, fmt::format("{} is on a paper-space layout; ignored", where(k)));
         continue;
@@ -632,7 +642,17 @@ class Assembler {
     return w;
   }
 
-  void note_fit(const ArcFitResult& r) { max_fit_deviation_ = std::max(max_fit_deviation_, r.max_deviation_mm); }
+  // Keeps the worst deviation, and bounds the work: fitted spans beyond kMaxFittedSpans mean a
+  // drawing whose curves are far too detailed for the tolerance (or absurd).
+  void note_fit(const ArcFitResult& r, std::size_t k) {
+    max_fit_deviation_ = std::max(max_fit_deviation_, r.max_deviation_mm);
+    fitted_spans_ += r.spans;
+    if (fitted_spans_ > kMaxFittedSpans)
+      throw InputError(source_, line_of(k),
+                       fmt::format("{}: the drawing's curves need more than {} arcs at {:g} mm; machplan's limit "
+                                   "(a coarser --tolerance needs fewer)",
+                                   where(k), kMaxFittedSpans, fit_tol_));
+  }
 
   // A local piece (vertices, one bulge per vertex, open or closed) seen through m. Straight
   // spans and, under a similarity, arcs map exactly; other arcs become elliptic and are
@@ -660,7 +680,7 @@ class Assembler {
       for (const Vector2d& q : {Vector2d(s.center + Vector2d(s.radius, s.radius)), Vector2d(s.center - Vector2d(s.radius, s.radius))})
         map_point(m, q, k);
       auto curve = [&](double t) { return m(s.center + s.radius * Vector2d(std::cos(t), std::sin(t))); };
-      note_fit(fit_arcs(curve, s.start_angle, s.start_angle + s.sweep, fit_tol_, out.v, out.b));
+      note_fit(fit_arcs(curve, s.start_angle, s.start_angle + s.sweep, fit_tol_, out.v, out.b, kFitDepth), k);
       out.v.back() = map_point(m, b, k);
     }
     if (local.closed) out.v.pop_back();  // the last span came back to the first vertex
@@ -756,7 +776,7 @@ class Assembler {
       pc.v.push_back(nurbs.point(br.front(), nurbs.span_of(br.front())));
       for (std::size_t i = 0; i + 1 < br.size(); ++i) {
         const std::size_t span = nurbs.span_of(0.5 * (br[i] + br[i + 1]));
-        note_fit(fit_arcs([&](double t) { return nurbs.point(t, span); }, br[i], br[i + 1], fit_tol_, pc.v, pc.b));
+        note_fit(fit_arcs([&](double t) { return nurbs.point(t, span); }, br[i], br[i + 1], fit_tol_, pc.v, pc.b, kFitDepth), k);
       }
     } else {
       std::vector<Vector2d> pts;
@@ -781,7 +801,7 @@ class Assembler {
       }
       pc.v.push_back(pts.front());
       for (std::size_t i = 0; i + 1 < pts.size(); ++i)
-        note_fit(fit_arcs([&](double t) { return ci.point(t, i); }, ci.params[i], ci.params[i + 1], fit_tol_, pc.v, pc.b));
+        note_fit(fit_arcs([&](double t) { return ci.point(t, i); }, ci.params[i], ci.params[i + 1], fit_tol_, pc.v, pc.b, kFitDepth), k);
     }
     add(k, std::move(pc));
   }
@@ -820,7 +840,7 @@ class Assembler {
     // Quarters at most per fit, so that no piece starts and ends at one point.
     const int parts = std::max(1, static_cast<int>(std::ceil(sweep / (kPi / 2) - 1e-9)));
     for (int i = 0; i < parts; ++i)
-      note_fit(fit_arcs(curve, t0 + sweep * i / parts, t0 + sweep * (i + 1) / parts, fit_tol_, pc.v, pc.b));
+      note_fit(fit_arcs(curve, t0 + sweep * i / parts, t0 + sweep * (i + 1) / parts, fit_tol_, pc.v, pc.b, kFitDepth), k);
     if (full && pc.v.size() >= 3) {
       pc.v.pop_back();
       pc.closed = true;
@@ -1037,13 +1057,13 @@ class Assembler {
     std::sort(ends.begin(), ends.end(), [](const End& a, const End& b) { return a.x < b.x || (a.x == b.x && a.chain < b.chain); });
     std::vector<double> nearest(open.size(), std::numeric_limits<double>::infinity());
     for (std::size_t a = 0; a < ends.size(); ++a) {
-      double& best = nearest[ends[a].chain];
-      for (std::size_t b = a + 1; b < ends.size() && ends[b].x - ends[a].x < best; ++b) {
-        if (ends[b].chain == ends[a].chain) continue;
-        const double d = std::hypot(ends[b].x - ends[a].x, ends[b].y - ends[a].y);
-        best = std::min(best, d);
-        nearest[ends[b].chain] = std::min(nearest[ends[b].chain], d);
-      }
+      double best = nearest[ends[a].chain];
+      auto try_end = [&](std::size_t b) {
+        if (ends[b].chain != ends[a].chain) best = std::min(best, std::hypot(ends[b].x - ends[a].x, ends[b].y - ends[a].y));
+      };
+      for (std::size_t b = a + 1; b < ends.size() && ends[b].x - ends[a].x < best; ++b) try_end(b);
+      for (std::size_t b = a; b-- > 0 && ends[a].x - ends[b].x < best;) try_end(b);
+      nearest[ends[a].chain] = best;
     }
     for (std::size_t i = 0; i < open.size(); ++i) {
       const Piece& c = open[i];
@@ -1151,6 +1171,7 @@ class Assembler {
   std::size_t tilted_ = 0;
   double max_tilt_deg_ = 0.0;
   double max_fit_deviation_ = 0.0;
+  std::size_t fitted_spans_ = 0;
 };
 
 }  // namespace

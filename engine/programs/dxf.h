@@ -53,7 +53,9 @@
 //                     zero_length (an entity or polyline span shorter than the tolerance;
 //                     dropped), annotation_ignored (TEXT, MTEXT, DIMENSION, HATCH, POINT, SOLID,
 //                     XLINE, ...), paper_space (an entity on a layout, not in model space;
-//                     ignored), no_units, flattened (entities projected onto XY),
+//                     ignored, unless model space is empty: then the layout's entities are
+//                     read, with one paper_space warning saying so), no_units, flattened
+//                     (entities projected onto XY),
 //                     approximation (a curve the fit could not bring within its tolerance).
 // A profile with any error must not be cut; has_errors() says so.
 //

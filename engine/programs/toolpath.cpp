@@ -179,12 +179,12 @@ class AptReader : public Reader {
                              iequals(word, "FROM") || iequals(word, "GODLTA") || (iequals(word, "RAPID") && !bare_rapid)))
       fail(line, fmt::format("{} after the CIRCLE of line {}, which needs a GOTO to end it", printable(word), circle_line_));
 
-    if (iequals(word, "GOTO")) return go_to(args, line, false);
+    if (iequals(word, "GOTO")) return go_to(args, line, "GOTO");
     if (iequals(word, "FROM")) {
       rapid_ = true;
-      return go_to(args, line, false);
+      return go_to(args, line, "FROM");
     }
-    if (iequals(word, "GODLTA")) return go_to(args, line, true);
+    if (iequals(word, "GODLTA")) return go_to(args, line, "GODLTA");
     if (iequals(word, "CIRCLE")) return circle(args, line);
     if (iequals(word, "CYCLE")) return cycle(args, line);
     if (iequals(word, "TLAXIS")) return tool_axis(args, line);
@@ -193,7 +193,7 @@ class AptReader : public Reader {
     if (iequals(word, "RAPID")) {
       rapid_ = true;
       if (bare_rapid) return;
-      return go_to(args, line, false);
+      return go_to(args, line, "RAPID");
     }
     if (iequals(word, "MULTAX")) {
       if (args.count == 0 || (args.count == 1 && iequals(args.at[0], "ON"))) {
@@ -257,8 +257,9 @@ class AptReader : public Reader {
                            number(args.at[from + 2], line, fmt::format("{} z", what).c_str()));
   }
 
-  void go_to(const Fields& args, int line, bool relative) {
-    const char* what = relative ? "GODLTA" : "GOTO";
+  // GOTO, FROM, RAPID with values, GODLTA (`what`; relative to the last pose).
+  void go_to(const Fields& args, int line, const char* what) {
+    const bool relative = std::string_view(what) == "GODLTA";
     if (args.count != 3 && args.count != 6)
       fail(line, fmt::format("{}: expected 3 values (x, y, z) or 6 (x, y, z, i, j, k), found {}", what, args.count));
     if (relative && path_.poses.empty()) fail(line, "GODLTA before any position");
