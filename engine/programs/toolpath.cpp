@@ -12,6 +12,8 @@
 #include <filesystem>
 #include <system_error>
 
+#include <Eigen/Geometry>
+
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
 #include "engine/programs/text_scan.h"
@@ -167,7 +169,14 @@ class AptReader : public Reader {
       return;
     }
     const bool has_slash = !rest.empty() && rest.front() == '/';
-    if (!known(word)) return skip(word, line);
+    if (!known(word)) {
+      // A coordinate system other than the identity moves the poses that follow; machplan
+      // keeps them as written and says so apart from the harmless identity ones.
+      if (iequals(word, "CSYS") && has_slash && !identity_csys(split_all(rest.substr(1))))
+        return skip("CSYS", line, " with a transformation other than the identity: the poses after it are kept in "
+                                  "the coordinates written, not transformed");
+      return skip(word, line);
+    }
     if (!rest.empty() && !has_slash)
       fail(line, fmt::format("APT statement '{}': expected '/' or the end of the statement, found '{}'",
                              printable(word), printable(rest, 40)));
@@ -226,10 +235,38 @@ class AptReader : public Reader {
     return false;
   }
 
-  // A statement that carries nothing for the tool path: one warning per kind.
-  void skip(std::string_view word, int line) {
+  static std::vector<std::string_view> split_all(std::string_view s) {
+    std::vector<std::string_view> all;
+    for (std::size_t start = 0;;) {
+      const std::size_t comma = s.find(',', start);
+      all.push_back(trim(s.substr(start, comma == std::string_view::npos ? s.npos : comma - start)));
+      if (comma == std::string_view::npos) break;
+      start = comma + 1;
+    }
+    return all;
+  }
+
+  // CSYS/r11, r12, r13, tx, r21, ..., tz: true when it is the identity (to 1e-9).
+  static bool identity_csys(const std::vector<std::string_view>& v) {
+    if (v.size() != 12) return false;
+    for (std::size_t k = 0; k < 12; ++k) {
+      double x = 0;
+      std::string_view f = v[k];
+      if (!f.empty() && f.front() == '+') f.remove_prefix(1);
+      const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), x);
+      if (ec != std::errc() || end != f.data() + f.size()) return false;
+      const double want = (k == 0 || k == 5 || k == 10) ? 1.0 : 0.0;
+      if (std::abs(x - want) > 1e-9) return false;
+    }
+    return true;
+  }
+
+  // A statement that carries nothing for the tool path: one warning per kind (`note` tells
+  // a kind apart and ends its message).
+  void skip(std::string_view word, int line, std::string_view note = {}) {
     std::string key(word);
     for (char& c : key) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    key += note;
     auto [it, fresh] = skipped_.try_emplace(key, Skipped{line, 0});
     ++it->second.count;
     if (fresh) skipped_order_.push_back(key);
@@ -240,9 +277,14 @@ class AptReader : public Reader {
   void finish_warnings() {
     for (const auto& key : skipped_order_) {
       const Skipped& k = skipped_.at(key);
-      path_.warnings.push_back(fmt::format("{}:{}: APT statement '{}' carries no tool-path geometry; skipped{}",
-                                           path_.source, k.first_line, printable(key),
-                                           k.count > 1 ? fmt::format(" ({} statements)", k.count) : ""));
+      const std::size_t word_end = std::min(key.find(' '), key.size());
+      const std::string count = k.count > 1 ? fmt::format(" ({} statements)", k.count) : "";
+      if (word_end < key.size())
+        path_.warnings.push_back(fmt::format("{}:{}: APT statement '{}'{} skipped{}", path_.source, k.first_line,
+                                             printable(key.substr(0, word_end)), key.substr(word_end), count));
+      else
+        path_.warnings.push_back(fmt::format("{}:{}: APT statement '{}' carries no tool-path geometry; skipped{}",
+                                             path_.source, k.first_line, printable(key), count));
     }
   }
 
@@ -299,8 +341,8 @@ class AptReader : public Reader {
   void arc_to(ToolPose end) {
     const int line = circle_line_;
     circle_line_ = 0;
-    const ToolPose& start = path_.poses.back();
-    const Eigen::Vector3d& a = circle_axis_;
+    const ToolPose start = path_.poses.back();  // a copy: adding poses may move the vector
+    const Eigen::Vector3d a = circle_axis_;
     const Eigen::Vector3d rs = start.tip_mm - circle_center_, re = end.tip_mm - circle_center_;
     const Eigen::Vector3d vs = rs - rs.dot(a) * a, ve = re - re.dot(a) * a;
     const double r = vs.norm(), tol = options_.arc_end_tolerance_mm;
@@ -351,13 +393,7 @@ class AptReader : public Reader {
       return;
     }
     const std::string_view s = current_statement_;
-    std::vector<std::string_view> all;
-    for (std::size_t start = s.find('/') + 1;;) {
-      const std::size_t comma = s.find(',', start);
-      all.push_back(trim(s.substr(start, comma == std::string_view::npos ? s.npos : comma - start)));
-      if (comma == std::string_view::npos) break;
-      start = comma + 1;
-    }
+    const std::vector<std::string_view> all = split_all(s.substr(s.find('/') + 1));
     double depth = -1, rapto = 0, rtrcto = 0, feed = feed_mm_per_min_;
     // Keyword, value pairs after the type; a keyword without a value is refused.
     if (all.size() % 2 == 0) fail(line, fmt::format("CYCLE: '{}' has no value", printable(all.back())));

@@ -114,6 +114,13 @@ TEST(Apt, OtherStatementsAreSkippedWithOneWarningPerKind) {
   EXPECT_EQ(p.warnings[1], "path.cl:4: APT statement 'SPINDL' carries no tool-path geometry; skipped (2 statements)");
   EXPECT_EQ(p.warnings[2], "path.cl:5: APT statement 'PPRINT' carries no tool-path geometry; skipped");
   EXPECT_EQ(p.warnings[3], "path.cl:6: APT statement 'COOLNT' carries no tool-path geometry; skipped");
+  // A coordinate system that moves the poses is not applied, and the warning says so apart.
+  const ToolPath c = read_apt("CSYS/1,0,0,0,0,1,0,0,0,0,1,0\nGOTO/0,0,0\nCSYS/1,0,0,5,0,1,0,0,0,0,1,0\nGOTO/1,1,1\n",
+                              "c.cl");
+  ASSERT_EQ(c.warnings.size(), 2u);
+  EXPECT_THAT(c.warnings[0], HasSubstr("c.cl:1: APT statement 'CSYS' carries no tool-path geometry"));
+  EXPECT_THAT(c.warnings[1], HasSubstr("c.cl:3: APT statement 'CSYS' with a transformation other than the identity"));
+  EXPECT_TRUE(c.poses[1].tip_mm.isApprox(Eigen::Vector3d(1, 1, 1)));
 }
 
 // Distance of p from the circle of `arc` (radially and along its axis from the helix).
@@ -321,10 +328,10 @@ TEST(Files, FormatByExtensionOrContent) {
   EXPECT_EQ(read_toolpath_file(dir.write("sniffed_apt.txt", "$$ hi\n" + apt)).poses.size(), 1u);
   EXPECT_EQ(read_toolpath_file(dir.write("sniffed_csv.txt", csv)).poses.size(), 1u);
   EXPECT_EQ(read_toolpath_file(dir.write("sniffed_plain.dat", "# c\n-1,2,3\n")).poses.size(), 1u);
-  // The extension wins over the content: CSV text in a .cl file is refused as APT.
+  // The extension wins over the content: CSV text in a .cl file is refused as APT (the
+  // header's first word passes for an unknown statement, the numbers do not).
   const std::string wrong = dir.write("wrong.cl", csv);
-  EXPECT_THAT(error_of([&] { read_toolpath_file(wrong); }),
-              HasSubstr(wrong + ":1: APT statement 'x': expected '/'"));
+  EXPECT_THAT(error_of([&] { read_toolpath_file(wrong); }), HasSubstr(wrong + ":2: expected an APT statement"));
   const std::string odd = dir.write("odd.txt", "\n*&^\n");
   EXPECT_THAT(error_of([&] { read_toolpath_file(odd); }), HasSubstr(odd + ":2: cannot tell whether"));
   EXPECT_THAT(error_of([&] { read_toolpath_file(dir.write("empty.txt", "")); }), HasSubstr("no pose"));
