@@ -59,7 +59,9 @@
 //
 // Any other statement (LOAD, SELECT, SPINDL, COOLNT, CUTCOM, CSYS, TRNTYP, INSERT, PPRINT,
 // post-processor words ...) carries nothing for placement and is skipped, with one warning
-// per kind in ToolPath::warnings ("FILE:LINE: ..." naming the first and how many).
+// per kind in ToolPath::warnings ("FILE:LINE: ..." naming the first and how many). A CSYS
+// that is not the identity (another setup's coordinate system) is not applied either: the
+// poses after it stay in the coordinates written, and its warning says so separately.
 //
 // CSV (extension .csv): one pose per line, comma separated, blanks around fields ignored,
 // lines starting with '#' and blank lines skipped. An optional header names the columns:
@@ -131,7 +133,7 @@ struct ToolPath {
 };
 
 struct ToolPathReadOptions {
-  // Most poses accepted. A pose costs 64 bytes, so the default bounds memory near 3.2 GB.
+  // Most poses accepted. A pose costs 72 bytes, so the default bounds memory near 3.6 GB.
   std::size_t max_poses = 50'000'000;
   // Longest physical line, in bytes (CL and CSV lines are short; this stops binary garbage
   // or a file without newlines from building a huge statement).

@@ -2,6 +2,8 @@
 // and error the reader promises to report.
 #include "engine/programs/dxf.h"
 
+#include <sys/wait.h>
+
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -581,6 +583,14 @@ TEST(Dxf, CliPrintsJsonAndExitCodes) {
   EXPECT_EQ(std::system((cli + " profile " + dir + "flange_plate.dxf --json > /dev/null").c_str()), 0);
   EXPECT_NE(std::system((cli + " profile /nonexistent.dxf 2> /dev/null").c_str()), 0);
   EXPECT_NE(std::system((cli + " profile " + dir + "flange_plate.dxf --tolerance -1 2> /dev/null").c_str()), 0);
+  auto exit_code = [&](const std::string& args) {
+    const int rc = std::system((cli + " profile " + dir + "flange_plate.dxf " + args + " > /dev/null 2>&1").c_str());
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  };
+  EXPECT_EQ(exit_code("--units inch --flatten-tolerance 0.5"), 0);
+  EXPECT_EQ(exit_code("--units furlong"), 2);
+  EXPECT_EQ(exit_code("--flatten-tolerance 9"), 2);
+  EXPECT_EQ(exit_code("--flatten-tolerance nan"), 2);
 }
 
 }  // namespace

@@ -385,7 +385,16 @@ TEST(Cli, BadInputExitsWithTwoAndNamesTheLine) {
   EXPECT_EQ(WEXITSTATUS(rc), 2);
   std::ifstream in(err);
   const std::string message((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(message, HasSubstr(bad + ":2: APT statement 'CIRCLE' is not supported"));
+  EXPECT_THAT(message, HasSubstr(bad + ":2: CIRCLE: expected at least 6 values"));
+
+  // Skipped statements are warnings on stderr, and the exit code stays 0.
+  const std::string skipped = dir.write("skipped.apt", "UNIT/MM\nSPINDL/1000\nGOTO/0,0,0\nGOTO/1,0,0\nFINI\n");
+  const int rs = std::system(fmt::format("'{}' toolpath '{}' 2> '{}' > /dev/null", MACHPLAN_CLI, skipped, err).c_str());
+  ASSERT_TRUE(WIFEXITED(rs));
+  EXPECT_EQ(WEXITSTATUS(rs), 0);
+  std::ifstream win(err);
+  const std::string warning((std::istreambuf_iterator<char>(win)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(warning, HasSubstr("warning: " + skipped + ":2: APT statement 'SPINDL'"));
 
   const std::string good = dir.write("good.csv", "1,2,3\n4,6,3\n");
   const std::string out = dir.write("out.json", "");
