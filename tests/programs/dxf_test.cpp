@@ -569,6 +569,14 @@ TEST(Dxf, BundledProfiles) {
   EXPECT_NEAR(std::abs(bracket.contours[0].area_mm2), 120 * 30 + 50 * 50 + fillet - fillet, 1e-6);
   EXPECT_NEAR(std::abs(bracket.contours[1].area_mm2), 20 * 12 + kPi * 36, 1e-6);
 
+  const auto curved = read_dxf_profile(dir + "curved_plate.dxf");
+  ASSERT_EQ(curved.contours.size(), 6u) << curved.report();
+  EXPECT_TRUE(curved.problems.empty()) << curved.report();
+  EXPECT_EQ(curved.contours[0].children.size(), 5u);
+  EXPECT_NEAR(std::abs(curved.contours[1].area_mm2), kPi * 30 * 15, 0.005 * curved.contours[1].perimeter_mm);
+  for (std::size_t i = 2; i < 6; ++i) EXPECT_NEAR(std::abs(curved.contours[i].area_mm2), kPi * 16, 1e-9);
+  EXPECT_EQ(curved.contours[5].handles, std::vector<std::string>{"106[1,1]>1101"});
+
   const auto sheet = read_dxf_profile(dir + "nested_sheet.dxf");
   ASSERT_EQ(sheet.contours.size(), 10u);
   EXPECT_FALSE(sheet.has_errors()) << sheet.report();
