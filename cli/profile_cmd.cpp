@@ -1,4 +1,5 @@
-// `machplan profile FILE.dxf [--json] [--tolerance MM] [--units NAME] [--flatten-tolerance DEG]`:
+// `machplan profile FILE.dxf [--json] [--tolerance MM] [--units NAME] [--flatten-tolerance DEG]
+// [--max-entities N]`:
 // the closed contours of a DXF profile and every problem found in the drawing (an open chain
 // with the gap between its ends: how far it is from closing). Exit 2 when the file is malformed or a problem of
 // severity error was found (after printing everything).
@@ -70,8 +71,13 @@ void add_profile(CLI::App& app) {
   cmd->add_option("--flatten-tolerance", *flatten,
                   "Largest tilt (degrees, <= 5) of an entity's plane from XY still projected onto XY")
       ->capture_default_str();
+  auto max_entities = std::make_shared<std::size_t>(machplan::DxfOptions{}.max_entities);
+  cmd->add_option("--max-entities", *max_entities,
+                  "Most entities a drawing may hold, INSERT copies counted (about 1 s per 100 000)")
+      ->capture_default_str();
   cmd->callback([=] {
     machplan::DxfOptions options;
+    options.max_entities = *max_entities;
     options.chain_tolerance_mm = *tolerance;
     options.flatten_tolerance_deg = *flatten;
     if (!units->empty()) {
@@ -85,7 +91,9 @@ void add_profile(CLI::App& app) {
     try {
       options.validate();
     } catch (const machplan::InputError& e) {
-      const std::string flag = e.where() == "flatten_tolerance_deg" ? "--flatten-tolerance" : "--tolerance";
+      const std::string flag = e.where() == "flatten_tolerance_deg" ? "--flatten-tolerance"
+                               : e.where() == "max_entities"        ? "--max-entities"
+                                                                    : "--tolerance";
       throw machplan::InputError(flag, 0, e.message());
     }
     const auto result = machplan::read_dxf_profile(*file, options);

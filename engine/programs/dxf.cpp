@@ -396,11 +396,8 @@ struct Instance {
   std::string layer;
 };
 
-// Most entities a drawing may expand to through INSERT (arrays and nesting multiply); beyond
-// it the file is refused rather than read for minutes.
-constexpr std::size_t kMaxInstances = 2'000'000;
 // Most arcs all curves of a drawing may be fitted with, and the halvings per curve piece.
-constexpr std::size_t kMaxFittedSpans = 4'000'000;
+constexpr std::size_t kMaxFittedSpans = 2'000'000;
 constexpr int kFitDepth = 18;
 // Deepest nesting of INSERT within blocks.
 constexpr int kMaxInsertDepth = 32;
@@ -456,10 +453,12 @@ class Assembler {
 
  private:
   std::size_t new_instance(const Entity& e, std::string handle, std::string layer) {
-    if (instances_.size() >= kMaxInstances)
+    if (instances_.size() >= opt_.max_entities)
       throw InputError(source_, e.line,
-                       fmt::format("the drawing expands to more than {} entities through INSERT; machplan's limit",
-                                   kMaxInstances));
+                       fmt::format("the drawing holds more than {} entities (INSERT copies counted); the limit is "
+                                   "DxfOptions::max_entities (profile --max-entities) and bounds the time and memory a "
+                                   "read takes, about 1 s per 100 000",
+                                   opt_.max_entities));
     instances_.push_back({&e, std::move(handle), std::move(layer)});
     return instances_.size() - 1;
   }
@@ -716,9 +715,9 @@ class Assembler {
       problem(ProfileProblem::Severity::warning, "zero_length", {k}, fmt::format("{} has scale zero; dropped", where(k)));
       return;
     }
-    if (cols < 1 || rows < 1 || cols * rows > static_cast<long>(kMaxInstances))
-      throw InputError(source_, e.line, fmt::format("{}: array of {} x {} copies is not between 1 and {}", where(k), cols,
-                                                    rows, kMaxInstances));
+    if (cols < 1 || rows < 1 || static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows) > opt_.max_entities)
+      throw InputError(source_, e.line, fmt::format("{}: array of {} x {} copies is not between 1 and {} (--max-entities)",
+                                                    where(k), cols, rows, opt_.max_entities));
     Affine o;
     if (!ocs(k, P, real_of(source_, P, 30), o)) return;
     const Vector2d ins(real_of(source_, P, 10), real_of(source_, P, 20));
@@ -1183,6 +1182,8 @@ void DxfOptions::validate() const {
   if (!std::isfinite(assumed_mm_per_unit) || assumed_mm_per_unit < 0.0 || assumed_mm_per_unit > 1e4)
     throw InputError("assumed_mm_per_unit", 0,
                      fmt::format("is {}, must be 0 (not given) or a positive scale up to 1e4 mm", assumed_mm_per_unit));
+  if (max_entities < 1 || max_entities > 10'000'000)
+    throw InputError("max_entities", 0, fmt::format("is {}, must lie in 1 .. 10 000 000", max_entities));
   if (!std::isfinite(flatten_tolerance_deg) || flatten_tolerance_deg < 0.0 || flatten_tolerance_deg > 5.0)
     throw InputError("flatten_tolerance_deg", 0,
                      fmt::format("is {}, must be finite, >= 0 and <= 5 degrees", flatten_tolerance_deg));

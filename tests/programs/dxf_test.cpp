@@ -505,6 +505,25 @@ TEST(DxfUnits, MissingUnitsWarnAndCanBeGiven) {
   EXPECT_EQ(mm_per_drawing_unit("furlong"), 0.0);
 }
 
+TEST(DxfBlocks, EntityLimitCountsInsertCopies) {
+  Writer w;
+  plate_block(w);
+  insert(w, "A", "PLATE", {0, 0}, 1, 1, 0, 10, 10, 30, 30);  // 100 copies of 2 entities, plus the INSERT
+  DxfOptions o;
+  o.max_entities = 201;
+  EXPECT_EQ(read(w, o).contours.size(), 200u);
+  o.max_entities = 200;
+  try {
+    read(w, o);
+    FAIL() << "the limit was not enforced";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than 200 entities"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--max-entities"), std::string::npos) << e.what();
+  }
+  o.max_entities = 0;
+  EXPECT_THROW(o.validate(), InputError);
+}
+
 TEST(DxfEnd, BytesAfterEofAreIgnored) {
   Writer w;
   w.circle("C", {0, 0}, 3);
@@ -599,6 +618,7 @@ TEST(Dxf, CliPrintsJsonAndExitCodes) {
   EXPECT_EQ(exit_code("--units furlong"), 2);
   EXPECT_EQ(exit_code("--flatten-tolerance 9"), 2);
   EXPECT_EQ(exit_code("--flatten-tolerance nan"), 2);
+  EXPECT_EQ(exit_code("--max-entities 3"), 2);
 }
 
 }  // namespace
