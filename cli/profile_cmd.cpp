@@ -1,9 +1,12 @@
-// `machplan profile FILE.dxf [--json] [--tolerance MM]`: the closed contours of a DXF profile
-// and every problem found in the drawing. Exit 2 when the file is malformed or a problem of
+// `machplan profile FILE.dxf [--json] [--tolerance MM] [--units NAME] [--flatten-tolerance DEG]
+// [--max-entities N]`:
+// the closed contours of a DXF profile and every problem found in the drawing (an open chain
+// with the gap between its ends: how far it is from closing). Exit 2 when the file is malformed or a problem of
 // severity error was found (after printing everything).
 #include <cstdio>
 #include <string>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
@@ -18,6 +21,7 @@ nlohmann::json to_json(const machplan::ProfileReadResult& r) {
   out["units"] = "mm";
   out["source"] = r.source;
   out["mm_per_drawing_unit"] = r.mm_per_unit;
+  out["units_stated"] = r.has_insunits;
   json contours = json::array();
   for (const auto& c : r.contours) {
     json v = json::array();
@@ -44,7 +48,8 @@ nlohmann::json to_json(const machplan::ProfileReadResult& r) {
                         {"kind", p.kind},
                         {"handles", p.handles},
                         {"message", p.message},
-                        {"at", p.at ? json::array({p.at->x(), p.at->y()}) : json(nullptr)}});
+                        {"at", p.at ? json::array({p.at->x(), p.at->y()}) : json(nullptr)},
+                        {"gap_mm", p.gap_mm ? json(*p.gap_mm) : json(nullptr)}});
   }
   out["problems"] = problems;
   return out;
@@ -59,13 +64,37 @@ void add_profile(CLI::App& app) {
   cmd->add_flag("--json", *json_out, "Print JSON instead of the readable report");
   cmd->add_option("--tolerance", *tolerance, "Largest gap (mm) still joined when chaining entities")
       ->capture_default_str();
+  auto units = std::make_shared<std::string>();
+  auto flatten = std::make_shared<double>(machplan::DxfOptions{}.flatten_tolerance_deg);
+  cmd->add_option("--units", *units,
+                  "Unit of a drawing that does not state one ($INSUNITS): mm, cm, m, inch, foot, mil, micron, ...");
+  cmd->add_option("--flatten-tolerance", *flatten,
+                  "Largest tilt (degrees, <= 5) of an entity's plane from XY still projected onto XY")
+      ->capture_default_str();
+  auto max_entities = std::make_shared<std::size_t>(machplan::DxfOptions{}.max_entities);
+  cmd->add_option("--max-entities", *max_entities,
+                  "Most entities a drawing may hold, INSERT copies counted (about 1 s per 100 000)")
+      ->capture_default_str();
   cmd->callback([=] {
     machplan::DxfOptions options;
+    options.max_entities = *max_entities;
     options.chain_tolerance_mm = *tolerance;
+    options.flatten_tolerance_deg = *flatten;
+    if (!units->empty()) {
+      options.assumed_mm_per_unit = machplan::mm_per_drawing_unit(*units);
+      if (options.assumed_mm_per_unit == 0)
+        throw machplan::InputError("--units", 0,
+                                   fmt::format("'{}' is not a unit machplan knows (mm, cm, dm, m, inch, foot, yard, "
+                                               "mil, micron, microinch)",
+                                               *units));
+    }
     try {
       options.validate();
     } catch (const machplan::InputError& e) {
-      throw machplan::InputError("--tolerance", 0, e.message());
+      const std::string flag = e.where() == "flatten_tolerance_deg" ? "--flatten-tolerance"
+                               : e.where() == "max_entities"        ? "--max-entities"
+                                                                    : "--tolerance";
+      throw machplan::InputError(flag, 0, e.message());
     }
     const auto result = machplan::read_dxf_profile(*file, options);
     if (*json_out)

@@ -26,6 +26,7 @@ void add_toolpath(CLI::App& app) {
   cmd->callback([args] {
     const machplan::ToolPath path = machplan::read_toolpath_file(args->file);
     const machplan::ToolPathSummary s = machplan::summarize(path);
+    for (const auto& w : path.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (args->json) {
       nlohmann::json j;
       j["source"] = path.source;
@@ -41,6 +42,8 @@ void add_toolpath(CLI::App& app) {
       j["max_step_line"] = s.max_step_line;
       j["feed_length_mm"] = s.feed_length_mm;
       j["rapid_length_mm"] = s.rapid_length_mm;
+      j["arcs"] = path.arcs.size();
+      j["warnings"] = path.warnings;
       if (path.cutter)
         j["cutter"] = {{"diameter_mm", path.cutter->diameter_mm},
                        {"corner_radius_mm", path.cutter->corner_radius_mm},
@@ -59,6 +62,7 @@ void add_toolpath(CLI::App& app) {
                        s.max_tilt_rad * kDegPerRad);
     out += fmt::format("largest step between tips: {:.4f} mm (ending at line {})\n", s.max_step_mm, s.max_step_line);
     out += fmt::format("path length: {:.3f} mm at feed, {:.3f} mm rapid\n", s.feed_length_mm, s.rapid_length_mm);
+    if (!path.arcs.empty()) out += fmt::format("circular moves: {} (poses added along them)\n", path.arcs.size());
     if (path.cutter)
       out += fmt::format("cutter: diameter {:.4g} mm, corner radius {:.4g} mm, length {:.4g} mm\n",
                          path.cutter->diameter_mm, path.cutter->corner_radius_mm, path.cutter->length_mm);

@@ -12,7 +12,15 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 class Dxf:
     def __init__(self):
         self.body = []
+        self.blocks = []  # BLOCKS section lines
         self.handle = 0x100
+
+    def block(self, name, fill):
+        """A block with base point (0, 0) whose entities `fill(d)` draws into a scratch Dxf."""
+        inner = Dxf()
+        inner.handle = self.handle + 0x1000
+        fill(inner)
+        self.blocks += ["0", "BLOCK", "2", name, "70", "0", "10", "0", "20", "0", "30", "0"] + inner.body + ["0", "ENDBLK"]
 
     def _start(self, kind, layer):
         self.handle += 1
@@ -39,13 +47,33 @@ class Dxf:
             if b:
                 self.body += ["42", fmt(b)]
 
+    def spline(self, degree, knots, ctrl, layer="CUT"):  # non-rational, planar
+        self._start("SPLINE", layer)
+        self.body += ["210", "0", "220", "0", "230", "1", "70", "8", "71", str(degree), "72", str(len(knots)),
+                      "73", str(len(ctrl)), "74", "0"]
+        for k in knots:
+            self.body += ["40", fmt(k)]
+        for x, y in ctrl:
+            self.body += ["10", fmt(x), "20", fmt(y), "30", "0"]
+
+    def ellipse(self, c, major, ratio, t0=0.0, t1=2 * math.pi, layer="CUT"):
+        self._start("ELLIPSE", layer)
+        self.body += ["10", fmt(c[0]), "20", fmt(c[1]), "30", "0", "11", fmt(major[0]), "21", fmt(major[1]), "31", "0",
+                      "210", "0", "220", "0", "230", "1", "40", fmt(ratio), "41", fmt(t0), "42", fmt(t1)]
+
+    def insert(self, name, at, cols=1, rows=1, dc=0, dr=0, layer="CUT"):
+        self._start("INSERT", layer)
+        self.body += ["2", name, "10", fmt(at[0]), "20", fmt(at[1]), "30", "0", "41", "1", "42", "1", "50", "0",
+                      "70", str(cols), "71", str(rows), "44", fmt(dc), "45", fmt(dr)]
+
     def text(self, at, s, layer="NOTES"):
         self._start("TEXT", layer)
         self.body += ["10", fmt(at[0]), "20", fmt(at[1]), "30", "0", "40", "5", "1", s]
 
     def write(self, name):
-        out = ["0", "SECTION", "2", "HEADER", "9", "$INSUNITS", "70", "4", "0", "ENDSEC",
-               "0", "SECTION", "2", "ENTITIES"] + self.body + ["0", "ENDSEC", "0", "EOF"]
+        blocks = ["0", "SECTION", "2", "BLOCKS"] + self.blocks + ["0", "ENDSEC"] if self.blocks else []
+        out = (["0", "SECTION", "2", "HEADER", "9", "$INSUNITS", "70", "4", "0", "ENDSEC"] + blocks +
+               ["0", "SECTION", "2", "ENTITIES"] + self.body + ["0", "ENDSEC", "0", "EOF"])
         with open(os.path.join(HERE, name), "w") as f:
             f.write("\n".join(out) + "\n")
 
@@ -111,7 +139,22 @@ def nested_sheet():
     d.write("nested_sheet.dxf")
 
 
+def curved_plate():
+    # A 160 x ~100 plate whose top edge is a cubic B-spline wave, with an elliptical window
+    # and four bolt holes placed as a 2 x 2 array of one block.
+    d = Dxf()
+    d.block("BOLT", lambda b: b.circle((0, 0), 4))
+    d.line((0, 100), (0, 0))
+    d.line((0, 0), (160, 0))
+    d.line((160, 0), (160, 100))
+    d.spline(3, [0, 0, 0, 0, 0.5, 1, 1, 1, 1], [(160, 100), (120, 115), (80, 85), (40, 115), (0, 100)])
+    d.ellipse((50, 50), (30, 0), 0.5)
+    d.insert("BOLT", (110, 25), cols=2, rows=2, dc=30, dr=50)
+    d.write("curved_plate.dxf")
+
+
 if __name__ == "__main__":
     flange()
     bracket()
     nested_sheet()
+    curved_plate()

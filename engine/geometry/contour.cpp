@@ -400,6 +400,39 @@ int winding_number(const Contour& c, const Vector2d& p) {
 
 bool contains(const Contour& c, const Vector2d& p) { return winding_number(c, p) != 0; }
 
+void for_each_intersecting_pair(const std::vector<Eigen::AlignedBox2d>& boxes,
+                                const std::function<void(std::size_t, std::size_t)>& f) {
+  // Sweep along the axis where the boxes are thinner compared with how far they spread.
+  Eigen::AlignedBox2d all;
+  Vector2d summed = Vector2d::Zero();
+  std::vector<std::size_t> order;
+  order.reserve(boxes.size());
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    if (boxes[i].isEmpty()) continue;
+    order.push_back(i);
+    all.extend(boxes[i]);
+    summed += boxes[i].sizes();
+  }
+  if (order.size() < 2) return;
+  const Vector2d spread = all.sizes();
+  const int ax = summed.x() * spread.y() <= summed.y() * spread.x() ? 0 : 1, other = 1 - ax;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return boxes[a].min()[ax] < boxes[b].min()[ax] || (boxes[a].min()[ax] == boxes[b].min()[ax] && a < b);
+  });
+  std::vector<std::size_t> active;
+  for (const std::size_t i : order) {
+    const auto& bi = boxes[i];
+    std::size_t kept = 0;
+    for (const std::size_t j : active) {
+      if (boxes[j].max()[ax] < bi.min()[ax]) continue;  // closed before this one opens
+      active[kept++] = j;
+      if (boxes[j].min()[other] <= bi.max()[other] && bi.min()[other] <= boxes[j].max()[other]) f(j, i);
+    }
+    active.resize(kept);
+    active.push_back(i);
+  }
+}
+
 std::vector<SelfIntersection> self_intersections(const Contour& c, double tolerance_mm) {
   const double tol = std::max(0.0, tolerance_mm);
   std::vector<SelfIntersection> out;
@@ -413,40 +446,47 @@ std::vector<SelfIntersection> self_intersections(const Contour& c, double tolera
     auto box = bounding_box(segs[i]);
     boxes.push_back(Eigen::AlignedBox2d(box.min() - Vector2d::Constant(tol), box.max() + Vector2d::Constant(tol)));
   }
-  for (std::size_t x = 0; x < m; ++x)
-    for (std::size_t y = x + 1; y < m; ++y) {
-      if (!boxes[x].intersects(boxes[y])) continue;
-      const Segment& a = segs[live[x]];
-      const Segment& b = segs[live[y]];
-      // Vertices the two spans legitimately share: consecutive live spans meet at one. A
-      // shared piece of curve shows up as end points away from these and is reported.
-      std::vector<Vector2d> shared;
-      if (y == x + 1) shared.push_back(a.end);
-      if (x == 0 && y == m - 1) shared.push_back(b.end);
-      const Intersection hit = intersect(a, b, tol);
-      for (const auto& p : hit.points) {
-        bool at_shared = false;
-        for (const auto& v : shared) at_shared = at_shared || (p - v).norm() <= 2 * tol + 1e-9;
-        if (!at_shared) out.push_back({live[x], live[y], p});
-      }
+  for_each_intersecting_pair(boxes, [&](std::size_t x, std::size_t y) {
+    if (x > y) std::swap(x, y);
+    const Segment& a = segs[live[x]];
+    const Segment& b = segs[live[y]];
+    // Vertices the two spans legitimately share: consecutive live spans meet at one. A
+    // shared piece of curve shows up as end points away from these and is reported.
+    std::vector<Vector2d> shared;
+    if (y == x + 1) shared.push_back(a.end);
+    if (x == 0 && y == m - 1) shared.push_back(b.end);
+    const Intersection hit = intersect(a, b, tol);
+    for (const auto& p : hit.points) {
+      bool at_shared = false;
+      for (const auto& v : shared) at_shared = at_shared || (p - v).norm() <= 2 * tol + 1e-9;
+      if (!at_shared) out.push_back({live[x], live[y], p});
     }
+  });
+  std::stable_sort(out.begin(), out.end(), [](const SelfIntersection& p, const SelfIntersection& q) {
+    return p.span_a < q.span_a || (p.span_a == q.span_a && p.span_b < q.span_b);
+  });
   return out;
 }
 
 std::vector<Vector2d> contour_intersections(const Contour& a, const Contour& b, double tolerance_mm) {
   const double tol = std::max(0.0, tolerance_mm);
-  std::vector<Vector2d> out;
   const auto sa = a.segments(), sb = b.segments();
-  std::vector<Eigen::AlignedBox2d> bb;
-  for (const auto& s : sb) bb.push_back(bounding_box(s));
+  std::vector<Eigen::AlignedBox2d> boxes;  // a's spans grown by the tolerance, then b's
   for (const auto& s : sa) {
-    auto box = bounding_box(s);
-    box = Eigen::AlignedBox2d(box.min() - Vector2d::Constant(tol), box.max() + Vector2d::Constant(tol));
-    for (std::size_t j = 0; j < sb.size(); ++j) {
-      if (!box.intersects(bb[j])) continue;
-      for (const auto& p : intersect(s, sb[j], tol).points) add_unique(out, p, tol);
-    }
+    const auto box = bounding_box(s);
+    boxes.emplace_back(box.min() - Vector2d::Constant(tol), box.max() + Vector2d::Constant(tol));
   }
+  for (const auto& s : sb) boxes.push_back(bounding_box(s));
+  struct Hit { std::size_t i, j; Vector2d p; };
+  std::vector<Hit> hits;
+  for_each_intersecting_pair(boxes, [&](std::size_t x, std::size_t y) {
+    if (x > y) std::swap(x, y);
+    if (x >= sa.size() || y < sa.size()) return;  // both spans from the same contour
+    for (const auto& p : intersect(sa[x], sb[y - sa.size()], tol).points) hits.push_back({x, y, p});
+  });
+  std::stable_sort(hits.begin(), hits.end(), [](const Hit& p, const Hit& q) { return p.i < q.i || (p.i == q.i && p.j < q.j); });
+  std::vector<Vector2d> out;
+  for (const auto& h : hits) add_unique(out, h.p, tol);
   return out;
 }
 

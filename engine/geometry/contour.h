@@ -37,6 +37,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -217,5 +218,13 @@ std::vector<SelfIntersection> self_intersections(const Contour& c, double tolera
 // intersect()). Empty when they are disjoint or one lies strictly inside the other.
 std::vector<Eigen::Vector2d> contour_intersections(const Contour& a, const Contour& b,
                                                    double tolerance_mm = 1e-6);
+
+// Calls f(i, j) once for every pair i != j of boxes that intersect (touching counts), by
+// sweep and prune: boxes sorted by their low edge along the axis on which they are thinner
+// relative to the spread, each compared only with the boxes still open at its low edge.
+// O(n log n + k) for k pairs when few boxes overlap along that axis; memory O(n). Empty boxes
+// take part in no pair. The order of calls is deterministic (it depends only on the boxes).
+void for_each_intersecting_pair(const std::vector<Eigen::AlignedBox2d>& boxes,
+                                const std::function<void(std::size_t, std::size_t)>& f);
 
 }  // namespace machplan

@@ -6,8 +6,13 @@
 #include <cctype>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <string>
+#include <vector>
 #include <filesystem>
 #include <system_error>
+
+#include <Eigen/Geometry>
 
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
@@ -23,6 +28,7 @@ using text_scan::trim;
 
 constexpr double kMinAxisNorm = 1e-9;
 constexpr double kMmPerInch = 25.4;
+constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kMaxFields = 8;
 
 // Up to kMaxFields comma-separated fields; `count` may exceed kMaxFields (then only the
@@ -138,6 +144,8 @@ class AptReader : public Reader {
       }
     }
     if (joined_line > 0) fail(joined_line, "statement continued with '$' but the file ends");
+    if (circle_line_ > 0) fail(circle_line_, "CIRCLE without a GOTO to end it before the file ends");
+    finish_warnings();
     return finish();
   }
 
@@ -145,6 +153,7 @@ class AptReader : public Reader {
   void statement(std::string_view s, int line) {
     s = trim(s);
     if (s.empty()) return;
+    current_statement_ = s;
     std::size_t word_end = 0;
     while (word_end < s.size() && (std::isalnum(static_cast<unsigned char>(s[word_end])) || s[word_end] == '_'))
       ++word_end;
@@ -160,21 +169,40 @@ class AptReader : public Reader {
       return;
     }
     const bool has_slash = !rest.empty() && rest.front() == '/';
+    if (!known(word)) {
+      // A coordinate system other than the identity moves the poses that follow; machplan
+      // keeps them as written and says so apart from the harmless identity ones.
+      if (iequals(word, "CSYS") && has_slash && !identity_csys(split_all(rest.substr(1))))
+        return skip("CSYS", line, " with a transformation other than the identity: the poses after it are kept in "
+                                  "the coordinates written, not transformed");
+      return skip(word, line);
+    }
     if (!rest.empty() && !has_slash)
       fail(line, fmt::format("APT statement '{}': expected '/' or the end of the statement, found '{}'",
                              printable(word), printable(rest, 40)));
     const Fields args = split_commas(has_slash ? rest.substr(1) : std::string_view{});
-    if (has_slash && args.count == 0)
+    const bool bare_rapid = iequals(word, "RAPID") && args.count == 0;  // RAPID and RAPID/
+    if (has_slash && args.count == 0 && !bare_rapid)
       fail(line, fmt::format("APT statement '{}': no values after '/'", printable(word)));
+    if (circle_line_ > 0 && (iequals(word, "CIRCLE") || iequals(word, "FINI") || iequals(word, "CYCLE") ||
+                             iequals(word, "FROM") || iequals(word, "GODLTA") || (iequals(word, "RAPID") && !bare_rapid)))
+      fail(line, fmt::format("{} after the CIRCLE of line {}, which needs a GOTO to end it", printable(word), circle_line_));
 
-    if (iequals(word, "GOTO")) return go_to(args, line);
+    if (iequals(word, "GOTO")) return go_to(args, line, "GOTO");
+    if (iequals(word, "FROM")) {
+      rapid_ = true;
+      return go_to(args, line, "FROM");
+    }
+    if (iequals(word, "GODLTA")) return go_to(args, line, "GODLTA");
+    if (iequals(word, "CIRCLE")) return circle(args, line);
+    if (iequals(word, "CYCLE")) return cycle(args, line);
     if (iequals(word, "TLAXIS")) return tool_axis(args, line);
     if (iequals(word, "FEDRAT")) return feed(args, line);
     if (iequals(word, "CUTTER")) return cutter(args, line);
     if (iequals(word, "RAPID")) {
-      no_values(word, args, line);
       rapid_ = true;
-      return;
+      if (bare_rapid) return;
+      return go_to(args, line, "RAPID");
     }
     if (iequals(word, "MULTAX")) {
       if (args.count == 0 || (args.count == 1 && iequals(args.at[0], "ON"))) {
@@ -184,36 +212,103 @@ class AptReader : public Reader {
       }
       return;
     }
-    if (iequals(word, "UNITS")) {
-      if (args.count == 1 && iequals(args.at[0], "MM")) {
+    if (iequals(word, "UNITS") || iequals(word, "UNIT")) {
+      if (args.count == 1 && (iequals(args.at[0], "MM") || iequals(args.at[0], "MILLIMETERS"))) {
         mm_per_unit_ = 1.0;
       } else if (args.count == 1 && (iequals(args.at[0], "INCHES") || iequals(args.at[0], "INCH"))) {
         mm_per_unit_ = kMmPerInch;
       } else {
-        fail(line, "UNITS: expected UNITS/MM or UNITS/INCHES");
+        fail(line, fmt::format("{}: expected {}/MM or {}/INCHES", printable(word), printable(word), printable(word)));
       }
       return;
     }
-    if (iequals(word, "FINI")) {
-      no_values(word, args, line);
-      after_fini_ = true;
-      return;
-    }
-    fail(line, fmt::format("APT statement '{}' is not supported", printable(word)));
+    // FINI
+    no_values(word, args, line);
+    if (circle_line_ > 0) fail(line, fmt::format("FINI after the CIRCLE of line {}, which needs a GOTO to end it", circle_line_));
+    after_fini_ = true;
   }
 
+  static bool known(std::string_view word) {
+    for (const char* k : {"GOTO", "FROM", "GODLTA", "CIRCLE", "CYCLE", "TLAXIS", "FEDRAT", "CUTTER", "RAPID", "MULTAX",
+                          "UNITS", "UNIT", "FINI"})
+      if (iequals(word, k)) return true;
+    return false;
+  }
+
+  static std::vector<std::string_view> split_all(std::string_view s) {
+    std::vector<std::string_view> all;
+    for (std::size_t start = 0;;) {
+      const std::size_t comma = s.find(',', start);
+      all.push_back(trim(s.substr(start, comma == std::string_view::npos ? s.npos : comma - start)));
+      if (comma == std::string_view::npos) break;
+      start = comma + 1;
+    }
+    return all;
+  }
+
+  // CSYS/r11, r12, r13, tx, r21, ..., tz: true when it is the identity (to 1e-9).
+  static bool identity_csys(const std::vector<std::string_view>& v) {
+    if (v.size() != 12) return false;
+    for (std::size_t k = 0; k < 12; ++k) {
+      double x = 0;
+      std::string_view f = v[k];
+      if (!f.empty() && f.front() == '+') f.remove_prefix(1);
+      const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), x);
+      if (ec != std::errc() || end != f.data() + f.size()) return false;
+      const double want = (k == 0 || k == 5 || k == 10) ? 1.0 : 0.0;
+      if (std::abs(x - want) > 1e-9) return false;
+    }
+    return true;
+  }
+
+  // A statement that carries nothing for the tool path: one warning per kind (`note` tells
+  // a kind apart and ends its message).
+  void skip(std::string_view word, int line, std::string_view note = {}) {
+    std::string key(word);
+    for (char& c : key) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    key += note;
+    auto [it, fresh] = skipped_.try_emplace(key, Skipped{line, 0});
+    ++it->second.count;
+    if (fresh) skipped_order_.push_back(key);
+  }
+
+ public:
+  // The warnings for skipped statements, in order of first appearance.
+  void finish_warnings() {
+    for (const auto& key : skipped_order_) {
+      const Skipped& k = skipped_.at(key);
+      const std::size_t word_end = std::min(key.find(' '), key.size());
+      const std::string count = k.count > 1 ? fmt::format(" ({} statements)", k.count) : "";
+      if (word_end < key.size())
+        path_.warnings.push_back(fmt::format("{}:{}: APT statement '{}'{} skipped{}", path_.source, k.first_line,
+                                             printable(key.substr(0, word_end)), key.substr(word_end), count));
+      else
+        path_.warnings.push_back(fmt::format("{}:{}: APT statement '{}' carries no tool-path geometry; skipped{}",
+                                             path_.source, k.first_line, printable(key), count));
+    }
+  }
+
+ private:
   void no_values(std::string_view word, const Fields& args, int line) const {
     if (args.count != 0) fail(line, fmt::format("{} takes no values", printable(word)));
   }
 
-  void go_to(const Fields& args, int line) {
+  Eigen::Vector3d point3(const Fields& args, std::size_t from, int line, const char* what) const {
+    return Eigen::Vector3d(number(args.at[from], line, fmt::format("{} x", what).c_str()),
+                           number(args.at[from + 1], line, fmt::format("{} y", what).c_str()),
+                           number(args.at[from + 2], line, fmt::format("{} z", what).c_str()));
+  }
+
+  // GOTO, FROM, RAPID with values, GODLTA (`what`; relative to the last pose).
+  void go_to(const Fields& args, int line, const char* what) {
+    const bool relative = std::string_view(what) == "GODLTA";
     if (args.count != 3 && args.count != 6)
-      fail(line, fmt::format("GOTO: expected 3 values (x, y, z) or 6 (x, y, z, i, j, k), found {}", args.count));
+      fail(line, fmt::format("{}: expected 3 values (x, y, z) or 6 (x, y, z, i, j, k), found {}", what, args.count));
+    if (relative && path_.poses.empty()) fail(line, "GODLTA before any position");
     ToolPose pose;
     pose.line = line;
-    pose.tip_mm = Eigen::Vector3d(number(args.at[0], line, "GOTO x"), number(args.at[1], line, "GOTO y"),
-                                  number(args.at[2], line, "GOTO z")) *
-                  mm_per_unit_;
+    pose.tip_mm = point3(args, 0, line, what) * mm_per_unit_;
+    if (relative) pose.tip_mm += path_.poses.back().tip_mm;
     if (args.count == 6) {
       pose.axis = unit_axis({number(args.at[3], line, "GOTO i"), number(args.at[4], line, "GOTO j"),
                              number(args.at[5], line, "GOTO k")},
@@ -225,7 +320,116 @@ class AptReader : public Reader {
     pose.feed_mm_per_min = feed_mm_per_min_;
     pose.rapid = rapid_;
     rapid_ = false;
+    if (circle_line_ > 0) return arc_to(pose);
+    if (cycle_) return drill(pose);
     add_pose(pose);
+  }
+
+  // CIRCLE/cx, cy, cz, i, j, k[, r, ...]: kept until the GOTO that ends it.
+  void circle(const Fields& args, int line) {
+    if (args.count < 6)
+      fail(line, fmt::format("CIRCLE: expected at least 6 values (cx, cy, cz, i, j, k[, r]), found {}", args.count));
+    if (path_.poses.empty()) fail(line, "CIRCLE before any position: the arc has no start point");
+    circle_center_ = point3(args, 0, line, "CIRCLE") * mm_per_unit_;
+    circle_axis_ = unit_axis({number(args.at[3], line, "CIRCLE i"), number(args.at[4], line, "CIRCLE j"),
+                              number(args.at[5], line, "CIRCLE k")},
+                             line);
+    circle_radius_ = args.count >= 7 ? number(args.at[6], line, "CIRCLE r") * mm_per_unit_ : -1.0;
+    circle_line_ = line;
+  }
+
+  void arc_to(ToolPose end) {
+    const int line = circle_line_;
+    circle_line_ = 0;
+    const ToolPose start = path_.poses.back();  // a copy: adding poses may move the vector
+    const Eigen::Vector3d a = circle_axis_;
+    const Eigen::Vector3d rs = start.tip_mm - circle_center_, re = end.tip_mm - circle_center_;
+    const Eigen::Vector3d vs = rs - rs.dot(a) * a, ve = re - re.dot(a) * a;
+    const double r = vs.norm(), tol = options_.arc_end_tolerance_mm;
+    if (!(r > tol)) fail(line, fmt::format("CIRCLE: the start point lies on the axis (radius {:g} mm)", r));
+    if (circle_radius_ >= 0 && std::abs(circle_radius_ - r) > tol)
+      fail(line, fmt::format("CIRCLE: radius {:g} mm but the start point is {:g} mm from the axis", circle_radius_, r));
+    if (std::abs(ve.norm() - r) > tol)
+      fail(end.line, fmt::format("the GOTO ending the CIRCLE of line {} is {:g} mm from the axis, the start {:g} mm: "
+                                 "not on one circle",
+                                 line, ve.norm(), r));
+    double sweep = std::atan2(a.dot(vs.cross(ve)), vs.dot(ve));
+    if (sweep < 0) sweep += 2 * kPi;
+    if ((ve - vs).norm() <= tol && sweep < kPi) sweep = 2 * kPi;  // back to the start: a full turn
+    ToolArc arc;
+    arc.center_mm = circle_center_;
+    arc.axis = a;
+    arc.radius_mm = r;
+    arc.sweep_rad = sweep;
+    arc.line = line;
+    arc.first_pose = path_.poses.size();
+    // Steps: the chord of angle h stays within r (1 - cos(h / 2)) of the arc.
+    const double by_tol = 2 * std::acos(std::max(-1.0, 1 - options_.arc_tolerance_mm / r));
+    const double step = std::min(options_.arc_step_rad, by_tol > 0 ? by_tol : options_.arc_step_rad);
+    const auto n = static_cast<std::size_t>(std::ceil(sweep / step));
+    if (n > options_.max_poses) fail(line, fmt::format("CIRCLE needs {} poses, beyond the reader's limit", n));
+    const Eigen::Vector3d u = vs / r, w = a.cross(u);
+    const double h0 = rs.dot(a), h1 = re.dot(a);
+    const int index = static_cast<int>(path_.arcs.size());
+    for (std::size_t k = 1; k < n; ++k) {
+      const double f = static_cast<double>(k) / static_cast<double>(n), t = f * sweep;
+      ToolPose p = end;
+      p.tip_mm = circle_center_ + r * (std::cos(t) * u + std::sin(t) * w) + (h0 + f * (h1 - h0)) * a;
+      p.axis = (start.axis + f * (end.axis - start.axis)).normalized();
+      p.arc = index;
+      add_pose(p);
+    }
+    end.arc = index;
+    add_pose(end);
+    arc.last_pose = path_.poses.size() - 1;
+    path_.arcs.push_back(arc);
+  }
+
+  // CYCLE/type, FEDTO, d, ...: each GOTO until CYCLE/OFF becomes a plunge. Cycles list more
+  // options than Fields holds, so the statement is split again in full here.
+  void cycle(const Fields& args, int line) {
+    if (args.count == 1 && (iequals(args.at[0], "OFF") || iequals(args.at[0], "INIT") || iequals(args.at[0], "ON"))) {
+      if (iequals(args.at[0], "OFF")) cycle_ = false;
+      return;
+    }
+    const std::string_view s = current_statement_;
+    const std::vector<std::string_view> all = split_all(s.substr(s.find('/') + 1));
+    double depth = -1, rapto = 0, rtrcto = 0, feed = feed_mm_per_min_;
+    // Keyword, value pairs after the type; a keyword without a value is refused.
+    if (all.size() % 2 == 0) fail(line, fmt::format("CYCLE: '{}' has no value", printable(all.back())));
+    for (std::size_t k = 1; k + 1 < all.size(); k += 2) {
+      const std::string_view key = all[k];
+      const double v = number(all[k + 1], line, "CYCLE value");
+      if (iequals(key, "FEDTO")) depth = v * mm_per_unit_;
+      else if (iequals(key, "RAPTO")) rapto = v * mm_per_unit_;
+      else if (iequals(key, "RTRCTO")) rtrcto = v * mm_per_unit_;
+      else if (iequals(key, "MMPM")) feed = v;
+      else if (iequals(key, "IPM")) feed = v * kMmPerInch;
+    }
+    if (depth < 0) fail(line, fmt::format("CYCLE/{}: no FEDTO depth (or a negative one)", printable(all[0])));
+    if (!(feed > 0)) fail(line, fmt::format("CYCLE/{}: no feed (MMPM or IPM value, or an earlier FEDRAT)", printable(all[0])));
+    cycle_ = true;
+    cycle_depth_ = depth;
+    cycle_rapto_ = rapto;
+    cycle_rtrcto_ = rtrcto;
+    cycle_feed_ = feed;
+  }
+
+  // One hole of a cycle at its top point `top`.
+  void drill(const ToolPose& top) {
+    const Eigen::Vector3d a = top.axis;
+    auto at = [&](double along, bool rapid, double feed) {
+      ToolPose p = top;
+      p.tip_mm = top.tip_mm + along * a;
+      p.rapid = rapid;
+      p.feed_mm_per_min = feed;
+      add_pose(p);
+    };
+    if (path_.poses.empty() || (path_.poses.back().tip_mm - (top.tip_mm + cycle_rtrcto_ * a)).norm() > 1e-9)
+      at(cycle_rtrcto_, true, feed_mm_per_min_);
+    if (cycle_rapto_ != cycle_rtrcto_) at(cycle_rapto_, true, feed_mm_per_min_);
+    at(-cycle_depth_, false, cycle_feed_);
+    at(cycle_rtrcto_, true, feed_mm_per_min_);
   }
 
   void tool_axis(const Fields& args, int line) {
@@ -287,6 +491,20 @@ class AptReader : public Reader {
   double mm_per_unit_ = 1.0;
   bool rapid_ = false;
   bool after_fini_ = false;
+  // A CIRCLE waiting for its GOTO (circle_line_ > 0).
+  int circle_line_ = 0;
+  Eigen::Vector3d circle_center_ = Eigen::Vector3d::Zero(), circle_axis_ = Eigen::Vector3d::UnitZ();
+  double circle_radius_ = -1.0;
+  // A canned cycle in force.
+  bool cycle_ = false;
+  double cycle_depth_ = 0, cycle_rapto_ = 0, cycle_rtrcto_ = 0, cycle_feed_ = 0;
+  std::string_view current_statement_;
+  struct Skipped {
+    int first_line = 0;
+    std::size_t count = 0;
+  };
+  std::map<std::string, Skipped> skipped_;
+  std::vector<std::string> skipped_order_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -408,11 +626,25 @@ std::string lower_extension(const std::string& path) {
 
 }  // namespace
 
+void ToolPathReadOptions::validate() const {
+  if (max_poses == 0) throw InputError("max_poses", 0, "must be at least 1");
+  if (max_line_bytes == 0) throw InputError("max_line_bytes", 0, "must be at least 1");
+  if (max_statement_bytes == 0) throw InputError("max_statement_bytes", 0, "must be at least 1");
+  if (!std::isfinite(arc_step_rad) || !(arc_step_rad > 0) || arc_step_rad > kPi / 2)
+    throw InputError("arc_step_rad", 0, fmt::format("is {}, must lie in (0, pi/2]", arc_step_rad));
+  if (!std::isfinite(arc_tolerance_mm) || !(arc_tolerance_mm > 0) || arc_tolerance_mm > 100)
+    throw InputError("arc_tolerance_mm", 0, fmt::format("is {}, must lie in (0, 100] mm", arc_tolerance_mm));
+  if (!std::isfinite(arc_end_tolerance_mm) || !(arc_end_tolerance_mm > 0) || arc_end_tolerance_mm > 100)
+    throw InputError("arc_end_tolerance_mm", 0, fmt::format("is {}, must lie in (0, 100] mm", arc_end_tolerance_mm));
+}
+
 ToolPath read_apt(std::string_view text, const std::string& source, const ToolPathReadOptions& options) {
+  options.validate();
   return AptReader(source, options).read(text);
 }
 
 ToolPath read_toolpath_csv(std::string_view text, const std::string& source, const ToolPathReadOptions& options) {
+  options.validate();
   return CsvReader(source, options).read(text);
 }
 

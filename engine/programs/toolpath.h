@@ -13,7 +13,8 @@
 //
 //   PARTNO any text              part name, kept in ToolPath::part_name
 //   UNITS/MM | UNITS/INCHES      unit of the numbers that follow (default MM); INCHES are
-//                                converted to mm (x 25.4) as they are read
+//   UNIT/MM | UNIT/INCHES        converted to mm (x 25.4) as they are read. UNIT is the
+//                                spelling CAMWorks and others write.
 //   CUTTER/d[, r[, e, f, a, b, h]]
 //                                APT cutter: diameter d, corner radius r (default 0), and with
 //                                all seven values the flute length h. d > 0, 0 <= r <= d/2.
@@ -25,12 +26,42 @@
 //                                multi-axis output on or off; informational (GOTO decides by
 //                                its number of values)
 //   TLAXIS/i, j, k               tool axis for the following three-value GOTOs
-//   RAPID                        the next GOTO is a rapid move (ToolPose::rapid)
+//   RAPID | RAPID/               the next GOTO is a rapid move (ToolPose::rapid)
+//   RAPID/x, y, z[, i, j, k]     a rapid move to that pose (as RAPID then GOTO)
 //   GOTO/x, y, z                 a pose with the current TLAXIS (initially +Z)
 //   GOTO/x, y, z, i, j, k        a pose with its own axis (does not change TLAXIS)
+//   FROM/x, y, z[, i, j, k]      the start position: a rapid pose
+//   GODLTA/dx, dy, dz            a pose displaced from the last one
+//   CIRCLE/cx, cy, cz, i, j, k[, r, ...]
+//                                the next GOTO ends a circular move from the current position
+//                                about the axis through (cx, cy, cz) along (i, j, k), turning
+//                                counter-clockwise seen from the tip of (i, j, k) (right-hand
+//                                rule). A GOTO back to the start point is a full turn; a change
+//                                of height along the axis makes a helix. The radius r, when
+//                                given, must agree with the distance of the start point to the
+//                                axis. The move is kept as a ToolArc in ToolPath::arcs, and
+//                                poses along it are added (every ReadOptions::arc_step_rad
+//                                radians at most, and close enough that the chord between two
+//                                stays within arc_tolerance_mm of the arc), so that a reader
+//                                of poses alone still follows the arc.
+//   CYCLE/type, FEDTO, d[, key, value ...]
+//                                a canned cycle (DRILL, DEEP, DEEP2, BRKCHP, TAP, BORE, REAM,
+//                                ... any type with FEDTO): until CYCLE/OFF each GOTO is a hole
+//                                position P (its top) and is expanded into: rapid to
+//                                P + RTRCTO along the tool axis, rapid to P + RAPTO, feed (MMPM
+//                                or IPM value, else the current feed) to P - d, rapid back to
+//                                P + RTRCTO. Peck and chip-breaking cycles are expanded as one
+//                                plunge: the tool sweeps the same volume. RAPTO and RTRCTO
+//                                default to 0. CYCLE/INIT and CYCLE/ON carry nothing.
 //   FINI                         end of the path; only comments and blanks may follow
 //   $$ text                      comment (anywhere on a line; the rest of the line is ignored)
 //   ... $                        a '$' ending a line continues the statement on the next line
+//
+// Any other statement (LOAD, SELECT, SPINDL, COOLNT, CUTCOM, CSYS, TRNTYP, INSERT, PPRINT,
+// post-processor words ...) carries nothing for placement and is skipped, with one warning
+// per kind in ToolPath::warnings ("FILE:LINE: ..." naming the first and how many). A CSYS
+// that is not the identity (another setup's coordinate system) is not applied either: the
+// poses after it stay in the coordinates written, and its warning says so separately.
 //
 // CSV (extension .csv): one pose per line, comma separated, blanks around fields ignored,
 // lines starting with '#' and blank lines skipped. An optional header names the columns:
@@ -43,8 +74,9 @@
 //
 // Refused, always with "FILE:LINE: what" (InputError)
 // --------------------------------------------------
-//   * any APT statement outside the list above ("APT statement 'CIRCLE' is not supported"),
-//     a wrong number of values, a word where a number belongs;
+//   * a wrong number of values or a word where a number belongs in a statement listed above;
+//     a CIRCLE without a position before it or a GOTO after it, or whose end point is not on
+//     its circle; a cycle GOTO without FEDTO;
 //   * non-finite or out-of-range numbers (inf, nan, 1e999);
 //   * a tool axis shorter than 1e-9 (it is normalised to unit length otherwise);
 //   * a line longer than ReadOptions::max_line_bytes, a statement (with its continuations)
@@ -69,6 +101,19 @@ struct ToolPose {
   double feed_mm_per_min = 0.0;  // feed in force at this pose; 0 when the file gave none
   int line = 0;                  // 1-based source line of the statement or row
   bool rapid = false;            // APT: this GOTO followed a RAPID
+  int arc = -1;                  // index into ToolPath::arcs when the move to here is circular
+};
+
+// A circular (or helical) move of an APT CIRCLE: from poses[first_pose - 1] through the
+// added poses to poses[last_pose], turning by sweep_rad about `axis` (right-hand rule) around
+// the line through center_mm. The poses it spans all carry its index in ToolPose::arc.
+struct ToolArc {
+  std::size_t first_pose = 0, last_pose = 0;
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit
+  double radius_mm = 0.0;
+  double sweep_rad = 0.0;  // > 0, up to 2 pi for a full turn
+  int line = 0;            // line of the CIRCLE statement
 };
 
 struct ToolPath {
@@ -83,10 +128,12 @@ struct ToolPath {
   std::vector<ToolPose> poses;
   std::optional<Cutter> cutter;  // last CUTTER statement in the file, if any
   bool multiaxis = false;        // MULTAX/ON seen, or some pose carried its own axis
+  std::vector<ToolArc> arcs;     // APT CIRCLE moves, in order
+  std::vector<std::string> warnings;  // skipped statements, one line per kind
 };
 
 struct ToolPathReadOptions {
-  // Most poses accepted. A pose costs 64 bytes, so the default bounds memory near 3.2 GB.
+  // Most poses accepted. A pose costs 72 bytes, so the default bounds memory near 3.6 GB.
   std::size_t max_poses = 50'000'000;
   // Longest physical line, in bytes (CL and CSV lines are short; this stops binary garbage
   // or a file without newlines from building a huge statement).
@@ -95,6 +142,15 @@ struct ToolPathReadOptions {
   std::size_t max_statement_bytes = 1024 * 1024;
   // Largest file read by read_toolpath_file.
   std::size_t max_file_bytes = std::size_t{512} << 20;
+  // Poses added along an APT CIRCLE: at most this angle apart (rad, in (0, pi/2]) ...
+  double arc_step_rad = 0.1;
+  // ... and close enough that each chord stays within this distance of the arc (mm, > 0).
+  double arc_tolerance_mm = 0.01;
+  // Largest deviation of a CIRCLE's end point from its circle, mm, before it is refused.
+  double arc_end_tolerance_mm = 0.01;
+
+  // Throws InputError naming the field.
+  void validate() const;
 };
 
 enum class ToolPathFormat { apt, csv };

@@ -1,11 +1,14 @@
 // Contracts of engine/geometry/contour.h: exact areas against closed-form formulas,
 // orientation, lengths, distances, containment, intersections and degenerate input.
 #include "engine/geometry/contour.h"
+#include "engine/geometry/curve_fit.h"
 
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <set>
 #include <stdexcept>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -267,6 +270,93 @@ TEST(ContourIntersections, TouchingAndNested) {
   Contour crossing({{5, 5}, {15, 5}, {15, 15}, {5, 15}}, {0, 0, 0, 0});
   EXPECT_EQ(contour_intersections(a, crossing).size(), 2u);
   EXPECT_FALSE(contour_intersections(a, Contour::circle({10, 5}, 1)).empty());
+}
+
+TEST(BoxPairs, SweepFindsExactlyTheIntersectingPairs) {
+  // Pseudo-random boxes of mixed shapes (long, thin, square, empty): the sweep must report
+  // each intersecting pair once and nothing else, as the all-pairs definition says.
+  std::vector<Eigen::AlignedBox2d> boxes;
+  unsigned seed = 12345;
+  auto next = [&] {
+    seed = seed * 1103515245u + 12345u;
+    return static_cast<double>((seed >> 8) % 10000) / 100.0;
+  };
+  for (int i = 0; i < 400; ++i) {
+    const Vector2d lo(next(), next());
+    const Vector2d size(i % 7 == 0 ? 60 : next() / 10, i % 11 == 0 ? 60 : next() / 10);
+    boxes.emplace_back(lo, lo + size);
+  }
+  boxes.emplace_back();  // empty: takes part in no pair
+  std::set<std::pair<std::size_t, std::size_t>> seen;
+  for_each_intersecting_pair(boxes, [&](std::size_t a, std::size_t b) {
+    ASSERT_NE(a, b);
+    EXPECT_TRUE(seen.insert({std::min(a, b), std::max(a, b)}).second) << "pair reported twice";
+  });
+  std::size_t expected = 0;
+  for (std::size_t a = 0; a < boxes.size(); ++a)
+    for (std::size_t b = a + 1; b < boxes.size(); ++b)
+      if (!boxes[a].isEmpty() && !boxes[b].isEmpty() && boxes[a].intersects(boxes[b])) {
+        ++expected;
+        EXPECT_TRUE(seen.count({a, b})) << a << " " << b;
+      }
+  EXPECT_EQ(seen.size(), expected);
+  EXPECT_GT(expected, 100u);
+}
+
+TEST(CurveFit, BiarcsFollowAParabolaWithinToleranceAndWithoutCorners) {
+  auto parabola = [](double t) { return Vector2d(t, 0.05 * t * t); };
+  std::vector<Vector2d> v;
+  std::vector<double> b;
+  const double tol = 0.002;
+  const ArcFitResult r = fit_arcs(parabola, -40, 40, tol, v, b);
+  ASSERT_EQ(v.size(), b.size() + 1);
+  EXPECT_EQ(r.spans, b.size());
+  EXPECT_LE(r.max_deviation_mm, tol);
+  EXPECT_NEAR((v.front() - parabola(-40)).norm(), 0, 1e-12);
+  EXPECT_NEAR((v.back() - parabola(40)).norm(), 0, 1e-12);
+  std::vector<Segment> segs;
+  for (std::size_t i = 0; i < b.size(); ++i) segs.push_back(make_segment(v[i], v[i + 1], b[i]));
+  // Dense check, between the fitter's own samples.
+  double worst = 0;
+  for (int i = 0; i <= 20000; ++i) {
+    const Vector2d p = parabola(-40 + 80.0 * i / 20000);
+    double d = std::numeric_limits<double>::infinity();
+    for (const auto& s : segs) d = std::min(d, (closest_point(s, p) - p).norm());
+    worst = std::max(worst, d);
+  }
+  EXPECT_LE(worst, tol * 1.05);
+  for (std::size_t i = 0; i + 1 < segs.size(); ++i) {
+    const Vector2d a = end_tangent(segs[i]), c = start_tangent(segs[i + 1]);
+    EXPECT_LT(std::abs(cross(a, c)), 1e-9) << "corner between spans " << i << " and " << i + 1;
+  }
+}
+
+TEST(CurveFit, NurbsAndInterpolantsEvaluateAndValidate) {
+  // A clamped linear B-spline is its control polygon.
+  Nurbs line{1, {{0, 0}, {10, 0}, {10, 5}}, {}, {0, 0, 1, 2, 2}};
+  EXPECT_NO_THROW(line.validate());
+  EXPECT_NEAR((line.point(0.5, line.span_of(0.5)) - Vector2d(5, 0)).norm(), 0, 1e-12);
+  EXPECT_NEAR((line.point(1.5, line.span_of(1.5)) - Vector2d(10, 2.5)).norm(), 0, 1e-12);
+  EXPECT_EQ(line.breaks(), (std::vector<double>{0, 1, 2}));
+  Nurbs bad = line;
+  bad.knots = {0, 0, 2, 1, 2};
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  bad = line;
+  bad.knots.pop_back();
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  bad = line;
+  bad.weights = {1, -1, 1};
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  // The cubic through points: passes through them, with the asked end direction.
+  const std::vector<Vector2d> pts = {{0, 0}, {3, 4}, {6, 0}, {10, 1}};
+  const CubicInterpolant ci = interpolate_cubic(pts, Vector2d(0, 2), Vector2d::Zero());
+  for (std::size_t i = 0; i + 1 < pts.size(); ++i) {
+    EXPECT_NEAR((ci.point(ci.params[i], i) - pts[i]).norm(), 0, 1e-12);
+    EXPECT_NEAR((ci.point(ci.params[i + 1], i) - pts[i + 1]).norm(), 0, 1e-12);
+  }
+  EXPECT_NEAR(ci.derivatives[0].x(), 0, 1e-12);
+  EXPECT_THROW(interpolate_cubic({{1, 1}, {1, 1}}), std::invalid_argument);
+  EXPECT_THROW(interpolate_cubic({{1, 1}}), std::invalid_argument);
 }
 
 }  // namespace

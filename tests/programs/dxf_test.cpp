@@ -2,6 +2,8 @@
 // and error the reader promises to report.
 #include "engine/programs/dxf.h"
 
+#include <sys/wait.h>
+
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -11,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "engine/geometry/curve_fit.h"
 
 namespace machplan {
 namespace {
@@ -21,7 +24,8 @@ constexpr double kPi = std::numbers::pi;
 // Small DXF writer: entities are lists of (code, value) lines.
 struct Writer {
   std::string body;
-  std::string header;
+  std::string header = "9\n$INSUNITS\n70\n4\n";  // mm; tests of missing units clear it
+  std::string blocks;                               // BLOCKS section content, if any
   void pair(int code, const std::string& v) { body += fmt::format("{}\n{}\n", code, v); }
   void pair(int code, double v) { body += fmt::format("{}\n{:.12g}\n", code, v); }
   void line(const std::string& h, Vector2d a, Vector2d b) {
@@ -39,6 +43,7 @@ struct Writer {
   }
   std::string text() const {
     return (header.empty() ? "" : "0\nSECTION\n2\nHEADER\n" + header + "0\nENDSEC\n") +
+           (blocks.empty() ? "" : "0\nSECTION\n2\nBLOCKS\n" + blocks + "0\nENDSEC\n") +
            "0\nSECTION\n2\nENTITIES\n" + body + "0\nENDSEC\n0\nEOF\n";
   }
 };
@@ -173,13 +178,13 @@ TEST(Dxf, OverlappingContoursAreReported) {
 TEST(Dxf, UnsupportedEntitiesAreNamed) {
   Writer w;
   w.circle("C1", {0, 0}, 10);
-  w.pair(0, "SPLINE"); w.pair(5, "SP"); w.pair(70, "8");
+  w.pair(0, "3DSOLID"); w.pair(5, "SO");
   w.pair(0, "TEXT"); w.pair(5, "TX"); w.pair(1, "note");
-  w.pair(0, "INSERT"); w.pair(5, "IN"); w.pair(2, "BOLT");
+  w.pair(0, "MESH"); w.pair(5, "ME");
   const auto r = read(w);
   ASSERT_EQ(count(r, "unsupported_entity"), 2) << r.report();
-  EXPECT_NE(r.report().find("SPLINE SP"), std::string::npos);
-  EXPECT_NE(r.report().find("INSERT IN"), std::string::npos);
+  EXPECT_NE(r.report().find("3DSOLID SO"), std::string::npos);
+  EXPECT_NE(r.report().find("MESH ME"), std::string::npos);
   const ProfileProblem* t = find(r, "annotation_ignored");
   ASSERT_NE(t, nullptr);
   EXPECT_EQ(t->severity, ProfileProblem::Severity::warning);
@@ -231,6 +236,341 @@ TEST(Dxf, MalformedFilesGiveFileLineErrors) {
   expect_input_error(std::string("AutoCAD Binary DXF\r\n\x1a") + std::string(1, '\0'), 1, "binary");
 }
 
+// ---------------------------------------------------------------------------------------
+// Curves, blocks, planes, units and the end marker.
+
+// Largest distance from the points to a circle, and whether the contour is tangent-continuous.
+double max_off_circle(const Contour& c, Vector2d center, double r) {
+  double worst = 0;
+  for (const auto& s : c.segments()) {
+    for (double t : {0.0, 0.25, 0.5, 0.75, 1.0}) worst = std::max(worst, std::abs((point_at(s, t) - center).norm() - r));
+  }
+  return worst;
+}
+double max_corner_rad(const Contour& c) {
+  double worst = 0;
+  const auto segs = c.segments();
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    const Vector2d a = end_tangent(segs[i]), b = start_tangent(segs[(i + 1) % segs.size()]);
+    worst = std::max(worst, std::atan2(std::abs(cross(a, b)), a.dot(b)));
+  }
+  return worst;
+}
+
+void spline_header(Writer& w, const std::string& h, int degree, int flags, int knots, int ctrl, int fit) {
+  w.pair(0, "SPLINE"); w.pair(5, h); w.pair(210, 0.0); w.pair(220, 0.0); w.pair(230, 1.0);
+  w.pair(70, std::to_string(flags)); w.pair(71, std::to_string(degree)); w.pair(72, std::to_string(knots));
+  w.pair(73, std::to_string(ctrl)); w.pair(74, std::to_string(fit));
+}
+
+TEST(DxfCurves, RationalNurbsCircleBecomesBiarcsOnTheCircle) {
+  // The nine-point rational quadratic circle of radius 10 about (3, 4).
+  Writer w;
+  const double s2 = std::sqrt(0.5);
+  const std::vector<double> knots = {0, 0, 0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1, 1, 1};
+  const std::vector<Vector2d> ctrl = {{1, 0}, {1, 1}, {0, 1}, {-1, 1}, {-1, 0}, {-1, -1}, {0, -1}, {1, -1}, {1, 0}};
+  const std::vector<double> weights = {1, s2, 1, s2, 1, s2, 1, s2, 1};
+  spline_header(w, "NC", 2, 1 | 4 | 8, 12, 9, 0);
+  for (double k : knots) w.pair(40, k);
+  for (double x : weights) w.pair(41, x);
+  for (const auto& c : ctrl) { w.pair(10, 3 + 10 * c.x()); w.pair(20, 4 + 10 * c.y()); w.pair(30, 0.0); }
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  const Contour& c = r.contours[0].contour;
+  EXPECT_LE(max_off_circle(c, {3, 4}, 10), 0.5 * DxfOptions{}.chain_tolerance_mm);
+  EXPECT_LT(max_corner_rad(c), 1e-6);  // biarcs: no corner anywhere
+  for (double b : c.bulges()) EXPECT_NE(b, 0.0);
+  EXPECT_NEAR(std::abs(r.contours[0].area_mm2), kPi * 100, 2 * kPi * 10 * 0.005);
+}
+
+TEST(DxfCurves, CubicSplineWithInnerKnotsStaysWithinTolerance) {
+  // A clamped cubic S-curve closed by a line; compared with de Boor's points computed here.
+  Writer w;
+  const std::vector<double> knots = {0, 0, 0, 0, 1, 2, 3, 3, 3, 3};
+  const std::vector<Vector2d> ctrl = {{0, 0}, {10, 20}, {20, -20}, {30, 20}, {40, -20}, {50, 0}};
+  spline_header(w, "SC", 3, 8, 10, 6, 0);
+  for (double k : knots) w.pair(40, k);
+  for (const auto& c : ctrl) { w.pair(10, c.x()); w.pair(20, c.y()); w.pair(30, 0.0); }
+  w.line("L", {50, 0}, {0, 0});
+  DxfOptions o;
+  o.chain_tolerance_mm = 0.02;
+  const auto r = read(w, o);
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  Nurbs n{3, ctrl, {}, knots};
+  const Contour& c = r.contours[0].contour;
+  double worst = 0;
+  for (int i = 0; i <= 3000; ++i) {
+    const double t = 3.0 * i / 3000;
+    worst = std::max(worst, distance(c, n.point(t, n.span_of(t))));
+  }
+  EXPECT_LE(worst, 0.5 * o.chain_tolerance_mm * 1.05);
+  EXPECT_GT(worst, 0.0);
+}
+
+TEST(DxfCurves, FitPointSplinePassesThroughItsPoints) {
+  Writer w;
+  const std::vector<Vector2d> fit = {{0, 0}, {10, 5}, {20, 0}, {30, 5}, {40, 0}};
+  spline_header(w, "FP", 3, 8, 0, 0, 5);
+  w.pair(12, 1.0); w.pair(22, 0.0); w.pair(32, 0.0);  // start tangent +x
+  for (const auto& f : fit) { w.pair(11, f.x()); w.pair(21, f.y()); w.pair(31, 0.0); }
+  w.line("B", {40, 0}, {40, -10});
+  w.line("C", {40, -10}, {0, -10});
+  w.line("D", {0, -10}, {0, 0});
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  for (const auto& f : fit) EXPECT_LT(distance(r.contours[0].contour, f), 1e-9) << f.transpose();
+  // The start tangent is +x: the first span out of (0, 0) leaves horizontally.
+  const Contour& c = r.contours[0].contour;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    if ((c.vertices()[i] - Vector2d(0, 0)).norm() < 1e-9) {
+      const Segment s = c.span(i);
+      const Vector2d t = start_tangent(s);
+      if ((s.end - s.start).x() > 0) EXPECT_NEAR(std::abs(t.y()), 0.0, 1e-6);
+      else EXPECT_NEAR(std::abs(end_tangent(c.span((i + c.size() - 1) % c.size())).y()), 0.0, 1e-6);
+    }
+}
+
+TEST(DxfCurves, EllipsesFullAndPartial) {
+  Writer w;
+  // Full ellipse a = 20, b = 8 about (0, 0), major axis along +y.
+  w.pair(0, "ELLIPSE"); w.pair(5, "E1"); w.pair(10, 0.0); w.pair(20, 0.0); w.pair(30, 0.0);
+  w.pair(11, 0.0); w.pair(21, 20.0); w.pair(31, 0.0); w.pair(40, 0.4); w.pair(41, 0.0); w.pair(42, 2 * kPi);
+  // Upper half of an ellipse a = 10, b = 5 about (100, 0), closed by its diameter.
+  w.pair(0, "ELLIPSE"); w.pair(5, "E2"); w.pair(10, 100.0); w.pair(20, 0.0); w.pair(30, 0.0);
+  w.pair(11, 10.0); w.pair(21, 0.0); w.pair(31, 0.0); w.pair(40, 0.5); w.pair(41, 0.0); w.pair(42, kPi);
+  w.line("D", {90, 0}, {110, 0});
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 2u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  EXPECT_NEAR(std::abs(r.contours[0].area_mm2), kPi * 20 * 8, 0.005 * r.contours[0].perimeter_mm);
+  EXPECT_GT(r.contours[0].area_mm2, 0);  // counter-clockwise, as drawn
+  EXPECT_NEAR(std::abs(r.contours[1].area_mm2), kPi * 10 * 5 / 2, 0.005 * r.contours[1].perimeter_mm);
+  const auto box = bounding_box(r.contours[0].contour);
+  EXPECT_NEAR(box.max().y(), 20, 0.005);
+  EXPECT_NEAR(box.max().x(), 8, 0.005);
+}
+
+// A block "PLATE": 20 x 10 rectangle with a hole of radius 2 at (5, 5), base point (0, 0).
+void plate_block(Writer& w) {
+  Writer b;
+  b.pair(0, "BLOCK"); b.pair(2, "PLATE"); b.pair(70, "0"); b.pair(10, 0.0); b.pair(20, 0.0);
+  b.lwpolyline("R", {{0, 0}, {20, 0}, {20, 10}, {0, 10}}, {0, 0, 0, 0}, true);
+  b.circle("H", {5, 5}, 2);
+  b.pair(0, "ENDBLK");
+  w.blocks += b.body;
+}
+void insert(Writer& w, const std::string& h, const std::string& block, Vector2d at, double sx = 1, double sy = 1,
+            double rot_deg = 0, int cols = 1, int rows = 1, double dc = 0, double dr = 0) {
+  w.pair(0, "INSERT"); w.pair(5, h); w.pair(2, block); w.pair(10, at.x()); w.pair(20, at.y());
+  w.pair(41, sx); w.pair(42, sy); w.pair(50, rot_deg);
+  if (cols * rows > 1) {
+    w.pair(70, std::to_string(cols)); w.pair(71, std::to_string(rows)); w.pair(44, dc); w.pair(45, dr);
+  }
+}
+
+TEST(DxfBlocks, InsertPlacesScalesRotatesAndNests) {
+  Writer w;
+  plate_block(w);
+  insert(w, "I1", "PLATE", {100, 0}, 2, 2, 90);  // 40 x 20 turned to 20 x 40, hole at (90, 10)
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 2u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  const auto box = bounding_box(r.contours[0].contour);
+  EXPECT_NEAR((box.min() - Vector2d(80, 0)).norm(), 0, 1e-9);
+  EXPECT_NEAR((box.max() - Vector2d(100, 40)).norm(), 0, 1e-9);
+  EXPECT_NEAR(bounding_box(r.contours[1].contour).center().x(), 90, 1e-9);
+  EXPECT_NEAR(bounding_box(r.contours[1].contour).center().y(), 10, 1e-9);
+  EXPECT_NEAR(std::abs(r.contours[1].area_mm2), kPi * 16, 1e-9);
+  EXPECT_EQ(r.contours[1].parent, 0);
+  EXPECT_EQ(r.contours[0].handles, std::vector<std::string>{"I1>R"});
+}
+
+TEST(DxfBlocks, ArraysMirrorsAndNestedBlocks) {
+  Writer w;
+  plate_block(w);
+  // "PAIR" holds two plates, the second mirrored about x (scale x = -1) and moved right.
+  Writer b;
+  b.pair(0, "BLOCK"); b.pair(2, "PAIR"); b.pair(70, "0"); b.pair(10, 0.0); b.pair(20, 0.0);
+  insert(b, "P1", "PLATE", {0, 0});
+  insert(b, "P2", "PLATE", {50, 0}, -1, 1);
+  b.pair(0, "ENDBLK");
+  w.blocks += b.body;
+  insert(w, "A", "PAIR", {0, 0}, 1, 1, 0, 3, 2, 100, 40);  // 3 columns x 2 rows
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 24u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  int ccw_outer = 0, cw_outer = 0;
+  for (const auto& c : r.contours)
+    if (c.depth == 0) (c.area_mm2 > 0 ? ccw_outer : cw_outer)++;
+  EXPECT_EQ(ccw_outer, 6);
+  EXPECT_EQ(cw_outer, 6);  // mirrored copies run the other way
+  // The mirrored plate of the last array copy spans x 230 .. 250, y 40 .. 50.
+  bool found = false;
+  for (const auto& c : r.contours)
+    if (c.handles.front() == "A[2,1]>P2>R") {
+      const auto box = bounding_box(c.contour);
+      EXPECT_NEAR((box.min() - Vector2d(230, 40)).norm(), 0, 1e-9);
+      EXPECT_NEAR((box.max() - Vector2d(250, 50)).norm(), 0, 1e-9);
+      found = true;
+    }
+  EXPECT_TRUE(found) << r.report();
+}
+
+TEST(DxfBlocks, NonUniformScaleTurnsCirclesIntoFittedEllipses) {
+  Writer w;
+  plate_block(w);
+  insert(w, "S", "PLATE", {0, 0}, 3, 1);
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 2u) << r.report();
+  EXPECT_NEAR(std::abs(r.contours[1].area_mm2), kPi * 6 * 2, 0.005 * r.contours[1].perimeter_mm);
+  EXPECT_LT(max_corner_rad(r.contours[1].contour), 1e-6);
+}
+
+TEST(DxfBlocks, MissingAndRecursiveBlocks) {
+  Writer w;
+  w.circle("C", {0, 0}, 5);
+  insert(w, "M", "NOSUCH", {0, 0});
+  const auto r = read(w);
+  EXPECT_EQ(count(r, "missing_block"), 1) << r.report();
+  Writer loop;
+  loop.blocks = "0\nBLOCK\n2\nSELF\n10\n0\n20\n0\n0\nINSERT\n5\nIN\n2\nSELF\n10\n1\n20\n0\n0\nENDBLK\n";
+  insert(loop, "TOP", "SELF", {0, 0});
+  try {
+    read(loop);
+    FAIL() << "a block inserting itself was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("contains itself"), std::string::npos) << e.what();
+    EXPECT_GT(e.line(), 0);
+  }
+}
+
+TEST(DxfPlanes, FlatThreeDPolylineIsReadTiltedIsNot) {
+  auto poly3d = [](double z_last) {
+    Writer w;
+    w.pair(0, "POLYLINE"); w.pair(5, "P3"); w.pair(66, "1"); w.pair(70, "9");  // closed, 3-D
+    const std::vector<Vector2d> v = {{0, 0}, {10, 0}, {10, 10}, {0, 10}};
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      w.pair(0, "VERTEX"); w.pair(10, v[i].x()); w.pair(20, v[i].y()); w.pair(30, i == 3 ? z_last : 7.0);
+      w.pair(70, "32");
+    }
+    w.pair(0, "SEQEND");
+    return w;
+  };
+  const auto flat = read(poly3d(7.0));
+  ASSERT_EQ(flat.contours.size(), 1u) << flat.report();
+  EXPECT_NEAR(flat.contours[0].area_mm2, 100, 1e-9);
+  EXPECT_FALSE(flat.has_errors());
+  const auto tilted = read(poly3d(9.0));
+  EXPECT_EQ(count(tilted, "not_planar"), 1) << tilted.report();
+}
+
+TEST(DxfPlanes, FlattenToleranceProjectsSlightlyTiltedEntities) {
+  Writer w;
+  const double tilt = 0.7 * kPi / 180;
+  w.pair(0, "CIRCLE"); w.pair(5, "T"); w.pair(10, 0.0); w.pair(20, 0.0); w.pair(40, 10.0);
+  w.pair(210, std::sin(tilt)); w.pair(220, 0.0); w.pair(230, std::cos(tilt));
+  const auto strict = read(w);
+  ASSERT_EQ(count(strict, "not_planar"), 1) << strict.report();
+  EXPECT_NE(find(strict, "not_planar")->message.find("flatten"), std::string::npos);
+  DxfOptions o;
+  o.flatten_tolerance_deg = 1.0;
+  const auto r = read(w, o);
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  EXPECT_EQ(count(r, "flattened"), 1);
+  // The projection of a tilted circle is an ellipse of area pi r^2 cos(tilt).
+  EXPECT_NEAR(std::abs(r.contours[0].area_mm2), kPi * 100 * std::cos(tilt), 0.005 * r.contours[0].perimeter_mm);
+}
+
+TEST(DxfUnits, MissingUnitsWarnAndCanBeGiven) {
+  Writer w;
+  w.header.clear();
+  w.lwpolyline("P", {{0, 0}, {1, 0}, {1, 1}, {0, 1}}, {0, 0, 0, 0}, true);
+  const auto mm = read(w);
+  ASSERT_EQ(mm.contours.size(), 1u);
+  EXPECT_EQ(count(mm, "no_units"), 1);
+  EXPECT_FALSE(mm.has_insunits);
+  EXPECT_NEAR(mm.contours[0].area_mm2, 1, 1e-12);
+  DxfOptions o;
+  o.assumed_mm_per_unit = mm_per_drawing_unit("inch");
+  const auto inch = read(w, o);
+  EXPECT_NEAR(inch.contours[0].area_mm2, 25.4 * 25.4, 1e-9);
+  EXPECT_EQ(count(inch, "no_units"), 1);
+  // A drawing that states its units keeps them whatever is assumed.
+  Writer stated;
+  stated.lwpolyline("P", {{0, 0}, {1, 0}, {1, 1}, {0, 1}}, {0, 0, 0, 0}, true);
+  EXPECT_NEAR(read(stated, o).contours[0].area_mm2, 1, 1e-12);
+  EXPECT_EQ(mm_per_drawing_unit("furlong"), 0.0);
+}
+
+TEST(DxfBlocks, EntityLimitCountsInsertCopies) {
+  Writer w;
+  plate_block(w);
+  insert(w, "A", "PLATE", {0, 0}, 1, 1, 0, 10, 10, 30, 30);  // 100 copies of 2 entities, plus the INSERT
+  DxfOptions o;
+  o.max_entities = 201;
+  EXPECT_EQ(read(w, o).contours.size(), 200u);
+  o.max_entities = 200;
+  try {
+    read(w, o);
+    FAIL() << "the limit was not enforced";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than 200 entities"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--max-entities"), std::string::npos) << e.what();
+  }
+  o.max_entities = 0;
+  EXPECT_THROW(o.validate(), InputError);
+}
+
+TEST(DxfEnd, BytesAfterEofAreIgnored) {
+  Writer w;
+  w.circle("C", {0, 0}, 3);
+  const std::string text = w.text() + "garbage that is not a group code\n\x01\x02 more\n";
+  const auto r = read_dxf_profile_text(text, "t.dxf");
+  EXPECT_EQ(r.contours.size(), 1u);
+  EXPECT_FALSE(r.has_errors());
+}
+
+TEST(DxfChains, OpenChainSaysHowFarItIsFromClosing) {
+  Writer w;
+  w.line("A", {0, 0}, {10, 0});
+  w.line("B", {10, 0}, {10, 10});
+  w.line("C", {10, 10}, {0, 7});  // 3 mm short of (0, 10) -> gap to (0, 0) is 7.0
+  const auto r = read(w);
+  const ProfileProblem* p = find(r, "open_chain");
+  ASSERT_NE(p, nullptr) << r.report();
+  ASSERT_TRUE(p->gap_mm.has_value());
+  EXPECT_NEAR(*p->gap_mm, 7.0, 1e-9);
+}
+
+TEST(DxfChains, ManyScrambledLinesChainAndManyCirclesStaySeparate) {
+  // A 2000-gon from lines in scrambled order and direction, and a 30 x 30 grid of circles
+  // of which exactly one pair overlaps: the grid-based chaining and the pair sweep must give
+  // what the definition says.
+  Writer w;
+  const int n = 2000;
+  std::vector<int> order(n);
+  for (int i = 0; i < n; ++i) order[i] = (i * 7919) % n;
+  for (int i : order) {
+    const double a0 = 2 * kPi * i / n, a1 = 2 * kPi * (i + 1) / n;
+    Vector2d p(1000 * std::cos(a0), 1000 * std::sin(a0)), q(1000 * std::cos(a1), 1000 * std::sin(a1));
+    if (i % 3 == 0) std::swap(p, q);
+    w.line(fmt::format("L{}", i), p, q);
+  }
+  for (int i = 0; i < 30; ++i)
+    for (int j = 0; j < 30; ++j) w.circle(fmt::format("C{}_{}", i, j), {3000 + 10.0 * i, 10.0 * j}, 4);
+  w.circle("X", {3000 + 10.0 * 29 + 7, 0}, 4);  // overlaps C29_0
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 1u + 900u + 1u) << r.problems.size();
+  EXPECT_EQ(r.contours[0].handles.size(), static_cast<std::size_t>(n));
+  EXPECT_NEAR(std::abs(r.contours[0].area_mm2), 0.5 * n * 1e6 * std::sin(2 * kPi / n), 1e-3);
+  ASSERT_EQ(count(r, "overlap"), 1);
+  const ProfileProblem* o = find(r, "overlap");
+  EXPECT_EQ(o->handles, (std::vector<std::string>{"C29_0", "X"}));
+}
+
 TEST(Dxf, BundledProfiles) {
   const std::string dir = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/profiles/";
   const auto flange = read_dxf_profile(dir + "flange_plate.dxf");
@@ -248,6 +588,14 @@ TEST(Dxf, BundledProfiles) {
   EXPECT_NEAR(std::abs(bracket.contours[0].area_mm2), 120 * 30 + 50 * 50 + fillet - fillet, 1e-6);
   EXPECT_NEAR(std::abs(bracket.contours[1].area_mm2), 20 * 12 + kPi * 36, 1e-6);
 
+  const auto curved = read_dxf_profile(dir + "curved_plate.dxf");
+  ASSERT_EQ(curved.contours.size(), 6u) << curved.report();
+  EXPECT_TRUE(curved.problems.empty()) << curved.report();
+  EXPECT_EQ(curved.contours[0].children.size(), 5u);
+  EXPECT_NEAR(std::abs(curved.contours[1].area_mm2), kPi * 30 * 15, 0.005 * curved.contours[1].perimeter_mm);
+  for (std::size_t i = 2; i < 6; ++i) EXPECT_NEAR(std::abs(curved.contours[i].area_mm2), kPi * 16, 1e-9);
+  EXPECT_EQ(curved.contours[5].handles, std::vector<std::string>{"106[1,1]>1101"});
+
   const auto sheet = read_dxf_profile(dir + "nested_sheet.dxf");
   ASSERT_EQ(sheet.contours.size(), 10u);
   EXPECT_FALSE(sheet.has_errors()) << sheet.report();
@@ -262,6 +610,15 @@ TEST(Dxf, CliPrintsJsonAndExitCodes) {
   EXPECT_EQ(std::system((cli + " profile " + dir + "flange_plate.dxf --json > /dev/null").c_str()), 0);
   EXPECT_NE(std::system((cli + " profile /nonexistent.dxf 2> /dev/null").c_str()), 0);
   EXPECT_NE(std::system((cli + " profile " + dir + "flange_plate.dxf --tolerance -1 2> /dev/null").c_str()), 0);
+  auto exit_code = [&](const std::string& args) {
+    const int rc = std::system((cli + " profile " + dir + "flange_plate.dxf " + args + " > /dev/null 2>&1").c_str());
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  };
+  EXPECT_EQ(exit_code("--units inch --flatten-tolerance 0.5"), 0);
+  EXPECT_EQ(exit_code("--units furlong"), 2);
+  EXPECT_EQ(exit_code("--flatten-tolerance 9"), 2);
+  EXPECT_EQ(exit_code("--flatten-tolerance nan"), 2);
+  EXPECT_EQ(exit_code("--max-entities 3"), 2);
 }
 
 }  // namespace

@@ -104,12 +104,121 @@ TEST(Apt, InchesAreConverted) {
   EXPECT_TRUE(p.poses[2].tip_mm.isApprox(Eigen::Vector3d(1, 1, 1)));
 }
 
-TEST(Apt, UnsupportedStatementIsNamedWithItsLine) {
-  EXPECT_EQ(apt_error("PARTNO x\nGOTO/0,0,0\n\n\n\n\nCIRCLE/0,0,0,0,0,1,5\nGOTO/1,1,1\n"),
-            "path.cl:7: APT statement 'CIRCLE' is not supported");
-  EXPECT_EQ(apt_error("GOTO/0,0,0\nSPINDL/1000\n"), "path.cl:2: APT statement 'SPINDL' is not supported");
-  EXPECT_EQ(apt_error("GOTO/0,0,0\nPPRINT hello\n"),
-            "path.cl:2: APT statement 'PPRINT': expected '/' or the end of the statement, found 'hello'");
+TEST(Apt, OtherStatementsAreSkippedWithOneWarningPerKind) {
+  const ToolPath p = read_apt("PARTNO x\nLOAD/TOOL,3\nGOTO/0,0,0\nSPINDL/1000,RPM,CLW\nPPRINT hello there\n"
+                              "COOLNT/FLOOD\nLOAD/TOOL,4\nSPINDL/OFF\nGOTO/1,1,1\nFINI\n",
+                              "path.cl");
+  ASSERT_EQ(p.poses.size(), 2u);
+  ASSERT_EQ(p.warnings.size(), 4u);
+  EXPECT_EQ(p.warnings[0], "path.cl:2: APT statement 'LOAD' carries no tool-path geometry; skipped (2 statements)");
+  EXPECT_EQ(p.warnings[1], "path.cl:4: APT statement 'SPINDL' carries no tool-path geometry; skipped (2 statements)");
+  EXPECT_EQ(p.warnings[2], "path.cl:5: APT statement 'PPRINT' carries no tool-path geometry; skipped");
+  EXPECT_EQ(p.warnings[3], "path.cl:6: APT statement 'COOLNT' carries no tool-path geometry; skipped");
+  // A coordinate system that moves the poses is not applied, and the warning says so apart.
+  const ToolPath c = read_apt("CSYS/1,0,0,0,0,1,0,0,0,0,1,0\nGOTO/0,0,0\nCSYS/1,0,0,5,0,1,0,0,0,0,1,0\nGOTO/1,1,1\n",
+                              "c.cl");
+  ASSERT_EQ(c.warnings.size(), 2u);
+  EXPECT_THAT(c.warnings[0], HasSubstr("c.cl:1: APT statement 'CSYS' carries no tool-path geometry"));
+  EXPECT_THAT(c.warnings[1], HasSubstr("c.cl:3: APT statement 'CSYS' with a transformation other than the identity"));
+  EXPECT_TRUE(c.poses[1].tip_mm.isApprox(Eigen::Vector3d(1, 1, 1)));
+}
+
+// Distance of p from the circle of `arc` (radially and along its axis from the helix).
+double off_arc(const ToolArc& arc, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d r = p - arc.center_mm;
+  const Eigen::Vector3d radial = r - r.dot(arc.axis) * arc.axis;
+  return std::abs(radial.norm() - arc.radius_mm);
+}
+
+TEST(Apt, CamStyleFileWithUnitCirclesAndCycles) {
+  const std::string text =
+      "PARTNO/1\n"                                // 1
+      "UNIT/MM\n"                                 // 2
+      "CUTTER/6.,0,3.,1.8,31.,0,45.\n"            // 3
+      "LOAD/TOOL,6\n"                             // 4
+      "RAPID/\n"                                  // 5
+      "GOTO/15.,15.,25.\n"                        // 6
+      "CYCLE/INIT\n"                              // 7
+      "CYCLE/DEEP2,FEDTO,10.,1STPECK,5.,SUBPECK,2.,MMPM,200.,RAPTO,3.,RTRCTO,25.\n"  // 8
+      "GOTO/15.,15.,0\n"                          // 9
+      "GOTO/45.,15.,0\n"                          // 10
+      "CYCLE/OFF\n"                               // 11
+      "RAPID/\n"                                  // 12
+      "GOTO/30.,0,-5.\n"                          // 13
+      "FEDRAT/600.,MMPM\n"                        // 14
+      "CIRCLE/30.,10.,-5.,0,0,1.\n"               // 15: full turn counter-clockwise, r = 10
+      "GOTO/30.,0,-5.\n"                          // 16
+      "CIRCLE/30.,10.,-5.,0,0,-1.,10.\n"          // 17: quarter clockwise to (20, 10)
+      "GOTO/20.,10.,-7.\n"                        // 18: and down 2 mm: a helix
+      "FINI\n";
+  const ToolPath p = read_apt(text, "cam.apt");
+  ASSERT_EQ(p.warnings.size(), 1u);
+  EXPECT_THAT(p.warnings[0], HasSubstr("cam.apt:4: APT statement 'LOAD'"));
+  // The cycle: from (15, 15, 25) already at the retract height, rapid to RAPTO 3, feed to
+  // -10, back to 25; then the second hole adds its approach at 25 first.
+  std::vector<Eigen::Vector3d> drill;
+  std::vector<bool> rapid;
+  std::size_t k = 0;
+  for (; k < p.poses.size() && p.poses[k].line <= 10; ++k) {
+    drill.push_back(p.poses[k].tip_mm);
+    rapid.push_back(p.poses[k].rapid);
+  }
+  const std::vector<Eigen::Vector3d> want = {{15, 15, 25}, {15, 15, 3},  {15, 15, -10}, {15, 15, 25},
+                                             {45, 15, 25}, {45, 15, 3}, {45, 15, -10}, {45, 15, 25}};
+  ASSERT_EQ(drill.size(), want.size());
+  for (std::size_t i = 0; i < want.size(); ++i) EXPECT_TRUE(drill[i].isApprox(want[i])) << i << ": " << drill[i].transpose();
+  EXPECT_EQ(rapid, (std::vector<bool>{true, true, false, true, true, true, false, true}));
+  EXPECT_DOUBLE_EQ(p.poses[2].feed_mm_per_min, 200.0);
+
+  ASSERT_EQ(p.arcs.size(), 2u);
+  const ToolArc& full = p.arcs[0];
+  EXPECT_NEAR(full.sweep_rad, 2 * M_PI, 1e-12);
+  EXPECT_NEAR(full.radius_mm, 10, 1e-12);
+  EXPECT_EQ(full.line, 15);
+  const ToolArc& quarter = p.arcs[1];
+  EXPECT_NEAR(quarter.sweep_rad, M_PI / 2, 1e-12);
+  ToolPathReadOptions o;
+  for (int a = 0; a < 2; ++a) {
+    const ToolArc& arc = p.arcs[static_cast<std::size_t>(a)];
+    EXPECT_EQ(p.poses[arc.last_pose].arc, a);
+    for (std::size_t i = arc.first_pose; i <= arc.last_pose; ++i) {
+      EXPECT_LT(off_arc(arc, p.poses[i].tip_mm), 1e-9);
+      const Eigen::Vector3d step = p.poses[i].tip_mm - p.poses[i - 1].tip_mm;
+      // Chord error r (1 - cos(h / 2)) from the chord length 2 r sin(h / 2).
+      const double h = 2 * std::asin(std::min(1.0, (step - step.dot(arc.axis) * arc.axis).norm() / (2 * arc.radius_mm)));
+      EXPECT_LE(arc.radius_mm * (1 - std::cos(h / 2)), o.arc_tolerance_mm + 1e-12);
+      EXPECT_LE(h, o.arc_step_rad + 1e-12);
+    }
+  }
+  // Counter-clockwise seen from +z: from (30, 0) the full turn heads to +x first.
+  EXPECT_GT(p.poses[full.first_pose].tip_mm.x(), 30);
+  // Clockwise about -z... i.e. (0, 0, -1) with the right-hand rule: from (30, 0) towards -x.
+  EXPECT_LT(p.poses[quarter.first_pose].tip_mm.x(), 30);
+  // The helix descends linearly with the angle.
+  const std::size_t mid = (quarter.first_pose + quarter.last_pose) / 2;
+  const double frac = static_cast<double>(mid - quarter.first_pose + 1) / static_cast<double>(quarter.last_pose - quarter.first_pose + 1);
+  EXPECT_NEAR(p.poses[mid].tip_mm.z(), -5 - 2 * frac, 1e-9);
+  EXPECT_TRUE(p.poses.back().tip_mm.isApprox(Eigen::Vector3d(20, 10, -7)));
+  EXPECT_DOUBLE_EQ(p.poses.back().feed_mm_per_min, 600.0);
+}
+
+TEST(Apt, CirclesAndCyclesRefuseWhatTheyCannotMean) {
+  EXPECT_THAT(apt_error("CIRCLE/0,0,0,0,0,1\nGOTO/1,0,0\n"), HasSubstr("path.cl:1: CIRCLE before any position"));
+  EXPECT_THAT(apt_error("GOTO/1,0,0\nCIRCLE/0,0,0,0,0,1\nGOTO/0,2,0\n"),
+              HasSubstr("path.cl:3: the GOTO ending the CIRCLE of line 2 is 2 mm from the axis"));
+  EXPECT_THAT(apt_error("GOTO/1,0,0\nCIRCLE/0,0,0,0,0,1,3\nGOTO/0,1,0\n"),
+              HasSubstr("path.cl:2: CIRCLE: radius 3 mm but the start point is 1 mm"));
+  EXPECT_THAT(apt_error("GOTO/1,0,0\nCIRCLE/0,0,0,0,0,1\nFINI\n"), HasSubstr("path.cl:3: FINI after the CIRCLE of line 2"));
+  EXPECT_THAT(apt_error("GOTO/1,0,0\nCIRCLE/0,0,0,0,0,1\n"), HasSubstr("path.cl:2: CIRCLE without a GOTO"));
+  EXPECT_THAT(apt_error("GOTO/1,0,0\nCIRCLE/0,0,0\n"), HasSubstr("path.cl:2: CIRCLE: expected at least 6 values"));
+  EXPECT_THAT(apt_error("GOTO/1,0,0\nCYCLE/DRILL,RAPTO,3\nGOTO/1,1,0\n"), HasSubstr("path.cl:2: CYCLE/DRILL: no FEDTO"));
+  EXPECT_THAT(apt_error("GOTO/1,0,0\nCYCLE/DRILL,FEDTO\n"), HasSubstr("path.cl:2: CYCLE: 'FEDTO' has no value"));
+  EXPECT_THAT(apt_error("GOTO/1,0,0\nCYCLE/DRILL,FEDTO,3\nGOTO/1,1,0\n"), HasSubstr("no feed"));
+  EXPECT_THAT(apt_error("RAPID/1\n"), HasSubstr("path.cl:1: RAPID: expected 3 values"));
+  const ToolPath r = read_apt("RAPID/1,2,3\nGODLTA/1,1,1\n", "r.cl");
+  ASSERT_EQ(r.poses.size(), 2u);
+  EXPECT_TRUE(r.poses[0].rapid);
+  EXPECT_TRUE(r.poses[1].tip_mm.isApprox(Eigen::Vector3d(2, 3, 4)));
 }
 
 TEST(Apt, ZeroAndTinyAxesAreRefused) {
@@ -141,7 +250,6 @@ TEST(Apt, MalformedStatementsAreRefused) {
   EXPECT_THAT(apt_error("CUTTER/10,6\n"), HasSubstr("corner radius 6"));
   EXPECT_THAT(apt_error("UNITS/FEET\n"), HasSubstr("path.cl:1: UNITS: expected UNITS/MM or UNITS/INCHES"));
   EXPECT_THAT(apt_error("MULTAX/MAYBE\n"), HasSubstr("path.cl:1: MULTAX"));
-  EXPECT_THAT(apt_error("RAPID/1\n"), HasSubstr("path.cl:1: RAPID takes no values"));
   EXPECT_THAT(apt_error("GOTO/1,2,3\nFINI\nGOTO/4,5,6\n"), HasSubstr("path.cl:3: APT statement 'GOTO' after FINI"));
   EXPECT_THAT(apt_error("GOTO/1,2,3\nGOTO/4,5, $\n"),
               HasSubstr("path.cl:2: statement continued with '$' but the file ends"));
@@ -220,10 +328,10 @@ TEST(Files, FormatByExtensionOrContent) {
   EXPECT_EQ(read_toolpath_file(dir.write("sniffed_apt.txt", "$$ hi\n" + apt)).poses.size(), 1u);
   EXPECT_EQ(read_toolpath_file(dir.write("sniffed_csv.txt", csv)).poses.size(), 1u);
   EXPECT_EQ(read_toolpath_file(dir.write("sniffed_plain.dat", "# c\n-1,2,3\n")).poses.size(), 1u);
-  // The extension wins over the content: CSV text in a .cl file is refused as APT.
+  // The extension wins over the content: CSV text in a .cl file is refused as APT (the
+  // header's first word passes for an unknown statement, the numbers do not).
   const std::string wrong = dir.write("wrong.cl", csv);
-  EXPECT_THAT(error_of([&] { read_toolpath_file(wrong); }),
-              HasSubstr(wrong + ":1: APT statement 'x': expected '/'"));
+  EXPECT_THAT(error_of([&] { read_toolpath_file(wrong); }), HasSubstr(wrong + ":2: expected an APT statement"));
   const std::string odd = dir.write("odd.txt", "\n*&^\n");
   EXPECT_THAT(error_of([&] { read_toolpath_file(odd); }), HasSubstr(odd + ":2: cannot tell whether"));
   EXPECT_THAT(error_of([&] { read_toolpath_file(dir.write("empty.txt", "")); }), HasSubstr("no pose"));
@@ -277,7 +385,16 @@ TEST(Cli, BadInputExitsWithTwoAndNamesTheLine) {
   EXPECT_EQ(WEXITSTATUS(rc), 2);
   std::ifstream in(err);
   const std::string message((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(message, HasSubstr(bad + ":2: APT statement 'CIRCLE' is not supported"));
+  EXPECT_THAT(message, HasSubstr(bad + ":2: CIRCLE: expected at least 6 values"));
+
+  // Skipped statements are warnings on stderr, and the exit code stays 0.
+  const std::string skipped = dir.write("skipped.apt", "UNIT/MM\nSPINDL/1000\nGOTO/0,0,0\nGOTO/1,0,0\nFINI\n");
+  const int rs = std::system(fmt::format("'{}' toolpath '{}' 2> '{}' > /dev/null", MACHPLAN_CLI, skipped, err).c_str());
+  ASSERT_TRUE(WIFEXITED(rs));
+  EXPECT_EQ(WEXITSTATUS(rs), 0);
+  std::ifstream win(err);
+  const std::string warning((std::istreambuf_iterator<char>(win)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(warning, HasSubstr("warning: " + skipped + ":2: APT statement 'SPINDL'"));
 
   const std::string good = dir.write("good.csv", "1,2,3\n4,6,3\n");
   const std::string out = dir.write("out.json", "");
