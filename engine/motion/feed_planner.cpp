@@ -28,7 +28,9 @@ void require(bool ok, const char* field, double value, const char* rule) {
   if (!ok) throw std::invalid_argument(fmt::format("PlannerOptions::{} = {}: {}", field, value, rule));
 }
 
-void check_stretch(const Stretch& st) {
+}  // namespace
+
+void validate_stretch(const Stretch& st) {
   if (st.segments.empty()) throw std::invalid_argument("plan_stretch: the stretch has no segments");
   if (st.feed_mm_per_s.size() != st.segments.size() || st.source_lines.size() != st.segments.size())
     throw std::invalid_argument(fmt::format(
@@ -48,6 +50,8 @@ void check_stretch(const Stretch& st) {
           (s.start - st.segments[i - 1].end).norm(), i - 1));
   }
 }
+
+namespace {
 
 // The part of `s` between path lengths a and b (0 <= a <= b <= length).
 Segment sub_segment(const Segment& s, double a, double b) {
@@ -282,7 +286,7 @@ void PlannerOptions::validate() const {
 
 std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch, const PlannerOptions& o) {
   o.validate();
-  check_stretch(stretch);
+  validate_stretch(stretch);
   auto traj = std::make_unique<PlannedTrajectory>();
   const double tol = o.path_tolerance_mm;
 
@@ -493,7 +497,7 @@ void PlannedTrajectory::sample(double t_s, Setpoint& out) const {
 
 double time_lower_bound_s(const Stretch& stretch, const PlannerOptions& o) {
   o.validate();
-  check_stretch(stretch);
+  validate_stretch(stretch);
   const Vector2d& vmax = o.max_velocity_mm_per_s;
   const Vector2d& amax = o.max_acceleration_mm_per_s2;
 

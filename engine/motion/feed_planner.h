@@ -172,6 +172,9 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
                                                          const PlannerOptions& options);
 std::unique_ptr<Trajectory> plan_stretch(const Stretch& stretch, const PlannerOptions& options);
 
+// Throws std::invalid_argument when the stretch is malformed (see plan_stretch_detailed).
+void validate_stretch(const Stretch& stretch);
+
 // The lower bound of the file comment, s, for motion along exactly `stretch`'s segments.
 // Same preconditions and exceptions as plan_stretch.
 double time_lower_bound_s(const Stretch& stretch, const PlannerOptions& options);

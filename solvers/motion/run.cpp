@@ -193,12 +193,14 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
     auto tr = plan_stretch_detailed(o.job.stretches[st.stretch], o.planner);
     o.planned_motion_s += tr->duration_s();
     o.motion_lower_bound_s += time_lower_bound_s(tr->executed_path(), o.planner);
+    o.motion_optimum_s += time_optimal_s(tr->executed_path(), o.planner);
     o.trajectories[i] = std::move(tr);
   }
   const executor::MachineSetup setup = o.machine.setup();
   o.process_time_s = process_time_s(o.job, o.machine, setup.torch.height_tolerance_mm);
   o.lower_bound_s = o.motion_lower_bound_s + o.process_time_s;
   o.motion_ratio = o.motion_lower_bound_s > 0 ? o.planned_motion_s / o.motion_lower_bound_s : 1.0;
+  o.optimum_ratio = o.motion_optimum_s > 0 ? o.planned_motion_s / o.motion_optimum_s : 1.0;
 
   static const executor::Trajectories kNone;
   o.result = sim::simulate(o.machine, o.job, planned ? o.trajectories : kNone, options.executor);
@@ -228,6 +230,8 @@ std::string RunOutcome::report() const {
                    lower_bound_s, motion_lower_bound_s, process_time_s);
   s += fmt::format("  cycle ratio      {:9.4f}    (cycle time / lower bound; planned motion / motion bound {:.4f})\n",
                    cycle_ratio, motion_ratio);
+  s += fmt::format("  motion           {:9.3f} s  planned; time-optimal on the same paths {:.3f} s (ratio {:.4f})\n",
+                   planned_motion_s, motion_optimum_s, optimum_ratio);
   s += fmt::format("  contour error    max {:.4f} mm, rms {:.4f} mm over {} cuts, torch on, from the encoders",
                    r.max_contour_error_mm(), rms_contour_error_mm, r.cuts.size());
   const double mt = r.max_true_contour_error_mm();
@@ -264,6 +268,8 @@ nlohmann::json RunOutcome::to_json() const {
   j["planned_motion_s"] = planned_motion_s;
   j["cycle_ratio"] = cycle_ratio;
   j["motion_ratio"] = motion_ratio;
+  j["motion_optimum_s"] = motion_optimum_s;
+  j["optimum_ratio"] = optimum_ratio;
   j["rapids"] = {{"count", rapids.rapids.size()},
                  {"re_routed", rapids.replaced},
                  {"blocked_straight", rapids.blocked},
