@@ -168,6 +168,7 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
   check_cuts_clear_of(o.job, o.declared_zones, options.no_go_path);
   RapidOptions ro = options.rapids;
   ro.bounds = travel_box(o.machine);
+  ro.slug_tip_size_mm = o.machine.slug_tip_size_mm;
   o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts);
   for (const Stretch& s : o.job.stretches)
     if (s.cutting && !s.rapid)
@@ -224,7 +225,10 @@ std::string RunOutcome::report() const {
                               faulted() ? "FAULTED" : "completed");
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
   s += fmt::format("  torch on         {:9.3f} s\n", r.torch_on_s);
-  s += fmt::format("  rapid distance   {:9.1f} mm\n", r.rapid_distance_mm);
+  s += fmt::format("  rapid distance   {:9.1f} mm  (straight {:.1f} mm; {} detours, +{:.1f} mm)\n", r.rapid_distance_mm,
+                   rapids.straight_length_mm, rapids.detours, rapids.detour_extra_mm);
+  for (const RapidReport& d : rapids.rapids)
+    if (!d.reason.empty()) s += fmt::format("    detour at line {:>5}: +{:.1f} mm round {}\n", d.source_line, d.extra_length_mm, d.reason);
   s += fmt::format("  lower bound      {:9.3f} s  (motion {:.3f} s on the planned paths at the machine's limits + "
                    "torch sequence and dwells {:.3f} s)\n",
                    lower_bound_s, motion_lower_bound_s, process_time_s);
@@ -278,7 +282,14 @@ nlohmann::json RunOutcome::to_json() const {
                  {"declared_zones", declared_zones.size()},
                  {"straight_length_mm", rapids.straight_length_mm},
                  {"programmed_length_mm", rapids.programmed_length_mm},
-                 {"planned_length_mm", rapids.length_mm}};
+                 {"planned_length_mm", rapids.length_mm},
+                 {"small_slugs_crossed", rapids.small_slugs},
+                 {"detour_extra_mm", rapids.detour_extra_mm}};
+  nlohmann::json detours = nlohmann::json::array();
+  for (const RapidReport& r : rapids.rapids)
+    if (!r.reason.empty())
+      detours.push_back({{"source_line", r.source_line}, {"extra_length_mm", r.extra_length_mm}, {"reason", r.reason}});
+  j["rapids"]["detours"] = detours;
   if (kerf) {
     nlohmann::json issues = nlohmann::json::array();
     for (const KerfIssue& i : kerf->issues)
