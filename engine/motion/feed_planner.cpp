@@ -134,28 +134,79 @@ double pulse_time(double dv, double a, double j) {
   return dv / a + a / j;
 }
 
+// An arc as the acceleration box sees it: curvature and the range of its radial angle.
+struct ArcRange {
+  double kappa = 0.0, lo = 0.0, hi = 0.0;
+};
+
+// The tangential acceleration that the per-axis box leaves, at path speed v, at every point
+// of the arc: min over the arc and the axes of (amax_i - v^2 kappa |n_i|) / |u_i| (0 when the
+// normal part alone exceeds an axis limit somewhere). With the radial angle th, axis x sees
+// |n| = |cos th|, |u| = |sin th|, axis y the other way round; between the extremes of |u|
+// the ratio is smallest where |n| = v^2 kappa / amax_i, so those angles and the arc's ends
+// are the candidates.
+double arc_tangential_accel(const ArcRange& arc, double v, const Vector2d& amax) {
+  constexpr double kPiL = std::numbers::pi;
+  const double w = v * v * arc.kappa;
+  double best = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 2; ++i) {
+    const auto ratio = [&](double th) {
+      const double n = i == 0 ? std::abs(std::cos(th)) : std::abs(std::sin(th));
+      const double u = i == 0 ? std::abs(std::sin(th)) : std::abs(std::cos(th));
+      const double room = amax[i] - w * n;
+      if (room < 0.0) return 0.0;
+      return u > 1e-12 ? room / u : std::numeric_limits<double>::infinity();
+    };
+    best = std::min({best, ratio(arc.lo), ratio(arc.hi)});
+    const double q = std::min(1.0, w / amax[i]);
+    const double base = i == 0 ? std::acos(q) : std::asin(q);
+    const double k0 = std::floor((arc.lo - kPiL) / kPiL), k1 = std::ceil((arc.hi + kPiL) / kPiL);
+    for (double k = k0; k <= k1; k += 1.0)
+      for (const double th : {base + k * kPiL, -base + k * kPiL})
+        if (th >= arc.lo && th <= arc.hi) best = std::min(best, ratio(th));
+  }
+  return std::max(0.0, best);
+}
+
+// Largest |cos| (which = 0) or |sin| (which = 1) over angles [lo, hi].
+double max_abs_trig(double lo, double hi, int which) {
+  constexpr double kPiL = std::numbers::pi;
+  const double offset = which == 0 ? 0.0 : kPiL / 2;  // where |cos| or |sin| is 1
+  const double k = std::ceil((lo - offset) / kPiL);
+  if (offset + k * kPiL <= hi) return 1.0;
+  auto f = [which](double x) { return which == 0 ? std::abs(std::cos(x)) : std::abs(std::sin(x)); };
+  return std::max(f(lo), f(hi));
+}
+
 struct PieceInfo {
   double cap = 0.0;  // speed cap, mm/s
+  ArcRange arc;      // arcs
   double a_line = std::numeric_limits<double>::infinity();  // lines: tangential acceleration cap
   double kappa = 0.0;                                       // arcs: curvature 1/r
+  double jerk = 0.0;  // path jerk limit: lines min_i J / |u_i| (a box, as a_line); arcs J
   bool stop_before = false;
 };
 
 // A run of pieces planned as one accelerate / cruise / decelerate block. Its tangential
 // acceleration cap depends on the speed through the normal acceleration v^2 kappa of its
-// sharpest arc: A(v) = min(a_line, sqrt(a^2 - (v^2 kappa)^2)). A speed change is made of
-// pulses in two bands, below and above v_split = 0.7 cap, each with the A of its top speed.
+// arcs: A(v) = min(a_line, min over its arcs of arc_tangential_accel(v)), non-increasing in
+// v, kept as a table on kAccelTable + 1 speeds from 0 to the cap and read at the table speed
+// at or above v (so never above the true value). A speed change is made of pulses in two
+// bands, below and above v_split = 0.7 cap, each with the A of its top speed.
+constexpr int kAccelTable = 32;
 struct Zone {
   std::size_t first = 0, last = 0;  // piece range [first, last]
   double s0 = 0.0, length = 0.0, cap = 0.0;
   double a_line = std::numeric_limits<double>::infinity(), kappa = 0.0;
-  double a_curve = 0.0;  // the a of A(v) for arcs (smaller axis limit)
+  double jerk = std::numeric_limits<double>::infinity();  // path jerk limit, mm/s^3
+  std::vector<double> a_arc;  // the table; empty without arcs
 
   double accel(double v_top) const {
     double a = a_line;
-    if (kappa > 0.0) {
-      const double an = v_top * v_top * kappa;
-      a = std::min(a, std::sqrt(std::max(0.0, a_curve * a_curve - an * an)));
+    if (!a_arc.empty()) {
+      const double x = cap > 0.0 ? v_top / cap * kAccelTable : 0.0;
+      const int k = std::clamp(static_cast<int>(std::ceil(x - 1e-9)), 0, kAccelTable);
+      a = std::min(a, a_arc[k]);
     }
     return a;
   }
@@ -163,19 +214,20 @@ struct Zone {
 };
 
 // Distance covered by the speed change v0 -> v1 in zone z.
-double transition_distance(double v0, double v1, const Zone& z, double j) {
+double transition_distance(double v0, double v1, const Zone& z) {
+  const double j = z.jerk;
   const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
   if (hi <= m || lo >= m) return 0.5 * (lo + hi) * pulse_time(hi - lo, z.accel(hi), j);
   return 0.5 * (lo + m) * pulse_time(m - lo, z.accel(m), j) + 0.5 * (m + hi) * pulse_time(hi - m, z.accel(hi), j);
 }
 // Highest v1 in [v0, cap] that one transition from v0 reaches within the zone's length.
-double reachable(double v0, const Zone& z, double j, double cap) {
+double reachable(double v0, const Zone& z, double cap) {
   if (cap <= v0) return cap;
-  if (transition_distance(v0, cap, z, j) <= z.length) return cap;
+  if (transition_distance(v0, cap, z) <= z.length) return cap;
   double lo = v0, hi = cap;
   for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
     const double mid = 0.5 * (lo + hi);
-    (transition_distance(v0, mid, z, j) <= z.length ? lo : hi) = mid;
+    (transition_distance(v0, mid, z) <= z.length ? lo : hi) = mid;
   }
   return lo;
 }
@@ -217,7 +269,8 @@ class ProfileBuilder {
     v_ = v1;  // remove rounding: the pulse ends exactly at v1 with zero acceleration
     a_ = 0.0;
   }
-  void transition(double v0, double v1, const Zone& z, double j) {
+  void transition(double v0, double v1, const Zone& z) {
+    const double j = z.jerk;
     const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
     if (hi <= m || lo >= m) return pulse(v0, v1, z.accel(hi), j);
     if (v1 > v0) {
@@ -362,7 +415,6 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
   std::vector<PieceInfo> info;
   const Vector2d& vmax = o.max_velocity_mm_per_s;
   const Vector2d& amax = o.max_acceleration_mm_per_s2;
-  const double a_min = amax.minCoeff(), v_min = vmax.minCoeff();
   const double f_n = o.curve_normal_fraction;
   bool pending_stop = false;
   auto add = [&](const Segment& s, double feed, int line) {
@@ -371,12 +423,21 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
     pending_stop = false;
     if (s.is_arc()) {
       const double r = s.radius;
-      pi.cap = std::min({feed, v_min, std::sqrt(f_n * a_min * r), std::sqrt(8.0 * r * tol) / o.servo_period_s});
+      // The radial angle range; the tangent is perpendicular, so |u_x| = |sin|, |u_y| = |cos|.
+      pi.arc.kappa = 1.0 / r;
+      pi.arc.lo = std::min(s.start_angle, s.end_angle());
+      pi.arc.hi = std::max(s.start_angle, s.end_angle());
+      const double nx = max_abs_trig(pi.arc.lo, pi.arc.hi, 0), ny = max_abs_trig(pi.arc.lo, pi.arc.hi, 1);
+      const double a_n = axis_cap(amax, nx, ny);        // most normal acceleration everywhere on the arc
+      const double v_axes = axis_cap(vmax, ny, nx);     // |u_x| = |sin| <= ny, |u_y| = |cos| <= nx
+      pi.cap = std::min({feed, v_axes, std::sqrt(f_n * a_n * r), std::sqrt(8.0 * r * tol) / o.servo_period_s});
       pi.kappa = 1.0 / r;
+      pi.jerk = o.max_jerk_mm_per_s3;
     } else {
       const Vector2d u = (s.end - s.start).normalized();
       pi.cap = std::min(feed, axis_cap(vmax, std::abs(u.x()), std::abs(u.y())));
       pi.a_line = axis_cap(amax, std::abs(u.x()), std::abs(u.y()));
+      pi.jerk = o.max_jerk_mm_per_s3 / std::max(std::abs(u.x()), std::abs(u.y()));
     }
     path.segments.push_back(s);
     path.feed_mm_per_s.push_back(feed);
@@ -419,7 +480,6 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
       z.first = k;
       z.s0 = traj->piece_s0_[k];
       z.cap = pi.cap;
-      z.a_curve = a_min;
       zones.push_back(z);
     }
     Zone& z = zones.back();
@@ -428,25 +488,35 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
     z.cap = std::min(z.cap, pi.cap);
     z.a_line = std::min(z.a_line, pi.a_line);
     z.kappa = std::max(z.kappa, pi.kappa);
+    z.jerk = std::min(z.jerk, pi.jerk);
+  }
+
+  for (Zone& z : zones) {
+    if (!(z.kappa > 0.0)) continue;
+    z.a_arc.assign(kAccelTable + 1, std::numeric_limits<double>::infinity());
+    for (std::size_t k = z.first; k <= z.last; ++k) {
+      if (!(info[k].arc.kappa > 0.0)) continue;
+      for (int t = 0; t <= kAccelTable; ++t)
+        z.a_arc[t] = std::min(z.a_arc[t], arc_tangential_accel(info[k].arc, z.cap * t / kAccelTable, amax));
+    }
   }
 
   // 4. Node speeds: caps, then the reverse and forward passes.
-  const double j = o.max_jerk_mm_per_s3;
   const std::size_t nz = zones.size();
   std::vector<double> node(nz + 1, 0.0);
   for (std::size_t k = 1; k < nz; ++k)
     node[k] = info[zones[k].first].stop_before ? 0.0 : std::min(zones[k - 1].cap, zones[k].cap);
   for (std::size_t k = nz; k-- > 1;)
-    node[k] = std::min(node[k], reachable(node[k + 1], zones[k], j, node[k]));
+    node[k] = std::min(node[k], reachable(node[k + 1], zones[k], node[k]));
   for (std::size_t k = 1; k < nz; ++k)
-    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1], j, node[k]));
+    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1], node[k]));
 
   // 5. One accelerate / cruise / decelerate profile per zone.
   ProfileBuilder pb(traj->phases_);
   for (std::size_t k = 0; k < nz; ++k) {
     const Zone& z = zones[k];
     const double v0 = node[k], v1 = node[k + 1];
-    auto need = [&](double vp) { return transition_distance(v0, vp, z, j) + transition_distance(vp, v1, z, j); };
+    auto need = [&](double vp) { return transition_distance(v0, vp, z) + transition_distance(vp, v1, z); };
     double vp = z.cap;
     if (need(vp) > z.length) {
       double lo = std::max(v0, v1), hi = z.cap;
@@ -457,10 +527,10 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
       vp = lo;
     }
     pb.anchor(pb.t(), z.s0, v0);
-    pb.transition(v0, vp, z, j);
+    pb.transition(v0, vp, z);
     const double cruise = z.length - need(vp);
     if (cruise > 0.0 && vp > 0.0) pb.phase(0.0, cruise / vp);
-    pb.transition(vp, v1, z, j);
+    pb.transition(vp, v1, z);
   }
   traj->duration_s_ = pb.t();
   for (const ProfilePhase& p : traj->phases_) traj->phase_t0_.push_back(p.t0_s);
