@@ -14,7 +14,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
+#include "engine/common/text_file.h"
 #include "solvers/motion/run.h"
+#include "tests/support/temp_dir.h"
 
 namespace machplan::motion {
 namespace {
@@ -81,6 +84,32 @@ TEST(MotionTime, NestedSheetDetoursOnlyRoundCutParts) {
   const nlohmann::json j = n.to_json();
   EXPECT_EQ(j["rapids"]["detours"].size(), n.rapids.detours);
   EXPECT_DOUBLE_EQ(j["motion_optimum_s"].get<double>(), n.motion_optimum_s);
+}
+
+TEST(MotionTime, SlugTipSizeComesFromTheMachineFile) {
+  const std::string gantry = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml";
+  std::string yaml = read_text_file(gantry);
+  const std::string key = "slug_tip_size_mm: 50";
+  const auto at = yaml.find(key);
+  ASSERT_NE(at, std::string::npos);
+  test::TempDir dir;
+  RunOptions o;
+  o.executor.record_trace = false;
+  // 10 mm: the bracket's 12 mm slugs may tip up, so they are zones like the outline.
+  o.machine = dir.write("small.yaml", std::string(yaml).replace(at, key.size(), "slug_tip_size_mm: 10"));
+  const RunOutcome r = run_program(part("bracket_l.ngc"), o);
+  EXPECT_EQ(r.machine.slug_tip_size_mm, 10.0);
+  EXPECT_EQ(r.rapids.small_slugs, 0u);
+  EXPECT_EQ(r.rapids.cut_zones, 5u);
+  // A negative size is refused, naming the file and line.
+  o.machine = dir.write("bad.yaml", std::string(yaml).replace(at, key.size(), "slug_tip_size_mm: -1"));
+  try {
+    (void)run_program(part("bracket_l.ngc"), o);
+    FAIL() << "a negative slug size was accepted";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("bad.yaml:"));
+    EXPECT_THAT(e.what(), HasSubstr("slug_tip_size_mm"));
+  }
 }
 
 }  // namespace
