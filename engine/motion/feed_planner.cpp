@@ -134,36 +134,46 @@ double pulse_time(double dv, double a, double j) {
   return dv / a + a / j;
 }
 
-// An arc as the acceleration box sees it: curvature and the range of its radial angle.
+// An arc as the acceleration box sees it: curvature and, per axis i, the range of |n_i| over
+// the arc (|n_x| = |cos th|, |n_y| = |sin th| of the radial angle th; the tangent's |u_i| is
+// sqrt(1 - |n_i|^2)).
 struct ArcRange {
   double kappa = 0.0, lo = 0.0, hi = 0.0;
+  double n_min[2] = {0, 0}, n_max[2] = {0, 0};
 };
 
+double min_abs_trig(double lo, double hi, int which);
+double max_abs_trig(double lo, double hi, int which);
+
+ArcRange arc_range(const Segment& s) {
+  ArcRange a;
+  a.kappa = 1.0 / s.radius;
+  a.lo = std::min(s.start_angle, s.end_angle());
+  a.hi = std::max(s.start_angle, s.end_angle());
+  for (int i = 0; i < 2; ++i) {
+    a.n_min[i] = min_abs_trig(a.lo, a.hi, i);
+    a.n_max[i] = max_abs_trig(a.lo, a.hi, i);
+  }
+  return a;
+}
+
 // The tangential acceleration that the per-axis box leaves, at path speed v, at every point
-// of the arc: min over the arc and the axes of (amax_i - v^2 kappa |n_i|) / |u_i| (0 when the
-// normal part alone exceeds an axis limit somewhere). With the radial angle th, axis x sees
-// |n| = |cos th|, |u| = |sin th|, axis y the other way round; between the extremes of |u|
-// the ratio is smallest where |n| = v^2 kappa / amax_i, so those angles and the arc's ends
-// are the candidates.
+// of the arc: min over the arc and the axes of (amax_i - w |n_i|) / |u_i|, w = v^2 kappa (0
+// when the normal part alone exceeds an axis limit somewhere). As a function of |n_i| = c the
+// ratio (amax_i - w c) / sqrt(1 - c^2) falls, then rises, with its least at c = w / amax_i;
+// |n_i| is continuous along the arc, so it takes every value between its extremes, and the
+// least over the arc is at that c when the arc reaches it, else at the nearer extreme. No
+// trigonometry: ArcRange holds what is needed.
 double arc_tangential_accel(const ArcRange& arc, double v, const Vector2d& amax) {
-  constexpr double kPiL = std::numbers::pi;
   const double w = v * v * arc.kappa;
   double best = std::numeric_limits<double>::infinity();
   for (int i = 0; i < 2; ++i) {
-    const auto ratio = [&](double th) {
-      const double n = i == 0 ? std::abs(std::cos(th)) : std::abs(std::sin(th));
-      const double u = i == 0 ? std::abs(std::sin(th)) : std::abs(std::cos(th));
-      const double room = amax[i] - w * n;
-      if (room < 0.0) return 0.0;
-      return u > 1e-12 ? room / u : std::numeric_limits<double>::infinity();
+    if (amax[i] - w * arc.n_max[i] < 0.0) return 0.0;
+    const auto ratio = [&](double c) {
+      const double u = std::sqrt(std::max(0.0, 1.0 - c * c));
+      return u > 1e-12 ? (amax[i] - w * c) / u : std::numeric_limits<double>::infinity();
     };
-    best = std::min({best, ratio(arc.lo), ratio(arc.hi)});
-    const double q = std::min(1.0, w / amax[i]);
-    const double base = i == 0 ? std::acos(q) : std::asin(q);
-    const double k0 = std::floor((arc.lo - kPiL) / kPiL), k1 = std::ceil((arc.hi + kPiL) / kPiL);
-    for (double k = k0; k <= k1; k += 1.0)
-      for (const double th : {base + k * kPiL, -base + k * kPiL})
-        if (th >= arc.lo && th <= arc.hi) best = std::min(best, ratio(th));
+    best = std::min(best, ratio(std::clamp(w / amax[i], arc.n_min[i], arc.n_max[i])));
   }
   return std::max(0.0, best);
 }
@@ -424,10 +434,8 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
     if (s.is_arc()) {
       const double r = s.radius;
       // The radial angle range; the tangent is perpendicular, so |u_x| = |sin|, |u_y| = |cos|.
-      pi.arc.kappa = 1.0 / r;
-      pi.arc.lo = std::min(s.start_angle, s.end_angle());
-      pi.arc.hi = std::max(s.start_angle, s.end_angle());
-      const double nx = max_abs_trig(pi.arc.lo, pi.arc.hi, 0), ny = max_abs_trig(pi.arc.lo, pi.arc.hi, 1);
+      pi.arc = arc_range(s);
+      const double nx = pi.arc.n_max[0], ny = pi.arc.n_max[1];
       const double a_n = axis_cap(amax, nx, ny);        // most normal acceleration everywhere on the arc
       const double v_axes = axis_cap(vmax, ny, nx);     // |u_x| = |sin| <= ny, |u_y| = |cos| <= nx
       pi.cap = std::min({feed, v_axes, std::sqrt(f_n * a_n * r), std::sqrt(8.0 * r * tol) / o.servo_period_s});
