@@ -114,7 +114,9 @@ struct RunOutcome {
   // The whole report for people: run summary, per-cut errors, faults, bound and ratio.
   std::string report() const;
   // {"cycle_time_s", "max_contour_error_mm", "rms_contour_error_mm", "cuts", "faults",
-  //  "lower_bound_s", "cycle_ratio", ...}; see run.cpp for the full list.
+  //  "lower_bound_s", "cycle_ratio", "planned_motion_s", "motion_optimum_s", "optimum_ratio",
+  //  "rapids": {..., "detours": [{"source_line", "extra_length_mm", "reason"}]}, ...}; see
+  //  run.cpp for the full list.
   nlohmann::json to_json() const;
 };
 
