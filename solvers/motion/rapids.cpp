@@ -77,11 +77,14 @@ RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, c
     if (s.cutting && !s.rapid && !s.segments.empty()) loops[i] = closed_loop(s);
     if (loops[i]) loop_area[i] = std::abs(signed_area(*loops[i]));
   }
+  // A hole lies inside an odd number of larger closed cuts: a part nested in another part's
+  // hole lies inside two and is a part again.
   const auto is_hole = [&](std::size_t i) {
     const Vector2d p = loops[i]->vertices().front();
+    int depth = 0;
     for (std::size_t j = 0; j < loops.size(); ++j)
-      if (j != i && loops[j] && loop_area[j] > loop_area[i] && contains(*loops[j], p)) return true;
-    return false;
+      if (j != i && loops[j] && loop_area[j] > loop_area[i] && contains(*loops[j], p)) ++depth;
+    return depth % 2 == 1;
   };
 
   for (const Step& step : job.steps) {

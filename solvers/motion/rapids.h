@@ -7,8 +7,9 @@
 //
 //   - the declared zones (clamps and the like, read with engine/programs/zones.h), and
 //   - when zones_from_cuts is set, the closed cutting contours cut before this rapid whose
-//     piece may tip up into the torch's way: every outline of a part (a closed cut that no
-//     other closed cut of the job encloses), and the holes (closed cuts inside another) whose
+//     piece may tip up into the torch's way: every outline of a part (a closed cut that an
+//     even number of the job's larger closed cuts enclose: none, or a part and its hole when a
+//     small part is nested in a large hole), and the holes (enclosed by an odd number) whose
 //     slug is larger than RapidOptions::slug_tip_size_mm in x or y. Small slugs drop through
 //     the slats or lie flat; rapids between a part's holes, and from its holes to its
 //     outline, cross them straight.

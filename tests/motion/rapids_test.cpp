@@ -591,6 +591,32 @@ TEST(Rapids, LargeSlugsAndPartsAreDetouredWithAReason) {
   EXPECT_NE(a.rapids.back().reason.find("part cut at line"), std::string::npos) << a.rapids.back().reason;
 }
 
+TEST(Rapids, APartNestedInAHoleIsAPart) {
+  // A 100 x 100 frame with an 80 x 80 hole, and a 20 x 20 part cut inside the hole before
+  // the hole itself: the small part is enclosed by two larger cuts, so it is a part (a zone)
+  // whatever its size; a rapid straight across it afterwards is re-routed.
+  Job job;
+  job.source = "nested.ngc";
+  using K = Step::Kind;
+  const auto add = [&](Stretch s, int line) {
+    if (s.cutting) job.steps.push_back({K::torch_on, line, 0, 0});
+    job.stretches.push_back(std::move(s));
+    job.steps.push_back({K::move, line, job.stretches.size() - 1, 0});
+    if (job.stretches.back().cutting) job.steps.push_back({K::torch_off, line, 0, 0});
+  };
+  add(line_stretch({{0, 0}, {140, 140}}, false, true, 80, 10), 10);
+  add(line_stretch({{140, 140}, {160, 140}, {160, 160}, {140, 160}, {140, 140}}, true, false, 40, 20), 20);
+  add(line_stretch({{140, 140}, {170, 170}}, false, true, 80, 30), 30);  // across the small part
+  add(line_stretch({{170, 170}, {150, 110}, {190, 110}, {190, 190}, {110, 190}, {110, 110}, {150, 110}}, true, false,
+                   40, 40), 40);
+  add(line_stretch({{150, 110}, {100, 100}, {200, 100}, {200, 200}, {100, 200}, {100, 100}}, true, false, 40, 50), 50);
+  const RapidsReport r = plan_rapids(job, {}, RapidOptions{}, true);
+  EXPECT_EQ(r.small_slugs, 0u);
+  ASSERT_EQ(r.rapids.size(), 2u);
+  EXPECT_TRUE(r.rapids[1].replaced) << r.rapids[1].message;
+  EXPECT_NE(r.rapids[1].reason.find("part cut at line 20"), std::string::npos) << r.rapids[1].reason;
+}
+
 TEST(Rapids, DeclaredZoneAtAnEndIsNeverLeftDirectly) {
   // The same straight geometry as leaving a part, but the zone is declared (a clamp): the
   // planner escapes by the shortest way instead of taking the straight move.
