@@ -1,5 +1,7 @@
-// Motion benchmarks: the interpolation part of the executor's 1 ms tick (Trajectory::sample)
-// and feed-planning throughput on a long contour.
+// Motion benchmarks: the interpolation part of the executor's 1 ms tick (Trajectory::sample),
+// feed-planning throughput on a long contour, and the time-optimal reference
+// (engine/motion/time_optimal.h) on the same contour's executed path, with its counters: the
+// planned duration, the optimum, their ratio and the grid size.
 //
 // The contour: a 2000-vertex closed "flower" polyline (0.3 to 1.2 mm segments, turning at
 // every vertex, so every junction is blended) followed by 200 arcs, run as one stretch on the
@@ -11,6 +13,7 @@
 
 #include "engine/geometry/contour.h"
 #include "engine/motion/feed_planner.h"
+#include "engine/motion/time_optimal.h"
 
 namespace {
 
@@ -53,6 +56,21 @@ void BM_PlanLongContour(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<long>(st.segments.size()));
 }
 BENCHMARK(BM_PlanLongContour)->Unit(benchmark::kMillisecond);
+
+void BM_TimeOptimalLongContour(benchmark::State& state) {
+  const PlannerOptions o = PlannerOptions::thermal_gantry();
+  const auto tr = plan_stretch_detailed(long_contour(), o);
+  TimeOptimalProfile p;
+  for (auto _ : state) {
+    p = time_optimal_profile(tr->executed_path(), o);
+    benchmark::DoNotOptimize(p);
+  }
+  state.counters["planned_s"] = tr->duration_s();
+  state.counters["optimum_s"] = p.time_s;
+  state.counters["ratio"] = tr->duration_s() / p.time_s;
+  state.counters["grid_points"] = static_cast<double>(p.s_mm.size());
+}
+BENCHMARK(BM_TimeOptimalLongContour)->Unit(benchmark::kMillisecond);
 
 // One sample per benchmark iteration, 1 ms apart (the servo period), walking through the
 // whole trajectory and starting over, as the executor does.

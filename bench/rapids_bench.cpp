@@ -7,12 +7,18 @@
 //   OneClamp        a 100 x 40 mm clamp across a 300 mm rapid
 //   ThreeZones      two clamps and a round cut part (arcs) across a 600 mm rapid
 //   FiveZones       four clamps and a cut part with a hole-like notch, 900 mm rapid
+//   NestedSheet     plan_rapids on the whole nested sheet (datasets/parts/nested_sheet.ngc):
+//                   65 rapids, the parts' outlines as zones, the holes' slugs crossed;
+//                   counters: straight and final rapid length, detours and their extra mm
 // Each planned scene runs with the defaults (3 attempts, shorten, smooth), with one
 // attempt, and without shortening or smoothing (the bare RRT-Connect search). Counters:
 // length and straight length of the result, mm; samples drawn; polyline vertices.
 #include <benchmark/benchmark.h>
 
+#include "engine/motion/make_job.h"
+#include "engine/programs/gcode.h"
 #include "solvers/motion/rapid_planner.h"
+#include "solvers/motion/rapids.h"
 
 namespace {
 
@@ -81,6 +87,28 @@ BENCHMARK(BM_ThreeZones)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
 
 void BM_FiveZones(benchmark::State& state) { run(state, five_zones(), variant(state.range(0))); }
 BENCHMARK(BM_FiveZones)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
+
+void BM_NestedSheet(benchmark::State& state) {
+  machplan::motion::JobOptions jo;
+  jo.rapid_feed_mm_per_s = 80.0;
+  const machplan::motion::Job job =
+      machplan::motion::make_job(machplan::read_gcode_file(MACHPLAN_SOURCE_DIR "/datasets/parts/nested_sheet.ngc"), jo);
+  RapidOptions o;
+  o.bounds = Eigen::AlignedBox2d(Vector2d(0, 0), Vector2d(2800, 2800));  // the gantry's travel
+  machplan::motion::RapidsReport r;
+  for (auto _ : state) {
+    machplan::motion::Job j = job;
+    r = machplan::motion::plan_rapids(j, {}, o, true);
+    benchmark::DoNotOptimize(j.stretches.data());
+  }
+  if (!r.ok()) state.SkipWithError("a rapid without a clear route");
+  state.counters["rapids"] = static_cast<double>(r.rapids.size());
+  state.counters["straight_mm"] = r.straight_length_mm;
+  state.counters["final_mm"] = r.length_mm;
+  state.counters["detours"] = static_cast<double>(r.detours);
+  state.counters["extra_mm"] = r.detour_extra_mm;
+}
+BENCHMARK(BM_NestedSheet)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -28,7 +28,9 @@ void require(bool ok, const char* field, double value, const char* rule) {
   if (!ok) throw std::invalid_argument(fmt::format("PlannerOptions::{} = {}: {}", field, value, rule));
 }
 
-void check_stretch(const Stretch& st) {
+}  // namespace
+
+void validate_stretch(const Stretch& st) {
   if (st.segments.empty()) throw std::invalid_argument("plan_stretch: the stretch has no segments");
   if (st.feed_mm_per_s.size() != st.segments.size() || st.source_lines.size() != st.segments.size())
     throw std::invalid_argument(fmt::format(
@@ -48,6 +50,8 @@ void check_stretch(const Stretch& st) {
           (s.start - st.segments[i - 1].end).norm(), i - 1));
   }
 }
+
+namespace {
 
 // The part of `s` between path lengths a and b (0 <= a <= b <= length).
 Segment sub_segment(const Segment& s, double a, double b) {
@@ -130,28 +134,89 @@ double pulse_time(double dv, double a, double j) {
   return dv / a + a / j;
 }
 
+// An arc as the acceleration box sees it: curvature and, per axis i, the range of |n_i| over
+// the arc (|n_x| = |cos th|, |n_y| = |sin th| of the radial angle th; the tangent's |u_i| is
+// sqrt(1 - |n_i|^2)).
+struct ArcRange {
+  double kappa = 0.0, lo = 0.0, hi = 0.0;
+  double n_min[2] = {0, 0}, n_max[2] = {0, 0};
+};
+
+double min_abs_trig(double lo, double hi, int which);
+double max_abs_trig(double lo, double hi, int which);
+
+ArcRange arc_range(const Segment& s) {
+  ArcRange a;
+  a.kappa = 1.0 / s.radius;
+  a.lo = std::min(s.start_angle, s.end_angle());
+  a.hi = std::max(s.start_angle, s.end_angle());
+  for (int i = 0; i < 2; ++i) {
+    a.n_min[i] = min_abs_trig(a.lo, a.hi, i);
+    a.n_max[i] = max_abs_trig(a.lo, a.hi, i);
+  }
+  return a;
+}
+
+// The tangential acceleration that the per-axis box leaves, at path speed v, at every point
+// of the arc: min over the arc and the axes of (amax_i - w |n_i|) / |u_i|, w = v^2 kappa (0
+// when the normal part alone exceeds an axis limit somewhere). As a function of |n_i| = c the
+// ratio (amax_i - w c) / sqrt(1 - c^2) falls, then rises, with its least at c = w / amax_i;
+// |n_i| is continuous along the arc, so it takes every value between its extremes, and the
+// least over the arc is at that c when the arc reaches it, else at the nearer extreme. No
+// trigonometry: ArcRange holds what is needed.
+double arc_tangential_accel(const ArcRange& arc, double v, const Vector2d& amax) {
+  const double w = v * v * arc.kappa;
+  double best = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 2; ++i) {
+    if (amax[i] - w * arc.n_max[i] < 0.0) return 0.0;
+    const auto ratio = [&](double c) {
+      const double u = std::sqrt(std::max(0.0, 1.0 - c * c));
+      return u > 1e-12 ? (amax[i] - w * c) / u : std::numeric_limits<double>::infinity();
+    };
+    best = std::min(best, ratio(std::clamp(w / amax[i], arc.n_min[i], arc.n_max[i])));
+  }
+  return std::max(0.0, best);
+}
+
+// Largest |cos| (which = 0) or |sin| (which = 1) over angles [lo, hi].
+double max_abs_trig(double lo, double hi, int which) {
+  constexpr double kPiL = std::numbers::pi;
+  const double offset = which == 0 ? 0.0 : kPiL / 2;  // where |cos| or |sin| is 1
+  const double k = std::ceil((lo - offset) / kPiL);
+  if (offset + k * kPiL <= hi) return 1.0;
+  auto f = [which](double x) { return which == 0 ? std::abs(std::cos(x)) : std::abs(std::sin(x)); };
+  return std::max(f(lo), f(hi));
+}
+
 struct PieceInfo {
   double cap = 0.0;  // speed cap, mm/s
+  ArcRange arc;      // arcs
   double a_line = std::numeric_limits<double>::infinity();  // lines: tangential acceleration cap
   double kappa = 0.0;                                       // arcs: curvature 1/r
+  double jerk = 0.0;  // path jerk limit: lines min_i J / |u_i| (a box, as a_line); arcs J
   bool stop_before = false;
 };
 
 // A run of pieces planned as one accelerate / cruise / decelerate block. Its tangential
 // acceleration cap depends on the speed through the normal acceleration v^2 kappa of its
-// sharpest arc: A(v) = min(a_line, sqrt(a^2 - (v^2 kappa)^2)). A speed change is made of
-// pulses in two bands, below and above v_split = 0.7 cap, each with the A of its top speed.
+// arcs: A(v) = min(a_line, min over its arcs of arc_tangential_accel(v)), non-increasing in
+// v, kept as a table on kAccelTable + 1 speeds from 0 to the cap and read at the table speed
+// at or above v (so never above the true value). A speed change is made of pulses in two
+// bands, below and above v_split = 0.7 cap, each with the A of its top speed.
+constexpr int kAccelTable = 32;
 struct Zone {
   std::size_t first = 0, last = 0;  // piece range [first, last]
   double s0 = 0.0, length = 0.0, cap = 0.0;
   double a_line = std::numeric_limits<double>::infinity(), kappa = 0.0;
-  double a_curve = 0.0;  // the a of A(v) for arcs (smaller axis limit)
+  double jerk = std::numeric_limits<double>::infinity();  // path jerk limit, mm/s^3
+  std::vector<double> a_arc;  // the table; empty without arcs
 
   double accel(double v_top) const {
     double a = a_line;
-    if (kappa > 0.0) {
-      const double an = v_top * v_top * kappa;
-      a = std::min(a, std::sqrt(std::max(0.0, a_curve * a_curve - an * an)));
+    if (!a_arc.empty()) {
+      const double x = cap > 0.0 ? v_top / cap * kAccelTable : 0.0;
+      const int k = std::clamp(static_cast<int>(std::ceil(x - 1e-9)), 0, kAccelTable);
+      a = std::min(a, a_arc[k]);
     }
     return a;
   }
@@ -159,19 +224,20 @@ struct Zone {
 };
 
 // Distance covered by the speed change v0 -> v1 in zone z.
-double transition_distance(double v0, double v1, const Zone& z, double j) {
+double transition_distance(double v0, double v1, const Zone& z) {
+  const double j = z.jerk;
   const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
   if (hi <= m || lo >= m) return 0.5 * (lo + hi) * pulse_time(hi - lo, z.accel(hi), j);
   return 0.5 * (lo + m) * pulse_time(m - lo, z.accel(m), j) + 0.5 * (m + hi) * pulse_time(hi - m, z.accel(hi), j);
 }
 // Highest v1 in [v0, cap] that one transition from v0 reaches within the zone's length.
-double reachable(double v0, const Zone& z, double j, double cap) {
+double reachable(double v0, const Zone& z, double cap) {
   if (cap <= v0) return cap;
-  if (transition_distance(v0, cap, z, j) <= z.length) return cap;
+  if (transition_distance(v0, cap, z) <= z.length) return cap;
   double lo = v0, hi = cap;
   for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
     const double mid = 0.5 * (lo + hi);
-    (transition_distance(v0, mid, z, j) <= z.length ? lo : hi) = mid;
+    (transition_distance(v0, mid, z) <= z.length ? lo : hi) = mid;
   }
   return lo;
 }
@@ -213,7 +279,8 @@ class ProfileBuilder {
     v_ = v1;  // remove rounding: the pulse ends exactly at v1 with zero acceleration
     a_ = 0.0;
   }
-  void transition(double v0, double v1, const Zone& z, double j) {
+  void transition(double v0, double v1, const Zone& z) {
+    const double j = z.jerk;
     const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
     if (hi <= m || lo >= m) return pulse(v0, v1, z.accel(hi), j);
     if (v1 > v0) {
@@ -282,7 +349,7 @@ void PlannerOptions::validate() const {
 
 std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch, const PlannerOptions& o) {
   o.validate();
-  check_stretch(stretch);
+  validate_stretch(stretch);
   auto traj = std::make_unique<PlannedTrajectory>();
   const double tol = o.path_tolerance_mm;
 
@@ -358,7 +425,6 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
   std::vector<PieceInfo> info;
   const Vector2d& vmax = o.max_velocity_mm_per_s;
   const Vector2d& amax = o.max_acceleration_mm_per_s2;
-  const double a_min = amax.minCoeff(), v_min = vmax.minCoeff();
   const double f_n = o.curve_normal_fraction;
   bool pending_stop = false;
   auto add = [&](const Segment& s, double feed, int line) {
@@ -367,12 +433,19 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
     pending_stop = false;
     if (s.is_arc()) {
       const double r = s.radius;
-      pi.cap = std::min({feed, v_min, std::sqrt(f_n * a_min * r), std::sqrt(8.0 * r * tol) / o.servo_period_s});
+      // The radial angle range; the tangent is perpendicular, so |u_x| = |sin|, |u_y| = |cos|.
+      pi.arc = arc_range(s);
+      const double nx = pi.arc.n_max[0], ny = pi.arc.n_max[1];
+      const double a_n = axis_cap(amax, nx, ny);        // most normal acceleration everywhere on the arc
+      const double v_axes = axis_cap(vmax, ny, nx);     // |u_x| = |sin| <= ny, |u_y| = |cos| <= nx
+      pi.cap = std::min({feed, v_axes, std::sqrt(f_n * a_n * r), std::sqrt(8.0 * r * tol) / o.servo_period_s});
       pi.kappa = 1.0 / r;
+      pi.jerk = o.max_jerk_mm_per_s3;
     } else {
       const Vector2d u = (s.end - s.start).normalized();
       pi.cap = std::min(feed, axis_cap(vmax, std::abs(u.x()), std::abs(u.y())));
       pi.a_line = axis_cap(amax, std::abs(u.x()), std::abs(u.y()));
+      pi.jerk = o.max_jerk_mm_per_s3 / std::max(std::abs(u.x()), std::abs(u.y()));
     }
     path.segments.push_back(s);
     path.feed_mm_per_s.push_back(feed);
@@ -415,7 +488,6 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
       z.first = k;
       z.s0 = traj->piece_s0_[k];
       z.cap = pi.cap;
-      z.a_curve = a_min;
       zones.push_back(z);
     }
     Zone& z = zones.back();
@@ -424,25 +496,35 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
     z.cap = std::min(z.cap, pi.cap);
     z.a_line = std::min(z.a_line, pi.a_line);
     z.kappa = std::max(z.kappa, pi.kappa);
+    z.jerk = std::min(z.jerk, pi.jerk);
+  }
+
+  for (Zone& z : zones) {
+    if (!(z.kappa > 0.0)) continue;
+    z.a_arc.assign(kAccelTable + 1, std::numeric_limits<double>::infinity());
+    for (std::size_t k = z.first; k <= z.last; ++k) {
+      if (!(info[k].arc.kappa > 0.0)) continue;
+      for (int t = 0; t <= kAccelTable; ++t)
+        z.a_arc[t] = std::min(z.a_arc[t], arc_tangential_accel(info[k].arc, z.cap * t / kAccelTable, amax));
+    }
   }
 
   // 4. Node speeds: caps, then the reverse and forward passes.
-  const double j = o.max_jerk_mm_per_s3;
   const std::size_t nz = zones.size();
   std::vector<double> node(nz + 1, 0.0);
   for (std::size_t k = 1; k < nz; ++k)
     node[k] = info[zones[k].first].stop_before ? 0.0 : std::min(zones[k - 1].cap, zones[k].cap);
   for (std::size_t k = nz; k-- > 1;)
-    node[k] = std::min(node[k], reachable(node[k + 1], zones[k], j, node[k]));
+    node[k] = std::min(node[k], reachable(node[k + 1], zones[k], node[k]));
   for (std::size_t k = 1; k < nz; ++k)
-    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1], j, node[k]));
+    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1], node[k]));
 
   // 5. One accelerate / cruise / decelerate profile per zone.
   ProfileBuilder pb(traj->phases_);
   for (std::size_t k = 0; k < nz; ++k) {
     const Zone& z = zones[k];
     const double v0 = node[k], v1 = node[k + 1];
-    auto need = [&](double vp) { return transition_distance(v0, vp, z, j) + transition_distance(vp, v1, z, j); };
+    auto need = [&](double vp) { return transition_distance(v0, vp, z) + transition_distance(vp, v1, z); };
     double vp = z.cap;
     if (need(vp) > z.length) {
       double lo = std::max(v0, v1), hi = z.cap;
@@ -453,10 +535,10 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
       vp = lo;
     }
     pb.anchor(pb.t(), z.s0, v0);
-    pb.transition(v0, vp, z, j);
+    pb.transition(v0, vp, z);
     const double cruise = z.length - need(vp);
     if (cruise > 0.0 && vp > 0.0) pb.phase(0.0, cruise / vp);
-    pb.transition(vp, v1, z, j);
+    pb.transition(vp, v1, z);
   }
   traj->duration_s_ = pb.t();
   for (const ProfilePhase& p : traj->phases_) traj->phase_t0_.push_back(p.t0_s);
@@ -493,7 +575,7 @@ void PlannedTrajectory::sample(double t_s, Setpoint& out) const {
 
 double time_lower_bound_s(const Stretch& stretch, const PlannerOptions& o) {
   o.validate();
-  check_stretch(stretch);
+  validate_stretch(stretch);
   const Vector2d& vmax = o.max_velocity_mm_per_s;
   const Vector2d& amax = o.max_acceleration_mm_per_s2;
 

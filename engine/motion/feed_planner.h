@@ -28,16 +28,22 @@
 //    than 1e-6 mm are not blended: the tool stops there. Junctions that are tangent within
 //    1e-9 rad are passed as they are.
 //
-// 2. Speed and acceleration caps (per piece of the blended path). On a line with unit
-//    direction u: speed <= min(feed, min_i vmax_i / |u_i|) and tangential acceleration
-//    <= min_i amax_i / |u_i| (this is exactly the largest that keeps every axis in its limit).
-//    On an arc of radius r (programmed or blend) the acceleration has a tangential part a_t and
-//    a normal part v^2 / r, and over a range of directions every axis sees its full norm at
-//    some point, so we keep |a| = sqrt(a_t^2 + (v^2/r)^2) <= a = min_i amax_i: the speed is
-//    capped by v^2 / r <= f a (f = curve_normal_fraction) and the tangential acceleration at
-//    speed v is A(v) = sqrt(a^2 - (v^2/r)^2), at least sqrt(1 - f^2) a. The speed is also
-//    <= min_i vmax_i and small enough that the chord between two servo samples (Koren's V T
-//    step) stays within delta of the arc: (v T)^2 / (8 r) <= delta.
+// 2. Speed and acceleration caps (per piece of the blended path). The machine's limits are a
+//    box: each axis has its own speed and acceleration limit. On a line with unit direction
+//    u: speed <= min(feed, min_i vmax_i / |u_i|) and tangential acceleration
+//    <= min_i amax_i / |u_i| (exactly the largest that keeps every axis in its limit; a
+//    diagonal gets sqrt(2) times an axis' limit). On an arc of radius r (programmed or blend)
+//    the axes see a tangential part a_t u and a normal part (v^2 / r) n, over the range of
+//    directions the arc sweeps. The speed is capped by v^2 / r <= f a_n, where a_n =
+//    min_i amax_i / max |n_i| is the most normal acceleration the axes give everywhere on the
+//    arc (f = curve_normal_fraction), by the axis speeds over the arc's tangents, and by the
+//    chord between two servo samples (Koren's V T step) staying within delta of the arc:
+//    (v T)^2 / (8 r) <= delta. At speed v the tangential acceleration is
+//    A(v) = min over the arc and the axes of (amax_i - v^2 / r |n_i|) / |u_i|, computed
+//    exactly (the arc's ends and the angles where |n_i| = v^2 / (r amax_i)). On a full circle
+//    with equal axes this is sqrt(a^2 - (v^2/r)^2); on a short arc away from the axes it is
+//    more. The jerk limit J is per axis too: on a line the path jerk may be
+//    min_i J / |u_i|; on arcs it is J.
 //
 // 3. Velocity profile (look-ahead). Consecutive pieces whose caps agree within 0.5 % form a
 //    zone (taking the smaller caps). Inside a zone the speed follows jerk-limited S-curves;
@@ -55,8 +61,12 @@
 //    zone between; forward, so that it can be reached by accelerating. Each zone then gets
 //    accelerate / cruise / decelerate at the highest peak speed that fits its length. All of
 //    this is computed in plan_stretch; sample() only evaluates the stored pieces. On zones with
-//    arcs A depends on the speed; a speed change is split at 0.7 of the zone's cap into two
-//    pulses, each using A at its top speed (low speeds leave more room for a_t).
+//    arcs A depends on the speed (the smallest A(v) of the zone's arcs, tabulated on 33
+//    speeds and read at the table speed at or above v); a speed change is split at 0.7 of the
+//    zone's cap into two pulses, each using A at its top speed (low speeds leave more room
+//    for a_t). The jerk limit costs a rest-to-rest move about a / J over the jerk-free
+//    optimum (the acceleration must rise and fall); taking J per axis makes that 25 ms on
+//    the gantry whatever the direction.
 //
 //    The zero-acceleration nodes cost a little time where caps change often (a spline cut
 //    into segments of varying length); the figures in tests/motion show the price on the
@@ -66,6 +76,9 @@
 // (piecewise cubic s(t), v(t), a(t)), then the piece by binary search on its start length,
 // and evaluates the geometry in closed form (engine/motion/interpolator.h, Koren's linear and
 // circular steps without accumulation). No allocation, no throw, O(log n).
+//
+// The time-optimal motion on the same path (engine/motion/time_optimal.h) is the reference
+// this planner is measured against (tests/motion/motion_time_test.cpp).
 //
 // Time lower bound. time_lower_bound_s() gives a time that no rest-to-rest motion along
 // exactly the given path can beat with the same speed and acceleration limits (jerk
@@ -109,11 +122,13 @@ struct PlannerOptions {
   double path_tolerance_mm = 0.01;
   // The executor's sampling period, s (Koren's T): bounds the chord between two samples.
   double servo_period_s = 0.001;
-  // On curves, the largest share f of the acceleration limit a the normal acceleration v^2 / r
-  // may take at the cap speed; the tangential acceleration gets the rest, sqrt(a^2 - (v^2/r)^2),
-  // at least sqrt(1 - f^2) a. LinuxCNC's blends give 0.87 to the normal part and 0.5 to the
-  // tangential one; 0.8 leaves at least 0.6 a for speed changes.
-  double curve_normal_fraction = 0.8;
+  // On curves, the largest share f of the normal acceleration the axes can give everywhere on
+  // the arc (min_i amax_i / max |n_i|) that v^2 / r may take at the cap speed; the rest is left
+  // to speed changes (on a full circle with equal axes at least sqrt(1 - f^2) a of tangential
+  // acceleration, more on arcs away from the axes). LinuxCNC's blends give 0.87 to the normal
+  // part; 0.9 leaves at least 0.44 a for speed changes and keeps the executor's contour error
+  // on the bundled parts within its 0.1 mm.
+  double curve_normal_fraction = 0.9;
 
   // The two machines' defaults: the thermal gantry (v 81.8 mm/s, a 500 mm/s^2, j 20000) and
   // the NSK XY table (v 1200 mm/s, a 5000 mm/s^2, j 200000).
@@ -171,6 +186,9 @@ class PlannedTrajectory final : public Trajectory {
 std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
                                                          const PlannerOptions& options);
 std::unique_ptr<Trajectory> plan_stretch(const Stretch& stretch, const PlannerOptions& options);
+
+// Throws std::invalid_argument when the stretch is malformed (see plan_stretch_detailed).
+void validate_stretch(const Stretch& stretch);
 
 // The lower bound of the file comment, s, for motion along exactly `stretch`'s segments.
 // Same preconditions and exceptions as plan_stretch.

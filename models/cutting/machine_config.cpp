@@ -92,12 +92,14 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 }  // namespace
 
 MachineConfig machine_from_yaml(const Yaml& root) {
-  root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height"});
+  root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height",
+                           "slug_tip_size_mm"});
   MachineConfig m;
   m.source = root.file();
   m.name = root.string("name");
   m.description = root.string_or("description", "");
   m.servo_period_s = root.number_or("servo_period_s", 0.001, {.min = 1e-5, .max = 0.1});
+  m.slug_tip_size_mm = root.number_or("slug_tip_size_mm", m.slug_tip_size_mm, {.min = 0.0, .max = 1e6});
 
   const Yaml l = root.at("limits");
   l.reject_unknown_keys(

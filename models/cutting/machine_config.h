@@ -75,6 +75,11 @@ struct TorchHeightConfig {
 struct MachineConfig {
   std::string name, description, source;
   double servo_period_s = 0.001;
+  // Hole slugs whose bounding box is larger than this in x or y may tip up in the skeleton, so
+  // rapids keep clear of them; smaller ones drop or lie flat and rapids cross them, mm.
+  // Outer contours (parts) are always kept clear of. Default: 50 mm, about the pitch of a
+  // cutting table's support slats.
+  double slug_tip_size_mm = 50.0;
   Limits limits;
   std::array<AxisConfig, 2> axes;
   TorchConfig torch;

@@ -465,6 +465,8 @@ void RapidOptions::validate() const {
   if (max_samples < 1) bad("max_samples", max_samples, "must be >= 1");
   if (!(max_time_s > 0.0) || !std::isfinite(max_time_s)) bad("max_time_s", max_time_s, "must be finite and > 0");
   if (attempts < 1) bad("attempts", attempts, "must be >= 1");
+  if (!(slug_tip_size_mm >= 0.0) || !std::isfinite(slug_tip_size_mm))
+    bad("slug_tip_size_mm", slug_tip_size_mm, "must be finite and >= 0");
   if (!bounds.isEmpty()) {
     if (!bounds.min().allFinite() || !bounds.max().allFinite())
       throw std::invalid_argument("RapidOptions::bounds: corners must be finite");
@@ -473,8 +475,39 @@ void RapidOptions::validate() const {
   }
 }
 
+// Step 1b: the straight move leaves the cut part it starts at (or reaches the one it ends at)
+// directly. See the file comment of rapid_planner.h.
+bool leaves_directly(const Vector2d& from, const Vector2d& to, const Zones& zones, std::size_t first_part) {
+  const double c = zones.clearance();
+  const double len = (to - from).norm();
+  if (!(len > 0.0)) return false;
+  const Vector2d u = (to - from) / len;
+  std::vector<char> at_start(zones.size(), 0), at_end(zones.size(), 0);
+  bool any = false;
+  for (std::size_t j = 0; j < zones.size(); ++j) {
+    at_start[j] = zones.point_distance(from, j) < c;
+    at_end[j] = zones.point_distance(to, j) < c;
+    if ((at_start[j] || at_end[j]) && j < first_part) return false;  // a declared zone: never relaxed
+    any = any || at_start[j] || at_end[j];
+  }
+  if (!any) return false;
+  const double near = std::min(2.0 * c, 0.5 * len);
+  const double eps = 1e-6 * std::max(1.0, len);
+  const Vector2d p1 = from + near * u, p2 = to - near * u;
+  for (std::size_t j = 0; j < zones.size(); ++j) {
+    // The middle keeps the full clearance from every zone.
+    if (len > 2.0 * near && zones.segment_distance(p1, p2, j, c) < c) return false;
+    // Each end leg keeps it from the zones not at its end, and does not enter those at its end.
+    const double d_start = zones.segment_distance(from + eps * u, p1, j, c);
+    if (at_start[j] ? !(d_start > 0.0) : d_start < c) return false;
+    const double d_end = zones.segment_distance(p2, to - eps * u, j, c);
+    if (at_end[j] ? !(d_end > 0.0) : d_end < c) return false;
+  }
+  return true;
+}
+
 RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector<Contour>& no_go,
-                     const RapidOptions& options) {
+                     const RapidOptions& options, std::size_t first_part_zone) {
   options.validate();
   if (!from.allFinite() || !to.allFinite()) throw std::invalid_argument("plan_rapid: from and to must be finite");
   RapidPlan plan;
@@ -516,6 +549,15 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector
     Escape none_end;
     none_end.point = to;
     return finish(RapidStatus::straight, {from, to}, none, none_end, "the straight move is clear");
+  }
+  if (leaves_directly(from, to, zones, first_part_zone)) {
+    Escape none;
+    none.point = from;
+    Escape none_end;
+    none_end.point = to;
+    plan.straight_blocked = false;
+    return finish(RapidStatus::straight, {from, to}, none, none_end,
+                  "straight: leaves or reaches the cut part at its end directly");
   }
 
   // Step 2.

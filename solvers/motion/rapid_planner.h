@@ -13,6 +13,16 @@
 //     (status straight) and OMPL is not called. A rapid with from == to is straight whatever
 //     the zones (it moves nothing).
 //
+//  1b. Leaving a cut part directly. The zones from index first_part_zone on are parts cut
+//     before this rapid (declared zones come first and are never relaxed here). A rapid that
+//     starts on the part just cut, or ends beside one, is straight when the straight move
+//     (a) keeps the full clearance from every zone over its middle, farther than
+//     2 clearance_mm from both ends, (b) on each end leg (the first and last 2 clearance_mm)
+//     keeps the full clearance from every zone except the parts whose clearance band holds
+//     that end, and (c) does not enter those parts' regions. The torch departs from (or
+//     arrives at) the part's edge; it never passes over a part it could catch. Status
+//     straight, straight_blocked false.
+//
 //  2. Leaving an end point's zone. A rapid often starts on a contour that was just cut (the
 //     torch stops on the part's edge) or ends at a pierce point under or beside a clamp. Such
 //     an end point is not clear, so no planner could start there. Rule: the zones whose region
@@ -122,6 +132,9 @@ struct RapidOptions {
   bool simplify = true;
   // Smooth the shortened path (step 5).
   bool smooth = true;
+  // plan_rapids only (rapids.h): holes whose slug is larger than this in x or y are kept
+  // clear of like parts; smaller ones are crossed, mm (>= 0).
+  double slug_tip_size_mm = 50.0;
 
   // Throws std::invalid_argument naming the field, its value and the rule it breaks.
   void validate() const;
@@ -160,8 +173,11 @@ struct RapidPlan {
 
 // Plans one rapid; see the file comment. Throws std::invalid_argument when the options are
 // invalid or from/to are not finite; every other outcome is a status.
+// Zones at index >= first_part_zone are cut parts, which step 1b may leave directly; the
+// default makes every zone a declared one.
 RapidPlan plan_rapid(const Eigen::Vector2d& from, const Eigen::Vector2d& to,
-                     const std::vector<Contour>& no_go, const RapidOptions& options);
+                     const std::vector<Contour>& no_go, const RapidOptions& options,
+                     std::size_t first_part_zone = static_cast<std::size_t>(-1));
 
 // Exact distance between the straight segment a -> b and a span (line or arc), mm: 0 when
 // they meet. Computed from the candidates where the minimum can lie (end points, the foot of

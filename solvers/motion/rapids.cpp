@@ -1,6 +1,7 @@
 #include "solvers/motion/rapids.h"
 
 #include <cmath>
+#include <optional>
 #include <limits>
 #include <numbers>
 
@@ -64,7 +65,27 @@ RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, c
   options.validate();
   RapidsReport report;
   std::vector<Contour> zones = declared_zones;
+  std::vector<std::string> labels;
+  for (std::size_t i = 0; i < declared_zones.size(); ++i) labels.push_back(fmt::format("declared zone {}", i + 1));
   std::vector<char> done(job.stretches.size(), 0);
+
+  // Every closed cut of the job, to tell holes (inside another closed cut) from outlines.
+  std::vector<std::optional<Contour>> loops(job.stretches.size());
+  std::vector<double> loop_area(job.stretches.size(), 0.0);
+  for (std::size_t i = 0; i < job.stretches.size(); ++i) {
+    const Stretch& s = job.stretches[i];
+    if (s.cutting && !s.rapid && !s.segments.empty()) loops[i] = closed_loop(s);
+    if (loops[i]) loop_area[i] = std::abs(signed_area(*loops[i]));
+  }
+  // A hole lies inside an odd number of larger closed cuts: a part nested in another part's
+  // hole lies inside two and is a part again.
+  const auto is_hole = [&](std::size_t i) {
+    const Vector2d p = loops[i]->vertices().front();
+    int depth = 0;
+    for (std::size_t j = 0; j < loops.size(); ++j)
+      if (j != i && loops[j] && loop_area[j] > loop_area[i] && contains(*loops[j], p)) ++depth;
+    return depth % 2 == 1;
+  };
 
   for (const Step& step : job.steps) {
     if (step.kind != Step::Kind::move || step.stretch >= job.stretches.size() || done[step.stretch]) continue;
@@ -74,12 +95,24 @@ RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, c
 
     if (s.cutting && !s.rapid) {
       if (!zones_from_cuts) continue;
-      if (auto loop = closed_loop(s)) {
-        zones.push_back(std::move(*loop));
-        ++report.cut_zones;
-      } else {
+      if (!loops[step.stretch]) {
         ++report.open_cuts;
+        continue;
       }
+      const Contour& loop = *loops[step.stretch];
+      const int line = s.source_lines.empty() ? step.source_line : s.source_lines.front();
+      if (is_hole(step.stretch)) {
+        const Eigen::Vector2d size = bounding_box(loop).sizes();
+        if (size.maxCoeff() <= options.slug_tip_size_mm) {
+          ++report.small_slugs;
+          continue;
+        }
+        labels.push_back(fmt::format("slug of the hole cut at line {} ({:.1f} x {:.1f} mm)", line, size.x(), size.y()));
+      } else {
+        labels.push_back(fmt::format("part cut at line {}", line));
+      }
+      zones.push_back(loop);
+      ++report.cut_zones;
       continue;
     }
     if (!s.rapid) continue;
@@ -93,12 +126,13 @@ RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, c
     r.programmed_length_mm = stretch_length(s);
     r.zone_count = zones.size();
 
-    const RapidPlan plan = plan_rapid(r.from, r.to, zones, options);
+    const RapidPlan plan = plan_rapid(r.from, r.to, zones, options, declared_zones.size());
     r.status = plan.status;
     r.straight_blocked = plan.straight_blocked;
     r.message = plan.message;
 
-    // Keep the programmed route when it is straight lines and clear of every zone.
+    // Keep the programmed route when it is straight lines and clear of every zone, or when
+    // it is the one straight move the plan found clear (step 1b of rapid_planner.h).
     bool programmed_clear = true;
     std::vector<Vector2d> programmed{r.from};
     for (const Segment& g : s.segments) {
@@ -106,7 +140,9 @@ RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, c
       programmed.push_back(g.end);
     }
     const double programmed_clearance = polyline_clearance_mm(programmed, zones);
-    programmed_clear = programmed_clear && programmed_clearance >= options.clearance_mm;
+    const bool programmed_straight = programmed.size() == 2 && programmed_clear;
+    programmed_clear = programmed_clear && (programmed_clearance >= options.clearance_mm ||
+                                            (programmed_straight && plan.status == RapidStatus::straight));
 
     if (programmed_clear) {
       r.programmed_clear = true;
@@ -129,6 +165,18 @@ RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, c
       r.min_clearance_mm = programmed_clearance;
     }
     r.length_mm = stretch_length(s);
+    r.extra_length_mm = r.length_mm - r.straight_length_mm;
+    if (r.replaced && plan.status == RapidStatus::planned) {
+      // Why: the zones the straight move comes too near (those it merely leaves or reaches
+      // at an end are named too: their band held the end point).
+      for (std::size_t j = 0; j < zones.size(); ++j)
+        if (region_distance_mm(r.from, r.to, zones[j]) < options.clearance_mm) {
+          if (!r.reason.empty()) r.reason += "; ";
+          r.reason += labels[j];
+        }
+      ++report.detours;
+      report.detour_extra_mm += r.extra_length_mm;
+    }
 
     report.blocked += r.straight_blocked ? 1 : 0;
     report.replaced += r.replaced ? 1 : 0;
@@ -147,16 +195,17 @@ std::string RapidsReport::summary() const {
   for (const RapidReport& r : rapids) {
     const std::string clear =
         std::isinf(r.min_clearance_mm) ? std::string("-") : fmt::format("{:.2f}", r.min_clearance_mm);
-    out += fmt::format("{:>7} {:>5} {:>16} {:>10.2f} {:>10.2f} {:>10.2f} {:>8}  {}{}\n", r.stretch, r.source_line,
+    out += fmt::format("{:>7} {:>5} {:>16} {:>10.2f} {:>10.2f} {:>10.2f} {:>8}  {}{}{}\n", r.stretch, r.source_line,
                        to_string(r.status), r.straight_length_mm, r.programmed_length_mm, r.length_mm, clear,
                        r.replaced ? "re-routed; " : (r.programmed_clear ? "as programmed; " : "NOT CLEAR; "),
-                       r.message);
+                       r.message, r.reason.empty() ? std::string() : fmt::format(" (+{:.2f} mm round {})", r.extra_length_mm, r.reason));
   }
   out += fmt::format(
-      "{} rapids: {} blocked straight, {} re-routed, {} without a clear route; {} zones from cuts, {} open cuts\n"
-      "length: straight {:.2f} mm, programmed {:.2f} mm, final {:.2f} mm\n",
-      rapids.size(), blocked, replaced, failed, cut_zones, open_cuts, straight_length_mm, programmed_length_mm,
-      length_mm);
+      "{} rapids: {} blocked straight, {} re-routed, {} without a clear route; {} zones from cuts, {} small slugs "
+      "crossed, {} open cuts\n"
+      "length: straight {:.2f} mm, programmed {:.2f} mm, final {:.2f} mm; {} detours, {:.2f} mm extra\n",
+      rapids.size(), blocked, replaced, failed, cut_zones, small_slugs, open_cuts, straight_length_mm,
+      programmed_length_mm, length_mm, detours, detour_extra_mm);
   return out;
 }
 

@@ -6,8 +6,13 @@
 // last (solvers/motion/rapid_planner.h) among these zones:
 //
 //   - the declared zones (clamps and the like, read with engine/programs/zones.h), and
-//   - when zones_from_cuts is set, every closed cutting contour cut before this rapid: the
-//     parts (and slugs) that now lie loose in the skeleton and may tip up.
+//   - when zones_from_cuts is set, the closed cutting contours cut before this rapid whose
+//     piece may tip up into the torch's way: every outline of a part (a closed cut that an
+//     even number of the job's larger closed cuts enclose: none, or a part and its hole when a
+//     small part is nested in a large hole), and the holes (enclosed by an odd number) whose
+//     slug is larger than RapidOptions::slug_tip_size_mm in x or y. Small slugs drop through
+//     the slats or lie flat; rapids between a part's holes, and from its holes to its
+//     outline, cross them straight.
 //
 // A cutting stretch becomes a zone when its path closes: the first segment whose end returns
 // to the start of an earlier (or the same) segment of the stretch closes the loop, so a
@@ -15,6 +20,11 @@
 // bulge 0; arcs become vertices with bulge tan(sweep / 4), an arc sweeping more than half a
 // turn being split in two. A stretch that never closes (a slit, an overcut that stops mid-span)
 // or whose loop encloses no area gives no zone; it is counted in open_cuts.
+//
+// Each rapid is planned with the cut parts marked as such, so that a straight move that
+// only departs from the part just cut, or arrives beside one, is taken as it is (step 1b of
+// rapid_planner.h); declared zones are always kept clear of. A re-routed rapid reports its
+// extra length and which zones made the detour.
 //
 // What is replaced. A rapid stretch keeps its programmed segments when they are all straight
 // and clear (the program's own route is respected; this includes a straight single-segment
@@ -51,6 +61,10 @@ struct RapidReport {
   bool replaced = false;              // the segments were replaced by the planned polyline
   std::size_t zone_count = 0;         // zones this rapid avoided (declared + from cuts)
   double min_clearance_mm = 0.0;      // see RapidPlan::min_clearance_mm
+  double extra_length_mm = 0.0;       // length_mm - straight_length_mm
+  // For a detour (re-routed round zones): the zones the straight move came too near, e.g.
+  // "part cut at line 40; declared zone 1". Empty otherwise.
+  std::string reason;
   std::string message;
 };
 
@@ -61,6 +75,9 @@ struct RapidsReport {
   std::size_t failed = 0;     // rapids with no clear route (left as programmed)
   std::size_t cut_zones = 0;  // closed cutting contours turned into zones
   std::size_t open_cuts = 0;  // cutting stretches that gave no zone
+  std::size_t small_slugs = 0;  // closed holes no larger than slug_tip_size_mm: no zone
+  std::size_t detours = 0;      // rapids re-routed round zones
+  double detour_extra_mm = 0.0; // their length beyond the straight moves, mm
   double straight_length_mm = 0.0;    // sum over rapids
   double programmed_length_mm = 0.0;  // sum over rapids
   double length_mm = 0.0;             // sum over rapids, after this pass

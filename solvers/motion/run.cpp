@@ -169,6 +169,7 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
   check_cuts_clear_of(o.job, o.declared_zones, options.no_go_path);
   RapidOptions ro = options.rapids;
   ro.bounds = travel_box(o.machine);
+  ro.slug_tip_size_mm = o.machine.slug_tip_size_mm;
   o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts);
   for (const Stretch& s : o.job.stretches)
     if (s.cutting && !s.rapid)
@@ -194,12 +195,14 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
     auto tr = plan_stretch_detailed(o.job.stretches[st.stretch], o.planner);
     o.planned_motion_s += tr->duration_s();
     o.motion_lower_bound_s += time_lower_bound_s(tr->executed_path(), o.planner);
+    o.motion_optimum_s += time_optimal_s(tr->executed_path(), o.planner);
     o.trajectories[i] = std::move(tr);
   }
   const executor::MachineSetup setup = o.machine.setup();
   o.process_time_s = process_time_s(o.job, o.machine, setup.torch.height_tolerance_mm);
   o.lower_bound_s = o.motion_lower_bound_s + o.process_time_s;
   o.motion_ratio = o.motion_lower_bound_s > 0 ? o.planned_motion_s / o.motion_lower_bound_s : 1.0;
+  o.optimum_ratio = o.motion_optimum_s > 0 ? o.planned_motion_s / o.motion_optimum_s : 1.0;
 
   static const executor::Trajectories kNone;
   backends::BackendOptions bo = options.backend;
@@ -232,12 +235,17 @@ std::string RunOutcome::report() const {
                               faulted() ? "FAULTED" : "completed");
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
   s += fmt::format("  torch on         {:9.3f} s\n", r.torch_on_s);
-  s += fmt::format("  rapid distance   {:9.1f} mm\n", r.rapid_distance_mm);
+  s += fmt::format("  rapid distance   {:9.1f} mm  (straight {:.1f} mm; {} detours, +{:.1f} mm)\n", r.rapid_distance_mm,
+                   rapids.straight_length_mm, rapids.detours, rapids.detour_extra_mm);
+  for (const RapidReport& d : rapids.rapids)
+    if (!d.reason.empty()) s += fmt::format("    detour at line {:>5}: +{:.1f} mm round {}\n", d.source_line, d.extra_length_mm, d.reason);
   s += fmt::format("  lower bound      {:9.3f} s  (motion {:.3f} s on the planned paths at the machine's limits + "
                    "torch sequence and dwells {:.3f} s)\n",
                    lower_bound_s, motion_lower_bound_s, process_time_s);
   s += fmt::format("  cycle ratio      {:9.4f}    (cycle time / lower bound; planned motion / motion bound {:.4f})\n",
                    cycle_ratio, motion_ratio);
+  s += fmt::format("  motion           {:9.3f} s  planned; time-optimal on the same paths {:.3f} s (ratio {:.4f})\n",
+                   planned_motion_s, motion_optimum_s, optimum_ratio);
   s += fmt::format("  contour error    max {:.4f} mm, rms {:.4f} mm over {} cuts, torch on, from the encoders",
                    r.max_contour_error_mm(), rms_contour_error_mm, r.cuts.size());
   const double mt = r.max_true_contour_error_mm();
@@ -274,6 +282,8 @@ nlohmann::json RunOutcome::to_json() const {
   j["planned_motion_s"] = planned_motion_s;
   j["cycle_ratio"] = cycle_ratio;
   j["motion_ratio"] = motion_ratio;
+  j["motion_optimum_s"] = motion_optimum_s;
+  j["optimum_ratio"] = optimum_ratio;
   j["rapids"] = {{"count", rapids.rapids.size()},
                  {"re_routed", rapids.replaced},
                  {"blocked_straight", rapids.blocked},
@@ -282,7 +292,14 @@ nlohmann::json RunOutcome::to_json() const {
                  {"declared_zones", declared_zones.size()},
                  {"straight_length_mm", rapids.straight_length_mm},
                  {"programmed_length_mm", rapids.programmed_length_mm},
-                 {"planned_length_mm", rapids.length_mm}};
+                 {"planned_length_mm", rapids.length_mm},
+                 {"small_slugs_crossed", rapids.small_slugs},
+                 {"detour_extra_mm", rapids.detour_extra_mm}};
+  nlohmann::json detours = nlohmann::json::array();
+  for (const RapidReport& r : rapids.rapids)
+    if (!r.reason.empty())
+      detours.push_back({{"source_line", r.source_line}, {"extra_length_mm", r.extra_length_mm}, {"reason", r.reason}});
+  j["rapids"]["detours"] = detours;
   if (kerf) {
     nlohmann::json issues = nlohmann::json::array();
     for (const KerfIssue& i : kerf->issues)

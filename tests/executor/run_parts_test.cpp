@@ -80,13 +80,25 @@ TEST(RunParts, NestedSheetHasSeveralDozenCutsAndRapidsRoundTheParts) {
   o.executor.record_trace = false;
   const RunOutcome r = run_program(part("nested_sheet.ngc"), o);
   EXPECT_GE(torch_on_count(r.job), 36u);
-  EXPECT_EQ(r.rapids.cut_zones, torch_on_count(r.job));  // every cut closes
+  // Every cut closes; the 14 parts' outlines are zones, the holes' slugs (all under the
+  // machine's 50 mm tip size) are crossed.
+  EXPECT_EQ(r.rapids.cut_zones + r.rapids.small_slugs, torch_on_count(r.job));
+  EXPECT_EQ(r.rapids.cut_zones, 14u);
   EXPECT_GT(r.rapids.replaced, 0u);
   EXPECT_GE(r.rapids.length_mm, r.rapids.straight_length_mm);
+  double extra = 0;
   for (const RapidReport& rr : r.rapids.rapids)
     if (rr.replaced) {
       EXPECT_GE(rr.min_clearance_mm, o.rapids.clearance_mm - 1e-9) << "rapid at line " << rr.source_line;
+      // Every detour is round a cut part and says so.
+      EXPECT_THAT(rr.reason, HasSubstr("part cut at line")) << "rapid at line " << rr.source_line;
+      EXPECT_GT(rr.extra_length_mm, 0.0);
+      extra += rr.extra_length_mm;
+    } else {
+      EXPECT_TRUE(rr.reason.empty());
     }
+  EXPECT_NEAR(r.rapids.detour_extra_mm, extra, 1e-6);
+  EXPECT_NEAR(r.rapids.length_mm, r.rapids.straight_length_mm + extra, 1e-6);
   // What ran is what the report says.
   EXPECT_NEAR(r.result.rapid_distance_mm, r.rapids.length_mm, 1e-6);
 }

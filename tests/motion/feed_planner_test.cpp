@@ -157,6 +157,58 @@ TEST(FeedPlanner, XyTableLimitsHoldToo) {
   EXPECT_LE(ratio_and_report("xy table rect", st, *tr, o), 1.10);
 }
 
+// The limits are per axis (a box): a diagonal gets sqrt(2) times an axis' acceleration and
+// jerk along the path, and an arc away from the axes more normal acceleration than one
+// through them, while every axis stays within its own limits.
+TEST(FeedPlanner, PerAxisLimitsAreABox) {
+  PlannerOptions o = PlannerOptions::thermal_gantry();
+  const double a = o.max_acceleration_mm_per_s2.x(), j = o.max_jerk_mm_per_s3;
+  const Stretch diag = polyline({{0, 0}, {200, 200}}, 80);
+  const auto tr = plan_stretch_detailed(diag, o);
+  const Check c = check_trajectory(diag, *tr, o);
+  double path_a = 0, path_j = 0;
+  for (const ProfilePhase& p : tr->profile()) {
+    path_a = std::max(path_a, std::abs(p.a0_mm_per_s2));
+    path_j = std::max(path_j, std::abs(p.jerk_mm_per_s3));
+  }
+  EXPECT_NEAR(path_a, a * std::sqrt(2.0), 1e-6 * a);
+  EXPECT_NEAR(path_j, j * std::sqrt(2.0), 1e-6 * j);
+  EXPECT_NEAR(c.max_a.x(), a, 0.01 * a);  // each axis at its own limit, not beyond
+  // The same move along x takes longer by the slower rise of speed: (v / a)(1 - 1/sqrt 2)
+  // plus (a / J)(1 - ...) -- both terms are saved on the diagonal.
+  const auto along_x = plan_stretch_detailed(polyline({{0, 0}, {200 * std::sqrt(2.0), 0}}, 80), o);
+  EXPECT_GT(along_x->duration_s(), tr->duration_s() + 0.5 * (80 / a) * (1 - 1 / std::sqrt(2.0)));
+
+  // A 30-degree arc of radius 20 around the 45-degree direction, with no feed or axis speed
+  // limit in the way: its cap is set by the normal acceleration. Through the axes (a full
+  // circle) v^2 / r <= f a; here the axes give a / cos(30 deg) along the arc's normals.
+  o.max_velocity_mm_per_s = Eigen::Vector2d(1000, 1000);
+  const double r = 20, f = o.curve_normal_fraction;
+  Segment arc;
+  arc.kind = Segment::Kind::arc;
+  arc.center = {0, 0};
+  arc.radius = r;
+  arc.start_angle = kPi / 4 - kPi / 12;
+  arc.sweep = kPi / 6;
+  arc.start = r * Vector2d(std::cos(arc.start_angle), std::sin(arc.start_angle));
+  arc.end = r * Vector2d(std::cos(arc.end_angle()), std::sin(arc.end_angle()));
+  // Long straight approaches along the tangents so the arc is run at its cap.
+  const Vector2d t0(-std::sin(arc.start_angle), std::cos(arc.start_angle));
+  const Vector2d t1(-std::sin(arc.end_angle()), std::cos(arc.end_angle()));
+  const Stretch st = stretch_of({line(arc.start - 300 * t0, arc.start), arc, line(arc.end, arc.end + 300 * t1)}, 1000);
+  const auto ta = plan_stretch_detailed(st, o);
+  const Check ca = check_trajectory(st, *ta, o);
+  double v_arc = 0;
+  Setpoint sp;
+  for (double t = 0; t < ta->duration_s(); t += 1e-4) {
+    ta->sample(t, sp);
+    if (std::abs(sp.position_mm.norm() - r) < 1e-6) v_arc = std::max(v_arc, sp.velocity_mm_per_s.norm());
+  }
+  EXPECT_GT(v_arc, 1.05 * std::sqrt(f * a * r));  // more than a circular limit allows
+  EXPECT_NEAR(v_arc, std::sqrt(f * a / std::cos(kPi / 6) * r), 1e-3 * v_arc);
+  EXPECT_LE(ca.max_a.maxCoeff(), a * (1 + 1e-6));
+}
+
 TEST(FeedPlanner, PolygonOfShortSegmentsIsRunWithoutStopping) {
   const PlannerOptions o = PlannerOptions::thermal_gantry();
   const Stretch st = polygon200();

@@ -499,6 +499,141 @@ TEST(Rapids, OpenCutsAreCounted) {
   EXPECT_FALSE(r.rapids[1].straight_blocked);
 }
 
+// A 200 x 100 plate at [100, 300] x [0, 100] with three round holes: each hole is pierced at
+// its centre, reached by a 10 mm lead-in and cut counter-clockwise; then the outline is cut
+// from a pierce 6 mm to its left. `hole_d` is the holes' diameter.
+Job plate_with_holes(double hole_d) {
+  Job job;
+  job.source = "plate.ngc";
+  job.start_mm = {0, 0};
+  using K = Step::Kind;
+  const std::vector<Vector2d> centres = {{140, 50}, {200, 30}, {260, 70}};
+  Vector2d at = job.start_mm;
+  int line = 10;
+  const auto rapid_to = [&](const Vector2d& p) {
+    job.stretches.push_back(line_stretch({at, p}, false, true, 80, line));
+    job.steps.push_back({K::move, line, job.stretches.size() - 1, 0});
+    at = p;
+    line += 10;
+  };
+  const auto cut = [&](std::vector<Segment> segs) {
+    job.steps.push_back({K::torch_on, line, 0, 0});
+    job.stretches.push_back(test::make_stretch(std::move(segs), 40, true, false, line));
+    job.steps.push_back({K::move, line, job.stretches.size() - 1, 0});
+    job.steps.push_back({K::torch_off, line, 0, 0});
+    at = job.stretches.back().segments.back().end;
+    line += 10;
+  };
+  for (const Vector2d& c : centres) {
+    rapid_to(c);
+    const double r = hole_d / 2;
+    std::vector<Segment> segs{make_segment(c, c + Vector2d(r, 0), 0.0)};
+    for (const Segment& g : Contour::circle(c, r).segments()) segs.push_back(g);  // starts at angle 0
+    cut(segs);
+  }
+  rapid_to({94, 50});
+  cut(test::polyline_segments({{94, 50}, {100, 50}, {100, 100}, {300, 100}, {300, 0}, {100, 0}, {100, 50}}, false));
+  rapid_to({0, 0});
+  return job;
+}
+
+TEST(Rapids, SmallHolesAreCrossedStraightAndThePartIsLeftDirectly) {
+  Job job = plate_with_holes(20.0);
+  ASSERT_EQ(Contour::circle({0, 0}, 1).segments().front().start.x(), 1.0);  // the circle starts at angle 0
+  const RapidsReport r = plan_rapids(job, {}, RapidOptions{}, true);  // slugs up to 50 mm are crossed
+  ASSERT_EQ(r.rapids.size(), 5u);
+  EXPECT_EQ(r.small_slugs, 3u);
+  EXPECT_EQ(r.cut_zones, 1u);  // the outline, counted after the last rapid
+  EXPECT_EQ(r.detours, 0u);
+  for (const RapidReport& rr : r.rapids) {
+    EXPECT_EQ(rr.status, RapidStatus::straight) << rr.source_line << ": " << rr.message;
+    EXPECT_FALSE(rr.replaced);
+    EXPECT_TRUE(rr.reason.empty());
+  }
+  // The rapid home leaves the plate's outline where it ends, at (100, 50), going away from it.
+  EXPECT_NEAR(r.length_mm, r.straight_length_mm, 1e-9);
+  EXPECT_LE(r.length_mm, 1.10 * r.straight_length_mm);
+}
+
+TEST(Rapids, LargeSlugsAndPartsAreDetouredWithAReason) {
+  // Holes of 20 mm with a 15 mm tip size: their slugs are zones; the rapid from the first hole
+  // to the second passes over nothing, but the one from the second to the third crosses the
+  // second's slug only at its start, and the lead-in leaves the slug's edge inwards.
+  Job job = plate_with_holes(20.0);
+  RapidOptions o;
+  o.slug_tip_size_mm = 15.0;
+  const RapidsReport r = plan_rapids(job, {}, o, true);
+  EXPECT_EQ(r.small_slugs, 0u);
+  EXPECT_EQ(r.cut_zones, 4u);
+  // From hole 1's edge (150, 50) to hole 2's centre (200, 30): straight, leaving hole 1 outwards.
+  EXPECT_EQ(r.rapids[1].status, RapidStatus::straight) << r.rapids[1].message;
+  // From hole 3's edge (270, 70) to the outline's pierce (94, 50): it would cross hole 3's slug.
+  const RapidReport& over = r.rapids[3];
+  EXPECT_TRUE(over.replaced) << over.message;
+  EXPECT_GT(over.extra_length_mm, 0.0);
+  EXPECT_NEAR(over.extra_length_mm, over.length_mm - over.straight_length_mm, 1e-9);
+  EXPECT_NE(over.reason.find("slug of the hole cut at line"), std::string::npos) << over.reason;
+  EXPECT_GE(r.detours, 1u);
+  double extra = 0;
+  for (const RapidReport& rr : r.rapids)
+    if (!rr.reason.empty()) extra += rr.extra_length_mm;
+  EXPECT_NEAR(r.detour_extra_mm, extra, 1e-9);
+  EXPECT_NE(r.summary().find("round slug of the hole"), std::string::npos);
+
+  // A part is always a zone: a rapid straight across the plate after its outline is cut is
+  // re-routed and names the part.
+  Job across = plate_with_holes(20.0);
+  across.stretches.back() = line_stretch({{94, 50}, {320, 50}}, false, true, 80, 200);
+  // The outline ends at (100, 50): the rapid goes from there across the plate.
+  across.stretches.back().segments.front().start = {100, 50};
+  const RapidsReport a = plan_rapids(across, {}, RapidOptions{}, true);
+  ASSERT_TRUE(a.rapids.back().replaced) << a.rapids.back().message;
+  EXPECT_NE(a.rapids.back().reason.find("part cut at line"), std::string::npos) << a.rapids.back().reason;
+}
+
+TEST(Rapids, APartNestedInAHoleIsAPart) {
+  // A 100 x 100 frame with an 80 x 80 hole, and a 20 x 20 part cut inside the hole before
+  // the hole itself: the small part is enclosed by two larger cuts, so it is a part (a zone)
+  // whatever its size; a rapid straight across it afterwards is re-routed.
+  Job job;
+  job.source = "nested.ngc";
+  using K = Step::Kind;
+  const auto add = [&](Stretch s, int line) {
+    if (s.cutting) job.steps.push_back({K::torch_on, line, 0, 0});
+    job.stretches.push_back(std::move(s));
+    job.steps.push_back({K::move, line, job.stretches.size() - 1, 0});
+    if (job.stretches.back().cutting) job.steps.push_back({K::torch_off, line, 0, 0});
+  };
+  add(line_stretch({{0, 0}, {140, 140}}, false, true, 80, 10), 10);
+  add(line_stretch({{140, 140}, {160, 140}, {160, 160}, {140, 160}, {140, 140}}, true, false, 40, 20), 20);
+  add(line_stretch({{140, 140}, {170, 170}}, false, true, 80, 30), 30);  // across the small part
+  add(line_stretch({{170, 170}, {150, 110}, {190, 110}, {190, 190}, {110, 190}, {110, 110}, {150, 110}}, true, false,
+                   40, 40), 40);
+  add(line_stretch({{150, 110}, {100, 100}, {200, 100}, {200, 200}, {100, 200}, {100, 100}}, true, false, 40, 50), 50);
+  const RapidsReport r = plan_rapids(job, {}, RapidOptions{}, true);
+  EXPECT_EQ(r.small_slugs, 0u);
+  ASSERT_EQ(r.rapids.size(), 2u);
+  EXPECT_TRUE(r.rapids[1].replaced) << r.rapids[1].message;
+  EXPECT_NE(r.rapids[1].reason.find("part cut at line 20"), std::string::npos) << r.rapids[1].reason;
+}
+
+TEST(Rapids, DeclaredZoneAtAnEndIsNeverLeftDirectly) {
+  // The same straight geometry as leaving a part, but the zone is declared (a clamp): the
+  // planner escapes by the shortest way instead of taking the straight move.
+  const Box clamp{100, 0, 200, 100};
+  const RapidPlan declared = plan_rapid({100, 50}, {0, 80}, contours({clamp}), RapidOptions{});
+  EXPECT_NE(declared.status, RapidStatus::straight);
+  const RapidPlan part = plan_rapid({100, 50}, {0, 80}, contours({clamp}), RapidOptions{}, 0);
+  EXPECT_EQ(part.status, RapidStatus::straight) << part.message;
+  EXPECT_FALSE(part.straight_blocked);
+  // Leaving the part across it is never direct.
+  const RapidPlan across = plan_rapid({100, 50}, {320, 50}, contours({clamp}), RapidOptions{}, 0);
+  EXPECT_NE(across.status, RapidStatus::straight);
+  // Leaving along its edge (within the clearance of it beyond the end leg) is not either.
+  const RapidPlan along = plan_rapid({100, 50}, {100, 300}, contours({clamp}), RapidOptions{}, 0);
+  EXPECT_NE(along.status, RapidStatus::straight);
+}
+
 // --- declared zones file ----------------------------------------------------------------------
 
 TEST(Zones, ReadsPolygons) {
