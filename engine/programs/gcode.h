@@ -78,6 +78,7 @@
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <string>
 
 #include "engine/programs/program.h"
@@ -95,6 +96,16 @@ struct GcodeOptions {
   // LinuxCNC refuses a file that ends without M2/M30 or a closing '%'. Set false to accept
   // program fragments (Program::ends_with_program_end then says whether an end was seen).
   bool require_program_end = true;
+  // Values of named parameters the program reads but does not set, such as QtPlasmaC's
+  // "_hal[plasmac.cut-feed-rate]" and "_ini[...]": keys as written between #< and >, without
+  // blanks, any case. A program that reads one not given here is refused naming it.
+  std::map<std::string, double> params;
+  // Spindles the machine has: $n words may name 0 .. spindle_count - 1 (LinuxCNC's default
+  // is 1; QtPlasmaC configurations have 3: torch, scribe, spotting).
+  int spindle_count = 1;
+  // Lines executed (loops and subroutine calls count every pass): a bound so that an endless
+  // loop is an error, not a hang.
+  std::size_t max_executed_lines = 20'000'000;
 
   // Throws InputError naming the field when a value is out of range.
   void validate() const;

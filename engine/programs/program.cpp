@@ -17,6 +17,32 @@ const char* to_string(Move::Kind kind) {
   return "unknown";
 }
 
+const char* to_string(ProgramEvent::Kind kind) {
+  using K = ProgramEvent::Kind;
+  switch (kind) {
+    case K::tool_select: return "tool_select";
+    case K::tool_change: return "tool_change";
+    case K::tool_length_offset: return "tool_length_offset";
+    case K::coolant: return "coolant";
+    case K::feed_override: return "feed_override";
+    case K::digital_output: return "digital_output";
+    case K::analog_output: return "analog_output";
+    case K::wait_input: return "wait_input";
+    case K::user_m_code: return "user_m_code";
+    case K::program_stop: return "program_stop";
+  }
+  return "unknown";
+}
+
+const char* to_string(Move::PathMode mode) {
+  switch (mode) {
+    case Move::PathMode::blend: return "blend";
+    case Move::PathMode::exact_path: return "exact_path";
+    case Move::PathMode::exact_stop: return "exact_stop";
+  }
+  return "unknown";
+}
+
 namespace {
 
 constexpr double kTwoPi = 2.0 * M_PI;
