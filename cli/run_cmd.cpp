@@ -6,11 +6,13 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/gcode_flags.h"
 #include "engine/common/error.h"
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
@@ -43,6 +45,10 @@ void add_run(CLI::App& app) {
   struct Args {
     std::string program, machine, mode = "planned", blu, calibration, kerf, feed, no_go, trace, plot, magnify = "1", seed;
     bool json = false, realtime = false;
+    std::string origin;
+    std::vector<std::string> params;
+    int spindles = 1;
+    bool lenient = false, strict_z = false;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("run", "Run a part program on the simulated XY table or thermal-cutting gantry");
@@ -60,6 +66,11 @@ void add_run(CLI::App& app) {
   cmd->add_option("--plot", a->plot, "write a top view, programmed against executed path (.png or .svg)");
   cmd->add_option("--magnify", a->magnify, "draw the contour error this many times larger in the plot (default 1)");
   cmd->add_option("--seed", a->seed, "seed of the simulated machine's noise and faults (default 1)");
+  cmd->add_option("--origin", a->origin,
+                  "X,Y: where the program's zero sits on the machine, mm (default: the machine file's origin_mm, "
+                  "else 0,0)");
+  cmd->add_flag("--strict-z", a->strict_z, "refuse a program whose Z moves instead of dropping its Z words");
+  add_gcode_options(*cmd, a->params, a->spindles, a->lenient);
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->add_flag("--realtime", a->realtime, "pace the simulation to the wall clock");
   cmd->callback([a] {
@@ -98,6 +109,14 @@ void add_run(CLI::App& app) {
     }
     o.executor.realtime = a->realtime;
     o.no_go_path = a->no_go;
+    o.gcode = gcode_options(a->params, a->spindles, a->lenient);
+    o.strict_z = a->strict_z;
+    if (!a->origin.empty()) {
+      const auto comma = a->origin.find(',');
+      if (comma == std::string::npos) throw InputError("--origin", 0, fmt::format("'{}' is not X,Y (mm)", a->origin));
+      o.origin_mm = Eigen::Vector2d(number_of("--origin", a->origin.substr(0, comma)),
+                                    number_of("--origin", a->origin.substr(comma + 1)));
+    }
     o.executor.record_trace = !a->trace.empty() || !a->plot.empty();
 
     const motion::RunOutcome run = motion::run_program(a->program, o);

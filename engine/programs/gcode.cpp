@@ -197,7 +197,7 @@ class Reader : public gcode_expr::Parameters {
   bool execute(const Block& b);
   void set_parameters(const Block& b);
   void arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_prog_mm);
-  void cycle(const Block& b, int g10, bool first_in_series);
+  void cycle(const Block& b, int g10, int previous_motion);
   void push(Move move) {
     if (program_.moves.size() >= options_.max_moves)
       fail(fmt::format("more than {} moves: the program is too large", options_.max_moves));
@@ -282,7 +282,8 @@ class Reader : public gcode_expr::Parameters {
   Move::PathMode path_mode_ = Move::PathMode::blend;
   double path_tolerance_mm_ = 0.0;
   bool retract_r_plane_ = true;   // G99 (LinuxCNC starts with it); false: G98
-  double cycle_r_mm_ = 0.0, cycle_z_mm_ = 0.0, cycle_q_mm_ = 0.0, cycle_p_s_ = 0.0;
+  // Canned cycles: sticky R, Z, Q (program units), P (s), and the height before the series.
+  double cycle_r_ = 0.0, cycle_z_ = 0.0, cycle_q_ = 0.0, cycle_p_s_ = 0.0, cycle_initial_z_ = 0.0;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -1094,7 +1095,7 @@ bool Reader::execute(const Block& b) {
       arc(b, motion_to_be == 20, end);
       pos_mm_ = end;
     } else {
-      cycle(b, motion_to_be, previous_motion != motion_to_be);
+      cycle(b, motion_to_be, previous_motion);
     }
   }
 
@@ -1111,23 +1112,26 @@ bool Reader::execute(const Block& b) {
 // Drilling cycles G73, G81, G82, G83, G85, G89 in the XY plane, expanded as LinuxCNC does
 // (interp_cycles.cc): a rapid to the hole at the clearance height, down to R, the cycle's
 // feeds, and back up to R (G99) or to the height before the cycle (G98); L repeats in G91.
-void Reader::cycle(const Block& b, int g10, bool first_in_series) {
+void Reader::cycle(const Block& b, int g10, int previous_motion) {
+  const bool first_in_series = previous_motion != g10;
   if (plane_ != Move::Plane::xy) fail(fmt::format("{} (canned cycle) outside the XY plane is not supported", g_name(g10)));
+  if (incremental_) fail(fmt::format("{} (canned cycle) in incremental distance mode (G91) is not supported", g_name(g10)));
+  // As LinuxCNC, the arithmetic is in program units (pecks are counted in them).
   const double s = scale();
-  const double old_z = pos_mm_.z();
+  const double old_z = pos_mm_.z() / s;
   double r = 0, bottom = 0;
   if (first_in_series && !b.w('r')) fail(fmt::format("R clearance plane unspecified in the canned cycle {}", g_name(g10)));
   if (first_in_series && !b.w('z')) fail(fmt::format("Z value unspecified in the canned cycle {}", g_name(g10)));
   if (incremental_) {
-    r = b.w('r') ? old_z + *b.w('r') * s : cycle_r_mm_;
-    bottom = b.w('z') ? r + *b.w('z') * s : cycle_z_mm_;
+    r = b.w('r') ? old_z + *b.w('r') : cycle_r_;
+    bottom = b.w('z') ? r + *b.w('z') : cycle_z_;
   } else {
-    r = b.w('r') ? *b.w('r') * s : cycle_r_mm_;
-    bottom = b.w('z') ? *b.w('z') * s : cycle_z_mm_;
+    r = b.w('r') ? *b.w('r') : cycle_r_;
+    bottom = b.w('z') ? *b.w('z') : cycle_z_;
   }
-  cycle_r_mm_ = r;
-  cycle_z_mm_ = bottom;
-  if (r < bottom) fail(fmt::format("R value ({:g}) less than Z value ({:g}) in the canned cycle", r / s, bottom / s));
+  cycle_r_ = r;
+  cycle_z_ = bottom;
+  if (r < bottom) fail(fmt::format("R value ({:g}) less than Z value ({:g}) in the canned cycle", r, bottom));
   int repeats = 1;
   if (b.w('l')) {
     const double l = *b.w('l');
@@ -1135,21 +1139,24 @@ void Reader::cycle(const Block& b, int g10, bool first_in_series) {
     repeats = static_cast<int>(std::min(std::round(l), 1e6));
   }
   if (g10 == 730 || g10 == 830) {
-    if (b.w('q')) cycle_q_mm_ = *b.w('q') * s;
+    if (b.w('q')) cycle_q_ = *b.w('q');
     else if (first_in_series) fail(fmt::format("Q word missing with {}", g_name(g10)));
-    if (!(cycle_q_mm_ > 0)) fail(fmt::format("Q (peck depth) must be > 0 with {}", g_name(g10)));
+    if (!(cycle_q_ > 0)) fail(fmt::format("Q (peck depth) must be > 0 with {}", g_name(g10)));
+    if ((r - bottom) / cycle_q_ > 1e6) fail(fmt::format("{} would make more than a million pecks", g_name(g10)));
   }
   if (g10 == 820 || g10 == 890) {
     if (b.w('p')) cycle_p_s_ = *b.w('p');
     if (cycle_p_s_ < 0) fail("P (dwell) must be >= 0 in a canned cycle");
   }
+  // The height before the series of cycles: G98 returns there (or to R when that is higher).
+  if (!is_cycle(previous_motion)) cycle_initial_z_ = old_z;
   double old_cc = old_z;
   if (first_in_series && old_cc < r) {
-    straight(Move::Kind::rapid, Eigen::Vector3d(pos_mm_.x(), pos_mm_.y(), r));
+    straight(Move::Kind::rapid, Eigen::Vector3d(pos_mm_.x(), pos_mm_.y(), r * s));
     old_cc = r;
   }
-  const double clear = retract_r_plane_ ? r : old_cc;
-  const double rapid_delta = inches_ ? 0.010 * kMmPerInch : 0.254;
+  const double clear = retract_r_plane_ ? r : std::max(cycle_initial_z_, r);
+  const double rapid_delta = inches_ ? 0.010 : 0.254;
   double x = pos_mm_.x(), y = pos_mm_.y(), dx = 0, dy = 0;
   if (incremental_) {
     dx = b.w('x').value_or(0.0) * s;
@@ -1158,7 +1165,7 @@ void Reader::cycle(const Block& b, int g10, bool first_in_series) {
     if (b.w('x')) x = *b.w('x') * s;
     if (b.w('y')) y = *b.w('y') * s;
   }
-  const auto at = [&](double z) { return Eigen::Vector3d(x, y, z); };
+  const auto at = [&](double z) { return Eigen::Vector3d(x, y, z * s); };
   const auto dwell = [&](double seconds) {
     Move m;
     m.kind = Move::Kind::dwell;
@@ -1177,7 +1184,7 @@ void Reader::cycle(const Block& b, int g10, bool first_in_series) {
         straight(Move::Kind::rapid, at(clear));
         break;
       case 730: case 830:
-        for (double depth = r - cycle_q_mm_; depth > bottom; depth -= cycle_q_mm_) {
+        for (double depth = r - cycle_q_; depth > bottom; depth -= cycle_q_) {
           straight(Move::Kind::line, at(depth));
           if (g10 == 830) straight(Move::Kind::rapid, at(r));
           straight(Move::Kind::rapid, at(depth + rapid_delta));

@@ -92,12 +92,16 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 }  // namespace
 
 MachineConfig machine_from_yaml(const Yaml& root) {
-  root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height"});
+  root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height", "origin_mm"});
   MachineConfig m;
   m.source = root.file();
   m.name = root.string("name");
   m.description = root.string_or("description", "");
   m.servo_period_s = root.number_or("servo_period_s", 0.001, {.min = 1e-5, .max = 0.1});
+  if (const auto o = root.get("origin_mm")) {
+    const std::vector<double> xy = o->numbers(2, {.min = -1e6, .max = 1e6});
+    m.origin_mm = std::array<double, 2>{xy[0], xy[1]};
+  }
 
   const Yaml l = root.at("limits");
   l.reject_unknown_keys({"velocity_mm_per_s", "acceleration_mm_per_s2", "jerk_mm_per_s3", "rapid_mm_per_s"});

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 
 #include "engine/control/servo.h"
@@ -76,6 +77,9 @@ struct MachineConfig {
   std::array<AxisConfig, 2> axes;
   TorchConfig torch;
   TorchHeightConfig torch_height;
+  // Where programs' zero sits on this machine (X, Y mm), as an operator touching off the
+  // sheet corner sets G54; `origin_mm: [x, y]` in the file. `machplan run --origin` overrides it.
+  std::optional<std::array<double, 2>> origin_mm;
 
   // The executor's view: signals, gains, stop deceleration, torch timing.
   executor::MachineSetup setup() const;

@@ -25,6 +25,12 @@
 //   * motion_ratio: the planned trajectories' total duration over motion_lower_bound_s, the
 //     planner's share of the gap.
 //
+// Placing the program: the program's coordinates (machine coordinates of its own work offsets)
+// are moved by RunOptions::origin_mm (or the machine file's origin_mm), so that the travel
+// check, the rapid planning, the plots and the reports all work in the machine's coordinates.
+// Z: on these 2-axis machines Z words are dropped with one warning naming the first line that
+// moves Z (the torch height belongs to the machine), unless strict_z keeps them as an error.
+//
 // Errors: a bad program, machine file, zones file or option throws InputError naming the file
 // and line or the flag (exit 2 in the CLI). A job the machine cannot do throws Infeasible
 // (exit 3): the program leaves the machine's travel, or a rapid with no clear route would
@@ -42,6 +48,7 @@
 #include "engine/motion/feed_planner.h"
 #include "engine/motion/job.h"
 #include "engine/motion/kerf.h"
+#include "engine/programs/gcode.h"
 #include "engine/programs/zones.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/motion/rapid_planner.h"
@@ -75,6 +82,14 @@ struct RunOptions {
   // pierce point, and every cut would start with that error.
   bool paper_rapids_at_feed = true;
 
+  // How the program is read: --param values, spindles, --lenient (require_program_end).
+  GcodeOptions gcode;
+  // Where the program's zero sits on the machine, mm; unset: the machine file's origin_mm,
+  // else (0, 0).
+  std::optional<Eigen::Vector2d> origin_mm;
+  // Refuse a program whose Z moves (true) instead of dropping its Z words with a warning.
+  bool strict_z = false;
+
   // Throws InputError naming the CLI flag of the offending field (--kerf, --blu, ...).
   void validate() const;
 };
@@ -91,6 +106,9 @@ struct RunOutcome {
   std::vector<Contour> cut_zones;    // the closed cuts, as plan_rapids saw them
   executor::Trajectories trajectories;  // planned mode: one per step (null for non-moves)
   executor::ExecutionResult result;
+  Eigen::Vector2d origin_mm = Eigen::Vector2d::Zero();  // where the program's zero sat
+  std::string origin_from = "none";                     // "--origin", "machine file" or "none"
+  std::vector<std::string> warnings;                    // from reading and placing the program
 
   double planned_motion_s = 0.0;     // sum of trajectory durations
   double motion_lower_bound_s = 0.0;
