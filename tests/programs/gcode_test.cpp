@@ -263,13 +263,13 @@ TEST(GcodeFeatures, OWords) {
 TEST(GcodeFeatures, WorkOffsetsInMachineCoordinates) {
   const Program p = read("G10 L2 P2 X100 Y50\nG55 G0 X1 Y1\nG92 X0 Y0\nG0 X2\nG53 G0 X5 Y5\nG92.1\nG10 L20 P0 X0\nG0 X0\n"
                          "G54 G0 X0 Y0\nG20 G10 L2 P3 X1\nG56 G0 X0\nM2\n");
-  ASSERT_EQ(p.moves.size(), 7u);
+  ASSERT_EQ(p.moves.size(), 6u);
   expect_point(p.moves[0].end, 101, 51, 0);
   expect_point(p.moves[1].end, 103, 51, 0);  // G92 made (101, 51) the zero
   expect_point(p.moves[2].end, 5, 5, 0);     // G53: machine coordinates
   expect_point(p.moves[3].end, 5, 5, 0);     // G10 L20 P0 X0: here is X0
   expect_point(p.moves[4].end, 0, 0, 0);
-  expect_point(p.moves[6].end, 25.4, 0, 0);
+  expect_point(p.moves[5].end, 25.4, 0, 0);
 }
 
 TEST(GcodeFeatures, ArcsInOtherPlanesAndDrillingCycles) {
