@@ -284,6 +284,7 @@ class Reader : public gcode_expr::Parameters {
   bool retract_r_plane_ = true;   // G99 (LinuxCNC starts with it); false: G98
   // Canned cycles: sticky R, Z, Q (program units), P (s), and the height before the series.
   double cycle_r_ = 0.0, cycle_z_ = 0.0, cycle_q_ = 0.0, cycle_p_s_ = 0.0, cycle_initial_z_ = 0.0;
+  bool cycle_series_ = false;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -1072,6 +1073,7 @@ bool Reader::execute(const Block& b) {
   // --- Motion --------------------------------------------------------------------------------
   const int previous_motion = motion_g10_;
   if (g_motion >= 0) motion_g10_ = g_motion;
+  if ((motion_to_be >= 0 && !is_cycle(motion_to_be)) || g_motion == 800) cycle_series_ = false;
   if (motion_to_be >= 0) {
     if (g0 == 530) {
       if (motion_to_be != 0 && motion_to_be != 10) fail("G53 is allowed only with G0 or G1");
@@ -1110,27 +1112,30 @@ bool Reader::execute(const Block& b) {
 }
 
 // Drilling cycles G73, G81, G82, G83, G85, G89 in the XY plane, expanded as LinuxCNC does
-// (interp_cycles.cc): a rapid to the hole at the clearance height, down to R, the cycle's
-// feeds, and back up to R (G99) or to the height before the cycle (G98); L repeats in G91.
+// (interp_convert.cc, convert_cycle_xy): up to R first when the series began below it; the
+// first hole reached at the current height and then down to R, later ones at the clearance
+// height; the cycle's feeds; back up to R (G99) or to the height where the series began
+// (G98). In G91, R is relative to that height, Z to R, and L repeats the X/Y increments.
 void Reader::cycle(const Block& b, int g10, int previous_motion) {
   const bool first_in_series = previous_motion != g10;
   if (plane_ != Move::Plane::xy) fail(fmt::format("{} (canned cycle) outside the XY plane is not supported", g_name(g10)));
-  if (incremental_) fail(fmt::format("{} (canned cycle) in incremental distance mode (G91) is not supported", g_name(g10)));
   // As LinuxCNC, the arithmetic is in program units (pecks are counted in them).
   const double s = scale();
-  const double old_z = pos_mm_.z() / s;
-  double r = 0, bottom = 0;
+  const double current_z = pos_mm_.z() / s;
   if (first_in_series && !b.w('r')) fail(fmt::format("R clearance plane unspecified in the canned cycle {}", g_name(g10)));
   if (first_in_series && !b.w('z')) fail(fmt::format("Z value unspecified in the canned cycle {}", g_name(g10)));
-  if (incremental_) {
-    r = b.w('r') ? old_z + *b.w('r') : cycle_r_;
-    bottom = b.w('z') ? r + *b.w('z') : cycle_z_;
-  } else {
-    r = b.w('r') ? *b.w('r') : cycle_r_;
-    bottom = b.w('z') ? *b.w('z') : cycle_z_;
+  // R and Z are kept as written (relative in G91) for the cycles that follow.
+  if (b.w('r')) cycle_r_ = *b.w('r');
+  if (b.w('z')) cycle_z_ = *b.w('z');
+  // The height when the series of cycles began (LinuxCNC's cycle_il); a motion that is not a
+  // cycle ends the series.
+  if (!cycle_series_) {
+    cycle_initial_z_ = current_z;
+    cycle_series_ = true;
   }
-  cycle_r_ = r;
-  cycle_z_ = bottom;
+  double old_cc = cycle_initial_z_;
+  const double r = incremental_ ? cycle_r_ + old_cc : cycle_r_;
+  const double bottom = incremental_ ? r + cycle_z_ : cycle_z_;
   if (r < bottom) fail(fmt::format("R value ({:g}) less than Z value ({:g}) in the canned cycle", r, bottom));
   int repeats = 1;
   if (b.w('l')) {
@@ -1146,16 +1151,15 @@ void Reader::cycle(const Block& b, int g10, int previous_motion) {
   }
   if (g10 == 820 || g10 == 890) {
     if (b.w('p')) cycle_p_s_ = *b.w('p');
+    else if (first_in_series) fail(fmt::format("dwell time P word missing with {}", g_name(g10)));
     if (cycle_p_s_ < 0) fail("P (dwell) must be >= 0 in a canned cycle");
   }
-  // The height before the series of cycles: G98 returns there (or to R when that is higher).
-  if (!is_cycle(previous_motion)) cycle_initial_z_ = old_z;
-  double old_cc = old_z;
-  if (first_in_series && old_cc < r) {
+  double current_cc = current_z;
+  if (old_cc < r) {
     straight(Move::Kind::rapid, Eigen::Vector3d(pos_mm_.x(), pos_mm_.y(), r * s));
-    old_cc = r;
+    old_cc = current_cc = r;
   }
-  const double clear = retract_r_plane_ ? r : std::max(cycle_initial_z_, r);
+  const double clear = retract_r_plane_ ? r : old_cc;
   const double rapid_delta = inches_ ? 0.010 : 0.254;
   double x = pos_mm_.x(), y = pos_mm_.y(), dx = 0, dy = 0;
   if (incremental_) {
@@ -1175,8 +1179,14 @@ void Reader::cycle(const Block& b, int g10, int previous_motion) {
   for (int k = 0; k < repeats; ++k) {
     x += dx;
     y += dy;
-    straight(Move::Kind::rapid, at(old_cc));
-    if (old_cc != r) straight(Move::Kind::rapid, at(r));
+    // The first hole is reached at the current height, the others at the clearance height.
+    if (k == 0 && current_cc > r) {
+      straight(Move::Kind::rapid, at(current_cc));
+      straight(Move::Kind::rapid, at(r));
+    } else {
+      straight(Move::Kind::rapid, at(clear));
+      if (clear > r) straight(Move::Kind::rapid, at(r));
+    }
     switch (g10) {
       case 810: case 820:
         straight(Move::Kind::line, at(bottom));
@@ -1204,7 +1214,6 @@ void Reader::cycle(const Block& b, int g10, int previous_motion) {
         break;
       default: fail(fmt::format("{} (canned cycle) is not supported", g_name(g10)));
     }
-    old_cc = clear;
   }
 }
 

@@ -169,7 +169,6 @@ TEST(Gcode, Summary) {
 TEST(GcodeRefused, FeaturesAreNamedWithTheirLine) {
   expect_error("G41 G1 X1 F1\nM2\n", 1, "G41 (cutter radius compensation) is not supported");
   expect_error("G86 X1 Z-1 R1 F1\nM2\n", 1, "G86 (boring cycle with spindle stop) is not supported");
-  expect_error("G21 F1\nG91 G81 X1 Z-1 R1\nM2\n", 2, "incremental distance mode (G91) is not supported");
   expect_error("G93\nM2\n", 1, "G93 (inverse time feed) is not supported");
   expect_error("G38.2 Z-1 F1\nM2\n", 1, "G38.2 (probing) is not supported");
   expect_error("G0 A1\nM2\n", 1, "A axis words are not supported");
