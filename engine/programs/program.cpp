@@ -59,6 +59,25 @@ double arc_sweep_rad(const Eigen::Vector3d& start, const Move& move) {
   return sweep + kTwoPi * move.turns;
 }
 
+// Coordinates in an arc plane's axis order (first, second, normal) and back.
+Eigen::Vector3d to_plane(const Eigen::Vector3d& p, Move::Plane plane) {
+  switch (plane) {
+    case Move::Plane::xy: return p;
+    case Move::Plane::xz: return {p.z(), p.x(), p.y()};
+    case Move::Plane::yz: return {p.y(), p.z(), p.x()};
+  }
+  return p;
+}
+
+Eigen::Vector3d from_plane(const Eigen::Vector3d& q, Move::Plane plane) {
+  switch (plane) {
+    case Move::Plane::xy: return q;
+    case Move::Plane::xz: return {q.y(), q.z(), q.x()};
+    case Move::Plane::yz: return {q.z(), q.x(), q.y()};
+  }
+  return q;
+}
+
 }  // namespace
 
 ProgramSummary summarize(const Program& program, double rapid_mm_per_min) {
@@ -91,15 +110,20 @@ ProgramSummary summarize(const Program& program, double rapid_mm_per_min) {
       }
       case Move::Kind::arc: {
         ++s.arc_count;
-        const double sweep = arc_sweep_rad(pos, m);
-        const double r0 = (pos.head<2>() - m.center).norm();
-        const double r1 = (m.end.head<2>() - m.center).norm();
+        // Work in the arc's plane: (first, second) axes as x, y and the normal axis as z.
+        Move pm = m;
+        pm.end = to_plane(m.end, m.plane);
+        const Eigen::Vector3d pp = to_plane(pos, m.plane);
+        const auto grow_plane = [&](const Eigen::Vector3d& q) { grow(from_plane(q, m.plane)); };
+        const double sweep = arc_sweep_rad(pp, pm);
+        const double r0 = (pp.head<2>() - m.center).norm();
+        const double r1 = (pm.end.head<2>() - m.center).norm();
         const double planar = sweep * 0.5 * (r0 + r1);
-        const double length = std::hypot(planar, m.end.z() - pos.z());
+        const double length = std::hypot(planar, pm.end.z() - pp.z());
         s.feed_length_mm += length;
         if (m.feed_mm_per_min > 0) s.estimated_seconds += length / m.feed_mm_per_min * 60.0;
         // Bounding box: the end points and the quadrant points the arc passes through.
-        const double a0 = std::atan2(pos.y() - m.center.y(), pos.x() - m.center.x());
+        const double a0 = std::atan2(pp.y() - m.center.y(), pp.x() - m.center.x());
         const double r = std::max(r0, r1);
         for (int q = 0; q < 4; ++q) {
           const double aq = q * M_PI_2;
@@ -107,8 +131,8 @@ ProgramSummary summarize(const Program& program, double rapid_mm_per_min) {
           while (delta < 0) delta += kTwoPi;
           while (delta >= kTwoPi) delta -= kTwoPi;
           if (delta <= sweep) {
-            const double z = pos.z() + (m.end.z() - pos.z()) * (delta / sweep);
-            grow(Eigen::Vector3d(m.center.x() + r * std::cos(aq), m.center.y() + r * std::sin(aq), z));
+            const double z = pp.z() + (pm.end.z() - pp.z()) * (delta / sweep);
+            grow_plane(Eigen::Vector3d(m.center.x() + r * std::cos(aq), m.center.y() + r * std::sin(aq), z));
           }
         }
         grow(m.end);
