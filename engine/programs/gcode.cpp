@@ -483,22 +483,12 @@ void Reader::match_structure() {
         if (l.partner < 0) l.o_error = fmt::format("{} o{} outside a loop with that label", l.o == OKind::break_ ? "break" : "continue", l.label);
         break;
       }
-      case OKind::return_: {
-        for (auto it = open.rbegin(); it != open.rend(); ++it)
-          if (lines_[static_cast<std::size_t>(*it)].o == OKind::sub && lines_[static_cast<std::size_t>(*it)].label == l.label) {
-            l.partner = *it;
-            break;
-          }
-        if (l.partner < 0) l.o_error = fmt::format("return o{} outside the subroutine o{}", l.label, l.label);
-        break;
-      }
+      case OKind::return_:  // returns from whatever subroutine is running, as in LinuxCNC
       case OKind::call: case OKind::none: break;
     }
   }
-  for (int o : open) {
-    SourceLine& l = lines_[static_cast<std::size_t>(o)];
-    if (l.o_error.empty()) l.o_error = fmt::format("o{} is never closed (no matching end line)", l.label);
-  }
+  // Lines left open keep partner -1: like LinuxCNC, that is an error only when the flow needs
+  // the end line (a false condition, a definition to skip, a break).
 }
 
 double Reader::value_at(const std::string& code, std::size_t& pos) {
@@ -674,12 +664,20 @@ int Reader::control(int pc) {
   const auto nothing_after = [&] {
     if (pos < s.size()) fail(fmt::format("unexpected '{}' after the O-word", s.substr(pos, 12)));
   };
-  const auto line_of = [&](int i) -> const SourceLine& { return lines_[static_cast<std::size_t>(i)]; };
+  const auto line_of = [&](int i) -> const SourceLine& {
+    if (i < 0) fail(fmt::format("o{} is never closed (no matching end line)", l.label));
+    return lines_[static_cast<std::size_t>(i)];
+  };
+  // The end line of an O-word construct, which must exist when the flow jumps to it.
+  const auto end_of = [&](int partner) {
+    if (partner < 0) fail(fmt::format("o{} is never closed (no matching end line)", l.label));
+    return partner;
+  };
   Frame& frame = frames_.back();
   switch (l.o) {
     case OKind::sub:
       nothing_after();
-      return l.partner + 1;  // definitions are skipped when met; a call jumps in
+      return end_of(l.partner) + 1;  // definitions are skipped when met; a call jumps in
     case OKind::endsub: case OKind::return_: {
       const std::optional<double> v = value(false, l.o == OKind::return_ ? "return" : "endsub");
       nothing_after();
@@ -720,7 +718,7 @@ int Reader::control(int pc) {
       const bool go_on = *value(true, "while") != 0.0;
       nothing_after();
       if (l.closes_do) return go_on ? l.partner + 1 : pc + 1;
-      return go_on ? pc + 1 : l.partner + 1;
+      return go_on ? pc + 1 : end_of(l.partner) + 1;
     }
     case OKind::endwhile: nothing_after(); return l.partner;
     case OKind::if_: {
@@ -742,13 +740,13 @@ int Reader::control(int pc) {
       }
       return at + 1;
     }
-    case OKind::elseif: case OKind::else_: return l.endif + 1;  // the branch before it ran
+    case OKind::elseif: case OKind::else_: return end_of(l.endif) + 1;  // the branch before it ran
     case OKind::endif: nothing_after(); return pc + 1;
     case OKind::repeat: {
       const double n = *value(true, "repeat");
       nothing_after();
       const long long count = static_cast<long long>(std::llround(std::clamp(n, -1.0, 1e12)));
-      if (count <= 0) return l.partner + 1;
+      if (count <= 0) return end_of(l.partner) + 1;
       frame.repeats[pc] = count - 1;
       return pc + 1;
     }
@@ -764,9 +762,9 @@ int Reader::control(int pc) {
     case OKind::break_: case OKind::continue_: {
       nothing_after();
       const SourceLine& loop = line_of(l.partner);
-      if (l.o == OKind::break_) return loop.partner + 1;
+      if (l.o == OKind::break_) return end_of(loop.partner) + 1;
       if (loop.o == OKind::while_) return l.partner;  // test again
-      return loop.partner;                           // do: its closing while; repeat: endrepeat
+      return end_of(loop.partner);                   // do: its closing while; repeat: endrepeat
     }
     case OKind::none: break;
   }

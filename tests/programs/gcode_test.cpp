@@ -254,7 +254,7 @@ TEST(GcodeFeatures, OWords) {
   GcodeOptions small;
   small.max_executed_lines = 1000;
   expect_error("o1 while [1]\no1 endwhile\nM2\n", 1, "more than 1000 lines executed", small);
-  expect_error("o1 while [1]\nM2\n", 1, "never closed");
+  expect_error("o1 while [0]\nM2\n", 1, "never closed");
   expect_error("o1 endwhile\nM2\n", 1, "with no matching opening line");
   expect_error("o1 sub\no1 call\no1 endsub\no1 call\nM2\n", 2, "nested deeper than 50");
 }
@@ -334,8 +334,8 @@ TEST(GcodeErrors, FeedAndSpeed) {
 }
 
 TEST(GcodeErrors, Arcs) {
-  expect_error("F1\nG2 X2 R1 I1\nM2\n", 2, "mixed radius (R) and centre (I, J) format");
-  expect_error("F1\nG2 X1\nM2\n", 2, "R, I and J words all missing for an arc");
+  expect_error("F1\nG2 X2 R1 I1\nM2\n", 2, "mixed radius (R) and centre (I, J, K) format");
+  expect_error("F1\nG2 X1\nM2\n", 2, "R, I, J and K words all missing for an arc");
   expect_error("F1\nG2 X0 I1 K1\nM2\n", 2, "K word given for an arc in the XY plane");
   expect_error("F1\nG2 X3 R1\nM2\n", 2, "too small to reach end point");
   expect_error("F1\nG2 X0 Y0 R1\nM2\n", 2, "current point same as end point of arc");
@@ -345,8 +345,8 @@ TEST(GcodeErrors, Arcs) {
   expect_error("F1\nG2 X0 I1 P1.5\nM2\n", 2, "P word on G2/G3 is not an integer");
   expect_error("F1\nG2 X0 I1 P20000\nM2\n", 2, "more than 10000 turns");
   expect_error("F1\nG1 X1 I1\nM2\n", 2, "I word with no G2 or G3 to use it");
-  expect_error("F1\nG1 X1 R1\nM2\n", 2, "R word with no G2 or G3 to use it");
-  expect_error("F1\nG1 X1 P1\nM2\n", 2, "P word with no G2, G3 or G4 to use it");
+  expect_error("F1\nG1 X1 R1\nM2\n", 2, "R word with no G2, G3, G10 or canned cycle to use it");
+  expect_error("F1\nG1 X1 P1\nM2\n", 2, "P word with no code that uses it");
 }
 
 TEST(GcodeErrors, ArcEndRadiusTolerance) {
