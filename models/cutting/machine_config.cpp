@@ -92,7 +92,7 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 }  // namespace
 
 MachineConfig machine_from_yaml(const Yaml& root) {
-  root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height", "origin_mm"});
+  root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height", "origin_mm", "gcode"});
   MachineConfig m;
   m.source = root.file();
   m.name = root.string("name");
@@ -101,6 +101,17 @@ MachineConfig machine_from_yaml(const Yaml& root) {
   if (const auto o = root.get("origin_mm")) {
     const std::vector<double> xy = o->numbers(2, {.min = -1e6, .max = 1e6});
     m.origin_mm = std::array<double, 2>{xy[0], xy[1]};
+  }
+  if (const auto g = root.get("gcode")) {
+    g->reject_unknown_keys({"spindles", "params"});
+    if (g->has("spindles")) m.gcode_spindles = g->at("spindles").integer(1, 100);
+    if (const auto ps = g->get("params")) {
+      if (!ps->is_sequence()) ps->fail("must be a list of {name: NAME, value: NUMBER}");
+      for (const Yaml& p : ps->items()) {
+        p.reject_unknown_keys({"name", "value"});
+        m.gcode_params.emplace_back(p.string("name"), p.number("value"));
+      }
+    }
   }
 
   const Yaml l = root.at("limits");

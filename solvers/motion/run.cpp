@@ -135,7 +135,11 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
 RunOutcome run_program(const std::string& program_path, const RunOptions& options) {
   options.validate();
   const cutting::MachineConfig machine = cutting::load_machine(cutting::find_machine(options.machine));
-  Program program = read_gcode_file(program_path, options.gcode);
+  // The machine file's parameters and spindles; the command line's --param wins.
+  GcodeOptions gcode = options.gcode;
+  for (const auto& [name, value] : machine.gcode_params) gcode.params.emplace(name, value);
+  gcode.spindle_count = std::max(gcode.spindle_count, machine.gcode_spindles);
+  Program program = read_gcode_file(program_path, gcode);
   std::vector<std::string> warnings = program.warnings;
   if (!options.strict_z) {
     // The first move that changes Z (a helix included): report it once, then flatten all.

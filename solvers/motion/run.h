@@ -82,7 +82,9 @@ struct RunOptions {
   // pierce point, and every cut would start with that error.
   bool paper_rapids_at_feed = true;
 
-  // How the program is read: --param values, spindles, --lenient (require_program_end).
+  // How the program is read: --param values, spindles, --lenient (require_program_end). The
+  // machine file's gcode: params are added (a --param of the same name wins) and its spindles
+  // raise spindle_count.
   GcodeOptions gcode;
   // Where the program's zero sits on the machine, mm; unset: the machine file's origin_mm,
   // else (0, 0).

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <unistd.h>
 
@@ -84,6 +85,34 @@ TEST(GcodePlacement, LenientEndAndParametersReachTheRun) {
   EXPECT_NE(run.warnings[0].find("no end"), std::string::npos);
   ASSERT_GE(run.programmed.stretches.size(), 2u);
   EXPECT_NEAR(run.programmed.stretches[1].feed_mm_per_s.front(), 50, 1e-9);
+}
+
+TEST(GcodePlacement, MachineFileGivesOriginParametersAndSpindles) {
+  // The bundled gantry reads QtPlasmaC's cut feed and $1 (scribe) from its file.
+  const ProgramFile f("qtplasmac.ngc", "G21\nF#<_hal[plasmac.cut-feed-rate]>\nG0 X-10 Y-10\nM3 $1 S1\nG1 X10\nM5 $1\nM2\n");
+  std::string yaml;
+  {
+    std::ifstream in(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    yaml = ss.str();
+  }
+  const std::string from = "value: 4000";
+  ASSERT_NE(yaml.find(from), std::string::npos);
+  yaml.replace(yaml.find(from), from.size(), "value: 1800");
+  const ProgramFile machine("placed_gantry.yaml", yaml + "origin_mm: [500, 400]\n");
+  motion::RunOptions o;
+  o.machine = machine.path();
+  const motion::RunOutcome run = motion::run_program(f.path(), o);
+  EXPECT_EQ(run.origin_from, "machine file");
+  EXPECT_NEAR(run.programmed.start_mm.x(), 500, 1e-12);
+  ASSERT_GE(run.programmed.stretches.size(), 2u);
+  EXPECT_NEAR(run.programmed.stretches[1].feed_mm_per_s.front(), 30, 1e-9);  // 1800 mm/min
+  o.gcode.params["_hal[plasmac.cut-feed-rate]"] = 2400;                       // --param wins
+  o.origin_mm = Eigen::Vector2d(600, 600);                                    // --origin wins
+  const motion::RunOutcome again = motion::run_program(f.path(), o);
+  EXPECT_EQ(again.origin_from, "--origin");
+  EXPECT_NEAR(again.programmed.stretches[1].feed_mm_per_s.front(), 40, 1e-9);
 }
 
 TEST(GcodePlacement, ArcsOutsideTheXyPlaneAreRefusedByName) {
