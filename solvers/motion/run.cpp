@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 
 #include <fmt/format.h>
 
@@ -141,6 +142,18 @@ RunOutcome run_program(const std::string& program_path, const RunOptions& option
   gcode.spindle_count = std::max(gcode.spindle_count, machine.gcode_spindles);
   Program program = read_gcode_file(program_path, gcode);
   std::vector<std::string> warnings = program.warnings;
+  // Words the simulated machine does not act on: one note per kind, naming the first line.
+  std::vector<std::string> notes;
+  {
+    std::map<ProgramEvent::Kind, std::pair<int, int>> seen;  // kind -> (first line, count)
+    for (const ProgramEvent& e : program.events) {
+      auto [it, fresh] = seen.try_emplace(e.kind, e.line, 0);
+      ++it->second.second;
+    }
+    for (const auto& [kind, where] : seen)
+      notes.push_back(fmt::format("{}:{}: {} ({} in the program) ignored: machine '{}' does not act on it",
+                                     program.source, where.first, to_string(kind), where.second, machine.name));
+  }
   if (!options.strict_z) {
     // The first move that changes Z (a helix included): report it once, then flatten all.
     double z = program.start.z();
@@ -180,6 +193,7 @@ RunOutcome run_program(const std::string& program_path, const RunOptions& option
   o.origin_mm = origin;
   o.origin_from = from;
   o.warnings = std::move(warnings);
+  o.notes = std::move(notes);
   return o;
 }
 
@@ -270,6 +284,7 @@ std::string RunOutcome::report() const {
   s += fmt::format("  program origin   X {:.3f} Y {:.3f} mm on the machine ({})\n", origin_mm.x(), origin_mm.y(),
                    origin_from == "none" ? "none given: program zero is machine zero" : origin_from);
   for (const std::string& w : warnings) s += fmt::format("  warning: {}\n", w);
+  for (const std::string& n : notes) s += fmt::format("  note: {}\n", n);
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
   s += fmt::format("  torch on         {:9.3f} s\n", r.torch_on_s);
   s += fmt::format("  rapid distance   {:9.1f} mm\n", r.rapid_distance_mm);
@@ -317,6 +332,7 @@ nlohmann::json RunOutcome::to_json() const {
   j["origin_mm"] = {origin_mm.x(), origin_mm.y()};
   j["origin_from"] = origin_from;
   j["warnings"] = warnings;
+  j["notes"] = notes;
   j["rapids"] = {{"count", rapids.rapids.size()},
                  {"re_routed", rapids.replaced},
                  {"blocked_straight", rapids.blocked},

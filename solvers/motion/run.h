@@ -111,6 +111,7 @@ struct RunOutcome {
   Eigen::Vector2d origin_mm = Eigen::Vector2d::Zero();  // where the program's zero sat
   std::string origin_from = "none";                     // "--origin", "machine file" or "none"
   std::vector<std::string> warnings;                    // from reading and placing the program
+  std::vector<std::string> notes;                       // program words the machine ignores (M8, M52, ...)
 
   double planned_motion_s = 0.0;     // sum of trajectory durations
   double motion_lower_bound_s = 0.0;

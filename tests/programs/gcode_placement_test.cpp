@@ -115,6 +115,17 @@ TEST(GcodePlacement, MachineFileGivesOriginParametersAndSpindles) {
   EXPECT_NEAR(again.programmed.stretches[1].feed_mm_per_s.front(), 40, 1e-9);
 }
 
+TEST(GcodePlacement, WordsTheMachineIgnoresAreNotedOncePerKind) {
+  const ProgramFile f("notes.ngc", "G21 F1000\nM8\nM52 P1\nG0 X10 Y10\nM3 S1\nG1 X20\nM9\nM5\nM2\n");
+  motion::RunOptions o;
+  o.machine = "thermal_gantry";
+  const motion::RunOutcome run = motion::run_program(f.path(), o);
+  EXPECT_TRUE(run.warnings.empty());
+  ASSERT_EQ(run.notes.size(), 2u);
+  EXPECT_NE(run.notes[0].find("notes.ngc:2: coolant (2 in the program) ignored"), std::string::npos) << run.notes[0];
+  EXPECT_NE(run.notes[1].find("notes.ngc:3: feed_override"), std::string::npos) << run.notes[1];
+}
+
 TEST(GcodePlacement, ArcsOutsideTheXyPlaneAreRefusedByName) {
   const Program p = read_gcode("G21 F100\nG18 G2 X10 Z0 I5 K0\nM2\n", "xz.ngc");
   try {
