@@ -34,8 +34,6 @@ const std::map<int, const char*>& refused_g_codes() {
   static const std::map<int, const char*> codes = {
       {50, "cubic spline"}, {51, "quadratic spline"}, {52, "NURBS"}, {70, "lathe diameter mode"},
       {80, "lathe radius mode"}, {171, "UV plane"}, {181, "WU plane"}, {191, "VW plane"},
-      {280, "go to predefined position"}, {281, "setting predefined position"},
-      {300, "go to predefined position"}, {301, "setting predefined position"},
       {330, "spindle-synchronised motion"}, {331, "rigid tapping"}, {382, "probing"},
       {383, "probing"}, {384, "probing"}, {385, "probing"}, {410, "cutter radius compensation"},
       {411, "dynamic cutter radius compensation"}, {420, "cutter radius compensation"},
@@ -67,7 +65,8 @@ std::string g_name(int g10) {
 // Modal group of a supported G code (LinuxCNC's numbering); -1 for codes we do not support.
 int g_group(int g10) {
   switch (g10) {
-    case 40: case 100: case 530: case 920: case 921: case 922: case 923: return 0;  // non-modal
+    case 40: case 100: case 280: case 281: case 300: case 301: case 530: case 920: case 921: case 922: case 923:
+      return 0;                                           // non-modal
     case 0: case 10: case 20: case 30: case 730: case 800: case 810: case 820: case 830: case 850:
     case 890: return 1;                                   // motion
     case 170: case 180: case 190: return 2;               // plane
@@ -156,9 +155,18 @@ struct Frame {
 };
 
 constexpr int kMaxCallDepth = 50;
+constexpr int kFirstG28Param = 5161;   // #5161..#5169: the G28 position (machine coordinates)
+constexpr int kFirstG30Param = 5181;   // #5181..#5189: the G30 position
 constexpr int kFirstG92Param = 5211;   // #5211..#5219: G92 offsets, #5210: G92 in effect
 constexpr int kCoordSystemParam = 5220;
 constexpr int kFirstG5xParam = 5221;   // #5221 + 20 (n - 1) + axis: G54..G59.3 offsets
+
+// Parameters that hold lengths (kept in mm, read and written in the program's units): the G28
+// and G30 positions, the G92 offsets and the G54..G59.3 offsets (X, Y, Z, A, B, C, U, V, W).
+bool is_length_param(int n) {
+  return (n >= 5161 && n <= 5169) || (n >= 5181 && n <= 5189) || (n >= 5211 && n <= 5219) ||
+         (n >= 5221 && n <= 5390 && (n - 5221) % 20 < 9);
+}
 
 class Reader : public gcode_expr::Parameters {
  public:
@@ -294,8 +302,7 @@ double Reader::numbered(int n) const {
   if (n < 1 || n > 5602) throw gcode_expr::SyntaxError(fmt::format("parameter number #{} out of range (1..5602)", n));
   if (n >= 5420 && n <= 5428) return n - 5420 < 3 ? pos_mm_[n - 5420] / scale() : 0.0;
   if (n == 5400) return tool_in_spindle_;
-  if ((n >= kFirstG92Param && n <= 5219) || (n >= kFirstG5xParam && n <= 5390 && (n - kFirstG5xParam) % 20 < 9))
-    return params_[static_cast<std::size_t>(n)] / scale();
+  if (is_length_param(n)) return params_[static_cast<std::size_t>(n)] / scale();
   return params_[static_cast<std::size_t>(n)];
 }
 
@@ -332,8 +339,7 @@ double Reader::named(const std::string& name) const {
 
 void Reader::set_parameters(const Block& b) {
   for (const auto& [n, v] : b.set_numbered) {
-    const bool length = (n >= kFirstG92Param && n <= 5219) || (n >= kFirstG5xParam && n <= 5390);
-    params_[static_cast<std::size_t>(n)] = length ? v * scale() : v;
+    params_[static_cast<std::size_t>(n)] = is_length_param(n) ? v * scale() : v;
   }
   for (const auto& [name, v] : b.set_named) {
     if (name[0] == '_') globals_[name] = v;
@@ -813,7 +819,7 @@ bool Reader::execute(const Block& b) {
   // --- Words without a code that uses them -----------------------------------------------
   const bool has_axis = b.w('x') || b.w('y') || b.w('z');
   const int g0 = g_seen[0];
-  const bool g0_uses_axes = g0 == 100 || g0 == 920;
+  const bool g0_uses_axes = g0 == 100 || g0 == 280 || g0 == 300 || g0 == 920;
   const int g_motion = g_seen[1];
   if (g_motion == 800 && has_axis && !g0_uses_axes) fail("axis words (X, Y, Z) with G80");
   if (g0_uses_axes && g_motion >= 0 && g_motion != 800)
@@ -1039,6 +1045,22 @@ bool Reader::execute(const Block& b) {
       params_[static_cast<std::size_t>(g5x_param(p, a))] = off;
     }
     if (p == current) change_offsets([&] { load_g5x(); });
+  } else if (g0 == 280 || g0 == 300) {
+    // Through the point the axis words give (if any) to the stored position (#5161.. for G28,
+    // #5181.. for G30, machine coordinates), moving only the named axes, or all without any.
+    const int base = g0 == 280 ? kFirstG28Param : kFirstG30Param;
+    Eigen::Vector3d via = pos_mm_;
+    for (int a = 0; a < 3; ++a)
+      if (const auto& v = b.w(axes[a])) via[a] = incremental_ ? pos_mm_[a] + *v * scale() : *v * scale();
+    straight(Move::Kind::rapid, via);
+    Eigen::Vector3d home = via;
+    for (int a = 0; a < 3; ++a)
+      if (!has_axis || b.w(axes[a])) home[a] = params_[static_cast<std::size_t>(base + a)] - offset()[a];
+    straight(Move::Kind::rapid, home);
+  } else if (g0 == 281 || g0 == 301) {
+    const int base = g0 == 281 ? kFirstG28Param : kFirstG30Param;
+    const Eigen::Vector3d machine = machine_position();
+    for (int a = 0; a < 3; ++a) params_[static_cast<std::size_t>(base + a)] = machine[a];
   } else if (g0 == 920) {
     if (!has_axis) fail("G92 needs at least one axis word");
     change_offsets([&] {
