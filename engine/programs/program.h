@@ -4,9 +4,11 @@
 // This is what every executor and checker consumes; readers (G-code today) produce it. The
 // meaning follows LinuxCNC's RS274NGC interpreter (`rs274 -g` is the reference):
 //   * rapid / line: straight move from the previous end to `end`.
-//   * arc: in the XY plane (G17), from the previous end to `end` about `center` (x, y),
-//     `clockwise` (G2) or counter-clockwise (G3), with `turns` extra full turns (a P word,
-//     or 0), and z moving linearly along the arc (a helix) to end.z().
+//   * arc: in `plane` (XY by default; XZ and YZ as G18 / G19 make them), from the previous end
+//     to `end` about `center` (in the plane's axis order: (x, y), (z, x) or (y, z)),
+//     `clockwise` (G2) or counter-clockwise (G3) seen in that order, with `turns` extra full
+//     turns (a P word, or 0), and the plane's normal axis moving linearly along the arc (a
+//     helix) to its value in `end`.
 //   * dwell: wait `seconds`.
 //   * torch_on / torch_off: M3 / M5 (torch or spindle). `spindle_speed` carries S at M3,
 //     `spindle` the spindle ($n word; -1 on M5 $-1: every spindle).
