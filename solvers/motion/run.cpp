@@ -184,7 +184,11 @@ RunOutcome run_program(const std::string& program_path, const RunOptions& option
     program.start.head<2>() += origin;
     for (Move& m : program.moves) {
       m.end.head<2>() += origin;
-      if (m.kind == Move::Kind::arc && m.plane == Move::Plane::xy) m.center += origin;
+      if (m.kind != Move::Kind::arc) continue;
+      // The centre is in the plane's axis order: (x, y), (z, x) or (y, z).
+      if (m.plane == Move::Plane::xy) m.center += origin;
+      else if (m.plane == Move::Plane::xz) m.center.y() += origin.x();
+      else m.center.x() += origin.y();
     }
   }
   JobOptions jo;
