@@ -38,7 +38,7 @@ const std::map<int, const char*>& refused_g_codes() {
       {383, "probing"}, {384, "probing"}, {385, "probing"}, {410, "cutter radius compensation"},
       {411, "dynamic cutter radius compensation"}, {420, "cutter radius compensation"},
       {421, "dynamic cutter radius compensation"}, {431, "dynamic tool length offset"},
-      {432, "additional tool length offset"}, {520, "local coordinate system offset"},
+      {432, "additional tool length offset"},
       {700, "lathe finishing cycle"}, {710, "lathe roughing cycle"}, {711, "lathe roughing cycle"},
       {720, "lathe roughing cycle"}, {721, "lathe roughing cycle"}, {740, "left-hand tapping cycle"},
       {760, "threading cycle"}, {840, "tapping cycle"}, {860, "boring cycle with spindle stop"},
@@ -65,7 +65,8 @@ std::string g_name(int g10) {
 // Modal group of a supported G code (LinuxCNC's numbering); -1 for codes we do not support.
 int g_group(int g10) {
   switch (g10) {
-    case 40: case 100: case 280: case 281: case 300: case 301: case 530: case 920: case 921: case 922: case 923:
+    case 40: case 100: case 280: case 281: case 300: case 301: case 520: case 530: case 920: case 921: case 922:
+    case 923:
       return 0;                                           // non-modal
     case 0: case 10: case 20: case 30: case 730: case 800: case 810: case 820: case 830: case 850:
     case 890: return 1;                                   // motion
@@ -819,7 +820,7 @@ bool Reader::execute(const Block& b) {
   // --- Words without a code that uses them -----------------------------------------------
   const bool has_axis = b.w('x') || b.w('y') || b.w('z');
   const int g0 = g_seen[0];
-  const bool g0_uses_axes = g0 == 100 || g0 == 280 || g0 == 300 || g0 == 920;
+  const bool g0_uses_axes = g0 == 100 || g0 == 280 || g0 == 300 || g0 == 520 || g0 == 920;
   const int g_motion = g_seen[1];
   if (g_motion == 800 && has_axis && !g0_uses_axes) fail("axis words (X, Y, Z) with G80");
   if (g0_uses_axes && g_motion >= 0 && g_motion != 800)
@@ -1068,6 +1069,17 @@ bool Reader::execute(const Block& b) {
       for (int a = 0; a < 3; ++a) {
         if (const auto& v = b.w(axes[a])) g92_mm_[a] = machine[a] - g5x_mm_[a] - *v * scale();
         else if (!g92_on_) g92_mm_[a] = 0.0;
+        params_[static_cast<std::size_t>(kFirstG92Param + a)] = g92_mm_[a];
+      }
+      g92_on_ = true;
+      params_[5210] = 1;
+    });
+  } else if (g0 == 520) {
+    // G52: the local offset, which LinuxCNC keeps in the G92 offset, set to the values given.
+    change_offsets([&] {
+      if (!g92_on_) g92_mm_.setZero();
+      for (int a = 0; a < 3; ++a) {
+        if (const auto& v = b.w(axes[a])) g92_mm_[a] = *v * scale();
         params_[static_cast<std::size_t>(kFirstG92Param + a)] = g92_mm_[a];
       }
       g92_on_ = true;

@@ -63,7 +63,7 @@
 //     G90 and G91, expanded into rapids, feeds and dwells exactly as LinuxCNC expands them.
 //   * Work offsets: G54..G59.3 select; G10 L2 Pn (offset values) and G10 L20 Pn (offset that
 //     makes the current point the given coordinates) set, P0 meaning the active system;
-//     G92 / G92.1 / G92.2 / G92.3; G53 moves (G0/G1) in machine coordinates; G28 / G30 (through
+//     G92 / G92.1 / G92.2 / G92.3; G52 (the local offset, kept with G92's); G53 moves (G0/G1) in machine coordinates; G28 / G30 (through
 //     the given point to the stored position) and G28.1 / G30.1; all in mm and inch.
 //   * G4 P dwell (seconds, >= 0). G20 / G21 (inch / mm; inch values are converted to mm).
 //     G90 / G91 absolute / incremental distances; G90.1 / G91.1 arc centre mode. G40, G49,
@@ -90,7 +90,7 @@
 // What is refused (InputError, "FILE:LINE: message")
 // -------------------------------------------------
 //   * Unsupported features, each named ("... is not supported"): cutter compensation, inverse-time
-//     and per-revolution feed, G43.1 / G43.2, G52, probing, threading, tapping and the other
+//     and per-revolution feed, G43.1 / G43.2, probing, threading, tapping and the other
 //     canned cycles (G74, G76, G84, G86-G88), splines, lathe modes, UV/WU/VW planes, G10 L1/L10/
 //     L11 (tool table), G10 L2 R (rotation), subroutines in other files, M19, M60, M70-M73,
 //     M98/M99, A/B/C/U/V/W axes, D words, polar coordinates (@ and ^).
