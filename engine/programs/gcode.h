@@ -63,8 +63,9 @@
 //     G90 and G91, expanded into rapids, feeds and dwells exactly as LinuxCNC expands them.
 //   * Work offsets: G54..G59.3 select; G10 L2 Pn (offset values) and G10 L20 Pn (offset that
 //     makes the current point the given coordinates) set, P0 meaning the active system;
-//     G92 / G92.1 / G92.2 / G92.3; G52 (the local offset, kept with G92's); G53 moves (G0/G1) in machine coordinates; G28 / G30 (through
-//     the given point to the stored position) and G28.1 / G30.1; all in mm and inch.
+//     G92 / G92.1 / G92.2 / G92.3; G52 (the local offset, kept with G92's); G53 moves (G0/G1)
+//     in machine coordinates; G28 / G30 (through the given point to the stored position) and
+//     G28.1 / G30.1; all in mm and inch.
 //   * G4 P dwell (seconds, >= 0). G20 / G21 (inch / mm; inch values are converted to mm).
 //     G90 / G91 absolute / incremental distances; G90.1 / G91.1 arc centre mode. G40, G49,
 //     G94, G97: LinuxCNC's start states. G94 sets the feed to 0 as LinuxCNC does.
