@@ -5,12 +5,12 @@
 //   --lenient            accept a program with no M2 / M30 / closing % (with a warning)
 #pragma once
 
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <string>
 #include <vector>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
 
 #include "engine/common/error.h"
 #include "engine/programs/gcode.h"
@@ -36,7 +36,8 @@ inline GcodeOptions gcode_options(const std::vector<std::string>& params, int sp
     if (eq == std::string::npos || eq == 0 || eq + 1 == p.size())
       throw InputError("--param", 0, fmt::format("'{}' is not NAME=VALUE", p));
     std::string name = p.substr(0, eq);
-    if (name.size() > 2 && name[0] == '#' && name[1] == '<' && name.back() == '>') name = name.substr(2, name.size() - 3);
+    if (name.size() > 2 && name[0] == '#' && name[1] == '<' && name.back() == '>')
+      name = name.substr(2, name.size() - 3);
     const std::string text = p.substr(eq + 1);
     std::size_t used = 0;
     double v = NAN;

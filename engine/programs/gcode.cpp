@@ -223,7 +223,8 @@ class Reader : public gcode_expr::Parameters {
   }
   void straight(Move::Kind kind, const Eigen::Vector3d& end_prog_mm) {
     if (kind == Move::Kind::line && feed_mm_per_min_ <= 0)
-      fail(is_cycle(motion_g10_) ? "cannot feed with zero feed rate (canned cycle)" : "cannot do G1 with zero feed rate");
+      fail(is_cycle(motion_g10_) ? "cannot feed with zero feed rate (canned cycle)"
+                                 : "cannot do G1 with zero feed rate");
     Move m;
     m.kind = kind;
     m.end = end_prog_mm;
@@ -452,7 +453,9 @@ void Reader::match_structure() {
         break;
       case OKind::endsub: case OKind::endwhile: case OKind::endrepeat: {
         const OKind opener = l.o == OKind::endsub ? OKind::sub : l.o == OKind::endwhile ? OKind::while_ : OKind::repeat;
-        const int o = close(opener, l.o == OKind::endsub ? "endsub" : l.o == OKind::endwhile ? "endwhile" : "endrepeat");
+        const int o = close(opener, l.o == OKind::endsub     ? "endsub"
+                                    : l.o == OKind::endwhile ? "endwhile"
+                                                             : "endrepeat");
         if (o >= 0) {
           l.partner = o;
           lines_[static_cast<std::size_t>(o)].partner = i;
@@ -461,7 +464,11 @@ void Reader::match_structure() {
       }
       case OKind::elseif: case OKind::else_: case OKind::endif: {
         if (!top_is(OKind::if_, l.label)) {
-          l.o_error = fmt::format("{} o{} with no matching if", l.o == OKind::endif ? "endif" : l.o == OKind::else_ ? "else" : "elseif", l.label);
+          l.o_error = fmt::format("{} o{} with no matching if",
+                                  l.o == OKind::endif   ? "endif"
+                                  : l.o == OKind::else_ ? "else"
+                                                        : "elseif",
+                                  l.label);
           break;
         }
         // Chain: the if (or its last clause) points to this clause.
@@ -487,7 +494,9 @@ void Reader::match_structure() {
             break;
           }
         }
-        if (l.partner < 0) l.o_error = fmt::format("{} o{} outside a loop with that label", l.o == OKind::break_ ? "break" : "continue", l.label);
+        if (l.partner < 0)
+          l.o_error = fmt::format("{} o{} outside a loop with that label", l.o == OKind::break_ ? "break" : "continue",
+                                  l.label);
         break;
       }
       case OKind::return_:  // returns from whatever subroutine is running, as in LinuxCNC
@@ -566,7 +575,8 @@ Block Reader::split(const std::string& code) {
       case 'm': {
         if (v < 0) fail(fmt::format("negative M code M{:g}", v));
         const long long m = std::llround(v);
-        if (std::abs(v - static_cast<double>(m)) > 1e-4 || m > 9999) fail(fmt::format("M code M{:g} is not an integer", v));
+        if (std::abs(v - static_cast<double>(m)) > 1e-4 || m > 9999)
+          fail(fmt::format("M code M{:g} is not an integer", v));
         if (b.m.size() >= 4) fail("more than 4 M codes on one line");
         b.m.push_back(static_cast<int>(m));
         break;
@@ -644,8 +654,8 @@ Program Reader::run(const std::string& text) {
   if (!ended && frames_.size() > 1) fail("file ended inside a subroutine call");
   if (!ended) {
     if (options_.require_program_end) fail("file ended with no percent sign or program end (M2 or M30)");
-    program_.warnings.push_back(
-        fmt::format("{}: the program has no end (M2, M30 or a closing %): read to the end of the file", program_.source));
+    program_.warnings.push_back(fmt::format(
+        "{}: the program has no end (M2, M30 or a closing %): read to the end of the file", program_.source));
   }
   return std::move(program_);
 }
@@ -688,7 +698,9 @@ int Reader::control(int pc) {
     case OKind::endsub: case OKind::return_: {
       const std::optional<double> v = value(false, l.o == OKind::return_ ? "return" : "endsub");
       nothing_after();
-      if (frames_.size() < 2) fail(fmt::format("{} o{} reached outside a subroutine call", l.o == OKind::return_ ? "return" : "endsub", l.label));
+      if (frames_.size() < 2)
+        fail(fmt::format("{} o{} reached outside a subroutine call", l.o == OKind::return_ ? "return" : "endsub",
+                         l.label));
       const Frame done = std::move(frames_.back());
       frames_.pop_back();
       for (int i = 0; i < 30; ++i) params_[static_cast<std::size_t>(i + 1)] = done.saved[static_cast<std::size_t>(i)];
@@ -699,7 +711,8 @@ int Reader::control(int pc) {
     case OKind::call: {
       std::vector<double> args;
       while (pos < s.size()) {
-        if (s[pos] != '[') fail(fmt::format("o{} call: arguments are [values], found '{}'", l.label, s.substr(pos, 12)));
+        if (s[pos] != '[')
+          fail(fmt::format("o{} call: arguments are [values], found '{}'", l.label, s.substr(pos, 12)));
         try {
           args.push_back(gcode_expr::read_expression(s, pos, *this));
         } catch (const gcode_expr::SyntaxError& e) {
@@ -709,13 +722,16 @@ int Reader::control(int pc) {
       if (args.size() > 30) fail(fmt::format("o{} call: more than 30 arguments", l.label));
       const auto it = subs_.find(l.label);
       if (it == subs_.end())
-        fail(fmt::format("subroutine o{} is not defined in this file (subroutines from other files are not supported)", l.label));
-      if (static_cast<int>(frames_.size()) > kMaxCallDepth) fail(fmt::format("subroutine calls nested deeper than {}", kMaxCallDepth));
+        fail(fmt::format("subroutine o{} is not defined in this file (subroutines from other files are not supported)",
+                         l.label));
+      if (static_cast<int>(frames_.size()) > kMaxCallDepth)
+        fail(fmt::format("subroutine calls nested deeper than {}", kMaxCallDepth));
       Frame f;
       f.return_pc = pc + 1;
       for (int i = 0; i < 30; ++i) {
         f.saved[static_cast<std::size_t>(i)] = params_[static_cast<std::size_t>(i + 1)];
-        params_[static_cast<std::size_t>(i + 1)] = i < static_cast<int>(args.size()) ? args[static_cast<std::size_t>(i)] : 0.0;
+        params_[static_cast<std::size_t>(i + 1)] =
+            i < static_cast<int>(args.size()) ? args[static_cast<std::size_t>(i)] : 0.0;
       }
       frames_.push_back(std::move(f));
       return it->second + 1;
@@ -738,7 +754,8 @@ int Reader::control(int pc) {
         if (c.o != OKind::elseif) return at + 1;  // else: its body; endif: after it
         line_ = c.number;
         std::size_t p = c.rest;
-        if (p >= c.code.size() || c.code[p] != '[') fail(fmt::format("o{} elseif: '[' expected after the keyword", c.label));
+        if (p >= c.code.size() || c.code[p] != '[')
+          fail(fmt::format("o{} elseif: '[' expected after the keyword", c.label));
         try {
           taken = gcode_expr::read_expression(c.code, p, *this) != 0.0;
         } catch (const gcode_expr::SyntaxError& e) {
@@ -840,7 +857,8 @@ bool Reader::execute(const Block& b) {
   if (is_arc) {
     const char missing = plane == Move::Plane::xy ? 'k' : plane == Move::Plane::xz ? 'j' : 'i';
     const char* pname = plane == Move::Plane::xy ? "XY" : plane == Move::Plane::xz ? "XZ" : "YZ";
-    if (b.w(missing)) fail(fmt::format("{} word given for an arc in the {} plane", static_cast<char>(std::toupper(missing)), pname));
+    if (b.w(missing))
+      fail(fmt::format("{} word given for an arc in the {} plane", static_cast<char>(std::toupper(missing)), pname));
   } else {
     if (b.w('i')) fail("I word with no G2 or G3 to use it");
     if (b.w('j')) fail("J word with no G2 or G3 to use it");
@@ -849,9 +867,10 @@ bool Reader::execute(const Block& b) {
   if (b.w('r') && !is_arc && !cycle_line && g0 != 100) fail("R word with no G2, G3, G10 or canned cycle to use it");
   const bool p_used = is_arc || dwell || g0 == 100 || g_seen[13] == 640 || motion_to_be == 820 || motion_to_be == 890 ||
                       (m5 >= 62 && m5 <= 66) || m9 >= 0 || m10 >= 0;
-  if (b.w('p') && !p_used) fail("P word with no code that uses it (G2/G3, G4, G10, G64, G82, G89, M50-M53, M62-M66, M100-M199)");
-  if (b.w('q') && !(g_seen[13] == 640 || motion_to_be == 730 || motion_to_be == 830 || m5 == 66 || m5 == 67 || m5 == 68 ||
-                    m_seen[6] == 61 || m10 >= 0))
+  if (b.w('p') && !p_used)
+    fail("P word with no code that uses it (G2/G3, G4, G10, G64, G82, G89, M50-M53, M62-M66, M100-M199)");
+  if (b.w('q') && !(g_seen[13] == 640 || motion_to_be == 730 || motion_to_be == 830 || m5 == 66 || m5 == 67 ||
+                    m5 == 68 || m_seen[6] == 61 || m10 >= 0))
     fail("Q word with no code that uses it (G64, G73, G83, M61, M66-M68, M100-M199)");
   if (b.w('l') && !(g0 == 100 || cycle_line || m5 == 66)) fail("L word with no G10, canned cycle or M66 to use it");
   if (b.w('e') && !(m5 == 66 || m5 == 67 || m5 == 68))
@@ -875,8 +894,8 @@ bool Reader::execute(const Block& b) {
     const int n = *b.spindle;
     const bool all = n == -1 && m_seen[7] == 5;
     if (!all && (n < 0 || n >= options_.spindle_count))
-      fail(fmt::format("invalid spindle ($) number ${}: this machine has {} spindle{} ($0{})", n, options_.spindle_count,
-                       options_.spindle_count == 1 ? "" : "s",
+      fail(fmt::format("invalid spindle ($) number ${}: this machine has {} spindle{} ($0{})", n,
+                       options_.spindle_count, options_.spindle_count == 1 ? "" : "s",
                        options_.spindle_count == 1 ? "" : fmt::format("..${}", options_.spindle_count - 1)));
   }
   const auto integer_word = [&](char c, const char* what) {
@@ -1150,11 +1169,13 @@ bool Reader::execute(const Block& b) {
 // (G98). In G91, R is relative to that height, Z to R, and L repeats the X/Y increments.
 void Reader::cycle(const Block& b, int g10, int previous_motion) {
   const bool first_in_series = previous_motion != g10;
-  if (plane_ != Move::Plane::xy) fail(fmt::format("{} (canned cycle) outside the XY plane is not supported", g_name(g10)));
+  if (plane_ != Move::Plane::xy)
+    fail(fmt::format("{} (canned cycle) outside the XY plane is not supported", g_name(g10)));
   // As LinuxCNC, the arithmetic is in program units (pecks are counted in them).
   const double s = scale();
   const double current_z = pos_mm_.z() / s;
-  if (first_in_series && !b.w('r')) fail(fmt::format("R clearance plane unspecified in the canned cycle {}", g_name(g10)));
+  if (first_in_series && !b.w('r'))
+    fail(fmt::format("R clearance plane unspecified in the canned cycle {}", g_name(g10)));
   if (first_in_series && !b.w('z')) fail(fmt::format("Z value unspecified in the canned cycle {}", g_name(g10)));
   // R and Z are kept as written (relative in G91) for the cycles that follow.
   if (b.w('r')) cycle_r_ = *b.w('r');
@@ -1284,13 +1305,14 @@ void Reader::arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_mm) 
     const double r1 = std::hypot(cx - x0, cy - y0);
     const double r2 = std::hypot(cx - x1, cy - y1);
     const auto where = [&] {
-      return fmt::format("start=({:.4f},{:.4f}) center=({:.4f},{:.4f}) end=({:.4f},{:.4f}) r1={:.4f} r2={:.4f}", x0, y0, cx,
-                         cy, x1, y1, r1, r2);
+      return fmt::format("start=({:.4f},{:.4f}) center=({:.4f},{:.4f}) end=({:.4f},{:.4f}) r1={:.4f} r2={:.4f}", x0, y0,
+                         cx, cy, x1, y1, r1, r2);
     };
     if (r1 < radius_tolerance || r2 < radius_tolerance) fail("zero-radius arc: " + where());
     const double abs_err = std::abs(r1 - r2);
     const double rel_err = abs_err / std::max(r1, r2);
-    if (abs_err > spiral_abs_tolerance * 100.0 || (rel_err > kSpiralRelativeTolerance && abs_err > spiral_abs_tolerance))
+    if (abs_err > spiral_abs_tolerance * 100.0 ||
+        (rel_err > kSpiralRelativeTolerance && abs_err > spiral_abs_tolerance))
       fail("radius to end of arc differs from radius to start: " + where());
   }
   if (!std::isfinite(cx) || !std::isfinite(cy)) fail("arc centre cannot be computed (numbers too large or too small)");

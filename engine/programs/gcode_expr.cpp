@@ -1,10 +1,10 @@
 #include "engine/programs/gcode_expr.h"
 
+#include <fmt/format.h>
+
 #include <cctype>
 #include <cmath>
 #include <numbers>
-
-#include <fmt/format.h>
 
 namespace machplan::gcode_expr {
 namespace {
@@ -57,10 +57,20 @@ enum class Op { none, power, times, divide, mod, plus, minus, eq, ne, gt, ge, lt
 int precedence(Op op) {
   switch (op) {
     case Op::power: return 4;
-    case Op::times: case Op::divide: case Op::mod: return 3;
-    case Op::plus: case Op::minus: return 2;
-    case Op::eq: case Op::ne: case Op::gt: case Op::ge: case Op::lt: case Op::le: return 1;
-    case Op::and_: case Op::or_: case Op::xor_: return 0;
+    case Op::times:
+    case Op::divide:
+    case Op::mod: return 3;
+    case Op::plus:
+    case Op::minus: return 2;
+    case Op::eq:
+    case Op::ne:
+    case Op::gt:
+    case Op::ge:
+    case Op::lt:
+    case Op::le: return 1;
+    case Op::and_:
+    case Op::or_:
+    case Op::xor_: return 0;
     case Op::none: break;
   }
   return -1;
@@ -75,10 +85,13 @@ Op read_operator(const std::string& s, std::size_t& pos) {
   if (pos >= s.size()) fail("unclosed expression: ']' missing");
   const char c = s[pos];
   if (c == ']') return Op::none;
-  struct Word { const char* text; Op op; };
+  struct Word {
+    const char* text;
+    Op op;
+  };
   static const Word words[] = {{"**", Op::power}, {"*", Op::times}, {"/", Op::divide}, {"mod", Op::mod},
-                               {"+", Op::plus},   {"-", Op::minus}, {"eq", Op::eq},     {"ne", Op::ne},
-                               {"gt", Op::gt},    {"ge", Op::ge},   {"lt", Op::lt},     {"le", Op::le},
+                               {"+", Op::plus},   {"-", Op::minus}, {"eq", Op::eq},    {"ne", Op::ne},
+                               {"gt", Op::gt},    {"ge", Op::ge},   {"lt", Op::lt},    {"le", Op::le},
                                {"and", Op::and_}, {"or", Op::or_},  {"xor", Op::xor_}};
   for (const Word& w : words)
     if (match(s, pos, w.text)) {
@@ -147,7 +160,8 @@ double unary(const std::string& s, std::size_t& pos, const Parameters& params) {
   }
   if (name == "abs") return std::abs(v);
   if (name == "acos" || name == "asin") {
-    if (v < -1.0 || v > 1.0) fail(fmt::format("argument to {} out of range: {:g}", name == "acos" ? "ACOS" : "ASIN", v));
+    if (v < -1.0 || v > 1.0)
+      fail(fmt::format("argument to {} out of range: {:g}", name == "acos" ? "ACOS" : "ASIN", v));
     return (name == "acos" ? std::acos(v) : std::asin(v)) * kDegPerRad;
   }
   if (name == "cos") return std::cos(v / kDegPerRad);

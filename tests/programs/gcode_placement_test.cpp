@@ -1,12 +1,12 @@
 // Placing a program on the machine: `run --origin`, Z words on the 2-axis machines, and the
 // arcs those machines cannot make (solvers/motion/run.h, engine/motion/make_job.h).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
-#include <unistd.h>
 
 #include "engine/common/error.h"
 #include "engine/motion/make_job.h"
@@ -89,7 +89,8 @@ TEST(GcodePlacement, LenientEndAndParametersReachTheRun) {
 
 TEST(GcodePlacement, MachineFileGivesOriginParametersAndSpindles) {
   // The bundled gantry reads QtPlasmaC's cut feed and $1 (scribe) from its file.
-  const ProgramFile f("qtplasmac.ngc", "G21\nF#<_hal[plasmac.cut-feed-rate]>\nG0 X-10 Y-10\nM3 $1 S1\nG1 X10\nM5 $1\nM2\n");
+  const ProgramFile f("qtplasmac.ngc",
+                      "G21\nF#<_hal[plasmac.cut-feed-rate]>\nG0 X-10 Y-10\nM3 $1 S1\nG1 X10\nM5 $1\nM2\n");
   std::string yaml;
   {
     std::ifstream in(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
@@ -108,8 +109,8 @@ TEST(GcodePlacement, MachineFileGivesOriginParametersAndSpindles) {
   EXPECT_NEAR(run.programmed.start_mm.x(), 500, 1e-12);
   ASSERT_GE(run.programmed.stretches.size(), 2u);
   EXPECT_NEAR(run.programmed.stretches[1].feed_mm_per_s.front(), 30, 1e-9);  // 1800 mm/min
-  o.gcode.params["_hal[plasmac.cut-feed-rate]"] = 2400;                       // --param wins
-  o.origin_mm = Eigen::Vector2d(600, 600);                                    // --origin wins
+  o.gcode.params["_hal[plasmac.cut-feed-rate]"] = 2400;                      // --param wins
+  o.origin_mm = Eigen::Vector2d(600, 600);                                   // --origin wins
   const motion::RunOutcome again = motion::run_program(f.path(), o);
   EXPECT_EQ(again.origin_from, "--origin");
   EXPECT_NEAR(again.programmed.stretches[1].feed_mm_per_s.front(), 40, 1e-9);
