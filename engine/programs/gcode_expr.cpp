@@ -14,6 +14,21 @@ constexpr double kToleranceEqual = 0.0001;  // LinuxCNC's TOLERANCE_EQUAL
 
 [[noreturn]] void fail(const std::string& message) { throw SyntaxError(message); }
 
+// Bounds the recursion of nested values ("[[[...", "----#", "##...") whatever the line length.
+constexpr int kMaxDepth = 200;
+thread_local int depth = 0;
+struct DepthGuard {
+  DepthGuard() {
+    if (++depth > kMaxDepth) {
+      depth = 0;
+      fail(fmt::format("values nested more than {} deep", kMaxDepth));
+    }
+  }
+  ~DepthGuard() {
+    if (depth > 0) --depth;
+  }
+};
+
 bool is_digit(char c) { return c >= '0' && c <= '9'; }
 bool is_alpha(char c) { return c >= 'a' && c <= 'z'; }
 
@@ -236,6 +251,7 @@ int read_parameter_ref(const std::string& s, std::size_t& pos, const Parameters&
 }
 
 double read_real_value(const std::string& s, std::size_t& pos, const Parameters& params) {
+  const DepthGuard guard;
   if (pos >= s.size()) fail("a value is missing at the end of the line");
   const char c = s[pos];
   const char next = pos + 1 < s.size() ? s[pos + 1] : '\0';

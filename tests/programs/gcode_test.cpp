@@ -239,6 +239,12 @@ TEST(GcodeFeatures, ParametersAndExpressions) {
   expect_error("G0 X[FOO[1]]\nM2\n", 1, "unknown function 'foo'");
   expect_error("G0 X#<nope>\nM2\n", 1, "named parameter #<nope> not defined");
   expect_error("G0 X#6000\nM2\n", 1, "out of range");
+  GcodeOptions wide;
+  wide.max_line_chars = 5000;
+  expect_error("G0 X" + std::string(1000, '[') + "1" + std::string(1000, ']') + "\nM2\n", 1, "nested more than 200 deep",
+               wide);
+  const Program deep = read("G0 X" + std::string(100, '[') + "1" + std::string(100, ']') + "\nM2\n", wide);
+  expect_point(deep.moves[0].end, 1, 0, 0);
 }
 
 TEST(GcodeFeatures, OWords) {
