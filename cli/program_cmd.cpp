@@ -1,17 +1,23 @@
-// `machplan program FILE.ngc [--json]`: interprets a G-code part program and prints its moves
-// (--json) or a readable summary.
+// `machplan program FILE.ngc [--json] [--param NAME=VALUE]... [--spindles N] [--lenient]`:
+// interprets a G-code part program and prints its moves (--json, machine coordinates: the
+// program's work offsets applied) or a readable summary. Warnings go to stderr.
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/gcode_flags.h"
 #include "engine/programs/gcode.h"
 
 namespace {
+
+using machplan::cli::add_gcode_options;
+using machplan::cli::gcode_options;
 
 nlohmann::json to_json(const machplan::Program& program) {
   using machplan::Move;
@@ -32,6 +38,7 @@ nlohmann::json to_json(const machplan::Program& program) {
         j["end"] = {m.end.x(), m.end.y(), m.end.z()};
         j["feed"] = m.feed_mm_per_min;
         j["center"] = {m.center.x(), m.center.y()};
+        if (m.plane != Move::Plane::xy) j["plane"] = m.plane == Move::Plane::xz ? "xz" : "yz";
         j["clockwise"] = m.clockwise;
         j["turns"] = m.turns;
         break;
@@ -40,14 +47,28 @@ nlohmann::json to_json(const machplan::Program& program) {
         break;
       case Move::Kind::torch_on:
         j["spindle_speed"] = m.spindle_speed;
+        if (m.spindle != 0) j["spindle"] = m.spindle;
         break;
       case Move::Kind::torch_off:
+        if (m.spindle != 0) j["spindle"] = m.spindle;
         break;
+    }
+    if (m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc) {
+      if (m.path_mode != Move::PathMode::blend) j["path_mode"] = machplan::to_string(m.path_mode);
+      else if (m.path_tolerance_mm > 0) j["path_tolerance_mm"] = m.path_tolerance_mm;
     }
     moves.push_back(std::move(j));
   }
+  nlohmann::json events = nlohmann::json::array();
+  for (const machplan::ProgramEvent& e : program.events)
+    events.push_back({{"kind", machplan::to_string(e.kind)}, {"line", e.line}, {"before_move", e.before_move},
+                      {"number", e.number}, {"value", e.value}, {"value2", e.value2}, {"mode", e.mode},
+                      {"synchronized", e.synchronized}});
   return {{"units", "mm"},
+          {"coordinates", "machine (work offsets applied)"},
           {"source", program.source},
+          {"events", std::move(events)},
+          {"warnings", program.warnings},
           {"start", {program.start.x(), program.start.y(), program.start.z()}},
           {"ends_with_program_end", program.ends_with_program_end},
           {"moves", std::move(moves)}};
@@ -62,10 +83,12 @@ void print_summary(const machplan::Program& program, double rapid_mm_per_min) {
       "  rapid length:   {:.1f} mm\n"
       "  feed length:    {:.1f} mm\n"
       "  bounding box:   X {:.3f} .. {:.3f}  Y {:.3f} .. {:.3f}  Z {:.3f} .. {:.3f} mm\n"
-      "  estimated time: {:.1f} s ({}:{:04.1f} min; rapids at {:g} mm/min, feeds at F, dwells)\n",
+      "  estimated time: {:.1f} s ({}:{:04.1f} min; rapids at {:g} mm/min, feeds at F, dwells)\n"
+      "  other words:    {} kept (tool, coolant, outputs, waits, user M codes)\n",
       program.source, program.moves.size(), s.rapid_count, s.line_count, s.arc_count, s.dwell_count,
       s.torch_on_count, s.rapid_length_mm, s.feed_length_mm, s.min.x(), s.max.x(), s.min.y(), s.max.y(),
-      s.min.z(), s.max.z(), s.estimated_seconds, minutes, s.estimated_seconds - 60.0 * minutes, rapid_mm_per_min);
+      s.min.z(), s.max.z(), s.estimated_seconds, minutes, s.estimated_seconds - 60.0 * minutes, rapid_mm_per_min,
+      program.events.size());
 }
 
 void add_program(CLI::App& app) {
@@ -73,6 +96,9 @@ void add_program(CLI::App& app) {
     std::string file;
     bool json = false;
     double rapid_mm_per_min = 5000.0;
+    std::vector<std::string> params;
+    int spindles = 1;
+    bool lenient = false;
   };
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("program", "Interpret a G-code part program (RS274NGC as LinuxCNC reads it)");
@@ -80,8 +106,11 @@ void add_program(CLI::App& app) {
   cmd->add_flag("--json", args->json, "Print the canonical moves as JSON (mm, absolute)");
   cmd->add_option("--rapid-mm-per-min", args->rapid_mm_per_min, "Rapid rate for the time estimate")
       ->check(CLI::PositiveNumber);
+  add_gcode_options(*cmd, args->params, args->spindles, args->lenient);
   cmd->callback([args] {
-    const machplan::Program program = machplan::read_gcode_file(args->file);
+    const machplan::Program program =
+        machplan::read_gcode_file(args->file, gcode_options(args->params, args->spindles, args->lenient));
+    for (const std::string& w : program.warnings) std::cerr << "warning: " << w << "\n";
     if (args->json) std::cout << to_json(program).dump() << "\n";
     else print_summary(program, args->rapid_mm_per_min);
   });

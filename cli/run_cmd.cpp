@@ -7,11 +7,13 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/gcode_flags.h"
 #include "engine/common/error.h"
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
@@ -104,6 +106,10 @@ void add_run(CLI::App& app) {
         backend = "sim";
     std::vector<std::string> inject;
     bool json = false, realtime = false;
+    std::string origin;
+    std::vector<std::string> params;
+    int spindles = 1;
+    bool lenient = false, strict_z = false;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("run", "Run a part program on the simulated XY table or thermal-cutting gantry");
@@ -121,6 +127,11 @@ void add_run(CLI::App& app) {
   cmd->add_option("--plot", a->plot, "write a top view, programmed against executed path (.png or .svg)");
   cmd->add_option("--magnify", a->magnify, "draw the contour error this many times larger in the plot (default 1)");
   cmd->add_option("--seed", a->seed, "seed of the simulated machine's noise and faults (default 1)");
+  cmd->add_option("--origin", a->origin,
+                  "X,Y: where the program's zero sits on the machine, mm (default: the machine file's origin_mm, "
+                  "else 0,0)");
+  cmd->add_flag("--strict-z", a->strict_z, "refuse a program whose Z moves instead of dropping its Z words");
+  add_gcode_options(*cmd, a->params, a->spindles, a->lenient);
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->add_flag("--realtime", a->realtime, "pace the simulation to the wall clock");
   cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default)");
@@ -167,6 +178,14 @@ void add_run(CLI::App& app) {
     if (!o.backend.sim.faults.empty() && a->backend != "sim")
       throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
     o.no_go_path = a->no_go;
+    o.gcode = gcode_options(a->params, a->spindles, a->lenient);
+    o.strict_z = a->strict_z;
+    if (!a->origin.empty()) {
+      const auto comma = a->origin.find(',');
+      if (comma == std::string::npos) throw InputError("--origin", 0, fmt::format("'{}' is not X,Y (mm)", a->origin));
+      o.origin_mm = Eigen::Vector2d(number_of("--origin", a->origin.substr(0, comma)),
+                                    number_of("--origin", a->origin.substr(comma + 1)));
+    }
     o.executor.record_trace = !a->plot.empty();
     o.trace_csv_path = a->trace;  // streamed during the run
     o.stop = g_signal_stop.token();

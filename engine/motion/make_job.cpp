@@ -49,6 +49,9 @@ class Builder {
   }
 
   void motion(const Move& m, bool rapid) {
+    if (m.kind == Move::Kind::arc && m.plane != Move::Plane::xy)
+      refuse(m, fmt::format("arc in the {} plane ({}): these machines move in XY only",
+                            m.plane == Move::Plane::xz ? "XZ" : "YZ", m.plane == Move::Plane::xz ? "G18" : "G19"));
     const double dz = m.end.z() - position_.z();
     if (std::abs(dz) > options_.z_tolerance_mm) {
       if (m.kind == Move::Kind::arc)

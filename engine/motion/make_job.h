@@ -21,6 +21,7 @@
 //   * any change of Z: these machines (plasma/oxy-fuel gantry, XY table) have no programmable
 //     Z axis, so a Z word that moves the tool is not silently flattened;
 //   * a helical arc (an arc whose Z changes), named as such;
+//   * an arc in the XZ or YZ plane (G18, G19), named as such;
 //   * a line or arc with no feed (F missing or zero).
 //
 // Thread safety: pure function. Example:

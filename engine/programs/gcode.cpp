@@ -15,12 +15,12 @@
 
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
+#include "engine/programs/gcode_expr.h"
 
 namespace machplan {
 namespace {
 
 constexpr double kMmPerInch = 25.4;
-constexpr double kMaxNumber = 1e9;
 // LinuxCNC's tolerances (interp_internal.hh), in inches; mm values are derived below.
 constexpr double kRadiusToleranceInch = 0.00005;
 constexpr double kSpiralAbsToleranceInch = 2 * 0.001 * 1.41421356237309504880;
@@ -33,48 +33,28 @@ constexpr double kTiny = 1e-12;
 const std::map<int, const char*>& refused_g_codes() {
   static const std::map<int, const char*> codes = {
       {50, "cubic spline"}, {51, "quadratic spline"}, {52, "NURBS"}, {70, "lathe diameter mode"},
-      {80, "lathe radius mode"}, {100, "setting offsets and tool data"}, {180, "XZ plane"},
-      {190, "YZ plane"}, {171, "UV plane"}, {181, "WU plane"}, {191, "VW plane"},
-      {280, "go to predefined position"}, {281, "setting predefined position"},
-      {300, "go to predefined position"}, {301, "setting predefined position"},
+      {80, "lathe radius mode"}, {171, "UV plane"}, {181, "WU plane"}, {191, "VW plane"},
       {330, "spindle-synchronised motion"}, {331, "rigid tapping"}, {382, "probing"},
       {383, "probing"}, {384, "probing"}, {385, "probing"}, {410, "cutter radius compensation"},
       {411, "dynamic cutter radius compensation"}, {420, "cutter radius compensation"},
-      {421, "dynamic cutter radius compensation"}, {430, "tool length offset"},
-      {431, "dynamic tool length offset"}, {432, "additional tool length offset"},
-      {520, "local coordinate system offset"}, {530, "machine coordinates"},
-      {550, "work coordinate system"}, {560, "work coordinate system"},
-      {570, "work coordinate system"}, {580, "work coordinate system"},
-      {590, "work coordinate system"}, {591, "work coordinate system"},
-      {592, "work coordinate system"}, {593, "work coordinate system"},
-      {610, "exact path mode"}, {611, "exact stop mode"}, {640, "path blending"},
+      {421, "dynamic cutter radius compensation"}, {431, "dynamic tool length offset"},
+      {432, "additional tool length offset"},
       {700, "lathe finishing cycle"}, {710, "lathe roughing cycle"}, {711, "lathe roughing cycle"},
-      {720, "lathe roughing cycle"}, {721, "lathe roughing cycle"}, {730, "canned cycle"},
-      {740, "canned cycle"}, {760, "threading cycle"}, {810, "canned cycle"}, {820, "canned cycle"},
-      {830, "canned cycle"}, {840, "canned cycle"}, {850, "canned cycle"}, {860, "canned cycle"},
-      {870, "canned cycle"}, {880, "canned cycle"}, {890, "canned cycle"},
-      {920, "coordinate system offset"}, {921, "coordinate system offset"},
-      {922, "coordinate system offset"}, {923, "coordinate system offset"},
-      {930, "inverse time feed"}, {950, "feed per revolution"}, {960, "constant surface speed"},
-      {970, "spindle RPM mode"}, {980, "canned cycle return level"},
-      {990, "canned cycle return level"}};
+      {720, "lathe roughing cycle"}, {721, "lathe roughing cycle"}, {740, "left-hand tapping cycle"},
+      {760, "threading cycle"}, {840, "tapping cycle"}, {860, "boring cycle with spindle stop"},
+      {870, "back boring cycle"}, {880, "boring cycle with manual retract"},
+      {930, "inverse time feed"}, {950, "feed per revolution"}, {960, "constant surface speed"}};
   return codes;
 }
 
 const char* refused_m_code(int m) {
   switch (m) {
-    case 6: return "tool change";
-    case 7: case 8: case 9: return "coolant";
     case 19: return "spindle orientation";
-    case 48: case 49: case 50: case 51: case 52: case 53: return "override control";
     case 60: return "pallet change";
-    case 61: return "setting the current tool";
-    case 62: case 63: case 64: case 65: case 66: case 67: case 68: return "digital and analog I/O";
     case 70: case 71: case 72: case 73: return "saving and restoring modal state";
-    case 98: case 99: return "subroutines";
+    case 98: case 99: return "subroutines (M98/M99, Fanuc style)";
     default: break;
   }
-  if (m >= 100 && m <= 199) return "user-defined M code";
   return nullptr;
 }
 
@@ -85,16 +65,22 @@ std::string g_name(int g10) {
 // Modal group of a supported G code (LinuxCNC's numbering); -1 for codes we do not support.
 int g_group(int g10) {
   switch (g10) {
-    case 40: return 0;                                   // G4 (non-modal)
-    case 0: case 10: case 20: case 30: case 800: return 1;  // motion
-    case 170: return 2;                                  // plane
-    case 900: case 910: return 3;                        // distance mode
-    case 901: case 911: return 4;                        // arc distance mode
-    case 940: return 5;                                  // feed mode
-    case 200: case 210: return 6;                        // units
-    case 400: return 7;                                  // cutter compensation off
-    case 490: return 8;                                  // tool length offset off
-    case 540: return 12;                                 // coordinate system 1
+    case 40: case 100: case 280: case 281: case 300: case 301: case 520: case 530: case 920: case 921: case 922:
+    case 923:
+      return 0;                                           // non-modal
+    case 0: case 10: case 20: case 30: case 730: case 800: case 810: case 820: case 830: case 850:
+    case 890: return 1;                                   // motion
+    case 170: case 180: case 190: return 2;               // plane
+    case 900: case 910: return 3;                         // distance mode
+    case 901: case 911: return 4;                         // arc distance mode
+    case 940: return 5;                                   // feed mode
+    case 200: case 210: return 6;                         // units
+    case 400: return 7;                                   // cutter compensation off
+    case 430: case 490: return 8;                         // tool length offset
+    case 980: case 990: return 10;                        // canned cycle return mode
+    case 540: case 550: case 560: case 570: case 580: case 590: case 591: case 592: case 593: return 12;
+    case 610: case 611: case 640: return 13;              // path control
+    case 970: return 14;                                  // spindle RPM mode
     default: return -1;
   }
 }
@@ -102,69 +88,279 @@ int g_group(int g10) {
 int m_group(int m) {
   switch (m) {
     case 0: case 1: case 2: case 30: return 4;
+    case 62: case 63: case 64: case 65: case 66: case 67: case 68: return 5;
+    case 6: case 61: return 6;
     case 3: case 4: case 5: return 7;
-    default: return -1;
+    case 7: case 8: case 9: return 8;
+    case 48: case 49: case 50: case 51: case 52: case 53: return 9;
+    default: break;
   }
+  if (m >= 100 && m <= 199) return 10;
+  return -1;
 }
+
+bool is_cycle(int g10) { return g10 == 730 || (g10 >= 810 && g10 <= 890); }
+
+// Control-flow keyword of an O-word line.
+enum class OKind { none, sub, endsub, call, do_, while_, endwhile, if_, elseif, else_, endif, repeat, endrepeat,
+                   return_, break_, continue_ };
+
+OKind o_kind_of(const std::string& word) {
+  static const std::pair<const char*, OKind> words[] = {
+      {"sub", OKind::sub},         {"endsub", OKind::endsub},     {"call", OKind::call},
+      {"do", OKind::do_},          {"while", OKind::while_},      {"endwhile", OKind::endwhile},
+      {"if", OKind::if_},          {"elseif", OKind::elseif},     {"else", OKind::else_},
+      {"endif", OKind::endif},     {"repeat", OKind::repeat},     {"endrepeat", OKind::endrepeat},
+      {"return", OKind::return_},  {"break", OKind::break_},      {"continue", OKind::continue_}};
+  for (const auto& [w, k] : words)
+    if (word == w) return k;
+  return OKind::none;
+}
+
+// One source line as read before execution.
+struct SourceLine {
+  int number = 0;
+  std::string code;   // cleaned: no comments, no blanks, lower case
+  std::string error;  // a cleaning error, reported when the line runs
+  // O-word lines
+  OKind o = OKind::none;
+  std::string label;
+  std::size_t rest = 0;     // position in `code` after the keyword
+  int partner = -1;         // sub -> endsub, while -> endwhile, do -> its closing while,
+                            // repeat -> endrepeat, if/elseif/else -> next clause or endif,
+                            // closing lines -> their opening line, break/continue/return -> the
+                            // opening line of their construct
+  int endif = -1;           // if / elseif / else: the endif
+  bool closes_do = false;   // a "while" that ends a do-loop
+  std::string o_error;      // a structure error, reported when the line runs
+};
 
 // One line split into words.
 struct Block {
   std::vector<int> g10;       // G codes x 10, in order of appearance
   std::vector<int> m;         // M codes
   std::array<std::optional<double>, 26> words;  // other letters, by 'a'..'z'
+  std::optional<int> spindle;                   // $n
+  std::vector<std::pair<int, double>> set_numbered;
+  std::vector<std::pair<std::string, double>> set_named;
   std::optional<double>& w(char c) { return words[static_cast<std::size_t>(c - 'a')]; }
   const std::optional<double>& w(char c) const { return words[static_cast<std::size_t>(c - 'a')]; }
 };
 
-class Reader {
+// A subroutine call in progress.
+struct Frame {
+  int return_pc = 0;
+  std::array<double, 30> saved{};  // the caller's #1..#30
+  std::map<std::string, double> locals;
+  std::map<int, long long> repeats;  // repeat line -> passes left
+};
+
+constexpr int kMaxCallDepth = 50;
+constexpr int kFirstG28Param = 5161;   // #5161..#5169: the G28 position (machine coordinates)
+constexpr int kFirstG30Param = 5181;   // #5181..#5189: the G30 position
+constexpr int kFirstG92Param = 5211;   // #5211..#5219: G92 offsets, #5210: G92 in effect
+constexpr int kCoordSystemParam = 5220;
+constexpr int kFirstG5xParam = 5221;   // #5221 + 20 (n - 1) + axis: G54..G59.3 offsets
+
+// Parameters that hold lengths (kept in mm, read and written in the program's units): the G28
+// and G30 positions, the G92 offsets and the G54..G59.3 offsets (X, Y, Z, A, B, C, U, V, W).
+bool is_length_param(int n) {
+  return (n >= 5161 && n <= 5169) || (n >= 5181 && n <= 5189) || (n >= 5211 && n <= 5219) ||
+         (n >= 5221 && n <= 5390 && (n - 5221) % 20 < 9);
+}
+
+class Reader : public gcode_expr::Parameters {
  public:
-  Reader(const std::string& source, const GcodeOptions& options) : options_(options) {
+  Reader(const std::string& source, const GcodeOptions& options) : options_(options), params_(5603, 0.0) {
     program_.source = source;
+    params_[kCoordSystemParam] = 1;
+    for (const auto& [k, v] : options.params) {
+      std::string key;
+      for (char c : k)
+        if (c != ' ' && c != '\t') key.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
+      given_[key] = v;
+    }
+    frames_.emplace_back();
   }
 
   Program run(const std::string& text);
+
+  // gcode_expr::Parameters
+  double numbered(int n) const override;
+  double named(const std::string& name) const override;
+  bool exists(const std::string& name) const override;
 
  private:
   [[noreturn]] void fail(const std::string& message) const {
     throw InputError(program_.source, line_, message);
   }
 
-  std::string clean(const std::string& raw) const;
-  Block split(const std::string& code) const;
-  double read_number(const std::string& code, std::size_t& pos, char letter) const;
+  std::string clean(const std::string& raw, std::string& error) const;
+  void scan_o_word(SourceLine& l) const;
+  void match_structure();
+  Block split(const std::string& code);
+  double value_at(const std::string& code, std::size_t& pos);
+  // Runs an O-word line; returns the next line index.
+  int control(int pc);
   // Returns false when the program ended on this line.
   bool execute(const Block& b);
-  void arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_mm);
+  void set_parameters(const Block& b);
+  void arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_prog_mm);
+  void cycle(const Block& b, int g10, int previous_motion);
   void push(Move move) {
     if (program_.moves.size() >= options_.max_moves)
       fail(fmt::format("more than {} moves: the program is too large", options_.max_moves));
     move.line = line_;
+    if (move.kind == Move::Kind::rapid || move.kind == Move::Kind::line || move.kind == Move::Kind::arc) {
+      move.path_mode = path_mode_;
+      move.path_tolerance_mm = path_tolerance_mm_;
+      move.end += offset();
+      if (move.kind == Move::Kind::arc) move.center += plane_pair(offset());
+    } else {
+      move.end = machine_position();
+    }
     program_.moves.push_back(move);
   }
+  void straight(Move::Kind kind, const Eigen::Vector3d& end_prog_mm) {
+    if (kind == Move::Kind::line && feed_mm_per_min_ <= 0)
+      fail(is_cycle(motion_g10_) ? "cannot feed with zero feed rate (canned cycle)"
+                                 : "cannot do G1 with zero feed rate");
+    Move m;
+    m.kind = kind;
+    m.end = end_prog_mm;
+    if (kind == Move::Kind::line) m.feed_mm_per_min = feed_mm_per_min_;
+    push(m);
+    pos_mm_ = end_prog_mm;
+  }
+  void event(ProgramEvent e) {
+    e.line = line_;
+    e.before_move = program_.moves.size();
+    program_.events.push_back(e);
+  }
   double scale() const { return inches_ ? kMmPerInch : 1.0; }
+  // Total work offset (G5x + G92), mm: machine = program + offset.
+  Eigen::Vector3d offset() const { return g5x_mm_ + (g92_on_ ? g92_mm_ : Eigen::Vector3d::Zero()); }
+  Eigen::Vector3d machine_position() const { return pos_mm_ + offset(); }
+  // Changes the offsets keeping the tool where it is on the machine.
+  template <class F>
+  void change_offsets(F&& f) {
+    const Eigen::Vector3d machine = machine_position();
+    f();
+    pos_mm_ = machine - offset();
+  }
+  // (first, second) axes of the current plane, as in LinuxCNC's ARC_FEED.
+  Eigen::Vector2d plane_pair(const Eigen::Vector3d& p) const {
+    switch (plane_) {
+      case Move::Plane::xy: return {p.x(), p.y()};
+      case Move::Plane::xz: return {p.z(), p.x()};
+      case Move::Plane::yz: return {p.y(), p.z()};
+    }
+    return {p.x(), p.y()};
+  }
+  int g5x_param(int system, int axis) const { return kFirstG5xParam + 20 * (system - 1) + axis; }
+  void load_g5x() {
+    const int sys = static_cast<int>(params_[kCoordSystemParam]);
+    for (int a = 0; a < 3; ++a) g5x_mm_[a] = params_[static_cast<std::size_t>(g5x_param(sys, a))];
+  }
 
   const GcodeOptions& options_;
   Program program_;
+  std::vector<SourceLine> lines_;
+  std::map<std::string, int> subs_;  // label -> line index of "sub"
   int line_ = 0;
-  // Modal state, as LinuxCNC starts.
+  std::size_t executed_ = 0;
+
+  // Parameters. Offsets (#5211.., #5221..) are kept in mm.
+  std::vector<double> params_;
+  std::map<std::string, double> globals_;
+  std::map<std::string, double> given_;
+  std::vector<Frame> frames_;
+
+  // Modal state, as LinuxCNC starts. pos_mm_ is in program coordinates (offsets removed).
   Eigen::Vector3d pos_mm_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d g5x_mm_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d g92_mm_ = Eigen::Vector3d::Zero();
+  bool g92_on_ = false;
   bool inches_ = false;
   bool incremental_ = false;
   bool ij_absolute_ = false;
-  int motion_g10_ = 0;            // -1 after G80
+  Move::Plane plane_ = Move::Plane::xy;
+  int motion_g10_ = 0;            // 800 after G80
   double feed_mm_per_min_ = 0.0;
   double spindle_speed_ = 0.0;
+  int tool_selected_ = 0, tool_in_spindle_ = 0;
+  Move::PathMode path_mode_ = Move::PathMode::blend;
+  double path_tolerance_mm_ = 0.0;
+  bool retract_r_plane_ = true;   // G99 (LinuxCNC starts with it); false: G98
+  // Canned cycles: sticky R, Z, Q (program units), P (s), and the height before the series.
+  double cycle_r_ = 0.0, cycle_z_ = 0.0, cycle_q_ = 0.0, cycle_p_s_ = 0.0, cycle_initial_z_ = 0.0;
+  bool cycle_series_ = false;
 };
 
-// Removes comments, spaces and tabs; lower-cases. Refuses nested and unclosed comments.
-std::string Reader::clean(const std::string& raw) const {
+// ---------------------------------------------------------------------------------------------
+// Parameters
+
+double Reader::numbered(int n) const {
+  if (n < 1 || n > 5602) throw gcode_expr::SyntaxError(fmt::format("parameter number #{} out of range (1..5602)", n));
+  if (n >= 5420 && n <= 5428) return n - 5420 < 3 ? pos_mm_[n - 5420] / scale() : 0.0;
+  if (n == 5400) return tool_in_spindle_;
+  if (is_length_param(n)) return params_[static_cast<std::size_t>(n)] / scale();
+  return params_[static_cast<std::size_t>(n)];
+}
+
+bool Reader::exists(const std::string& name) const {
+  if (!name.empty() && name[0] == '_') return globals_.count(name) || given_.count(name);
+  return frames_.back().locals.count(name) > 0;
+}
+
+double Reader::named(const std::string& name) const {
+  if (!name.empty() && name[0] == '_') {
+    if (auto it = globals_.find(name); it != globals_.end()) return it->second;
+    if (auto it = given_.find(name); it != given_.end()) return it->second;
+    if (name == "_x" || name == "_y" || name == "_z") return pos_mm_[name[1] - 'x'] / scale();
+    if (name == "_metric") return inches_ ? 0.0 : 1.0;
+    if (name == "_imperial") return inches_ ? 1.0 : 0.0;
+    if (name == "_absolute") return incremental_ ? 0.0 : 1.0;
+    if (name == "_incremental") return incremental_ ? 1.0 : 0.0;
+    if (name == "_feed") return feed_mm_per_min_ / scale();
+    if (name == "_rpm") return spindle_speed_;
+    if (name == "_current_tool") return tool_in_spindle_;
+    if (name == "_selected_tool") return tool_selected_;
+    if (name == "_call_level") return static_cast<double>(frames_.size() - 1);
+    if (name == "_line") return line_;
+    if (name == "_value" || name == "_value_returned") return 0.0;
+    if (name.rfind("_hal[", 0) == 0 || name.rfind("_ini[", 0) == 0)
+      throw gcode_expr::SyntaxError(fmt::format(
+          "parameter #<{}> has no value: LinuxCNC reads it from the machine's {}; give it with --param {}=VALUE", name,
+          name[1] == 'h' ? "HAL pins" : "INI file", name));
+    throw gcode_expr::SyntaxError(fmt::format("named parameter #<{}> not defined", name));
+  }
+  if (auto it = frames_.back().locals.find(name); it != frames_.back().locals.end()) return it->second;
+  throw gcode_expr::SyntaxError(fmt::format("named parameter #<{}> not defined", name));
+}
+
+void Reader::set_parameters(const Block& b) {
+  for (const auto& [n, v] : b.set_numbered) {
+    params_[static_cast<std::size_t>(n)] = is_length_param(n) ? v * scale() : v;
+  }
+  for (const auto& [name, v] : b.set_named) {
+    if (name[0] == '_') globals_[name] = v;
+    else frames_.back().locals[name] = v;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading lines
+
+// Removes comments, spaces and tabs; lower-cases. Nested and unclosed comments set `error`.
+std::string Reader::clean(const std::string& raw, std::string& error) const {
   std::string out;
   out.reserve(raw.size());
   bool in_comment = false;
   for (char c : raw) {
     if (in_comment) {
       if (c == ')') in_comment = false;
-      else if (c == '(') fail("nested comment: '(' inside a comment");
+      else if (c == '(' && error.empty()) error = "nested comment: '(' inside a comment";
       continue;
     }
     if (c == '(') { in_comment = true; continue; }
@@ -172,74 +368,200 @@ std::string Reader::clean(const std::string& raw) const {
     if (c == ' ' || c == '\t' || c == '\r') continue;
     out.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
   }
-  if (in_comment) fail("unclosed comment: '(' without ')' on the line");
+  if (in_comment && error.empty()) error = "unclosed comment: '(' without ')' on the line";
   return out;
 }
 
-double Reader::read_number(const std::string& code, std::size_t& pos, char letter) const {
-  const char L = static_cast<char>(std::toupper(static_cast<unsigned char>(letter)));
-  if (pos >= code.size()) fail(fmt::format("{} word without a value", L));
-  const char c0 = code[pos];
-  if (c0 == '[') fail(fmt::format("expressions ([...]) are not supported (in the {} word)", L));
-  if (c0 == '#') fail(fmt::format("parameters (#) are not supported (in the {} word)", L));
-  if (std::isalpha(static_cast<unsigned char>(c0)))
-    fail(fmt::format("{} word without a number (functions and expressions are not supported)", L));
-  std::size_t p = pos;
-  bool negative = false;
-  if (code[p] == '+' || code[p] == '-') {
-    negative = code[p] == '-';
+// Recognises "[/][nNNN]o<label> keyword" and fills l.o, l.label, l.rest.
+void Reader::scan_o_word(SourceLine& l) const {
+  const std::string& s = l.code;
+  std::size_t p = 0;
+  if (p < s.size() && s[p] == '/') ++p;
+  if (p < s.size() && s[p] == 'n') {
     ++p;
-    if (p < code.size() && (code[p] == '+' || code[p] == '-'))
-      fail(fmt::format("repeated sign in the {} word: unary operators are not supported", L));
-    if (p < code.size() && (code[p] == '[' || code[p] == '#'))
-      fail(fmt::format("expressions and parameters are not supported (in the {} word)", L));
+    while (p < s.size() && (std::isdigit(static_cast<unsigned char>(s[p])) || s[p] == '.')) ++p;
   }
-  double value = 0.0, frac = 0.1;
-  bool digits = false, dot = false;
-  for (; p < code.size(); ++p) {
-    const char c = code[p];
-    if (c >= '0' && c <= '9') {
-      digits = true;
-      if (dot) { value += (c - '0') * frac; frac /= 10.0; }
-      else value = value * 10.0 + (c - '0');
-    } else if (c == '.' && !dot) {
-      dot = true;
-    } else {
-      break;
+  if (p >= s.size() || s[p] != 'o') return;
+  ++p;
+  if (p < s.size() && s[p] == '<') {
+    const std::size_t close = s.find('>', p);
+    if (close == std::string::npos) {
+      l.o_error = "O-word name not terminated: '>' missing";
+      l.o = OKind::call;  // any kind: the error is reported when the line runs
+      return;
     }
+    l.label = s.substr(p, close - p + 1);
+    p = close + 1;
+  } else {
+    std::size_t q = p;
+    while (q < s.size() && std::isdigit(static_cast<unsigned char>(s[q]))) ++q;
+    if (q == p) {
+      l.o_error = "O word without a number or <name>";
+      l.o = OKind::call;
+      return;
+    }
+    l.label = std::to_string(std::stoll(s.substr(p, std::min<std::size_t>(q - p, 15))));
+    p = q;
   }
-  if (!digits) fail(fmt::format("{} word without a number", L));
-  if (p < code.size() && code[p] == '.')
-    fail(fmt::format("bad number in the {} word: more than one decimal point", L));
-  if (!(std::abs(value) <= kMaxNumber))
-    fail(fmt::format("number in the {} word is larger than {:g}", L, kMaxNumber));
-  pos = p;
-  return negative ? -value : value;
+  std::size_t q = p;
+  while (q < s.size() && std::isalpha(static_cast<unsigned char>(s[q]))) ++q;
+  const std::string word = s.substr(p, q - p);
+  l.o = o_kind_of(word);
+  l.rest = q;
+  if (l.o == OKind::none) {
+    l.o = OKind::call;
+    l.o_error = word.empty() ? fmt::format("O-word o{} without a keyword (sub, call, while, if, ...)", l.label)
+                             : fmt::format("unknown O-word keyword '{}'", word);
+  }
 }
 
-Block Reader::split(const std::string& code) const {
+// Pairs the O-word lines of the whole file (LinuxCNC finds them by searching the file).
+void Reader::match_structure() {
+  std::vector<int> open;
+  const auto top_is = [&](OKind k, const std::string& label) {
+    return !open.empty() && lines_[static_cast<std::size_t>(open.back())].o == k &&
+           lines_[static_cast<std::size_t>(open.back())].label == label;
+  };
+  for (int i = 0; i < static_cast<int>(lines_.size()); ++i) {
+    SourceLine& l = lines_[static_cast<std::size_t>(i)];
+    if (l.o == OKind::none || !l.o_error.empty()) continue;
+    const auto close = [&](OKind opener, const char* what) {
+      if (!top_is(opener, l.label)) {
+        l.o_error = fmt::format("{} o{} with no matching opening line", what, l.label);
+        return -1;
+      }
+      const int o = open.back();
+      open.pop_back();
+      return o;
+    };
+    switch (l.o) {
+      case OKind::sub:
+        if (subs_.count(l.label)) l.o_error = fmt::format("subroutine o{} defined twice", l.label);
+        else subs_[l.label] = i;
+        open.push_back(i);
+        break;
+      case OKind::do_: case OKind::if_: case OKind::repeat: open.push_back(i); break;
+      case OKind::while_:
+        if (top_is(OKind::do_, l.label)) {
+          l.closes_do = true;
+          l.partner = open.back();
+          lines_[static_cast<std::size_t>(open.back())].partner = i;
+          open.pop_back();
+        } else {
+          open.push_back(i);
+        }
+        break;
+      case OKind::endsub: case OKind::endwhile: case OKind::endrepeat: {
+        const OKind opener = l.o == OKind::endsub ? OKind::sub : l.o == OKind::endwhile ? OKind::while_ : OKind::repeat;
+        const int o = close(opener, l.o == OKind::endsub     ? "endsub"
+                                    : l.o == OKind::endwhile ? "endwhile"
+                                                             : "endrepeat");
+        if (o >= 0) {
+          l.partner = o;
+          lines_[static_cast<std::size_t>(o)].partner = i;
+        }
+        break;
+      }
+      case OKind::elseif: case OKind::else_: case OKind::endif: {
+        if (!top_is(OKind::if_, l.label)) {
+          l.o_error = fmt::format("{} o{} with no matching if",
+                                  l.o == OKind::endif   ? "endif"
+                                  : l.o == OKind::else_ ? "else"
+                                                        : "elseif",
+                                  l.label);
+          break;
+        }
+        // Chain: the if (or its last clause) points to this clause.
+        int k = open.back();
+        while (lines_[static_cast<std::size_t>(k)].partner >= 0) k = lines_[static_cast<std::size_t>(k)].partner;
+        if (lines_[static_cast<std::size_t>(k)].o == OKind::else_ && l.o != OKind::endif) {
+          l.o_error = fmt::format("{} after else in o{}", l.o == OKind::else_ ? "else" : "elseif", l.label);
+          break;
+        }
+        lines_[static_cast<std::size_t>(k)].partner = i;
+        if (l.o == OKind::endif) {
+          for (int c = open.back(); c != i; c = lines_[static_cast<std::size_t>(c)].partner)
+            lines_[static_cast<std::size_t>(c)].endif = i;
+          open.pop_back();
+        }
+        break;
+      }
+      case OKind::break_: case OKind::continue_: {
+        for (auto it = open.rbegin(); it != open.rend(); ++it) {
+          const SourceLine& o = lines_[static_cast<std::size_t>(*it)];
+          if (o.label == l.label && (o.o == OKind::while_ || o.o == OKind::do_ || o.o == OKind::repeat)) {
+            l.partner = *it;
+            break;
+          }
+        }
+        if (l.partner < 0)
+          l.o_error = fmt::format("{} o{} outside a loop with that label", l.o == OKind::break_ ? "break" : "continue",
+                                  l.label);
+        break;
+      }
+      case OKind::return_:  // returns from whatever subroutine is running, as in LinuxCNC
+      case OKind::call: case OKind::none: break;
+    }
+  }
+  // Lines left open keep partner -1: like LinuxCNC, that is an error only when the flow needs
+  // the end line (a false condition, a definition to skip, a break).
+}
+
+double Reader::value_at(const std::string& code, std::size_t& pos) {
+  try {
+    return gcode_expr::read_real_value(code, pos, *this);
+  } catch (const gcode_expr::SyntaxError& e) {
+    fail(e.what());
+  }
+}
+
+Block Reader::split(const std::string& code) {
   Block b;
   std::size_t pos = 0;
   if (pos < code.size() && code[pos] == '/') ++pos;  // block delete is off: the line runs
   if (pos < code.size() && code[pos] == 'n') {       // line number
     ++pos;
-    (void)read_number(code, pos, 'n');
+    (void)value_at(code, pos);
   }
   while (pos < code.size()) {
     const char c = code[pos];
-    if (c == '#') fail("parameters (#) are not supported");
-    if (c == '[') fail("expressions ([...]) are not supported");
+    if (c == '#') {
+      ++pos;
+      std::string name;
+      int n = -1;
+      try {
+        n = gcode_expr::read_parameter_ref(code, pos, *this, name);
+      } catch (const gcode_expr::SyntaxError& e) {
+        fail(e.what());
+      }
+      if (pos >= code.size() || code[pos] != '=') fail("parameter without '=' and a value to set it to");
+      ++pos;
+      const double v = value_at(code, pos);
+      if (n < 0) b.set_named.emplace_back(name, v);
+      else b.set_numbered.emplace_back(n, v);
+      continue;
+    }
+    if (c == '$') {
+      ++pos;
+      const double v = value_at(code, pos);
+      if (b.spindle) fail("multiple $ words on one line");
+      if (std::abs(v - std::round(v)) > 1e-4) fail(fmt::format("spindle number ${:g} is not an integer", v));
+      b.spindle = static_cast<int>(std::round(v));
+      continue;
+    }
+    if (c == '[') fail("an expression ([...]) must follow a word letter");
     if (c == '%') fail("'%' is only allowed on a line of its own opening and closing the program");
     if (c == '@' || c == '^') fail("polar coordinates (@ and ^ words) are not supported");
-    if (c == 'o') fail("O-word subroutines are not supported");
+    if (c == 'o') fail("O word must be first on its line");
     if (c == 'n') fail("N word (line number) is only allowed at the start of a line");
     if (!std::isalpha(static_cast<unsigned char>(c))) {
       if (std::isprint(static_cast<unsigned char>(c))) fail(fmt::format("bad character '{}'", c));
       fail(fmt::format("bad character (byte 0x{:02x})", static_cast<unsigned>(static_cast<unsigned char>(c))));
     }
     ++pos;
-    const double v = read_number(code, pos, c);
     const char L = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    if (pos >= code.size()) fail(fmt::format("{} word without a value", L));
+    const double v = value_at(code, pos);
     switch (c) {
       case 'g': {
         if (v < 0) fail(fmt::format("negative G code G{:g}", v));
@@ -253,59 +575,228 @@ Block Reader::split(const std::string& code) const {
       case 'm': {
         if (v < 0) fail(fmt::format("negative M code M{:g}", v));
         const long long m = std::llround(v);
-        if (std::abs(v - static_cast<double>(m)) > 1e-4) fail(fmt::format("M code M{:g} is not an integer", v));
+        if (std::abs(v - static_cast<double>(m)) > 1e-4 || m > 9999)
+          fail(fmt::format("M code M{:g} is not an integer", v));
         if (b.m.size() >= 4) fail("more than 4 M codes on one line");
         b.m.push_back(static_cast<int>(m));
         break;
       }
       case 'x': case 'y': case 'z': case 'i': case 'j': case 'k': case 'r': case 'f': case 's': case 'p':
+      case 't': case 'h': case 'l': case 'q': case 'e': case 'd':
         if (b.w(c)) fail(fmt::format("multiple {} words on one line", L));
         b.w(c) = v;
         break;
       case 'a': case 'b': case 'c': case 'u': case 'v': case 'w':
         fail(fmt::format("{} axis words are not supported (only X, Y and Z)", L));
-      case 't': fail("T words (tool selection) are not supported");
-      case 'd': fail("D words (cutter compensation) are not supported");
-      case 'h': fail("H words (tool length offsets) are not supported");
-      case 'e': fail("E words are not supported (and 'E' is a word letter, not an exponent: write 1000, not 1e3)");
-      case 'l': case 'q': fail(fmt::format("{} words are not supported", L));
       default: fail(fmt::format("bad character '{}'", c));
     }
   }
   return b;
 }
 
+// ---------------------------------------------------------------------------------------------
+// The program loop and O-words
+
 Program Reader::run(const std::string& text) {
   options_.validate();
   std::size_t start = 0;
   bool percent_mode = false;
-  bool ended = false;
+  bool closing_percent = false;
+  int number = 0;
   while (start < text.size()) {
     std::size_t end = text.find('\n', start);
     if (end == std::string::npos) end = text.size();
-    ++line_;
+    ++number;
     std::string raw = text.substr(start, std::min(end - start, options_.max_line_chars + 2));
     if (!raw.empty() && raw.back() == '\r') raw.pop_back();
     start = end + 1;
-    if (raw.size() > options_.max_line_chars)
-      fail(fmt::format("line is longer than {} characters", options_.max_line_chars));
+    SourceLine l;
+    l.number = number;
+    if (raw.size() > options_.max_line_chars) {
+      l.error = fmt::format("line is longer than {} characters", options_.max_line_chars);
+      lines_.push_back(std::move(l));
+      continue;
+    }
     // '%' lines open and close the program.
     const auto first = raw.find_first_not_of(" \t");
     if (first != std::string::npos && raw[first] == '%') {
-      if (line_ == 1) { percent_mode = true; continue; }
-      if (percent_mode) { ended = true; break; }
+      if (number == 1) { percent_mode = true; continue; }
+      if (percent_mode) { closing_percent = true; break; }
     }
-    const Block b = split(clean(raw));
+    l.code = clean(raw, l.error);
+    if (l.error.empty()) scan_o_word(l);
+    lines_.push_back(std::move(l));
+  }
+  match_structure();
+
+  bool ended = false;
+  int pc = 0;
+  while (pc < static_cast<int>(lines_.size())) {
+    const SourceLine& l = lines_[static_cast<std::size_t>(pc)];
+    line_ = l.number;
+    if (++executed_ > options_.max_executed_lines)
+      fail(fmt::format("more than {} lines executed: an endless loop?", options_.max_executed_lines));
+    if (!l.error.empty()) fail(l.error);
+    if (l.o != OKind::none) {
+      pc = control(pc);
+      continue;
+    }
+    const Block b = split(l.code);
+    set_parameters(b);
     if (!execute(b)) {
       ended = true;
       program_.ends_with_program_end = true;
       break;
     }
+    ++pc;
   }
-  if (!ended && options_.require_program_end)
-    fail("file ended with no percent sign or program end (M2 or M30)");
+  if (!ended && closing_percent) ended = true;
+  if (!ended && frames_.size() > 1) fail("file ended inside a subroutine call");
+  if (!ended) {
+    if (options_.require_program_end) fail("file ended with no percent sign or program end (M2 or M30)");
+    program_.warnings.push_back(fmt::format(
+        "{}: the program has no end (M2, M30 or a closing %): read to the end of the file", program_.source));
+  }
   return std::move(program_);
 }
+
+int Reader::control(int pc) {
+  const SourceLine& l = lines_[static_cast<std::size_t>(pc)];
+  if (!l.o_error.empty()) fail(l.o_error);
+  const std::string& s = l.code;
+  std::size_t pos = l.rest;
+  // The [condition] or [value] after the keyword, when there is one.
+  const auto value = [&](bool required, const char* what) -> std::optional<double> {
+    if (pos >= s.size()) {
+      if (required) fail(fmt::format("o{} {}: '[' and a value expected", l.label, what));
+      return std::nullopt;
+    }
+    if (s[pos] != '[') fail(fmt::format("o{} {}: '[' expected after the keyword", l.label, what));
+    try {
+      return gcode_expr::read_expression(s, pos, *this);
+    } catch (const gcode_expr::SyntaxError& e) {
+      fail(e.what());
+    }
+  };
+  const auto nothing_after = [&] {
+    if (pos < s.size()) fail(fmt::format("unexpected '{}' after the O-word", s.substr(pos, 12)));
+  };
+  const auto line_of = [&](int i) -> const SourceLine& {
+    if (i < 0) fail(fmt::format("o{} is never closed (no matching end line)", l.label));
+    return lines_[static_cast<std::size_t>(i)];
+  };
+  // The end line of an O-word construct, which must exist when the flow jumps to it.
+  const auto end_of = [&](int partner) {
+    if (partner < 0) fail(fmt::format("o{} is never closed (no matching end line)", l.label));
+    return partner;
+  };
+  Frame& frame = frames_.back();
+  switch (l.o) {
+    case OKind::sub:
+      nothing_after();
+      return end_of(l.partner) + 1;  // definitions are skipped when met; a call jumps in
+    case OKind::endsub: case OKind::return_: {
+      const std::optional<double> v = value(false, l.o == OKind::return_ ? "return" : "endsub");
+      nothing_after();
+      if (frames_.size() < 2)
+        fail(fmt::format("{} o{} reached outside a subroutine call", l.o == OKind::return_ ? "return" : "endsub",
+                         l.label));
+      const Frame done = std::move(frames_.back());
+      frames_.pop_back();
+      for (int i = 0; i < 30; ++i) params_[static_cast<std::size_t>(i + 1)] = done.saved[static_cast<std::size_t>(i)];
+      globals_["_value"] = v.value_or(0.0);
+      globals_["_value_returned"] = v ? 1.0 : 0.0;
+      return done.return_pc;
+    }
+    case OKind::call: {
+      std::vector<double> args;
+      while (pos < s.size()) {
+        if (s[pos] != '[')
+          fail(fmt::format("o{} call: arguments are [values], found '{}'", l.label, s.substr(pos, 12)));
+        try {
+          args.push_back(gcode_expr::read_expression(s, pos, *this));
+        } catch (const gcode_expr::SyntaxError& e) {
+          fail(e.what());
+        }
+      }
+      if (args.size() > 30) fail(fmt::format("o{} call: more than 30 arguments", l.label));
+      const auto it = subs_.find(l.label);
+      if (it == subs_.end())
+        fail(fmt::format("subroutine o{} is not defined in this file (subroutines from other files are not supported)",
+                         l.label));
+      if (static_cast<int>(frames_.size()) > kMaxCallDepth)
+        fail(fmt::format("subroutine calls nested deeper than {}", kMaxCallDepth));
+      Frame f;
+      f.return_pc = pc + 1;
+      for (int i = 0; i < 30; ++i) {
+        f.saved[static_cast<std::size_t>(i)] = params_[static_cast<std::size_t>(i + 1)];
+        params_[static_cast<std::size_t>(i + 1)] =
+            i < static_cast<int>(args.size()) ? args[static_cast<std::size_t>(i)] : 0.0;
+      }
+      frames_.push_back(std::move(f));
+      return it->second + 1;
+    }
+    case OKind::do_: nothing_after(); return pc + 1;
+    case OKind::while_: {
+      const bool go_on = *value(true, "while") != 0.0;
+      nothing_after();
+      if (l.closes_do) return go_on ? l.partner + 1 : pc + 1;
+      return go_on ? pc + 1 : end_of(l.partner) + 1;
+    }
+    case OKind::endwhile: nothing_after(); return l.partner;
+    case OKind::if_: {
+      bool taken = *value(true, "if") != 0.0;
+      nothing_after();
+      int at = pc;
+      while (!taken) {
+        at = line_of(at).partner;
+        const SourceLine& c = line_of(at);
+        if (c.o != OKind::elseif) return at + 1;  // else: its body; endif: after it
+        line_ = c.number;
+        std::size_t p = c.rest;
+        if (p >= c.code.size() || c.code[p] != '[')
+          fail(fmt::format("o{} elseif: '[' expected after the keyword", c.label));
+        try {
+          taken = gcode_expr::read_expression(c.code, p, *this) != 0.0;
+        } catch (const gcode_expr::SyntaxError& e) {
+          fail(e.what());
+        }
+      }
+      return at + 1;
+    }
+    case OKind::elseif: case OKind::else_: return end_of(l.endif) + 1;  // the branch before it ran
+    case OKind::endif: nothing_after(); return pc + 1;
+    case OKind::repeat: {
+      const double n = *value(true, "repeat");
+      nothing_after();
+      const long long count = static_cast<long long>(std::llround(std::clamp(n, -1.0, 1e12)));
+      if (count <= 0) return end_of(l.partner) + 1;
+      frame.repeats[pc] = count - 1;
+      return pc + 1;
+    }
+    case OKind::endrepeat: {
+      nothing_after();
+      long long& left = frame.repeats[l.partner];
+      if (left > 0) {
+        --left;
+        return l.partner + 1;
+      }
+      return pc + 1;
+    }
+    case OKind::break_: case OKind::continue_: {
+      nothing_after();
+      const SourceLine& loop = line_of(l.partner);
+      if (l.o == OKind::break_) return end_of(loop.partner) + 1;
+      if (loop.o == OKind::while_) return l.partner;  // test again
+      return end_of(loop.partner);                   // do: its closing while; repeat: endrepeat
+    }
+    case OKind::none: break;
+  }
+  return pc + 1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// One block, in LinuxCNC's order of execution
 
 bool Reader::execute(const Block& b) {
   // --- Modal group checks ---------------------------------------------------------------
@@ -319,10 +810,15 @@ bool Reader::execute(const Block& b) {
       if (it != refused.end()) fail(fmt::format("{} ({}) is not supported", g_name(g), it->second));
       fail(fmt::format("unknown G code {}", g_name(g)));
     }
-    if (g_seen[static_cast<std::size_t>(group)] >= 0)
-      fail(fmt::format("two G codes from the same modal group on one line: {} and {}",
-                       g_name(g_seen[static_cast<std::size_t>(group)]), g_name(g)));
-    g_seen[static_cast<std::size_t>(group)] = g;
+    int& seen = g_seen[static_cast<std::size_t>(group)];
+    // G80 beside another motion code gives way to it, as in LinuxCNC.
+    if (group == 1 && (g == 800 || seen == 800)) {
+      if (seen < 0 || seen == 800) seen = g;
+      continue;
+    }
+    if (seen >= 0)
+      fail(fmt::format("two G codes from the same modal group on one line: {} and {}", g_name(seen), g_name(g)));
+    seen = g;
   }
   std::array<int, 16> m_seen;
   m_seen.fill(-1);
@@ -340,24 +836,52 @@ bool Reader::execute(const Block& b) {
 
   // --- Words without a code that uses them -----------------------------------------------
   const bool has_axis = b.w('x') || b.w('y') || b.w('z');
+  const int g0 = g_seen[0];
+  const bool g0_uses_axes = g0 == 100 || g0 == 280 || g0 == 300 || g0 == 520 || g0 == 920;
   const int g_motion = g_seen[1];
-  const bool dwell = g_seen[0] == 40;
-  if (g_motion == 800 && has_axis) fail("axis words (X, Y, Z) with G80");
+  if (g_motion == 800 && has_axis && !g0_uses_axes) fail("axis words (X, Y, Z) with G80");
+  if (g0_uses_axes && g_motion >= 0 && g_motion != 800)
+    fail(fmt::format("cannot use two G codes that both use axis values: {} and {}", g_name(g0), g_name(g_motion)));
   int motion_to_be = -1;  // the motion this line performs
   if (g_motion >= 0 && g_motion != 800) motion_to_be = g_motion;
-  else if (g_motion < 0 && has_axis) {
-    if (motion_g10_ < 0) fail("axis words (X, Y, Z) without a motion code G0..G3 to use them (motion mode is G80)");
+  else if (g_motion < 0 && has_axis && !g0_uses_axes) {
+    if (motion_g10_ == 800) fail("axis words (X, Y, Z) without a motion code G0..G3 to use them (motion mode is G80)");
     motion_to_be = motion_g10_;
   }
   const bool is_arc = motion_to_be == 20 || motion_to_be == 30;
-  if (b.w('k')) fail(is_arc ? "K word given for an arc in the XY plane" : "K word with no G2 or G3 to use it");
-  if (b.w('i') && !is_arc) fail("I word with no G2 or G3 to use it");
-  if (b.w('j') && !is_arc) fail("J word with no G2 or G3 to use it");
-  if (b.w('r') && !is_arc) fail("R word with no G2 or G3 to use it");
-  if (b.w('p') && !is_arc && !dwell) fail("P word with no G2, G3 or G4 to use it");
+  const bool cycle_line = motion_to_be >= 0 && is_cycle(motion_to_be);
+  const int m5 = m_seen[5], m9 = m_seen[9], m10 = m_seen[10];
+  const bool dwell = g0 == 40;
+  const Move::Plane plane = g_seen[2] == 180 ? Move::Plane::xz : g_seen[2] == 190 ? Move::Plane::yz
+                          : g_seen[2] == 170 ? Move::Plane::xy : plane_;
   if (is_arc) {
-    if (b.w('r') && (b.w('i') || b.w('j'))) fail("mixed radius (R) and centre (I, J) format for an arc");
-    if (!b.w('r') && !b.w('i') && !b.w('j')) fail("R, I and J words all missing for an arc");
+    const char missing = plane == Move::Plane::xy ? 'k' : plane == Move::Plane::xz ? 'j' : 'i';
+    const char* pname = plane == Move::Plane::xy ? "XY" : plane == Move::Plane::xz ? "XZ" : "YZ";
+    if (b.w(missing))
+      fail(fmt::format("{} word given for an arc in the {} plane", static_cast<char>(std::toupper(missing)), pname));
+  } else {
+    if (b.w('i')) fail("I word with no G2 or G3 to use it");
+    if (b.w('j')) fail("J word with no G2 or G3 to use it");
+    if (b.w('k')) fail("K word with no G2 or G3 to use it");
+  }
+  if (b.w('r') && !is_arc && !cycle_line && g0 != 100) fail("R word with no G2, G3, G10 or canned cycle to use it");
+  const bool p_used = is_arc || dwell || g0 == 100 || g_seen[13] == 640 || motion_to_be == 820 || motion_to_be == 890 ||
+                      (m5 >= 62 && m5 <= 66) || m9 >= 0 || m10 >= 0;
+  if (b.w('p') && !p_used)
+    fail("P word with no code that uses it (G2/G3, G4, G10, G64, G82, G89, M50-M53, M62-M66, M100-M199)");
+  if (b.w('q') && !(g_seen[13] == 640 || motion_to_be == 730 || motion_to_be == 830 || m5 == 66 || m5 == 67 ||
+                    m5 == 68 || m_seen[6] == 61 || m10 >= 0))
+    fail("Q word with no code that uses it (G64, G73, G83, M61, M66-M68, M100-M199)");
+  if (b.w('l') && !(g0 == 100 || cycle_line || m5 == 66)) fail("L word with no G10, canned cycle or M66 to use it");
+  if (b.w('e') && !(m5 == 66 || m5 == 67 || m5 == 68))
+    fail("E word with no M66, M67 or M68 to use it (and 'E' is a word letter, not an exponent: write 1000, not 1e3)");
+  if (b.w('h') && g_seen[8] != 430) fail("H word with no G43 to use it");
+  if (b.w('d')) fail("D words (cutter compensation) are not supported");
+  if (is_arc) {
+    const char first = plane == Move::Plane::xy ? 'i' : plane == Move::Plane::xz ? 'k' : 'j';
+    const char second = plane == Move::Plane::xy ? 'j' : plane == Move::Plane::xz ? 'i' : 'k';
+    if (b.w('r') && (b.w(first) || b.w(second))) fail("mixed radius (R) and centre (I, J, K) format for an arc");
+    if (!b.w('r') && !b.w(first) && !b.w(second)) fail("R, I, J and K words all missing for an arc");
     if (b.w('p')) {
       const double p = *b.w('p');
       if (std::abs(p - std::round(p)) > 1e-4) fail(fmt::format("P word on G2/G3 is not an integer: P{:g}", p));
@@ -366,8 +890,24 @@ bool Reader::execute(const Block& b) {
         fail(fmt::format("P{:g} asks for more than {} turns on one arc", p, options_.max_arc_turns));
     }
   }
+  if (b.spindle) {
+    const int n = *b.spindle;
+    const bool all = n == -1 && m_seen[7] == 5;
+    if (!all && (n < 0 || n >= options_.spindle_count))
+      fail(fmt::format("invalid spindle ($) number ${}: this machine has {} spindle{} ($0{})", n,
+                       options_.spindle_count, options_.spindle_count == 1 ? "" : "s",
+                       options_.spindle_count == 1 ? "" : fmt::format("..${}", options_.spindle_count - 1)));
+  }
+  const auto integer_word = [&](char c, const char* what) {
+    const double v = *b.w(c);
+    if (std::abs(v - std::round(v)) > 1e-4 || v < 0)
+      fail(fmt::format("{} word {}{:g} must be a whole number >= 0 ({})", static_cast<char>(std::toupper(c)),
+                       static_cast<char>(std::toupper(c)), v, what));
+    return static_cast<int>(std::round(std::min(v, 1e9)));
+  };
 
   // --- Execution, in LinuxCNC's order -------------------------------------------------------
+  if (g_seen[5] == 940) feed_mm_per_min_ = 0.0;  // G94 resets the feed, as LinuxCNC does
   if (b.w('f')) {
     if (*b.w('f') < 0) fail("negative F word (feed rate)");
     feed_mm_per_min_ = *b.w('f') * scale();
@@ -376,70 +916,370 @@ bool Reader::execute(const Block& b) {
     if (*b.w('s') < 0) fail("negative S word (spindle speed)");
     spindle_speed_ = *b.w('s');
   }
+  if (b.w('t')) {
+    tool_selected_ = integer_word('t', "tool number");
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::tool_select;
+    e.number = tool_selected_;
+    event(e);
+  }
+  // M62..M68: outputs and inputs.
+  if (m5 >= 62 && m5 <= 65) {
+    if (!b.w('p')) fail(fmt::format("M{} needs a P word (output number)", m5));
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::digital_output;
+    e.number = integer_word('p', "output number");
+    e.value = (m5 == 62 || m5 == 64) ? 1.0 : 0.0;
+    e.synchronized = m5 == 62 || m5 == 63;
+    event(e);
+  } else if (m5 == 66) {
+    if (!b.w('p') && !b.w('e')) fail("M66 needs a P (digital) or E (analog) input number");
+    if (b.w('p') && b.w('e')) fail("M66 takes a P or an E word, not both");
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::wait_input;
+    e.number = b.w('p') ? integer_word('p', "input number") : integer_word('e', "input number");
+    e.mode = b.w('l') ? integer_word('l', "wait mode 0..4") : 0;
+    if (e.mode > 4) fail(fmt::format("M66 wait mode L{} must be 0..4", e.mode));
+    e.value = b.w('q').value_or(0.0);
+    if (e.value < 0) fail("M66 timeout Q must be >= 0 seconds");
+    event(e);
+  } else if (m5 == 67 || m5 == 68) {
+    if (!b.w('e') || !b.w('q')) fail(fmt::format("M{} needs an E word (output number) and a Q word (value)", m5));
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::analog_output;
+    e.number = integer_word('e', "output number");
+    e.value = *b.w('q');
+    e.synchronized = m5 == 67;
+    event(e);
+  }
+  if (m_seen[6] == 6) {
+    // LinuxCNC stops the spindle for the change.
+    Move m;
+    m.kind = Move::Kind::torch_off;
+    push(m);
+    tool_in_spindle_ = tool_selected_;
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::tool_change;
+    e.number = tool_in_spindle_;
+    event(e);
+  } else if (m_seen[6] == 61) {
+    if (!b.w('q')) fail("M61 needs a Q word (tool number)");
+    tool_in_spindle_ = tool_selected_ = integer_word('q', "tool number");
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::tool_change;
+    e.number = tool_in_spindle_;
+    event(e);
+  }
   if (m_seen[7] == 3 || m_seen[7] == 4) {
     Move m;
     m.kind = Move::Kind::torch_on;
     m.spindle_speed = spindle_speed_;
-    m.end = pos_mm_;
+    m.spindle = b.spindle.value_or(0);
     push(m);
   } else if (m_seen[7] == 5) {
     Move m;
     m.kind = Move::Kind::torch_off;
-    m.end = pos_mm_;
+    m.spindle = b.spindle.value_or(0);
     push(m);
+  }
+  if (m_seen[8] >= 0) {
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::coolant;
+    e.number = m_seen[8];
+    event(e);
+  }
+  if (m9 >= 0) {
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::feed_override;
+    e.number = m9;
+    e.value = b.w('p').value_or(1.0);
+    event(e);
+  }
+  if (m10 >= 0) {
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::user_m_code;
+    e.number = m10;
+    e.value = b.w('p').value_or(0.0);
+    e.value2 = b.w('q').value_or(0.0);
+    event(e);
   }
   if (dwell) {
     if (!b.w('p') || *b.w('p') < 0) fail("dwell time missing with G4 (P seconds, 0 or more)");
     Move m;
     m.kind = Move::Kind::dwell;
     m.seconds = *b.w('p');
-    m.end = pos_mm_;
     push(m);
   }
+  if (g_seen[2] >= 0) plane_ = plane;
   if (g_seen[6] == 200) inches_ = true;
   if (g_seen[6] == 210) inches_ = false;
+  if (g_seen[8] >= 0) {
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::tool_length_offset;
+    e.number = g_seen[8] == 490 ? -1 : b.w('h') ? integer_word('h', "tool number") : tool_in_spindle_;
+    event(e);
+  }
+  if (g_seen[12] >= 0) {
+    const int g = g_seen[12];
+    const int system = g <= 590 ? (g - 540) / 10 + 1 : 6 + (g - 590);
+    change_offsets([&] {
+      params_[kCoordSystemParam] = system;
+      load_g5x();
+    });
+  }
+  if (g_seen[13] >= 0) {
+    const int g = g_seen[13];
+    path_mode_ = g == 610 ? Move::PathMode::exact_path : g == 611 ? Move::PathMode::exact_stop : Move::PathMode::blend;
+    if (g == 640) {
+      if (b.w('p') && *b.w('p') < 0) fail("G64 P (path tolerance) must be >= 0");
+      if (b.w('q') && *b.w('q') < 0) fail("G64 Q (naive CAM tolerance) must be >= 0");
+      path_tolerance_mm_ = b.w('p').value_or(0.0) * scale();
+    } else {
+      path_tolerance_mm_ = 0.0;
+    }
+  }
   if (g_seen[3] == 900) incremental_ = false;
   if (g_seen[3] == 910) incremental_ = true;
   if (g_seen[4] == 901) ij_absolute_ = true;
   if (g_seen[4] == 911) ij_absolute_ = false;
-  if (g_motion >= 0) motion_g10_ = g_motion == 800 ? -1 : g_motion;
+  if (g_seen[10] >= 0) retract_r_plane_ = g_seen[10] == 990;
 
-  if (motion_to_be >= 0) {
-    Eigen::Vector3d end = pos_mm_;
-    const char axes[3] = {'x', 'y', 'z'};
+  // --- Non-modal codes that set offsets -----------------------------------------------------
+  const char axes[3] = {'x', 'y', 'z'};
+  if (g0 == 100) {
+    if (!b.w('l')) fail("G10 needs an L word (L2 or L20 set a coordinate system)");
+    const int l = integer_word('l', "G10 L");
+    if (l == 1 || l == 10 || l == 11) fail(fmt::format("G10 L{} (setting tool table data) is not supported", l));
+    if (l != 2 && l != 20) fail(fmt::format("G10 L{} is not a G10 code LinuxCNC knows (L1, L2, L10, L11, L20)", l));
+    if (!b.w('p')) fail(fmt::format("G10 L{} needs a P word (coordinate system 0..9)", l));
+    int p = integer_word('p', "coordinate system");
+    if (p > 9) fail(fmt::format("G10 L{} P{}: the coordinate system must be 0..9", l, p));
+    if (b.w('r') && *b.w('r') != 0.0) fail("G10 L2 R (rotation of a coordinate system) is not supported");
+    const int current = static_cast<int>(params_[kCoordSystemParam]);
+    if (p == 0) p = current;
     for (int a = 0; a < 3; ++a) {
-      if (const auto& v = b.w(axes[a])) end[a] = incremental_ ? pos_mm_[a] + *v * scale() : *v * scale();
+      const auto& v = b.w(axes[a]);
+      if (!v) continue;
+      double off = *v * scale();
+      if (l == 20) off = machine_position()[a] - (g92_on_ ? g92_mm_[a] : 0.0) - off;
+      params_[static_cast<std::size_t>(g5x_param(p, a))] = off;
     }
-    if (motion_to_be == 0) {
-      Move m;
-      m.kind = Move::Kind::rapid;
-      m.end = end;
-      push(m);
-    } else if (motion_to_be == 10) {
-      if (feed_mm_per_min_ <= 0) fail("cannot do G1 with zero feed rate");
-      Move m;
-      m.kind = Move::Kind::line;
-      m.end = end;
-      m.feed_mm_per_min = feed_mm_per_min_;
-      push(m);
-    } else {
-      if (feed_mm_per_min_ <= 0) fail(fmt::format("cannot make an arc (G{}) with zero feed rate", motion_to_be / 10));
-      arc(b, motion_to_be == 20, end);
-    }
-    pos_mm_ = end;
+    if (p == current) change_offsets([&] { load_g5x(); });
+  } else if (g0 == 280 || g0 == 300) {
+    // Through the point the axis words give (if any) to the stored position (#5161.. for G28,
+    // #5181.. for G30, machine coordinates), moving only the named axes, or all without any.
+    const int base = g0 == 280 ? kFirstG28Param : kFirstG30Param;
+    Eigen::Vector3d via = pos_mm_;
+    for (int a = 0; a < 3; ++a)
+      if (const auto& v = b.w(axes[a])) via[a] = incremental_ ? pos_mm_[a] + *v * scale() : *v * scale();
+    straight(Move::Kind::rapid, via);
+    Eigen::Vector3d home = via;
+    for (int a = 0; a < 3; ++a)
+      if (!has_axis || b.w(axes[a])) home[a] = params_[static_cast<std::size_t>(base + a)] - offset()[a];
+    straight(Move::Kind::rapid, home);
+  } else if (g0 == 281 || g0 == 301) {
+    const int base = g0 == 281 ? kFirstG28Param : kFirstG30Param;
+    const Eigen::Vector3d machine = machine_position();
+    for (int a = 0; a < 3; ++a) params_[static_cast<std::size_t>(base + a)] = machine[a];
+  } else if (g0 == 920) {
+    if (!has_axis) fail("G92 needs at least one axis word");
+    change_offsets([&] {
+      const Eigen::Vector3d machine = machine_position();
+      for (int a = 0; a < 3; ++a) {
+        if (const auto& v = b.w(axes[a])) g92_mm_[a] = machine[a] - g5x_mm_[a] - *v * scale();
+        else if (!g92_on_) g92_mm_[a] = 0.0;
+        params_[static_cast<std::size_t>(kFirstG92Param + a)] = g92_mm_[a];
+      }
+      g92_on_ = true;
+      params_[5210] = 1;
+    });
+  } else if (g0 == 520) {
+    // G52: the local offset, which LinuxCNC keeps in the G92 offset, set to the values given.
+    change_offsets([&] {
+      if (!g92_on_) g92_mm_.setZero();
+      for (int a = 0; a < 3; ++a) {
+        if (const auto& v = b.w(axes[a])) g92_mm_[a] = *v * scale();
+        params_[static_cast<std::size_t>(kFirstG92Param + a)] = g92_mm_[a];
+      }
+      g92_on_ = true;
+      params_[5210] = 1;
+    });
+  } else if (g0 == 921 || g0 == 922) {
+    change_offsets([&] {
+      g92_on_ = false;
+      params_[5210] = 0;
+      if (g0 == 921) {
+        g92_mm_.setZero();
+        for (int a = 0; a < 9; ++a) params_[static_cast<std::size_t>(kFirstG92Param + a)] = 0.0;
+      }
+    });
+  } else if (g0 == 923) {
+    change_offsets([&] {
+      for (int a = 0; a < 3; ++a) g92_mm_[a] = params_[static_cast<std::size_t>(kFirstG92Param + a)];
+      g92_on_ = true;
+      params_[5210] = 1;
+    });
   }
 
-  // M0 / M1 stop the machine but do not move it; M2 / M30 end the program.
+  // --- Motion --------------------------------------------------------------------------------
+  const int previous_motion = motion_g10_;
+  if (g_motion >= 0) motion_g10_ = g_motion;
+  if ((motion_to_be >= 0 && !is_cycle(motion_to_be)) || g_motion == 800) cycle_series_ = false;
+  if (motion_to_be >= 0) {
+    if (g0 == 530) {
+      if (motion_to_be != 0 && motion_to_be != 10) fail("G53 is allowed only with G0 or G1");
+      if (incremental_) fail("G53 cannot be used in incremental distance mode (G91)");
+    }
+    Eigen::Vector3d end = pos_mm_;
+    if (!cycle_line) {
+      for (int a = 0; a < 3; ++a) {
+        const auto& v = b.w(axes[a]);
+        if (!v) continue;
+        if (g0 == 530) end[a] = *v * scale() - offset()[a];
+        else end[a] = incremental_ ? pos_mm_[a] + *v * scale() : *v * scale();
+      }
+    }
+    if (motion_to_be == 0) {
+      straight(Move::Kind::rapid, end);
+    } else if (motion_to_be == 10) {
+      straight(Move::Kind::line, end);
+    } else if (is_arc) {
+      if (feed_mm_per_min_ <= 0) fail(fmt::format("cannot make an arc (G{}) with zero feed rate", motion_to_be / 10));
+      arc(b, motion_to_be == 20, end);
+      pos_mm_ = end;
+    } else {
+      cycle(b, motion_to_be, previous_motion);
+    }
+  }
+
+  if (m_seen[4] == 0 || m_seen[4] == 1) {
+    ProgramEvent e;
+    e.kind = ProgramEvent::Kind::program_stop;
+    e.number = m_seen[4];
+    event(e);
+  }
+  // M2 / M30 end the program.
   return !(m_seen[4] == 2 || m_seen[4] == 30);
 }
 
+// Drilling cycles G73, G81, G82, G83, G85, G89 in the XY plane, expanded as LinuxCNC does
+// (interp_convert.cc, convert_cycle_xy): up to R first when the series began below it; the
+// first hole reached at the current height and then down to R, later ones at the clearance
+// height; the cycle's feeds; back up to R (G99) or to the height where the series began
+// (G98). In G91, R is relative to that height, Z to R, and L repeats the X/Y increments.
+void Reader::cycle(const Block& b, int g10, int previous_motion) {
+  const bool first_in_series = previous_motion != g10;
+  if (plane_ != Move::Plane::xy)
+    fail(fmt::format("{} (canned cycle) outside the XY plane is not supported", g_name(g10)));
+  // As LinuxCNC, the arithmetic is in program units (pecks are counted in them).
+  const double s = scale();
+  const double current_z = pos_mm_.z() / s;
+  if (first_in_series && !b.w('r'))
+    fail(fmt::format("R clearance plane unspecified in the canned cycle {}", g_name(g10)));
+  if (first_in_series && !b.w('z')) fail(fmt::format("Z value unspecified in the canned cycle {}", g_name(g10)));
+  // R and Z are kept as written (relative in G91) for the cycles that follow.
+  if (b.w('r')) cycle_r_ = *b.w('r');
+  if (b.w('z')) cycle_z_ = *b.w('z');
+  // The height when the series of cycles began (LinuxCNC's cycle_il); a motion that is not a
+  // cycle ends the series.
+  if (!cycle_series_) {
+    cycle_initial_z_ = current_z;
+    cycle_series_ = true;
+  }
+  double old_cc = cycle_initial_z_;
+  const double r = incremental_ ? cycle_r_ + old_cc : cycle_r_;
+  const double bottom = incremental_ ? r + cycle_z_ : cycle_z_;
+  if (r < bottom) fail(fmt::format("R value ({:g}) less than Z value ({:g}) in the canned cycle", r, bottom));
+  int repeats = 1;
+  if (b.w('l')) {
+    const double l = *b.w('l');
+    if (std::abs(l - std::round(l)) > 1e-4 || l < 0) fail(fmt::format("L word L{:g} must be a whole number >= 0", l));
+    repeats = static_cast<int>(std::min(std::round(l), 1e6));
+  }
+  if (g10 == 730 || g10 == 830) {
+    if (b.w('q')) cycle_q_ = *b.w('q');
+    else if (first_in_series) fail(fmt::format("Q word missing with {}", g_name(g10)));
+    if (!(cycle_q_ > 0)) fail(fmt::format("Q (peck depth) must be > 0 with {}", g_name(g10)));
+    if ((r - bottom) / cycle_q_ > 1e6) fail(fmt::format("{} would make more than a million pecks", g_name(g10)));
+  }
+  if (g10 == 820 || g10 == 890) {
+    if (b.w('p')) cycle_p_s_ = *b.w('p');
+    else if (first_in_series) fail(fmt::format("dwell time P word missing with {}", g_name(g10)));
+    if (cycle_p_s_ < 0) fail("P (dwell) must be >= 0 in a canned cycle");
+  }
+  double current_cc = current_z;
+  if (old_cc < r) {
+    straight(Move::Kind::rapid, Eigen::Vector3d(pos_mm_.x(), pos_mm_.y(), r * s));
+    old_cc = current_cc = r;
+  }
+  const double clear = retract_r_plane_ ? r : old_cc;
+  const double rapid_delta = inches_ ? 0.010 : 0.254;
+  double x = pos_mm_.x(), y = pos_mm_.y(), dx = 0, dy = 0;
+  if (incremental_) {
+    dx = b.w('x').value_or(0.0) * s;
+    dy = b.w('y').value_or(0.0) * s;
+  } else {
+    if (b.w('x')) x = *b.w('x') * s;
+    if (b.w('y')) y = *b.w('y') * s;
+  }
+  const auto at = [&](double z) { return Eigen::Vector3d(x, y, z * s); };
+  const auto dwell = [&](double seconds) {
+    Move m;
+    m.kind = Move::Kind::dwell;
+    m.seconds = seconds;
+    push(m);
+  };
+  for (int k = 0; k < repeats; ++k) {
+    x += dx;
+    y += dy;
+    // The first hole is reached at the current height, the others at the clearance height.
+    if (k == 0 && current_cc > r) {
+      straight(Move::Kind::rapid, at(current_cc));
+      straight(Move::Kind::rapid, at(r));
+    } else {
+      straight(Move::Kind::rapid, at(clear));
+      if (clear > r) straight(Move::Kind::rapid, at(r));
+    }
+    switch (g10) {
+      case 810: case 820:
+        straight(Move::Kind::line, at(bottom));
+        if (g10 == 820) dwell(cycle_p_s_);
+        straight(Move::Kind::rapid, at(clear));
+        break;
+      case 730: case 830:
+        for (double depth = r - cycle_q_; depth > bottom; depth -= cycle_q_) {
+          straight(Move::Kind::line, at(depth));
+          if (g10 == 830) straight(Move::Kind::rapid, at(r));
+          straight(Move::Kind::rapid, at(depth + rapid_delta));
+        }
+        straight(Move::Kind::line, at(bottom));
+        straight(Move::Kind::rapid, at(clear));
+        break;
+      case 850:
+        straight(Move::Kind::line, at(bottom));
+        straight(Move::Kind::line, at(r));
+        straight(Move::Kind::rapid, at(clear));
+        break;
+      case 890:
+        straight(Move::Kind::line, at(bottom));
+        dwell(cycle_p_s_);
+        straight(Move::Kind::line, at(clear));
+        break;
+      default: fail(fmt::format("{} (canned cycle) is not supported", g_name(g10)));
+    }
+  }
+}
+
 void Reader::arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_mm) {
-  // LinuxCNC does this arithmetic in program units; so do we.
+  // LinuxCNC does this arithmetic in program units and in the plane's own axes; so do we.
   const double s = scale();
   const double radius_tolerance = inches_ ? kRadiusToleranceInch : kRadiusToleranceInch * kMmPerInch;
   const double spiral_abs_tolerance = inches_ ? kSpiralAbsToleranceInch : kSpiralAbsToleranceMm;
-  const double x0 = pos_mm_.x() / s, y0 = pos_mm_.y() / s;
-  const double x1 = end_mm.x() / s, y1 = end_mm.y() / s;
+  const Eigen::Vector2d start = plane_pair(pos_mm_) / s, finish = plane_pair(end_mm) / s;
+  const double x0 = start.x(), y0 = start.y();
+  const double x1 = finish.x(), y1 = finish.y();
+  const char first = plane_ == Move::Plane::xy ? 'i' : plane_ == Move::Plane::xz ? 'k' : 'j';
+  const char second = plane_ == Move::Plane::xy ? 'j' : plane_ == Move::Plane::xz ? 'i' : 'k';
   double cx = 0, cy = 0;
   if (b.w('r')) {
     const double r = *b.w('r');
@@ -457,26 +1297,28 @@ void Reader::arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_mm) 
     cx = mid_x + offset * std::cos(theta);
     cy = mid_y + offset * std::sin(theta);
   } else {
-    const double i = b.w('i').value_or(0.0), j = b.w('j').value_or(0.0);
-    // I/J are in program units; with G90.1 they are absolute centre coordinates (no G91
-    // offset applies to them).
+    const double i = b.w(first).value_or(0.0), j = b.w(second).value_or(0.0);
+    // Offsets are in program units; with G90.1 they are absolute centre coordinates (of the
+    // work coordinate system; no G91 offset applies to them).
     cx = ij_absolute_ ? i : x0 + i;
     cy = ij_absolute_ ? j : y0 + j;
     const double r1 = std::hypot(cx - x0, cy - y0);
     const double r2 = std::hypot(cx - x1, cy - y1);
     const auto where = [&] {
-      return fmt::format("start=(X{:.4f},Y{:.4f}) center=(X{:.4f},Y{:.4f}) end=(X{:.4f},Y{:.4f}) r1={:.4f} r2={:.4f}",
-                         x0, y0, cx, cy, x1, y1, r1, r2);
+      return fmt::format("start=({:.4f},{:.4f}) center=({:.4f},{:.4f}) end=({:.4f},{:.4f}) r1={:.4f} r2={:.4f}", x0, y0,
+                         cx, cy, x1, y1, r1, r2);
     };
     if (r1 < radius_tolerance || r2 < radius_tolerance) fail("zero-radius arc: " + where());
     const double abs_err = std::abs(r1 - r2);
     const double rel_err = abs_err / std::max(r1, r2);
-    if (abs_err > spiral_abs_tolerance * 100.0 || (rel_err > kSpiralRelativeTolerance && abs_err > spiral_abs_tolerance))
+    if (abs_err > spiral_abs_tolerance * 100.0 ||
+        (rel_err > kSpiralRelativeTolerance && abs_err > spiral_abs_tolerance))
       fail("radius to end of arc differs from radius to start: " + where());
   }
   if (!std::isfinite(cx) || !std::isfinite(cy)) fail("arc centre cannot be computed (numbers too large or too small)");
   Move m;
   m.kind = Move::Kind::arc;
+  m.plane = plane_;
   m.end = end_mm;
   m.center = Eigen::Vector2d(cx * s, cy * s);
   m.clockwise = clockwise;
@@ -493,6 +1335,9 @@ void GcodeOptions::validate() const {
   if (max_moves < 1) throw InputError("GcodeOptions", 0, "max_moves = 0 must be at least 1");
   if (max_arc_turns < 1 || max_arc_turns > 1'000'000)
     throw InputError("GcodeOptions", 0, fmt::format("max_arc_turns = {} must be in 1..1000000", max_arc_turns));
+  if (spindle_count < 1 || spindle_count > 100)
+    throw InputError("GcodeOptions", 0, fmt::format("spindle_count = {} must be in 1..100", spindle_count));
+  if (max_executed_lines < 1) throw InputError("GcodeOptions", 0, "max_executed_lines = 0 must be at least 1");
 }
 
 Program read_gcode(const std::string& text, const std::string& source_name, const GcodeOptions& options) {

@@ -1,10 +1,12 @@
 // Reading RS274NGC part programs (G-code) the way LinuxCNC reads them.
 //
-// read_gcode() interprets a program into a Program: canonical moves in millimetres, absolute
-// coordinates, each tagged with its source line. LinuxCNC's interpreter is the reference: for
-// every program this reader accepts, `rs274 -g` prints the same sequence of moves (the
-// conformance test in tests/programs/gcode_conformance_test.cpp checks this on our corpus and on
-// the samples LinuxCNC installs), and every program rs274 rejects is rejected here too.
+// read_gcode() interprets a program into a Program: canonical moves in millimetres, machine
+// coordinates (the program's work offsets applied), each tagged with its source line, and the
+// words that carry no geometry as ProgramEvents. LinuxCNC's interpreter is the reference: for
+// every program this reader accepts, `rs274 -g` prints the same sequence of moves once the work
+// offsets it announces are added (the conformance test in tests/programs/gcode_conformance_test.cpp
+// checks this on our own programs and on the samples LinuxCNC installs), and every program rs274
+// rejects is rejected here too.
 //
 //   Program p = read_gcode("G21 G90\nG0 X10 Y5\nM3 S3000\nG1 X20 F1200\nM5\nM2\n", "part.ngc");
 //   // p.moves: rapid to (10,5,0), torch_on, line to (20,5,0) at 1200 mm/min, torch_off.
@@ -19,16 +21,34 @@
 //   * '%': when the first line starts with '%', the program ends at the next line starting with
 //     '%'; a '%' anywhere else is an error.
 //   * N words (line numbers): only first on a line; ignored.
-//   * Numbers: optional sign, digits with at most one '.', at least one digit: "1", "-0.5",
-//     ".5", "+1", "1.". No exponents: 'E' is a word letter in RS274NGC, so "X1e400" is the word X1
-//     followed by an E word, which is refused. Magnitudes above 1e9 are refused.
-//   * G0 rapid, G1 line, G2/G3 clockwise / counter-clockwise arc in the XY plane.
-//       - Centre format: I/J offsets from the start point (G91.1, the default) or absolute
-//         centre coordinates (G90.1); an omitted I or J is 0. End point equal to the start point
-//         makes a full circle.
+//   * Values: numbers (optional sign, digits with at most one '.'; no exponents: 'E' is a word
+//     letter, so "X1e400" is X1 followed by an E word), parameters and expressions with
+//     LinuxCNC's semantics (engine/programs/gcode_expr.h): #1..#5602, ##n, #[expr], named
+//     #<local> and #<_global> parameters, [expressions] with every binary operator and function
+//     rs274 has. Magnitudes of written numbers above 1e9 are refused.
+//   * Parameter settings (#n=..., #<name>=...) take effect after the whole line is read, so a
+//     line reads the values from before it. #1..#30 are a subroutine's arguments (saved and
+//     restored around a call); names without a leading '_' are local to the call. #5161..,
+//     #5181.. (G28 / G30 positions), #5210..#5219 (G92), #5220 (coordinate system), #5221..
+//     (G54..G59.3 offsets), #5400 (tool), #5420..#5422 (position) and the predefined named
+//     parameters _x _y _z _metric _imperial _absolute _incremental _feed _rpm _current_tool
+//     _selected_tool _call_level _line _value _value_returned read as in LinuxCNC. Named
+//     parameters LinuxCNC takes from the machine (_hal[...], _ini[...]) and any other value the
+//     program reads but does not set come from GcodeOptions::params; without one the program
+//     is refused naming the parameter.
+//   * O-words, with a number or <name> label: sub / endsub [value] / call [args]..., return
+//     [value] (sets #<_value> and #<_value_returned>), while / endwhile, do / while, if /
+//     elseif / else / endif, repeat [n] / endrepeat, break, continue. Subroutines may be defined
+//     anywhere in the file (before or after M2); definitions are skipped where they stand.
+//     A construct left open is an error only when the flow needs its end line, as in rs274.
+//   * G0 rapid, G1 line, G2/G3 clockwise / counter-clockwise arc in the G17 XY, G18 XZ or G19
+//     YZ plane (Move::plane; the centre is stored in the plane's axis order).
+//       - Centre format: I/J (XY), K/I (XZ), J/K (YZ) offsets from the start point (G91.1, the
+//         default) or absolute centre coordinates (G90.1); an omitted offset is 0. End point
+//         equal to the start point makes a full circle.
 //       - Radius format: R; negative R selects the arc longer than a semicircle.
-//       - Z moving along the arc makes a helix; P n (an integer >= 1) makes n turns, that is
-//         n - 1 extra full turns (Move::turns = n - 1).
+//       - The axis normal to the plane moving along the arc makes a helix; P n (an integer
+//         >= 1) makes n turns, that is n - 1 extra full turns (Move::turns = n - 1).
 //       - An arc whose radius to the end differs from its radius to the start is refused when
 //         the difference exceeds 100 x the absolute tolerance, or exceeds the absolute tolerance
 //         and 0.1 % of the larger radius; the absolute tolerance is 2 x 0.01 x sqrt(2) mm
@@ -37,47 +57,65 @@
 //         than |R| + that tolerance from the start ("radius too small to reach end point") and
 //         an end point equal to the start are refused.
 //     G0 or a G1 without axis words moves to where the tool already is (rs274 emits such a
-//     zero-length move too). G2/G3 without axis words but with I/J is a full circle.
-//   * G4 P dwell (seconds, >= 0). G17 (the only plane). G20 / G21 (inch / mm; inch values are
-//     converted to mm). G90 / G91 absolute / incremental distances; G90.1 / G91.1 arc centre
-//     mode. G40, G49, G54, G80, G94: the states LinuxCNC starts in (no cutter compensation, no
-//     tool length offset, first work coordinate system with zero offset, no canned cycle,
-//     units per minute feed); accepted so that common program preambles read. After G80 axis
-//     words need a new G0..G3.
+//     zero-length move too). G2/G3 without axis words but with centre words is a full circle.
+//     G80 on a line with another motion code gives way to it.
+//   * Drilling cycles G73, G81, G82, G83, G85, G89 in the XY plane, G98 / G99, L repeats, in
+//     G90 and G91, expanded into rapids, feeds and dwells exactly as LinuxCNC expands them.
+//   * Work offsets: G54..G59.3 select; G10 L2 Pn (offset values) and G10 L20 Pn (offset that
+//     makes the current point the given coordinates) set, P0 meaning the active system;
+//     G92 / G92.1 / G92.2 / G92.3; G52 (the local offset, kept with G92's); G53 moves (G0/G1)
+//     in machine coordinates; G28 / G30 (through the given point to the stored position) and
+//     G28.1 / G30.1; all in mm and inch.
+//   * G4 P dwell (seconds, >= 0). G20 / G21 (inch / mm; inch values are converted to mm).
+//     G90 / G91 absolute / incremental distances; G90.1 / G91.1 arc centre mode. G40, G49,
+//     G94, G97: LinuxCNC's start states. G94 sets the feed to 0 as LinuxCNC does.
+//   * Path control, kept on each move (Move::path_mode, path_tolerance_mm): G64 [P tolerance]
+//     [Q], G61 exact path, G61.1 exact stop.
 //   * F feed (program units per minute, >= 0), S spindle speed (>= 0). F takes the length units
 //     in effect when it is read, that is before a G20/G21 on the same line (LinuxCNC's order of
-//     execution on a line: F, S, M3/M4/M5, G4, G17, G20/G21, G90/G91, motion, M0/M1/M2/M30).
+//     execution on a line: G93/G94, F, S, T, M62-M68, M6/M61, M3/M4/M5, M7-M9, M48-M53, user M
+//     codes, G4, plane, units, G43/G49, coordinate system, path control, distance modes,
+//     G98/G99, G10/G28/G30/G92, motion, M0/M1/M2/M30).
 //   * M3 / M4 (torch or spindle on, either direction) -> torch_on with the current S;
-//     M5 -> torch_off. M0 / M1 (program stop, optional stop): accepted, produce no move.
-//     M2 / M30 end the program; nothing after them is read.
+//     M5 -> torch_off. $n selects the spindle (0 .. GcodeOptions::spindle_count - 1; $-1 with
+//     M5 stops every spindle); Move::spindle keeps it. M2 / M30 end the program; nothing after
+//     them is read.
+//   * Kept as ProgramEvents, with no geometry: T (tool select), M6 (tool change; it also stops
+//     the spindle, a torch_off, as LinuxCNC does), M61 Q, G43 [H] / G49 (no Z effect: tool
+//     lengths are not modelled), M7 / M8 / M9, M48-M53, M62-M65 (digital outputs, M62/M63
+//     synchronised with the next move), M66 (wait for an input), M67 / M68 (analog outputs),
+//     M100-M199 (user M codes with their P and Q), M0 / M1.
 //   * The state at the start is LinuxCNC's: position (0, 0, 0), mm, G17, G90, G91.1, G0 motion,
-//     feed 0, S 0.
+//     G54 with zero offsets, G99 retract, feed 0, S 0.
 //
 // What is refused (InputError, "FILE:LINE: message")
 // -------------------------------------------------
-//   * Unsupported features, each named: O-word subroutines and control flow, parameters ('#'),
-//     expressions ('[...]' and functions), G18 / G19 planes, cutter compensation, tool length
-//     offsets, work offsets and coordinate systems other than G54, canned cycles, probing,
-//     threading, splines, inverse-time and per-revolution feed, tool changes (T, M6), coolant,
-//     overrides, I/O M codes, user M codes, A/B/C/U/V/W axes, E/L/Q/D/H words, polar
-//     coordinates (@ and ^). Messages read
-//     "G41 (cutter radius compensation) is not supported".
+//   * Unsupported features, each named ("... is not supported"): cutter compensation, inverse-time
+//     and per-revolution feed, G43.1 / G43.2, probing, threading, tapping and the other
+//     canned cycles (G74, G76, G84, G86-G88), splines, lathe modes, UV/WU/VW planes, G10 L1/L10/
+//     L11 (tool table), G10 L2 R (rotation), subroutines in other files, M19, M60, M70-M73,
+//     M98/M99, A/B/C/U/V/W axes, D words, polar coordinates (@ and ^).
 //   * LinuxCNC's errors: unknown G or M code; a repeated word letter on a line ("multiple X
-//     words on one line"); two G codes or two M codes of the same modal group on a line; more
-//     than 4 M codes; G1 / G2 / G3 with zero feed rate; negative F or S; G4 without P or with a
-//     negative P; R together with I/J; an arc with none of R, I, J; K on an XY arc; I/J/K/R/P
-//     words with no code that uses them; axis words with G80 or after G80 with no motion code;
-//     malformed numbers; non-integer M codes; a program that ends with neither M2/M30 nor a
-//     closing '%' (unless GcodeOptions::require_program_end is false).
+//     words on one line"); two G codes or two M codes of the same modal group on a line; two G
+//     codes that both use axis words; more than 4 M codes; G1 / G2 / G3 / cycles with zero feed
+//     rate; negative F or S; G4 without P or with a negative P; R together with centre words;
+//     an arc with no R or centre word; a centre word of the wrong plane; words with no code that
+//     uses them (I J K R P Q L E H); axis words with G80 or after G80 with no motion code;
+//     malformed numbers and expressions; division by zero and the functions' domain errors;
+//     undefined named parameters; a spindle number the machine does not have; O-word structure
+//     errors; a program that ends with neither M2/M30 nor a closing '%' (unless
+//     GcodeOptions::require_program_end is false: then Program::warnings says so).
 //   * Where rs274 accepts nonsense, this reader refuses it: R0 on an arc (rs274 prints a NaN
 //     centre) and a doubled sign such as "X--1" (rs274 reads it as X1).
 //   * Limits that keep any input bounded: GcodeOptions::max_moves moves, max_arc_turns turns
-//     on one arc, max_line_chars characters on a line.
+//     on one arc, max_line_chars characters on a line, max_executed_lines lines executed
+//     (loops), 50 nested calls.
 //
 // Thread safety: read_gcode is a pure function of its arguments and may run concurrently.
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <string>
 
 #include "engine/programs/program.h"
@@ -95,6 +133,16 @@ struct GcodeOptions {
   // LinuxCNC refuses a file that ends without M2/M30 or a closing '%'. Set false to accept
   // program fragments (Program::ends_with_program_end then says whether an end was seen).
   bool require_program_end = true;
+  // Values of named parameters the program reads but does not set, such as QtPlasmaC's
+  // "_hal[plasmac.cut-feed-rate]" and "_ini[...]": keys as written between #< and >, without
+  // blanks, any case. A program that reads one not given here is refused naming it.
+  std::map<std::string, double> params;
+  // Spindles the machine has: $n words may name 0 .. spindle_count - 1 (LinuxCNC's default
+  // is 1; QtPlasmaC configurations have 3: torch, scribe, spotting).
+  int spindle_count = 1;
+  // Lines executed (loops and subroutine calls count every pass): a bound so that an endless
+  // loop is an error, not a hang.
+  std::size_t max_executed_lines = 20'000'000;
 
   // Throws InputError naming the field when a value is out of range.
   void validate() const;

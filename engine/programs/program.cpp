@@ -17,6 +17,32 @@ const char* to_string(Move::Kind kind) {
   return "unknown";
 }
 
+const char* to_string(ProgramEvent::Kind kind) {
+  using K = ProgramEvent::Kind;
+  switch (kind) {
+    case K::tool_select: return "tool_select";
+    case K::tool_change: return "tool_change";
+    case K::tool_length_offset: return "tool_length_offset";
+    case K::coolant: return "coolant";
+    case K::feed_override: return "feed_override";
+    case K::digital_output: return "digital_output";
+    case K::analog_output: return "analog_output";
+    case K::wait_input: return "wait_input";
+    case K::user_m_code: return "user_m_code";
+    case K::program_stop: return "program_stop";
+  }
+  return "unknown";
+}
+
+const char* to_string(Move::PathMode mode) {
+  switch (mode) {
+    case Move::PathMode::blend: return "blend";
+    case Move::PathMode::exact_path: return "exact_path";
+    case Move::PathMode::exact_stop: return "exact_stop";
+  }
+  return "unknown";
+}
+
 namespace {
 
 constexpr double kTwoPi = 2.0 * M_PI;
@@ -31,6 +57,25 @@ double arc_sweep_rad(const Eigen::Vector3d& start, const Move& move) {
   while (sweep >= kTwoPi) sweep -= kTwoPi;
   if ((start.head<2>() - move.end.head<2>()).norm() < 1e-9 || sweep < 1e-12) sweep = kTwoPi;
   return sweep + kTwoPi * move.turns;
+}
+
+// Coordinates in an arc plane's axis order (first, second, normal) and back.
+Eigen::Vector3d to_plane(const Eigen::Vector3d& p, Move::Plane plane) {
+  switch (plane) {
+    case Move::Plane::xy: return p;
+    case Move::Plane::xz: return {p.z(), p.x(), p.y()};
+    case Move::Plane::yz: return {p.y(), p.z(), p.x()};
+  }
+  return p;
+}
+
+Eigen::Vector3d from_plane(const Eigen::Vector3d& q, Move::Plane plane) {
+  switch (plane) {
+    case Move::Plane::xy: return q;
+    case Move::Plane::xz: return {q.y(), q.z(), q.x()};
+    case Move::Plane::yz: return {q.z(), q.x(), q.y()};
+  }
+  return q;
 }
 
 }  // namespace
@@ -65,15 +110,20 @@ ProgramSummary summarize(const Program& program, double rapid_mm_per_min) {
       }
       case Move::Kind::arc: {
         ++s.arc_count;
-        const double sweep = arc_sweep_rad(pos, m);
-        const double r0 = (pos.head<2>() - m.center).norm();
-        const double r1 = (m.end.head<2>() - m.center).norm();
+        // Work in the arc's plane: (first, second) axes as x, y and the normal axis as z.
+        Move pm = m;
+        pm.end = to_plane(m.end, m.plane);
+        const Eigen::Vector3d pp = to_plane(pos, m.plane);
+        const auto grow_plane = [&](const Eigen::Vector3d& q) { grow(from_plane(q, m.plane)); };
+        const double sweep = arc_sweep_rad(pp, pm);
+        const double r0 = (pp.head<2>() - m.center).norm();
+        const double r1 = (pm.end.head<2>() - m.center).norm();
         const double planar = sweep * 0.5 * (r0 + r1);
-        const double length = std::hypot(planar, m.end.z() - pos.z());
+        const double length = std::hypot(planar, pm.end.z() - pp.z());
         s.feed_length_mm += length;
         if (m.feed_mm_per_min > 0) s.estimated_seconds += length / m.feed_mm_per_min * 60.0;
         // Bounding box: the end points and the quadrant points the arc passes through.
-        const double a0 = std::atan2(pos.y() - m.center.y(), pos.x() - m.center.x());
+        const double a0 = std::atan2(pp.y() - m.center.y(), pp.x() - m.center.x());
         const double r = std::max(r0, r1);
         for (int q = 0; q < 4; ++q) {
           const double aq = q * M_PI_2;
@@ -81,8 +131,8 @@ ProgramSummary summarize(const Program& program, double rapid_mm_per_min) {
           while (delta < 0) delta += kTwoPi;
           while (delta >= kTwoPi) delta -= kTwoPi;
           if (delta <= sweep) {
-            const double z = pos.z() + (m.end.z() - pos.z()) * (delta / sweep);
-            grow(Eigen::Vector3d(m.center.x() + r * std::cos(aq), m.center.y() + r * std::sin(aq), z));
+            const double z = pp.z() + (pm.end.z() - pp.z()) * (delta / sweep);
+            grow_plane(Eigen::Vector3d(m.center.x() + r * std::cos(aq), m.center.y() + r * std::sin(aq), z));
           }
         }
         grow(m.end);

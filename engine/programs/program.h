@@ -4,14 +4,22 @@
 // This is what every executor and checker consumes; readers (G-code today) produce it. The
 // meaning follows LinuxCNC's RS274NGC interpreter (`rs274 -g` is the reference):
 //   * rapid / line: straight move from the previous end to `end`.
-//   * arc: in the XY plane (G17), from the previous end to `end` about `center` (x, y),
-//     `clockwise` (G2) or counter-clockwise (G3), with `turns` extra full turns (a P word,
-//     or 0), and z moving linearly along the arc (a helix) to end.z().
+//   * arc: in `plane` (XY by default; XZ and YZ as G18 / G19 make them), from the previous end
+//     to `end` about `center` (in the plane's axis order: (x, y), (z, x) or (y, z)),
+//     `clockwise` (G2) or counter-clockwise (G3) seen in that order, with `turns` extra full
+//     turns (a P word, or 0), and the plane's normal axis moving linearly along the arc (a
+//     helix) to its value in `end`.
 //   * dwell: wait `seconds`.
-//   * torch_on / torch_off: M3 / M5 (torch or spindle). `spindle_speed` carries S at M3.
+//   * torch_on / torch_off: M3 / M5 (torch or spindle). `spindle_speed` carries S at M3,
+//     `spindle` the spindle ($n word; -1 on M5 $-1: every spindle).
+// Coordinates are machine coordinates: the program's work offsets (G54-G59.3, G92) are
+// applied, and G53 moves are where they say on the machine.
 // Feeds are in mm/min as in the program (F); the executor converts to mm/s at its edge.
+// Words that carry no geometry are kept as ProgramEvents (tool, coolant, outputs, ...) and
+// each motion carries the path mode (G61 / G61.1 / G64 P) in force.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -26,12 +34,50 @@ struct Move {
   int line = 0;                               // 1-based source line
   Eigen::Vector3d end = Eigen::Vector3d::Zero();     // mm, absolute (rapid, line, arc)
   double feed_mm_per_min = 0.0;               // line, arc
-  Eigen::Vector2d center = Eigen::Vector2d::Zero();  // mm, absolute (arc)
+  // Arc plane: G17 XY (centre (x, y), helix along z), G18 XZ (centre (z, x), along y),
+  // G19 YZ (centre (y, z), along x): LinuxCNC's canonical axis order for each plane.
+  enum class Plane { xy, xz, yz };
+  Plane plane = Plane::xy;
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();  // mm, absolute (arc), in the plane's axis order
   bool clockwise = false;                     // arc
   int turns = 0;                              // arc: extra full turns beyond the first pass
   double seconds = 0.0;                       // dwell
   double spindle_speed = 0.0;                 // torch_on (S word, rpm or machine units)
+  int spindle = 0;                            // torch_on / torch_off: $n (-1: all spindles)
+  // Path mode in force (rapid, line, arc): G64 blends corners within path_tolerance_mm
+  // (0: no tolerance given, as fast as possible); G61 exact path; G61.1 exact stop.
+  enum class PathMode { blend, exact_path, exact_stop };
+  PathMode path_mode = PathMode::blend;
+  double path_tolerance_mm = 0.0;             // G64 P, mm
 };
+
+// A word with no geometry, kept for whoever can use it. `before_move` is the index in
+// Program::moves of the first move after it (moves.size() when none follows).
+struct ProgramEvent {
+  enum class Kind {
+    tool_select,        // T n: `number` is the tool
+    tool_change,        // M6 (the tool selected last) or M61 Q n: `number`
+    tool_length_offset, // G43 [H n] / G49: `number` is H (-1 for G49); no Z effect here
+    coolant,            // M7 mist (number 7), M8 flood (8), M9 both off (9): no-op
+    feed_override,      // M48-M53 (number = M code, value = P or 1): no-op
+    digital_output,     // M62-M65: `number` = P (output), `value` = 1 on / 0 off, `synchronized` M62/M63
+    analog_output,      // M67 / M68: `number` = E (output), `value` = Q, `synchronized` M67
+    wait_input,         // M66: `number` = P or E (input), `value` = Q (timeout, s), `mode` = L
+    user_m_code,        // M100-M199: `number` = M code, `value` = P, `value2` = Q
+    program_stop,       // M0 (number 0) / M1 (number 1)
+  };
+  Kind kind = Kind::tool_select;
+  int line = 0;
+  std::size_t before_move = 0;
+  int number = 0;
+  double value = 0.0;
+  double value2 = 0.0;
+  int mode = 0;
+  bool synchronized = false;
+};
+
+const char* to_string(ProgramEvent::Kind kind);
+const char* to_string(Move::PathMode mode);
 
 const char* to_string(Move::Kind kind);
 
@@ -40,6 +86,8 @@ struct Program {
   Eigen::Vector3d start = Eigen::Vector3d::Zero();  // position before the first move, mm
   std::vector<Move> moves;
   bool ends_with_program_end = false;  // M2 or M30 seen
+  std::vector<ProgramEvent> events;    // non-motion words, in program order
+  std::vector<std::string> warnings;   // things a reader accepted leniently, one line each
 };
 
 // Summary figures for a readable report.

@@ -93,13 +93,28 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 
 MachineConfig machine_from_yaml(const Yaml& root) {
   root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height",
-                           "slug_tip_size_mm"});
+                           "slug_tip_size_mm", "origin_mm", "gcode"});
   MachineConfig m;
   m.source = root.file();
   m.name = root.string("name");
   m.description = root.string_or("description", "");
   m.servo_period_s = root.number_or("servo_period_s", 0.001, {.min = 1e-5, .max = 0.1});
   m.slug_tip_size_mm = root.number_or("slug_tip_size_mm", m.slug_tip_size_mm, {.min = 0.0, .max = 1e6});
+  if (const auto o = root.get("origin_mm")) {
+    const std::vector<double> xy = o->numbers(2, {.min = -1e6, .max = 1e6});
+    m.origin_mm = std::array<double, 2>{xy[0], xy[1]};
+  }
+  if (const auto g = root.get("gcode")) {
+    g->reject_unknown_keys({"spindles", "params"});
+    if (g->has("spindles")) m.gcode_spindles = g->at("spindles").integer(1, 100);
+    if (const auto ps = g->get("params")) {
+      if (!ps->is_sequence()) ps->fail("must be a list of {name: NAME, value: NUMBER}");
+      for (const Yaml& p : ps->items()) {
+        p.reject_unknown_keys({"name", "value"});
+        m.gcode_params.emplace_back(p.string("name"), p.number("value"));
+      }
+    }
+  }
 
   const Yaml l = root.at("limits");
   l.reject_unknown_keys(

@@ -14,7 +14,10 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "engine/control/servo.h"
 #include "engine/executor/machine_setup.h"
@@ -84,6 +87,14 @@ struct MachineConfig {
   std::array<AxisConfig, 2> axes;
   TorchConfig torch;
   TorchHeightConfig torch_height;
+  // Where programs' zero sits on this machine (X, Y mm), as an operator touching off the
+  // sheet corner sets G54; `origin_mm: [x, y]` in the file. `machplan run --origin` overrides it.
+  std::optional<std::array<double, 2>> origin_mm;
+  // What the G-code reader takes from the machine (`gcode:` in the file): the spindles $n may
+  // name (QtPlasmaC: torch, scribe, spotting), and values of parameters programs read from the
+  // machine, such as QtPlasmaC's _hal[plasmac.cut-feed-rate] (the material's cut feed).
+  int gcode_spindles = 1;
+  std::vector<std::pair<std::string, double>> gcode_params;
 
   // The executor's view: signals, gains, stop deceleration, torch timing.
   executor::MachineSetup setup() const;

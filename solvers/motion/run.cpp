@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 
 #include <fmt/format.h>
 
@@ -83,6 +84,11 @@ void RunOptions::validate() const {
   if (feed_override_mm_per_s != 0.0) check_range("--feed", feed_override_mm_per_s, 0.0, 10000.0, true, " mm/s");
   executor.validate();
   backend.sim.validate();
+  if (origin_mm) {
+    check_range("--origin", origin_mm->x(), -1e6, 1e6, false, " mm");
+    check_range("--origin", origin_mm->y(), -1e6, 1e6, false, " mm");
+  }
+  gcode.validate();
   try {
     rapids.validate();
   } catch (const std::invalid_argument& e) {
@@ -131,10 +137,69 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
 RunOutcome run_program(const std::string& program_path, const RunOptions& options) {
   options.validate();
   const cutting::MachineConfig machine = cutting::load_machine(cutting::find_machine(options.machine));
-  const Program program = read_gcode_file(program_path);
+  // The machine file's parameters and spindles; the command line's --param wins.
+  GcodeOptions gcode = options.gcode;
+  for (const auto& [name, value] : machine.gcode_params) gcode.params.emplace(name, value);
+  gcode.spindle_count = std::max(gcode.spindle_count, machine.gcode_spindles);
+  Program program = read_gcode_file(program_path, gcode);
+  std::vector<std::string> warnings = program.warnings;
+  // Words the simulated machine does not act on: one note per kind, naming the first line.
+  std::vector<std::string> notes;
+  {
+    std::map<ProgramEvent::Kind, std::pair<int, int>> seen;  // kind -> (first line, count)
+    for (const ProgramEvent& e : program.events) {
+      auto [it, fresh] = seen.try_emplace(e.kind, e.line, 0);
+      ++it->second.second;
+    }
+    for (const auto& [kind, where] : seen)
+      notes.push_back(fmt::format("{}:{}: {} ({} in the program) ignored: machine '{}' does not act on it",
+                                     program.source, where.first, to_string(kind), where.second, machine.name));
+  }
+  if (!options.strict_z) {
+    // The first move that changes Z (a helix included): report it once, then flatten all.
+    double z = program.start.z();
+    for (const Move& m : program.moves) {
+      const bool motion = m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc;
+      if (!motion || m.plane != Move::Plane::xy) continue;
+      if (std::abs(m.end.z() - z) > 1e-9) {
+        warnings.push_back(fmt::format("{}:{}: Z words dropped from here on (Z {:.6g} -> {:.6g} mm): machine '{}' sets "
+                                       "the torch height itself (--strict-z refuses them instead)",
+                                       program.source, m.line, z, m.end.z(), machine.name));
+        break;
+      }
+      z = m.end.z();
+    }
+    for (Move& m : program.moves)
+      if (m.plane == Move::Plane::xy) m.end.z() = program.start.z();
+  }
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+  std::string from = "none";
+  if (options.origin_mm) {
+    origin = *options.origin_mm;
+    from = "--origin";
+  } else if (machine.origin_mm) {
+    origin = Eigen::Vector2d((*machine.origin_mm)[0], (*machine.origin_mm)[1]);
+    from = "machine file";
+  }
+  if (origin != Eigen::Vector2d::Zero()) {
+    program.start.head<2>() += origin;
+    for (Move& m : program.moves) {
+      m.end.head<2>() += origin;
+      if (m.kind != Move::Kind::arc) continue;
+      // The centre is in the plane's axis order: (x, y), (z, x) or (y, z).
+      if (m.plane == Move::Plane::xy) m.center += origin;
+      else if (m.plane == Move::Plane::xz) m.center.y() += origin.x();
+      else m.center.x() += origin.y();
+    }
+  }
   JobOptions jo;
   jo.rapid_feed_mm_per_s = machine.limits.rapid_mm_per_s;
-  return run_job(make_job(program, jo), options);
+  RunOutcome o = run_job(make_job(program, jo), options);
+  o.origin_mm = origin;
+  o.origin_from = from;
+  o.warnings = std::move(warnings);
+  o.notes = std::move(notes);
+  return o;
 }
 
 RunOutcome run_job(Job programmed, const RunOptions& options) {
@@ -233,6 +298,10 @@ std::string RunOutcome::report() const {
   const executor::ExecutionResult& r = result;
   std::string s = fmt::format("{} on {} ({} mode): {}\n", r.source, r.machine, executor::to_string(r.mode),
                               faulted() ? "FAULTED" : "completed");
+  s += fmt::format("  program origin   X {:.3f} Y {:.3f} mm on the machine ({})\n", origin_mm.x(), origin_mm.y(),
+                   origin_from == "none" ? "none given: program zero is machine zero" : origin_from);
+  for (const std::string& w : warnings) s += fmt::format("  warning: {}\n", w);
+  for (const std::string& n : notes) s += fmt::format("  note: {}\n", n);
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
   s += fmt::format("  torch on         {:9.3f} s\n", r.torch_on_s);
   s += fmt::format("  rapid distance   {:9.1f} mm  (straight {:.1f} mm; {} detours, +{:.1f} mm)\n", r.rapid_distance_mm,
@@ -284,6 +353,10 @@ nlohmann::json RunOutcome::to_json() const {
   j["motion_ratio"] = motion_ratio;
   j["motion_optimum_s"] = motion_optimum_s;
   j["optimum_ratio"] = optimum_ratio;
+  j["origin_mm"] = {origin_mm.x(), origin_mm.y()};
+  j["origin_from"] = origin_from;
+  j["warnings"] = warnings;
+  j["notes"] = notes;
   j["rapids"] = {{"count", rapids.rapids.size()},
                  {"re_routed", rapids.replaced},
                  {"blocked_straight", rapids.blocked},

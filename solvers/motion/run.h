@@ -31,6 +31,12 @@
 //     bound (which ignores what turning costs), and optimum_ratio = planned_motion_s /
 //     motion_optimum_s is what the planner loses, the jerk limit included.
 //
+// Placing the program: the program's coordinates (machine coordinates of its own work offsets)
+// are moved by RunOptions::origin_mm (or the machine file's origin_mm), so that the travel
+// check, the rapid planning, the plots and the reports all work in the machine's coordinates.
+// Z: on these 2-axis machines Z words are dropped with one warning naming the first line that
+// moves Z (the torch height belongs to the machine), unless strict_z keeps them as an error.
+//
 // Errors: a bad program, machine file, zones file or option throws InputError naming the file
 // and line or the flag (exit 2 in the CLI). A job the machine cannot do throws Infeasible
 // (exit 3): the program leaves the machine's travel, or a rapid with no clear route would
@@ -49,6 +55,7 @@
 #include "engine/motion/job.h"
 #include "engine/motion/kerf.h"
 #include "engine/motion/time_optimal.h"
+#include "engine/programs/gcode.h"
 #include "engine/programs/zones.h"
 #include "engine/common/stop.h"
 #include "models/backends/backend_factory.h"
@@ -90,6 +97,16 @@ struct RunOptions {
   // pierce point, and every cut would start with that error.
   bool paper_rapids_at_feed = true;
 
+  // How the program is read: --param values, spindles, --lenient (require_program_end). The
+  // machine file's gcode: params are added (a --param of the same name wins) and its spindles
+  // raise spindle_count.
+  GcodeOptions gcode;
+  // Where the program's zero sits on the machine, mm; unset: the machine file's origin_mm,
+  // else (0, 0).
+  std::optional<Eigen::Vector2d> origin_mm;
+  // Refuse a program whose Z moves (true) instead of dropping its Z words with a warning.
+  bool strict_z = false;
+
   // Throws InputError naming the CLI flag of the offending field (--kerf, --blu, ...).
   void validate() const;
 };
@@ -106,6 +123,10 @@ struct RunOutcome {
   std::vector<Contour> cut_zones;    // the closed cuts, as plan_rapids saw them
   executor::Trajectories trajectories;  // planned mode: one per step (null for non-moves)
   executor::ExecutionResult result;
+  Eigen::Vector2d origin_mm = Eigen::Vector2d::Zero();  // where the program's zero sat
+  std::string origin_from = "none";                     // "--origin", "machine file" or "none"
+  std::vector<std::string> warnings;                    // from reading and placing the program
+  std::vector<std::string> notes;                       // program words the machine ignores (M8, M52, ...)
 
   double planned_motion_s = 0.0;     // sum of trajectory durations
   double motion_lower_bound_s = 0.0;

@@ -12,6 +12,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   machplan::GcodeOptions options;
   options.max_moves = 100'000;  // keep each run small; the limit itself is exercised
   options.max_arc_turns = 1000;
+  options.max_executed_lines = 100'000;  // loops and calls: keep each run short
+  options.spindle_count = 3;
+  options.params["_hal[plasmac.cut-feed-rate]"] = 2000;
   for (bool require_end : {true, false}) {
     options.require_program_end = require_end;
     try {

@@ -14,7 +14,7 @@
 //   (expect: error TEXT)      rs274 rejects; machplan rejects with a message containing TEXT
 //
 // rs274 prints coordinates in the program's current length units (USE_LENGTH_UNITS) with four
-// decimals; SET_FEED_RATE takes the units in effect when it is issued. ARC_FEED's rotation is
+// decimals, in program coordinates (machplan adds the work offsets rs274 announces); SET_FEED_RATE takes the units in effect when it is issued. ARC_FEED's rotation is
 // +n for n counter-clockwise turns and -n for clockwise; machplan's Move::turns is n - 1.
 #include <gtest/gtest.h>
 
@@ -104,6 +104,11 @@ Rs274Program parse_rs274(const std::string& out) {
   Rs274Program p;
   static const std::regex call(R"(^\s*\d+\s+N\S*\s+([A-Z_0-9]+)\((.*)\)\s*$)");
   double scale = 1.0, feed = 0.0, speed = 0.0;
+  // Canonical moves are in program coordinates; machplan reports machine coordinates, so the
+  // work offsets rs274 announces (SET_G5X_OFFSET, SET_G92_OFFSET) are added. Arcs in the XZ
+  // and YZ planes come in the plane's axis order (ARC_FEED's first and second axes).
+  std::array<double, 3> g5x{0, 0, 0}, g92{0, 0, 0};
+  char plane = 'z';  // normal axis: z (G17), y (G18), x (G19)
   std::stringstream ss(out);
   std::string line;
   while (std::getline(ss, line)) {
@@ -117,6 +122,15 @@ Rs274Program parse_rs274(const std::string& out) {
       scale = args.find("INCHES") != std::string::npos ? 25.4 : 1.0;
       if (scale != 1.0) p.inches_seen = true;
       continue;
+    } else if (name == "SET_G5X_OFFSET") {
+      for (int k = 0; k < 3; ++k) g5x[static_cast<std::size_t>(k)] = v.at(static_cast<std::size_t>(k + 1)) * scale;
+      continue;
+    } else if (name == "SET_G92_OFFSET") {
+      for (int k = 0; k < 3; ++k) g92[static_cast<std::size_t>(k)] = v.at(static_cast<std::size_t>(k)) * scale;
+      continue;
+    } else if (name == "SELECT_PLANE") {
+      plane = args.find("XZ") != std::string::npos ? 'y' : args.find("YZ") != std::string::npos ? 'x' : 'z';
+      continue;
     } else if (name == "SET_FEED_RATE") {
       feed = v.at(0) * scale;
       continue;
@@ -125,12 +139,19 @@ Rs274Program parse_rs274(const std::string& out) {
       continue;
     } else if (name == "STRAIGHT_TRAVERSE" || name == "STRAIGHT_FEED") {
       e.kind = name == "STRAIGHT_TRAVERSE" ? "rapid" : "line";
-      e.end = {v.at(0) * scale, v.at(1) * scale, v.at(2) * scale};
+      e.end = {v.at(0) * scale + g5x[0] + g92[0], v.at(1) * scale + g5x[1] + g92[1], v.at(2) * scale + g5x[2] + g92[2]};
       e.feed = name == "STRAIGHT_FEED" ? feed : 0.0;
     } else if (name == "ARC_FEED") {
       e.kind = "arc";
-      e.end = {v.at(0) * scale, v.at(1) * scale, v.at(5) * scale};
-      e.center = {v.at(2) * scale, v.at(3) * scale};
+      // (first, second, normal) axes of the plane, as indices into x, y, z.
+      const std::array<int, 3> axes = plane == 'z' ? std::array<int, 3>{0, 1, 2}
+                                     : plane == 'y' ? std::array<int, 3>{2, 0, 1}
+                                                    : std::array<int, 3>{1, 2, 0};
+      const auto off = [&](int a) { return g5x[static_cast<std::size_t>(a)] + g92[static_cast<std::size_t>(a)]; };
+      e.end[static_cast<std::size_t>(axes[0])] = v.at(0) * scale + off(axes[0]);
+      e.end[static_cast<std::size_t>(axes[1])] = v.at(1) * scale + off(axes[1]);
+      e.end[static_cast<std::size_t>(axes[2])] = v.at(5) * scale + off(axes[2]);
+      e.center = {v.at(2) * scale + off(axes[0]), v.at(3) * scale + off(axes[1])};
       const int rotation = static_cast<int>(std::lround(v.at(4)));
       e.clockwise = rotation < 0;
       e.turns = std::abs(rotation) - 1;
@@ -153,7 +174,10 @@ Rs274Program parse_rs274(const std::string& out) {
       }
       break;
     } else if (name == "USE_TOOL_LENGTH_OFFSET" && std::regex_match(args, std::regex(R"([-0., ]*)"))) {
-      continue;  // G49: no offset, LinuxCNC's start state
+      continue;  // G43 / G49 with zero lengths (our tool table): no Z effect
+    } else if (std::regex_match(name, std::regex("SELECT_TOOL|CHANGE_TOOL|CHANGE_TOOL_NUMBER|START_CHANGE|FLOOD_O(N|FF)|"
+                                                     "MIST_O(N|FF)|(SET|CLEAR)_(MOTION|AUX)_OUTPUT_(BIT|VALUE)|WAIT"))) {
+      continue;  // kept by machplan as program events, not moves
     } else {
       static const std::regex moving("PROBE|TAP|NURBS|SPLINE|TOOL|SPINDLE_RETRACT|ORIENT|MOTION|WAIT|DIGITAL|ANALOG|COOLANT|FLOOD|MIST");
       if (std::regex_search(name, moving) && name.rfind("SET_", 0) != 0) p.unmodelled.push_back(line);

@@ -167,23 +167,135 @@ TEST(Gcode, Summary) {
 // --- Refused features -------------------------------------------------------------------
 
 TEST(GcodeRefused, FeaturesAreNamedWithTheirLine) {
-  expect_error("G21\nG18\nM2\n", 2, "G18 (XZ plane) is not supported");
-  expect_error("G19\nM2\n", 1, "G19 (YZ plane) is not supported");
-  expect_error("G0 X1\nG0 X2\nG0 X3\nG0 X4\nG0 X5\nG0 X6\nG0 X7\nG0 X8\nG0 X9\nG0 X10\nG0 X11\no100 sub\n", 12,
-               "O-word subroutines are not supported");
-  expect_error("#1=2\nM2\n", 1, "parameters (#) are not supported");
-  expect_error("G0 X#1\nM2\n", 1, "parameters (#) are not supported");
-  expect_error("G0 X[1+2]\nM2\n", 1, "expressions ([...]) are not supported");
-  expect_error("G0 Xsin[1]\nM2\n", 1, "functions and expressions are not supported");
   expect_error("G41 G1 X1 F1\nM2\n", 1, "G41 (cutter radius compensation) is not supported");
-  expect_error("G81 X1 Z-1 R1\nM2\n", 1, "G81 (canned cycle) is not supported");
+  expect_error("G86 X1 Z-1 R1 F1\nM2\n", 1, "G86 (boring cycle with spindle stop) is not supported");
   expect_error("G93\nM2\n", 1, "G93 (inverse time feed) is not supported");
   expect_error("G38.2 Z-1 F1\nM2\n", 1, "G38.2 (probing) is not supported");
-  expect_error("M8\nM2\n", 1, "M8 (coolant) is not supported");
-  expect_error("T1 M6\nM2\n", 1, "T words (tool selection) are not supported");
   expect_error("G0 A1\nM2\n", 1, "A axis words are not supported");
   expect_error("G81 ^60\nM2\n", 1, "polar coordinates");
-  expect_error("M100\nM2\n", 1, "M100 (user-defined M code) is not supported");
+  expect_error("G10 L2 P1 R30\nM2\n", 1, "rotation of a coordinate system) is not supported");
+  expect_error("G10 L1 P1 Z1\nM2\n", 1, "G10 L1 (setting tool table data) is not supported");
+  expect_error("o<other> call\nM2\n", 1, "subroutine o<other> is not defined in this file");
+}
+
+// --- Words with no geometry, parameters, O-words, offsets, cycles --------------------------
+
+TEST(GcodeFeatures, WordsWithoutGeometryBecomeEvents) {
+  const Program p = read("G21 F100 G64 P0.2\nT2 M6\nG43 H2\nM8\nM52 P1\nM62 P3\nM67 E1 Q40\nM66 P1 L3 Q2\nM190 P2\n"
+                         "G1 X1\nG61\nG1 X2\nM9\nM2\n");
+  using K = ProgramEvent::Kind;
+  ASSERT_EQ(p.events.size(), 10u);
+  EXPECT_EQ(p.events[0].kind, K::tool_select);
+  EXPECT_EQ(p.events[0].number, 2);
+  EXPECT_EQ(p.events[1].kind, K::tool_change);
+  EXPECT_EQ(p.events[2].kind, K::tool_length_offset);
+  EXPECT_EQ(p.events[3].kind, K::coolant);
+  EXPECT_EQ(p.events[4].kind, K::feed_override);
+  EXPECT_EQ(p.events[5].kind, K::digital_output);
+  EXPECT_TRUE(p.events[5].synchronized);
+  EXPECT_EQ(p.events[6].kind, K::analog_output);
+  EXPECT_DOUBLE_EQ(p.events[6].value, 40);
+  EXPECT_EQ(p.events[7].kind, K::wait_input);
+  EXPECT_EQ(p.events[7].mode, 3);
+  EXPECT_EQ(p.events[8].kind, K::user_m_code);
+  EXPECT_EQ(p.events[8].number, 190);
+  EXPECT_EQ(p.events[8].before_move, 1u);  // after the torch_off of M6, before the first line
+  EXPECT_EQ(p.events[9].line, 13);
+  ASSERT_EQ(p.moves.size(), 3u);  // M6 stops the spindle, as LinuxCNC does
+  EXPECT_EQ(p.moves[0].kind, Move::Kind::torch_off);
+  EXPECT_EQ(p.moves[1].path_mode, Move::PathMode::blend);
+  EXPECT_NEAR(p.moves[1].path_tolerance_mm, 0.2, 1e-12);
+  EXPECT_EQ(p.moves[2].path_mode, Move::PathMode::exact_path);
+}
+
+TEST(GcodeFeatures, SpindleSelectorG80AndG94) {
+  GcodeOptions three;
+  three.spindle_count = 3;
+  const Program p = read("G21 F100\nM3 $1 S1\nG0 X1 G80\nM5 $-1\nM2\n", three);
+  ASSERT_EQ(p.moves.size(), 3u);
+  EXPECT_EQ(p.moves[0].spindle, 1);
+  EXPECT_EQ(p.moves[1].kind, Move::Kind::rapid);
+  EXPECT_EQ(p.moves[2].spindle, -1);
+  expect_error("M3 $1 S1\nM2\n", 1, "invalid spindle ($) number $1");
+  expect_error("G21 F100\nG94\nG1 X1\nM2\n", 3, "zero feed rate");
+}
+
+TEST(GcodeFeatures, ParametersAndExpressions) {
+  const Program p = read("#1=2 #<w>=[3*4] #<_g>=-1\nG0 X#1 Y#<w> Z#<_g>\n#1=5 #2=#1\nG0 X#2 Y[2**3 MOD 5] Z[-#1+ABS[-1]]\n"
+                         "G0 X[ATAN[1]/[1]] Y[ROUND[-2.5]] Z[1 LT 2 AND 3 GE 3]\nM2\n");
+  ASSERT_EQ(p.moves.size(), 3u);
+  expect_point(p.moves[0].end, 2, 12, -1);
+  expect_point(p.moves[1].end, 2, 3, -4);  // #2 took #1's value before the line set it
+  expect_point(p.moves[2].end, 45, -3, 1);
+  GcodeOptions given;
+  given.params["_hal[plasmac.cut-feed-rate]"] = 2500;
+  const Program q = read("F#<_HAL[plasmac.cut-feed-rate]>\nG1 X1\nM2\n", given);
+  EXPECT_DOUBLE_EQ(q.moves[0].feed_mm_per_min, 2500);
+  expect_error("F#<_hal[plasmac.cut-feed-rate]>\nM2\n", 1, "#<_hal[plasmac.cut-feed-rate]> has no value");
+  expect_error("G0 X[1/0]\nM2\n", 1, "divide by zero");
+  expect_error("G0 X[SQRT[-1]]\nM2\n", 1, "negative argument to SQRT");
+  expect_error("G0 X[ACOS[2]]\nM2\n", 1, "argument to ACOS out of range");
+  expect_error("G0 X[1+2\nM2\n", 1, "unclosed expression");
+  expect_error("G0 X[FOO[1]]\nM2\n", 1, "unknown function 'foo'");
+  expect_error("G0 X#<nope>\nM2\n", 1, "named parameter #<nope> not defined");
+  expect_error("G0 X#6000\nM2\n", 1, "out of range");
+  GcodeOptions wide;
+  wide.max_line_chars = 5000;
+  expect_error("G0 X" + std::string(1000, '[') + "1" + std::string(1000, ']') + "\nM2\n", 1, "nested more than 200 deep",
+               wide);
+  const Program deep = read("G0 X" + std::string(100, '[') + "1" + std::string(100, ']') + "\nM2\n", wide);
+  expect_point(deep.moves[0].end, 1, 0, 0);
+}
+
+TEST(GcodeFeatures, OWords) {
+  const Program p = read("F1\n#1=9\no1 call [2]\nG1 X#1 Y#<_value>\no2 repeat [2]\nG91 G1 X1\nG90\no2 endrepeat\n"
+                         "#3=0\no3 while [#3 LT 3]\n#3=[#3+1]\no4 if [#3 EQ 2]\no3 continue\no4 elseif [#3 EQ 3]\nG1 Y30\n"
+                         "o4 else\nG1 Y10\no4 endif\no3 endwhile\nM2\no1 sub\nG1 X#1\no1 return [#1*4]\no1 endsub\n");
+  ASSERT_EQ(p.moves.size(), 6u);
+  expect_point(p.moves[0].end, 2, 0, 0);
+  expect_point(p.moves[1].end, 9, 8, 0);  // #1 restored after the call; the return value
+  expect_point(p.moves[3].end, 11, 8, 0);
+  expect_point(p.moves[4].end, 11, 10, 0);
+  expect_point(p.moves[5].end, 11, 30, 0);
+  GcodeOptions small;
+  small.max_executed_lines = 1000;
+  expect_error("o1 while [1]\no1 endwhile\nM2\n", 1, "more than 1000 lines executed", small);
+  expect_error("o1 while [0]\nM2\n", 1, "never closed");
+  expect_error("o1 endwhile\nM2\n", 1, "with no matching opening line");
+  expect_error("o1 sub\no1 call\no1 endsub\no1 call\nM2\n", 2, "nested deeper than 50");
+}
+
+TEST(GcodeFeatures, WorkOffsetsInMachineCoordinates) {
+  const Program p = read("G10 L2 P2 X100 Y50\nG55 G0 X1 Y1\nG92 X0 Y0\nG0 X2\nG53 G0 X5 Y5\nG92.1\nG10 L20 P0 X0\nG0 X0\n"
+                         "G54 G0 X0 Y0\nG20 G10 L2 P3 X1\nG56 G0 X0\nM2\n");
+  ASSERT_EQ(p.moves.size(), 6u);
+  expect_point(p.moves[0].end, 101, 51, 0);
+  expect_point(p.moves[1].end, 103, 51, 0);  // G92 made (101, 51) the zero
+  expect_point(p.moves[2].end, 5, 5, 0);     // G53: machine coordinates
+  expect_point(p.moves[3].end, 5, 5, 0);     // G10 L20 P0 X0: here is X0
+  expect_point(p.moves[4].end, 0, 0, 0);
+  expect_point(p.moves[5].end, 25.4, 0, 0);
+}
+
+TEST(GcodeFeatures, ArcsInOtherPlanesAndDrillingCycles) {
+  const Program p = read("G21 F100\nG18 G2 X10 Z0 I5 K0\nG17 G0 Z5\nG81 X1 Y1 Z-2 R1\nG80\nM2\n");
+  ASSERT_EQ(p.moves.size(), 6u);
+  EXPECT_EQ(p.moves[0].plane, Move::Plane::xz);
+  EXPECT_NEAR(p.moves[0].center.x(), 0, 1e-12);   // (z, x) order, as LinuxCNC's ARC_FEED
+  EXPECT_NEAR(p.moves[0].center.y(), 5, 1e-12);
+  expect_point(p.moves[2].end, 1, 1, 5);  // rapid over the hole, down to R, feed, back to R
+  expect_point(p.moves[3].end, 1, 1, 1);
+  EXPECT_EQ(p.moves[4].kind, Move::Kind::line);
+  expect_point(p.moves[4].end, 1, 1, -2);
+  expect_point(p.moves[5].end, 1, 1, 1);
+}
+
+TEST(GcodeFeatures, LenientEndWarns) {
+  GcodeOptions lenient;
+  lenient.require_program_end = false;
+  const Program p = read("G0 X1\n", lenient);
+  ASSERT_EQ(p.warnings.size(), 1u);
+  EXPECT_NE(p.warnings[0].find("no end"), std::string::npos);
 }
 
 // --- LinuxCNC's errors ------------------------------------------------------------------
@@ -200,14 +312,14 @@ TEST(GcodeErrors, WordsAndCodes) {
   expect_error("M3.5\nM2\n", 1, "M code M3.5 is not an integer");
   expect_error("G0 N10 X1\nM2\n", 1, "N word (line number) is only allowed at the start of a line");
   expect_error("G0 X1 @\nM2\n", 1, "polar coordinates");
-  expect_error("G0 X1 $\nM2\n", 1, "bad character '$'");
+  expect_error("G0 X1 $\nM2\n", 1, "a value is missing");
   expect_error("G0 X1%\nM2\n", 1, "'%' is only allowed");
 }
 
 TEST(GcodeErrors, Numbers) {
-  expect_error("G1 X1e400 F1\nM2\n", 1, "E words are not supported");
+  expect_error("G1 X1e400 F1\nM2\n", 1, "E word with no M66, M67 or M68");
   expect_error("G0 X\nM2\n", 1, "X word without a value");
-  expect_error("G0 X-\nM2\n", 1, "X word without a number");
+  expect_error("G0 X-\nM2\n", 1, "a value is missing");
   expect_error("G0 X1.2.3\nM2\n", 1, "more than one decimal point");
   expect_error("G0 X--1\nM2\n", 1, "repeated sign");
   expect_error("G0 X1" + std::string(20, '0') + "\nM2\n", 1, "larger than 1e+09");
@@ -228,8 +340,8 @@ TEST(GcodeErrors, FeedAndSpeed) {
 }
 
 TEST(GcodeErrors, Arcs) {
-  expect_error("F1\nG2 X2 R1 I1\nM2\n", 2, "mixed radius (R) and centre (I, J) format");
-  expect_error("F1\nG2 X1\nM2\n", 2, "R, I and J words all missing for an arc");
+  expect_error("F1\nG2 X2 R1 I1\nM2\n", 2, "mixed radius (R) and centre (I, J, K) format");
+  expect_error("F1\nG2 X1\nM2\n", 2, "R, I, J and K words all missing for an arc");
   expect_error("F1\nG2 X0 I1 K1\nM2\n", 2, "K word given for an arc in the XY plane");
   expect_error("F1\nG2 X3 R1\nM2\n", 2, "too small to reach end point");
   expect_error("F1\nG2 X0 Y0 R1\nM2\n", 2, "current point same as end point of arc");
@@ -239,8 +351,8 @@ TEST(GcodeErrors, Arcs) {
   expect_error("F1\nG2 X0 I1 P1.5\nM2\n", 2, "P word on G2/G3 is not an integer");
   expect_error("F1\nG2 X0 I1 P20000\nM2\n", 2, "more than 10000 turns");
   expect_error("F1\nG1 X1 I1\nM2\n", 2, "I word with no G2 or G3 to use it");
-  expect_error("F1\nG1 X1 R1\nM2\n", 2, "R word with no G2 or G3 to use it");
-  expect_error("F1\nG1 X1 P1\nM2\n", 2, "P word with no G2, G3 or G4 to use it");
+  expect_error("F1\nG1 X1 R1\nM2\n", 2, "R word with no G2, G3, G10 or canned cycle to use it");
+  expect_error("F1\nG1 X1 P1\nM2\n", 2, "P word with no code that uses it");
 }
 
 TEST(GcodeErrors, ArcEndRadiusTolerance) {

@@ -1,0 +1,56 @@
+// The G-code reader's flags, shared by `machplan program` and `machplan run`:
+//   --param NAME=VALUE   a value for a named parameter the program reads but does not set
+//                        (QtPlasmaC's _hal[plasmac.cut-feed-rate], _ini[...]); repeatable
+//   --spindles N         spindles the machine has ($0 .. $N-1; QtPlasmaC: 3)
+//   --lenient            accept a program with no M2 / M30 / closing % (with a warning)
+#pragma once
+
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "engine/common/error.h"
+#include "engine/programs/gcode.h"
+
+namespace machplan::cli {
+
+inline void add_gcode_options(CLI::App& cmd, std::vector<std::string>& params, int& spindles, bool& lenient) {
+  cmd.add_option("--param", params,
+                 "NAME=VALUE: value of a named parameter the program reads, e.g. "
+                 "'_hal[plasmac.cut-feed-rate]=2500' (repeat for more)");
+  cmd.add_option("--spindles", spindles, "spindles the machine has: $0 .. $N-1 (default 1, as LinuxCNC)")
+      ->check(CLI::Range(1, 100));
+  cmd.add_flag("--lenient", lenient, "accept a program with no M2, M30 or closing % (warns)");
+}
+
+// Builds the reader's options; throws InputError("--param", 0, ...) on a malformed NAME=VALUE.
+inline GcodeOptions gcode_options(const std::vector<std::string>& params, int spindles, bool lenient) {
+  GcodeOptions o;
+  o.spindle_count = spindles;
+  o.require_program_end = !lenient;
+  for (const std::string& p : params) {
+    const auto eq = p.rfind('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == p.size())
+      throw InputError("--param", 0, fmt::format("'{}' is not NAME=VALUE", p));
+    std::string name = p.substr(0, eq);
+    if (name.size() > 2 && name[0] == '#' && name[1] == '<' && name.back() == '>')
+      name = name.substr(2, name.size() - 3);
+    const std::string text = p.substr(eq + 1);
+    std::size_t used = 0;
+    double v = NAN;
+    try {
+      v = std::stod(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != text.size() || !std::isfinite(v))
+      throw InputError("--param", 0, fmt::format("'{}': the value '{}' is not a number", p, text));
+    o.params[name] = v;
+  }
+  return o;
+}
+
+}  // namespace machplan::cli
