@@ -1,5 +1,6 @@
 // `machplan program FILE.ngc [--json]`: interprets a G-code part program and prints its moves
 // (--json) or a readable summary.
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -9,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/output.h"
 #include "engine/programs/gcode.h"
 
 namespace {
@@ -55,14 +57,15 @@ nlohmann::json to_json(const machplan::Program& program) {
 
 void print_summary(const machplan::Program& program, double rapid_mm_per_min) {
   const auto s = machplan::summarize(program, rapid_mm_per_min);
-  const int minutes = static_cast<int>(s.estimated_seconds / 60.0);
+  // Whole minutes as a double: a long program's time does not fit an int.
+  const double minutes = std::floor(s.estimated_seconds / 60.0);
   std::cout << fmt::format(
       "program {}\n"
       "  moves:          {} total: {} rapid, {} line, {} arc, {} dwell, {} torch on\n"
       "  rapid length:   {:.1f} mm\n"
       "  feed length:    {:.1f} mm\n"
       "  bounding box:   X {:.3f} .. {:.3f}  Y {:.3f} .. {:.3f}  Z {:.3f} .. {:.3f} mm\n"
-      "  estimated time: {:.1f} s ({}:{:04.1f} min; rapids at {:g} mm/min, feeds at F, dwells)\n",
+      "  estimated time: {:.1f} s ({:.0f}:{:04.1f} min; rapids at {:g} mm/min, feeds at F, dwells)\n",
       program.source, program.moves.size(), s.rapid_count, s.line_count, s.arc_count, s.dwell_count,
       s.torch_on_count, s.rapid_length_mm, s.feed_length_mm, s.min.x(), s.max.x(), s.min.y(), s.max.y(),
       s.min.z(), s.max.z(), s.estimated_seconds, minutes, s.estimated_seconds - 60.0 * minutes, rapid_mm_per_min);
@@ -79,10 +82,10 @@ void add_program(CLI::App& app) {
   cmd->add_option("file", args->file, "G-code file (.ngc)")->required();
   cmd->add_flag("--json", args->json, "Print the canonical moves as JSON (mm, absolute)");
   cmd->add_option("--rapid-mm-per-min", args->rapid_mm_per_min, "Rapid rate for the time estimate")
-      ->check(CLI::PositiveNumber);
+      ->check(machplan::cli::kFinitePositive);
   cmd->callback([args] {
     const machplan::Program program = machplan::read_gcode_file(args->file);
-    if (args->json) std::cout << to_json(program).dump() << "\n";
+    if (args->json) std::cout << machplan::cli::json_text(to_json(program)) << "\n";
     else print_summary(program, args->rapid_mm_per_min);
   });
 }

@@ -8,6 +8,7 @@
 #include <limits>
 #include <filesystem>
 #include <system_error>
+#include <utility>
 
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
@@ -408,11 +409,22 @@ std::string lower_extension(const std::string& path) {
 
 }  // namespace
 
+void ToolPathReadOptions::validate() const {
+  const std::pair<const char*, std::size_t> limits[] = {{"max_poses", max_poses},
+                                                        {"max_line_bytes", max_line_bytes},
+                                                        {"max_statement_bytes", max_statement_bytes},
+                                                        {"max_file_bytes", max_file_bytes}};
+  for (const auto& [name, value] : limits)
+    if (value == 0) throw InputError(fmt::format("ToolPathReadOptions::{}", name), 0, "is 0; it must be positive");
+}
+
 ToolPath read_apt(std::string_view text, const std::string& source, const ToolPathReadOptions& options) {
+  options.validate();
   return AptReader(source, options).read(text);
 }
 
 ToolPath read_toolpath_csv(std::string_view text, const std::string& source, const ToolPathReadOptions& options) {
+  options.validate();
   return CsvReader(source, options).read(text);
 }
 
@@ -438,6 +450,7 @@ ToolPath read_toolpath(std::string_view text, const std::string& source, const T
 }
 
 ToolPath read_toolpath_file(const std::string& path, const ToolPathReadOptions& options) {
+  options.validate();
   const std::string text = read_text_file(path, options.max_file_bytes);
   const std::string ext = lower_extension(path);
   if (ext == ".cl" || ext == ".apt" || ext == ".cls") return read_apt(text, path, options);

@@ -95,6 +95,9 @@ struct ToolPathReadOptions {
   std::size_t max_statement_bytes = 1024 * 1024;
   // Largest file read by read_toolpath_file.
   std::size_t max_file_bytes = std::size_t{512} << 20;
+
+  // Every limit must be positive; throws InputError naming the field. The readers call it.
+  void validate() const;
 };
 
 enum class ToolPathFormat { apt, csv };

@@ -105,11 +105,17 @@ struct Checker::ScanSettings {
   unsigned all_mask = 0;
 };
 
+void validate_rotation_deg(double rotation_deg, const char* flag) {
+  if (!std::isfinite(rotation_deg) || std::abs(rotation_deg) > 360.0)
+    throw InputError(flag, 0, fmt::format("rotation {} deg: must be a finite angle within -360 .. 360", rotation_deg));
+}
+
 Checker::Checker(const Scene& scene, double rotation_deg)
     : scene_(scene),
       rotation_deg_(rotation_deg),
       workpiece_shape_(interference::Shape::sphere(1.0)),
       workpiece_box_shape_(interference::Shape::sphere(1.0)) {
+  validate_rotation_deg(rotation_deg, "--rotation");  // NaN would reach Eigen's solvers
   const hexam::Machine& m = scene.machine;
   const Eigen::Matrix3d Rz = Eigen::AngleAxisd(rotation_deg * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const std::size_t n = scene.tips_mm.size();

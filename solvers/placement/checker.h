@@ -89,6 +89,9 @@ struct CheckReport {
 
 enum class Decision { feasible, infeasible, unknown };
 
+// A workpiece rotation about z: finite and within +-360 deg, else InputError naming `flag`.
+void validate_rotation_deg(double rotation_deg, const char* flag);
+
 class Checker {
  public:
   explicit Checker(const Scene& scene, double rotation_deg = 0.0);

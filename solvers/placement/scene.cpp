@@ -87,6 +87,7 @@ Scene load_scene(const std::string& path) {
   Mesh mesh;
   if (const auto m = w.get("mesh")) {
     const std::string file = root.resolve_path(m->string());
+    s.workpiece_file = file;
     MeshReport report;
     mesh = read_stl(file, &report);
     if (!report.closed)

@@ -55,6 +55,7 @@ struct Scene {
   hexam::Tooling tooling;
   double safe_distance_mm = 5.0;
   std::string toolpath_file;
+  std::string workpiece_file;  // the STL, when the workpiece is a mesh; empty for a box
   std::vector<Eigen::Vector3d> tips_mm;  // workpiece frame
   std::vector<Eigen::Vector3d> axes;     // unit
   // Workpiece solid in its own frame.
