@@ -30,4 +30,12 @@ struct Registration {
 
 void set_exit_code(int code);
 
+// Number checks for options, applied at parse time (so a bad value exits 2 naming the flag).
+// CLI11's own PositiveNumber lets NaN through (NaN <= 0 is false); these refuse NaN and
+// infinities by name.
+CLI::Validator finite_number(double min, bool min_exclusive);
+inline const CLI::Validator kFinite = finite_number(-1e300, false);
+inline const CLI::Validator kFinitePositive = finite_number(0.0, true);
+inline const CLI::Validator kFiniteNonNegative = finite_number(0.0, false);
+
 }  // namespace machplan::cli

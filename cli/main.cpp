@@ -1,7 +1,12 @@
 // The `machplan` command: parses arguments, hands them to engine/solvers, prints. Nothing else.
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <iostream>
 #include <vector>
 
 #include "cli/command.h"
@@ -30,7 +35,38 @@ void set_exit_code(int code) { g_exit_code = code; }
 
 }  // namespace machplan::cli
 
-int main(int argc, char** argv) {
+namespace {
+
+// Every command writes its results to stdout (printf or std::cout, which share the stdio
+// buffer); an error on any of those writes sticks to the stream. Checked once, here, so that a
+// full disk or a closed pipe is exit 1 with the reason instead of a silent success.
+int check_stdout(int code) {
+  std::cout.flush();
+  errno = 0;
+  const bool flushed = std::fflush(stdout) == 0;
+  int err = errno;
+  if (flushed && !std::ferror(stdout) && std::cout.good()) return code;
+  if (err == 0) {
+    // The failed write happened earlier, inside a printf, and its errno is gone. The output is
+    // already incomplete; one more byte written directly finds the reason again (a full disk,
+    // an I/O error).
+    errno = 0;
+    if (::write(STDOUT_FILENO, "\n", 1) < 0) err = errno;
+  }
+  std::fprintf(stderr, "machplan: cannot write the output to standard output: %s; the output is incomplete\n",
+               err != 0 ? std::strerror(err) : "write error");
+  return code == 0 ? 1 : code;
+}
+
+int run(int argc, char** argv);
+
+}  // namespace
+
+int main(int argc, char** argv) { return check_stdout(run(argc, argv)); }
+
+namespace {
+
+int run(int argc, char** argv) {
   using namespace machplan;
   CLI::App app{
       "machplan: planning engine and runtime for machine tools.\n"
@@ -60,3 +96,5 @@ int main(int argc, char** argv) {
   }
   return cli::g_exit_code;
 }
+
+}  // namespace

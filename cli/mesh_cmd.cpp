@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/output.h"
 #include "engine/programs/mesh.h"
 
 namespace {
@@ -21,9 +22,11 @@ void add_mesh(CLI::App& app) {
   cmd->add_option("FILE", args->file, "STL file")->required();
   cmd->add_flag("--json", args->json, "print the report as JSON");
   cmd->add_option("--scale", args->options.scale_to_mm, "millimetres per file unit (25.4 for inches)")
+      ->check(machplan::cli::kFinitePositive)
       ->capture_default_str();
   cmd->add_option("--weld-tolerance", args->options.weld_tolerance_mm,
                   "merge vertices closer than this, mm (0: identical only)")
+      ->check(machplan::cli::kFiniteNonNegative)
       ->capture_default_str();
   cmd->callback([args] {
     machplan::MeshReport r;
@@ -48,7 +51,7 @@ void add_mesh(CLI::App& app) {
       }
       j["min_mm"] = {r.bounds.min().x(), r.bounds.min().y(), r.bounds.min().z()};
       j["max_mm"] = {r.bounds.max().x(), r.bounds.max().y(), r.bounds.max().z()};
-      std::printf("%s\n", j.dump(2).c_str());
+      std::printf("%s\n", machplan::cli::json_text(j, 2).c_str());
       return;
     }
     std::printf("%s:\n%s", args->file.c_str(), r.brief().c_str());

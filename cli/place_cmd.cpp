@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/output.h"
 #include "engine/common/error.h"
 #include "solvers/placement/plot.h"
 #include "solvers/placement/search.h"
@@ -18,6 +19,10 @@ namespace {
 using namespace machplan::placement;
 
 std::atomic<bool> g_interrupted{false};
+
+// No machine table or pad reaches 100 m; larger values are typing errors, and their squares
+// overflow the geometry.
+constexpr double kMaxPlacementMm = 1e5;
 
 double finite_or(double v, double big = 1e9) { return std::isfinite(v) ? v : big; }
 
@@ -101,10 +106,14 @@ void add_place(CLI::App& app) {
   cmd->add_flag("--json", o->json, "machine-readable output");
   cmd->add_flag("--dense-check", o->verify, "also re-check the answer at every pose and every 0.5 mm (slow)");
   cmd->callback([o] {
-    const Scene scene = load_scene(o->scene);
     PlacementOptions po;
     po.strategy = o->strategy == "paper" ? PlacementOptions::Strategy::paper : PlacementOptions::Strategy::optimal;
     po.rotations_deg = parse_list(o->rotations, "--rotations", 0);
+    po.validate();
+    check_output_folder("--plot", o->plot);
+    refuse_overwriting_input("--plot", o->plot, {o->scene});
+    const Scene scene = load_scene(o->scene);
+    refuse_overwriting_input("--plot", o->plot, {scene.toolpath_file, scene.workpiece_file});
     std::signal(SIGINT, [](int) { g_interrupted = true; });
     po.should_stop = [] { return g_interrupted.load(); };
     const PlacementResult r = place(scene, po);
@@ -131,7 +140,7 @@ void add_place(CLI::App& app) {
         j["trail"] = t;
       }
       if (!o->plot.empty()) j["plot"] = o->plot;
-      std::printf("%s\n", j.dump(2).c_str());
+      std::printf("%s\n", machplan::cli::json_text(j, 2).c_str());
     } else {
       std::printf("machplan place %s (strategy %s, %zu tool poses, safe distance %.1f mm)\n", o->scene.c_str(),
                   o->strategy.c_str(), scene.tips_mm.size(), scene.safe_distance_mm);
@@ -172,12 +181,16 @@ void add_check(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   cmd->add_option("SCENE", o->scene, "scene YAML")->required();
   cmd->add_option("--at", o->at, "placement X,Y,PAD in mm")->required();
-  cmd->add_option("--rotation", o->rotation, "workpiece rotation about z, degrees");
+  cmd->add_option("--rotation", o->rotation, "workpiece rotation about z, degrees")->check(kFinite);
   cmd->add_flag("--json", o->json, "machine-readable output");
   cmd->add_flag("--dense", o->dense, "brute-force re-check at every pose and every 0.5 mm (slow)");
   cmd->callback([o] {
     const auto v = parse_list(o->at, "--at", 3);
     if (v[2] < 0) throw InputError("--at", 0, fmt::format("pad height must not be negative, got {}", v[2]));
+    for (const double c : v)
+      if (std::abs(c) > kMaxPlacementMm)
+        throw InputError("--at", 0, fmt::format("{} mm is beyond the {} mm any table or pad can reach", c, kMaxPlacementMm));
+    validate_rotation_deg(o->rotation, "--rotation");
     const Scene scene = load_scene(o->scene);
     Checker checker(scene, o->rotation);
     const Placement p{v[0], v[1], v[2], o->rotation};
@@ -189,7 +202,7 @@ void add_check(CLI::App& app) {
       j["on_table"] = on_table;
       j["checks"] = counts_json(checker.counts(), scene.tips_mm.size());
       j["method"] = o->dense ? "dense" : "certified";
-      std::printf("%s\n", j.dump(2).c_str());
+      std::printf("%s\n", machplan::cli::json_text(j, 2).c_str());
     } else {
       std::printf("machplan check %s at x %.2f, y %.2f, pad %.1f mm: %s\n", o->scene.c_str(), p.x_mm, p.y_mm, p.pad_mm,
                   r.free() && on_table ? "FREE" : "INTERFERENCE");

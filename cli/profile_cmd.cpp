@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/output.h"
 #include "engine/common/error.h"
 #include "engine/programs/dxf.h"
 
@@ -98,7 +99,7 @@ void add_profile(CLI::App& app) {
     }
     const auto result = machplan::read_dxf_profile(*file, options);
     if (*json_out)
-      std::printf("%s\n", to_json(result).dump(2).c_str());
+      std::printf("%s\n", machplan::cli::json_text(to_json(result), 2).c_str());
     else
       std::fputs(result.report().c_str(), stdout);
     if (result.has_errors()) {

@@ -1,6 +1,7 @@
 // `machplan program FILE.ngc [--json] [--param NAME=VALUE]... [--spindles N] [--lenient]`:
 // interprets a G-code part program and prints its moves (--json, machine coordinates: the
 // program's work offsets applied) or a readable summary. Warnings go to stderr.
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -12,6 +13,7 @@
 
 #include "cli/command.h"
 #include "cli/gcode_flags.h"
+#include "cli/output.h"
 #include "engine/programs/gcode.h"
 
 namespace {
@@ -76,14 +78,15 @@ nlohmann::json to_json(const machplan::Program& program) {
 
 void print_summary(const machplan::Program& program, double rapid_mm_per_min) {
   const auto s = machplan::summarize(program, rapid_mm_per_min);
-  const int minutes = static_cast<int>(s.estimated_seconds / 60.0);
+  // Whole minutes as a double: a long program's time does not fit an int.
+  const double minutes = std::floor(s.estimated_seconds / 60.0);
   std::cout << fmt::format(
       "program {}\n"
       "  moves:          {} total: {} rapid, {} line, {} arc, {} dwell, {} torch on\n"
       "  rapid length:   {:.1f} mm\n"
       "  feed length:    {:.1f} mm\n"
       "  bounding box:   X {:.3f} .. {:.3f}  Y {:.3f} .. {:.3f}  Z {:.3f} .. {:.3f} mm\n"
-      "  estimated time: {:.1f} s ({}:{:04.1f} min; rapids at {:g} mm/min, feeds at F, dwells)\n"
+      "  estimated time: {:.1f} s ({:.0f}:{:04.1f} min; rapids at {:g} mm/min, feeds at F, dwells)\n"
       "  other words:    {} kept (tool, coolant, outputs, waits, user M codes)\n",
       program.source, program.moves.size(), s.rapid_count, s.line_count, s.arc_count, s.dwell_count,
       s.torch_on_count, s.rapid_length_mm, s.feed_length_mm, s.min.x(), s.max.x(), s.min.y(), s.max.y(),
@@ -105,13 +108,13 @@ void add_program(CLI::App& app) {
   cmd->add_option("file", args->file, "G-code file (.ngc)")->required();
   cmd->add_flag("--json", args->json, "Print the canonical moves as JSON (mm, absolute)");
   cmd->add_option("--rapid-mm-per-min", args->rapid_mm_per_min, "Rapid rate for the time estimate")
-      ->check(CLI::PositiveNumber);
+      ->check(machplan::cli::kFinitePositive);
   add_gcode_options(*cmd, args->params, args->spindles, args->lenient);
   cmd->callback([args] {
     const machplan::Program program =
         machplan::read_gcode_file(args->file, gcode_options(args->params, args->spindles, args->lenient));
     for (const std::string& w : program.warnings) std::cerr << "warning: " << w << "\n";
-    if (args->json) std::cout << to_json(program).dump() << "\n";
+    if (args->json) std::cout << machplan::cli::json_text(to_json(program)) << "\n";
     else print_summary(program, args->rapid_mm_per_min);
   });
 }

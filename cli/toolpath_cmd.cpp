@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/output.h"
 #include "engine/programs/toolpath.h"
 
 namespace {
@@ -50,7 +51,7 @@ void add_toolpath(CLI::App& app) {
                        {"length_mm", path.cutter->length_mm}};
       else
         j["cutter"] = nullptr;
-      std::printf("%s\n", j.dump(2).c_str());
+      std::printf("%s\n", machplan::cli::json_text(j, 2).c_str());
       return;
     }
     std::string out = fmt::format("{}: {} poses ({} rapid){}\n", path.source, s.poses, s.rapid_poses,

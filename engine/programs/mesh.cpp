@@ -6,11 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <iterator>
 #include <unordered_map>
-
-#include <assimp/Importer.hpp>
-#include <assimp/scene.h>
 
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
@@ -26,7 +22,7 @@ constexpr std::size_t kBinaryHeaderBytes = 84;
 constexpr std::size_t kBinaryRecordBytes = 50;
 
 // ---------------------------------------------------------------------------------------------
-// Our own check of the STL structure, before assimp sees the bytes.
+// Reading: one pass that checks the structure and collects the corners.
 
 bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
 
@@ -51,52 +47,44 @@ class AsciiScanner {
   AsciiScanner(std::string_view text, const std::string& source, std::size_t max_triangles)
       : text_(text), source_(source), max_triangles_(max_triangles) {}
 
-  // Returns the number of facets; throws InputError at the first break in the structure.
-  // Fills canonical() with the same facets in assimp's safest layout.
-  std::size_t scan() {
-    out_.reserve(text_.size());
+  // Appends three corners per facet to `corners` (file units); throws InputError at the first
+  // break in the structure.
+  void scan(std::vector<Eigen::Vector3d>& corners) {
     std::string_view tok;
     if (!next(tok) || !iequals(tok, "solid")) fail("expected 'solid' at the start of an ASCII STL");
     skip_rest_of_line();
-    out_ += "solid\n";
     std::size_t facets = 0;
     while (true) {
       if (!next(tok)) fail(line_, "the file ends before 'endsolid'");
       if (iequals(tok, "endsolid")) {
         skip_rest_of_line();
-        out_ += "endsolid\n";
         if (!next(tok)) break;  // end of file: done
         if (!iequals(tok, "solid")) fail(tok_line_, fmt::format("expected 'solid' or the end of the file, found '{}'", printable(tok)));
         skip_rest_of_line();
-        out_ += "solid\n";
         continue;
       }
       if (!iequals(tok, "facet")) fail(tok_line_, fmt::format("expected 'facet' or 'endsolid', found '{}'", printable(tok)));
       if (++facets > max_triangles_)
         fail(tok_line_, fmt::format("more than {} triangles (StlReadOptions::max_triangles)", max_triangles_));
       expect("normal");
-      out_ += "facet normal";
-      numbers(3);
+      number();  // the stored normal is checked for form and ignored
+      number();
+      number();
       expect("outer");
       expect("loop");
-      out_ += "outer loop\n";
       for (int v = 0; v < 3; ++v) {
         expect("vertex");
-        out_ += "vertex";
-        numbers(3);
+        const double x = number(), y = number(), z = number();
+        corners.emplace_back(x, y, z);
       }
       if (!next(tok)) fail(line_, "the file ends inside a facet");
       if (iequals(tok, "vertex"))
         fail(tok_line_, "facet with more than three vertices; only triangles are supported");
       if (!iequals(tok, "endloop")) fail(tok_line_, fmt::format("expected 'endloop', found '{}'", printable(tok)));
       expect("endfacet");
-      out_ += "endloop\nendfacet\n";
     }
     if (facets == 0) fail(0, "ASCII STL holds no facet");
-    return facets;
   }
-
-  std::string& canonical() { return out_; }
 
  private:
   [[noreturn]] void fail(int line, const std::string& message) const { throw InputError(source_, line, message); }
@@ -125,29 +113,25 @@ class AsciiScanner {
     if (!iequals(tok, word)) fail(tok_line_, fmt::format("expected '{}', found '{}'", word, printable(tok)));
   }
 
-  void numbers(int count) {
-    for (int k = 0; k < count; ++k) {
-      std::string_view tok;
-      if (!next(tok)) fail(line_, "the file ends where a number was expected");
-      std::string_view s = tok;
-      if (!s.empty() && s.front() == '+') s.remove_prefix(1);
-      double value = 0.0;
-      const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
-      if (s.empty() || ec == std::errc::invalid_argument || end != s.data() + s.size())
-        fail(tok_line_, fmt::format("expected a number, found '{}'", printable(tok)));
-      if (ec == std::errc::result_out_of_range || !std::isfinite(value) || std::abs(value) > 3.4e38)
-        fail(tok_line_, fmt::format("number '{}' is out of range or not finite", printable(tok)));
-      // Shortest round-trip form: digits, '.', 'e' and signs only, which assimp's fast_atof
-      // reads without surprises (it misreads integer parts beyond 19 digits, for one).
-      fmt::format_to(std::back_inserter(out_), " {}", value);
-    }
-    out_.push_back('\n');
+  // STL numbers are single precision: beyond float's range a value is refused, not rounded
+  // to infinity.
+  double number() {
+    std::string_view tok;
+    if (!next(tok)) fail(line_, "the file ends where a number was expected");
+    std::string_view s = tok;
+    if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+    double value = 0.0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
+    if (s.empty() || ec == std::errc::invalid_argument || end != s.data() + s.size())
+      fail(tok_line_, fmt::format("expected a number, found '{}'", printable(tok)));
+    if (ec == std::errc::result_out_of_range || !std::isfinite(value) || std::abs(value) > 3.4e38)
+      fail(tok_line_, fmt::format("number '{}' is out of range or not finite", printable(tok)));
+    return value;
   }
 
   std::string_view text_;
   const std::string& source_;
   std::size_t max_triangles_;
-  std::string out_;
   std::size_t pos_ = 0;
   int line_ = 1;
   int tok_line_ = 1;
@@ -165,8 +149,10 @@ float read_f32_le(const char* p) {
   return f;
 }
 
-// Returns the declared triangle count after checking it against the size and the values.
-std::size_t check_binary(std::string_view bytes, const std::string& source, std::size_t max_triangles) {
+// Checks the declared triangle count against the size and appends three corners per triangle
+// (file units) to `corners`.
+void read_binary(std::string_view bytes, const std::string& source, std::size_t max_triangles,
+                 std::vector<Eigen::Vector3d>& corners) {
   if (bytes.size() < kBinaryHeaderBytes)
     throw InputError(source, 0, fmt::format("not an STL file: {} bytes, too short for a binary STL (84-byte header) "
                                             "and not text starting with 'solid'",
@@ -186,13 +172,16 @@ std::size_t check_binary(std::string_view bytes, const std::string& source, std:
                      fmt::format("binary STL holds {} triangles, more than the limit of {} "
                                  "(StlReadOptions::max_triangles)",
                                  declared, max_triangles));
+  corners.reserve(corners.size() + 3 * declared);
   for (std::size_t t = 0; t < declared; ++t) {
     const char* rec = bytes.data() + kBinaryHeaderBytes + t * kBinaryRecordBytes;
-    for (int k = 3; k < 12; ++k)  // the three vertices; the stored normal is ignored
-      if (!std::isfinite(read_f32_le(rec + 4 * k)))
+    for (int k = 3; k < 12; k += 3) {  // the three vertices; the stored normal is ignored
+      const Eigen::Vector3d p(read_f32_le(rec + 4 * k), read_f32_le(rec + 4 * k + 4), read_f32_le(rec + 4 * k + 8));
+      if (!p.allFinite())
         throw InputError(source, 0, fmt::format("binary STL triangle {} has a non-finite coordinate", t + 1));
+      corners.push_back(p);
+    }
   }
-  return declared;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -226,43 +215,61 @@ Mesh weld(const std::vector<Eigen::Vector3d>& corners, double tolerance_mm) {
   mesh.triangles.resize(corners.size() / 3);
   std::vector<int> index(corners.size());
   using Key = std::array<std::int64_t, 3>;
+  // A corner seen before (bit for bit) takes the vertex it was given: identical corners always
+  // share a vertex, whatever was created between them.
+  std::unordered_map<Key, int, KeyHash> seen;
+  seen.reserve(corners.size() / 2 + 1);
+  // With a tolerance, a grid of cells `tolerance` wide: any vertex within the tolerance of a
+  // corner lies in the corner's own cell or one of the 26 around it. A cell holds every vertex
+  // created in it (a chain through `next_in_cell`), not only the first: two vertices of one
+  // cell can be up to sqrt(3) tolerances apart.
   std::unordered_map<Key, int, KeyHash> cells;
-  cells.reserve(corners.size() / 2 + 1);
+  std::vector<int> next_in_cell;
+  const double limit = 1e15;
 
-  if (tolerance_mm == 0.0) {
-    for (std::size_t c = 0; c < corners.size(); ++c) {
-      const Eigen::Vector3d& p = corners[c];
-      const Key key{bits_of(p.x()), bits_of(p.y()), bits_of(p.z())};
-      const auto [it, inserted] = cells.try_emplace(key, static_cast<int>(mesh.vertices.size()));
-      if (inserted) mesh.vertices.push_back(p);
-      index[c] = it->second;
+  for (std::size_t c = 0; c < corners.size(); ++c) {
+    const Eigen::Vector3d& p = corners[c];
+    const auto [exact, first_time] =
+        seen.try_emplace(Key{bits_of(p.x()), bits_of(p.y()), bits_of(p.z())}, -1);
+    if (!first_time) {
+      index[c] = exact->second;
+      continue;
     }
-  } else {
-    // Grid of cells `tolerance` wide; a new corner looks for a vertex within the tolerance in
-    // its own and the 26 neighbouring cells. One vertex is stored per cell (the first).
-    const double limit = 1e15;
-    for (std::size_t c = 0; c < corners.size(); ++c) {
-      const Eigen::Vector3d& p = corners[c];
+    int found = -1;
+    if (tolerance_mm > 0.0) {
       const Eigen::Vector3d q = p / tolerance_mm;
       if (!(q.cwiseAbs().maxCoeff() < limit))
         throw InputError("", 0, fmt::format("weld tolerance {} mm is too small for coordinate magnitude {}",
                                             tolerance_mm, p.cwiseAbs().maxCoeff()));
       const Key key{static_cast<std::int64_t>(std::floor(q.x())), static_cast<std::int64_t>(std::floor(q.y())),
                     static_cast<std::int64_t>(std::floor(q.z()))};
-      int found = -1;
-      for (int dx = -1; dx <= 1 && found < 0; ++dx)
-        for (int dy = -1; dy <= 1 && found < 0; ++dy)
-          for (int dz = -1; dz <= 1 && found < 0; ++dz) {
+      // The nearest vertex within the tolerance, so that the answer does not depend on the
+      // order the cells are visited in.
+      double best = tolerance_mm;
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
             const auto it = cells.find({key[0] + dx, key[1] + dy, key[2] + dz});
-            if (it != cells.end() && (mesh.vertices[it->second] - p).norm() <= tolerance_mm) found = it->second;
+            if (it == cells.end()) continue;
+            for (int v = it->second; v >= 0; v = next_in_cell[v]) {
+              const double d = (mesh.vertices[v] - p).norm();
+              if (d <= best) {
+                best = d;
+                found = v;
+              }
+            }
           }
       if (found < 0) {
         found = static_cast<int>(mesh.vertices.size());
-        mesh.vertices.push_back(p);
-        cells.try_emplace(key, found);
+        const auto [it, inserted] = cells.try_emplace(key, found);
+        next_in_cell.push_back(inserted ? -1 : it->second);
+        it->second = found;
       }
-      index[c] = found;
     }
+    if (found < 0) found = static_cast<int>(mesh.vertices.size());
+    if (found == static_cast<int>(mesh.vertices.size())) mesh.vertices.push_back(p);
+    exact->second = found;
+    index[c] = found;
   }
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
     mesh.triangles[t] = {index[3 * t], index[3 * t + 1], index[3 * t + 2]};
@@ -347,75 +354,24 @@ void StlReadOptions::validate() const {
 Mesh read_stl_bytes(std::string_view bytes, const std::string& source, MeshReport* report,
                     const StlReadOptions& options) {
   options.validate();
-  // 1. Our own structural check; it decides the format and the expected triangle count.
-  // assimp's ASCII STL parser has layout quirks (numbers must share the keyword's line, a
-  // name on the 'solid' line is read as keywords, long names or a failed number throw and
-  // leak the meshes built so far), and its text loader strips byte-order marks even from
-  // binary files. So assimp gets, for ASCII, a canonical copy of the facets we checked (one
-  // statement per line, lower-case keywords, numbers in shortest form, names dropped) and,
-  // for a binary file whose header starts like a byte-order mark, a copy with a blank header.
-  std::string copy;
-  std::size_t expected = 0;
-  std::string_view to_assimp = bytes;
+  // 1. Decide the format, check the structure and collect the corners in one pass.
+  std::vector<Eigen::Vector3d> corners;
   const bool text = is_plain_text(bytes);
   if (text && !starts_with_solid(bytes))
     throw InputError(source, 0, "not an STL file: plain text that does not start with 'solid'");
-  if (text) {
-    AsciiScanner scanner(bytes, source, options.max_triangles);
-    expected = scanner.scan();
-    copy = std::move(scanner.canonical());
-    // assimp calls any file of size 84 + 50 * (uint32 at byte 80) binary; keep text out of that.
-    if (copy.size() >= kBinaryHeaderBytes &&
-        copy.size() == kBinaryHeaderBytes + kBinaryRecordBytes * std::size_t{read_u32_le(copy.data() + 80)})
-      copy.push_back('\n');
-    to_assimp = copy;
-  } else {
-    expected = check_binary(bytes, source, options.max_triangles);
-    const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
-    const bool bom_like = (b[0] == 0xEF && b[1] == 0xBB && b[2] == 0xBF) || (b[0] == 0xFF && b[1] == 0xFE) ||
-                          (b[0] == 0xFE && b[1] == 0xFF) || (b[0] == 0 && b[1] == 0 && b[2] == 0xFE && b[3] == 0xFF);
-    if (bom_like) {
-      copy.assign(bytes);
-      std::fill(copy.begin(), copy.begin() + 80, ' ');
-      to_assimp = copy;
-    }
-  }
+  if (text)
+    AsciiScanner(bytes, source, options.max_triangles).scan(corners);
+  else
+    read_binary(bytes, source, options.max_triangles, corners);
 
-  // 2. assimp reads it. No post-processing: welding is ours.
-  std::vector<Eigen::Vector3d> corners;
-  try {
-    Assimp::Importer importer;
-    const aiScene* scene = importer.ReadFileFromMemory(to_assimp.data(), to_assimp.size(), 0, "stl");
-    if (scene == nullptr)
-      throw InputError(source, 0, fmt::format("assimp could not read the STL: {}", importer.GetErrorString()));
-    if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0 || scene->mNumMeshes == 0)
-      throw InputError(source, 0, "assimp read no mesh from the STL");
-    corners.reserve(3 * expected);
-    for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-      const aiMesh* mesh = scene->mMeshes[m];
-      for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
-        const aiFace& face = mesh->mFaces[f];
-        if (face.mNumIndices != 3)
-          throw InputError(source, 0, fmt::format("assimp returned a face with {} corners", face.mNumIndices));
-        for (unsigned k = 0; k < 3; ++k) {
-          const unsigned i = face.mIndices[k];
-          if (i >= mesh->mNumVertices) throw InputError(source, 0, "assimp returned a face index out of range");
-          const aiVector3D& v = mesh->mVertices[i];
-          const Eigen::Vector3d p = Eigen::Vector3d(v.x, v.y, v.z) * options.scale_to_mm;
-          if (!p.allFinite()) throw InputError(source, 0, "STL vertex with a non-finite coordinate");
-          corners.push_back(p);
-        }
-      }
+  // 2. Scale; a finite file coordinate times a large scale can overflow.
+  if (options.scale_to_mm != 1.0)
+    for (Eigen::Vector3d& p : corners) {
+      p *= options.scale_to_mm;
+      if (!p.allFinite())
+        throw InputError(source, 0,
+                         fmt::format("a vertex times StlReadOptions::scale_to_mm {} is not finite", options.scale_to_mm));
     }
-  } catch (const InputError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw InputError(source, 0, fmt::format("assimp failed on the STL: {}", e.what()));
-  }
-  if (corners.size() != 3 * expected)
-    throw InputError(source, 0,
-                     fmt::format("assimp read {} triangles where the file holds {}; refusing a partial read",
-                                 corners.size() / 3, expected));
 
   // 3. Weld and report.
   Mesh mesh;

@@ -3,9 +3,8 @@
 // Reading
 // -------
 // read_stl() accepts binary and ASCII STL. Units are millimetres unless
-// StlReadOptions::scale_to_mm says otherwise (25.4 for a file in inches). The file is first
-// checked by machplan itself, so that problems are named precisely and so that assimp (which
-// does the actual import) only ever sees a well-formed STL:
+// StlReadOptions::scale_to_mm says otherwise (25.4 for a file in inches). One pass checks the
+// structure, naming each problem precisely, and collects the corners:
 //
 //   * binary: 80-byte header, uint32 triangle count N, then N records of 50 bytes (normal,
 //     three vertices as little-endian float32, 2 attribute bytes). The file size must be
@@ -20,19 +19,17 @@
 //     "solid"; anything else is taken to be binary (binary headers that start with "solid",
 //     as many exporters write, are fine).
 //
-// assimp then imports what we checked: for ASCII a canonical copy of the checked facets (one
-// statement per line, names dropped), because its own ASCII parser throws, and leaks, on
-// layouts this grammar allows; for binary the bytes themselves (with the header blanked if it
-// starts like a text byte-order mark, which assimp would strip). Its triangle count must
-// match ours.
+// ASCII numbers are kept at double precision (binary ones are float32 by definition); an ASCII
+// number beyond float32's range (3.4e38) is refused.
 //
-// Refused, always as InputError naming the file: the cases above, non-finite coordinates,
-// an STL with no triangle, more than StlReadOptions::max_triangles triangles, and any failure
-// inside assimp (its message is quoted). Normals stored in the file are ignored: orientation
+// Refused, always as InputError naming the file: the cases above, non-finite coordinates
+// (also after scaling), an STL with no triangle and more than StlReadOptions::max_triangles
+// triangles. Normals stored in the file are ignored: orientation
 // comes from the vertex order (counter-clockwise seen from outside), as in every STL consumer.
 //
-// Vertices are welded: corners closer than StlReadOptions::weld_tolerance_mm (0: bit-identical
-// after scaling) become one vertex, so that the triangles share indices and the report can see
+// Vertices are welded: a corner within StlReadOptions::weld_tolerance_mm (0: bit-identical
+// after scaling) of an earlier vertex becomes that vertex (the nearest such), and
+// bit-identical corners always become one vertex, so that the triangles share indices and the report can see
 // the mesh's topology. Triangle indices refer to Mesh::vertices. Degenerate triangles are kept
 // (and counted in the report).
 #pragma once
@@ -93,7 +90,11 @@ Mesh read_stl(const std::string& path, MeshReport* report = nullptr, const StlRe
 Mesh read_stl_bytes(std::string_view bytes, const std::string& source, MeshReport* report = nullptr,
                     const StlReadOptions& options = {});
 
-// Merges vertices closer than `tolerance_mm` (0: identical) and renumbers the triangles.
+// Merges vertices closer than `tolerance_mm` (0: identical) and renumbers the triangles. Corners
+// are taken in order: each joins the nearest vertex made so far within the tolerance, or
+// becomes a new vertex. So identical corners always share a vertex, every corner lies within
+// the tolerance of its vertex, and two vertices may still lie closer than the tolerance to
+// each other (welding is not transitive).
 Mesh weld(const std::vector<Eigen::Vector3d>& corners, double tolerance_mm);
 
 // An axis-aligned box from `min` to `max` (12 triangles, outward-facing, closed), for tests

@@ -11,6 +11,7 @@
 #include <vector>
 #include <filesystem>
 #include <system_error>
+#include <utility>
 
 #include <Eigen/Geometry>
 
@@ -627,9 +628,12 @@ std::string lower_extension(const std::string& path) {
 }  // namespace
 
 void ToolPathReadOptions::validate() const {
-  if (max_poses == 0) throw InputError("max_poses", 0, "must be at least 1");
-  if (max_line_bytes == 0) throw InputError("max_line_bytes", 0, "must be at least 1");
-  if (max_statement_bytes == 0) throw InputError("max_statement_bytes", 0, "must be at least 1");
+  const std::pair<const char*, std::size_t> limits[] = {{"max_poses", max_poses},
+                                                        {"max_line_bytes", max_line_bytes},
+                                                        {"max_statement_bytes", max_statement_bytes},
+                                                        {"max_file_bytes", max_file_bytes}};
+  for (const auto& [name, value] : limits)
+    if (value == 0) throw InputError(fmt::format("ToolPathReadOptions::{}", name), 0, "is 0; it must be positive");
   if (!std::isfinite(arc_step_rad) || !(arc_step_rad > 0) || arc_step_rad > kPi / 2)
     throw InputError("arc_step_rad", 0, fmt::format("is {}, must lie in (0, pi/2]", arc_step_rad));
   if (!std::isfinite(arc_tolerance_mm) || !(arc_tolerance_mm > 0) || arc_tolerance_mm > 100)
@@ -670,6 +674,7 @@ ToolPath read_toolpath(std::string_view text, const std::string& source, const T
 }
 
 ToolPath read_toolpath_file(const std::string& path, const ToolPathReadOptions& options) {
+  options.validate();
   const std::string text = read_text_file(path, options.max_file_bytes);
   const std::string ext = lower_extension(path);
   if (ext == ".cl" || ext == ".apt" || ext == ".cls") return read_apt(text, path, options);

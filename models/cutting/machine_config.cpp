@@ -2,9 +2,11 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <set>
 #include <stdexcept>
 #include <vector>
 
@@ -220,36 +222,102 @@ executor::MachineSetup MachineConfig::setup() const {
   return s;
 }
 
-std::string find_machine(const std::string& name_or_path) {
-  namespace fs = std::filesystem;
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path running_program() {
+  char buf[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
+  if (n <= 0) return {};
+  buf[n] = 0;
+  return fs::path(buf);
+}
+
+// `dir` is `root` or inside it (both absolute and normal).
+bool is_inside(const fs::path& dir, const fs::path& root) {
+  const auto [r, d] = std::mismatch(root.begin(), root.end(), dir.begin(), dir.end());
+  return r == root.end();
+}
+
+void add_folder(std::vector<MachineFolder>& out, fs::path path, const char* kind) {
+  if (path.empty()) return;
+  path = path.lexically_normal();
+  for (const auto& f : out)
+    if (f.path == path.string()) return;
   std::error_code ec;
-  if (fs::is_regular_file(name_or_path, ec)) return name_or_path;
+  out.push_back({path.string(), kind, fs::is_directory(path, ec)});
+}
+
+}  // namespace
+
+std::vector<MachineFolder> machine_folders() {
+  std::vector<MachineFolder> folders;
+  std::error_code ec;
+  // 1. The user's own machines, per the XDG base directory convention.
+  fs::path config;
+  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg != nullptr && xdg[0] == '/')
+    config = xdg;
+  else if (const char* home = std::getenv("HOME"); home != nullptr && home[0] == '/')
+    config = fs::path(home) / ".config";
+  if (!config.empty()) {
+    const fs::path user = config / "machplan" / "machines";
+    fs::create_directories(user, ec);  // a read-only home only means the folder stays absent
+    add_folder(folders, user, "user");
+  }
+  // 2. Installed: relative to the running program first, so that an installed tree can be
+  // moved; then the prefix it was configured for (a program of another project that links
+  // the installed libraries).
+  const fs::path exe = running_program();
+  if (!exe.empty()) add_folder(folders, exe.parent_path().parent_path() / "share" / "machplan" / "machines", "installed");
+#ifdef MACHPLAN_INSTALL_DATADIR
+  add_folder(folders, fs::path(MACHPLAN_INSTALL_DATADIR) / "machines", "installed");
+#endif
+  // 3. A program of this build tree (the CLI, the tests) uses the source tree's machines.
+#if defined(MACHPLAN_BUILD_DIR) && defined(MACHPLAN_SOURCE_DIR)
+  if (!exe.empty() && is_inside(exe.lexically_normal(), fs::path(MACHPLAN_BUILD_DIR).lexically_normal()))
+    add_folder(folders, fs::path(MACHPLAN_SOURCE_DIR) / "datasets" / "machines", "source");
+#endif
+  return folders;
+}
+
+std::string find_machine(const std::string& name_or_path) {
+  std::error_code ec;
   const bool looks_like_name = name_or_path.find('/') == std::string::npos && name_or_path.find('.') == std::string::npos &&
                                !name_or_path.empty();
-  std::vector<fs::path> places;
-  if (looks_like_name) {
-    if (const char* env = std::getenv("MACHPLAN_MACHINES_DIR")) places.emplace_back(env);
-    places.emplace_back(fs::path("datasets") / "machines");
-    char buf[4096];
-    const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
-    if (n > 0) {
-      buf[n] = 0;
-      for (fs::path dir = fs::path(buf).parent_path(); !dir.empty(); dir = dir.parent_path()) {
-        places.push_back(dir / "datasets" / "machines");
-        if (dir == dir.root_path()) break;
-      }
-    }
-    for (const fs::path& dir : places) {
-      const fs::path candidate = dir / (name_or_path + ".yaml");
-      if (fs::is_regular_file(candidate, ec)) return candidate.string();
-    }
+  if (!looks_like_name) {
+    if (fs::is_regular_file(name_or_path, ec)) return name_or_path;
+    throw InputError("--machine", 0, fmt::format("no such machine file '{}'", name_or_path));
+  }
+  const std::vector<MachineFolder> folders = machine_folders();
+  for (const MachineFolder& f : folders) {
+    const fs::path candidate = fs::path(f.path) / (name_or_path + ".yaml");
+    if (fs::is_regular_file(candidate, ec)) return candidate.string();
   }
   std::string searched;
-  for (const auto& p : places) searched += (searched.empty() ? "" : ", ") + p.string();
+  for (const auto& f : folders) searched += fmt::format("{}{} ({})", searched.empty() ? "" : ", ", f.path, f.kind);
   throw InputError("--machine", 0,
-                   looks_like_name ? fmt::format("no machine named '{}' (looked for {}.yaml in {})", name_or_path,
-                                                 name_or_path, searched)
-                                   : fmt::format("no such machine file '{}'", name_or_path));
+                   fmt::format("no machine named '{}' (looked for {}.yaml in {}; `machplan machines` lists the "
+                               "machines found; a file in the current folder is used only as a path, ./{}.yaml)",
+                               name_or_path, name_or_path, searched.empty() ? "no folder" : searched, name_or_path));
+}
+
+std::vector<MachineEntry> list_machines() {
+  std::vector<MachineEntry> out;
+  std::set<std::string> seen;
+  for (const MachineFolder& f : machine_folders()) {
+    if (!f.exists) continue;
+    std::vector<fs::path> files;
+    std::error_code ec;
+    for (fs::directory_iterator it(f.path, ec), end; !ec && it != end; it.increment(ec))
+      if (it->path().extension() == ".yaml" && it->is_regular_file(ec)) files.push_back(it->path());
+    std::sort(files.begin(), files.end());
+    for (const fs::path& file : files) {
+      const std::string name = file.stem().string();
+      out.push_back({name, file.string(), f.kind, !seen.insert(name).second});
+    }
+  }
+  return out;
 }
 
 }  // namespace machplan::cutting

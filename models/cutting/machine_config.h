@@ -104,11 +104,35 @@ struct MachineConfig {
 MachineConfig load_machine(const std::string& path);
 MachineConfig machine_from_yaml(const Yaml& root);
 
-// `name_or_path` is an existing file, or the name of a bundled machine ("thermal_gantry",
-// "xy_table"), looked up as NAME.yaml in, in order: $MACHPLAN_MACHINES_DIR,
-// ./datasets/machines, and datasets/machines in each parent folder of the running
-// executable (so a build tree inside the source tree finds the bundled files). Throws
-// InputError naming the flag value and the places searched when nothing matches.
+// Where `--machine NAME` looks, in this order (the first NAME.yaml found wins):
+//
+//   1. user:      $XDG_CONFIG_HOME/machplan/machines (default ~/.config/machplan/machines),
+//                 created on first use so that the user sees where their machines go;
+//   2. installed: share/machplan/machines beside the running program's bin/ folder, then the
+//                 share/machplan/machines of the prefix machplan was configured to install to;
+//   3. source:    for a program inside this build tree, the source tree's datasets/machines.
+//
+// Never the current directory: a machine file there is used only when given as a path. A
+// folder that does not exist is still listed (with exists = false) so that messages can say
+// where a machine would have been found.
+struct MachineFolder {
+  std::string path;
+  std::string kind;  // "user", "installed", "source"
+  bool exists = false;
+};
+std::vector<MachineFolder> machine_folders();
+
+// `name_or_path` is a path to a machine file (it contains '/' or '.', or names an existing
+// file), or a machine name looked up as NAME.yaml in machine_folders(). Throws InputError
+// "--machine: ..." naming the value and the folders searched when nothing matches.
 std::string find_machine(const std::string& name_or_path);
+
+// Every NAME.yaml in machine_folders(), in search order; `shadowed` marks a name that an
+// earlier folder already provides.
+struct MachineEntry {
+  std::string name, path, kind;
+  bool shadowed = false;
+};
+std::vector<MachineEntry> list_machines();
 
 }  // namespace machplan::cutting

@@ -105,11 +105,18 @@ struct Checker::ScanSettings {
   unsigned all_mask = 0;
 };
 
+void validate_rotation_deg(double rotation_deg, const char* flag) {
+  if (!std::isfinite(rotation_deg) || std::abs(rotation_deg) > 360.0)
+    throw InputError(flag, 0, fmt::format("rotation {} deg: must be a finite angle within -360 .. 360", rotation_deg));
+}
+
 Checker::Checker(const Scene& scene, double rotation_deg)
     : scene_(scene),
       rotation_deg_(rotation_deg),
       workpiece_shape_(interference::Shape::sphere(1.0)),
       workpiece_box_shape_(interference::Shape::sphere(1.0)) {
+  validate_rotation_deg(rotation_deg, "--rotation");  // NaN would reach Eigen's solvers
+  const QueryBudget budget(*this);                     // class 1 is checked over the path here
   const hexam::Machine& m = scene.machine;
   const Eigen::Matrix3d Rz = Eigen::AngleAxisd(rotation_deg * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const std::size_t n = scene.tips_mm.size();
@@ -203,9 +210,23 @@ Checker::Pose Checker::interpolate(long i, double t) const {
   return {(1 - t) * tips_[i] + t * tips_[i + 1], slerp_axis(axes_[i], axes_[i + 1], t)};
 }
 
+Checker::QueryBudget::QueryBudget(Checker& c) : checker(c) {
+  if (c.budget_depth_++ == 0) c.query_limit_ = c.counts_.exact_queries + c.scene_.search.max_pose_queries;
+}
+Checker::QueryBudget::~QueryBudget() { --checker.budget_depth_; }
+
+void Checker::count_query() const {
+  if (++const_cast<CheckCounts&>(counts_).exact_queries <= query_limit_) return;
+  throw Infeasible(fmt::format(
+      "{}: the interference check stopped at its limit of {} exact pose queries (search.max_pose_queries in the "
+      "scene) without an answer; with a safe distance of {} mm little of the path can be certified in bulk. "
+      "Raise the limit in the scene to let it run longer.",
+      scene_.source, scene_.search.max_pose_queries, scene_.safe_distance_mm));
+}
+
 void Checker::evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned mask, double* v, Eval* d) const {
   const hexam::Machine& m = scene_.machine;
-  ++const_cast<CheckCounts&>(counts_).exact_queries;
+  count_query();
   const Eigen::Vector3d tip = pose.tip + offset;
   hexam::IkResult ik = hexam::inverse_kinematics(m, tip, pose.axis);
   const double c = scene_.safe_distance_mm;
@@ -690,7 +711,7 @@ bool Checker::class1_box_clear(Eigen::AlignedBox3d b, double sweep) const {
 
 double Checker::class1_value(const Pose& pose, std::string* who) const {
   const hexam::Machine& m = scene_.machine;
-  ++const_cast<CheckCounts&>(counts_).exact_queries;
+  count_query();
   const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
   double best = kInf;
   for (const auto& p : class1_parts_) {
@@ -807,6 +828,7 @@ void Checker::compute_class1() {
 }
 
 CheckReport Checker::report(const Placement& p) {
+  const QueryBudget budget(*this);
   MACHPLAN_ASSERT(std::abs(p.rotation_deg - rotation_deg_) < 1e-9, "checker built for rotation {}, asked {}", rotation_deg_,
                   p.rotation_deg);
   const CheckCounts before = counts_;
@@ -893,6 +915,7 @@ Decision Checker::decide_workpiece_block(const Eigen::Vector3d& offset, double r
 }
 
 Decision Checker::decide(const Placement& p, double radius, Finding* witness, bool peripherals_first) {
+  const QueryBudget budget(*this);
   const Eigen::Vector3d offset = p.offset();
   // Placement-only constraint first: the workpiece block against the peripherals.
   const Decision block = decide_workpiece_block(offset, radius, witness);
@@ -961,6 +984,7 @@ double Checker::fail_threshold(int c, const double* v, const ScanSettings& s) co
 }
 
 Decision Checker::probe(const Placement& p, double radius) {
+  const QueryBudget budget(*this);
   // Looks only for an interference deep enough to condemn the whole ball, at tool poses, with
   // a bounded effort: first the limits and strut clearance (inverse kinematics only), then
   // the peripherals (FCL). Nodes whose lower bounds stay above the failure threshold are
@@ -995,6 +1019,7 @@ void Checker::learn(const Witness& w) {
 }
 
 Decision Checker::screen(const Placement& p, double radius, std::uint64_t* settled) {
+  const QueryBudget budget(*this);
   const Eigen::Vector3d offset = p.offset();
   if (class1_.interferes) return Decision::infeasible;
   const Decision block = decide_workpiece_block(offset, radius, nullptr);
@@ -1023,6 +1048,7 @@ Decision Checker::screen(const Placement& p, double radius, std::uint64_t* settl
 }
 
 CheckReport Checker::dense_check(const Placement& p, double step_mm) {
+  const QueryBudget budget(*this);
   const Eigen::Vector3d offset = p.offset();
   CheckReport r = report(p);  // class 1, workpiece-peripheral and the description fields
   std::vector<double> v(stride_), worst(constraint_count_, kInf);

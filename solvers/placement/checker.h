@@ -89,6 +89,9 @@ struct CheckReport {
 
 enum class Decision { feasible, infeasible, unknown };
 
+// A workpiece rotation about z: finite and within +-360 deg, else InputError naming `flag`.
+void validate_rotation_deg(double rotation_deg, const char* flag);
+
 class Checker {
  public:
   explicit Checker(const Scene& scene, double rotation_deg = 0.0);
@@ -144,6 +147,17 @@ class Checker {
     Eigen::Vector3d tip, axis;  // workpiece frame, rotated by the placement rotation
   };
   struct Eval;
+  // Counts one exact pose query; more than scene.search.max_pose_queries within one public
+  // call (report, decide, probe, screen, dense_check; the outermost when they nest) throws
+  // Infeasible (exit 3) naming the limit and how to raise it.
+  void count_query() const;
+  struct QueryBudget {
+    explicit QueryBudget(Checker& c);
+    ~QueryBudget();
+    Checker& checker;
+  };
+  long query_limit_ = 0;
+  int budget_depth_ = 0;
   void evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned mask, double* values, Eval* detail) const;
   // Exact class-1 clearance at one pose (infinity when the height field proves every part at
   // least the safe distance away); `who` names the closest part.

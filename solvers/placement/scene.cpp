@@ -22,6 +22,9 @@ Peripheral read_peripheral(const Yaml& y) {
     const Eigen::Vector3d c = box->vec3("center");
     const Eigen::Vector3d s = box->vec3("size");
     if ((s.array() <= 0).any()) box->at("size").fail("must be three positive sizes");
+    if ((s.array() > kMaxSceneSizeMm).any()) box->at("size").fail(fmt::format("sizes must not exceed {} mm", kMaxSceneSizeMm));
+    if ((c.array().abs() > kMaxScenePositionMm).any())
+      box->at("center").fail(fmt::format("must lie within +-{} mm", kMaxScenePositionMm));
     const double yaw = box->number_or("yaw_deg", 0.0, {.min = -360, .max = 360}) * kDeg;
     p.shape = interference::Shape::box(s);
     p.T_table_peripheral.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -43,8 +46,11 @@ Peripheral read_peripheral(const Yaml& y) {
     if (const auto pose = y.get("pose")) {
       pose->reject_unknown_keys({"xyz", "yaw_deg"});
       p.T_table_peripheral.translation() = pose->vec3("xyz");
+      if ((p.T_table_peripheral.translation().array().abs() > kMaxScenePositionMm).any())
+        pose->at("xyz").fail(fmt::format("must lie within +-{} mm", kMaxScenePositionMm));
       p.T_table_peripheral.linear() =
-          Eigen::AngleAxisd(pose->number_or("yaw_deg", 0.0) * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+          Eigen::AngleAxisd(pose->number_or("yaw_deg", 0.0, {.min = -360, .max = 360}) * kDeg, Eigen::Vector3d::UnitZ())
+              .toRotationMatrix();
     }
     p.shape = interference::Shape::mesh(mesh.vertices, mesh.triangles);
     for (const auto& v : mesh.vertices) p.bounds.extend(p.T_table_peripheral * v);
@@ -69,11 +75,12 @@ Scene load_scene(const std::string& path) {
   const Yaml t = root.at("tooling");
   t.reject_unknown_keys({"tool_diameter_mm", "stick_out_mm", "flute_length_mm", "chuck_diameter_mm", "chuck_length_mm"});
   const NumberRule pos{.min = 0, .min_exclusive = true};
-  s.tooling.tool_diameter_mm = t.number("tool_diameter_mm", pos);
-  s.tooling.stick_out_mm = t.number("stick_out_mm", pos);
-  s.tooling.flute_length_mm = t.number_or("flute_length_mm", s.tooling.stick_out_mm / 2, pos);
-  s.tooling.chuck_diameter_mm = t.number("chuck_diameter_mm", pos);
-  s.tooling.chuck_length_mm = t.number("chuck_length_mm", pos);
+  const NumberRule size{.min = 0, .max = kMaxSceneSizeMm, .min_exclusive = true};
+  s.tooling.tool_diameter_mm = t.number("tool_diameter_mm", size);
+  s.tooling.stick_out_mm = t.number("stick_out_mm", size);
+  s.tooling.flute_length_mm = t.number_or("flute_length_mm", s.tooling.stick_out_mm / 2, size);
+  s.tooling.chuck_diameter_mm = t.number("chuck_diameter_mm", size);
+  s.tooling.chuck_length_mm = t.number("chuck_length_mm", size);
   if (s.tooling.flute_length_mm > s.tooling.stick_out_mm) t.at("flute_length_mm").fail("must not exceed stick_out_mm");
   try {
     hexam::attach_tooling(s.machine, s.tooling);
@@ -87,6 +94,7 @@ Scene load_scene(const std::string& path) {
   Mesh mesh;
   if (const auto m = w.get("mesh")) {
     const std::string file = root.resolve_path(m->string());
+    s.workpiece_file = file;
     MeshReport report;
     mesh = read_stl(file, &report);
     if (!report.closed)
@@ -97,6 +105,7 @@ Scene load_scene(const std::string& path) {
     box.reject_unknown_keys({"size"});
     const Eigen::Vector3d size = box.vec3("size");
     if ((size.array() <= 0).any()) box.at("size").fail("must be three positive sizes");
+    if ((size.array() > kMaxSceneSizeMm).any()) box.at("size").fail(fmt::format("sizes must not exceed {} mm", kMaxSceneSizeMm));
     mesh = make_box_mesh({-size.x() / 2, -size.y() / 2, 0}, {size.x() / 2, size.y() / 2, size.z()});
   }
   s.workpiece_vertices = mesh.vertices;
@@ -121,18 +130,23 @@ Scene load_scene(const std::string& path) {
     s.axes.push_back(p.axis);
   }
 
-  if (const auto per = root.get("peripherals"))
+  if (const auto per = root.get("peripherals")) {
     for (const Yaml& item : per->items()) s.peripherals.push_back(read_peripheral(item));
+    if (s.peripherals.size() > kMaxPeripherals)
+      per->fail(fmt::format("{} peripherals; at most {} are supported", s.peripherals.size(), kMaxPeripherals));
+  }
 
   if (const auto se = root.get("search")) {
     se->reject_unknown_keys({"pad_max_mm", "paper_step_mm", "paper_pad_step_mm", "reversal_deg", "resolution_mm",
-                             "paper_max_steps"});
-    s.search.pad_max_mm = se->number_or("pad_max_mm", s.search.pad_max_mm, {.min = 0});
+                             "paper_max_steps", "max_pose_queries"});
+    s.search.pad_max_mm = se->number_or("pad_max_mm", s.search.pad_max_mm, {.min = 0, .max = kMaxSceneSizeMm});
     s.search.paper_step_mm = se->number_or("paper_step_mm", s.search.paper_step_mm, pos);
     s.search.paper_pad_step_mm = se->number_or("paper_pad_step_mm", s.search.paper_pad_step_mm, pos);
     s.search.reversal_deg = se->number_or("reversal_deg", s.search.reversal_deg, {.min = 0, .max = 180});
     s.search.resolution_mm = se->number_or("resolution_mm", s.search.resolution_mm, {.min = 0.01, .max = 100});
     if (se->has("paper_max_steps")) s.search.paper_max_steps = se->at("paper_max_steps").integer(1, 1000000);
+    if (se->has("max_pose_queries"))
+      s.search.max_pose_queries = se->at("max_pose_queries").integer(1, 1'000'000'000);
   }
   return s;
 }

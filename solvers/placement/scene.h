@@ -11,7 +11,12 @@
 //   peripherals:
 //     - {name: tool magazine, box: {center: [x, y, z], size: [dx, dy, dz], yaw_deg: 45}}
 //     - {name: fixture, mesh: fixture.stl, pose: {xyz: [x, y, z], yaw_deg: 0}}
-//   search: {pad_max_mm: 300, paper_step_mm: 10, paper_pad_step_mm: 10, resolution_mm: 1}
+//   search: {pad_max_mm: 300, paper_step_mm: 10, paper_pad_step_mm: 10, resolution_mm: 1,
+//            max_pose_queries: 3000000}
+//
+// Bounds: safe_distance_mm 0 .. 1000; tooling sizes, box sizes and pad_max_mm up to
+// kMaxSceneSizeMm; peripheral centres and poses within +-kMaxScenePositionMm; yaw_deg
+// within +-360; max_pose_queries 1 .. 1e9.
 //
 // Workpiece frame: origin at the centre of the workpiece's bottom face, z up. A placement
 // (x, y, pad, rotation) puts that origin at (x, y, pad) in the table frame, turned by rotation
@@ -47,7 +52,18 @@ struct SearchSettings {
   double reversal_deg = 150.0;      // evasion directions further apart than this raise the pad
   double resolution_mm = 1.0;       // grid of the optimal search (x, y and pad)
   int paper_max_steps = 2000;       // the paper's search gives up after this many moves
+  // Work limit of one checker call (one `check`, one decision of the search): exact pose
+  // queries. An ordinary check of the bundled scene makes about 3e4; past the limit the call
+  // stops with Infeasible (exit 3) naming this key.
+  long max_pose_queries = 3'000'000;
 };
+
+// Upper bounds on the scene's sizes and positions (mm). No machine tool reaches them; beyond
+// them the geometry's squares and sums lose all precision or overflow.
+inline constexpr double kMaxSceneSizeMm = 10'000.0;      // tools, peripherals, pads
+inline constexpr double kMaxScenePositionMm = 100'000.0;  // peripheral positions
+// The checker keeps one bit per constraint (4 of the machine, 2 per peripheral) in a 32-bit mask.
+inline constexpr std::size_t kMaxPeripherals = 14;
 
 struct Scene {
   std::string source;
@@ -55,6 +71,7 @@ struct Scene {
   hexam::Tooling tooling;
   double safe_distance_mm = 5.0;
   std::string toolpath_file;
+  std::string workpiece_file;  // the STL, when the workpiece is a mesh; empty for a box
   std::vector<Eigen::Vector3d> tips_mm;  // workpiece frame
   std::vector<Eigen::Vector3d> axes;     // unit
   // Workpiece solid in its own frame.

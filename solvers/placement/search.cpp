@@ -237,7 +237,24 @@ Eigen::AlignedBox2d placement_region(const Scene& scene, double rotation_deg) {
   return Eigen::AlignedBox2d(-half - fp.min(), half - fp.max());
 }
 
+void PlacementOptions::validate() const {
+  if (rotations_deg.empty()) throw InputError("--rotations", 0, "needs at least one rotation");
+  if (rotations_deg.size() > kMaxRotations)
+    throw InputError("--rotations", 0,
+                     fmt::format("{} rotations; at most {} are searched (each is a whole placement search)",
+                                 rotations_deg.size(), kMaxRotations));
+  for (std::size_t i = 0; i < rotations_deg.size(); ++i) {
+    validate_rotation_deg(rotations_deg[i], "--rotations");
+    for (std::size_t k = 0; k < i; ++k)
+      if (std::abs(std::remainder(rotations_deg[i] - rotations_deg[k], 360.0)) < 1e-9)
+        throw InputError("--rotations", 0,
+                         fmt::format("rotation {} deg repeats {} deg; each angle is searched once", rotations_deg[i],
+                                     rotations_deg[k]));
+  }
+}
+
 PlacementResult place(const Scene& scene, const PlacementOptions& o) {
+  o.validate();
   const double t0 = now_s();
   PlacementResult best;
   if (o.strategy == PlacementOptions::Strategy::paper) {

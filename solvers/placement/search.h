@@ -40,6 +40,14 @@ struct PlacementOptions {
   std::function<bool()> should_stop;
   // Called with a fraction in [0, 1] as the search advances (for a progress bar).
   std::function<void(double)> progress;
+
+  // Each rotation is a whole search (the bundled scene: about half a second each), so the
+  // list is bounded: at most kMaxRotations entries, each finite, within +-360 deg, and no
+  // two the same angle (modulo 360).
+  static constexpr std::size_t kMaxRotations = 72;
+
+  // Throws InputError naming the flag (--rotations) and the rule broken.
+  void validate() const;
 };
 
 enum class PlacementStatus {

@@ -1,6 +1,6 @@
-// Fuzz target for the STL reader: bytes from memory go through our structure check and then
-// assimp (ReadFileFromMemory). Bad input must come back as InputError; a crash, a leak or a
-// sanitizer report, in our code or in assimp, is a finding.
+// Fuzz target for the STL reader: bytes from memory go through machplan's own reader (structure
+// check, corners, weld). Bad input must come back as InputError; a crash, a leak or a
+// sanitizer report is a finding.
 #include <cstddef>
 #include <cstdint>
 #include <string_view>

@@ -1,10 +1,11 @@
-// STL reading (binary and ASCII through assimp, after our own structure check) and the mesh
+// STL reading (binary and ASCII, machplan's own reader) and the mesh
 // report: closed cube, open box, non-manifold edge, orientation, garbage and truncated files.
 #include "engine/programs/mesh.h"
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <string>
 
 #include <fmt/format.h>
@@ -115,6 +116,66 @@ TEST(Weld, ToleranceMergesNearbyCorners) {
   const Mesh welded = weld(corners, 1e-5);
   EXPECT_EQ(welded.vertices.size(), 8u);
   EXPECT_TRUE(analyze_mesh(welded).closed);
+}
+
+// The bug this pins: the grid kept one vertex per cell (the first), so a second vertex made in
+// the same cell (more than the tolerance from the first, which a cell's diagonal allows) was
+// invisible to later corners, and a corner bit-identical to it became a third vertex.
+TEST(Weld, IdenticalCornersShareAVertexWhateverTheCell) {
+  const Eigen::Vector3d first(0.05, 0.05, 0.05);   // cell (0,0,0) at a 1 mm tolerance
+  const Eigen::Vector3d second(0.95, 0.95, 0.95);  // same cell, 1.56 mm from `first`
+  const std::vector<Eigen::Vector3d> corners{first, {10, 0, 0}, {0, 10, 0},    //
+                                             second, {20, 0, 0}, {0, 20, 0},   //
+                                             second, {30, 0, 0}, {0, 30, 0}};
+  const Mesh m = weld(corners, 1.0);
+  EXPECT_EQ(m.triangles[1][0], m.triangles[2][0]);
+  EXPECT_NE(m.triangles[0][0], m.triangles[1][0]);
+  EXPECT_EQ(m.vertices.size(), 8u);
+}
+
+// The contract on random clouds: identical corners share a vertex, every corner lies within
+// the tolerance of its vertex, and a corner becomes a new vertex only when no earlier vertex
+// lies within the tolerance (checked by brute force).
+TEST(Weld, ContractOnRandomCorners) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> coord(-3.0, 3.0);
+  for (const double tol : {0.0, 0.3, 1.0}) {
+    std::vector<Eigen::Vector3d> corners;
+    for (int k = 0; k < 600; ++k) {
+      if (k > 10 && k % 4 == 0)
+        corners.push_back(corners[rng() % corners.size()]);  // a repeat, bit for bit
+      else
+        corners.emplace_back(coord(rng), coord(rng), coord(rng));
+    }
+    const Mesh m = weld(corners, tol);
+    std::vector<int> index;
+    for (const auto& t : m.triangles) index.insert(index.end(), {t[0], t[1], t[2]});
+    ASSERT_EQ(index.size(), corners.size());
+    int made = 0;
+    for (std::size_t c = 0; c < corners.size(); ++c) {
+      EXPECT_LE((m.vertices[index[c]] - corners[c]).norm(), tol) << "corner " << c << " tol " << tol;
+      for (std::size_t d = 0; d < c; ++d)
+        if (corners[d] == corners[c]) EXPECT_EQ(index[d], index[c]) << "corners " << d << ", " << c << " tol " << tol;
+      if (index[c] == made) {  // a new vertex: nothing earlier was close enough
+        for (int v = 0; v < made; ++v)
+          EXPECT_GT((m.vertices[v] - corners[c]).norm(), tol) << "corner " << c << " vertex " << v;
+        ++made;
+      }
+    }
+    EXPECT_EQ(made, static_cast<int>(m.vertices.size()));
+  }
+}
+
+// ASCII numbers are kept at double precision now that the reader does not go through float.
+TEST(Stl, AsciiKeepsDoublePrecision) {
+  TempDir dir;
+  const std::string path = dir.write("fine.stl",
+                                     "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0.1 0 0\n"
+                                     "vertex 1.0000001 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n");
+  const Mesh m = read_stl(path);
+  ASSERT_EQ(m.vertices.size(), 3u);
+  EXPECT_EQ(m.vertices[0].x(), 0.1);
+  EXPECT_EQ(m.vertices[1].x(), 1.0000001);
 }
 
 TEST(Stl, AsciiCube) {
@@ -262,7 +323,7 @@ TEST(Stl, GarbageIsRefused) {
   const std::string empty = dir.write("empty.stl", "");
   EXPECT_THAT(error_of([&] { read_stl(empty); }), StartsWith(empty + ": "));
   EXPECT_THAT(error_of([] { read_stl("/nonexistent/x.stl"); }), StartsWith("/nonexistent/x.stl: "));
-  // An OBJ file is text without 'solid': never handed to assimp's other importers.
+  // An OBJ file is text without 'solid': refused, not guessed at.
   const std::string obj = dir.write("box.stl", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
   EXPECT_THAT(error_of([&] { read_stl(obj); }), HasSubstr("does not start with 'solid'"));
 }

@@ -1,0 +1,76 @@
+#include "cli/output.h"
+
+#include <cmath>
+#include <exception>
+
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+
+#include <fmt/format.h>
+
+#include "cli/command.h"
+#include "engine/common/error.h"
+
+namespace machplan::cli {
+
+std::string json_text(const nlohmann::json& j, int indent) {
+  try {
+    return j.dump(indent);
+  } catch (const nlohmann::json::type_error& e) {
+    if (e.id != 316) throw;  // 316: invalid UTF-8 in a string
+  }
+  std::fprintf(stderr,
+               "machplan: warning: the output holds text that is not valid UTF-8 (a file name or a name read from "
+               "a file); each invalid byte is replaced by U+FFFD in the JSON\n");
+  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+void refuse_overwriting_input(const std::string& flag, const std::string& output,
+                              std::initializer_list<std::string> inputs) {
+  namespace fs = std::filesystem;
+  if (output.empty()) return;
+  std::error_code ec;
+  for (const std::string& input : inputs) {
+    if (input.empty()) continue;
+    // The same file under another name (a link, ../ paths) counts; so does a name that
+    // resolves to the same place when the output does not exist yet.
+    const bool same = fs::exists(output, ec) ? fs::equivalent(output, input, ec)
+                                             : fs::weakly_canonical(output, ec) == fs::weakly_canonical(input, ec);
+    if (same)
+      throw InputError(flag, 0, fmt::format("'{}' is an input of this command ({}); refusing to overwrite it", output,
+                                            input));
+  }
+}
+
+CLI::Validator finite_number(double min, bool min_exclusive) {
+  const std::string desc = min <= -1e300 ? "FINITE" : min_exclusive ? "POSITIVE" : "NON-NEGATIVE";
+  return CLI::Validator(
+      [min, min_exclusive](std::string& text) -> std::string {
+        double v = 0.0;
+        std::size_t used = 0;
+        try {
+          v = std::stod(text, &used);
+        } catch (const std::exception&) {
+          return fmt::format("'{}' is not a number", text);
+        }
+        if (used != text.size()) return fmt::format("'{}' is not a number", text);
+        if (!std::isfinite(v)) return fmt::format("{} is not a finite number", text);
+        if (v < min || (min_exclusive && v == min))
+          return fmt::format("{} must be {} {}", text, min_exclusive ? "greater than" : "at least", min);
+        return {};
+      },
+      desc);
+}
+
+void check_output_folder(const std::string& flag, const std::string& output) {
+  namespace fs = std::filesystem;
+  if (output.empty()) return;
+  std::error_code ec;
+  const fs::path parent = fs::path(output).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent, ec))
+    throw InputError(flag, 0, fmt::format("cannot write '{}': folder '{}' does not exist", output, parent.string()));
+  if (fs::is_directory(output, ec)) throw InputError(flag, 0, fmt::format("'{}' is a folder, not a file", output));
+}
+
+}  // namespace machplan::cli

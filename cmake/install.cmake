@@ -1,0 +1,40 @@
+# What `cmake --install BUILD [--prefix P]` puts where:
+#
+#   P/bin/machplan
+#   P/lib/libmachplan_{engine,models,solvers}.a
+#   P/include/machplan/{engine,models,solvers}/**.h      the public headers
+#   P/lib/cmake/machplan/machplanConfig.cmake ...        find_package(machplan): machplan::engine,
+#                                                          machplan::models, machplan::solvers
+#   P/share/machplan/machines/*.yaml                      the bundled machines (--machine NAME)
+#   P/share/machplan/datasets/{parts,profiles,programs,hexam-paper}/   the bundled inputs
+#
+# A consumer includes <machplan/engine/...>; the installed headers include each other as
+# "engine/...", which include/machplan on the include path resolves (docs/install.md).
+include(CMakePackageConfigHelpers)
+
+install(TARGETS machplan RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(TARGETS machplan_engine machplan_models machplan_solvers EXPORT machplanTargets
+        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
+foreach(layer engine models solvers)
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/${layer}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/machplan/${layer}
+          FILES_MATCHING PATTERN "*.h")
+endforeach()
+
+# Instrumented libraries need the same runtime in the program that links them.
+if(MACHPLAN_SANITIZE)
+  target_link_options(machplan_engine INTERFACE $<INSTALL_INTERFACE:-fsanitize=address,undefined>)
+endif()
+
+set(MACHPLAN_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/machplan)
+install(EXPORT machplanTargets NAMESPACE machplan:: DESTINATION ${MACHPLAN_CMAKE_DIR})
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/machplanConfig.cmake.in
+  ${PROJECT_BINARY_DIR}/machplanConfig.cmake INSTALL_DESTINATION ${MACHPLAN_CMAKE_DIR}
+  PATH_VARS CMAKE_INSTALL_DATADIR)
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/machplanConfigVersion.cmake
+  COMPATIBILITY SameMinorVersion)
+install(FILES ${PROJECT_BINARY_DIR}/machplanConfig.cmake ${PROJECT_BINARY_DIR}/machplanConfigVersion.cmake
+        ${PROJECT_SOURCE_DIR}/cmake/machplanDependencies.cmake DESTINATION ${MACHPLAN_CMAKE_DIR})
+
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/datasets/machines/ DESTINATION ${CMAKE_INSTALL_DATADIR}/machplan/machines)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/datasets/ DESTINATION ${CMAKE_INSTALL_DATADIR}/machplan/datasets
+        PATTERN machines EXCLUDE)

@@ -1,0 +1,145 @@
+// Where `--machine NAME` looks (models/cutting/machine_config.h): the user's folder first,
+// then the installed one, then (for this build tree) the source tree; never the current folder.
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "engine/common/error.h"
+#include "models/cutting/machine_config.h"
+#include "tests/support/temp_dir.h"
+
+namespace machplan::cutting {
+namespace {
+
+using ::testing::HasSubstr;
+using test::error_of;
+using test::TempDir;
+namespace fs = std::filesystem;
+
+// Points XDG_CONFIG_HOME at a fresh folder for one test, and restores it after.
+class UserConfig {
+ public:
+  UserConfig() {
+    if (const char* old = std::getenv("XDG_CONFIG_HOME")) old_ = old, had_ = true;
+    ::setenv("XDG_CONFIG_HOME", dir_.path().c_str(), 1);
+  }
+  ~UserConfig() {
+    if (had_) ::setenv("XDG_CONFIG_HOME", old_.c_str(), 1);
+    else ::unsetenv("XDG_CONFIG_HOME");
+  }
+  fs::path machines() const { return dir_.path() / "machplan" / "machines"; }
+
+ private:
+  TempDir dir_;
+  std::string old_;
+  bool had_ = false;
+};
+
+// Runs `f` with the current folder set to `dir`.
+template <class F>
+void in_folder(const fs::path& dir, F&& f) {
+  const fs::path old = fs::current_path();
+  fs::current_path(dir);
+  try {
+    f();
+  } catch (...) {
+    fs::current_path(old);
+    throw;
+  }
+  fs::current_path(old);
+}
+
+const std::string kSourceMachines = (fs::path(MACHPLAN_SOURCE_DIR) / "datasets" / "machines").string();
+
+TEST(MachineLookup, OrderIsUserInstalledSourceAndTheUserFolderIsCreated) {
+  UserConfig user;
+  ASSERT_FALSE(fs::exists(user.machines()));
+  const auto folders = machine_folders();
+  ASSERT_GE(folders.size(), 3u);
+  EXPECT_EQ(folders.front().kind, "user");
+  EXPECT_EQ(folders.front().path, user.machines().string());
+  EXPECT_TRUE(folders.front().exists);
+  EXPECT_TRUE(fs::is_directory(user.machines()));
+  EXPECT_EQ(folders[1].kind, "installed");
+  EXPECT_EQ(folders.back().kind, "source");  // this test runs from the build tree
+  EXPECT_EQ(folders.back().path, fs::path(kSourceMachines).lexically_normal().string());
+  for (const auto& f : folders) EXPECT_NE(f.path, "datasets/machines");
+}
+
+TEST(MachineLookup, TheUsersMachineReplacesTheBundledOne) {
+  UserConfig user;
+  EXPECT_EQ(fs::path(find_machine("thermal_gantry")).parent_path(), fs::path(kSourceMachines).lexically_normal());
+  fs::create_directories(user.machines());
+  fs::copy_file(fs::path(kSourceMachines) / "xy_table.yaml", user.machines() / "thermal_gantry.yaml");
+  EXPECT_EQ(find_machine("thermal_gantry"), (user.machines() / "thermal_gantry.yaml").string());
+  EXPECT_EQ(load_machine(find_machine("thermal_gantry")).name, "xy_table");
+
+  const auto all = list_machines();
+  int users = 0, shadowed = 0;
+  for (const auto& m : all) {
+    if (m.kind == "user") {
+      ++users;
+      EXPECT_FALSE(m.shadowed);
+    }
+    if (m.name == "thermal_gantry" && m.kind == "source") {
+      ++shadowed;
+      EXPECT_TRUE(m.shadowed);
+    }
+    if (m.name == "xy_table" && m.kind == "source") EXPECT_FALSE(m.shadowed);
+  }
+  EXPECT_EQ(users, 1);
+  EXPECT_EQ(shadowed, 1);
+}
+
+TEST(MachineLookup, TheCurrentFolderIsUsedOnlyThroughAPath) {
+  UserConfig user;
+  TempDir here;
+  fs::create_directories(here.path() / "datasets" / "machines");
+  fs::copy_file(fs::path(kSourceMachines) / "xy_table.yaml", here.path() / "datasets" / "machines" / "stray.yaml");
+  fs::copy_file(fs::path(kSourceMachines) / "xy_table.yaml", here.path() / "bare");
+  in_folder(here.path(), [] {
+    const std::string msg = error_of([] { find_machine("stray"); });
+    EXPECT_THAT(msg, HasSubstr("--machine: no machine named 'stray'"));
+    EXPECT_THAT(msg, HasSubstr("(user)"));
+    EXPECT_THAT(msg, HasSubstr("machplan machines"));
+    EXPECT_THAT(error_of([] { find_machine("bare"); }), HasSubstr("no machine named 'bare'"));
+    EXPECT_EQ(find_machine("./datasets/machines/stray.yaml"), "./datasets/machines/stray.yaml");
+    EXPECT_EQ(find_machine("./bare"), "./bare");
+    // A stray copy of a bundled name in ./datasets/machines changes nothing.
+    fs::copy_file("datasets/machines/stray.yaml", "datasets/machines/thermal_gantry.yaml");
+    EXPECT_EQ(load_machine(find_machine("thermal_gantry")).name, "thermal_gantry");
+  });
+  EXPECT_THAT(error_of([] { find_machine("missing/file.yaml"); }), HasSubstr("no such machine file"));
+}
+
+std::string run(const std::string& command) {
+  TempDir dir;
+  const std::string out = (dir.path() / "out.txt").string();
+  const int rc = std::system(fmt::format("{} > '{}' 2>&1", command, out).c_str());
+  std::ifstream in(out);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return fmt::format("{}\n{}", WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, text);
+}
+
+TEST(MachineLookup, MachinesCommandListsFoldersAndMachines) {
+  UserConfig user;  // the child process inherits XDG_CONFIG_HOME
+  const std::string text = run(fmt::format("'{}' machines", MACHPLAN_CLI));
+  EXPECT_THAT(text, testing::StartsWith("0\n"));
+  EXPECT_THAT(text, HasSubstr("user      " + user.machines().string()));
+  EXPECT_THAT(text, HasSubstr("source    " + fs::path(kSourceMachines).lexically_normal().string()));
+  EXPECT_THAT(text, HasSubstr("thermal_gantry"));
+  EXPECT_THAT(text, HasSubstr("xy_table"));
+  const std::string json = run(fmt::format("'{}' machines --json", MACHPLAN_CLI));
+  EXPECT_THAT(json, HasSubstr("\"kind\": \"user\""));
+  EXPECT_THAT(json, HasSubstr("\"name\": \"thermal_gantry\""));
+}
+
+}  // namespace
+}  // namespace machplan::cutting

@@ -1,0 +1,101 @@
+// Absurd but well-formed placement input ends quickly with a message naming the limit: numbers
+// beyond the scene's bounds are refused as input errors, too many peripherals are refused by
+// name, and a check that would run for minutes (a large safe distance) stops at its query
+// limit with exit 3 and says how to raise it.
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "solvers/placement/checker.h"
+#include "solvers/placement/scene.h"
+#include "tests/support/temp_dir.h"
+
+namespace machplan::placement {
+namespace {
+
+using ::testing::HasSubstr;
+using test::error_of;
+using test::TempDir;
+
+const std::string kData = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/hexam-paper/";
+
+// The bundled scene with 3 rows of its tool path and `replace` pairs applied to its text.
+std::string write_scene(const TempDir& dir, std::vector<std::pair<std::string, std::string>> replace) {
+  std::ifstream in(kData + "toolpath.csv");
+  std::ofstream out(dir.path() / "toolpath.csv");
+  std::string line;
+  for (int i = 0; i <= 3 * 351 && std::getline(in, line); ++i) out << line << '\n';
+  out.close();
+  std::ifstream sc(kData + "scene.yaml");
+  std::string text((std::istreambuf_iterator<char>(sc)), std::istreambuf_iterator<char>());
+  replace.emplace_back("machine.yaml", kData + "machine.yaml");
+  replace.emplace_back("workpiece.stl", kData + "workpiece.stl");
+  for (const auto& [from, to] : replace) {
+    const auto at = text.find(from);
+    if (at == std::string::npos) return "<'" + from + "' not in the bundled scene>";
+    text.replace(at, from.size(), to);
+  }
+  return dir.write("scene.yaml", text);
+}
+
+TEST(SceneLimits, HugeNumbersAreRefusedNamingTheKey) {
+  struct Case {
+    std::string from, to, key;
+  };
+  const Case cases[] = {
+      {"tool_diameter_mm: 10", "tool_diameter_mm: 1e300", "tooling.tool_diameter_mm"},
+      {"chuck_length_mm: 45", "chuck_length_mm: 1e9", "tooling.chuck_length_mm"},
+      {"pad_max_mm: 200", "pad_max_mm: 1e308", "search.pad_max_mm"},
+      {"center: [397.4, 397.4, 211]", "center: [1e9, 397.4, 211]", "center"},
+      {"size: [200, 240, 422]", "size: [200, 1e12, 422]", "size"},
+      {"yaw_deg: 45", "yaw_deg: 1e300", "yaw_deg"},
+      {"pad_max_mm: 200", "pad_max_mm: 200\n  max_pose_queries: 0", "search.max_pose_queries"},
+  };
+  for (const Case& c : cases) {
+    TempDir dir;
+    const std::string path = write_scene(dir, {{c.from, c.to}});
+    const std::string msg = error_of([&] { load_scene(path); });
+    EXPECT_THAT(msg, HasSubstr(path + ":")) << c.to;
+    EXPECT_THAT(msg, HasSubstr(c.key)) << c.to << "\n" << msg;
+  }
+}
+
+TEST(SceneLimits, MorePeripheralsThanTheCheckerHandlesAreRefused) {
+  std::string many = "peripherals:\n";
+  for (int k = 0; k < static_cast<int>(kMaxPeripherals); ++k)  // plus the bundled magazine
+    many += fmt::format("  - {{name: p{}, box: {{center: [{}, 400, 50], size: [10, 10, 10]}}}}\n", k, -300 + 40 * k);
+  TempDir dir;
+  const std::string path = write_scene(dir, {{"peripherals:\n", many}});
+  const std::string msg = error_of([&] { load_scene(path); });
+  EXPECT_THAT(msg, HasSubstr(fmt::format("{} peripherals; at most {} are supported", kMaxPeripherals + 1, kMaxPeripherals)));
+}
+
+TEST(CheckLimits, ACheckStopsAtTheQueryLimitWithExitThreeAndSaysHowToRaiseIt) {
+  TempDir dir;
+  const std::string scene = write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 200\n  max_pose_queries: 50"}});
+  const std::string err = (dir.path() / "err").string();
+  const int rc = std::system(fmt::format("'{}' check '{}' --at -68,-22,57 > /dev/null 2> '{}'", MACHPLAN_CLI, scene, err).c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  std::ifstream in(err);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(text, HasSubstr("limit of 50 exact pose queries (search.max_pose_queries in the scene)"));
+  EXPECT_THAT(text, HasSubstr("Raise the limit"));
+  // The default leaves the ordinary check alone.
+  const Scene ok = load_scene(write_scene(dir, {}));
+  EXPECT_EQ(ok.search.max_pose_queries, SearchSettings{}.max_pose_queries);
+  Checker checker(ok);
+  checker.report({-68, -22, 57, 0});
+  EXPECT_LT(checker.counts().exact_queries, ok.search.max_pose_queries);
+  EXPECT_GT(checker.counts().exact_queries, 50);  // so the limit of 50 above was really reached
+}
+
+}  // namespace
+}  // namespace machplan::placement
