@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/output.h"
 #include "cli/gcode_flags.h"
 #include "engine/common/error.h"
 #include "solvers/common/picture.h"
@@ -160,6 +161,12 @@ void add_run(CLI::App& app) {
     if (!(magnify > 0 && magnify <= 1e6)) throw InputError("--magnify", 0, fmt::format("{} must be > 0 and <= 1e6", a->magnify));
     if (!a->plot.empty() && !is_picture_path(a->plot))
       throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", a->plot));
+    // Output files: never one of the inputs, and their folders must exist before the run.
+    for (const auto& [flag, path] : {std::pair<const char*, const std::string&>{"--trace", a->trace}, {"--plot", a->plot}}) {
+      if (path.empty()) continue;
+      refuse_overwriting_input(flag, path, {a->program, a->no_go, a->machine});
+      check_output_folder(flag, path);
+    }
     if (!a->seed.empty()) {
       std::size_t used = 0;
       unsigned long long s = 0;
@@ -199,7 +206,7 @@ void add_run(CLI::App& app) {
       nlohmann::json j = run.to_json();
       if (!a->trace.empty()) j["trace"] = a->trace;
       if (!a->plot.empty()) j["plot"] = a->plot;
-      std::printf("%s\n", j.dump(2).c_str());
+      std::printf("%s\n", json_text(j, 2).c_str());
     } else {
       if (run.kerf) std::printf("kerf compensation\n%s\n", run.kerf->brief(run.job.source).c_str());
       std::printf("rapids (straight G0 against planned, mm)\n%s\n", run.rapids.summary().c_str());

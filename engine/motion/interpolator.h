@@ -1,7 +1,7 @@
 // Real-time interpolation on lines and arcs: the position, direction and curvature of the
 // tool point at a given path length along one Segment.
 //
-// Koren's interpolators (papers/koren-control-of-machine-tools.txt, section 3.1) run at the
+// Koren's interpolators (Koren, "Control of machine tools", section 3.1) run at the
 // servo period T. The linear one adds, each period,
 //
 //     dX = T * Vx,   dY = T * Vy,   with  Vx = V * Lx / L,  Vy = V * Ly / L,

@@ -1,7 +1,7 @@
 // The executor's plan of work: a part program cut into motion stretches and torch events,
 // and the trajectory interface the real-time loop samples.
 //
-// Data flow (issue 4):
+// Data flow:
 //
 //   Program --make_job--> Job (stretches of programmed XY geometry + steps)
 //           --kerf (engine/motion/kerf)--> Job with compensated cutting stretches

@@ -1,4 +1,4 @@
-// Re-routing a Job's rapids round no-go zones (issue 4, the step between kerf compensation
+// Re-routing a Job's rapids round no-go zones (the step between kerf compensation
 // and feed planning; see engine/motion/job.h).
 //
 // plan_rapids walks the Job's steps in order, tracking which stretches have been cut. For
