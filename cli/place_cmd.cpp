@@ -1,13 +1,12 @@
 // `machplan place` and `machplan check`: workpiece placement on the HexaM-type machine.
-#include <atomic>
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/interrupt.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
 #include "solvers/placement/plot.h"
@@ -18,7 +17,6 @@ namespace {
 
 using namespace machplan::placement;
 
-std::atomic<bool> g_interrupted{false};
 
 // No machine table or pad reaches 100 m; larger values are typing errors, and their squares
 // overflow the geometry.
@@ -114,15 +112,18 @@ void add_place(CLI::App& app) {
     refuse_overwriting_input("--plot", o->plot, {o->scene});
     const Scene scene = load_scene(o->scene);
     refuse_overwriting_input("--plot", o->plot, {scene.toolpath_file, scene.workpiece_file});
-    std::signal(SIGINT, [](int) { g_interrupted = true; });
-    po.should_stop = [] { return g_interrupted.load(); };
+    const StopOnSignals signals;
+    po.should_stop = [stop = StopOnSignals::stop_token()] { return stop.stop_requested(); };
+    auto bar = std::make_shared<ProgressBar>("placement search", !o->json);
+    po.progress = [bar](double f) { bar->update(f); };
     const PlacementResult r = place(scene, po);
+    bar.reset();
     bool dense_free = true;
     if (o->verify && r.status == PlacementStatus::found) {
       Checker checker(scene, r.placement.rotation_deg);
       dense_free = checker.dense_check(r.placement).free();
     }
-    if (!o->plot.empty()) write_placement_plot(o->plot, scene, r);
+    if (!o->plot.empty() && r.status != PlacementStatus::cancelled) write_placement_plot(o->plot, scene, r);
     if (o->json) {
       nlohmann::json j = report_json(r.report);
       j["status"] = to_string(r.status);
@@ -152,7 +153,7 @@ void add_place(CLI::App& app) {
       } else {
         std::printf("%s\n", r.message.c_str());
       }
-      print_report(r.report, scene.safe_distance_mm);
+      if (r.status != PlacementStatus::cancelled) print_report(r.report, scene.safe_distance_mm);
       std::printf("checks: %ld placements examined%s, %ld exact pose queries, %ld interpolated poses, %ld tree nodes "
                   "(%ld proven by bound)\n",
                   r.placements_examined,
@@ -164,6 +165,9 @@ void add_place(CLI::App& app) {
     }
     if (r.status == PlacementStatus::unavoidable || r.status == PlacementStatus::no_placement) {
       std::fprintf(stderr, "%s: cannot be machined on this machine: %s\n", o->scene.c_str(), r.message.c_str());
+      set_exit_code(3);
+    } else if (r.status == PlacementStatus::cancelled) {
+      std::fprintf(stderr, "%s: placement search stopped (signal) before an answer\n", o->scene.c_str());
       set_exit_code(3);
     } else if (r.status != PlacementStatus::found) {
       set_exit_code(1);

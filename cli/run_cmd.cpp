@@ -2,7 +2,6 @@
 // simulated cutting machine (solvers/motion/run.h) and reports cycle time, torch time,
 // rapids, contour error per cut, faults and the cycle time against its lower bound.
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 #include <limits>
 #include <memory>
@@ -13,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/interrupt.h"
 #include "cli/output.h"
 #include "cli/gcode_flags.h"
 #include "engine/common/error.h"
@@ -78,28 +78,6 @@ sim::FaultInjection injection_of(const std::string& text) {
   else throw bad(fmt::format("unknown axis '{}'", axis));
   return f;
 }
-
-// SIGINT, SIGTERM and SIGHUP ask the run to stop (torch off, controlled stop, report, exit 3)
-// instead of killing the process mid-cut. The handler only stores to a lock-free atomic.
-StopSource g_signal_stop;
-extern "C" void on_stop_signal(int) { g_signal_stop.request_stop(); }
-
-class SignalStop {
- public:
-  SignalStop() {
-    struct sigaction sa = {};
-    sa.sa_handler = on_stop_signal;
-    sigemptyset(&sa.sa_mask);
-    for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &sa, &old_[i]);
-  }
-  ~SignalStop() {
-    for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &old_[i], nullptr);
-  }
-
- private:
-  static constexpr int kSignals[3] = {SIGINT, SIGTERM, SIGHUP};
-  struct sigaction old_[3];
-};
 
 void add_run(CLI::App& app) {
   struct Args {
@@ -195,10 +173,10 @@ void add_run(CLI::App& app) {
     }
     o.executor.record_trace = !a->plot.empty();
     o.trace_csv_path = a->trace;  // streamed during the run
-    o.stop = g_signal_stop.token();
+    o.stop = StopOnSignals::stop_token();
 
-    g_signal_stop.reset();
-    const SignalStop signals;
+    // SIGINT, SIGTERM and SIGHUP stop the machine in a controlled way (exit 3), not the process.
+    const StopOnSignals signals;
     const motion::RunOutcome run = motion::run_program(a->program, o);
     if (!a->plot.empty()) motion::write_run_plot(a->plot, run, magnify);
 

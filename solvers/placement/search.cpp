@@ -86,7 +86,7 @@ PlacementResult paper_search(const Scene& scene, const PlacementOptions& o) {
       res.message = fmt::format("gave up after {} steps", ss.paper_max_steps);
     }
   }
-  res.report = checker.report(res.status == PlacementStatus::found ? res.placement : p);
+  if (res.status != PlacementStatus::cancelled) res.report = checker.report(res.status == PlacementStatus::found ? res.placement : p);
   res.verified = res.status == PlacementStatus::found && res.report.free();
   res.counts = checker.counts();
   return res;
@@ -209,7 +209,9 @@ PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, co
                               "free of interference{}",
                               scene.search.pad_max_mm, last.what.empty() ? "" : fmt::format(" (e.g. {})", last.what));
   }
-  res.report = checker.report(res.status == PlacementStatus::found ? res.placement : Placement{0, 0, 0, rotation_deg});
+  // A cancelled search stops now: no report (it can take as long as the search itself).
+  if (res.status != PlacementStatus::cancelled)
+    res.report = checker.report(res.status == PlacementStatus::found ? res.placement : Placement{0, 0, 0, rotation_deg});
   res.verified = res.status == PlacementStatus::found && res.report.free();
   res.counts = checker.counts();
   return res;

@@ -63,7 +63,7 @@ struct PlacementResult {
   PlacementStatus status = PlacementStatus::no_placement;
   std::string message;
   Placement placement;
-  CheckReport report;   // at the answer (or at the last placement tried)
+  CheckReport report;   // at the answer (or at the last placement tried); empty when cancelled
   bool verified = false;
   CheckCounts counts;   // all checking done by the search
   long placements_examined = 0;

@@ -1,0 +1,56 @@
+#include "cli/interrupt.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace machplan::cli {
+
+namespace {
+StopSource g_stop;
+constexpr int kSignals[3] = {SIGINT, SIGTERM, SIGHUP};
+extern "C" void on_stop_signal(int) { g_stop.request_stop(); }
+double now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+StopOnSignals::StopOnSignals() {
+  g_stop.reset();
+  struct sigaction sa = {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &sa, &old_[i]);
+}
+
+StopOnSignals::~StopOnSignals() {
+  for (int i = 0; i < 3; ++i) sigaction(kSignals[i], &old_[i], nullptr);
+}
+
+StopToken StopOnSignals::stop_token() { return g_stop.token(); }
+
+ProgressBar::ProgressBar(std::string label, bool wanted)
+    : label_(std::move(label)), on_(wanted && isatty(STDERR_FILENO)), start_s_(now_s()) {}
+
+ProgressBar::~ProgressBar() {
+  if (drawn_) std::fprintf(stderr, "\r%*s\r", static_cast<int>(label_.size()) + 40, "");
+}
+
+void ProgressBar::update(double fraction) {
+  if (!on_) return;
+  const double t = now_s();
+  // Quiet for the first second (short work shows nothing), then at most ten redraws a second.
+  if (t - start_s_ < 1.0 || (last_s_ >= 0 && t - last_s_ < 0.1)) return;
+  last_s_ = t;
+  const double f = std::isfinite(fraction) ? std::clamp(fraction, 0.0, 1.0) : 0.0;
+  const int width = 30, full = static_cast<int>(f * width);
+  std::fprintf(stderr, "\r%s [%.*s%*s] %3.0f %%", label_.c_str(), full, "##############################", width - full, "",
+               100 * f);
+  std::fflush(stderr);
+  drawn_ = true;
+}
+
+}  // namespace machplan::cli

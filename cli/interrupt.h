@@ -1,0 +1,44 @@
+// Long work that a person can stop and watch, the same way in every command.
+//
+//   StopOnSignals   while it lives, SIGINT, SIGTERM and SIGHUP set one process-wide stop flag
+//                   (a lock-free atomic store, safe in a signal handler) instead of killing the
+//                   process; the command's work polls stop_token() and ends in a controlled
+//                   way (the executor stops the machine, a search returns `cancelled`), reports
+//                   and exits 3. The previous handlers come back when it goes.
+//   ProgressBar     a one-line bar on stderr for work longer than about a second, drawn only
+//                   when stderr is a terminal and the output is not --json; at most ten
+//                   redraws a second, cleared when done.
+#pragma once
+
+#include <csignal>
+#include <string>
+
+#include "engine/common/stop.h"
+
+namespace machplan::cli {
+
+class StopOnSignals {
+ public:
+  StopOnSignals();
+  ~StopOnSignals();
+  StopOnSignals(const StopOnSignals&) = delete;
+  StopOnSignals& operator=(const StopOnSignals&) = delete;
+  static StopToken stop_token();
+
+ private:
+  struct sigaction old_[3];
+};
+
+class ProgressBar {
+ public:
+  ProgressBar(std::string label, bool wanted);
+  ~ProgressBar();
+  void update(double fraction);
+
+ private:
+  std::string label_;
+  bool on_ = false, drawn_ = false;
+  double last_s_ = -1.0, start_s_ = 0.0;
+};
+
+}  // namespace machplan::cli
