@@ -1,4 +1,6 @@
 // `machplan calibrate record|fit`: calibration sessions (solvers/calibration).
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -31,6 +33,19 @@ std::uint64_t seed_of(const std::string& text) {
   return s;
 }
 
+double number_of(const char* flag, const std::string& text) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(v))
+    throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  return v;
+}
+
 int repeats_of(const std::string& text) {
   std::size_t used = 0;
   int r = 0;
@@ -49,7 +64,7 @@ void add_calibrate(CLI::App& app) {
   cal->require_subcommand(1);
 
   struct RecordArgs {
-    std::string machine, backend = "sim", seed = "1", out, truth, repeats = "1";
+    std::string machine, backend = "sim", seed = "1", out, truth, repeats = "1", speeds, hold;
   };
   auto r = std::make_shared<RecordArgs>();
   auto* rec = cal->add_subcommand("record", "Run the calibration routine on a backend and write the session log");
@@ -58,6 +73,9 @@ void add_calibrate(CLI::App& app) {
   rec->add_option("--seed", r->seed, "seed of the simulated machine's noise and of the ruler's noise (default 1)");
   rec->add_option("--out", r->out, "session log to write (default: standard output)");
   rec->add_option("--repeats", r->repeats, "run the stroke program this many times (default 1, about 21 s)");
+  rec->add_option("--speeds", r->speeds,
+                  "stroke speeds as fractions of the DAC's full scale, comma-separated (default 0.15,0.3,0.5,0.7)");
+  rec->add_option("--hold", r->hold, "seconds each stroke holds its speed (default 1.2)");
   rec->add_option("--sim-truth", r->truth,
                   "sim only: a machine YAML file with the simulated machine's true factors (default: the nominal "
                   "machine)");
@@ -73,6 +91,22 @@ void add_calibrate(CLI::App& app) {
     calibration::RecordOptions o;
     o.seed = bo.sim.seed;
     o.repeats = repeats_of(r->repeats);
+    if (!r->speeds.empty()) {
+      o.speed_fractions.clear();
+      std::size_t pos = 0;
+      while (pos <= r->speeds.size()) {
+        const std::size_t comma = std::min(r->speeds.find(',', pos), r->speeds.size());
+        o.speed_fractions.push_back(number_of("--speeds", r->speeds.substr(pos, comma - pos)));
+        pos = comma + 1;
+      }
+    }
+    if (!r->hold.empty()) o.stroke_hold_s = number_of("--hold", r->hold);
+    try {
+      o.validate();
+    } catch (const InputError& e) {
+      const std::string flag = e.where() == "speed_fractions" ? "--speeds" : e.where() == "stroke_hold_s" ? "--hold" : e.where();
+      throw InputError(flag, 0, e.message());
+    }
     auto log = calibration::record_session(*backend, nominal, o);
     if (!r->truth.empty()) log.comments.push_back(fmt::format("sim truth: {}", r->truth));
     if (r->out.empty()) {
