@@ -7,7 +7,10 @@
 #include <memory>
 #include <string>
 
+#include <filesystem>
+
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "cli/command.h"
 #include "engine/calibration/session_log.h"
@@ -15,7 +18,9 @@
 #include "models/backends/backend_factory.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/fit.h"
+#include "engine/common/text_file.h"
 #include "solvers/calibration/record.h"
+#include "solvers/calibration/store.h"
 
 namespace machplan::cli {
 namespace {
@@ -146,6 +151,80 @@ void add_calibrate(CLI::App& app) {
 }
 
 const Registration reg(55, add_calibrate);
+
+void add_store_commands(CLI::App& app) {
+  auto* cal = app.get_subcommand("calibrate");
+  struct Args {
+    std::string log, machine, db, who, feed;
+    bool json = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto db_path = [a] { return a->db.empty() ? calibration::default_store_path() : a->db; };
+
+  auto* apply = cal->add_subcommand("apply", "Fit a session log and store the fit as the machine's active calibration");
+  apply->add_option("log", a->log, "session log (CSV)")->required();
+  apply->add_option("--machine", a->machine, "thermal_gantry, or a machine YAML file (the nominal machine)")->required();
+  apply->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
+  apply->add_option("--who", a->who, "who ran the session (default $USER)");
+  apply->callback([a, db_path] {
+    const auto machine = cutting::load_machine(cutting::find_machine(a->machine));
+    const std::string bytes = read_text_file(a->log);
+    const auto log = calibration::read_session_log_text(bytes, a->log);
+    const auto fit = calibration::fit_session(log, machine);
+    std::printf("%s", fit.report().c_str());
+    std::string who = a->who;
+    if (who.empty()) who = std::getenv("USER") ? std::getenv("USER") : "unknown";
+    const std::string path = db_path();
+    calibration::CalibrationStore store(path);
+    const auto id = store.apply(fit, std::filesystem::absolute(a->log).string(), bytes, who);
+    std::printf("stored as fit %lld, active for %s, in %s\n", static_cast<long long>(id), fit.machine.c_str(), path.c_str());
+  });
+
+  auto* history = cal->add_subcommand("history", "List the stored sessions and fits, newest first");
+  history->add_option("--machine", a->machine, "only this machine (its name in the machine file)");
+  history->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
+  history->add_flag("--json", a->json, "machine-readable output");
+  history->callback([a, db_path] {
+    calibration::CalibrationStore store(db_path());
+    const auto rows = store.history(a->machine);
+    if (a->json) {
+      nlohmann::json j = nlohmann::json::array();
+      for (const auto& f : rows)
+        j.push_back({{"fit_id", f.fit_id}, {"session_id", f.session_id}, {"machine", f.machine}, {"status", f.status},
+                     {"who", f.who}, {"created_utc", f.created_utc}, {"log_path", f.log_path}, {"log_hash", f.log_hash},
+                     {"active", f.active}, {"fit", nlohmann::json::parse(f.fit_json, nullptr, false)}});
+      std::printf("%s\n", j.dump(2).c_str());
+      return;
+    }
+    if (rows.empty()) std::printf("no calibrations stored\n");
+    for (const auto& f : rows)
+      std::printf("fit %lld%s  %s  %s by %s  feed x %.5f y %.5f  backlash x %.4f y %.4f mm  log %s (%s)\n",
+                  static_cast<long long>(f.fit_id), f.active ? " (active)" : "", f.machine.c_str(), f.created_utc.c_str(),
+                  f.who.c_str(), f.feed_factor[0], f.feed_factor[1], f.backlash_mm[0], f.backlash_mm[1],
+                  f.log_path.c_str(), f.log_hash.c_str());
+  });
+
+  auto* show = cal->add_subcommand("show", "Print a machine's active calibration and the paper modes' factor for a feed");
+  show->add_option("--machine", a->machine, "the machine's name (as in its machine file)")->required();
+  show->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
+  show->add_option("--feed", a->feed, "feed, mm/s: print the open-loop factor for `run --mode paper-open --calibration`");
+  show->callback([a, db_path] {
+    calibration::CalibrationStore store(db_path());
+    const auto c = store.active(a->machine);
+    if (!c) throw Infeasible(fmt::format("no active calibration for '{}' in {}", a->machine, db_path()));
+    std::printf("active calibration for %s: fit %lld of %s by %s\n", c->machine.c_str(), static_cast<long long>(c->fit_id),
+                c->created_utc.c_str(), c->who.c_str());
+    for (int i = 0; i < 2; ++i)
+      std::printf("  %s: feed factor %.5f, dead band %.4f mm/s, %.7f mm/count, backlash %.4f mm\n", i ? "y" : "x",
+                  c->feed_factor[i], c->dead_band_mm_per_s[i], c->mm_per_count[i], c->backlash_mm[i]);
+    if (!a->feed.empty()) {
+      const double f = number_of("--feed", a->feed);
+      std::printf("open-loop factor at %g mm/s: %.5f\n", f, calibration::open_loop_factor(*c, f));
+    }
+  });
+}
+
+const Registration reg_store(56, add_store_commands);
 
 }  // namespace
 }  // namespace machplan::cli
