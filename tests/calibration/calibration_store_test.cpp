@@ -14,6 +14,7 @@
 #include "engine/common/error.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
+#include "solvers/calibration/apply.h"
 #include "solvers/calibration/fit.h"
 #include "solvers/calibration/record.h"
 #include "solvers/calibration/store.h"
@@ -166,6 +167,32 @@ TEST(CalibrationStore, OneSessionCalibratesPaperOpenLoopAtThreeFeeds) {
                 feed, e0, e1, o.executor.calibration_factor);
     EXPECT_GT(e0, 5.0 * e1) << "feed " << feed;
   }
+}
+
+}  // namespace
+}  // namespace machplan::calibration
+
+namespace machplan::calibration {
+namespace {
+
+TEST(CalibrationApply, FeedFactorAndBacklashGoIntoTheServo) {
+  const auto m = nominal();
+  StoredFit c;
+  c.fit_id = 9;
+  c.feed_factor[0] = 0.68;
+  c.feed_factor[1] = 0.71;
+  c.backlash_mm[0] = 0.06;
+  c.backlash_mm[1] = 0.12;
+  const auto s = apply_calibration(m.setup(), c);
+  EXPECT_NEAR(s.servo[0].velocity_ff, 1 / 0.68, 1e-12);
+  EXPECT_NEAR(s.servo[1].velocity_ff, 1 / 0.71, 1e-12);
+  EXPECT_DOUBLE_EQ(s.servo[1].backlash_compensation_mm, 0.12);
+  EXPECT_NO_THROW(s.validate());
+  // Everything else stays as the machine file says.
+  EXPECT_DOUBLE_EQ(s.servo[0].kp_per_s, m.setup().servo[0].kp_per_s);
+  EXPECT_DOUBLE_EQ(s.signals[0].mm_per_count, m.setup().signals[0].mm_per_count);
+  c.feed_factor[1] = 0.0;
+  EXPECT_THROW(apply_calibration(m.setup(), c), InputError);
 }
 
 }  // namespace
