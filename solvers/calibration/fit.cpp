@@ -264,14 +264,23 @@ AxisFit fit_axis(const AxisData& d, int axis, const cutting::MachineConfig& mach
     Eigen::MatrixXd cov;
     double ss = 0;
     int nr = 0;
+    // The readings' scatter, robustly (a misread ruler must not inflate it): the median
+    // absolute residual, scaled to a standard deviation; readings beyond 5 of it are outliers.
     double ruler_ss = 0;
+    std::vector<double> absr;
     for (std::size_t j = 0; j < d.ref_mm.size(); ++j) {
       const double r = xs[0] + s * d.ref_counts[j] - d.ref_mm[j];
       ruler_ss += r * r;
+      absr.push_back(std::abs(r));
     }
     f.ruler_rms_mm = std::sqrt(ruler_ss / d.ref_mm.size());
-    if (d.ref_mm.size() > 2 && covariance(pr, {xs}, cov, ss, nr)) {
-      f.sigma.mm_per_count = std::sqrt(cov(1, 1) * ruler_ss / (d.ref_mm.size() - 2));
+    std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
+    const double ruler_sigma = std::max(1.4826 * absr[absr.size() / 2], 1e-6);
+    for (std::size_t j = 0; j < d.ref_mm.size(); ++j)
+      if (std::abs(xs[0] + s * d.ref_counts[j] - d.ref_mm[j]) > 5 * ruler_sigma) ++f.ruler_outliers;
+    const double dof = static_cast<double>(d.ref_mm.size()) - 2.0;
+    if (dof > 0 && covariance(pr, {xs}, cov, ss, nr)) {
+      f.sigma.mm_per_count = std::sqrt(cov(1, 1)) * ruler_sigma * std::sqrt(d.ref_mm.size() / dof);
     } else {
       f.sigma.mm_per_count = HUGE_VAL;
     }
@@ -501,11 +510,11 @@ std::string CalibrationFit::report() const {
         "    backlash      {:.4f} +- {:.2g} mm\n"
         "    lag           {:.5f} +- {:.2g} s\n"
         "    latency       {:.5f} +- {:.2g} s\n"
-        "    rms residual  {:.4f} mm (ruler {:.4f} mm)\n",
+        "    rms residual  {:.4f} mm (ruler {:.4f} mm, {} outlying readings)\n",
         a.axis, a.samples, a.references, a.strokes, a.rejected_reads, a.iterations, a.mm_per_count,
         a.sigma.mm_per_count, a.feed_factor, a.sigma.feed_factor, a.dead_band_mm_per_s, a.sigma.dead_band_mm_per_s,
         a.backlash_mm, a.sigma.backlash_mm, a.lag_s, a.sigma.lag_s, a.latency_s, a.sigma.latency_s,
-        a.rms_residual_mm, a.ruler_rms_mm);
+        a.rms_residual_mm, a.ruler_rms_mm, a.ruler_outliers);
   }
   s += fmt::format("  rms residual {:.4f} mm\n", rms_residual_mm);
   return s;
@@ -534,6 +543,7 @@ std::string CalibrationFit::json() const {
                   {"lag_s", num(a.sigma.lag_s)},                 {"latency_s", num(a.sigma.latency_s)}};
     x["rms_residual_mm"] = num(a.rms_residual_mm);
     x["ruler_rms_mm"] = num(a.ruler_rms_mm);
+    x["ruler_outliers"] = a.ruler_outliers;
     x["samples"] = a.samples;
     x["references"] = a.references;
     x["strokes"] = a.strokes;

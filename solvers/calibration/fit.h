@@ -81,6 +81,7 @@ struct AxisFit {
   AxisSigma sigma;
   double rms_residual_mm = 0.0;   // dynamics residual of this axis
   double ruler_rms_mm = 0.0;      // reference readings against the fitted scale
+  int ruler_outliers = 0;         // readings further than 5 robust standard deviations
   int samples = 0, references = 0, strokes = 0, rejected_reads = 0, iterations = 0;
   std::vector<std::string> not_identifiable;  // "PARAMETER: why", one per problem
 };

@@ -100,6 +100,31 @@ TEST(CalibrationFit, SurvivesTheLogRoundTrip) {
   expect_recovers(truth, fit_session(again, nominal()));
 }
 
+TEST(CalibrationFit, MisreadCountersAndAMisreadRulerDoNotDragTheFit) {
+  const auto truth = with_truth({0.67, 0.013, 0.09, 149.5, 98.175, 1, 1});
+  sim::SimOptions so;
+  so.seed = 11;
+  // Counters read across a carry (off by 256) on both axes, in the middle of strokes.
+  for (double t : {2.1, 5.3, 9.7}) {
+    so.faults.push_back({sim::FaultInjection::Kind::counter_wrap_misread, t, 0, 0});
+    so.faults.push_back({sim::FaultInjection::Kind::counter_wrap_misread, t + 0.5, 1, 0});
+  }
+  sim::SimBackend backend(truth, so);
+  RecordOptions o;
+  o.seed = 12;
+  auto log = record_session(backend, nominal(), o);
+  // One reference reading written down 5 mm off.
+  int refs = 0;
+  for (auto& s : log.samples)
+    if (s.has_ref && s.axis == 0 && ++refs == 4) s.ref_mm += 5.0;
+  const auto fit = fit_session(log, nominal());
+  EXPECT_GE(fit.axes[0].rejected_reads, 3);
+  EXPECT_GE(fit.axes[1].rejected_reads, 3);
+  EXPECT_EQ(fit.axes[0].ruler_outliers, 1);
+  EXPECT_EQ(fit.axes[1].ruler_outliers, 0);
+  expect_recovers(truth, fit);
+}
+
 TEST(CalibrationFit, CounterWrapsAreUnwrapped) {
   const auto truth = with_truth({});
   const auto log = record(truth, 5);
