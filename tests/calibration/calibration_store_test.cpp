@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <memory>
+#include <vector>
 #include <fstream>
 #include <sstream>
 
@@ -19,6 +21,7 @@
 #include "solvers/calibration/record.h"
 #include "solvers/calibration/store.h"
 #include "solvers/motion/run.h"
+#include "tests/support/temp_dir.h"
 
 namespace machplan::calibration {
 namespace {
@@ -27,10 +30,12 @@ cutting::MachineConfig nominal() {
   return cutting::load_machine(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
 }
 
+// Each test's store lives in a fresh temporary folder (removed at exit), in a subfolder the
+// store must create.
 std::string temp_db(const char* name) {
-  const auto dir = std::filesystem::temp_directory_path() / fmt::format("machplan_store_{}_{}", name, ::getpid());
-  std::filesystem::remove_all(dir);
-  return (dir / "sub" / "calibration.db").string();  // the folder is created by the store
+  static std::vector<std::unique_ptr<test::TempDir>> dirs;
+  dirs.push_back(std::make_unique<test::TempDir>());
+  return (dirs.back()->path() / name / "calibration.db").string();
 }
 
 struct Session {
@@ -131,12 +136,8 @@ TEST(CalibrationStore, AProcessKilledMidWriteLeavesThePreviousCalibrationActive)
 }
 
 TEST(CalibrationStore, AnUnreadableStoreIsNamed) {
-  const auto dir = std::filesystem::temp_directory_path() / fmt::format("machplan_store_bad_{}", ::getpid());
-  std::filesystem::create_directories(dir);
-  const auto path = (dir / "not_a_db").string();
-  {
-    std::ofstream(path) << "this is not an SQLite file, and it is long enough to have a header of sorts......\n";
-  }
+  test::TempDir dir;
+  const auto path = dir.write("not_a_db", "this is not an SQLite file, and it is long enough to have a header of sorts......\n");
   EXPECT_THROW(CalibrationStore{path}, InputError);
 }
 
