@@ -54,6 +54,7 @@ void RecordOptions::validate() const {
   if (!(stair_hold_s > 0 && stair_hold_s < 60)) bad("stair_hold_s", fmt::format("{} is not in (0, 60) s", stair_hold_s));
   if (!(stroke_hold_s > 0 && stroke_hold_s < 600)) bad("stroke_hold_s", fmt::format("{} is not in (0, 600) s", stroke_hold_s));
   if (!(dwell_s > 0 && dwell_s < 60)) bad("dwell_s", fmt::format("{} is not in (0, 60) s", dwell_s));
+  if (!(stop_s > 0 && stop_s < 60)) bad("stop_s", fmt::format("{} is not in (0, 60) s", stop_s));
   if (!(settle_s > 0 && settle_s < 60)) bad("settle_s", fmt::format("{} is not in (0, 60) s", settle_s));
   if (repeats < 1 || repeats > 1000) bad("repeats", fmt::format("{} is not in 1 .. 1000", repeats));
   if (!(ruler_noise_mm >= 0 && ruler_noise_mm < 10)) bad("ruler_noise_mm", fmt::format("{} is not in [0, 10) mm", ruler_noise_mm));
@@ -118,6 +119,16 @@ SessionLog record_session(hardware::Backend& backend, const cutting::MachineConf
   hardware::Outputs out;
   out.drives_enabled = true;
   for (std::size_t k = 0; k < steps.size(); ++k) {
+    if (o.stop.stop_requested()) {
+      // Zero speed until the drives' lag has run out, then drives off.
+      out.dac_code = {0, 0};
+      const long n = std::max(1L, std::lround(o.stop_s / dt));
+      for (long i = 0; i < n; ++i)
+        if (backend.exchange(out, in) == hardware::Health::lost) break;
+      out = hardware::Outputs{};
+      backend.exchange(out, in);
+      throw Infeasible(fmt::format("calibration cancelled at {:.3f} s; the axes were stopped", k * dt));
+    }
     std::array<std::int32_t, 2> code{};
     for (int a = 0; a < 2; ++a)
       code[a] = static_cast<std::int32_t>(std::lround(steps[k].fraction * (max_code[a] + 1)));

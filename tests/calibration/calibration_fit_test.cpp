@@ -15,6 +15,7 @@
 #include "models/sim/sim_backend.h"
 #include "solvers/calibration/fit.h"
 #include "solvers/calibration/record.h"
+#include "tests/support/forwarding_backend.h"
 
 namespace machplan::calibration {
 namespace {
@@ -212,6 +213,46 @@ TEST(CalibrationFit, OptionsValidateNameTheField) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.where(), "speed_fractions");
   }
+}
+
+}  // namespace
+}  // namespace machplan::calibration
+
+namespace machplan::calibration {
+namespace {
+
+// Requests a stop after a number of exchanges and remembers what the routine sent last.
+class StopAfter : public test::ForwardingBackend {
+ public:
+  StopAfter(hardware::Backend& inner, StopSource& stop, int after) : ForwardingBackend(inner), stop_(stop), left_(after) {}
+  hardware::Health exchange(const hardware::Outputs& o, hardware::Inputs& i) noexcept override {
+    if (--left_ == 0) stop_.request_stop();
+    last_ = o;
+    return ForwardingBackend::exchange(o, i);
+  }
+  hardware::Outputs last_;
+
+ private:
+  StopSource& stop_;
+  int left_;
+};
+
+TEST(CalibrationRecord, CancellationStopsTheAxesAndSaysSo) {
+  auto m = nominal();
+  sim::SimBackend sim(m, {});
+  StopSource stop;
+  StopAfter backend(sim, stop, 1500);  // in the middle of the first strokes
+  RecordOptions o;
+  o.stop = stop.token();
+  try {
+    record_session(backend, m, o);
+    FAIL() << "a cancelled session returned a log";
+  } catch (const Infeasible& e) {
+    EXPECT_NE(std::string(e.what()).find("cancelled at 1.500 s"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(backend.last_.drives_enabled);
+  EXPECT_FALSE(sim.drives_enabled());
+  for (int a = 0; a < 2; ++a) EXPECT_NEAR(sim.plant(a).velocity_mm_per_s(), 0.0, 1e-9) << a;
 }
 
 }  // namespace
