@@ -383,6 +383,43 @@ AxisFit fit_axis(const AxisData& d, int axis, const cutting::MachineConfig& mach
     problem(fmt::format("feed_factor: the solver failed: {}", sum.message));
     return f;
   }
+  // Per held command: the steady speed over the second half of each hold of 0.2 s or more.
+  {
+    std::vector<SpeedLevel> lv;
+    std::vector<double> dist;  // mm travelled, per level
+    int i = 1;
+    while (i < n) {
+      int j = i;
+      while (j + 1 < n && d.u_mm_per_s[j + 1] == d.u_mm_per_s[i]) ++j;
+      const double u = d.u_mm_per_s[i];
+      if (u != 0.0 && (j - i) * dt >= 0.2) {
+        const int a = i + (j - i) / 2, b = j;
+        bool ok = true;
+        for (int k = a; k <= b && ok; ++k) ok = d.valid[k];
+        if (ok) {
+          auto it = std::find_if(lv.begin(), lv.end(), [&](const SpeedLevel& l) { return l.command_mm_per_s == u; });
+          if (it == lv.end()) {
+            lv.push_back({u, 0.0, 0.0});
+            dist.push_back(0.0);
+            it = lv.end() - 1;
+          }
+          it->seconds += (b - a) * dt;
+          dist[it - lv.begin()] += (d.counts[b] - d.counts[a]) * s;
+        }
+      }
+      i = j + 1;
+    }
+    double lo = HUGE_VAL, hi = -HUGE_VAL;
+    for (std::size_t k = 0; k < lv.size(); ++k) {
+      const double v = dist[k] / lv[k].seconds;
+      lv[k].feed_factor = (v + p[kDead] * sgn(lv[k].command_mm_per_s)) / lv[k].command_mm_per_s;
+      lo = std::min(lo, lv[k].feed_factor);
+      hi = std::max(hi, lv[k].feed_factor);
+    }
+    std::sort(lv.begin(), lv.end(), [](const auto& x, const auto& y) { return x.command_mm_per_s < y.command_mm_per_s; });
+    f.by_speed = lv;
+    f.by_speed_spread = lv.size() >= 2 ? (hi - lo) / p[kFeed] : 0.0;
+  }
   f.feed_factor = p[kFeed];
   f.dead_band_mm_per_s = p[kDead];
   f.lag_s = p[kLag];
@@ -515,6 +552,11 @@ std::string CalibrationFit::report() const {
         a.sigma.mm_per_count, a.feed_factor, a.sigma.feed_factor, a.dead_band_mm_per_s, a.sigma.dead_band_mm_per_s,
         a.backlash_mm, a.sigma.backlash_mm, a.lag_s, a.sigma.lag_s, a.latency_s, a.sigma.latency_s,
         a.rms_residual_mm, a.ruler_rms_mm, a.ruler_outliers);
+    if (!a.by_speed.empty()) {
+      s += "    feed factor by commanded speed:";
+      for (const auto& l : a.by_speed) s += fmt::format(" {:.1f}: {:.4f}", l.command_mm_per_s, l.feed_factor);
+      s += fmt::format(" mm/s (spread {:.2f} %)\n", 100 * a.by_speed_spread);
+    }
   }
   s += fmt::format("  rms residual {:.4f} mm\n", rms_residual_mm);
   return s;
@@ -549,6 +591,11 @@ std::string CalibrationFit::json() const {
     x["strokes"] = a.strokes;
     x["rejected_reads"] = a.rejected_reads;
     x["not_identifiable"] = a.not_identifiable;
+    x["by_speed_spread"] = num(a.by_speed_spread);
+    x["feed_factor_by_speed"] = json::array();
+    for (const auto& l : a.by_speed)
+      x["feed_factor_by_speed"].push_back(
+          {{"command_mm_per_s", l.command_mm_per_s}, {"feed_factor", l.feed_factor}, {"seconds", l.seconds}});
     j["axes"][a.axis] = x;
   }
   return j.dump(2);

@@ -34,6 +34,11 @@
 //    uncertainties are the square roots of the covariance diagonal scaled by the residual
 //    variance.
 //
+// 3. Gain against speed. The model has one feed factor; the steady speed of every held command
+//    is measured as well (`by_speed`), so a gain that varies with speed (a drive reaching its
+//    top speed, a non-linear amplifier) shows as a spread (`by_speed_spread`) instead of hiding
+//    in the one number.
+//
 // What the data must hold, and what the fit says otherwise (status not_identifiable, with the
 // parameter named in the message; never a silent default): motion on the axis (feed factor),
 // two reference readings at different places (encoder scale), strokes at two or more speeds
@@ -69,6 +74,15 @@ struct AxisSigma {
          latency_s = 0.0;
 };
 
+// The speed gain measured on one held speed, from the steady part of the hold: whether the
+// gain varies with speed (a drive saturating near its top speed, a non-linear amplifier)
+// shows as these disagreeing with the one fitted feed factor.
+struct SpeedLevel {
+  double command_mm_per_s = 0.0;   // signed commanded speed
+  double feed_factor = 0.0;        // (measured speed + dead band) / commanded, dead band from the fit
+  double seconds = 0.0;            // steady time it was measured over (all holds at this command)
+};
+
 struct AxisFit {
   std::string axis;  // "x", "y"
   bool fitted = false;
@@ -84,6 +98,8 @@ struct AxisFit {
   int ruler_outliers = 0;         // readings further than 5 robust standard deviations
   int samples = 0, references = 0, strokes = 0, rejected_reads = 0, iterations = 0;
   std::vector<std::string> not_identifiable;  // "PARAMETER: why", one per problem
+  std::vector<SpeedLevel> by_speed;  // per held command, sorted by command
+  double by_speed_spread = 0.0;      // (largest - smallest) / fitted feed factor
 };
 
 struct CalibrationFit {

@@ -257,3 +257,28 @@ TEST(CalibrationRecord, CancellationStopsTheAxesAndSaysSo) {
 
 }  // namespace
 }  // namespace machplan::calibration
+
+namespace machplan::calibration {
+namespace {
+
+TEST(CalibrationFit, FeedFactorBySpeedShowsADriveThatSaturates) {
+  // The nominal machine: one gain at every speed.
+  const auto flat = fit_session(record(with_truth({}), 21), nominal());
+  ASSERT_EQ(flat.axes[0].by_speed.size(), 8u);  // 4 speeds, both directions
+  EXPECT_LT(flat.axes[0].by_speed_spread, 0.01);
+  // A strong drive commanded near full scale runs into the motor's top speed: the top
+  // stroke's gain falls below the rest.
+  RecordOptions o;
+  o.speed_fractions = {0.2, 0.4, 0.6, 0.95};
+  auto truth = with_truth({});
+  truth.axes[0].plant.gain_factor = 0.8;
+  const auto fit = fit_session(record(truth, 22, o), nominal());
+  const auto& x = fit.axes[0];
+  ASSERT_EQ(x.by_speed.size(), 8u);
+  const double top = x.by_speed.back().feed_factor, mid = x.by_speed[5].feed_factor;
+  EXPECT_LT(top, 0.95 * mid) << fit.report();
+  EXPECT_GT(x.by_speed_spread, 0.05);
+}
+
+}  // namespace
+}  // namespace machplan::calibration
