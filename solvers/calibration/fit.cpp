@@ -294,7 +294,7 @@ AxisFit fit_axis(const AxisData& d, int axis, const cutting::MachineConfig& mach
   for (int i = 0; i < n; ++i) {
     zero_run = d.u_mm_per_s[i] == 0.0 ? zero_run + 1 : 0;
     const bool next_moves = i + 1 < n && d.u_mm_per_s[i + 1] != 0.0;
-    if (next_moves && zero_run >= min_dwell && d.valid[i] && d.counts[i] == d.counts[i - 3]) starts.push_back(i);
+    if (next_moves && i >= 3 && zero_run >= min_dwell && d.valid[i] && d.counts[i] == d.counts[i - 3]) starts.push_back(i);
   }
   int reversals = 0, last_sign = 0;
   std::vector<double> levels;
