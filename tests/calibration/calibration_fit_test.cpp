@@ -269,13 +269,17 @@ TEST(CalibrationFit, FeedFactorBySpeedShowsADriveThatSaturates) {
   // A strong drive commanded near full scale runs into the motor's top speed: the top
   // stroke's gain falls below the rest.
   RecordOptions o;
-  o.speed_fractions = {0.2, 0.4, 0.6, 0.95};
+  o.speed_fractions = {0.3, 0.6, 0.95};
   auto truth = with_truth({});
   truth.axes[0].plant.gain_factor = 0.8;
-  const auto fit = fit_session(record(truth, 22, o), nominal());
+  // The one-gain model cannot match this drive; a few iterations give the dead band the table
+  // needs, which is all this test looks at (and keeps it quick).
+  FitOptions fo;
+  fo.max_iterations = 10;
+  const auto fit = fit_session(record(truth, 22, o), nominal(), fo);
   const auto& x = fit.axes[0];
-  ASSERT_EQ(x.by_speed.size(), 8u);
-  const double top = x.by_speed.back().feed_factor, mid = x.by_speed[5].feed_factor;
+  ASSERT_EQ(x.by_speed.size(), 6u);
+  const double top = x.by_speed.back().feed_factor, mid = x.by_speed[4].feed_factor;
   EXPECT_LT(top, 0.95 * mid) << fit.report();
   EXPECT_GT(x.by_speed_spread, 0.05);
 }
