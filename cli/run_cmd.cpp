@@ -15,6 +15,8 @@
 #include "cli/interrupt.h"
 #include "cli/output.h"
 #include "cli/gcode_flags.h"
+#include "models/cutting/machine_config.h"
+#include "solvers/calibration/store.h"
 #include "engine/common/error.h"
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
@@ -82,7 +84,7 @@ sim::FaultInjection injection_of(const std::string& text) {
 void add_run(CLI::App& app) {
   struct Args {
     std::string program, machine, mode = "planned", blu, calibration, kerf, feed, no_go, trace, plot, magnify = "1", seed,
-        backend = "sim";
+        backend = "sim", db;
     std::vector<std::string> inject;
     bool json = false, realtime = false;
     std::string origin;
@@ -98,7 +100,10 @@ void add_run(CLI::App& app) {
                   "planned (ours: feed planner + servo loop), paper-open (the paper's BLU vectors, open-loop time "
                   "control), paper-closed (vectors re-aimed from the encoders)");
   cmd->add_option("--blu", a->blu, "paper modes: vector length, mm (default 3)");
-  cmd->add_option("--calibration", a->calibration, "paper modes: commanded speed / programmed speed (default 1)");
+  cmd->add_option("--calibration", a->calibration,
+                  "paper modes: commanded speed / programmed speed (default 1), or 'active': the factor for --feed from "
+                  "the machine's active calibration (machplan calibrate apply)");
+  cmd->add_option("--db", a->db, "calibration store for --calibration active (default $XDG_DATA_HOME/machplan/calibration.db)");
   cmd->add_option("--kerf", a->kerf, "kerf width, mm: closed cuts are offset by half of it (default 0: as programmed)");
   cmd->add_option("--feed", a->feed, "run every feed move at this speed, mm/s, instead of its F (the paper: 4)");
   cmd->add_option("--no-go", a->no_go, "YAML file of no-go zones (clamps) the rapids must avoid");
@@ -128,7 +133,17 @@ void add_run(CLI::App& app) {
     }
     if (!a->calibration.empty()) {
       if (!paper) throw InputError("--calibration", 0, "applies to the paper modes only (--mode paper-open or paper-closed)");
-      o.executor.calibration_factor = number_of("--calibration", a->calibration);
+      if (a->calibration == "active") {
+        if (a->feed.empty())
+          throw InputError("--calibration", 0, "'active' needs --feed: the open-loop factor depends on the feed");
+        const auto m = cutting::load_machine(cutting::find_machine(a->machine));
+        const std::string db = a->db.empty() ? calibration::default_store_path() : a->db;
+        const auto c = calibration::CalibrationStore(db).active(m.name);
+        if (!c) throw InputError("--calibration", 0, fmt::format("no active calibration for '{}' in {}", m.name, db));
+        o.executor.calibration_factor = calibration::open_loop_factor(*c, number_of("--feed", a->feed));
+      } else {
+        o.executor.calibration_factor = number_of("--calibration", a->calibration);
+      }
     }
     if (!a->kerf.empty()) o.kerf_mm = number_of("--kerf", a->kerf);
     if (!a->feed.empty()) {

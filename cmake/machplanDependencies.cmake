@@ -31,6 +31,9 @@ if(NOT TARGET ompl::ompl)
   set_target_properties(ompl::ompl PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "${OMPL_INCLUDE_DIRS}"
                         INTERFACE_LINK_LIBRARIES "${OMPL_LIBRARIES}")
 endif()
+# Ceres (solvers/calibration/fit.cpp) and SQLite (solvers/calibration/store.cpp).
+machplan_find_package(Ceres)
+machplan_find_package(SQLite3)
 machplan_find_package(PkgConfig)
 if(NOT TARGET PkgConfig::CAIRO)
   pkg_check_modules(CAIRO REQUIRED IMPORTED_TARGET cairo)

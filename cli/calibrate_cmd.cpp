@@ -1,0 +1,230 @@
+// `machplan calibrate record|fit`: calibration sessions (solvers/calibration).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include <filesystem>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "engine/calibration/session_log.h"
+#include "engine/common/error.h"
+#include "models/backends/backend_factory.h"
+#include "models/cutting/machine_config.h"
+#include "solvers/calibration/fit.h"
+#include "engine/common/text_file.h"
+#include "solvers/calibration/record.h"
+#include "solvers/calibration/store.h"
+
+namespace machplan::cli {
+namespace {
+
+std::uint64_t seed_of(const std::string& text) {
+  std::size_t used = 0;
+  unsigned long long s = 0;
+  try {
+    s = std::stoull(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || text[0] == '-')
+    throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", text));
+  return s;
+}
+
+double number_of(const char* flag, const std::string& text) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(v))
+    throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  return v;
+}
+
+int repeats_of(const std::string& text) {
+  std::size_t used = 0;
+  int r = 0;
+  try {
+    r = std::stoi(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || r < 1 || r > 1000)
+    throw InputError("--repeats", 0, fmt::format("'{}' is not a whole number in 1 .. 1000", text));
+  return r;
+}
+
+void add_calibrate(CLI::App& app) {
+  auto* cal = app.add_subcommand("calibrate", "Calibration sessions: record a session log, fit the axis factors");
+  cal->require_subcommand(1);
+
+  struct RecordArgs {
+    std::string machine, backend = "sim", seed = "1", out, truth, repeats = "1", speeds, hold;
+  };
+  auto r = std::make_shared<RecordArgs>();
+  auto* rec = cal->add_subcommand("record", "Run the calibration routine on a backend and write the session log");
+  rec->add_option("--machine", r->machine, "thermal_gantry, or a machine YAML file (the nominal machine)")->required();
+  rec->add_option("--backend", r->backend, "the machine to calibrate: sim (the simulated machine; default)");
+  rec->add_option("--seed", r->seed, "seed of the simulated machine's noise and of the ruler's noise (default 1)");
+  rec->add_option("--out", r->out, "session log to write (default: standard output)");
+  rec->add_option("--repeats", r->repeats, "run the stroke program this many times (default 1, about 21 s)");
+  rec->add_option("--speeds", r->speeds,
+                  "stroke speeds as fractions of the DAC's full scale, comma-separated (default 0.15,0.3,0.5,0.7)");
+  rec->add_option("--hold", r->hold, "seconds each stroke holds its speed (default 1.2)");
+  rec->add_option("--sim-truth", r->truth,
+                  "sim only: a machine YAML file with the simulated machine's true factors (default: the nominal "
+                  "machine)");
+  rec->callback([r] {
+    const auto nominal = cutting::load_machine(cutting::find_machine(r->machine));
+    const auto truth = r->truth.empty() ? nominal : cutting::load_machine(r->truth);
+    if (!r->truth.empty() && r->backend != "sim")
+      throw InputError("--sim-truth", 0, "applies to the simulated machine only (--backend sim)");
+    backends::BackendOptions bo;
+    bo.name = r->backend;
+    bo.sim.seed = seed_of(r->seed);
+    auto backend = backends::make_backend(truth, bo);
+    calibration::RecordOptions o;
+    o.seed = bo.sim.seed;
+    o.repeats = repeats_of(r->repeats);
+    if (!r->speeds.empty()) {
+      o.speed_fractions.clear();
+      std::size_t pos = 0;
+      while (pos <= r->speeds.size()) {
+        const std::size_t comma = std::min(r->speeds.find(',', pos), r->speeds.size());
+        o.speed_fractions.push_back(number_of("--speeds", r->speeds.substr(pos, comma - pos)));
+        pos = comma + 1;
+      }
+    }
+    if (!r->hold.empty()) o.stroke_hold_s = number_of("--hold", r->hold);
+    try {
+      o.validate();
+    } catch (const InputError& e) {
+      const std::string flag = e.where() == "speed_fractions" ? "--speeds" : e.where() == "stroke_hold_s" ? "--hold" : e.where();
+      throw InputError(flag, 0, e.message());
+    }
+    auto log = calibration::record_session(*backend, nominal, o);
+    if (!r->truth.empty()) log.comments.push_back(fmt::format("sim truth: {}", r->truth));
+    if (r->out.empty()) {
+      calibration::write_session_log(std::cout, log);
+    } else {
+      std::ofstream f(r->out);
+      if (!f) throw InputError("--out", 0, fmt::format("cannot write '{}'", r->out));
+      calibration::write_session_log(f, log);
+      f.close();
+      if (!f) throw InputError("--out", 0, fmt::format("writing '{}' failed", r->out));
+      std::printf("session log: %s (%zu samples, %.1f s)\n", r->out.c_str(), log.samples.size(),
+                  log.samples.empty() ? 0.0 : log.samples.back().t_s);
+    }
+  });
+
+  struct FitArgs {
+    std::string log, machine;
+    bool json = false;
+  };
+  auto f = std::make_shared<FitArgs>();
+  auto* fit = cal->add_subcommand("fit", "Fit encoder scale, feed factor, backlash, lag and latency to a session log");
+  fit->add_option("log", f->log, "session log (CSV: t_s,axis,dac,counter,dir,ref_mm)")->required();
+  fit->add_option("--machine", f->machine, "thermal_gantry, or a machine YAML file (the nominal machine)")->required();
+  fit->add_flag("--json", f->json, "machine-readable output");
+  fit->callback([f] {
+    const auto machine = cutting::load_machine(cutting::find_machine(f->machine));
+    const auto log = calibration::read_session_log(f->log);
+    const auto result = calibration::fit_session(log, machine);
+    if (f->json) {
+      std::printf("%s\n", result.json().c_str());
+    } else {
+      std::printf("%s", result.report().c_str());
+    }
+    // A fit that does not determine every factor finished, but must not pass for a good one.
+    if (result.status != calibration::CalibrationFit::Status::ok) set_exit_code(3);
+  });
+}
+
+const Registration reg(55, add_calibrate);
+
+void add_store_commands(CLI::App& app) {
+  auto* cal = app.get_subcommand("calibrate");
+  struct Args {
+    std::string log, machine, db, who, feed;
+    bool json = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto db_path = [a] { return a->db.empty() ? calibration::default_store_path() : a->db; };
+
+  auto* apply = cal->add_subcommand("apply", "Fit a session log and store the fit as the machine's active calibration");
+  apply->add_option("log", a->log, "session log (CSV)")->required();
+  apply->add_option("--machine", a->machine, "thermal_gantry, or a machine YAML file (the nominal machine)")->required();
+  apply->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
+  apply->add_option("--who", a->who, "who ran the session (default $USER)");
+  apply->callback([a, db_path] {
+    const auto machine = cutting::load_machine(cutting::find_machine(a->machine));
+    const std::string bytes = read_text_file(a->log);
+    const auto log = calibration::read_session_log_text(bytes, a->log);
+    const auto fit = calibration::fit_session(log, machine);
+    std::printf("%s", fit.report().c_str());
+    std::string who = a->who;
+    if (who.empty()) who = std::getenv("USER") ? std::getenv("USER") : "unknown";
+    const std::string path = db_path();
+    calibration::CalibrationStore store(path);
+    const auto id = store.apply(fit, std::filesystem::absolute(a->log).string(), bytes, who);
+    std::printf("stored as fit %lld, active for %s, in %s\n", static_cast<long long>(id), fit.machine.c_str(), path.c_str());
+  });
+
+  auto* history = cal->add_subcommand("history", "List the stored sessions and fits, newest first");
+  history->add_option("--machine", a->machine, "only this machine (its name in the machine file)");
+  history->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
+  history->add_flag("--json", a->json, "machine-readable output");
+  history->callback([a, db_path] {
+    calibration::CalibrationStore store(db_path());
+    const auto rows = store.history(a->machine);
+    if (a->json) {
+      nlohmann::json j = nlohmann::json::array();
+      for (const auto& f : rows)
+        j.push_back({{"fit_id", f.fit_id}, {"session_id", f.session_id}, {"machine", f.machine}, {"status", f.status},
+                     {"who", f.who}, {"created_utc", f.created_utc}, {"log_path", f.log_path}, {"log_hash", f.log_hash},
+                     {"active", f.active}, {"fit", nlohmann::json::parse(f.fit_json, nullptr, false)}});
+      std::printf("%s\n", j.dump(2).c_str());
+      return;
+    }
+    if (rows.empty()) std::printf("no calibrations stored\n");
+    for (const auto& f : rows)
+      std::printf("fit %lld%s  %s  %s by %s  feed x %.5f y %.5f  backlash x %.4f y %.4f mm  log %s (%s)\n",
+                  static_cast<long long>(f.fit_id), f.active ? " (active)" : "", f.machine.c_str(), f.created_utc.c_str(),
+                  f.who.c_str(), f.feed_factor[0], f.feed_factor[1], f.backlash_mm[0], f.backlash_mm[1],
+                  f.log_path.c_str(), f.log_hash.c_str());
+  });
+
+  auto* show = cal->add_subcommand("show", "Print a machine's active calibration and the paper modes' factor for a feed");
+  show->add_option("--machine", a->machine, "the machine's name (as in its machine file)")->required();
+  show->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
+  show->add_option("--feed", a->feed, "feed, mm/s: print the open-loop factor for `run --mode paper-open --calibration`");
+  show->callback([a, db_path] {
+    calibration::CalibrationStore store(db_path());
+    const auto c = store.active(a->machine);
+    if (!c) throw Infeasible(fmt::format("no active calibration for '{}' in {}", a->machine, db_path()));
+    std::printf("active calibration for %s: fit %lld of %s by %s\n", c->machine.c_str(), static_cast<long long>(c->fit_id),
+                c->created_utc.c_str(), c->who.c_str());
+    for (int i = 0; i < 2; ++i)
+      std::printf("  %s: feed factor %.5f, dead band %.4f mm/s, %.7f mm/count, backlash %.4f mm\n", i ? "y" : "x",
+                  c->feed_factor[i], c->dead_band_mm_per_s[i], c->mm_per_count[i], c->backlash_mm[i]);
+    if (!a->feed.empty()) {
+      const double f = number_of("--feed", a->feed);
+      std::printf("open-loop factor at %g mm/s: %.5f\n", f, calibration::open_loop_factor(*c, f));
+    }
+  });
+}
+
+const Registration reg_store(56, add_store_commands);
+
+}  // namespace
+}  // namespace machplan::cli
