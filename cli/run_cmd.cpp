@@ -102,7 +102,8 @@ void add_run(CLI::App& app) {
   cmd->add_option("--blu", a->blu, "paper modes: vector length, mm (default 3)");
   cmd->add_option("--calibration", a->calibration,
                   "paper modes: commanded speed / programmed speed (default 1), or 'active': the factor for --feed from "
-                  "the machine's active calibration (machplan calibrate apply)");
+                  "the machine's active calibration (machplan calibrate apply); planned mode: 'active' starts the "
+                  "feed-forward at the stored feed factor and compensates the stored backlash");
   cmd->add_option("--db", a->db, "calibration store for --calibration active (default $XDG_DATA_HOME/machplan/calibration.db)");
   cmd->add_option("--kerf", a->kerf, "kerf width, mm: closed cuts are offset by half of it (default 0: as programmed)");
   cmd->add_option("--feed", a->feed, "run every feed move at this speed, mm/s, instead of its F (the paper: 4)");
@@ -132,8 +133,17 @@ void add_run(CLI::App& app) {
       o.executor.blu_mm = number_of("--blu", a->blu);
     }
     if (!a->calibration.empty()) {
-      if (!paper) throw InputError("--calibration", 0, "applies to the paper modes only (--mode paper-open or paper-closed)");
-      if (a->calibration == "active") {
+      if (!paper && a->calibration != "active")
+        throw InputError("--calibration", 0,
+                         "a factor applies to the paper modes only (--mode paper-open or paper-closed); planned mode "
+                         "takes 'active' (the machine's stored calibration)");
+      if (a->calibration == "active" && !paper) {
+        const auto m = cutting::load_machine(cutting::find_machine(a->machine));
+        const std::string db = a->db.empty() ? calibration::default_store_path() : a->db;
+        o.calibration = calibration::CalibrationStore(db).active(m.name);
+        if (!o.calibration)
+          throw InputError("--calibration", 0, fmt::format("no active calibration for '{}' in {}", m.name, db));
+      } else if (a->calibration == "active") {
         if (a->feed.empty())
           throw InputError("--calibration", 0, "'active' needs --feed: the open-loop factor depends on the feed");
         const auto m = cutting::load_machine(cutting::find_machine(a->machine));

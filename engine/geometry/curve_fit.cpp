@@ -42,6 +42,7 @@ struct Fitter {
   const std::function<Vector2d(double)>& curve;
   double tol;
   int max_depth;
+  std::size_t max_spans;
   std::vector<Vector2d>& v;
   std::vector<double>& b;
   ArcFitResult result;
@@ -59,6 +60,10 @@ struct Fitter {
   }
 
   void fit(double ta, double tb, const Vector2d& pa, const Vector2d& pb, int depth) {
+    if (result.spans >= max_spans) {
+      result.exhausted = true;
+      return;
+    }
     const double span = tb - ta;
     const Vector2d chord = pb - pa;
     // A closed piece (chord ~ 0) or a first pass: always split once the biarc is undefined.
@@ -112,8 +117,9 @@ struct Fitter {
 }  // namespace
 
 ArcFitResult fit_arcs(const std::function<Vector2d(double)>& curve, double t0, double t1, double tolerance_mm,
-                      std::vector<Vector2d>& vertices, std::vector<double>& bulges, int max_depth) {
-  Fitter f{curve, tolerance_mm, max_depth, vertices, bulges, {}};
+                      std::vector<Vector2d>& vertices, std::vector<double>& bulges, int max_depth,
+                      std::size_t max_spans) {
+  Fitter f{curve, tolerance_mm, max_depth, max_spans, vertices, bulges, {}};
   if (vertices.empty()) vertices.push_back(curve(t0));
   const Vector2d start = vertices.back();
   const Vector2d end = curve(t1);

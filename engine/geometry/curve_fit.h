@@ -28,6 +28,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -40,6 +41,7 @@ inline constexpr int kSamplesPerPiece = 8;
 struct ArcFitResult {
   std::size_t spans = 0;         // spans appended
   double max_deviation_mm = 0.0; // largest deviation measured at the samples
+  bool exhausted = false;        // stopped at `max_spans`: the polyline is incomplete
 };
 
 // Appends the spans approximating `curve` on [t0, t1] to an open polyline (arcs whose sagitta
@@ -47,10 +49,13 @@ struct ArcFitResult {
 // already pushed c(t0) to `vertices`; for each span this pushes the span's bulge to `bulges`
 // and its end point to `vertices` (bulge convention of contour.h). The last vertex pushed is
 // c(t1) exactly. Spans shorter than 1e-12 mm are not emitted. `tolerance_mm` > 0.
-// At most `max_depth` halvings per interval (default 24: 16 M pieces).
+// At most `max_depth` halvings per interval (default 24: 16 M pieces), and at most `max_spans`
+// spans appended: past that the fit stops, with `exhausted` set (the caller refuses the curve),
+// so that no curve, however absurd, costs more than a bounded amount of work.
 ArcFitResult fit_arcs(const std::function<Eigen::Vector2d(double)>& curve, double t0, double t1,
                       double tolerance_mm, std::vector<Eigen::Vector2d>& vertices,
-                      std::vector<double>& bulges, int max_depth = 24);
+                      std::vector<double>& bulges, int max_depth = 24,
+                      std::size_t max_spans = std::numeric_limits<std::size_t>::max());
 
 // A non-uniform rational B-spline of degree p in the plane: control points P(i), weights
 // w(i) > 0, knots u(0) <= ... <= u(n + p) for n control points. Its domain is

@@ -397,7 +397,7 @@ struct Instance {
 };
 
 // Most arcs all curves of a drawing may be fitted with, and the halvings per curve piece.
-constexpr std::size_t kMaxFittedSpans = 2'000'000;
+constexpr std::size_t kMaxFittedSpans = 250'000;
 constexpr int kFitDepth = 18;
 // Deepest nesting of INSERT within blocks.
 constexpr int kMaxInsertDepth = 32;
@@ -641,12 +641,16 @@ class Assembler {
     return w;
   }
 
+  // Spans the next fit may still append (one more than the limit leaves, so that an exhausted
+  // fit is told apart from one that just fits).
+  std::size_t fit_budget() const { return kMaxFittedSpans - std::min(fitted_spans_, kMaxFittedSpans) + 1; }
+
   // Keeps the worst deviation, and bounds the work: fitted spans beyond kMaxFittedSpans mean a
   // drawing whose curves are far too detailed for the tolerance (or absurd).
   void note_fit(const ArcFitResult& r, std::size_t k) {
     max_fit_deviation_ = std::max(max_fit_deviation_, r.max_deviation_mm);
     fitted_spans_ += r.spans;
-    if (fitted_spans_ > kMaxFittedSpans)
+    if (r.exhausted || fitted_spans_ > kMaxFittedSpans)
       throw InputError(source_, line_of(k),
                        fmt::format("{}: the drawing's curves need more than {} arcs at {:g} mm; machplan's limit "
                                    "(a coarser --tolerance needs fewer)",
@@ -679,7 +683,7 @@ class Assembler {
       for (const Vector2d& q : {Vector2d(s.center + Vector2d(s.radius, s.radius)), Vector2d(s.center - Vector2d(s.radius, s.radius))})
         map_point(m, q, k);
       auto curve = [&](double t) { return m(s.center + s.radius * Vector2d(std::cos(t), std::sin(t))); };
-      note_fit(fit_arcs(curve, s.start_angle, s.start_angle + s.sweep, fit_tol_, out.v, out.b, kFitDepth), k);
+      note_fit(fit_arcs(curve, s.start_angle, s.start_angle + s.sweep, fit_tol_, out.v, out.b, kFitDepth, fit_budget()), k);
       out.v.back() = map_point(m, b, k);
     }
     if (local.closed) out.v.pop_back();  // the last span came back to the first vertex
@@ -775,7 +779,7 @@ class Assembler {
       pc.v.push_back(nurbs.point(br.front(), nurbs.span_of(br.front())));
       for (std::size_t i = 0; i + 1 < br.size(); ++i) {
         const std::size_t span = nurbs.span_of(0.5 * (br[i] + br[i + 1]));
-        note_fit(fit_arcs([&](double t) { return nurbs.point(t, span); }, br[i], br[i + 1], fit_tol_, pc.v, pc.b, kFitDepth), k);
+        note_fit(fit_arcs([&](double t) { return nurbs.point(t, span); }, br[i], br[i + 1], fit_tol_, pc.v, pc.b, kFitDepth, fit_budget()), k);
       }
     } else {
       std::vector<Vector2d> pts;
@@ -800,7 +804,7 @@ class Assembler {
       }
       pc.v.push_back(pts.front());
       for (std::size_t i = 0; i + 1 < pts.size(); ++i)
-        note_fit(fit_arcs([&](double t) { return ci.point(t, i); }, ci.params[i], ci.params[i + 1], fit_tol_, pc.v, pc.b, kFitDepth), k);
+        note_fit(fit_arcs([&](double t) { return ci.point(t, i); }, ci.params[i], ci.params[i + 1], fit_tol_, pc.v, pc.b, kFitDepth, fit_budget()), k);
     }
     add(k, std::move(pc));
   }
@@ -839,7 +843,7 @@ class Assembler {
     // Quarters at most per fit, so that no piece starts and ends at one point.
     const int parts = std::max(1, static_cast<int>(std::ceil(sweep / (kPi / 2) - 1e-9)));
     for (int i = 0; i < parts; ++i)
-      note_fit(fit_arcs(curve, t0 + sweep * i / parts, t0 + sweep * (i + 1) / parts, fit_tol_, pc.v, pc.b, kFitDepth), k);
+      note_fit(fit_arcs(curve, t0 + sweep * i / parts, t0 + sweep * (i + 1) / parts, fit_tol_, pc.v, pc.b, kFitDepth, fit_budget()), k);
     if (full && pc.v.size() >= 3) {
       pc.v.pop_back();
       pc.closed = true;

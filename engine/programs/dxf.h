@@ -66,7 +66,7 @@
 // its code 90, a SPLINE whose counts (72-74) disagree with its lists or whose knots, degree
 // or weights are invalid, a block that contains itself or nests deeper than 32, a drawing
 // that holds more than DxfOptions::max_entities entities (INSERT copies counted) or whose
-// curves need more than 2 million arcs, an unknown $INSUNITS.
+// curves need more than 250 000 arcs, an unknown $INSUNITS.
 //
 // Nesting. For each contour the parent is the smallest contour (by |area|) that contains it;
 // depth 0 are outer boundaries of parts, depth 1 their holes, depth 2 parts inside holes, and

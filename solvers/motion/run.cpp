@@ -11,6 +11,7 @@
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
 #include "models/backends/backend_factory.h"
+#include "solvers/calibration/apply.h"
 
 namespace machplan::motion {
 namespace {
@@ -263,7 +264,9 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
     o.motion_optimum_s += time_optimal_s(tr->executed_path(), o.planner);
     o.trajectories[i] = std::move(tr);
   }
-  const executor::MachineSetup setup = o.machine.setup();
+  executor::MachineSetup setup = o.machine.setup();
+  // A stored calibration: the feed-forward starts at 1 / feed factor, backlash is compensated.
+  if (options.calibration) setup = calibration::apply_calibration(setup, *options.calibration);
   o.process_time_s = process_time_s(o.job, o.machine, setup.torch.height_tolerance_mm);
   o.lower_bound_s = o.motion_lower_bound_s + o.process_time_s;
   o.motion_ratio = o.motion_lower_bound_s > 0 ? o.planned_motion_s / o.motion_lower_bound_s : 1.0;

@@ -59,6 +59,7 @@
 #include "engine/programs/zones.h"
 #include "engine/common/stop.h"
 #include "models/backends/backend_factory.h"
+#include "solvers/calibration/store.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/motion/rapid_planner.h"
 #include "solvers/motion/rapids.h"
@@ -76,6 +77,10 @@ struct RunOptions {
   std::string trace_csv_path;
   // A stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it).
   StopToken stop;
+  // The machine's stored calibration (machplan calibrate apply), applied to the executor's
+  // setup: the feed-forward gain starts at 1 / feed factor and backlash is compensated at
+  // reversals. The encoder scale is not applied (see solvers/calibration/apply.h).
+  std::optional<calibration::StoredFit> calibration;
   // Kerf width, mm; 0 leaves the program as written. At most 100 mm.
   double kerf_mm = 0.0;
   // YAML file of declared no-go zones (engine/programs/zones.h); empty for none.

@@ -65,6 +65,10 @@ TEST(CalibrateCli, RecordFitApplyHistoryShow) {
   r = cli(dir, "calibrate show --machine thermal_gantry --feed 4");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("open-loop factor at 4 mm/s: 1.5"), std::string::npos) << r.out;
+  // Planned mode takes the active calibration into the executor's setup.
+  r = cli(dir, "run datasets/parts/triangle_45.ngc --machine thermal_gantry --calibration active --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["status"], "completed");
 }
 
 TEST(CalibrateCli, BadInputIsNamedWithExitCode2) {
@@ -82,6 +86,12 @@ TEST(CalibrateCli, BadInputIsNamedWithExitCode2) {
   r = cli(dir, "run datasets/parts/triangle_45.ngc --machine thermal_gantry --mode paper-open --calibration active");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("'active' needs --feed"), std::string::npos) << r.err;
+  r = cli(dir, "run datasets/parts/triangle_45.ngc --machine thermal_gantry --calibration 1.5");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--calibration: a factor applies to the paper modes only"), std::string::npos) << r.err;
+  r = cli(dir, "run datasets/parts/triangle_45.ngc --machine thermal_gantry --calibration active");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("no active calibration for 'thermal_gantry'"), std::string::npos) << r.err;
 }
 
 TEST(CalibrateCli, ALogWithoutReferencesIsNotIdentifiableWithExitCode3) {
