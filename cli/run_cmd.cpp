@@ -103,7 +103,8 @@ void add_run(CLI::App& app) {
   cmd->add_option("--calibration", a->calibration,
                   "paper modes: commanded speed / programmed speed (default 1), or 'active': the factor for --feed from "
                   "the machine's active calibration (machplan calibrate apply); planned mode: 'active' starts the "
-                  "feed-forward at the stored feed factor and compensates the stored backlash");
+                  "feed-forward at the stored feed factor, compensates the stored backlash and decodes the encoders "
+                  "with the stored scale");
   cmd->add_option("--db", a->db, "calibration store for --calibration active (default $XDG_DATA_HOME/machplan/calibration.db)");
   cmd->add_option("--kerf", a->kerf, "kerf width, mm: closed cuts are offset by half of it (default 0: as programmed)");
   cmd->add_option("--feed", a->feed, "run every feed move at this speed, mm/s, instead of its F (the paper: 4)");

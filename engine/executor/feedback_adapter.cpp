@@ -14,9 +14,11 @@ void FeedbackAdapter::configure(const MachineSetup& m, hardware::CommandKind kin
   for (int i = 0; i < hardware::kAxes; ++i) {
     const hardware::AxisSignals& sig = m.signals[i];
     if (kind_ == hardware::CommandKind::speed_dac) {
+      // A calibrated encoder scale decodes the counts; the declared one only sets the limits.
+      const double scale = m.calibrated_mm_per_count[i] > 0 ? m.calibrated_mm_per_count[i] : sig.mm_per_count;
       max_counts_[i] = static_cast<std::int64_t>(std::ceil(1.5 * m.max_speed_mm_per_s[i] * dt_ / sig.mm_per_count)) + 2;
-      dec_[i].configure(sig.mm_per_count, sig.counter_bits, max_counts_[i]);
-      quantum_[i] = sig.mm_per_count;
+      dec_[i].configure(scale, sig.counter_bits, max_counts_[i]);
+      quantum_[i] = scale;
     } else {
       max_counts_[i] = 0;
       quantum_[i] = 1e-3;

@@ -5,7 +5,8 @@
 //     CounterDecoder per axis (engine/control/counter_decoder.h). A reading no axis could
 //     produce in one period (more than 1.5 x its top speed, plus two counts) is refused: the
 //     encoder glitched, or the counter's two bytes were read across a carry. From then on the
-//     feedback is not trusted and the last good position is kept.
+//     feedback is not trusted and the last good position is kept. Counts are turned into mm with
+//     the calibrated encoder scale when the machine has one (MachineSetup::calibrated_mm_per_count).
 //   position backends: the position feedback in mm, taken as it is (a non-finite value is a
 //     glitch).
 //   The speed of each axis is the position difference over one period, smoothed by a

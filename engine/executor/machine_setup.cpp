@@ -28,6 +28,9 @@ void MachineSetup::validate() const {
             s.reading_latency_ticks, "must be 0 .. 100");
     require(std::isfinite(max_speed_mm_per_s[i]) && max_speed_mm_per_s[i] > 0, ax + "max_speed_mm_per_s",
             max_speed_mm_per_s[i], "must be > 0");
+    const double cal = calibrated_mm_per_count[i];
+    require(std::isfinite(cal) && (cal == 0 || std::abs(cal / s.mm_per_count - 1) <= 0.1),
+            ax + "calibrated_mm_per_count", cal, "must be 0 (not calibrated) or within 10 % of mm_per_count");
     servo[i].validate();
   }
   require(std::isfinite(max_acceleration_mm_per_s2) && max_acceleration_mm_per_s2 > 0, "max_acceleration_mm_per_s2",

@@ -346,8 +346,15 @@ OffsetResult offset_contour(const Contour& contour, double d, const OffsetOption
           }
         }
       }
-      MACHPLAN_ASSERT(next.has_value(), "offset by {} mm: a kept piece ends at ({}, {}) with nothing to continue it",
-                      d, at.x(), at.y());
+      // Where the offset region pinches to zero width (an arc whose radius equals |d| between
+      // two corners, spans that touch at the offset distance), the tolerance tests can keep a
+      // piece on one side of the pinch and drop its twin: the pieces then do not close. That
+      // is refused with the place named, never guessed.
+      if (!next)
+        throw InputError("", 0,
+                         fmt::format("offset by {} mm: the offset region pinches to zero width near ({:.4f}, {:.4f}) "
+                                     "and its pieces do not close; offset by a slightly different distance",
+                                     d, at.x(), at.y()));
       used[*next] = true;
       chain.push_back(*next);
     }

@@ -116,8 +116,9 @@ struct OffsetResult {
 //
 // Throws InputError when the distance is not finite or beyond kMaxCoordinateMm, when the
 // contour encloses no area (|signed area| <= tolerance * perimeter), or when it crosses
-// itself (the offset of a self-intersecting contour is not defined); and when the options
-// are invalid.
+// itself (the offset of a self-intersecting contour is not defined); when the offset region
+// pinches to zero width exactly at the offset distance and its pieces do not close (found by
+// tests/fuzz/offset_fuzz.cpp); and when the options are invalid.
 OffsetResult offset_contour(const Contour& contour, double distance_mm, const OffsetOptions& options = {});
 
 }  // namespace machplan

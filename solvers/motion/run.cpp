@@ -265,7 +265,7 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
     o.trajectories[i] = std::move(tr);
   }
   executor::MachineSetup setup = o.machine.setup();
-  // A stored calibration: the feed-forward starts at 1 / feed factor, backlash is compensated.
+  // A stored calibration: feed-forward start, backlash compensation, encoder scale.
   if (options.calibration) setup = calibration::apply_calibration(setup, *options.calibration);
   o.process_time_s = process_time_s(o.job, o.machine, setup.torch.height_tolerance_mm);
   o.lower_bound_s = o.motion_lower_bound_s + o.process_time_s;

@@ -78,8 +78,8 @@ struct RunOptions {
   // A stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it).
   StopToken stop;
   // The machine's stored calibration (machplan calibrate apply), applied to the executor's
-  // setup: the feed-forward gain starts at 1 / feed factor and backlash is compensated at
-  // reversals. The encoder scale is not applied (see solvers/calibration/apply.h).
+  // setup: the feed-forward gain starts at 1 / feed factor, backlash is compensated at
+  // reversals and the counters are decoded with the fitted encoder scale.
   std::optional<calibration::StoredFit> calibration;
   // Kerf width, mm; 0 leaves the program as written. At most 100 mm.
   double kerf_mm = 0.0;

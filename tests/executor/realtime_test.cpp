@@ -261,3 +261,49 @@ TEST(BackendCheck, AMachineFileThatDisagreesWithTheBackendIsRefusedBeforeMotion)
 
 }  // namespace
 }  // namespace machplan::executor
+
+namespace machplan::executor {
+namespace {
+
+// An encoder whose real scale is 0.4 % off what the machine file (and the backend) declare:
+// decoded with the declared scale the cut lands off; with the calibrated scale it lands true.
+TEST(CalibratedEncoderScale, DecodesTheCountersWithTheMeasuredScale) {
+  const auto nominal = cutting::load_machine(cutting::find_machine("thermal_gantry"));
+  cutting::MachineConfig truth = nominal;
+  for (auto& ax : truth.axes) ax.plant.encoder_mm_per_rev *= 1.004;
+  const Eigen::Vector2d a(100, 100), b(400, 250);
+  struct Declared final : test::ForwardingBackend {  // the truth, declaring the nominal signals
+    const cutting::MachineConfig& m;
+    Declared(hardware::Backend& inner, const cutting::MachineConfig& nominal) : ForwardingBackend(inner), m(nominal) {}
+    hardware::AxisSignals axis_signals(int i) const override {
+      const auto& p = m.axes[i].plant;
+      return {p.mm_per_count(), p.counter_bits, p.dac_bits, p.dac_full_scale_mm_per_s(), p.command_latency_ticks,
+              p.reading_latency_ticks};
+    }
+  };
+  const auto end_error = [&](bool calibrated) {
+    auto cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b}, false), 80, true),
+                             std::make_unique<test::LineTrajectory>(a, b, 80, 500));
+    sim::SimOptions so;
+    so.start_mm = a;
+    sim::SimBackend sim(truth, so);
+    Declared be(sim, nominal);
+    MachineSetup setup = nominal.setup();
+    if (calibrated)
+      for (int i = 0; i < 2; ++i) setup.calibrated_mm_per_count[i] = truth.axes[i].plant.mm_per_count();
+    const ExecutionResult r = Executor(setup, {}).run(cut.job, cut.trajectories, be);
+    EXPECT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+    Eigen::Vector2d at;
+    sim.true_position(at);
+    return (at - b).norm();
+  };
+  const double off = end_error(false), on = end_error(true);
+  EXPECT_GT(off, 0.4 * 0.004 * (b - a).norm());  // most of the 0.4 % of the 335 mm travelled
+  EXPECT_LT(on, 0.05);
+  MachineSetup bad = nominal.setup();
+  bad.calibrated_mm_per_count[0] = 2 * bad.signals[0].mm_per_count;
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace machplan::executor
