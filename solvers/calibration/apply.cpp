@@ -18,7 +18,8 @@ executor::MachineSetup apply_calibration(executor::MachineSetup setup, const Sto
       throw InputError("--db", 0, fmt::format("stored fit {} has axis {} backlash {} mm, outside [0, 10)", c.fit_id,
                                               a == 0 ? "x" : "y", b));
     const double q = c.mm_per_count[a], nominal = setup.signals[a].mm_per_count;
-    if (!(std::isfinite(q) && q > 0 && std::abs(q / nominal - 1) <= 0.1))
+    // 0: the fit holds no encoder scale; the declared one stays.
+    if (!(std::isfinite(q) && q >= 0 && (q == 0 || std::abs(q / nominal - 1) <= 0.1)))
       throw InputError("--db", 0, fmt::format("stored fit {} has axis {} encoder scale {} mm per count, more than 10 % "
                                               "from the machine file's {}",
                                               c.fit_id, a == 0 ? "x" : "y", q, nominal));

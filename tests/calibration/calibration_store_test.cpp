@@ -192,6 +192,15 @@ TEST(CalibrationApply, FeedFactorAndBacklashGoIntoTheServo) {
   // Everything else stays as the machine file says.
   EXPECT_DOUBLE_EQ(s.servo[0].kp_per_s, m.setup().servo[0].kp_per_s);
   EXPECT_DOUBLE_EQ(s.signals[0].mm_per_count, m.setup().signals[0].mm_per_count);
+  EXPECT_EQ(s.calibrated_mm_per_count[0], 0.0);  // no scale in this fit: the declared one decodes
+  // A fitted encoder scale decodes the counters; the declared one stays what the backend is checked against.
+  c.mm_per_count[0] = 1.002 * m.setup().signals[0].mm_per_count;
+  const auto t = apply_calibration(m.setup(), c);
+  EXPECT_DOUBLE_EQ(t.calibrated_mm_per_count[0], c.mm_per_count[0]);
+  EXPECT_DOUBLE_EQ(t.signals[0].mm_per_count, m.setup().signals[0].mm_per_count);
+  c.mm_per_count[0] = 1.5 * m.setup().signals[0].mm_per_count;  // no encoder is 50 % off its pinion
+  EXPECT_THROW(apply_calibration(m.setup(), c), InputError);
+  c.mm_per_count[0] = 0.0;
   c.feed_factor[1] = 0.0;
   EXPECT_THROW(apply_calibration(m.setup(), c), InputError);
 }
