@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/interrupt.h"
 #include "engine/calibration/session_log.h"
 #include "engine/common/error.h"
 #include "models/backends/backend_factory.h"
@@ -112,6 +113,9 @@ void add_calibrate(CLI::App& app) {
       const std::string flag = e.where() == "speed_fractions" ? "--speeds" : e.where() == "stroke_hold_s" ? "--hold" : e.where();
       throw InputError(flag, 0, e.message());
     }
+    // SIGINT, SIGTERM and SIGHUP stop the axes and end the session (Infeasible: exit 3).
+    const StopOnSignals signals;
+    o.stop = StopOnSignals::stop_token();
     auto log = calibration::record_session(*backend, nominal, o);
     if (!r->truth.empty()) log.comments.push_back(fmt::format("sim truth: {}", r->truth));
     if (r->out.empty()) {
