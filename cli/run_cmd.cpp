@@ -138,20 +138,19 @@ void add_run(CLI::App& app) {
         throw InputError("--calibration", 0,
                          "a factor applies to the paper modes only (--mode paper-open or paper-closed); planned mode "
                          "takes 'active' (the machine's stored calibration)");
-      if (a->calibration == "active" && !paper) {
-        const auto m = cutting::load_machine(cutting::find_machine(a->machine));
-        const std::string db = a->db.empty() ? calibration::default_store_path() : a->db;
-        o.calibration = calibration::CalibrationStore(db).active(m.name);
-        if (!o.calibration)
-          throw InputError("--calibration", 0, fmt::format("no active calibration for '{}' in {}", m.name, db));
-      } else if (a->calibration == "active") {
-        if (a->feed.empty())
+      if (a->calibration == "active") {
+        if (paper && a->feed.empty())
           throw InputError("--calibration", 0, "'active' needs --feed: the open-loop factor depends on the feed");
         const auto m = cutting::load_machine(cutting::find_machine(a->machine));
         const std::string db = a->db.empty() ? calibration::default_store_path() : a->db;
         const auto c = calibration::CalibrationStore(db).active(m.name);
         if (!c) throw InputError("--calibration", 0, fmt::format("no active calibration for '{}' in {}", m.name, db));
-        o.executor.calibration_factor = calibration::open_loop_factor(*c, number_of("--feed", a->feed));
+        // Paper modes: the open-loop factor for the feed; planned mode: the whole fit, applied
+        // to the executor's setup.
+        if (paper)
+          o.executor.calibration_factor = calibration::open_loop_factor(*c, number_of("--feed", a->feed));
+        else
+          o.calibration = c;
       } else {
         o.executor.calibration_factor = number_of("--calibration", a->calibration);
       }

@@ -30,7 +30,6 @@
 #pragma once
 
 #include <array>
-#include <atomic>
 
 #include <Eigen/Core>
 
@@ -39,8 +38,6 @@
 #include "engine/hardware/backend.h"
 
 namespace machplan::executor {
-
-struct FaultReport;
 
 enum class FaultKind {
   following_error,
