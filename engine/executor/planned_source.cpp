@@ -89,14 +89,16 @@ void PlannedSource::demand(Demand& d) const noexcept {
     }
   d.track.preview_ticks = control::ControllerInput::kMaxPreviewTicks;
 
-  // The segment r is on: move the cursor on while the next segment is at least as near (a
-  // few per period at most: the setpoint moves far less than a segment per period, except
-  // over runs of tiny segments, which the bound lets it catch up with over a few periods).
+  // The segment r is on: move the cursor on while the next segment is strictly nearer (a few
+  // per period at most: the setpoint moves far less than a segment per period, except over
+  // runs of tiny segments, which the bound lets it catch up with over a few periods). Strictly:
+  // on a closed contour the last segment ends where the first starts, and at a joint the
+  // cursor waits until r has left the segment it is on.
   const std::vector<Segment>& segs = stretch_->segments;
   if (segs.empty()) return;
   const Eigen::Vector2d r(d.track.r_mm[0], d.track.r_mm[1]);
   const auto dist = [&](std::size_t k) { return (closest_point(segs[k], r) - r).squaredNorm(); };
-  for (int n = 0; n < 8 && segment_ + 1 < segs.size() && dist(segment_ + 1) <= dist(segment_); ++n) ++segment_;
+  for (int n = 0; n < 8 && segment_ + 1 < segs.size() && dist(segment_ + 1) < dist(segment_); ++n) ++segment_;
   d.track.path = &segs[segment_];
 }
 

@@ -43,8 +43,10 @@ TEST(ContourEstimate, CircleIsTheRadiusErrorAndTheGainsCarryTheCurvature) {
   EXPECT_NEAR(e.eps_mm, y.norm() - 20, 1e-12);    // outside a left turn: to the right, positive
   EXPECT_NEAR(e.cx, 1.0 - ex / (2 * 20), 1e-12);  // sin(90) - Ex / (2 rho)
   EXPECT_NEAR(e.cy, 0.0 + ey / (2 * 20), 1e-12);  // cos(90) + Ey / (2 rho)
-  // Koren's model eps = -Ex Cx + Ey Cy agrees with the radius error to second order.
-  EXPECT_NEAR(-ex * e.cx + ey * e.cy, e.eps_mm, 1e-4);
+  // Koren's model eps = -Ex Cx + Ey Cy is (|y - c|^2 - rho^2) / (2 rho) exactly: the radius
+  // error to first order in it.
+  EXPECT_NEAR(-ex * e.cx + ey * e.cy, (y.squaredNorm() - 400) / 40, 1e-12);
+  EXPECT_NEAR(-ex * e.cx + ey * e.cy, e.eps_mm, 3e-4);
 
   const Segment cw = make_segment({-20, 0}, {20, 0}, -1.0);  // the same circle turning right
   ASSERT_LT(cw.sweep, 0);
@@ -65,7 +67,7 @@ TEST(ContourEstimate, WithoutAPathTheReferenceMotionGivesDirectionAndCurvature) 
   const double ex = -0.1, ey = 0.05;
   EXPECT_NEAR(e.cx, 1.0 - 0.05 * ex / 2, 1e-12);
   EXPECT_NEAR(e.cy, 0.05 * ey / 2, 1e-12);
-  EXPECT_NEAR(e.eps_mm, y.norm() - 20, 1e-4);
+  EXPECT_NEAR(e.eps_mm, (y.squaredNorm() - 400) / 40, 1e-12);  // the model, as above
   // At rest there is no contour and no estimate.
   EXPECT_FALSE(estimate_contour_error(at(r, y)).valid);
 }
