@@ -605,8 +605,35 @@ MergeResult merge_positive(const std::vector<Contour>& contours, const OffsetOpt
     if (wl > 0 && wr <= 0) kept.push_back(p);
   }
 
-  // Chain the open pieces; closed ones stand alone.
+  // Two input contours can share a piece of boundary running the same way (collinear
+  // overlapping edges of a mitre offset): both copies pass the winding test, but the boundary
+  // holds it once. Keep the first copy.
   const double ctol = 2 * tol;
+  {
+    auto mid = [&](const MergePiece& pc) { return point_at(pc.segs[pc.segs.size() / 2], 0.5); };
+    std::vector<std::size_t> order(kept.size());
+    for (std::size_t q = 0; q < kept.size(); ++q) order[q] = q;
+    auto sx = [&](std::size_t q) { return pieces[kept[q]].segs.front().start.x(); };
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return sx(a) < sx(b) || (sx(a) == sx(b) && a < b); });
+    std::vector<bool> dup(kept.size(), false);
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      const MergePiece& a = pieces[kept[order[i]]];
+      if (dup[order[i]] || a.closed) continue;
+      for (std::size_t j = i + 1; j < order.size() && sx(order[j]) <= sx(order[i]) + ctol; ++j) {
+        const MergePiece& b = pieces[kept[order[j]]];
+        if (dup[order[j]] || b.closed) continue;
+        if ((a.segs.front().start - b.segs.front().start).norm() <= ctol &&
+            (a.segs.back().end - b.segs.back().end).norm() <= ctol && (mid(a) - mid(b)).norm() <= ctol)
+          dup[std::max(order[i], order[j])] = true;
+      }
+    }
+    std::vector<std::size_t> unique;
+    for (std::size_t q = 0; q < kept.size(); ++q)
+      if (!dup[q]) unique.push_back(kept[q]);
+    kept.swap(unique);
+  }
+
+  // Chain the open pieces; closed ones stand alone.
   std::vector<std::pair<double, std::size_t>> by_x;  // start x of open kept pieces
   for (std::size_t q = 0; q < kept.size(); ++q)
     if (!pieces[kept[q]].closed) by_x.push_back({pieces[kept[q]].segs.front().start.x(), q});

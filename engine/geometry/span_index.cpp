@@ -255,12 +255,25 @@ int SpanIndex::winding(const Vector2d& p) const noexcept {
       const auto& bb = item_boxes_[i];
       if (bb.max().x() < p.x() || bb.min().y() > p.y() || bb.max().y() < p.y()) continue;
       const Item& it = items_[i];
-      w += ray_crossing(it.a, it.b, p);
-      if (it.is_arc() && (p - it.center).squaredNorm() < it.radius * it.radius) {
-        // Between chord and arc: the arc passes round p once more than its chord.
-        const Vector2d chord = it.b - it.a;
-        if (cross(chord, p - it.a) * cross(chord, it.arc_mid - it.a) > 0.0) w += it.sweep > 0 ? 1 : -1;
+      if (!it.is_arc()) {
+        w += ray_crossing(it.a, it.b, p);
+        continue;
       }
+      // An arc is its chord plus the closed loop (arc, chord back), which winds once round the
+      // points between chord and arc. A p exactly on the chord's line is not on the arc: it
+      // is counted as lying just off the chord on the side away from the arc (the answer is
+      // the same on both sides of the chord there, so either side would do, but the chord
+      // crossing and the segment test must agree).
+      const Vector2d chord = it.b - it.a;
+      const double m = cross(chord, it.arc_mid - it.a);
+      double side = cross(chord, p - it.a);
+      if (side == 0.0) side = -m;
+      if (it.a.y() <= p.y()) {
+        if (it.b.y() > p.y() && side > 0.0) ++w;
+      } else if (it.b.y() <= p.y() && side < 0.0) {
+        --w;
+      }
+      if (side * m > 0.0 && (p - it.center).squaredNorm() < it.radius * it.radius) w += it.sweep > 0 ? 1 : -1;
     }
   }
   return w;
