@@ -585,10 +585,25 @@ MergeResult merge_positive(const std::vector<Contour>& contours, const OffsetOpt
   }
 
   // Keep the pieces with the positive region on their left only.
-  const SpanIndex index(contours);
+  // A contour that crosses nothing and whose box meets no other contour's box is alone: the
+  // winding is its own, +1 inside a counter-clockwise one, so it is kept exactly when it runs
+  // counter-clockwise. Only the others need winding numbers (and the index).
+  std::vector<bool> alone(contours.size(), true);
+  {
+    std::vector<Eigen::AlignedBox2d> cboxes;
+    for (const auto& c : contours) cboxes.push_back(c.empty() ? Eigen::AlignedBox2d() : bounding_box(c));
+    for_each_intersecting_pair(cboxes, [&](std::size_t a, std::size_t b) { alone[a] = alone[b] = false; });
+  }
+  bool need_index = false;
+  for (const auto& pc : pieces) need_index = need_index || !pc.closed || !alone[pc.contour];
+  const SpanIndex index = need_index ? SpanIndex(contours) : SpanIndex();
   std::vector<std::size_t> kept;
   for (std::size_t p = 0; p < pieces.size(); ++p) {
     const auto& segs = pieces[p].segs;
+    if (pieces[p].closed && alone[pieces[p].contour]) {
+      if (signed_area(contours[pieces[p].contour]) > 0.0) kept.push_back(p);
+      continue;
+    }
     // Sample the middle of the longest (sub)span, away from the crossings at the ends.
     std::size_t longest = 0;
     double total = 0.0;
