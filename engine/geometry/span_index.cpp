@@ -289,15 +289,30 @@ bool SpanIndex::left_of(const Vector2d& p, const Nearest& n) const noexcept {
     }
     return cross(t, p - n.point) > 0.0;
   }
+  // At a vertex V: the left side is the angular sector swept counter-clockwise from the
+  // outgoing span's direction to the incoming span's (seen from V). The directions are taken
+  // to points of the spans at p's distance from V (at most half way along them), not from
+  // the tangents: where two arcs meet in a near-cusp, the tangents can turn by more than pi
+  // and only the curves' points say which side is which.
   const Item& in = n.at_start ? items_[it.prev] : it;
   const Item& out = n.at_start ? it : items_[it.next];
   const Vector2d v = n.at_start ? it.a : it.b;
   const Vector2d w = p - v;
-  const bool l_in = cross(in.t_end, w) > 0.0, l_out = cross(out.t_start, w) > 0.0;
-  const double turn = cross(in.t_end, out.t_start);
-  if (turn > 0.0) return l_in && l_out;  // convex corner (left turn): inside both half planes
-  if (turn < 0.0) return l_in || l_out;  // reflex corner: inside either
-  return l_in;                           // straight on: both agree
+  const double eta = w.norm();
+  // Direction from v to the point of `s` at arc length eta from its start (or end).
+  auto into = [&](const Item& s, bool from_end) -> Vector2d {
+    if (!s.is_arc()) return from_end ? Vector2d(s.a - s.b) : Vector2d(s.b - s.a);
+    const double len = s.radius * std::abs(s.sweep);
+    const double turn = std::min(eta / len, 0.5) * s.sweep * (from_end ? -1.0 : 1.0);
+    const Vector2d u = ((s.sweep > 0) != from_end ? s.u_from : s.u_to);  // start (or end) radial unit
+    const double c = std::cos(turn), sn = std::sin(turn);
+    return s.center + s.radius * Vector2d(c * u.x() - sn * u.y(), sn * u.x() + c * u.y()) - v;
+  };
+  const Vector2d d_out = into(out, false), d_in = into(in, true);
+  const double a0 = std::atan2(d_out.y(), d_out.x());
+  const double sector = wrap_angle_positive(std::atan2(d_in.y(), d_in.x()) - a0);
+  const double rel = wrap_angle_positive(std::atan2(w.y(), w.x()) - a0);
+  return rel > 0.0 && rel < sector;
 }
 
 int SpanIndex::winding(const Vector2d& p) const noexcept {
@@ -325,14 +340,15 @@ int SpanIndex::winding(const Vector2d& p) const noexcept {
         continue;
       }
       // An arc is its chord plus the closed loop (arc, chord back), which winds once round the
-      // points between chord and arc. A p exactly on the chord's line is not on the arc: it
-      // is counted as lying just off the chord on the side away from the arc (the answer is
-      // the same on both sides of the chord there, so either side would do, but the chord
-      // crossing and the segment test must agree).
+      // points between chord and arc; the chord crossing and the segment test must judge p on
+      // the same side of the chord.
       const Vector2d chord = it.b - it.a;
       const double m = cross(chord, it.arc_mid - it.a);
       double side = cross(chord, p - it.a);
-      if (side == 0.0) side = -m;
+      // p on the chord's line: the half-open rule above counts an end at p's height as below
+      // the ray, as if p sat a little higher; take the side of the chord that p + (0, e)
+      // would be on (for a chord that is not horizontal, any side gives the same count).
+      if (side == 0.0) side = chord.x() != 0.0 ? chord.x() : -chord.y();
       if (it.a.y() <= p.y()) {
         if (it.b.y() > p.y() && side > 0.0) ++w;
       } else if (it.b.y() <= p.y() && side < 0.0) {
