@@ -290,25 +290,28 @@ bool SpanIndex::left_of(const Vector2d& p, const Nearest& n) const noexcept {
     return cross(t, p - n.point) > 0.0;
   }
   // At a vertex V: the left side is the angular sector swept counter-clockwise from the
-  // outgoing span's direction to the incoming span's (seen from V). The directions are taken
-  // to points of the spans at p's distance from V (at most half way along them), not from
-  // the tangents: where two arcs meet in a near-cusp, the tangents can turn by more than pi
-  // and only the curves' points say which side is which.
+  // outgoing span's direction to the incoming span's (both seen from V). p's nearest point is
+  // V, so p lies in V's normal cone and the tangents decide, except at a cusp (tangents
+  // exactly opposite, two arcs meeting in a point): there the curvatures decide, so each
+  // direction is that of a chord a tiny way along its span: the tangent turned by half the
+  // angle the span turns over that length (1e-6 of the smaller radius).
   const Item& in = n.at_start ? items_[it.prev] : it;
   const Item& out = n.at_start ? it : items_[it.next];
   const Vector2d v = n.at_start ? it.a : it.b;
   const Vector2d w = p - v;
-  const double eta = w.norm();
-  // Direction from v to the point of `s` at arc length eta from its start (or end).
-  auto into = [&](const Item& s, bool from_end) -> Vector2d {
-    if (!s.is_arc()) return from_end ? Vector2d(s.a - s.b) : Vector2d(s.b - s.a);
-    const double len = s.radius * std::abs(s.sweep);
-    const double turn = std::min(eta / len, 0.5) * s.sweep * (from_end ? -1.0 : 1.0);
-    const Vector2d u = ((s.sweep > 0) != from_end ? s.u_from : s.u_to);  // start (or end) radial unit
-    const double c = std::cos(turn), sn = std::sin(turn);
-    return s.center + s.radius * Vector2d(c * u.x() - sn * u.y(), sn * u.x() + c * u.y()) - v;
+  double r_min = std::numeric_limits<double>::infinity();
+  if (in.is_arc()) r_min = std::min(r_min, in.radius);
+  if (out.is_arc()) r_min = std::min(r_min, out.radius);
+  const double eta = std::isfinite(r_min) ? 1e-6 * r_min : 0.0;
+  auto turned = [](const Vector2d& t, double angle) {
+    const double c = std::cos(angle), sn = std::sin(angle);
+    return Vector2d(c * t.x() - sn * t.y(), sn * t.x() + c * t.y());
   };
-  const Vector2d d_out = into(out, false), d_in = into(in, true);
+  // Signed turn per unit length is sweep / (radius |sweep|) = +-1 / radius.
+  const double k_out = out.is_arc() ? (out.sweep > 0 ? 1.0 : -1.0) / out.radius : 0.0;
+  const double k_in = in.is_arc() ? (in.sweep > 0 ? 1.0 : -1.0) / in.radius : 0.0;
+  const Vector2d d_out = turned(out.t_start, 0.5 * eta * k_out);
+  const Vector2d d_in = turned(Vector2d(-in.t_end), -0.5 * eta * k_in);
   const double a0 = std::atan2(d_out.y(), d_out.x());
   const double sector = wrap_angle_positive(std::atan2(d_in.y(), d_in.x()) - a0);
   const double rel = wrap_angle_positive(std::atan2(w.y(), w.x()) - a0);
