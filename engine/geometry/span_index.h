@@ -11,8 +11,10 @@
 // fixed stack, and its memory is O(n).
 //
 // Layout: spans are copied into a flat array in tree order, each with what a query needs
-// precomputed (unit vectors of an arc's ends, tangents, neighbours), nodes are 48 bytes in
-// depth-first order (left child follows its parent). Leaves hold up to 4 spans.
+// precomputed (unit vectors of an arc's ends, tangents, neighbours), plus a 64-byte copy of
+// what a distance needs; nodes (72 bytes: an oriented rectangle and two links) are in
+// depth-first order (left child follows its parent), their axis-aligned boxes apart. Leaves
+// hold up to 4 spans.
 //
 // Queries allocate nothing and never throw. nearest() is branch and bound: O(log n) nodes for
 // points whose distance to the boundary is small compared with the boundary's curvature (the
