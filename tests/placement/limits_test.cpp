@@ -13,8 +13,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "engine/common/stop.h"
 #include "solvers/placement/checker.h"
 #include "solvers/placement/scene.h"
+#include "solvers/placement/search.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::placement {
@@ -95,6 +97,54 @@ TEST(CheckLimits, ACheckStopsAtTheQueryLimitWithExitThreeAndSaysHowToRaiseIt) {
   checker.report({-68, -22, 57, 0});
   EXPECT_LT(checker.counts().exact_queries, ok.search.max_pose_queries);
   EXPECT_GT(checker.counts().exact_queries, 50);  // so the limit of 50 above was really reached
+}
+
+TEST(CheckStop, AStopRequestEndsACheckAndASearchWithoutAnAnswer) {
+  TempDir dir;
+  const Scene scene = load_scene(write_scene(dir, {}));
+  StopSource source;
+  Checker checker(scene, 0.0, source.token());
+  const CheckReport before = checker.report({-68, -22, 57, 0});  // not stopped: an answer
+  EXPECT_GT(before.counts.exact_queries + checker.counts().exact_queries, 0);
+  source.request_stop();
+  EXPECT_THROW(checker.report({-60, -20, 57, 0}), Cancelled);
+  EXPECT_THROW(checker.dense_check({-60, -20, 57, 0}), Cancelled);
+  EXPECT_THROW(Checker(scene, 0.0, source.token()), Cancelled);  // construction checks class 1
+  PlacementOptions o;
+  o.stop = source.token();
+  EXPECT_EQ(place(scene, o).status, PlacementStatus::cancelled);
+}
+
+TEST(CheckStop, TheDenseCheckReportsItsProgress) {
+  TempDir dir;
+  const Scene scene = load_scene(write_scene(dir, {}));
+  Checker checker(scene);
+  std::vector<double> seen;
+  checker.dense_check({-68, -22, 57, 0}, 0.5, [&](double f) { seen.push_back(f); });
+  ASSERT_GE(seen.size(), 3u);  // 1053 poses, a report every 256
+  EXPECT_EQ(seen.front(), 0.0);
+  for (std::size_t k = 1; k < seen.size(); ++k) EXPECT_GT(seen[k], seen[k - 1]);
+  EXPECT_LE(seen.back(), 1.0);
+}
+
+TEST(CheckLimits, ALargeSafeDistanceCostsNoMoreThanAnOrdinaryCheck) {
+  // A safe distance of 1000 mm: no stretch of the path can be cleared in bulk, and class 1
+  // interferes everywhere. Once an interference is known only a smaller clearance matters, so
+  // the checker still looks at a small part of the path.
+  TempDir dir;
+  const Scene big = load_scene(write_scene(dir, {{"safe_distance_mm: 5", "safe_distance_mm: 1000"}}));
+  ASSERT_EQ(big.safe_distance_mm, 1000.0);
+  Checker checker(big);
+  EXPECT_TRUE(checker.class1().interferes);
+  const long class1_queries = checker.counts().exact_queries;
+  // Without the bound every pose was an exact query; now a small share of them.
+  EXPECT_LT(class1_queries, static_cast<long>(big.tips_mm.size()) / 4) << "class 1 walked most of the path";
+  EXPECT_GE(checker.class1().pose, 0);
+  EXPECT_THAT(checker.class1().what, HasSubstr("/ workpiece"));
+  const CheckReport r = checker.report({-68, -22, 57, 0});
+  EXPECT_FALSE(r.free());
+  EXPECT_TRUE(r.kinds[static_cast<int>(Kind::workpiece_class1)].interferes);
+  EXPECT_LT(checker.counts().exact_queries, static_cast<long>(big.tips_mm.size()) * 4);
 }
 
 }  // namespace
