@@ -482,18 +482,25 @@ double Checker::node_travel(int kind, const Node& n) const {
   }
 }
 
-double Checker::report_need(int c, double best) const {
-  // A minimum is pinned to within the absolute tolerance near the limit; far above it, to
-  // within half its distance to the limit (a 40 mm clearance to within 17.5 mm), which keeps
-  // a report of flat, distant constraints from visiting every pose. While nothing below the
-  // limit has been seen, nothing that could be below it is left unexamined, so a report that
-  // finds every kind free is also a proof. Likewise far below the limit: an interference
-  // deeper than kDeepMm is pinned to within half of its depth beyond that (a clearance of 280
-  // mm under a 1000 mm safe distance to within 355 mm), so that a large safe distance, which
-  // every pose breaks, does not send the report to every pose; the verdict is the same.
+namespace {
+// How precisely a report pins the smallest value `best` of a constraint whose limit is
+// `limit`: to within `tolerance` near the limit; far above it, to within half its distance to
+// the limit (a 40 mm clearance to within 17.5 mm), which keeps a report of flat, distant
+// constraints from visiting every pose. Likewise far below it: an interference deeper than
+// kDeepMm is pinned to within half of its depth beyond that (a clearance of 20 mm under a
+// 1000 mm safe distance to within 485 mm). A large safe distance is broken along the whole
+// path by nearly the same amount (a tool shank 20 mm above the surface everywhere); without
+// this every pose would be an exact query. The verdict is the same either way.
+double report_margin(double best, double limit, double tolerance) {
   constexpr double kDeepMm = 10.0;
-  const double margin = best >= limit_[c] ? 0.5 * (best - limit_[c]) : 0.5 * (limit_[c] - best - kDeepMm);
-  const double need = best - std::max(report_tolerance_[c], margin);
+  return std::max(tolerance, best >= limit ? 0.5 * (best - limit) : 0.5 * (limit - best - kDeepMm));
+}
+}  // namespace
+
+double Checker::report_need(int c, double best) const {
+  // While nothing below the limit has been seen, nothing that could be below it is left
+  // unexamined, so a report that finds every kind free is also a proof.
+  const double need = best - report_margin(best, limit_[c], report_tolerance_[c]);
   return best >= limit_[c] ? std::max(need, limit_[c]) : need;
 }
 
@@ -772,12 +779,15 @@ void Checker::compute_class1() {
   class1_ = Finding{};
   class1_.clearance_mm = kInf;
   // What a pose or stretch must be shown to clear: the safe distance until an interference is
-  // known; after that only a smaller clearance can change the finding (kept to within the
-  // report's tolerance), so the smallest value met so far. Without this a large safe distance,
-  // which no stretch clears and every part misses, would make every pose of the path a dozen
-  // exact mesh distances (1000 mm: minutes for the bundled path).
+  // known; after that only a smaller clearance can change the finding, pinned as precisely as
+  // a report pins it (report_margin). Without this a large safe distance, which no stretch
+  // clears and every part misses, would make every pose of the path a dozen exact mesh
+  // distances (1000 mm: minutes for the bundled path).
   const double tolerance = report_tolerance_[kClass2];
-  const auto threshold = [&] { return class1_.clearance_mm < c ? class1_.clearance_mm - tolerance : c; };
+  const auto threshold = [&] {
+    const double best = class1_.clearance_mm;
+    return best < c ? best - report_margin(best, c, tolerance) : c;
+  };
   auto exact = [&](const Pose& pose, std::string* who) { return class1_value(pose, who, threshold()); };
   auto stretch_clear = [&](const Pose& pose, double sweep) {
     const double t = threshold();
