@@ -501,6 +501,9 @@ double Checker::report_need(int c, double best) const {
   // While nothing below the limit has been seen, nothing that could be below it is left
   // unexamined, so a report that finds every kind free is also a proof.
   const double need = best - report_margin(best, limit_[c], report_tolerance_[c]);
+  // Clearances (strut to strut, class 2, peripherals) are distances, never below 0: a need at
+  // or below 0 is met everywhere (a huge tool touching the workpiece at every pose).
+  if (c >= kStrutStrut && need <= 0) return -kInf;
   return best >= limit_[c] ? std::max(need, limit_[c]) : need;
 }
 
@@ -811,7 +814,7 @@ void Checker::compute_class1() {
   std::function<void(long, double, double, double, double, int)> interval = [&](long i, double t0, double t1, double v0,
                                                                                double v1, int depth) {
     const double d = travel(cum_rigid_, i, i + 1) * (t1 - t0);
-    if ((v0 + v1 - d) / 2 >= threshold()) return;
+    if ((v0 + v1 - d) / 2 >= threshold() || threshold() <= 0) return;
     if (depth >= kMaxIntervalDepth) {
       note((v0 + v1 - d) / 2, i, (t0 + t1) / 2, "unproven interval");
       return;
@@ -836,6 +839,8 @@ void Checker::compute_class1() {
     return value[i];
   };
   std::function<void(int)> node = [&](int id) {
+    // Distances are never below 0: once the threshold is, nothing left can change the finding.
+    if (threshold() <= 0) return;
     ++counts_.stretches;
     const Node& nd = nodes_[id];
     // A node is left alone when the height field shows every part clears the threshold over
