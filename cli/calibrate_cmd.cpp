@@ -14,6 +14,7 @@
 
 #include "cli/command.h"
 #include "cli/interrupt.h"
+#include "cli/output.h"
 #include "engine/calibration/session_log.h"
 #include "engine/common/error.h"
 #include "models/backends/backend_factory.h"
@@ -197,7 +198,7 @@ void add_store_commands(CLI::App& app) {
         j.push_back({{"fit_id", f.fit_id}, {"session_id", f.session_id}, {"machine", f.machine}, {"status", f.status},
                      {"who", f.who}, {"created_utc", f.created_utc}, {"log_path", f.log_path}, {"log_hash", f.log_hash},
                      {"active", f.active}, {"fit", nlohmann::json::parse(f.fit_json, nullptr, false)}});
-      std::printf("%s\n", j.dump(2).c_str());
+      print_json(j);
       return;
     }
     if (rows.empty()) std::printf("no calibrations stored\n");
@@ -213,6 +214,7 @@ void add_store_commands(CLI::App& app) {
   show->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
   show->add_option("--feed", a->feed, "feed, mm/s: print the open-loop factor for `run --mode paper-open --calibration`");
   show->callback([a, db_path] {
+    const double feed = a->feed.empty() ? 0.0 : number_of("--feed", a->feed);  // a bad flag first: exit 2
     calibration::CalibrationStore store(db_path());
     const auto c = store.active(a->machine);
     if (!c) throw Infeasible(fmt::format("no active calibration for '{}' in {}", a->machine, db_path()));
@@ -221,10 +223,8 @@ void add_store_commands(CLI::App& app) {
     for (int i = 0; i < 2; ++i)
       std::printf("  %s: feed factor %.5f, dead band %.4f mm/s, %.7f mm/count, backlash %.4f mm\n", i ? "y" : "x",
                   c->feed_factor[i], c->dead_band_mm_per_s[i], c->mm_per_count[i], c->backlash_mm[i]);
-    if (!a->feed.empty()) {
-      const double f = number_of("--feed", a->feed);
-      std::printf("open-loop factor at %g mm/s: %.5f\n", f, calibration::open_loop_factor(*c, f));
-    }
+    if (!a->feed.empty())
+      std::printf("open-loop factor at %g mm/s: %.5f\n", feed, calibration::open_loop_factor(*c, feed));
   });
 }
 

@@ -35,8 +35,11 @@ StopToken StopOnSignals::stop_token() { return g_stop.token(); }
 ProgressBar::ProgressBar(std::string label, bool wanted)
     : label_(std::move(label)), on_(wanted && isatty(STDERR_FILENO)), start_s_(now_s()) {}
 
-ProgressBar::~ProgressBar() {
+ProgressBar::~ProgressBar() { done(); }
+
+void ProgressBar::done() {
   if (drawn_) std::fprintf(stderr, "\r%*s\r", static_cast<int>(label_.size()) + 40, "");
+  drawn_ = on_ = false;
 }
 
 void ProgressBar::update(double fraction) {

@@ -7,7 +7,7 @@
 //                   and exits 3. The previous handlers come back when it goes.
 //   ProgressBar     a one-line bar on stderr for work longer than about a second, drawn only
 //                   when stderr is a terminal and the output is not --json; at most ten
-//                   redraws a second, cleared when done.
+//                   redraws a second, cleared when done (done() or the destructor).
 #pragma once
 
 #include <csignal>
@@ -34,6 +34,8 @@ class ProgressBar {
   ProgressBar(std::string label, bool wanted);
   ~ProgressBar();
   void update(double fraction);
+  // Clears the bar now (the work is over but the command goes on); later updates draw nothing.
+  void done();
 
  private:
   std::string label_;

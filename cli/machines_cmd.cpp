@@ -24,7 +24,7 @@ void add_machines(CLI::App& app) {
       for (const auto& f : folders) j["folders"].push_back({{"path", f.path}, {"kind", f.kind}, {"exists", f.exists}});
       for (const auto& m : machines)
         j["machines"].push_back({{"name", m.name}, {"path", m.path}, {"kind", m.kind}, {"shadowed", m.shadowed}});
-      std::printf("%s\n", machplan::cli::json_text(j, 2).c_str());
+      machplan::cli::print_json(j);
       return;
     }
     std::printf("folders searched by --machine NAME, in order:\n");

@@ -26,7 +26,7 @@ void add_mesh(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--weld-tolerance", args->options.weld_tolerance_mm,
                   "merge vertices closer than this, mm (0: identical only)")
-      ->check(machplan::cli::kFiniteNonNegative)
+      ->check(machplan::cli::kFiniteNonNegative & CLI::Range(0.0, machplan::StlReadOptions::kMaxWeldToleranceMm))
       ->capture_default_str();
   cmd->callback([args] {
     machplan::MeshReport r;
@@ -51,7 +51,7 @@ void add_mesh(CLI::App& app) {
       }
       j["min_mm"] = {r.bounds.min().x(), r.bounds.min().y(), r.bounds.min().z()};
       j["max_mm"] = {r.bounds.max().x(), r.bounds.max().y(), r.bounds.max().z()};
-      std::printf("%s\n", machplan::cli::json_text(j, 2).c_str());
+      machplan::cli::print_json(j);
       return;
     }
     std::printf("%s:\n%s", args->file.c_str(), r.brief().c_str());

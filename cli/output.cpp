@@ -14,16 +14,41 @@
 
 namespace machplan::cli {
 
-std::string json_text(const nlohmann::json& j, int indent) {
-  try {
-    return j.dump(indent);
-  } catch (const nlohmann::json::type_error& e) {
-    if (e.id != 316) throw;  // 316: invalid UTF-8 in a string
-  }
+namespace {
+void say_replaced() {
   std::fprintf(stderr,
                "machplan: warning: the output holds text that is not valid UTF-8 (a file name or a name read from "
                "a file); each invalid byte is replaced by U+FFFD in the JSON\n");
-  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+}  // namespace
+
+void finish_json(const JsonStream& out) {
+  if (out.replaced()) say_replaced();
+}
+
+void print_json(const nlohmann::json& doc, int indent) {
+  JsonStream out(stdout, indent);
+  if (!doc.is_object()) {
+    out.value(doc);
+  } else {
+    out.begin_object();
+    for (const auto& [name, v] : doc.items()) {
+      if (out.failed()) break;
+      out.key(name);
+      if (!v.is_array()) {
+        out.value(v);
+        continue;
+      }
+      out.begin_array();
+      for (const auto& e : v) {
+        if (out.failed()) break;
+        out.value(e);
+      }
+      out.end_array();
+    }
+    out.end_object();
+  }
+  finish_json(out);
 }
 
 void refuse_overwriting_input(const std::string& flag, const std::string& output,

@@ -113,15 +113,16 @@ void add_place(CLI::App& app) {
     const Scene scene = load_scene(o->scene);
     refuse_overwriting_input("--plot", o->plot, {scene.toolpath_file, scene.workpiece_file});
     const StopOnSignals signals;
-    po.should_stop = [stop = StopOnSignals::stop_token()] { return stop.stop_requested(); };
+    po.stop = StopOnSignals::stop_token();
     auto bar = std::make_shared<ProgressBar>("placement search", !o->json);
     po.progress = [bar](double f) { bar->update(f); };
     const PlacementResult r = place(scene, po);
     bar.reset();
     bool dense_free = true;
     if (o->verify && r.status == PlacementStatus::found) {
-      Checker checker(scene, r.placement.rotation_deg);
-      dense_free = checker.dense_check(r.placement).free();
+      Checker checker(scene, r.placement.rotation_deg, StopOnSignals::stop_token());
+      ProgressBar dense_bar("dense re-check", !o->json);
+      dense_free = checker.dense_check(r.placement, 0.5, [&dense_bar](double f) { dense_bar.update(f); }).free();
     }
     if (!o->plot.empty() && r.status != PlacementStatus::cancelled) write_placement_plot(o->plot, scene, r);
     if (o->json) {
@@ -141,7 +142,7 @@ void add_place(CLI::App& app) {
         j["trail"] = t;
       }
       if (!o->plot.empty()) j["plot"] = o->plot;
-      std::printf("%s\n", machplan::cli::json_text(j, 2).c_str());
+      machplan::cli::print_json(j);
     } else {
       std::printf("machplan place %s (strategy %s, %zu tool poses, safe distance %.1f mm)\n", o->scene.c_str(),
                   o->strategy.c_str(), scene.tips_mm.size(), scene.safe_distance_mm);
@@ -196,17 +197,21 @@ void add_check(CLI::App& app) {
         throw InputError("--at", 0, fmt::format("{} mm is beyond the {} mm any table or pad can reach", c, kMaxPlacementMm));
     validate_rotation_deg(o->rotation, "--rotation");
     const Scene scene = load_scene(o->scene);
-    Checker checker(scene, o->rotation);
+    // SIGINT, SIGTERM and SIGHUP end a long check with exit 3 (Cancelled), not the process.
+    const StopOnSignals signals;
+    Checker checker(scene, o->rotation, StopOnSignals::stop_token());
     const Placement p{v[0], v[1], v[2], o->rotation};
     const auto region = placement_region(scene, o->rotation);
     const bool on_table = region.contains(Eigen::Vector2d(p.x_mm, p.y_mm));
-    const CheckReport r = o->dense ? checker.dense_check(p) : checker.report(p);
+    ProgressBar bar("dense check", o->dense && !o->json);
+    const CheckReport r = o->dense ? checker.dense_check(p, 0.5, [&bar](double f) { bar.update(f); }) : checker.report(p);
+    bar.done();
     if (o->json) {
       nlohmann::json j = report_json(r);
       j["on_table"] = on_table;
       j["checks"] = counts_json(checker.counts(), scene.tips_mm.size());
       j["method"] = o->dense ? "dense" : "certified";
-      std::printf("%s\n", machplan::cli::json_text(j, 2).c_str());
+      machplan::cli::print_json(j);
     } else {
       std::printf("machplan check %s at x %.2f, y %.2f, pad %.1f mm: %s\n", o->scene.c_str(), p.x_mm, p.y_mm, p.pad_mm,
                   r.free() && on_table ? "FREE" : "INTERFERENCE");

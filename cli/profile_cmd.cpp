@@ -99,7 +99,7 @@ void add_profile(CLI::App& app) {
     }
     const auto result = machplan::read_dxf_profile(*file, options);
     if (*json_out)
-      std::printf("%s\n", machplan::cli::json_text(to_json(result), 2).c_str());
+      machplan::cli::print_json(to_json(result));
     else
       std::fputs(result.report().c_str(), stdout);
     if (result.has_errors()) {

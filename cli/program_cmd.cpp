@@ -21,59 +21,75 @@ namespace {
 using machplan::cli::add_gcode_options;
 using machplan::cli::gcode_options;
 
-nlohmann::json to_json(const machplan::Program& program) {
+nlohmann::json move_json(const machplan::Move& m) {
   using machplan::Move;
-  nlohmann::json moves = nlohmann::json::array();
-  for (const Move& m : program.moves) {
-    nlohmann::json j;
-    j["kind"] = machplan::to_string(m.kind);
-    j["line"] = m.line;
-    switch (m.kind) {
-      case Move::Kind::rapid:
-        j["end"] = {m.end.x(), m.end.y(), m.end.z()};
-        break;
-      case Move::Kind::line:
-        j["end"] = {m.end.x(), m.end.y(), m.end.z()};
-        j["feed"] = m.feed_mm_per_min;
-        break;
-      case Move::Kind::arc:
-        j["end"] = {m.end.x(), m.end.y(), m.end.z()};
-        j["feed"] = m.feed_mm_per_min;
-        j["center"] = {m.center.x(), m.center.y()};
-        if (m.plane != Move::Plane::xy) j["plane"] = m.plane == Move::Plane::xz ? "xz" : "yz";
-        j["clockwise"] = m.clockwise;
-        j["turns"] = m.turns;
-        break;
-      case Move::Kind::dwell:
-        j["seconds"] = m.seconds;
-        break;
-      case Move::Kind::torch_on:
-        j["spindle_speed"] = m.spindle_speed;
-        if (m.spindle != 0) j["spindle"] = m.spindle;
-        break;
-      case Move::Kind::torch_off:
-        if (m.spindle != 0) j["spindle"] = m.spindle;
-        break;
-    }
-    if (m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc) {
-      if (m.path_mode != Move::PathMode::blend) j["path_mode"] = machplan::to_string(m.path_mode);
-      else if (m.path_tolerance_mm > 0) j["path_tolerance_mm"] = m.path_tolerance_mm;
-    }
-    moves.push_back(std::move(j));
+  nlohmann::json j;
+  j["kind"] = machplan::to_string(m.kind);
+  j["line"] = m.line;
+  switch (m.kind) {
+    case Move::Kind::rapid:
+      j["end"] = {m.end.x(), m.end.y(), m.end.z()};
+      break;
+    case Move::Kind::line:
+      j["end"] = {m.end.x(), m.end.y(), m.end.z()};
+      j["feed"] = m.feed_mm_per_min;
+      break;
+    case Move::Kind::arc:
+      j["end"] = {m.end.x(), m.end.y(), m.end.z()};
+      j["feed"] = m.feed_mm_per_min;
+      j["center"] = {m.center.x(), m.center.y()};
+      if (m.plane != Move::Plane::xy) j["plane"] = m.plane == Move::Plane::xz ? "xz" : "yz";
+      j["clockwise"] = m.clockwise;
+      j["turns"] = m.turns;
+      break;
+    case Move::Kind::dwell:
+      j["seconds"] = m.seconds;
+      break;
+    case Move::Kind::torch_on:
+      j["spindle_speed"] = m.spindle_speed;
+      if (m.spindle != 0) j["spindle"] = m.spindle;
+      break;
+    case Move::Kind::torch_off:
+      if (m.spindle != 0) j["spindle"] = m.spindle;
+      break;
   }
-  nlohmann::json events = nlohmann::json::array();
-  for (const machplan::ProgramEvent& e : program.events)
-    events.push_back({{"kind", machplan::to_string(e.kind)}, {"line", e.line}, {"before_move", e.before_move},
-                      {"number", e.number}, {"value", e.value}, {"value2", e.value2}, {"mode", e.mode},
-                      {"synchronized", e.synchronized}});
-  return {{"units", "mm"},
-          {"coordinates", "machine (work offsets applied)"},
-          {"source", program.source},
-          {"events", std::move(events)},
-          {"warnings", program.warnings},
-          {"start", {program.start.x(), program.start.y(), program.start.z()}},
-          {"ends_with_program_end", program.ends_with_program_end},
-          {"moves", std::move(moves)}};
+  if (m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc) {
+    if (m.path_mode != Move::PathMode::blend) j["path_mode"] = machplan::to_string(m.path_mode);
+    else if (m.path_tolerance_mm > 0) j["path_tolerance_mm"] = m.path_tolerance_mm;
+  }
+  return j;
+}
+
+// The program as one JSON object, streamed: the moves and events are written one at a time
+// (a long program's document would take about 0.9 KB of memory per move). A failed write
+// stops the writing; main() reports it.
+void write_json(const machplan::Program& program) {
+  machplan::JsonStream out(stdout);
+  out.begin_object();
+  out.member("units", "mm");
+  out.member("coordinates", "machine (work offsets applied)");
+  out.member("source", program.source);
+  out.member("warnings", program.warnings);
+  out.member("start", {program.start.x(), program.start.y(), program.start.z()});
+  out.member("ends_with_program_end", program.ends_with_program_end);
+  out.key("events");
+  out.begin_array();
+  for (const machplan::ProgramEvent& e : program.events) {
+    if (out.failed()) break;
+    out.value({{"kind", machplan::to_string(e.kind)}, {"line", e.line}, {"before_move", e.before_move},
+               {"number", e.number}, {"value", e.value}, {"value2", e.value2}, {"mode", e.mode},
+               {"synchronized", e.synchronized}});
+  }
+  out.end_array();
+  out.key("moves");
+  out.begin_array();
+  for (const machplan::Move& m : program.moves) {
+    if (out.failed()) break;
+    out.value(move_json(m));
+  }
+  out.end_array();
+  out.end_object();
+  machplan::cli::finish_json(out);
 }
 
 void print_summary(const machplan::Program& program, double rapid_mm_per_min) {
@@ -114,7 +130,7 @@ void add_program(CLI::App& app) {
     const machplan::Program program =
         machplan::read_gcode_file(args->file, gcode_options(args->params, args->spindles, args->lenient));
     for (const std::string& w : program.warnings) std::cerr << "warning: " << w << "\n";
-    if (args->json) std::cout << machplan::cli::json_text(to_json(program)) << "\n";
+    if (args->json) write_json(program);
     else print_summary(program, args->rapid_mm_per_min);
   });
 }

@@ -93,6 +93,7 @@ void add_run(CLI::App& app) {
     std::vector<std::string> params;
     int spindles = 1;
     bool lenient = false, strict_z = false;
+    double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("run", "Run a part program on the simulated XY table or thermal-cutting gantry");
@@ -125,6 +126,10 @@ void add_run(CLI::App& app) {
   add_gcode_options(*cmd, a->params, a->spindles, a->lenient);
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->add_flag("--realtime", a->realtime, "pace the simulation to the wall clock");
+  cmd->add_option("--max-machine-time", a->max_machine_time_s,
+                  "refuse, before it starts, a run whose estimate exceeds this many seconds of machine time "
+                  "(default 14400: 4 h)")
+      ->check(kFinitePositive);
   cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default)");
   cmd->add_option("--inject", a->inject,
                   "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "
@@ -206,17 +211,22 @@ void add_run(CLI::App& app) {
     o.executor.record_trace = !a->plot.empty();
     o.trace_csv_path = a->trace;  // streamed during the run
     o.stop = StopOnSignals::stop_token();
+    o.max_machine_time_s = a->max_machine_time_s;
+    // Rapid planning can take seconds on a long job: a bar on a terminal, cleared before the run.
+    auto bar = std::make_shared<ProgressBar>("planning rapids", !a->json);
+    o.rapids.progress = [bar](double f) { f < 1 ? bar->update(f) : bar->done(); };
 
     // SIGINT, SIGTERM and SIGHUP stop the machine in a controlled way (exit 3), not the process.
     const StopOnSignals signals;
     const motion::RunOutcome run = motion::run_program(a->program, o);
+    bar->done();
     if (!a->plot.empty()) motion::write_run_plot(a->plot, run, magnify);
 
     if (a->json) {
       nlohmann::json j = run.to_json();
       if (!a->trace.empty()) j["trace"] = a->trace;
       if (!a->plot.empty()) j["plot"] = a->plot;
-      std::printf("%s\n", json_text(j, 2).c_str());
+      print_json(j);
     } else {
       if (run.kerf) std::printf("kerf compensation\n%s\n", run.kerf->brief(run.job.source).c_str());
       std::printf("rapids (straight G0 against planned, mm)\n%s\n", run.rapids.summary().c_str());

@@ -51,7 +51,7 @@ void add_toolpath(CLI::App& app) {
                        {"length_mm", path.cutter->length_mm}};
       else
         j["cutter"] = nullptr;
-      std::printf("%s\n", machplan::cli::json_text(j, 2).c_str());
+      machplan::cli::print_json(j);
       return;
     }
     std::string out = fmt::format("{}: {} poses ({} rapid){}\n", path.source, s.poses, s.rapid_poses,

@@ -3,9 +3,15 @@
 // handler (std::atomic<bool> is always lock-free on our targets). Work that takes a token
 // checks it at points where stopping is safe (the executor: once per servo period, after
 // which it stops the machine in a controlled way and reports).
+//
+// Work with no safe partial answer (rapid and feed planning before a run, an interference
+// check) throws Cancelled instead: a kind of Infeasible (engine/common/error.h), so the CLI
+// reports it and exits 3.
 #pragma once
 
 #include <atomic>
+
+#include "engine/common/error.h"
 
 namespace machplan {
 
@@ -29,6 +35,11 @@ class StopSource {
 
  private:
   std::atomic<bool> flag_{false};
+};
+
+class Cancelled : public Infeasible {
+ public:
+  using Infeasible::Infeasible;
 };
 
 }  // namespace machplan

@@ -345,9 +345,9 @@ std::string MeshReport::brief() const {
 void StlReadOptions::validate() const {
   if (!(std::isfinite(scale_to_mm) && scale_to_mm > 0.0))
     throw InputError("StlReadOptions::scale_to_mm", 0, fmt::format("is {}; it must be finite and positive", scale_to_mm));
-  if (!(std::isfinite(weld_tolerance_mm) && weld_tolerance_mm >= 0.0))
+  if (!(std::isfinite(weld_tolerance_mm) && weld_tolerance_mm >= 0.0 && weld_tolerance_mm <= kMaxWeldToleranceMm))
     throw InputError("StlReadOptions::weld_tolerance_mm", 0,
-                     fmt::format("is {}; it must be finite and not negative", weld_tolerance_mm));
+                     fmt::format("is {}; it must be within 0 .. {} mm", weld_tolerance_mm, kMaxWeldToleranceMm));
   if (max_triangles == 0) throw InputError("StlReadOptions::max_triangles", 0, "is 0; it must be positive");
 }
 

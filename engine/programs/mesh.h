@@ -76,7 +76,9 @@ MeshReport analyze_mesh(const Mesh& mesh);
 
 struct StlReadOptions {
   double scale_to_mm = 1.0;          // multiply every coordinate; must be finite and > 0
-  double weld_tolerance_mm = 0.0;    // >= 0; see above
+  double weld_tolerance_mm = 0.0;    // 0 .. kMaxWeldToleranceMm; see above
+  // Welding merges corners this close; beyond a few millimetres it merges the solid itself.
+  static constexpr double kMaxWeldToleranceMm = 10.0;
   std::size_t max_triangles = 20'000'000;
   std::size_t max_file_bytes = std::size_t{1} << 30;  // binary STL of 20 M triangles is 1 GB
 

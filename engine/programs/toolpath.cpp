@@ -82,6 +82,9 @@ class Reader {
       fail(line, fmt::format("{}: number '{}' is out of range", what, printable(field)));
     if (!std::isfinite(value))
       fail(line, fmt::format("{}: number '{}' is not finite", what, printable(field)));
+    if (std::abs(value) > kMaxToolPathNumber)
+      fail(line, fmt::format("{}: number '{}' is beyond +-{:g}, which no tool path reaches (in mm: {:g} km)", what,
+                             printable(field), kMaxToolPathNumber, kMaxToolPathNumber / 1e6));
     return value;
   }
 

@@ -132,6 +132,10 @@ struct ToolPath {
   std::vector<std::string> warnings;  // skipped statements, one line per kind
 };
 
+// Every number in a tool-path file lies within +-kMaxToolPathNumber (coordinates in mm or
+// inch, axis components, feeds); beyond it squares and sums of coordinates lose all precision.
+inline constexpr double kMaxToolPathNumber = 1e9;
+
 struct ToolPathReadOptions {
   // Most poses accepted. A pose costs 72 bytes, so the default bounds memory near 3.6 GB.
   std::size_t max_poses = 50'000'000;

@@ -451,6 +451,7 @@ const char* to_string(RapidStatus s) {
     case RapidStatus::no_path: return "no_path";
     case RapidStatus::endpoint_blocked: return "endpoint_blocked";
     case RapidStatus::out_of_bounds: return "out_of_bounds";
+    case RapidStatus::cancelled: return "cancelled";
   }
   return "?";
 }
@@ -599,8 +600,10 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector
 
   const auto t0 = std::chrono::steady_clock::now();
   bool timed_out = false;
+  bool cancelled = false;
   const ob::PlannerTerminationCondition ptc([&] {
     if (samples.load() >= options.max_samples) return true;
+    if (options.stop.stop_requested()) return cancelled = true;
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > options.max_time_s)
       return timed_out = true;
     return false;
@@ -636,6 +639,13 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector
     if (len < best_len) best = std::move(p), best_len = len;
   }
   plan.samples = samples.load();
+  if (cancelled) {
+    plan.status = RapidStatus::cancelled;
+    plan.polyline.clear();
+    plan.min_clearance_mm = 0.0;
+    plan.message = fmt::format("stopped on request after {} samples", plan.samples);
+    return plan;
+  }
   if (best.empty()) {
     plan.status = RapidStatus::no_path;
     plan.min_clearance_mm = 0.0;

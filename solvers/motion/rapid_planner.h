@@ -68,7 +68,8 @@
 //     cannot be rounded without entering it, so smoothing mostly rounds the other corners.
 //
 // Termination. The search stops after RapidOptions::max_samples sampled states in total
-// (all attempts), or after max_time_s of wall-clock time, whichever comes first. When the
+// (all attempts), or after max_time_s of wall-clock time, whichever comes first, or as soon
+// as RapidOptions::stop is set (status cancelled). When the
 // goal is walled in, no_path is returned once the budget is spent. The sample budget is the
 // deterministic limit; the time limit is a backstop for pathological inputs and, if it is
 // what stops the search, the result may differ from run to run (the message says so).
@@ -99,12 +100,14 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "engine/common/stop.h"
 #include "engine/geometry/contour.h"
 
 namespace machplan::motion {
@@ -135,6 +138,13 @@ struct RapidOptions {
   // plan_rapids only (rapids.h): holes whose slug is larger than this in x or y are kept
   // clear of like parts; smaller ones are crossed, mm (>= 0).
   double slug_tip_size_mm = 50.0;
+  // A stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it). The
+  // search polls it with its budget; once set, plan_rapid returns `cancelled` and plan_rapids
+  // plans no further rapid.
+  StopToken stop;
+  // plan_rapids only: called with the fraction of rapids planned so far, in [0, 1] (for a
+  // progress bar). May be empty.
+  std::function<void(double)> progress;
 
   // Throws std::invalid_argument naming the field, its value and the rule it breaks.
   void validate() const;
@@ -146,6 +156,7 @@ enum class RapidStatus {
   no_path,           // budget spent without a path (goal or start walled in)
   endpoint_blocked,  // an end point cannot leave its zones' clearance band (see step 2)
   out_of_bounds,     // from or to lies outside RapidOptions::bounds
+  cancelled,         // RapidOptions::stop was set before a path was found
 };
 const char* to_string(RapidStatus s);
 

@@ -87,7 +87,13 @@ RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, c
     return depth % 2 == 1;
   };
 
+  std::size_t rapid_total = 0, rapid_done = 0;
+  for (const Stretch& s : job.stretches) rapid_total += s.rapid && !s.segments.empty();
   for (const Step& step : job.steps) {
+    if (options.stop.stop_requested()) {
+      report.cancelled = true;
+      break;
+    }
     if (step.kind != Step::Kind::move || step.stretch >= job.stretches.size() || done[step.stretch]) continue;
     done[step.stretch] = 1;
     Stretch& s = job.stretches[step.stretch];
@@ -127,6 +133,11 @@ RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, c
     r.zone_count = zones.size();
 
     const RapidPlan plan = plan_rapid(r.from, r.to, zones, options, declared_zones.size());
+    if (plan.status == RapidStatus::cancelled) {
+      report.cancelled = true;
+      break;
+    }
+    if (options.progress && rapid_total > 0) options.progress(static_cast<double>(++rapid_done) / rapid_total);
     r.status = plan.status;
     r.straight_blocked = plan.straight_blocked;
     r.message = plan.message;

@@ -81,8 +81,11 @@ struct RapidsReport {
   double straight_length_mm = 0.0;    // sum over rapids
   double programmed_length_mm = 0.0;  // sum over rapids
   double length_mm = 0.0;             // sum over rapids, after this pass
+  // RapidOptions::stop was set: the rapids from the one that saw it on are left as
+  // programmed and not reported.
+  bool cancelled = false;
 
-  bool ok() const { return failed == 0; }
+  bool ok() const { return failed == 0 && !cancelled; }
   // A human-readable table: one row per rapid, then the totals.
   std::string summary() const;
 };

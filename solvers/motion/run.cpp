@@ -76,6 +76,35 @@ double height_move_s(double from_mm, double to_mm, double tolerance_mm, double s
   return std::max(0.0, std::abs(from_mm - to_mm) - tolerance_mm) / speed_mm_per_s;
 }
 
+// Seconds as people read them: "3.2 h (11520 s)".
+std::string duration_text(double s) {
+  if (s >= 1e9) return fmt::format("{:.3g} h ({:.3g} s)", s / 3600, s);
+  if (s >= 3600) return fmt::format("{:.1f} h ({:.0f} s)", s / 3600, s);
+  if (s >= 60) return fmt::format("{:.1f} min ({:.0f} s)", s / 60, s);
+  return fmt::format("{:.1f} s", s);
+}
+
+// The time no motion of `job` can beat: every stretch at its feed, capped by the machine's
+// speed, with no time lost to acceleration. Length sums stay finite: the travel check has
+// passed, so every segment lies within the machine.
+double motion_floor_s(const Job& job, double max_speed_mm_per_s) {
+  double t = 0.0;
+  for (const Stretch& s : job.stretches)
+    for (std::size_t k = 0; k < s.segments.size(); ++k) {
+      const double feed = std::min(k < s.feed_mm_per_s.size() ? s.feed_mm_per_s[k] : max_speed_mm_per_s, max_speed_mm_per_s);
+      if (feed > 0) t += length(s.segments[k]) / feed;
+    }
+  return t;
+}
+
+void refuse_long_run(const Job& job, double estimate_s, double limit_s, const char* what) {
+  if (!(estimate_s > limit_s)) return;
+  throw Infeasible(fmt::format(
+      "{}: the run would take {} of machine time ({}), more than the limit of {} (--max-machine-time); nothing was "
+      "run. Check the feeds and the machine's limits, or raise the limit with --max-machine-time SECONDS",
+      job.source, duration_text(estimate_s), what, duration_text(limit_s)));
+}
+
 }  // namespace
 
 void RunOptions::validate() const {
@@ -101,6 +130,7 @@ void RunOptions::validate() const {
       throw InputError("--controller", 0, fmt::format("unknown controller '{}' (kinds: {})", controller, all));
     }
   }
+  check_range("--max-machine-time", max_machine_time_s, 0.0, 365 * 24 * 3600.0, true, " s");
   try {
     rapids.validate();
   } catch (const std::invalid_argument& e) {
@@ -241,13 +271,21 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
   if (options.kerf_mm > 0) o.kerf = apply_kerf(o.job, options.kerf_mm);
   check_travel(o.job, o.machine);
 
+  // Refused before any planning when even the fastest conceivable motion is too long.
+  const double height_tolerance_mm = o.machine.setup().torch.height_tolerance_mm;
+  refuse_long_run(o.job, motion_floor_s(o.job, o.machine.limits.velocity_mm_per_s) +
+                             process_time_s(o.job, o.machine, height_tolerance_mm),
+                  options.max_machine_time_s, "at least: every move at its feed, no time to accelerate");
+
   if (!options.no_go_path.empty()) o.declared_zones = load_zones(options.no_go_path);
   const std::vector<Contour> declared = zone_contours(o.declared_zones);
   check_cuts_clear_of(o.job, o.declared_zones, options.no_go_path);
   RapidOptions ro = options.rapids;
   ro.bounds = travel_box(o.machine);
   ro.slug_tip_size_mm = o.machine.slug_tip_size_mm;
+  ro.stop = options.stop;
   o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts);
+  if (o.rapids.cancelled) throw Cancelled(fmt::format("{}: stopped on request while planning the rapids; nothing was run", o.job.source));
   for (const Stretch& s : o.job.stretches)
     if (s.cutting && !s.rapid)
       if (auto loop = closed_loop(s)) o.cut_zones.push_back(std::move(*loop));
@@ -269,6 +307,8 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
   for (std::size_t i = 0; i < o.job.steps.size(); ++i) {
     const Step& st = o.job.steps[i];
     if (st.kind != Step::Kind::move) continue;
+    if (options.stop.stop_requested())
+      throw Cancelled(fmt::format("{}: stopped on request while planning the feeds; nothing was run", o.job.source));
     auto tr = plan_stretch_detailed(o.job.stretches[st.stretch], o.planner);
     o.planned_motion_s += tr->duration_s();
     o.motion_lower_bound_s += time_lower_bound_s(tr->executed_path(), o.planner);
@@ -282,6 +322,8 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
   o.lower_bound_s = o.motion_lower_bound_s + o.process_time_s;
   o.motion_ratio = o.motion_lower_bound_s > 0 ? o.planned_motion_s / o.motion_lower_bound_s : 1.0;
   o.optimum_ratio = o.motion_optimum_s > 0 ? o.planned_motion_s / o.motion_optimum_s : 1.0;
+  refuse_long_run(o.job, o.planned_motion_s + o.process_time_s, options.max_machine_time_s,
+                  "the planned motion plus the torch process and dwells");
 
   static const executor::Trajectories kNone;
   backends::BackendOptions bo = options.backend;

@@ -40,7 +40,9 @@
 // Errors: a bad program, machine file, zones file or option throws InputError naming the file
 // and line or the flag (exit 2 in the CLI). A job the machine cannot do throws Infeasible
 // (exit 3): the program leaves the machine's travel, or a rapid with no clear route would
-// enter a declared no-go zone. A fault during the run is not an exception: it is in
+// enter a declared no-go zone, or the run's estimate exceeds max_machine_time_s. A stop
+// request (RunOptions::stop) during rapid or feed planning throws Cancelled (also exit 3);
+// once the executor runs, it stops the machine instead. A fault during the run is not an exception: it is in
 // result.faults and result.status.
 #pragma once
 
@@ -118,6 +120,15 @@ struct RunOptions {
   std::optional<Eigen::Vector2d> origin_mm;
   // Refuse a program whose Z moves (true) instead of dropping its Z words with a warning.
   bool strict_z = false;
+  // The longest run accepted, s of machine time (--max-machine-time; > 0, at most one year).
+  // A run is refused before it starts, with Infeasible (exit 3) giving the estimate and the
+  // flag, when its time estimate exceeds this: first the time no motion can beat (each move
+  // at its feed capped by the machine's speed, plus the torch process and dwells), checked
+  // before rapid and feed planning, then the planned motion plus process time, checked before
+  // the executor starts. A simulation runs faster than the machine, but it still takes wall
+  // time in proportion: an absurd feed (1e-6 mm/s), a machine with a tiny speed or
+  // acceleration or a helix of enormous length would otherwise simulate for days.
+  double max_machine_time_s = 4 * 3600.0;
 
   // Throws InputError naming the CLI flag of the offending field (--kerf, --blu, ...).
   void validate() const;

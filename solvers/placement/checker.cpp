@@ -110,8 +110,9 @@ void validate_rotation_deg(double rotation_deg, const char* flag) {
     throw InputError(flag, 0, fmt::format("rotation {} deg: must be a finite angle within -360 .. 360", rotation_deg));
 }
 
-Checker::Checker(const Scene& scene, double rotation_deg)
-    : scene_(scene),
+Checker::Checker(const Scene& scene, double rotation_deg, StopToken stop)
+    : stop_(stop),
+      scene_(scene),
       rotation_deg_(rotation_deg),
       workpiece_shape_(interference::Shape::sphere(1.0)),
       workpiece_box_shape_(interference::Shape::sphere(1.0)) {
@@ -216,6 +217,8 @@ Checker::QueryBudget::QueryBudget(Checker& c) : checker(c) {
 Checker::QueryBudget::~QueryBudget() { --checker.budget_depth_; }
 
 void Checker::count_query() const {
+  if (stop_.stop_requested())
+    throw Cancelled(fmt::format("{}: the interference check was stopped on request before it had an answer", scene_.source));
   if (++const_cast<CheckCounts&>(counts_).exact_queries <= query_limit_) return;
   throw Infeasible(fmt::format(
       "{}: the interference check stopped at its limit of {} exact pose queries (search.max_pose_queries in the "
@@ -479,13 +482,28 @@ double Checker::node_travel(int kind, const Node& n) const {
   }
 }
 
+namespace {
+// How precisely a report pins the smallest value `best` of a constraint whose limit is
+// `limit`: to within `tolerance` near the limit; far above it, to within half its distance to
+// the limit (a 40 mm clearance to within 17.5 mm), which keeps a report of flat, distant
+// constraints from visiting every pose. Likewise far below it: an interference deeper than
+// kDeepMm is pinned to within half of its depth beyond that (a clearance of 20 mm under a
+// 1000 mm safe distance to within 485 mm). A large safe distance is broken along the whole
+// path by nearly the same amount (a tool shank 20 mm above the surface everywhere); without
+// this every pose would be an exact query. The verdict is the same either way.
+double report_margin(double best, double limit, double tolerance) {
+  constexpr double kDeepMm = 10.0;
+  return std::max(tolerance, best >= limit ? 0.5 * (best - limit) : 0.5 * (limit - best - kDeepMm));
+}
+}  // namespace
+
 double Checker::report_need(int c, double best) const {
-  // A minimum is pinned to within the absolute tolerance near the limit; far above it, to
-  // within half its distance to the limit (a 40 mm clearance to within 17.5 mm), which keeps
-  // a report of flat, distant constraints from visiting every pose. While nothing below the
-  // limit has been seen, nothing that could be below it is left unexamined, so a report that
-  // finds every kind free is also a proof.
-  const double need = best - std::max(report_tolerance_[c], 0.5 * (best - limit_[c]));
+  // While nothing below the limit has been seen, nothing that could be below it is left
+  // unexamined, so a report that finds every kind free is also a proof.
+  const double need = best - report_margin(best, limit_[c], report_tolerance_[c]);
+  // Clearances (strut to strut, class 2, peripherals) are distances, never below 0: a need at
+  // or below 0 is met everywhere (a huge tool touching the workpiece at every pose).
+  if (c >= kStrutStrut && need <= 0) return -kInf;
   return best >= limit_[c] ? std::max(need, limit_[c]) : need;
 }
 
@@ -699,24 +717,26 @@ double Checker::workpiece_peripheral_value(const Eigen::Vector3d& offset, int k,
   return p.distance_mm;
 }
 
-bool Checker::class1_box_clear(Eigen::AlignedBox3d b, double sweep) const {
-  // Proven clear when the solid under the swept box (grown by c sideways) stays c below it.
-  const double c = scene_.safe_distance_mm;
+bool Checker::class1_box_clear(Eigen::AlignedBox3d b, double sweep, double threshold) const {
+  // Proven at least `threshold` away when the solid under the swept box (grown by the
+  // threshold sideways) stays that far below it.
   b.min().array() -= sweep;
   b.max().array() += sweep;
-  const double h = height_field_->max_height(b.min().head<2>() - Eigen::Vector2d::Constant(c),
-                                             b.max().head<2>() + Eigen::Vector2d::Constant(c));
-  return b.min().z() - h >= c;
+  const double grow = std::max(threshold, 0.0);
+  const double h = height_field_->max_height(b.min().head<2>() - Eigen::Vector2d::Constant(grow),
+                                             b.max().head<2>() + Eigen::Vector2d::Constant(grow));
+  return b.min().z() - h >= threshold;
 }
 
-double Checker::class1_value(const Pose& pose, std::string* who) const {
+double Checker::class1_value(const Pose& pose, std::string* who, double threshold) const {
   const hexam::Machine& m = scene_.machine;
+  if (std::isnan(threshold)) threshold = scene_.safe_distance_mm;
   count_query();
   const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
   double best = kInf;
   for (const auto& p : class1_parts_) {
     const Eigen::Vector3d a = pose.tip + pose.axis * p.from_mm, b = pose.tip + pose.axis * p.to_mm;
-    if (class1_box_clear(cylinder_box(a, b, p.radius_mm), 0.0)) continue;
+    if (class1_box_clear(cylinder_box(a, b, p.radius_mm), 0.0, threshold)) continue;
     const double dist =
         interference::distance(rigid_shapes_[p.shape], interference::segment_pose(a, b), workpiece_shape_, I).distance_mm;
     if (dist < best) {
@@ -731,7 +751,7 @@ double Checker::class1_value(const Pose& pose, std::string* who) const {
     Eigen::AlignedBox3d hb(T.translation(), T.translation());
     hb.min().array() -= m.hinge_radius_mm;
     hb.max().array() += m.hinge_radius_mm;
-    if (class1_box_clear(hb, 0.0)) continue;
+    if (class1_box_clear(hb, 0.0, threshold)) continue;
     const double dist = interference::distance(rigid_shapes_.back(), T, workpiece_shape_, I).distance_mm;
     if (dist < best) {
       best = dist;
@@ -759,21 +779,31 @@ void Checker::compute_class1() {
     if (m.tool_parts[s].cls == hexam::ToolPart::Class::class1)
       class1_parts_.push_back({s, m.tool_parts[s].from_mm, m.tool_parts[s].to_mm, m.tool_parts[s].radius_mm, m.tool_parts[s].name});
   class1_parts_.push_back({m.tool_parts.size(), m.gauge_mm, m.gauge_mm + m.plate_thickness_mm, m.plate_radius_mm, "spindle plate"});
-  auto exact = [&](const Pose& pose, std::string* who) { return class1_value(pose, who); };
+  class1_ = Finding{};
+  class1_.clearance_mm = kInf;
+  // What a pose or stretch must be shown to clear: the safe distance until an interference is
+  // known; after that only a smaller clearance can change the finding, pinned as precisely as
+  // a report pins it (report_margin). Without this a large safe distance, which no stretch
+  // clears and every part misses, would make every pose of the path a dozen exact mesh
+  // distances (1000 mm: minutes for the bundled path).
+  const double tolerance = report_tolerance_[kClass2];
+  const auto threshold = [&] {
+    const double best = class1_.clearance_mm;
+    return best < c ? best - report_margin(best, c, tolerance) : c;
+  };
+  auto exact = [&](const Pose& pose, std::string* who) { return class1_value(pose, who, threshold()); };
   auto stretch_clear = [&](const Pose& pose, double sweep) {
+    const double t = threshold();
     for (const auto& p : class1_parts_)
-      if (!class1_box_clear(cylinder_box(pose.tip + pose.axis * p.from_mm, pose.tip + pose.axis * p.to_mm, p.radius_mm), sweep))
+      if (!class1_box_clear(cylinder_box(pose.tip + pose.axis * p.from_mm, pose.tip + pose.axis * p.to_mm, p.radius_mm), sweep, t))
         return false;
     const Eigen::Matrix3d R = hexam::plate_rotation(pose.axis);
     Eigen::AlignedBox3d hb;
     for (const auto& s : m.struts) hb.extend(pose.tip + pose.axis * m.gauge_mm + R * s.plate_joint_mm);
     hb.min().array() -= m.hinge_radius_mm;
     hb.max().array() += m.hinge_radius_mm;
-    return class1_box_clear(hb, sweep);
+    return class1_box_clear(hb, sweep, t);
   };
-
-  class1_ = Finding{};
-  class1_.clearance_mm = kInf;
   const long n = static_cast<long>(tips_.size());
   auto note = [&](double v, long i, double t, const std::string& who) {
     if (v < class1_.clearance_mm) {
@@ -784,7 +814,7 @@ void Checker::compute_class1() {
   std::function<void(long, double, double, double, double, int)> interval = [&](long i, double t0, double t1, double v0,
                                                                                double v1, int depth) {
     const double d = travel(cum_rigid_, i, i + 1) * (t1 - t0);
-    if ((v0 + v1 - d) / 2 >= c) return;
+    if ((v0 + v1 - d) / 2 >= threshold() || threshold() <= 0) return;
     if (depth >= kMaxIntervalDepth) {
       note((v0 + v1 - d) / 2, i, (t0 + t1) / 2, "unproven interval");
       return;
@@ -809,9 +839,17 @@ void Checker::compute_class1() {
     return value[i];
   };
   std::function<void(int)> node = [&](int id) {
+    // Distances are never below 0: once the threshold is, nothing left can change the finding.
+    if (threshold() <= 0) return;
     ++counts_.stretches;
     const Node& nd = nodes_[id];
-    if (stretch_clear({tips_[nd.centre], axes_[nd.centre]}, node_travel(0, nd))) {
+    // A node is left alone when the height field shows every part clears the threshold over
+    // it, or, once an interference is known, when the exact value at its centre less its
+    // travel does (the value is 1-Lipschitz in the rigid travel; infinity only says the centre
+    // clears, and proves nothing about the rest).
+    if (stretch_clear({tips_[nd.centre], axes_[nd.centre]}, node_travel(0, nd)) ||
+        (class1_.clearance_mm < c && std::isfinite(value_at(nd.centre)) &&
+         value_at(nd.centre) - node_travel(0, nd) >= threshold())) {
       ++counts_.proven_by_bound;
       return;
     }
@@ -1047,7 +1085,7 @@ Decision Checker::screen(const Placement& p, double radius, std::uint64_t* settl
   return all_clear ? Decision::feasible : Decision::unknown;
 }
 
-CheckReport Checker::dense_check(const Placement& p, double step_mm) {
+CheckReport Checker::dense_check(const Placement& p, double step_mm, const std::function<void(double)>& progress) {
   const QueryBudget budget(*this);
   const Eigen::Vector3d offset = p.offset();
   CheckReport r = report(p);  // class 1, workpiece-peripheral and the description fields
@@ -1066,6 +1104,7 @@ CheckReport Checker::dense_check(const Placement& p, double step_mm) {
     const double th = std::atan2(axes_[i].cross(axes_[i + 1]).norm(), axes_[i].dot(axes_[i + 1]));
     const int sub = std::clamp(static_cast<int>(std::ceil(std::max(dtip / step_mm, th / (0.5 * kDeg)))), 1, 100000);
     for (int k = 0; k < sub; ++k) visit(interpolate(i, double(k) / sub));
+    if (progress && i % 256 == 0) progress(static_cast<double>(i) / static_cast<double>(n));
   }
   visit({tips_[n - 1], axes_[n - 1]});
   if (class1_worst < scene_.safe_distance_mm) r.kinds[static_cast<int>(Kind::workpiece_class1)].interferes = true;

@@ -36,6 +36,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -43,6 +44,7 @@
 
 #include <Eigen/Core>
 
+#include "engine/common/stop.h"
 #include "engine/interference/height_field.h"
 #include "solvers/placement/scene.h"
 
@@ -94,7 +96,10 @@ void validate_rotation_deg(double rotation_deg, const char* flag);
 
 class Checker {
  public:
-  explicit Checker(const Scene& scene, double rotation_deg = 0.0);
+  // `stop`: a stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it),
+  // polled at every exact pose query, from construction on; once it is set the call under way
+  // throws Cancelled (exit 3), as there is no partial answer worth giving.
+  explicit Checker(const Scene& scene, double rotation_deg = 0.0, StopToken stop = {});
 
   // Class 1 clearance over the whole path (placement-independent, computed at construction).
   const Finding& class1() const { return class1_; }
@@ -131,8 +136,9 @@ class Checker {
 
   // Brute-force re-check: every tool pose and interpolated poses every `step_mm` of tip
   // motion (and every 0.5 deg of axis turn), every constraint evaluated without the stretch
-  // bounds. Slow; used by tests and benchmarks to confirm an answer.
-  CheckReport dense_check(const Placement& p, double step_mm = 0.5);
+  // bounds. Slow; used by tests and benchmarks to confirm an answer. `progress` (may be
+  // empty) hears the fraction of the path done, in [0, 1] (for a progress bar).
+  CheckReport dense_check(const Placement& p, double step_mm = 0.5, const std::function<void(double)>& progress = {});
 
   const CheckCounts& counts() const { return counts_; }
   std::size_t pose_count() const { return tips_.size(); }
@@ -149,8 +155,9 @@ class Checker {
   struct Eval;
   // Counts one exact pose query; more than scene.search.max_pose_queries within one public
   // call (report, decide, probe, screen, dense_check; the outermost when they nest) throws
-  // Infeasible (exit 3) naming the limit and how to raise it.
+  // Infeasible (exit 3) naming the limit and how to raise it; a stop request throws Cancelled.
   void count_query() const;
+  StopToken stop_;
   struct QueryBudget {
     explicit QueryBudget(Checker& c);
     ~QueryBudget();
@@ -160,9 +167,11 @@ class Checker {
   int budget_depth_ = 0;
   void evaluate(const Pose& pose, const Eigen::Vector3d& offset, unsigned mask, double* values, Eval* detail) const;
   // Exact class-1 clearance at one pose (infinity when the height field proves every part at
-  // least the safe distance away); `who` names the closest part.
-  double class1_value(const Pose& pose, std::string* who) const;
-  bool class1_box_clear(Eigen::AlignedBox3d box, double sweep_mm) const;
+  // least `threshold` away; NaN: the safe distance); `who` names the closest part.
+  double class1_value(const Pose& pose, std::string* who,
+                      double threshold = std::numeric_limits<double>::quiet_NaN()) const;
+  // The part's box swept by sweep_mm stays at least threshold_mm from the workpiece.
+  bool class1_box_clear(Eigen::AlignedBox3d box, double sweep_mm, double threshold_mm) const;
   void compute_class1();
 
   // The path's intervals in a bounding-volume tree built on pose proximity (tip position

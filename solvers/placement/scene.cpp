@@ -11,6 +11,7 @@ namespace machplan::placement {
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
+Scene read_scene(const Yaml& root, const std::string& path);
 
 Peripheral read_peripheral(const Yaml& y) {
   y.reject_unknown_keys({"name", "box", "mesh", "pose"});
@@ -62,8 +63,14 @@ Peripheral read_peripheral(const Yaml& y) {
 }
 }  // namespace
 
-Scene load_scene(const std::string& path) {
-  const Yaml root = Yaml::load_file(path);
+Scene load_scene(const std::string& path) { return read_scene(Yaml::load_file(path), path); }
+
+Scene load_scene_text(const std::string& text, const std::string& path) {
+  return read_scene(Yaml::load_string(text, path), path);
+}
+
+namespace {
+Scene read_scene(const Yaml& root, const std::string& path) {
   root.reject_unknown_keys({"machine", "safe_distance_mm", "tooling", "workpiece", "toolpath", "peripherals",
                             "search", "reconstructed"});
   Scene s;
@@ -150,5 +157,6 @@ Scene load_scene(const std::string& path) {
   }
   return s;
 }
+}  // namespace
 
 }  // namespace machplan::placement

@@ -83,5 +83,8 @@ struct Scene {
 };
 
 Scene load_scene(const std::string& path);
+// The same from the scene's text; `path` names it in messages, and the files it names are
+// found relative to path's folder (as if the text had been read from there).
+Scene load_scene_text(const std::string& text, const std::string& path);
 
 }  // namespace machplan::placement

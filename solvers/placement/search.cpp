@@ -28,7 +28,7 @@ bool on_region(const Eigen::AlignedBox2d& r, double x, double y) {
 PlacementResult paper_search(const Scene& scene, const PlacementOptions& o) {
   PlacementResult res;
   const SearchSettings& ss = scene.search;
-  Checker checker(scene, 0.0);
+  Checker checker(scene, 0.0, o.stop);
   res.region = placement_region(scene, 0.0);
   if (checker.class1().interferes) {
     res.status = PlacementStatus::unavoidable;
@@ -42,7 +42,7 @@ PlacementResult paper_search(const Scene& scene, const PlacementOptions& o) {
   bool have_prev = false;
   std::set<std::tuple<long, long, long>> seen;
   for (int step = 0; step < ss.paper_max_steps; ++step) {
-    if (o.should_stop && o.should_stop()) {
+    if (o.stop.stop_requested()) {
       res.status = PlacementStatus::cancelled;
       res.message = "cancelled";
       break;
@@ -110,7 +110,7 @@ Box make_box(long x0, long x1, long y0, long y1, long p0, long p1, std::uint64_t
 
 PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, const PlacementOptions& o) {
   PlacementResult res;
-  Checker checker(scene, rotation_deg);
+  Checker checker(scene, rotation_deg, o.stop);
   res.region = placement_region(scene, rotation_deg);
   if (checker.class1().interferes) {
     res.status = PlacementStatus::unavoidable;
@@ -135,7 +135,7 @@ PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, co
   Finding last;
   std::set<std::tuple<long, long, long>> rejected;  // grid points refused by a certification
   while (!open.empty()) {
-    if (o.should_stop && o.should_stop()) {
+    if (o.stop.stop_requested()) {
       res.status = PlacementStatus::cancelled;
       res.message = "cancelled";
       break;
@@ -259,26 +259,33 @@ PlacementResult place(const Scene& scene, const PlacementOptions& o) {
   o.validate();
   const double t0 = now_s();
   PlacementResult best;
-  if (o.strategy == PlacementOptions::Strategy::paper) {
-    best = paper_search(scene, o);
-  } else {
-    bool have = false;
-    for (double rot : o.rotations_deg) {
-      PlacementResult r = optimal_for_rotation(scene, rot, o);
-      const auto key = [](const PlacementResult& x) {
-        return std::make_tuple(x.placement.pad_mm, std::hypot(x.placement.x_mm, x.placement.y_mm));
-      };
-      CheckCounts total = have ? best.counts : CheckCounts{};
-      total.add(r.counts);
-      const long examined = (have ? best.placements_examined : 0) + r.placements_examined;
-      const bool better = !have || (r.status == PlacementStatus::found &&
-                                    (best.status != PlacementStatus::found || key(r) < key(best)));
-      if (better) best = std::move(r);
-      best.counts = total;
-      best.placements_examined = examined;
-      have = true;
-      if (best.status == PlacementStatus::cancelled) break;
+  try {
+    if (o.strategy == PlacementOptions::Strategy::paper) {
+      best = paper_search(scene, o);
+    } else {
+      bool have = false;
+      for (double rot : o.rotations_deg) {
+        PlacementResult r = optimal_for_rotation(scene, rot, o);
+        const auto key = [](const PlacementResult& x) {
+          return std::make_tuple(x.placement.pad_mm, std::hypot(x.placement.x_mm, x.placement.y_mm));
+        };
+        CheckCounts total = have ? best.counts : CheckCounts{};
+        total.add(r.counts);
+        const long examined = (have ? best.placements_examined : 0) + r.placements_examined;
+        const bool better = !have || (r.status == PlacementStatus::found &&
+                                      (best.status != PlacementStatus::found || key(r) < key(best)));
+        if (better) best = std::move(r);
+        best.counts = total;
+        best.placements_examined = examined;
+        have = true;
+        if (best.status == PlacementStatus::cancelled) break;
+      }
     }
+  } catch (const Cancelled&) {
+    // A stop request inside one decision: no partial answer is certified.
+    best = PlacementResult{};
+    best.status = PlacementStatus::cancelled;
+    best.message = "cancelled";
   }
   best.seconds = now_s() - t0;
   return best;

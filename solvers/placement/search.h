@@ -36,8 +36,10 @@ struct PlacementOptions {
   // Workpiece rotations about z tried by the optimal strategy (degrees); the best wins, ties
   // go to the first listed.
   std::vector<double> rotations_deg = {0.0};
-  // Polled during the search; returning true stops it with status `cancelled`.
-  std::function<bool()> should_stop;
+  // A stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it), polled
+  // between placements and at every exact pose query; once set, the search ends with status
+  // `cancelled`.
+  StopToken stop;
   // Called with a fraction in [0, 1] as the search advances (for a progress bar).
   std::function<void(double)> progress;
 

@@ -137,6 +137,8 @@ TEST(BadOptions, NonFiniteAndAbsurdValuesExitTwoNamingTheFlag) {
       {"mesh x.stl --scale 0", "--scale"},
       {"mesh x.stl --weld-tolerance inf", "--weld-tolerance"},
       {"mesh x.stl --weld-tolerance -1", "--weld-tolerance"},
+      {"mesh x.stl --weld-tolerance 1e308", "--weld-tolerance"},
+      {fmt::format("run '{}' --machine thermal_gantry --max-machine-time nan", kProgram), "--max-machine-time"},
       {fmt::format("profile '{}' --tolerance nan", kSource + "/datasets/profiles/flange_plate.dxf"), "--tolerance"},
   };
   for (const Case& c : cases) {
@@ -154,6 +156,107 @@ TEST(BadOptions, TooManyRotationsAreRefusedWithTheLimit) {
   EXPECT_EQ(r.code, 2);
   EXPECT_THAT(r.err, HasSubstr("--rotations: 100 rotations; at most 72"));
   EXPECT_EQ(r.out, "");
+}
+
+// A program of `n` short lines round a square, with a torch cycle every 50 moves: about 60 bytes
+// of G-code and one move per line.
+std::string long_program(int n) {
+  std::string text = "G21 G90\nG0 X10 Y10\n";
+  text.reserve(static_cast<std::size_t>(n) * 24);
+  for (int k = 0; k < n; ++k) {
+    if (k % 50 == 0) text += "M3\n";
+    text += fmt::format("G1 X{} Y{} F1800\n", 10 + (k % 4 == 1 || k % 4 == 2) * 5, 10 + (k % 4 >= 2) * 5);
+    if (k % 50 == 49) text += "M5\n";
+  }
+  return text + "M5\nM2\n";
+}
+
+TEST(SafeOutput, JsonOfALongProgramIsStreamedAndStaysValid) {
+  TempDir dir;
+  const int n = 20000;
+  const std::string prog = dir.write("long.ngc", long_program(n));
+  const Outcome r = machplan(fmt::format("program --json '{}'", prog));
+  ASSERT_EQ(r.code, 0) << r.err;
+  nlohmann::json j;
+  ASSERT_NO_THROW(j = nlohmann::json::parse(r.out)) << r.out.substr(0, 400);
+  ASSERT_TRUE(j["moves"].is_array());
+  EXPECT_GE(j["moves"].size(), static_cast<std::size_t>(n));
+  EXPECT_EQ(j["moves"].back()["kind"], "torch_off");
+  EXPECT_EQ(j["units"], "mm");
+  EXPECT_TRUE(j["ends_with_program_end"].get<bool>());
+  // A full disk part way through: exit 1 with the reason, and no claim of success.
+  const Outcome full = machplan(fmt::format("program --json '{}'", prog), "/dev/full");
+  EXPECT_EQ(full.code, 1);
+  EXPECT_THAT(full.err, HasSubstr("No space left on device"));
+}
+
+TEST(SafeOutput, ProfileJsonOfALatin1LayerNameIsValidUtf8) {
+  TempDir dir;
+  // A 40 x 20 mm rectangle on layer "Kontur_\xe4u\xdfen" (Latin-1, as older CAD exports write it).
+  std::string dxf = "0\nSECTION\n2\nHEADER\n9\n$INSUNITS\n70\n4\n0\nENDSEC\n0\nSECTION\n2\nENTITIES\n";
+  dxf += "0\nLWPOLYLINE\n5\nA1\n8\nKontur_\xe4u\xdf" "en\n90\n4\n70\n1\n";
+  for (const auto& [x, y] : {std::pair{0, 0}, {40, 0}, {40, 20}, {0, 20}}) dxf += fmt::format("10\n{}\n20\n{}\n", x, y);
+  dxf += "0\nENDSEC\n0\nEOF\n";
+  const std::string path = dir.write("latin1.dxf", dxf);
+  const Outcome r = machplan(fmt::format("profile --json '{}'", path));
+  ASSERT_EQ(r.code, 0) << r.err;
+  nlohmann::json j;
+  ASSERT_NO_THROW(j = nlohmann::json::parse(r.out)) << r.out;  // parse() refuses invalid UTF-8
+  ASSERT_EQ(j["contours"].size(), 1u);
+  // Each invalid byte became U+FFFD; the rest of the name is kept, and stderr says so.
+  EXPECT_EQ(j["contours"][0]["layer"].get<std::string>(), "Kontur_\xef\xbf\xbdu\xef\xbf\xbd" "en");
+  EXPECT_THAT(r.err, HasSubstr("not valid UTF-8"));
+  EXPECT_NEAR(j["contours"][0]["area_mm2"].get<double>(), 800.0, 1e-9);
+}
+
+TEST(RunLimits, ARunLongerThanTheMachineTimeLimitIsRefusedBeforeItStarts) {
+  TempDir dir;
+  struct Case {
+    std::string name, args, says;
+  };
+  // 1e-6 mm/s is F0.00006 (mm/min): 10 mm take 1e7 s.
+  const std::string slow = dir.write("slow.ngc", "G21 G90\nG0 X10 Y10\nM3\nG1 X20 F0.00006\nM5\nM2\n");
+  // A helix of 9999 turns of radius 400 mm (Z is dropped on this machine: 25 km of circles).
+  const std::string helix =
+      dir.write("helix.ngc", "G21 G90\nG0 X1000 Y1400\nM3\nG2 X1000 Y1400 Z-1 I400 J0 P9999 F3000\nM5\nM2\n");
+  // Machine files whose speed limit is a thousandth of a millimetre per second, and whose
+  // acceleration is a millionth of a millimetre per second squared.
+  std::ifstream in(kSource + "/datasets/machines/thermal_gantry.yaml");
+  const std::string machine((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto with = [&](const std::string& from, const std::string& to) {
+    std::string text = machine;
+    const auto at = text.find(from);
+    return at == std::string::npos ? "<" + from + " not in the machine file>" : text.replace(at, from.size(), to);
+  };
+  const std::string crawl = dir.write("crawl.yaml", with("velocity_mm_per_s: 81.8", "velocity_mm_per_s: 0.001"));
+  const std::string sluggish =
+      dir.write("sluggish.yaml", with("acceleration_mm_per_s2: 500 ", "acceleration_mm_per_s2: 0.000001 "));
+  const std::string triangle = kSource + "/datasets/parts/triangle_45.ngc";  // about 13 s of machine time
+  const Case cases[] = {
+      {"feed of 1e-6 mm/s", fmt::format("run '{}' --machine thermal_gantry", slow), "limit of 4.0 h (14400 s)"},
+      {"enormous helix", fmt::format("run '{}' --machine thermal_gantry", helix), "limit of 4.0 h"},
+      {"crawling machine", fmt::format("run '{}' --machine '{}'", triangle, crawl), "at least: every move at its feed"},
+      {"tiny acceleration", fmt::format("run '{}' --machine '{}'", triangle, sluggish), "the planned motion plus"},
+      {"a limit below the part's time",
+       fmt::format("run '{}' --machine thermal_gantry --max-machine-time 5", triangle), "limit of 5.0 s"},
+  };
+  for (const Case& c : cases) {
+    const Outcome r = machplan(c.args);
+    EXPECT_EQ(r.code, 3) << c.name << "\n" << r.err;
+    EXPECT_THAT(r.err, HasSubstr("of machine time")) << c.name;
+    EXPECT_THAT(r.err, HasSubstr(c.says)) << c.name << "\n" << r.err;
+    EXPECT_THAT(r.err, HasSubstr("raise the limit with --max-machine-time SECONDS")) << c.name;
+    EXPECT_EQ(r.out, "") << c.name;  // nothing ran, nothing reported as done
+  }
+  // Raised above the part's own time, the same run goes through.
+  const Outcome ok = machplan(fmt::format("run '{}' --machine thermal_gantry --max-machine-time 600 --json", triangle));
+  EXPECT_EQ(ok.code, 0) << ok.err;
+  EXPECT_FALSE(nlohmann::json::parse(ok.out, nullptr, false).is_discarded()) << ok.out;
+  for (const std::string bad : {"nan", "0", "-1", "inf", "1e300"}) {
+    const Outcome r = machplan(fmt::format("run '{}' --machine thermal_gantry --max-machine-time {}", triangle, bad));
+    EXPECT_EQ(r.code, 2) << bad << "\n" << r.err;
+    EXPECT_THAT(r.err, HasSubstr("--max-machine-time")) << bad;
+  }
 }
 
 }  // namespace

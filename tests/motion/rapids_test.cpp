@@ -443,6 +443,30 @@ TEST(Rapids, DeclaredClampReRoutesTheFirstRapid) {
   EXPECT_FALSE(r.rapids[1].straight_blocked);  // the clamp is not near the second rapid
 }
 
+TEST(Rapids, AStopRequestCancelsPlanningAndProgressIsReported) {
+  // Not stopped: the progress reaches 1 over the job's two rapids.
+  Job job = two_parts();
+  RapidOptions o;
+  std::vector<double> seen;
+  o.progress = [&](double f) { seen.push_back(f); };
+  const RapidsReport done = plan_rapids(job, contours({Box{40, 15, 50, 35}}), o, false);
+  EXPECT_FALSE(done.cancelled);
+  EXPECT_EQ(seen, (std::vector<double>{0.5, 1.0}));
+  // Stopped: a blocked rapid ends as cancelled, and plan_rapids plans nothing further.
+  StopSource source;
+  source.request_stop();
+  o.stop = source.token();
+  const RapidPlan p = plan_rapid({-150, 0}, {150, 0}, contours({kClamp}), o);
+  EXPECT_EQ(p.status, RapidStatus::cancelled);
+  EXPECT_FALSE(p.ok());
+  EXPECT_TRUE(p.polyline.empty());
+  Job again = two_parts();
+  const RapidsReport stopped = plan_rapids(again, contours({Box{40, 15, 50, 35}}), o, false);
+  EXPECT_TRUE(stopped.cancelled);
+  EXPECT_FALSE(stopped.ok());
+  EXPECT_TRUE(stopped.rapids.empty());
+}
+
 TEST(Rapids, ProgrammedDetourThatIsClearIsKept) {
   Job job = two_parts();
   // Program the second rapid as a dog-leg over part A, high enough to be clear.

@@ -13,8 +13,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "engine/common/stop.h"
 #include "solvers/placement/checker.h"
 #include "solvers/placement/scene.h"
+#include "solvers/placement/search.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::placement {
@@ -95,6 +97,93 @@ TEST(CheckLimits, ACheckStopsAtTheQueryLimitWithExitThreeAndSaysHowToRaiseIt) {
   checker.report({-68, -22, 57, 0});
   EXPECT_LT(checker.counts().exact_queries, ok.search.max_pose_queries);
   EXPECT_GT(checker.counts().exact_queries, 50);  // so the limit of 50 above was really reached
+}
+
+TEST(CheckStop, AStopRequestEndsACheckAndASearchWithoutAnAnswer) {
+  TempDir dir;
+  const Scene scene = load_scene(write_scene(dir, {}));
+  StopSource source;
+  Checker checker(scene, 0.0, source.token());
+  const CheckReport before = checker.report({-68, -22, 57, 0});  // not stopped: an answer
+  EXPECT_GT(before.counts.exact_queries + checker.counts().exact_queries, 0);
+  source.request_stop();
+  EXPECT_THROW(checker.report({-60, -20, 57, 0}), Cancelled);
+  EXPECT_THROW(checker.dense_check({-60, -20, 57, 0}), Cancelled);
+  EXPECT_THROW(Checker(scene, 0.0, source.token()), Cancelled);  // construction checks class 1
+  PlacementOptions o;
+  o.stop = source.token();
+  EXPECT_EQ(place(scene, o).status, PlacementStatus::cancelled);
+}
+
+TEST(CheckStop, SigintEndsADenseCheckOfTheWholePathWithExitThree) {
+  // The bundled scene's dense check visits 123k poses every 0.5 mm: minutes. A signal two
+  // seconds in ends it through the stop token, with exit 3 and no verdict printed.
+  TempDir dir;
+  const std::string out = (dir.path() / "out").string(), err = (dir.path() / "err").string();
+  const std::string script = fmt::format(
+      "'{}' check '{}scene.yaml' --at -42.05,-42.05,70 --dense > '{}' 2> '{}' & pid=$!; sleep 2; kill -INT $pid; "
+      "wait $pid; exit $?",
+      MACHPLAN_CLI, kData, out, err);
+  const int rc = std::system(script.c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  std::ifstream e(err), o(out);
+  const std::string text((std::istreambuf_iterator<char>(e)), std::istreambuf_iterator<char>());
+  const std::string printed((std::istreambuf_iterator<char>(o)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(text, HasSubstr("stopped on request"));
+  EXPECT_EQ(printed, "");
+}
+
+TEST(CheckStop, TheDenseCheckReportsItsProgress) {
+  TempDir dir;
+  const Scene scene = load_scene(write_scene(dir, {}));
+  Checker checker(scene);
+  std::vector<double> seen;
+  checker.dense_check({-68, -22, 57, 0}, 0.5, [&](double f) { seen.push_back(f); });
+  ASSERT_GE(seen.size(), 3u);  // 1053 poses, a report every 256
+  EXPECT_EQ(seen.front(), 0.0);
+  for (std::size_t k = 1; k < seen.size(); ++k) EXPECT_GT(seen[k], seen[k - 1]);
+  EXPECT_LE(seen.back(), 1.0);
+}
+
+TEST(CheckLimits, ALargeSafeDistanceCostsNoMoreThanAnOrdinaryCheck) {
+  // A safe distance of 1000 mm: no stretch of the path can be cleared in bulk, and class 1
+  // interferes everywhere. Once an interference is known only a smaller clearance matters, so
+  // the checker still looks at a small part of the path.
+  TempDir dir;
+  const Scene big = load_scene(write_scene(dir, {{"safe_distance_mm: 5", "safe_distance_mm: 1000"}}));
+  ASSERT_EQ(big.safe_distance_mm, 1000.0);
+  Checker checker(big);
+  EXPECT_TRUE(checker.class1().interferes);
+  const long class1_queries = checker.counts().exact_queries;
+  // Without the bound every pose was an exact query; now a small share of them.
+  EXPECT_LT(class1_queries, static_cast<long>(big.tips_mm.size()) / 4) << "class 1 walked most of the path";
+  EXPECT_GE(checker.class1().pose, 0);
+  EXPECT_THAT(checker.class1().what, HasSubstr("/ workpiece"));
+  const CheckReport r = checker.report({-68, -22, 57, 0});
+  EXPECT_FALSE(r.free());
+  EXPECT_TRUE(r.kinds[static_cast<int>(Kind::workpiece_class1)].interferes);
+  EXPECT_TRUE(r.kinds[static_cast<int>(Kind::workpiece_class2)].interferes);
+  // No more work than the same check at the ordinary 5 mm (before the bound: 40 times more).
+  const Scene five = load_scene(write_scene(dir, {}));  // the Checker keeps a reference
+  Checker ordinary(five);
+  ordinary.report({-68, -22, 57, 0});
+  EXPECT_LE(checker.counts().exact_queries, 2 * ordinary.counts().exact_queries + 50);
+}
+
+TEST(CheckLimits, AHugeToolTouchingEverywhereEndsQuicklyAsUnavoidable) {
+  // A 2 m tool in a 3 m chuck meets the workpiece at every pose: once a clearance of 0 is
+  // found nothing smaller exists (clearances are distances), so the walk stops there instead
+  // of measuring every pose (4 minutes for the bundled path before).
+  TempDir dir;
+  const Scene scene = load_scene(
+      write_scene(dir, {{"tool_diameter_mm: 10", "tool_diameter_mm: 2000"}, {"chuck_diameter_mm: 60", "chuck_diameter_mm: 3000"}}));
+  ASSERT_EQ(scene.tooling.tool_diameter_mm, 2000.0);
+  Checker checker(scene);
+  EXPECT_TRUE(checker.class1().interferes);
+  EXPECT_EQ(checker.class1().clearance_mm, 0.0);
+  EXPECT_LT(checker.counts().exact_queries, static_cast<long>(scene.tips_mm.size()) / 4);
+  EXPECT_EQ(place(scene, PlacementOptions{}).status, PlacementStatus::unavoidable);
 }
 
 }  // namespace

@@ -313,6 +313,7 @@ TEST(Csv, Refusals) {
   EXPECT_THAT(csv_error("x,y\n"), HasSubstr("x, y and z are required"));
   EXPECT_THAT(csv_error("1,2,nan\n"), HasSubstr("path.csv:1: z: number 'nan' is not finite"));
   EXPECT_THAT(csv_error("\n\n1,2,1e400\n"), HasSubstr("path.csv:3: z: number '1e400' is out of range"));
+  EXPECT_THAT(csv_error("1e308,2,3\n"), HasSubstr("path.csv:1: x: number '1e308' is beyond +-1e+09"));
   EXPECT_THAT(csv_error("x,y,z,feed\n1,2,3,-5\n"), HasSubstr("path.csv:2: feed -5 must be positive"));
   EXPECT_THAT(csv_error("# only comments\n"), HasSubstr("path.csv: the tool path holds no pose"));
 }

@@ -1,0 +1,34 @@
+// Fuzz target: the placement scene reader (solvers/placement/scene.h), YAML plus machplan's
+// checks and bounds. The scene text comes from the fuzzer; the files it names are found in
+// tests/fuzz/scene_files/ (the bundled HexaM machine through a link, a small tool path), so
+// that seeds load completely and mutations reach every key. Any input must end in a scene
+// within the documented bounds or in machplan::InputError; anything else is a bug.
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+
+#include "engine/common/error.h"
+#include "solvers/placement/scene.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (size > 16 * 1024) return 0;
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  // Seeds name only files beside them; a mutation could name any file on the machine (the
+  // 123k-pose bundled tool path, a device): keep each run to the fixture folder.
+  if (text.find('/') != std::string::npos) return 0;
+  using namespace machplan::placement;
+  try {
+    const Scene s = load_scene_text(text, std::string(MACHPLAN_SOURCE_DIR) + "/tests/fuzz/scene_files/fuzz.yaml");
+    // The reader's promises to the checker.
+    if (!(s.safe_distance_mm >= 0 && s.safe_distance_mm <= 1000)) std::abort();
+    if (s.peripherals.size() > kMaxPeripherals) std::abort();
+    if (s.tips_mm.empty() || s.tips_mm.size() != s.axes.size()) std::abort();
+    if (!(s.search.max_pose_queries >= 1)) std::abort();
+    if (!(s.search.pad_max_mm >= 0 && s.search.pad_max_mm <= kMaxSceneSizeMm)) std::abort();
+    for (const auto& p : s.peripherals)
+      if (!p.bounds.min().allFinite() || !p.bounds.max().allFinite()) std::abort();
+  } catch (const machplan::InputError&) {
+  }
+  return 0;
+}
