@@ -86,6 +86,8 @@ void add_run(CLI::App& app) {
     std::string program, machine, mode = "planned", blu, calibration, kerf, feed, no_go, trace, plot, magnify = "1", seed,
         backend = "sim", db;
     std::vector<std::string> inject;
+    std::string controller;
+    std::vector<std::string> gains;
     bool json = false, realtime = false;
     std::string origin;
     std::vector<std::string> params;
@@ -116,6 +118,9 @@ void add_run(CLI::App& app) {
   cmd->add_option("--origin", a->origin,
                   "X,Y: where the program's zero sits on the machine, mm (default: the machine file's origin_mm, "
                   "else 0,0)");
+  cmd->add_option("--controller", a->controller,
+                  "servo controller: p, pid, pid_ff (default), zpetc, ccc (cross-coupled contour), flc (fuzzy)");
+  cmd->add_option("--gain", a->gains, "a controller gain, NAME=VALUE (e.g. kp_per_s=120); may be repeated");
   cmd->add_flag("--strict-z", a->strict_z, "refuse a program whose Z moves instead of dropping its Z words");
   add_gcode_options(*cmd, a->params, a->spindles, a->lenient);
   cmd->add_flag("--json", a->json, "machine-readable output");
@@ -187,6 +192,8 @@ void add_run(CLI::App& app) {
     for (const std::string& text : a->inject) o.backend.sim.faults.push_back(injection_of(text));
     if (!o.backend.sim.faults.empty() && a->backend != "sim")
       throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
+    o.controller = a->controller;
+    for (const std::string& g : a->gains) control::parse_gain(g, o.controller_gains);
     o.no_go_path = a->no_go;
     o.gcode = gcode_options(a->params, a->spindles, a->lenient);
     o.strict_z = a->strict_z;

@@ -11,6 +11,9 @@
 //       y      measured position, y_dot measured velocity (decoded, filtered by the adapter)
 //       path   the path being followed near the setpoint, for contour controllers (a line or
 //              arc segment; null while holding a point)
+//       r_preview  the setpoint 1 .. preview_ticks periods after r (same axes, same instant
+//              convention), for controllers that act ahead of the path (ZPETC); preview_ticks
+//              is 0 when the source cannot look ahead
 //     ControllerOutput { u[i] }   speed command, mm/s at the drive's nominal scaling, already
 //                                 limited to the drive's range
 //
@@ -44,6 +47,9 @@ struct ControllerInput {
   std::array<double, kAxes> y_mm{};
   std::array<double, kAxes> y_dot_mm_per_s{};
   const Segment* path = nullptr;  // the path piece being followed, when the source knows it
+  static constexpr int kMaxPreviewTicks = 8;
+  std::array<std::array<double, kAxes>, kMaxPreviewTicks> r_preview_mm{};
+  int preview_ticks = 0;
 };
 
 struct ControllerOutput {

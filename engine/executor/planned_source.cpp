@@ -45,6 +45,8 @@ void PlannedSource::prepare(const SourceContext& ctx, const Eigen::Vector2d& sta
 void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d&) noexcept {
   step_ = step;
   cur_ = (*ctx_.trajectories)[step].get();
+  stretch_ = &ctx_.job->stretches[ctx_.job->steps[step].stretch];
+  segment_ = 0;
   t_ = 0.0;
 }
 
@@ -55,6 +57,7 @@ bool PlannedSource::move_done() const noexcept { return !cur_ || t_ >= cur_->dur
 void PlannedSource::demand(Demand& d) const noexcept {
   d.kind = Demand::Kind::track;
   d.track.path = nullptr;
+  d.track.preview_ticks = 0;
   if (!cur_) {
     for (int i = 0; i < control::kAxes; ++i) {
       d.track.r_mm[i] = hold_mm_[i];
@@ -75,6 +78,28 @@ void PlannedSource::demand(Demand& d) const noexcept {
   }
   cur_->sample(std::min(t_, cur_->duration_s()), now);
   d.commanded_mm = now.position_mm;
+
+  // Preview: the position setpoints 1 .. kMaxPreviewTicks periods after r.
+  motion::Setpoint ahead;
+  for (int j = 0; j < control::ControllerInput::kMaxPreviewTicks; ++j)
+    for (int i = 0; i < control::kAxes; ++i) {
+      if (i == 0 || m.signals[i].reading_latency_ticks != m.signals[0].reading_latency_ticks)
+        cur_->sample(t_ + (j + 1 - m.signals[i].reading_latency_ticks) * dt, ahead);
+      d.track.r_preview_mm[j][i] = ahead.position_mm[i];
+    }
+  d.track.preview_ticks = control::ControllerInput::kMaxPreviewTicks;
+
+  // The segment r is on: move the cursor on while the next segment is strictly nearer (a few
+  // per period at most: the setpoint moves far less than a segment per period, except over
+  // runs of tiny segments, which the bound lets it catch up with over a few periods). Strictly:
+  // on a closed contour the last segment ends where the first starts, and at a joint the
+  // cursor waits until r has left the segment it is on.
+  const std::vector<Segment>& segs = stretch_->segments;
+  if (segs.empty()) return;
+  const Eigen::Vector2d r(d.track.r_mm[0], d.track.r_mm[1]);
+  const auto dist = [&](std::size_t k) { return (closest_point(segs[k], r) - r).squaredNorm(); };
+  for (int n = 0; n < 8 && segment_ + 1 < segs.size() && dist(segment_ + 1) < dist(segment_); ++n) ++segment_;
+  d.track.path = &segs[segment_];
 }
 
 int PlannedSource::source_line() const noexcept {

@@ -6,6 +6,10 @@
 // from now, so the feed-forward is sampled that far ahead. Both are samples of the same
 // rest-to-rest trajectory (clamped at its ends), so they are exact across step boundaries
 // too: between moves the source keeps sampling the last trajectory, which holds its end.
+//
+// For the controllers it also gives the programmed segment the position setpoint is on (the
+// nearest of the move's stretch, found by a cursor that only moves forward, a bounded number
+// of segments per period) and ControllerInput::kMaxPreviewTicks setpoints ahead of it.
 #pragma once
 
 #include "engine/executor/setpoint_source.h"
@@ -27,6 +31,8 @@ class PlannedSource final : public SetpointSource {
   SourceContext ctx_;
   Eigen::Vector2d hold_mm_ = Eigen::Vector2d::Zero();
   const motion::Trajectory* cur_ = nullptr;  // the move being (or last) executed
+  const motion::Stretch* stretch_ = nullptr;  // its programmed geometry
+  mutable std::size_t segment_ = 0;           // cursor: the segment the setpoint is on
   std::size_t step_ = 0;
   double t_ = 0.0;                             // time since the move began, s
   double estimate_s_ = 0.0;

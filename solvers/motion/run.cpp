@@ -11,6 +11,7 @@
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
 #include "models/backends/backend_factory.h"
+#include "models/cutting/controller_plant.h"
 #include "solvers/calibration/apply.h"
 
 namespace machplan::motion {
@@ -90,6 +91,16 @@ void RunOptions::validate() const {
     check_range("--origin", origin_mm->y(), -1e6, 1e6, false, " mm");
   }
   gcode.validate();
+  if (controller.empty() && !controller_gains.empty())
+    throw InputError("--gain", 0, "gains need a controller (--controller KIND)");
+  if (!controller.empty()) {
+    const std::vector<std::string> kinds = control::controller_kinds();
+    if (std::find(kinds.begin(), kinds.end(), controller) == kinds.end()) {
+      std::string all;
+      for (const std::string& k : kinds) all += (all.empty() ? "" : ", ") + k;
+      throw InputError("--controller", 0, fmt::format("unknown controller '{}' (kinds: {})", controller, all));
+    }
+  }
   try {
     rapids.validate();
   } catch (const std::invalid_argument& e) {
@@ -281,6 +292,14 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
   executor::RunParts parts;
   parts.trace_stream = stream.get();
   parts.stop = options.stop;
+  std::unique_ptr<control::Controller> controller;
+  if (!options.controller.empty()) {
+    control::ControllerPlant plant = cutting::controller_plant(o.machine);
+    plant.servo = setup.servo;  // with the stored calibration, when one is applied
+    controller = control::make_controller(options.controller, options.controller_gains, plant);
+    parts.controller = controller.get();
+  }
+  o.controller = controller ? controller->name() : "pid_ff";
   executor::Executor ex(setup, options.executor);
   o.result = ex.run(o.job, planned ? o.trajectories : kNone, *backend, parts);
   o.cycle_ratio = o.lower_bound_s > 0 ? o.result.cycle_time_s / o.lower_bound_s : 1.0;
@@ -303,6 +322,7 @@ std::string RunOutcome::report() const {
                               faulted() ? "FAULTED" : "completed");
   s += fmt::format("  program origin   X {:.3f} Y {:.3f} mm on the machine ({})\n", origin_mm.x(), origin_mm.y(),
                    origin_from == "none" ? "none given: program zero is machine zero" : origin_from);
+  if (controller != "pid_ff") s += fmt::format("  servo controller {}\n", controller);
   for (const std::string& w : warnings) s += fmt::format("  warning: {}\n", w);
   for (const std::string& n : notes) s += fmt::format("  note: {}\n", n);
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
@@ -344,6 +364,7 @@ std::string RunOutcome::report() const {
 nlohmann::json RunOutcome::to_json() const {
   nlohmann::json j = result.to_json(false);
   const double mt = result.max_true_contour_error_mm();
+  j["controller"] = controller;
   j["max_contour_error_mm"] = result.max_contour_error_mm();
   j["rms_contour_error_mm"] = rms_contour_error_mm;
   j["max_true_contour_error_mm"] = std::isnan(mt) ? nlohmann::json(nullptr) : nlohmann::json(mt);

@@ -50,6 +50,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "engine/control/controller_factory.h"
 #include "engine/executor/executor.h"
 #include "engine/motion/feed_planner.h"
 #include "engine/motion/job.h"
@@ -81,6 +82,12 @@ struct RunOptions {
   // setup: the feed-forward gain starts at 1 / feed factor, backlash is compensated at
   // reversals and the counters are decoded with the fitted encoder scale.
   std::optional<calibration::StoredFit> calibration;
+  // The servo controller by kind (engine/control/controller_factory.h: p, pid, pid_ff, zpetc,
+  // ccc, flc) and its gains (missing names take their defaults: the machine's servo section,
+  // with a stored calibration applied). Empty: the executor's default, pid_ff on the servo
+  // section. The gains may come from the command line (--gain) or from a store of tuned gains.
+  std::string controller;
+  control::Gains controller_gains;
   // Kerf width, mm; 0 leaves the program as written. At most 100 mm.
   double kerf_mm = 0.0;
   // YAML file of declared no-go zones (engine/programs/zones.h); empty for none.
@@ -128,6 +135,7 @@ struct RunOutcome {
   std::vector<Contour> cut_zones;    // the closed cuts, as plan_rapids saw them
   executor::Trajectories trajectories;  // planned mode: one per step (null for non-moves)
   executor::ExecutionResult result;
+  std::string controller;            // the servo controller's kind
   Eigen::Vector2d origin_mm = Eigen::Vector2d::Zero();  // where the program's zero sat
   std::string origin_from = "none";                     // "--origin", "machine file" or "none"
   std::vector<std::string> warnings;                    // from reading and placing the program

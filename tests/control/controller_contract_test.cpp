@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/control/controller.h"
+#include "engine/control/controller_factory.h"
 #include "engine/control/pid_ff_controller.h"
 
 namespace machplan::control {
@@ -25,6 +26,18 @@ std::array<ServoGains, kAxes> gains() {
   return {g, g};
 }
 
+// The factory's plant with the suite's gains and limit (drive: tau 4 ms, gain 1, one tick of
+// latency each way).
+ControllerPlant plant() {
+  ControllerPlant p;
+  p.servo = gains();
+  p.output_limit_mm_per_s = {kLimit, kLimit};
+  p.drive_time_constant_s = {0.004, 0.004};
+  p.command_latency_ticks = p.reading_latency_ticks = {1, 1};
+  p.period_s = kPeriod;
+  return p;
+}
+
 struct Entry {
   const char* name;
   std::function<std::unique_ptr<Controller>()> make;
@@ -37,6 +50,11 @@ const Entry kControllers[] = {
        c->configure(gains(), {kLimit, kLimit}, kPeriod);
        return c;
      }},
+    {"p", [] { return make_controller("p", {}, plant()); }},
+    {"pid", [] { return make_controller("pid", {{"kd", 0.5}, {"velocity_ff", 1.0}}, plant()); }},
+    {"zpetc", [] { return make_controller("zpetc", {}, plant()); }},
+    {"ccc", [] { return make_controller("ccc", {{"ccc_ki_per_s2", 500.0}, {"velocity_ff", 1.0}}, plant()); }},
+    {"flc", [] { return make_controller("flc", {{"velocity_ff", 1.0}}, plant()); }},
 };
 
 // A deterministic stream of inputs: a circle with noise on the measurement.

@@ -1,0 +1,299 @@
+#include "engine/control/controller_factory.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+#include "engine/control/cross_coupled_controller.h"
+#include "engine/control/fuzzy_controller.h"
+#include "engine/control/pid_controller.h"
+#include "engine/control/pid_ff_controller.h"
+#include "engine/control/zpetc_controller.h"
+#include "engine/executor/machine_setup.h"
+
+namespace machplan::control {
+
+namespace {
+
+using AxisGains = std::array<Gains, kAxes>;  // every gain of a kind resolved, per axis
+
+// One kind: its gains on axis `axis` of a plant (defaults may differ per axis), and its maker.
+struct Kind {
+  const char* name;
+  std::vector<GainSpec> (*specs)(const ControllerPlant&, int axis);
+  std::unique_ptr<Controller> (*make)(const AxisGains&, const ControllerPlant&);
+};
+
+// A box that holds `def`: log scale only when the whole box is positive.
+GainSpec spec(const char* name, double def, double lo, double hi, bool log, const char* what) {
+  lo = std::min(lo, def);
+  hi = std::max(hi, def);
+  return GainSpec{name, def, lo, hi, log && lo > 0, what};
+}
+
+// ---- p and pid -------------------------------------------------------------------------------
+
+std::vector<GainSpec> p_specs(const ControllerPlant& pl, int i) {
+  return {
+      spec("kp_per_s", pl.servo[i].kp_per_s, 1, 3000, true, "proportional gain, mm/s per mm"),
+      spec("velocity_ff", 0.0, 0, 2, false, "velocity feed-forward gain (1/g cancels the drive gain)"),
+      spec("acceleration_ff_s", 0.0, 0, 0.1, false, "acceleration feed-forward time (the drive's tau)"),
+  };
+}
+
+std::vector<GainSpec> pid_specs(const ControllerPlant& pl, int i) {
+  std::vector<GainSpec> s = p_specs(pl, i);
+  s.insert(s.begin() + 1,
+           {spec("ki_per_s2", pl.servo[i].ki_per_s2, 1, 1e5, true, "integral gain, mm/s per mm s"),
+            spec("kd", pl.servo[i].kd, 0, 5, false, "derivative gain, mm/s per mm/s")});
+  return s;
+}
+
+PidGains pid_gains(const Gains& g, const ControllerPlant& pl, int i) {
+  PidGains p;
+  p.kp_per_s = g.at("kp_per_s");
+  p.ki_per_s2 = g.count("ki_per_s2") ? g.at("ki_per_s2") : 0.0;
+  p.kd = g.count("kd") ? g.at("kd") : 0.0;
+  p.velocity_ff = g.at("velocity_ff");
+  p.acceleration_ff_s = g.at("acceleration_ff_s");
+  p.following_error_limit_mm = pl.servo[i].following_error_limit_mm;
+  return p;
+}
+
+template <const char* kName>
+std::unique_ptr<Controller> make_pid(const AxisGains& g, const ControllerPlant& pl) {
+  std::array<PidGains, kAxes> gains;
+  for (int i = 0; i < kAxes; ++i) gains[i] = pid_gains(g[i], pl, i);
+  auto c = std::make_unique<PidController>(kName);
+  c->configure(gains, pl.output_limit_mm_per_s, pl.period_s);
+  return c;
+}
+constexpr char kP[] = "p";
+constexpr char kPid[] = "pid";
+
+// ---- pid_ff ----------------------------------------------------------------------------------
+
+std::vector<GainSpec> pid_ff_specs(const ControllerPlant& pl, int i) {
+  const ServoGains& s = pl.servo[i];
+  return {
+      spec("kp_per_s", s.kp_per_s, 1, 3000, true, "proportional gain, mm/s per mm"),
+      spec("ki_per_s2", s.ki_per_s2, 1, 1e5, true, "integral gain, mm/s per mm s"),
+      spec("kd", s.kd, 0, 5, false, "derivative gain, mm/s per mm/s"),
+      spec("velocity_ff", s.velocity_ff, 0, 3, false, "start of the adaptive velocity feed-forward gain"),
+      spec("acceleration_ff_s", s.acceleration_ff_s, 0, 0.1, false, "acceleration feed-forward time"),
+      spec("ff_adaptation_per_s2", s.ff_adaptation_per_s2, 0, 1e4, false, "feed-forward gain adaptation rate"),
+  };
+}
+
+std::unique_ptr<Controller> make_pid_ff(const AxisGains& g, const ControllerPlant& pl) {
+  std::array<ServoGains, kAxes> servo = pl.servo;
+  for (int i = 0; i < kAxes; ++i) {
+    servo[i].kp_per_s = g[i].at("kp_per_s");
+    servo[i].ki_per_s2 = g[i].at("ki_per_s2");
+    servo[i].kd = g[i].at("kd");
+    servo[i].velocity_ff = g[i].at("velocity_ff");
+    servo[i].acceleration_ff_s = g[i].at("acceleration_ff_s");
+    servo[i].ff_adaptation_per_s2 = g[i].at("ff_adaptation_per_s2");
+    servo[i].validate();
+  }
+  auto c = std::make_unique<PidFfController>();
+  c->configure(servo, pl.output_limit_mm_per_s, pl.period_s);
+  return c;
+}
+
+// ---- ccc -------------------------------------------------------------------------------------
+
+std::vector<GainSpec> ccc_specs(const ControllerPlant& pl, int i) {
+  std::vector<GainSpec> s = p_specs(pl, i);
+  s.push_back(spec("ccc_kp_per_s", pl.servo[i].kp_per_s, 1, 5000, true, "contour loop gain Wp, mm/s per mm"));
+  s.push_back(spec("ccc_ki_per_s2", 0.0, 0, 1e5, false, "contour loop integral gain Wi, mm/s per mm s"));
+  s.push_back(spec("ccc_kd", 0.0, 0, 5, false, "contour loop derivative gain Wd, mm/s per mm/s"));
+  return s;
+}
+
+std::unique_ptr<Controller> make_ccc(const AxisGains& g, const ControllerPlant& pl) {
+  std::array<PidGains, kAxes> axial;
+  for (int i = 0; i < kAxes; ++i) axial[i] = pid_gains(g[i], pl, i);
+  ContourGains w;  // one contour loop: axis 0's values (the gains are the same on every axis)
+  w.kp_per_s = g[0].at("ccc_kp_per_s");
+  w.ki_per_s2 = g[0].at("ccc_ki_per_s2");
+  w.kd = g[0].at("ccc_kd");
+  auto c = std::make_unique<CrossCoupledController>();
+  c->configure(axial, w, pl.output_limit_mm_per_s, pl.period_s);
+  return c;
+}
+
+// ---- zpetc -----------------------------------------------------------------------------------
+
+std::vector<GainSpec> zpetc_specs(const ControllerPlant& pl, int i) {
+  return {
+      spec("kp_per_s", pl.servo[i].kp_per_s, 1, 3000, true, "feedback loop gain, mm/s per mm"),
+      spec("model_time_constant_s", pl.drive_time_constant_s[i], 1e-4, 0.5, true,
+           "drive velocity-loop time constant of the inverted model (0: unknown, must be given)"),
+      spec("model_gain", pl.gain_factor[i], 0.2, 2, false, "drive gain of the inverted model"),
+      spec("zero_cancel_radius", 0.9, 0, 1, false, "model zeros at least this far from 0 are not cancelled"),
+  };
+}
+
+std::unique_ptr<Controller> make_zpetc(const AxisGains& g, const ControllerPlant& pl) {
+  std::array<ZpetcAxisOptions, kAxes> o;
+  for (int i = 0; i < kAxes; ++i) {
+    o[i].kp_per_s = g[i].at("kp_per_s");
+    o[i].model_time_constant_s = g[i].at("model_time_constant_s");
+    if (!(o[i].model_time_constant_s > 0))
+      throw InputError("--gain", 0,
+                       "controller 'zpetc' needs the drive's time constant: the machine model gives none, so set "
+                       "model_time_constant_s");
+    o[i].model_gain = g[i].at("model_gain");
+    o[i].cancel_radius = g[i].at("zero_cancel_radius");
+    o[i].latency_ticks = pl.command_latency_ticks[i] + pl.reading_latency_ticks[i];
+    o[i].following_error_limit_mm = pl.servo[i].following_error_limit_mm;
+  }
+  auto c = std::make_unique<ZpetcController>();
+  c->configure(o, pl.output_limit_mm_per_s, pl.period_s);
+  return c;
+}
+
+// ---- flc -------------------------------------------------------------------------------------
+
+// Defaults: the output spans the drive's range and the small-signal gain 1.35 Ku Ke equals the
+// servo section's Kp, with a derivative time of 2 ms (Kde = 0.002 s Ke).
+std::vector<GainSpec> flc_specs(const ControllerPlant& pl, int i) {
+  const double ku = pl.output_limit_mm_per_s[i];
+  const double ke = std::max(pl.servo[i].kp_per_s, 1.0) / (1.35 * ku);
+  return {
+      spec("ke_per_mm", ke, 1e-3, 1e3, true, "error scaling onto the fuzzy universe, 1/mm"),
+      spec("kde_s_per_mm", 0.002 * ke, 1e-7, 10, true, "error-change scaling onto the fuzzy universe, s/mm"),
+      spec("ku_mm_per_s", ku, 1, 1e4, true, "output scaling: the command at the universe's edge, mm/s"),
+      spec("velocity_ff", 0.0, 0, 2, false, "velocity feed-forward gain"),
+      spec("acceleration_ff_s", 0.0, 0, 0.1, false, "acceleration feed-forward time"),
+  };
+}
+
+std::unique_ptr<Controller> make_flc(const AxisGains& g, const ControllerPlant& pl) {
+  std::array<FuzzyGains, kAxes> f;
+  for (int i = 0; i < kAxes; ++i) {
+    f[i].ke_per_mm = g[i].at("ke_per_mm");
+    f[i].kde_s_per_mm = g[i].at("kde_s_per_mm");
+    f[i].ku_mm_per_s = g[i].at("ku_mm_per_s");
+    f[i].velocity_ff = g[i].at("velocity_ff");
+    f[i].acceleration_ff_s = g[i].at("acceleration_ff_s");
+    f[i].following_error_limit_mm = pl.servo[i].following_error_limit_mm;
+  }
+  auto c = std::make_unique<FuzzyController>();
+  c->configure(f, pl.output_limit_mm_per_s, pl.period_s);
+  return c;
+}
+
+// ---- the table -------------------------------------------------------------------------------
+
+const Kind kKinds[] = {
+    {"p", p_specs, make_pid<kP>},
+    {"pid", pid_specs, make_pid<kPid>},
+    {"pid_ff", pid_ff_specs, make_pid_ff},
+    {"zpetc", zpetc_specs, make_zpetc},
+    {"ccc", ccc_specs, make_ccc},
+    {"flc", flc_specs, make_flc},
+};
+
+const Kind& find_kind(const std::string& name) {
+  for (const Kind& k : kKinds)
+    if (name == k.name) return k;
+  std::string all;
+  for (const Kind& k : kKinds) all += (all.empty() ? "" : ", ") + std::string(k.name);
+  throw InputError("--controller", 0, fmt::format("unknown controller '{}' (kinds: {})", name, all));
+}
+
+}  // namespace
+
+void ControllerPlant::validate() const {
+  const auto fail = [](const std::string& what) { throw InputError("controller plant", 0, what); };
+  if (!(std::isfinite(period_s) && period_s > 0)) fail(fmt::format("period_s = {}: must be > 0", period_s));
+  for (int i = 0; i < kAxes; ++i) {
+    if (!(std::isfinite(output_limit_mm_per_s[i]) && output_limit_mm_per_s[i] > 0))
+      fail(fmt::format("output_limit_mm_per_s[{}] = {}: must be > 0", i, output_limit_mm_per_s[i]));
+    if (!(std::isfinite(drive_time_constant_s[i]) && drive_time_constant_s[i] >= 0))
+      fail(fmt::format("drive_time_constant_s[{}] = {}: must be >= 0 (0: unknown)", i, drive_time_constant_s[i]));
+    if (!(std::isfinite(gain_factor[i]) && gain_factor[i] > 0))
+      fail(fmt::format("gain_factor[{}] = {}: must be > 0", i, gain_factor[i]));
+    if (command_latency_ticks[i] < 0 || reading_latency_ticks[i] < 0)
+      fail(fmt::format("latencies of axis {} must be >= 0", i));
+  }
+}
+
+ControllerPlant plant_from_setup(const executor::MachineSetup& setup) {
+  ControllerPlant p;
+  p.servo = setup.servo;
+  for (int i = 0; i < kAxes; ++i) {
+    p.output_limit_mm_per_s[i] = setup.signals[i].dac_full_scale_mm_per_s;
+    p.command_latency_ticks[i] = setup.signals[i].command_latency_ticks;
+    p.reading_latency_ticks[i] = setup.signals[i].reading_latency_ticks;
+  }
+  if (setup.servo_period_s > 0) p.period_s = setup.servo_period_s;
+  return p;
+}
+
+std::vector<std::string> controller_kinds() {
+  std::vector<std::string> v;
+  for (const Kind& k : kKinds) v.emplace_back(k.name);
+  return v;
+}
+
+std::vector<GainSpec> gain_specs(const std::string& kind, const ControllerPlant& plant) {
+  return find_kind(kind).specs(plant, 0);
+}
+
+std::unique_ptr<Controller> make_controller(const std::string& kind, const Gains& gains, const ControllerPlant& plant) {
+  const Kind& k = find_kind(kind);
+  plant.validate();
+  AxisGains resolved;
+  for (int i = 0; i < kAxes; ++i) {
+    const std::vector<GainSpec> specs = k.specs(plant, i);
+    for (const GainSpec& s : specs) resolved[i][s.name] = s.default_value;
+    for (const auto& given : gains) {
+      const std::string& name = given.first;
+      const double value = given.second;
+      const auto s = std::find_if(specs.begin(), specs.end(), [&](const GainSpec& x) { return x.name == name; });
+      if (s == specs.end()) {
+        std::string all;
+        for (const GainSpec& x : specs) all += (all.empty() ? "" : ", ") + x.name;
+        throw InputError("--gain", 0, fmt::format("controller '{}' has no gain '{}' (its gains: {})", kind, name, all));
+      }
+      if (!(std::isfinite(value) && value >= s->min_value && value <= s->max_value))
+        throw InputError("--gain", 0,
+                         fmt::format("{} = {} is outside [{}, {}] for controller '{}'", name, value, s->min_value,
+                                     s->max_value, kind));
+      resolved[i][name] = value;
+    }
+  }
+  try {
+    std::unique_ptr<Controller> c = k.make(resolved, plant);
+    c->reset();
+    return c;
+  } catch (const std::invalid_argument& e) {
+    // A combination of gains that the controller's own validation refuses.
+    throw InputError("--gain", 0, fmt::format("controller '{}': {}", kind, e.what()));
+  }
+}
+
+void parse_gain(const std::string& text, Gains& gains) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == text.size())
+    throw InputError("--gain", 0, fmt::format("'{}': expected NAME=VALUE", text));
+  const std::string name = text.substr(0, eq), num = text.substr(eq + 1);
+  double v = 0;
+  std::size_t used = 0;
+  try {
+    v = std::stod(num, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != num.size() || !std::isfinite(v))
+    throw InputError("--gain", 0, fmt::format("'{}': '{}' is not a finite number", text, num));
+  if (!gains.emplace(name, v).second) throw InputError("--gain", 0, fmt::format("gain '{}' given twice", name));
+}
+
+}  // namespace machplan::control

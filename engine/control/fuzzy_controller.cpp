@@ -1,0 +1,94 @@
+#include "engine/control/fuzzy_controller.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace machplan::control {
+
+namespace {
+
+// Output singletons of the sets NB .. PB (see the header: denser away from zero).
+constexpr std::array<double, 7> kOutput{-1.0, -0.75, -0.45, 0.0, 0.45, 0.75, 1.0};
+
+// The two sets of an input in [-1, 1] that are non-zero: the lower one's index (0 .. 5 for
+// NB .. PM) and the upper one's membership (the lower one's is 1 - that).
+void fuzzify(double x, int& lower, double& upper_membership) noexcept {
+  const double p = (std::clamp(x, -1.0, 1.0) + 1.0) * 3.0;  // 0 .. 6: position among the centres
+  lower = std::min(static_cast<int>(p), 5);
+  upper_membership = p - lower;
+}
+
+}  // namespace
+
+double fuzzy_surface(double x1, double x2) noexcept {
+  int i = 0, j = 0;
+  double m1 = 0, m2 = 0;
+  fuzzify(x1, i, m1);
+  fuzzify(x2, j, m2);
+  const std::array<double, 2> w1{1.0 - m1, m1}, w2{1.0 - m2, m2};
+  double f = 0.0;
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) {
+      const int rule = std::clamp((i + a - 3) + (j + b - 3), -3, 3);  // C_{i+j}
+      f += w1[a] * w2[b] * kOutput[rule + 3];
+    }
+  return f;  // the weights sum to 1: the weighted average needs no division
+}
+
+void FuzzyGains::validate() const {
+  const auto require = [](bool ok, const char* field, double v, const char* rule) {
+    if (!ok) throw std::invalid_argument(fmt::format("FuzzyGains::{} = {}: {}", field, v, rule));
+  };
+  require(std::isfinite(ke_per_mm) && ke_per_mm > 0, "ke_per_mm", ke_per_mm, "must be > 0");
+  require(std::isfinite(kde_s_per_mm) && kde_s_per_mm >= 0, "kde_s_per_mm", kde_s_per_mm, "must be >= 0");
+  require(std::isfinite(ku_mm_per_s) && ku_mm_per_s > 0, "ku_mm_per_s", ku_mm_per_s, "must be > 0");
+  require(std::isfinite(velocity_ff) && velocity_ff >= 0 && velocity_ff <= 3, "velocity_ff", velocity_ff,
+          "must be in [0, 3]");
+  require(std::isfinite(acceleration_ff_s) && acceleration_ff_s >= 0 && acceleration_ff_s <= 1, "acceleration_ff_s",
+          acceleration_ff_s, "must be in [0, 1] s");
+  require(std::isfinite(following_error_limit_mm) && following_error_limit_mm > 0, "following_error_limit_mm",
+          following_error_limit_mm, "must be > 0");
+}
+
+void FuzzyController::configure(const std::array<FuzzyGains, kAxes>& gains,
+                                const std::array<double, kAxes>& output_limit_mm_per_s, double period_s) {
+  if (!(period_s > 0 && std::isfinite(period_s)))
+    throw std::invalid_argument(fmt::format("FuzzyController: period {} s must be > 0", period_s));
+  for (int i = 0; i < kAxes; ++i) {
+    gains[i].validate();
+    if (!(output_limit_mm_per_s[i] > 0 && std::isfinite(output_limit_mm_per_s[i])))
+      throw std::invalid_argument(fmt::format("FuzzyController: output limit {} mm/s must be > 0", output_limit_mm_per_s[i]));
+    ax_[i].g = gains[i];
+    ax_[i].u_max = output_limit_mm_per_s[i];
+  }
+  T_ = period_s;
+  reset();
+}
+
+void FuzzyController::reset() {
+  for (Axis& a : ax_) {
+    a.error = a.e_prev = 0.0;
+    a.first = true;
+    a.saturated = false;
+  }
+}
+
+void FuzzyController::update(const ControllerInput& in, ControllerOutput& out) noexcept {
+  for (int i = 0; i < kAxes; ++i) {
+    Axis& a = ax_[i];
+    const double e = in.r_mm[i] - in.y_mm[i];
+    const double de = a.first ? 0.0 : (e - a.e_prev) / T_;
+    a.first = false;
+    a.e_prev = e;
+    a.error = e;
+    const double v = a.g.velocity_ff * in.v_ff_mm_per_s[i] + a.g.acceleration_ff_s * in.a_ff_mm_per_s2[i] +
+                     a.g.ku_mm_per_s * fuzzy_surface(a.g.ke_per_mm * e, a.g.kde_s_per_mm * de);
+    const double u = std::clamp(v, -a.u_max, a.u_max);
+    a.saturated = std::abs(v) >= a.u_max;  // at the limit: the fuzzy output alone may reach it exactly
+    out.u_mm_per_s[i] = u;
+  }
+}
+
+}  // namespace machplan::control

@@ -1,0 +1,45 @@
+#include "engine/control/pid_controller.h"
+
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace machplan::control {
+
+namespace {
+void require(bool ok, const char* field, double value, const char* rule) {
+  if (!ok) throw std::invalid_argument(fmt::format("PidGains::{} = {}: {}", field, value, rule));
+}
+}  // namespace
+
+void PidGains::validate() const {
+  auto nonneg = [](double v) { return std::isfinite(v) && v >= 0; };
+  require(nonneg(kp_per_s), "kp_per_s", kp_per_s, "must be finite and >= 0");
+  require(nonneg(ki_per_s2), "ki_per_s2", ki_per_s2, "must be finite and >= 0");
+  require(nonneg(kd), "kd", kd, "must be finite and >= 0");
+  require(nonneg(velocity_ff) && velocity_ff <= 3, "velocity_ff", velocity_ff, "must be in [0, 3]");
+  require(nonneg(acceleration_ff_s) && acceleration_ff_s <= 1, "acceleration_ff_s", acceleration_ff_s,
+          "must be in [0, 1] s");
+  require(nonneg(tracking_time_s), "tracking_time_s", tracking_time_s, "must be finite and >= 0 (0: Kp / Ki)");
+  require(std::isfinite(derivative_filter_s) && derivative_filter_s > 0, "derivative_filter_s", derivative_filter_s,
+          "must be > 0");
+  require(std::isfinite(following_error_limit_mm) && following_error_limit_mm > 0, "following_error_limit_mm",
+          following_error_limit_mm, "must be > 0");
+  require(!(ki_per_s2 > 0 && tracking_time_s == 0 && kp_per_s == 0), "kp_per_s", kp_per_s,
+          "must be > 0 when Ki > 0 and the tracking time is Kp / Ki (or give tracking_time_s)");
+}
+
+void AxialPid::configure(const PidGains& g, double output_limit_mm_per_s, double period_s) {
+  g.validate();
+  if (!(std::isfinite(output_limit_mm_per_s) && output_limit_mm_per_s > 0))
+    throw std::invalid_argument(fmt::format("AxialPid: output limit {} mm/s must be > 0", output_limit_mm_per_s));
+  if (!(std::isfinite(period_s) && period_s > 0))
+    throw std::invalid_argument(fmt::format("AxialPid: period {} s must be > 0", period_s));
+  g_ = g;
+  u_max_ = output_limit_mm_per_s;
+  T_ = period_s;
+  tt_ = g.tracking_time_s > 0 ? g.tracking_time_s : (g.ki_per_s2 > 0 ? g.kp_per_s / g.ki_per_s2 : 1.0);
+  reset();
+}
+
+}  // namespace machplan::control

@@ -1,0 +1,93 @@
+// The axial P / PID law (engine/control/pid_controller.h) on hand-computed cases.
+#include <gtest/gtest.h>
+
+#include "engine/control/pid_controller.h"
+
+namespace machplan::control {
+namespace {
+
+constexpr double T = 0.001;
+
+TEST(AxialPid, ProportionalAndFeedForwardTerms) {
+  PidGains g;
+  g.kp_per_s = 100;
+  g.velocity_ff = 0.5;
+  g.acceleration_ff_s = 0.004;
+  AxialPid a;
+  a.configure(g, 500, T);
+  // 100 * (2.0 - 1.9) + 0.5 * 20 + 0.004 * 1000 = 10 + 10 + 4
+  EXPECT_NEAR(a.update(2.0, 20, 1000, 1.9), 24.0, 1e-12);
+  EXPECT_NEAR(a.last_error_mm(), 0.1, 1e-15);
+  EXPECT_FALSE(a.saturated());
+  EXPECT_DOUBLE_EQ(a.integral_mm_per_s(), 0.0);  // Ki = 0: no integral at all
+}
+
+TEST(AxialPid, IntegralAccumulatesTKiE) {
+  PidGains g;
+  g.kp_per_s = 10;
+  g.ki_per_s2 = 2000;
+  AxialPid a;
+  a.configure(g, 500, T);
+  // e = 0.5 each tick: u0 = 5, I1 = 0.001 * 2000 * 0.5 = 1; u1 = 5 + 1; u2 = 5 + 2.
+  EXPECT_NEAR(a.update(0.5, 0, 0, 0), 5.0, 1e-12);
+  EXPECT_NEAR(a.update(0.5, 0, 0, 0), 6.0, 1e-12);
+  EXPECT_NEAR(a.update(0.5, 0, 0, 0), 7.0, 1e-12);
+}
+
+TEST(AxialPid, FilteredDerivativeOfTheError) {
+  PidGains g;
+  g.kp_per_s = 0;
+  g.kd = 2;
+  g.derivative_filter_s = 0.003;
+  AxialPid a;
+  a.configure(g, 500, T);
+  EXPECT_EQ(a.update(0, 0, 0, 0), 0.0);  // the first tick has no previous error
+  // e jumps by 1: D = (0.003 * 0 + 2 * 1) / (0.003 + 0.001) = 500
+  EXPECT_NEAR(a.update(1, 0, 0, 0), 500.0, 1e-9);
+  // e stays: D decays by Tf / (Tf + T) = 0.75
+  EXPECT_NEAR(a.update(1, 0, 0, 0), 375.0, 1e-9);
+}
+
+TEST(AxialPid, BackCalculationPullsTheIntegratorBackWhileSaturated) {
+  PidGains g;
+  g.kp_per_s = 100;
+  g.ki_per_s2 = 1000;
+  g.tracking_time_s = 0.01;
+  AxialPid a;
+  a.configure(g, 50, T);
+  // e = 1: v = 100, u = 50, I += 0.001 * (1000 * 1 + (50 - 100) / 0.01) = 1 - 5 = -4.
+  EXPECT_EQ(a.update(1, 0, 0, 0), 50.0);
+  EXPECT_TRUE(a.saturated());
+  EXPECT_NEAR(a.integral_mm_per_s(), -4.0, 1e-12);
+  // Held in saturation the integrator settles where 1000 e = (v - u) / Tt, i.e. v - u = 10,
+  // I = -40 (v = 60); conditional integration would have frozen it at 0 and a plain one
+  // would grow without end.
+  for (int k = 0; k < 5000; ++k) a.update(1, 0, 0, 0);
+  EXPECT_NEAR(a.integral_mm_per_s(), -40.0, 1e-6);
+  // As soon as the error falls below what the limit can hold the command leaves the limit.
+  EXPECT_LT(a.update(0.1, 0, 0, 0), 50.0);
+}
+
+TEST(AxialPid, DefaultTrackingTimeIsKpOverKi) {
+  PidGains g;
+  g.kp_per_s = 100;
+  g.ki_per_s2 = 1000;  // Tt = 0.1 s
+  AxialPid a;
+  a.configure(g, 50, T);
+  a.update(1, 0, 0, 0);
+  EXPECT_NEAR(a.integral_mm_per_s(), 0.001 * (1000 - 50 / 0.1), 1e-12);
+}
+
+TEST(PidGains, ValidateNamesTheField) {
+  PidGains g;
+  g.kd = -1;
+  try {
+    g.validate();
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("kd"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace machplan::control

@@ -1,0 +1,84 @@
+// What the planned source gives contour and preview controllers beside r, v and a: the
+// programmed segment r is on, and the setpoints of the next periods.
+#include <gtest/gtest.h>
+
+#include "engine/executor/planned_source.h"
+#include "tests/support/test_trajectory.h"
+
+namespace machplan::executor {
+namespace {
+
+MachineSetup machine(int read_latency) {
+  MachineSetup m;
+  m.name = "test";
+  for (int i = 0; i < hardware::kAxes; ++i) {
+    m.signals[i].reading_latency_ticks = read_latency;
+    m.signals[i].command_latency_ticks = 1;
+    m.max_speed_mm_per_s[i] = 100;
+  }
+  return m;
+}
+
+// A closed triangle, each leg rest to rest: the cursor must start on the first leg (the last
+// one ends at the same point) and follow the legs in order.
+TEST(PlannedSourcePath, FollowsTheSegmentsOfAClosedContourInOrder) {
+  const Eigen::Vector2d a(0, 0), b(60, 0), c(30, 40);
+  auto chain = std::make_unique<test::ChainTrajectory>();
+  chain->add(std::make_unique<test::LineTrajectory>(a, b, 50, 500));
+  chain->add(std::make_unique<test::LineTrajectory>(b, c, 50, 500));
+  chain->add(std::make_unique<test::LineTrajectory>(c, a, 50, 500));
+  test::OneCut cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b, c}, true), 50, true), std::move(chain));
+  const std::vector<Segment>& segs = cut.job.stretches[0].segments;
+  ASSERT_EQ(segs.size(), 3u);
+  const MachineSetup m = machine(1);
+  PlannedSource s;
+  s.prepare({&cut.job, &cut.trajectories, &m, 0.001}, a);
+  Demand d;
+  s.demand(d);
+  EXPECT_EQ(d.track.path, nullptr);  // holding before the move
+  EXPECT_EQ(d.track.preview_ticks, 0);
+  s.begin_move(1, a);
+  std::size_t last = 0;
+  std::array<int, 3> ticks_on{};
+  while (!s.move_done()) {
+    s.demand(d);
+    ASSERT_NE(d.track.path, nullptr);
+    const std::size_t k = static_cast<std::size_t>(d.track.path - segs.data());
+    ASSERT_LT(k, 3u);
+    ASSERT_GE(k, last);  // never back
+    last = k;
+    ++ticks_on[k];
+    const Eigen::Vector2d r(d.track.r_mm[0], d.track.r_mm[1]);
+    ASSERT_LT((closest_point(segs[k], r) - r).norm(), 1e-9);  // r lies on the segment given
+    s.advance(a, {});
+  }
+  for (int n : ticks_on) EXPECT_GT(n, 500);
+}
+
+TEST(PlannedSourcePath, PreviewIsTheTrajectoryOneToEightPeriodsAfterR) {
+  const Eigen::Vector2d a(10, 20), b(110, 70);
+  test::OneCut c = test::one_cut(test::make_stretch(test::polyline_segments({a, b}, false), 80, true),
+                                 std::make_unique<test::LineTrajectory>(a, b, 80, 500));
+  const MachineSetup m = machine(2);
+  PlannedSource s;
+  s.prepare({&c.job, &c.trajectories, &m, 0.001}, a);
+  s.begin_move(1, a);
+  Demand d;
+  double t = 0;
+  for (int k = 0; k < 200; ++k) {
+    s.advance(a, {});
+    t += 0.001;
+  }
+  s.demand(d);
+  ASSERT_EQ(d.track.preview_ticks, control::ControllerInput::kMaxPreviewTicks);
+  for (int j = 0; j < d.track.preview_ticks; ++j) {
+    motion::Setpoint p;
+    c.trajectories[1]->sample(t - 2 * 0.001 + (j + 1) * 0.001, p);
+    EXPECT_NEAR(d.track.r_preview_mm[j][0], p.position_mm[0], 1e-12) << j;
+    EXPECT_NEAR(d.track.r_preview_mm[j][1], p.position_mm[1], 1e-12) << j;
+  }
+  EXPECT_GT(d.track.r_preview_mm[0][0], d.track.r_mm[0]);  // moving on
+}
+
+}  // namespace
+}  // namespace machplan::executor
