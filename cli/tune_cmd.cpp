@@ -68,6 +68,7 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
   const double duration = 10.0;
   const auto koren = control::simulate_acc(base.process, base.acc, steps, duration);
   std::vector<tuning::AccTuningResult> results;
+  const StopOnSignals signals;
   for (int vg = 0; vg < 2; ++vg) {
     if ((vg == 0 && law == "variable") || (vg == 1 && law == "fixed")) continue;
     tuning::AccTuningOptions o = base;
@@ -141,7 +142,7 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
 void add_tune(CLI::App& app) {
   struct Args {
     std::string machine, controller, objective = "max", plot, db, evaluations, time, seed, acc_law = "both";
-    std::vector<std::string> contours;
+    std::vector<std::string> contours, gains;
     bool json = false, store = false, acc = false;
   };
   auto a = std::make_shared<Args>();
@@ -151,6 +152,7 @@ void add_tune(CLI::App& app) {
   cmd->add_option("--contour", a->contours,
                   "test contour: line:ANGLE_DEG:FEED_MM_MIN, circle:RADIUS_MM:FEED_MM_MIN or program:FILE.ngc; may be "
                   "repeated");
+  cmd->add_option("--gain", a->gains, "start value of a gain, NAME=VALUE, instead of its default; may be repeated");
   cmd->add_option("--objective", a->objective, "contour error to minimise: max (default), rms or itae");
   cmd->add_option("--evaluations", a->evaluations, "evaluation budget of the optimiser (default 600; --acc 150)");
   cmd->add_option("--time", a->time, "wall-clock limit of the optimiser, s (default 25)");
@@ -180,6 +182,7 @@ void add_tune(CLI::App& app) {
     o.evaluation.machine = a->machine;
     o.kind = tuning::controller_kind(a->controller);
     o.objective = tuning::objective_from_string(a->objective);
+    for (const std::string& g : a->gains) control::parse_gain(g, o.start);
     if (!a->evaluations.empty()) o.optimizer.max_evaluations = static_cast<int>(whole_number("--evaluations", a->evaluations, 1, 1000000));
     if (!a->time.empty()) o.optimizer.max_time_s = number("--time", a->time, 0.01, 86400);
     if (!a->seed.empty()) o.evaluation.seed = static_cast<std::uint64_t>(whole_number("--seed", a->seed, 0, 2147483647));
@@ -188,7 +191,12 @@ void add_tune(CLI::App& app) {
     const std::string db = a->store ? (a->db.empty() ? calibration::default_store_path() : a->db) : "";
     const StopOnSignals signals;
     const tuning::Evaluator ev(o.evaluation, contours);
-    const tuning::TuneResult r = tuning::tune(ev, o, StopOnSignals::stop_token());
+    tuning::TuneResult r;
+    {
+      ProgressBar bar(fmt::format("tuning {}", o.kind), !a->json);
+      o.progress = [&bar](double f) { bar.update(f); };
+      r = tuning::tune(ev, o, StopOnSignals::stop_token());
+    }
     std::int64_t stored = 0;
     if (a->store) {
       if (r.status != "ok")

@@ -61,6 +61,11 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
   r.objective = o.objective;
   r.specs = control::gain_specs(o.kind, ev.plant());
   for (const auto& s : r.specs) r.start_gains[s.name] = s.default_value;
+  for (const auto& [name, value] : o.start) {
+    if (!r.start_gains.count(name))
+      throw InputError("--gain", 0, fmt::format("controller '{}' has no gain '{}'", o.kind, name));
+    r.start_gains[name] = value;
+  }
   const double flimit = following_limit(ev);
   r.baseline = ev.evaluate(o.baseline_kind, {});
   r.start = ev.evaluate(o.kind, r.start_gains);
@@ -72,7 +77,7 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
     q.name = s.name;
     q.lo = s.min_value;
     q.hi = s.max_value;
-    q.start = std::clamp(s.default_value, s.min_value, s.max_value);
+    q.start = std::clamp(r.start_gains.at(s.name), s.min_value, s.max_value);
     q.log_scale = s.log_scale && s.min_value > 0;
     p.parameters.push_back(q);
   }
@@ -82,9 +87,11 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
     for (std::size_t i = 0; i < x.size(); ++i) g[r.specs[i].name] = x[i];
     return g;
   };
+  int done = 0;
   p.evaluate = [&](const std::vector<double>& x, std::vector<double>& g) {
     const Evaluation e = ev.evaluate(o.kind, gains_of(x));
     g = constraint_values(e, o.evaluation, flimit);
+    if (o.progress) o.progress(std::min(1.0, ++done / static_cast<double>(o.optimizer.max_evaluations)));
     return e.value(o.objective) / scale;
   };
   if (p.parameters.empty()) {

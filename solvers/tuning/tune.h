@@ -16,6 +16,7 @@
 // with status "infeasible".
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,10 @@ struct TuneOptions {
   Objective objective = Objective::max;
   OptimizerOptions optimizer;
   std::string baseline_kind = "p";   // hand-tuned axial P
+  // Start values replacing the kind's defaults (names the kind does not have are refused).
+  control::Gains start;
+  // Called after each evaluation with the share of the evaluation budget used (0 .. 1).
+  std::function<void(double)> progress;
   // Throws InputError naming the field.
   void validate() const;
 };
