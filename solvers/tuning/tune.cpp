@@ -71,6 +71,20 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
   r.start = ev.evaluate(o.kind, r.start_gains);
   const double scale = std::max(r.baseline.value(o.objective), 1e-9);
 
+  if (o.physical_feed_forward) {
+    const auto& pl = ev.plant();
+    double g = 1.0, lag = 0.0;
+    for (int i = 0; i < control::kAxes; ++i) {
+      g = std::min(g, pl.gain_factor[i] > 0 ? pl.gain_factor[i] : 1.0);
+      lag = std::max(lag, pl.drive_time_constant_s[i] + (pl.command_latency_ticks[i] + pl.reading_latency_ticks[i]) * pl.period_s);
+    }
+    for (auto& s : r.specs) {
+      double cap = s.max_value;
+      if (s.name == "velocity_ff") cap = o.ff_margin / g;
+      if (s.name == "acceleration_ff_s" && lag > 0) cap = o.ff_margin * lag;
+      s.max_value = std::max(s.min_value, std::min(s.max_value, std::max(cap, s.default_value)));
+    }
+  }
   Problem p;
   for (const auto& s : r.specs) {
     Parameter q;
@@ -78,6 +92,7 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
     q.lo = s.min_value;
     q.hi = s.max_value;
     q.start = std::clamp(r.start_gains.at(s.name), s.min_value, s.max_value);
+    if (q.log_scale && q.lo <= 0) q.log_scale = false;
     q.log_scale = s.log_scale && s.min_value > 0;
     p.parameters.push_back(q);
   }

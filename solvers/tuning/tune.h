@@ -1,7 +1,8 @@
 // Tuning a controller's gains on test contours: the solver behind `machplan tune`.
 //
 //     minimise   J(k) / J(baseline)        J = max, RMS or ITAE contour error (evaluate.h)
-//     over       k in the kind's gain box (engine/control/controller_factory.h, gain_specs)
+//     over       k in the kind's gain box (engine/control/controller_factory.h, gain_specs),
+//                the feed-forward gains held to their physical range (TuneOptions)
 //     subject to g_0 = residual wobble at the gain margin / max_residual - 1   <= 0  (stability)
 //                g_1 = step overshoot / max_overshoot - 1                      <= 0
 //                g_2 = (saturation share - max share) / max share              <= 0
@@ -38,6 +39,14 @@ struct TuneOptions {
   Objective objective = Objective::max;
   OptimizerOptions optimizer;
   std::string baseline_kind = "p";   // hand-tuned axial P
+  // Physical bounds on the feed-forward gains, narrower than the factory's boxes: velocity_ff
+  // at most ff_margin / g (g: the drive's gain; 1/g cancels it exactly) and acceleration_ff_s
+  // at most ff_margin x (tau + latency periods x T) (what a first-order drive behind its
+  // latency needs). Beyond them a feed-forward stops modelling the drive and starts fitting
+  // the test contour's friction: it then leads the setpoint, and cuts the corners of any
+  // contour it was not tuned on. false searches the factory's whole boxes.
+  bool physical_feed_forward = true;
+  double ff_margin = 1.25;
   // Start values replacing the kind's defaults (names the kind does not have are refused).
   control::Gains start;
   // Called after each evaluation with the share of the evaluation budget used (0 .. 1).
