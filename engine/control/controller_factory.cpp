@@ -170,6 +170,7 @@ std::vector<GainSpec> flc_specs(const ControllerPlant& pl, int i) {
       spec("ku_mm_per_s", ku, 1, 1e4, true, "output scaling: the command at the universe's edge, mm/s"),
       spec("velocity_ff", 0.0, 0, 2, false, "velocity feed-forward gain"),
       spec("acceleration_ff_s", 0.0, 0, 0.1, false, "acceleration feed-forward time"),
+      spec("ki_per_s", 0.0, 0, 1000, false, "integral of the fuzzy output, 1/s (0: none)"),
   };
 }
 
@@ -181,6 +182,7 @@ std::unique_ptr<Controller> make_flc(const AxisGains& g, const ControllerPlant& 
     f[i].ku_mm_per_s = g[i].at("ku_mm_per_s");
     f[i].velocity_ff = g[i].at("velocity_ff");
     f[i].acceleration_ff_s = g[i].at("acceleration_ff_s");
+    f[i].ki_per_s = g[i].at("ki_per_s");
     f[i].following_error_limit_mm = pl.servo[i].following_error_limit_mm;
   }
   auto c = std::make_unique<FuzzyController>();

@@ -48,6 +48,7 @@ void FuzzyGains::validate() const {
           "must be in [0, 3]");
   require(std::isfinite(acceleration_ff_s) && acceleration_ff_s >= 0 && acceleration_ff_s <= 1, "acceleration_ff_s",
           acceleration_ff_s, "must be in [0, 1] s");
+  require(std::isfinite(ki_per_s) && ki_per_s >= 0, "ki_per_s", ki_per_s, "must be >= 0");
   require(std::isfinite(following_error_limit_mm) && following_error_limit_mm > 0, "following_error_limit_mm",
           following_error_limit_mm, "must be > 0");
 }
@@ -69,7 +70,7 @@ void FuzzyController::configure(const std::array<FuzzyGains, kAxes>& gains,
 
 void FuzzyController::reset() {
   for (Axis& a : ax_) {
-    a.error = a.e_prev = 0.0;
+    a.error = a.e_prev = a.integral = 0.0;
     a.first = true;
     a.saturated = false;
   }
@@ -83,10 +84,13 @@ void FuzzyController::update(const ControllerInput& in, ControllerOutput& out) n
     a.first = false;
     a.e_prev = e;
     a.error = e;
-    const double v = a.g.velocity_ff * in.v_ff_mm_per_s[i] + a.g.acceleration_ff_s * in.a_ff_mm_per_s2[i] +
-                     a.g.ku_mm_per_s * fuzzy_surface(a.g.ke_per_mm * e, a.g.kde_s_per_mm * de);
+    const double fu = a.g.ku_mm_per_s * fuzzy_surface(a.g.ke_per_mm * e, a.g.kde_s_per_mm * de);
+    const double v = a.g.velocity_ff * in.v_ff_mm_per_s[i] + a.g.acceleration_ff_s * in.a_ff_mm_per_s2[i] + fu + a.integral;
     const double u = std::clamp(v, -a.u_max, a.u_max);
     a.saturated = std::abs(v) >= a.u_max;  // at the limit: the fuzzy output alone may reach it exactly
+    const bool pushing = (v >= a.u_max && fu > 0) || (v <= -a.u_max && fu < 0);
+    if (a.g.ki_per_s > 0 && !pushing)
+      a.integral = std::clamp(a.integral + T_ * a.g.ki_per_s * fu, -a.u_max, a.u_max);
     out.u_mm_per_s[i] = u;
   }
 }

@@ -10,7 +10,9 @@
 //     rule (i, j): IF x1 is A_i AND x2 is B_j THEN U is C_{clamp(i + j, -3, 3)}
 //     F     = sum_ij mu_i(x1) mu_j(x2) c(i + j) / sum_ij mu_i(x1) mu_j(x2)
 //            (product AND; the triangles sum to 1, so the denominator is 1)
-//     u[k]  = clamp(Kvff v_r + Ta a_r + Ku F, -u_max, u_max)
+//     u[k]  = clamp(Kvff v_r + Ta a_r + Ku F + I[k], -u_max, u_max)
+//     I[k+1] = clamp(I[k] + T Ki Ku F, -u_max, u_max)   (optional, Ki = 0 by default; frozen
+//             while u is at its limit and F pushes further: conditional integration)
 //
 // Output singletons c(-3 .. 3) = -1, -0.75, -0.45, 0, 0.45, 0.75, 1: closer together away from
 // zero, so the controller's slope is steepest for small errors (1.35 Ku Ke per mm near zero
@@ -21,8 +23,11 @@
 // growing) adds command and dE < 0 (error shrinking) takes it back, like a PD whose gains fall
 // off at the edges of the universe.
 //
-// Tunable gains: the input scalings Ke (1/mm) and Kde (s/mm), the output scaling Ku (mm/s) and
-// the feed-forward options Kvff and Ta. Small-signal equivalents: Kp = 1.35 Ku Ke, Kd = 1.35 Ku Kde.
+// Tunable gains: the input scalings Ke (1/mm) and Kde (s/mm), the output scaling Ku (mm/s), the
+// feed-forward options Kvff and Ta, and Ki (1/s), which integrates the fuzzy output (a fuzzy
+// PD + I: the integrator's rate is bounded by Ku Ki because F is, so a stuck axis winds it up
+// far less than a PID's integral of the raw error). Small-signal equivalents: Kp = 1.35 Ku Ke,
+// Kd = 1.35 Ku Kde, Ki_pid = Ki Kp.
 //
 // Real time: update() evaluates at most 2 x 2 rules per axis (only two sets of each input are
 // non-zero), O(1), allocates nothing and never throws.
@@ -41,6 +46,7 @@ struct FuzzyGains {
   double ku_mm_per_s = 1000.0;     // Ku
   double velocity_ff = 0.0;        // Kvff
   double acceleration_ff_s = 0.0;  // Ta, s
+  double ki_per_s = 0.0;           // Ki: integral of the fuzzy output, 1/s
   double following_error_limit_mm = 2.0;
   // Throws std::invalid_argument naming field, value and rule.
   void validate() const;
@@ -65,7 +71,7 @@ class FuzzyController final : public Controller {
  private:
   struct Axis {
     FuzzyGains g;
-    double u_max = 1.0, error = 0.0, e_prev = 0.0;
+    double u_max = 1.0, error = 0.0, e_prev = 0.0, integral = 0.0;
     bool first = true, saturated = false;
   };
   std::array<Axis, kAxes> ax_{};

@@ -32,7 +32,7 @@ constexpr double kRadius = 20, kCircleFeed = 16;                   // 0.96 m/min
 
 // Runs one move (no torch: the table carries a tool) and measures the true position's
 // distance from the programmed line or circle over the move's ticks.
-ContourError run(const std::string& kind, const Gains& gains, Shape shape, std::uint64_t seed = 1) {
+ContourError run(const std::string& kind, const Gains& gains, Shape shape, double circle_feed = kCircleFeed) {
   const cutting::MachineConfig& m = table();
   const double acc = m.limits.acceleration_mm_per_s2;
   motion::Job job;
@@ -48,9 +48,9 @@ ContourError run(const std::string& kind, const Gains& gains, Shape shape, std::
   } else {
     const Eigen::Vector2d opposite = kCentre - Eigen::Vector2d(kRadius, 0);
     st.segments = {make_segment(start, opposite, 1.0), make_segment(opposite, start, 1.0)};
-    traj = std::make_unique<test::ArcTrajectory>(kCentre, kRadius, 0, 2 * M_PI, kCircleFeed, acc);
+    traj = std::make_unique<test::ArcTrajectory>(kCentre, kRadius, 0, 2 * M_PI, circle_feed, acc);
   }
-  st.feed_mm_per_s.assign(st.segments.size(), shape == Shape::line ? kLineFeed : kCircleFeed);
+  st.feed_mm_per_s.assign(st.segments.size(), shape == Shape::line ? kLineFeed : circle_feed);
   st.source_lines.assign(st.segments.size(), 1);
   job.start_mm = st.segments.front().start;
   job.stretches.push_back(st);
@@ -62,7 +62,7 @@ ContourError run(const std::string& kind, const Gains& gains, Shape shape, std::
   executor::RunParts parts;
   parts.controller = c.get();
   sim::SimOptions so;
-  so.seed = seed;
+  so.seed = 1;
   const executor::ExecutionResult r = sim::simulate(m, job, trajs, {}, so, {}, parts);
   ContourError e;
   e.completed = r.status == executor::ExecutionResult::Status::completed;
@@ -82,10 +82,11 @@ ContourError run(const std::string& kind, const Gains& gains, Shape shape, std::
   return e;
 }
 
-ContourError report(const std::string& kind, const Gains& g, Shape s, const char* label = "") {
-  const ContourError e = run(kind, g, s);
-  std::printf("%-7s %-22s %-6s max %.5f mm  rms %.5f mm\n", kind.c_str(), label, s == Shape::line ? "line" : "circle",
-              e.max_mm, e.rms_mm);
+ContourError report(const std::string& kind, const Gains& g, Shape s, const char* label = "",
+                    double circle_feed = kCircleFeed) {
+  const ContourError e = run(kind, g, s, circle_feed);
+  std::printf("%-7s %-28s %-6s max %.5f mm  rms %.5f mm\n", kind.c_str(), label,
+              s == Shape::line ? "line" : (circle_feed == kCircleFeed ? "circle" : "fast circle"), e.max_mm, e.rms_mm);
   EXPECT_TRUE(e.completed) << kind << " " << label;
   return e;
 }
@@ -100,6 +101,55 @@ TEST(ClosedLoop, EveryKindIsStableOnTheLineAndTheCircle) {
       EXPECT_LT(e.max_mm, 0.1) << kind;
       EXPECT_GT(e.max_mm, 0.0) << kind;  // the measurement measures something
     }
+}
+
+// The contour loop stiffens the machine across the path only. With the defaults (Wp = Kp)
+// it takes about a third off the axial P's contour error, on the circle (where Coulomb friction
+// at each quadrant is the error) and on the line; a contour integral removes most of what is
+// left, Koren's 5 : 1 in RMS (measured: circle P max 16.6 rms 7.9 um, CCC 11.2 / 4.1, CCC + Wi
+// 13.1 / 1.7; line P 7.1 / 5.5, CCC + Wi 4.8 / 1.0).
+TEST(ClosedLoop, CrossCoupledBeatsTheAxialPOnBothContours) {
+  const ContourError p_circle = report("p", {}, Shape::circle), p_line = report("p", {}, Shape::line);
+  const ContourError c_circle = report("ccc", {}, Shape::circle), c_line = report("ccc", {}, Shape::line);
+  const ContourError ci_circle = report("ccc", {{"ccc_ki_per_s2", 10000.0}}, Shape::circle, "Wi 10000");
+  EXPECT_LT(c_circle.max_mm, 0.8 * p_circle.max_mm);
+  EXPECT_LT(c_circle.rms_mm, 0.7 * p_circle.rms_mm);
+  EXPECT_LT(c_line.max_mm, 0.8 * p_line.max_mm);
+  EXPECT_LT(c_line.rms_mm, 0.7 * p_line.rms_mm);
+  const ContourError ci_line = report("ccc", {{"ccc_ki_per_s2", 10000.0}}, Shape::line, "Wi 10000");
+  EXPECT_LT(ci_circle.rms_mm, p_circle.rms_mm / 4);
+  EXPECT_LT(ci_line.rms_mm, p_line.rms_mm / 4);
+}
+
+// Koren's servo comparison, qualitatively: at a high feed on the circle (6 m/min) the PID
+// without programmed acceleration fails (its integrator overshoots every quadrant), the ZPETC
+// tracks better than the P loop it is built on; on the line under friction the ZPETC is no
+// better than P and far worse than the PID, whose integrator holds the friction.
+TEST(ClosedLoop, ZpetcTracksFastCirclesButNotFrictionOnLines) {
+  constexpr double kFast = 100;  // mm/s
+  const ContourError p = report("p", {}, Shape::circle, "", kFast);
+  const ContourError pid = report("pid", {}, Shape::circle, "", kFast);
+  const ContourError z = report("zpetc", {}, Shape::circle, "", kFast);
+  EXPECT_LT(z.max_mm, 0.8 * p.max_mm);
+  EXPECT_LT(z.rms_mm, 0.8 * p.rms_mm);
+  EXPECT_GT(pid.max_mm, 3 * p.max_mm);
+  const ContourError z_line = report("zpetc", {}, Shape::line), pid_line = report("pid", {}, Shape::line);
+  const ContourError p_line = report("p", {}, Shape::line);
+  EXPECT_GT(z_line.rms_mm, 3 * pid_line.rms_mm);
+  EXPECT_GT(z_line.rms_mm, 0.9 * p_line.rms_mm);
+}
+
+// The fuzzy controller against the PID on Koren's circle: the PID's integrator overshoots
+// after each quadrant's friction, the fuzzy controller has no integrator to wind up.
+// With the integral of its output (ki_per_s) it also holds the friction, and beats the PID
+// on both figures as Koren's did (his: RMS 3.5 x, maximum 18 : 10; measured here: PID max 29.3
+// rms 5.6 um, fuzzy + I 15.1 / 1.9).
+TEST(ClosedLoop, FuzzyBeatsThePidOnTheCircle) {
+  const ContourError pid = report("pid", {}, Shape::circle), flc = report("flc", {}, Shape::circle);
+  EXPECT_LT(flc.max_mm, 0.7 * pid.max_mm);
+  const ContourError flc_i = report("flc", {{"ki_per_s", 100.0}}, Shape::circle, "ki 100");
+  EXPECT_LT(flc_i.max_mm, 0.7 * pid.max_mm);
+  EXPECT_LT(flc_i.rms_mm, pid.rms_mm / 2.5);
 }
 
 }  // namespace

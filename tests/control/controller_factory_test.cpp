@@ -1,5 +1,8 @@
 // Controllers by name (engine/control/controller_factory.h): kinds, gain specs, defaults and
 // the refusals the CLI and the tuner rely on.
+#include <algorithm>
+#include <functional>
+
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"

@@ -56,5 +56,30 @@ TEST(FuzzyController, ScalingGainsAndFeedForward) {
   EXPECT_FALSE(c.saturated(0));
 }
 
+TEST(FuzzyController, OptionalIntegralOfTheFuzzyOutput) {
+  FuzzyGains g;
+  g.ke_per_mm = 10;
+  g.kde_s_per_mm = 0.01;
+  g.ku_mm_per_s = 200;
+  g.ki_per_s = 100;
+  FuzzyController c;
+  c.configure({g, g}, {120, 120}, 0.001);
+  ControllerInput in;
+  in.r_mm = {1.0 / 30, 0};  // fuzzy output 200 * 0.45 = 90 mm/s every tick (de = 0 after the first)
+  ControllerOutput out;
+  c.update(in, out);
+  EXPECT_NEAR(out.u_mm_per_s[0], 90.0, 1e-9);
+  c.update(in, out);
+  EXPECT_NEAR(out.u_mm_per_s[0], 90.0 + 0.001 * 100 * 90, 1e-9);
+  // Held at the 120 mm/s limit the integrator stops where it reached it (conditional integration).
+  for (int k = 0; k < 1000; ++k) c.update(in, out);
+  EXPECT_EQ(out.u_mm_per_s[0], 120.0);
+  EXPECT_TRUE(c.saturated(0));
+  in.r_mm = {-1.0 / 30, 0};  // the error reverses: the command leaves the limit at once
+  c.update(in, out);
+  c.update(in, out);
+  EXPECT_LT(out.u_mm_per_s[0], 0.0);
+}
+
 }  // namespace
 }  // namespace machplan::control
