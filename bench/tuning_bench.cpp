@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include "engine/control/acc.h"
 #include "solvers/tuning/acc_tuning.h"
 #include "solvers/tuning/tune.h"
@@ -49,46 +51,54 @@ Evaluator make(const std::vector<std::string>& specs) {
 
 double ratio(double a, double b) { return b > 0 ? a / b : INFINITY; }
 
+struct Setting {
+  std::string label, kind;
+  control::Gains gains;
+};
+
 void report() {
   const std::vector<std::string> kinds = control::controller_kinds();
-  std::printf("## Controllers at their hand-tuned default gains (xy_table, seed 1)\n\n");
-  std::printf("Contour error from the simulated true position; 1 BLU = 1 encoder count = %.3f mm.\n\n", kBluMm);
+  // The factory's defaults, plus the integral settings tests/control/closed_loop_test.cpp uses
+  // for Koren's comparisons (contour-loop integral for CCC, output integral for the FLC).
+  std::vector<Setting> settings;
+  for (const std::string& k : kinds) settings.push_back({k, k, {}});
+  settings.push_back({"ccc Wi 10000", "ccc", {{"ccc_ki_per_s2", 10000.0}}});
+  settings.push_back({"flc ki 100", "flc", {{"ki_per_s", 100.0}}});
+  std::printf("## Controllers at hand-set gains (xy_table, seed 1)\n\n");
+  std::printf("Contour error from the simulated true position; 1 BLU = 1 encoder count = %.3f mm. Hand-set gains: the\n"
+              "factory's defaults (the machine file's Kp; no feed-forward) and two integral settings.\n\n", kBluMm);
   std::printf("| controller | circle R20 0.96 m/min max um | rms um | max BLU | line 26.6 deg 1.2 m/min max um | rms um |\n");
   std::printf("|---|---|---|---|---|---|\n");
   const Evaluator circle = make({kCircle}), line = make({kLine});
   std::map<std::string, Evaluation> ec, el;
-  for (const std::string& k : kinds) {
-    ec[k] = circle.evaluate(k, {});
-    el[k] = line.evaluate(k, {});
-    std::printf("| %s | %.2f | %.2f | %.1f | %.2f | %.2f |\n", k.c_str(), 1e3 * ec[k].max_mm, 1e3 * ec[k].rms_mm,
-                ec[k].max_mm / kBluMm, 1e3 * el[k].max_mm, 1e3 * el[k].rms_mm);
+  for (const Setting& st : settings) {
+    ec[st.label] = circle.evaluate(st.kind, st.gains);
+    el[st.label] = line.evaluate(st.kind, st.gains);
+    const Evaluation &c = ec[st.label], &l = el[st.label];
+    std::printf("| %s | %.2f | %.2f | %.1f | %.2f | %.2f |\n", st.label.c_str(), 1e3 * c.max_mm, 1e3 * c.rms_mm,
+                c.max_mm / kBluMm, 1e3 * l.max_mm, 1e3 * l.rms_mm);
   }
   auto has = [&](const char* k) { return ec.count(k) > 0; };
-  std::printf("\n| Koren's result | Koren | ours |\n|---|---|---|\n");
-  if (has("flc") && has("pid"))
-    std::printf("| FLC vs PID, circle: RMS ratio | 3.5 | %.2f |\n| FLC vs PID, circle: max (BLU) | 18 : 10 | %.1f : %.1f |\n",
-                ratio(ec["pid"].rms_mm, ec["flc"].rms_mm), ec["pid"].max_mm / kBluMm, ec["flc"].max_mm / kBluMm);
-  else
-    std::printf("| FLC vs PID | 3.5x RMS, 18 : 10 max | flc not built on this branch |\n");
-  if (has("ccc")) {
+  std::printf("\n| Koren's result | Koren | ours (hand-set gains above) |\n|---|---|---|\n");
+  for (const char* flc : {"flc", "flc ki 100"})
+    if (has(flc) && has("pid"))
+      std::printf("| %s vs PID, circle: RMS ratio; max (BLU) | 3.5; 18 : 10 | %.2f; %.1f : %.1f |\n", flc,
+                  ratio(ec["pid"].rms_mm, ec[flc].rms_mm), ec["pid"].max_mm / kBluMm, ec[flc].max_mm / kBluMm);
+  for (const char* ccc : {"ccc", "ccc Wi 10000"})
     for (const char* axial : {"p", "pid"})
-      if (has(axial))
-        std::printf("| CCC vs axial %s: line max / circle max | 5 : 1 | %.2f : 1 / %.2f : 1 |\n", axial,
-                    ratio(el[axial].max_mm, el["ccc"].max_mm), ratio(ec[axial].max_mm, ec["ccc"].max_mm));
-  } else {
-    std::printf("| CCC vs axial | 5 : 1 | ccc not built on this branch |\n");
-  }
+      if (has(ccc) && has(axial))
+        std::printf("| %s vs axial %s: line max; line RMS; circle max; circle RMS | 5 : 1 | %.2f; %.2f; %.2f; %.2f |\n", ccc,
+                    axial, ratio(el[axial].max_mm, el[ccc].max_mm), ratio(el[axial].rms_mm, el[ccc].rms_mm),
+                    ratio(ec[axial].max_mm, ec[ccc].max_mm), ratio(ec[axial].rms_mm, ec[ccc].rms_mm));
   if (has("zpetc")) {
     int rank_line = 1, rank_circle = 1;
-    for (const auto& k : kinds) {
+    for (const std::string& k : kinds) {
       if (el[k].max_mm > el["zpetc"].max_mm) ++rank_line;
       if (ec[k].max_mm > ec["zpetc"].max_mm) ++rank_circle;
     }
-    std::printf("| ZPETC: good on the circle, worst on the line | worst on the line | rank by max error (1 = worst) of %zu: "
-                "line %d, circle %d |\n",
+    std::printf("| ZPETC: good on the circle, worst on the line | worst on the line | rank by max error among the %zu kinds "
+                "at defaults (1 = worst): line %d, circle %d |\n",
                 kinds.size(), rank_line, rank_circle);
-  } else {
-    std::printf("| ZPETC | good on circle, worst on line | zpetc not built on this branch |\n");
   }
 
   // Adaptive control constraint.
@@ -139,8 +149,22 @@ void report() {
                 ratio(r.baseline.max_mm, r.tuned.max_mm), 1e3 * pc.max_mm, 1e3 * oc.max_mm, ratio(pc.max_mm, oc.max_mm),
                 r.status.c_str(), 100 * r.tuned.overshoot, 100 * r.tuned.margin_residual);
     std::string gains;
-    for (const auto& [n, v] : r.gains) gains += (gains.empty() ? "" : ", ") + n + " = " + std::to_string(v);
+    for (const auto& [n, v] : r.gains) gains += (gains.empty() ? "" : ", ") + n + " = " + fmt::format("{:.4g}", v);
     std::printf("|  | gains: %s |  |  |  |  |  |\n", gains.c_str());
+  }
+  // CCC tuned on the circle and the canonical 90 degree corner together, checked on the program.
+  {
+    const Evaluator both = make({kCircle, "corner:90:960"});
+    tuning::TuneOptions o;
+    o.kind = "ccc";
+    const tuning::TuneResult r = tuning::tune(both, o);
+    const Evaluation oc = check.evaluate("ccc", r.gains), cc = circle.evaluate("ccc", r.gains);
+    std::printf("\nCCC tuned on the circle and a canonical 90 deg corner (corner:90:960) together (%d evaluations, %.1f s, %s):\n"
+                "circle max %.2f um (%.2fx the P's), corner max %.2f um; on tune_corners.ngc (not tuned on): max %.2f um "
+                "(%.2fx the P's), RMS %.2f um (P: %.2f um, %.2fx).\n",
+                r.optimizer.evaluations, r.optimizer.time_s, r.status.c_str(), 1e3 * cc.max_mm,
+                ratio(ec["p"].max_mm, cc.max_mm), 1e3 * r.tuned.contours[1].max_mm, 1e3 * oc.max_mm,
+                ratio(pc.max_mm, oc.max_mm), 1e3 * oc.rms_mm, 1e3 * pc.rms_mm, ratio(pc.rms_mm, oc.rms_mm));
   }
   std::fflush(stdout);
 }

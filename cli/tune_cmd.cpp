@@ -150,7 +150,8 @@ void add_tune(CLI::App& app) {
   cmd->add_option("--machine", a->machine, "xy_table, thermal_gantry, or a machine YAML file");
   cmd->add_option("--controller", a->controller, "p, pid, pid-ff, zpetc, ccc, flc");
   cmd->add_option("--contour", a->contours,
-                  "test contour: line:ANGLE_DEG:FEED_MM_MIN, circle:RADIUS_MM:FEED_MM_MIN or program:FILE.ngc; may be "
+                  "test contour: line:ANGLE_DEG:FEED_MM_MIN, circle:RADIUS_MM:FEED_MM_MIN, corner:TURN_DEG:FEED_MM_MIN or "
+                  "program:FILE.ngc; may be "
                   "repeated");
   cmd->add_option("--gain", a->gains, "start value of a gain, NAME=VALUE, instead of its default; may be repeated");
   cmd->add_option("--objective", a->objective, "contour error to minimise: max (default), rms or itae");

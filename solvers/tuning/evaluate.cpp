@@ -136,21 +136,26 @@ TestContour parse_contour(const std::string& spec) {
     c.path = rest;
     return c;
   }
-  if (kind != "line" && kind != "circle")
+  if (kind != "line" && kind != "circle" && kind != "corner")
     throw InputError("--contour", 0,
-                     fmt::format("'{}': unknown contour kind '{}' (line:ANGLE_DEG:FEED_MM_MIN, circle:RADIUS_MM:FEED_MM_MIN "
-                                 "or program:FILE.ngc)",
+                     fmt::format("'{}': unknown contour kind '{}' (line:ANGLE_DEG:FEED_MM_MIN, circle:RADIUS_MM:FEED_MM_MIN, "
+                                 "corner:TURN_DEG:FEED_MM_MIN or program:FILE.ngc)",
                                  spec, kind));
   const auto colon2 = rest.find(':');
   if (colon == std::string::npos || colon2 == std::string::npos)
     throw InputError("--contour", 0, fmt::format("'{}': expected {}:{}:FEED_MM_MIN", spec, kind,
-                                                 kind == "line" ? "ANGLE_DEG" : "RADIUS_MM"));
-  const double a = parse_number(rest.substr(0, colon2), spec, kind == "line" ? "the angle" : "the radius");
+                                                 kind == "circle" ? "RADIUS_MM" : kind == "line" ? "ANGLE_DEG" : "TURN_DEG"));
+  const double a = parse_number(rest.substr(0, colon2), spec, kind == "circle" ? "the radius" : "the angle");
   const double f = parse_number(rest.substr(colon2 + 1), spec, "the feed");
   if (!(f > 0 && f <= 600000))
     throw InputError("--contour", 0, fmt::format("'{}': feed {} mm/min is out of range (0, 600000]", spec, f));
   c.feed_mm_per_min = f;
-  if (kind == "line") {
+  if (kind == "corner") {
+    if (!(a > -180 && a < 180 && std::abs(a) >= 1))
+      throw InputError("--contour", 0, fmt::format("'{}': turn {} deg is out of range (-180, 180), at least 1 deg", spec, a));
+    c.kind = TestContour::Kind::corner;
+    c.angle_deg = a;
+  } else if (kind == "line") {
     if (!(a >= -360 && a <= 360))
       throw InputError("--contour", 0, fmt::format("'{}': angle {} deg is out of range [-360, 360]", spec, a));
     c.kind = TestContour::Kind::line;
@@ -254,6 +259,13 @@ Evaluator::Evaluator(const EvaluationOptions& options, const std::vector<TestCon
       const Eigen::Vector2d d(std::cos(th), std::sin(th));
       const Eigen::Vector2d a = centre - d * c.length_mm / 2, b = centre + d * c.length_mm / 2;
       p->job = one_move_job(c.spec, a, feed_stretch({make_segment(a, b, 0.0)}, c.feed_mm_per_min / 60.0));
+    } else if (c.kind == TestContour::Kind::corner) {
+      // Along +X into the corner at the centre, then off at the turn angle: one stretch, so
+      // the planner blends (and slows for) the corner as it does in a program.
+      const double th = c.angle_deg * M_PI / 180.0, half = c.length_mm / 2;
+      const Eigen::Vector2d a = centre - Eigen::Vector2d(half, 0), b = centre + half * Eigen::Vector2d(std::cos(th), std::sin(th));
+      p->job = one_move_job(c.spec, a, feed_stretch({make_segment(a, centre, 0.0), make_segment(centre, b, 0.0)},
+                                                    c.feed_mm_per_min / 60.0));
     } else if (c.kind == TestContour::Kind::circle) {
       // Counter-clockwise from the point at angle 0, two half circles (bulge 1).
       const Eigen::Vector2d a = centre + Eigen::Vector2d(c.radius_mm, 0), b = centre - Eigen::Vector2d(c.radius_mm, 0);

@@ -48,13 +48,14 @@
 namespace machplan::tuning {
 
 // One test contour of the command line: line:ANGLE_DEG:FEED_MM_MIN, circle:RADIUS_MM:FEED_MM_MIN,
-// program:FILE.ngc.
+// corner:TURN_DEG:FEED_MM_MIN (two 25 mm lines, the second turned by TURN_DEG from the first:
+// the canonical sharp corner), program:FILE.ngc.
 struct TestContour {
-  enum class Kind { line, circle, program };
+  enum class Kind { line, circle, corner, program };
   Kind kind = Kind::circle;
-  double angle_deg = 0.0;
+  double angle_deg = 0.0;         // line: direction; corner: turn
   double radius_mm = 20.0;
-  double length_mm = 50.0;        // line
+  double length_mm = 50.0;        // line; corner: both legs together
   double feed_mm_per_min = 960.0;
   std::string path;               // program
   std::string spec;               // as written

@@ -107,6 +107,37 @@ TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
   EXPECT_TRUE(j["tuned"]["rms_contour_error_mm"].is_number());
 }
 
+TEST(Tuning, CrossCoupledWithFeedForwardBeatsTheAxialPOnTheCircle) {
+  // 30 evaluations (the bench runs 600): already well below the hand-tuned axial P.
+  const Evaluator ev = circle_on("xy_table");
+  TuneOptions o;
+  o.kind = "ccc";
+  o.optimizer.max_evaluations = 30;
+  const TuneResult r = tune(ev, o);
+  ASSERT_EQ(r.status, "ok") << r.report();
+  EXPECT_LT(r.tuned.max_mm, r.baseline.max_mm / 1.5) << r.report();
+  EXPECT_LT(r.tuned.rms_mm, r.baseline.rms_mm / 3.0) << r.report();
+  // The feed-forward stays in its physical range (velocity_ff <= 1.25 / g, g = 1 here).
+  EXPECT_LE(r.gains.at("velocity_ff"), 1.25 + 1e-9);
+}
+
+TEST(TuningContour, CornerIsTwoLegsThroughTheCentre) {
+  EvaluationOptions o;
+  o.machine = "xy_table";
+  o.constraints = false;
+  const Evaluator ev(o, {parse_contour("corner:90:960")});
+  const motion::Job& j = ev.job(0);
+  ASSERT_EQ(j.stretches.size(), 1u);
+  ASSERT_EQ(j.stretches[0].segments.size(), 2u);
+  const Segment& a = j.stretches[0].segments[0];
+  const Segment& b = j.stretches[0].segments[1];
+  EXPECT_NEAR((a.end - a.start).norm(), 25.0, 1e-9);
+  EXPECT_NEAR((b.end - b.start).dot(a.end - a.start), 0.0, 1e-9);
+  EXPECT_GT(ev.evaluate("p", {}).max_mm, 0.0);
+  EXPECT_THROW(parse_contour("corner:0:960"), InputError);
+  EXPECT_THROW(parse_contour("corner:180:960"), InputError);
+}
+
 TEST(TuningStoreTest, SavesActivatesAndRefusesFailedTunings) {
   test::TempDir dir;
   const std::string db = (dir.path() / "store.db").string();
