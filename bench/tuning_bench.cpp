@@ -190,7 +190,9 @@ void BM_TuneCircle(benchmark::State& state, const char* kind) {
 
 BENCHMARK_CAPTURE(BM_EvaluateCircle, p_contour_only, "p", false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_EvaluateCircle, p_with_step_tests, "p", true)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_EvaluateCircle, ccc_with_step_tests, "ccc", true)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_TuneCircle, p, "p")->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK_CAPTURE(BM_TuneCircle, ccc, "ccc")->Unit(benchmark::kSecond)->Iterations(1);
 
 int main(int argc, char** argv) {
   bool report_only = false, bench_only = false;
