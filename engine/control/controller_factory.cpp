@@ -41,6 +41,8 @@ std::vector<GainSpec> p_specs(const ControllerPlant& pl, int i) {
       spec("kp_per_s", pl.servo[i].kp_per_s, 1, 3000, true, "proportional gain, mm/s per mm"),
       spec("velocity_ff", 0.0, 0, 2, false, "velocity feed-forward gain (1/g cancels the drive gain)"),
       spec("acceleration_ff_s", 0.0, 0, 0.1, false, "acceleration feed-forward time (the drive's tau)"),
+      spec("friction_ff_mm_per_s", 0.0, 0, 20, false, "Coulomb friction feed-forward, mm/s along the reference"),
+      spec("friction_ff_band_mm_per_s", 0.5, 0.01, 10, true, "reference speed over which the friction feed-forward ramps in"),
   };
 }
 
@@ -59,6 +61,8 @@ PidGains pid_gains(const Gains& g, const ControllerPlant& pl, int i) {
   p.kd = g.count("kd") ? g.at("kd") : 0.0;
   p.velocity_ff = g.at("velocity_ff");
   p.acceleration_ff_s = g.at("acceleration_ff_s");
+  p.friction_ff_mm_per_s = g.at("friction_ff_mm_per_s");
+  p.friction_ff_band_mm_per_s = g.at("friction_ff_band_mm_per_s");
   p.following_error_limit_mm = pl.servo[i].following_error_limit_mm;
   return p;
 }

@@ -20,6 +20,10 @@ void PidGains::validate() const {
   require(nonneg(velocity_ff) && velocity_ff <= 3, "velocity_ff", velocity_ff, "must be in [0, 3]");
   require(nonneg(acceleration_ff_s) && acceleration_ff_s <= 1, "acceleration_ff_s", acceleration_ff_s,
           "must be in [0, 1] s");
+  require(nonneg(friction_ff_mm_per_s) && friction_ff_mm_per_s <= 100, "friction_ff_mm_per_s", friction_ff_mm_per_s,
+          "must be in [0, 100] mm/s");
+  require(std::isfinite(friction_ff_band_mm_per_s) && friction_ff_band_mm_per_s > 0, "friction_ff_band_mm_per_s",
+          friction_ff_band_mm_per_s, "must be > 0");
   require(nonneg(tracking_time_s), "tracking_time_s", tracking_time_s, "must be finite and >= 0 (0: Kp / Ki)");
   require(std::isfinite(derivative_filter_s) && derivative_filter_s > 0, "derivative_filter_s", derivative_filter_s,
           "must be > 0");

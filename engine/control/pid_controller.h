@@ -6,7 +6,7 @@
 //
 //     e[k]   = r[k] - y[k]                                           following error, mm
 //     D[k]   = (Tf D[k-1] + Kd (e[k] - e[k-1])) / (Tf + T)          filtered derivative term
-//     v[k]   = Kvff v_r[k] + Ta a_r[k]                               feed-forward, mm/s
+//     v[k]   = Kvff v_r[k] + Ta a_r[k] + Fc sat(v_r[k] / v_b)        feed-forward, mm/s
 //            + Kp e[k] + I[k] + D[k]                                 feedback, mm/s
 //     u[k]   = clamp(v[k], -u_max, +u_max)                           the command
 //     I[k+1] = I[k] + T (Ki e[k] + (u[k] - v[k]) / Tt)               back-calculation
@@ -24,6 +24,11 @@
 // drive's gain). Kvff = 1/g and Ta = the drive's velocity-loop time constant make a
 // first-order drive follow the setpoint exactly (velocity and acceleration feed-forward); the
 // factory exposes them as options of "p" and "pid" rather than as another controller.
+// Fc is Coulomb friction feed-forward: the speed the drive loses to Coulomb friction (what
+// calibration or the tuner finds), added in the direction of the reference velocity; sat() is
+// a ramp over the band v_b (`friction_ff_band_mm_per_s`) so that it does not chatter at rest
+// or at a reversal. It pre-empts the error that friction would otherwise cause at every
+// reversal, which the feedback only answers once the error is there.
 //
 // Real time: update() is O(1) per axis, allocates nothing and never throws.
 #pragma once
@@ -41,6 +46,8 @@ struct PidGains {
   double kd = 0.0;                   // Kd: mm/s per mm/s of error rate
   double velocity_ff = 0.0;          // Kvff, dimensionless
   double acceleration_ff_s = 0.0;    // Ta, s
+  double friction_ff_mm_per_s = 0.0;       // Fc, mm/s
+  double friction_ff_band_mm_per_s = 0.5;  // v_b, mm/s (> 0)
   double tracking_time_s = 0.0;      // Tt of the back-calculation; 0: Ti = Kp / Ki
   double derivative_filter_s = 0.001;  // Tf, s (> 0)
   double following_error_limit_mm = 2.0;
@@ -66,8 +73,9 @@ class AxialPid {
     first_ = false;
     e_prev_ = e;
     last_error_ = e;
-    const double v = g_.velocity_ff * v_r + g_.acceleration_ff_s * a_r + g_.kp_per_s * e + integral_ + derivative_ +
-                     extra_mm_per_s;
+    const double friction = g_.friction_ff_mm_per_s * std::clamp(v_r / g_.friction_ff_band_mm_per_s, -1.0, 1.0);
+    const double v = g_.velocity_ff * v_r + g_.acceleration_ff_s * a_r + friction + g_.kp_per_s * e + integral_ +
+                     derivative_ + extra_mm_per_s;
     const double u = std::clamp(v, -u_max_, u_max_);
     saturated_ = u != v;
     if (g_.ki_per_s2 > 0)

@@ -112,6 +112,14 @@ TEST(ControllerFactory, RefusesUnknownKindsGainsAndValuesOutsideTheBox) {
             std::string::npos);
 }
 
+TEST(ControllerFactory, ZpetcNeedsTheDriveTimeConstant) {
+  ControllerPlant p = plant();
+  p.drive_time_constant_s = {0, 0};  // what plant_from_setup leaves: unknown
+  EXPECT_NE(input_error_where([&] { make_controller("zpetc", {}, p); }).find("set model_time_constant_s"),
+            std::string::npos);
+  EXPECT_NO_THROW(make_controller("zpetc", {{"model_time_constant_s", 0.004}}, p));
+}
+
 TEST(ControllerFactory, ParsesGainFlags) {
   Gains g;
   parse_gain("kp_per_s=120", g);

@@ -22,6 +22,18 @@ TEST(AxialPid, ProportionalAndFeedForwardTerms) {
   EXPECT_DOUBLE_EQ(a.integral_mm_per_s(), 0.0);  // Ki = 0: no integral at all
 }
 
+TEST(AxialPid, FrictionFeedForwardFollowsTheReferenceDirectionWithARamp) {
+  PidGains g;
+  g.kp_per_s = 0;
+  g.friction_ff_mm_per_s = 2;
+  g.friction_ff_band_mm_per_s = 0.5;
+  AxialPid a;
+  a.configure(g, 500, T);
+  EXPECT_NEAR(a.update(0, 10, 0, 0), 2.0, 1e-12);
+  EXPECT_NEAR(a.update(0, -0.25, 0, 0), -1.0, 1e-12);  // half way into the band
+  EXPECT_EQ(a.update(0, 0, 0, 0), 0.0);                // at rest: nothing
+}
+
 TEST(AxialPid, IntegralAccumulatesTKiE) {
   PidGains g;
   g.kp_per_s = 10;

@@ -1,0 +1,70 @@
+// The real-time half of the controller contract: update() of every kind the factory builds
+// allocates nothing, with the path and the preview given and without them.
+#include <cmath>
+#include <cstdlib>
+#include <new>
+
+#include <gtest/gtest.h>
+
+#include "engine/control/controller_factory.h"
+
+// Allocation counting: every operator new of this program goes through here; only calls made
+// while `g_counting` is set are counted.
+namespace {
+thread_local bool g_counting = false;
+thread_local long g_allocations = 0;
+void* counted(std::size_t n) {
+  if (g_counting) ++g_allocations;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+}  // namespace
+void* operator new(std::size_t n) { return counted(n); }
+void* operator new[](std::size_t n) { return counted(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace machplan::control {
+namespace {
+
+TEST(ControllerRealtime, UpdateAllocatesNothing) {
+  ControllerPlant plant;
+  for (int i = 0; i < kAxes; ++i) {
+    plant.output_limit_mm_per_s[i] = 1200;
+    plant.drive_time_constant_s[i] = 0.004;
+    plant.command_latency_ticks[i] = plant.reading_latency_ticks[i] = 1;
+  }
+  const Segment arc = make_segment({20, 0}, {-20, 0}, 1.0);
+  for (const std::string& kind : controller_kinds()) {
+    auto c = make_controller(kind, {}, plant);
+    ControllerOutput out;
+    for (bool with_path : {true, false}) {
+      c->reset();
+      g_allocations = 0;
+      for (int k = 0; k < 2000; ++k) {
+        const double t = k * 0.001, w = 0.8;
+        ControllerInput in;
+        in.r_mm = {20 * std::cos(w * t), 20 * std::sin(w * t)};
+        in.v_ff_mm_per_s = {-16 * std::sin(w * t), 16 * std::cos(w * t)};
+        in.a_ff_mm_per_s2 = {-12.8 * std::cos(w * t), -12.8 * std::sin(w * t)};
+        in.y_mm = {in.r_mm[0] * 1.0001, in.r_mm[1] * 0.9999};
+        if (with_path) {
+          in.path = &arc;
+          in.preview_ticks = ControllerInput::kMaxPreviewTicks;
+          for (int j = 0; j < in.preview_ticks; ++j)
+            in.r_preview_mm[j] = {20 * std::cos(w * (t + (j + 1) * 0.001)), 20 * std::sin(w * (t + (j + 1) * 0.001))};
+        }
+        g_counting = true;
+        c->update(in, out);
+        g_counting = false;
+        ASSERT_TRUE(std::isfinite(out.u_mm_per_s[0]) && std::isfinite(out.u_mm_per_s[1])) << kind;
+      }
+      EXPECT_EQ(g_allocations, 0) << kind << (with_path ? " with path" : " without path");
+    }
+  }
+}
+
+}  // namespace
+}  // namespace machplan::control
