@@ -78,9 +78,12 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
       g = std::min(g, pl.gain_factor[i] > 0 ? pl.gain_factor[i] : 1.0);
       lag = std::max(lag, pl.drive_time_constant_s[i] + (pl.command_latency_ticks[i] + pl.reading_latency_ticks[i]) * pl.period_s);
     }
+    double coulomb = 0.0;  // the machine file's Coulomb friction, as speed, mm/s
+    for (const auto& a : ev.machine().axes) coulomb = std::max(coulomb, a.plant.coulomb_friction_mm_per_s);
     for (auto& s : r.specs) {
       double cap = s.max_value;
       if (s.name == "velocity_ff") cap = o.ff_margin / g;
+      if (s.name == "friction_ff_mm_per_s") cap = o.ff_margin * coulomb;
       if (s.name == "acceleration_ff_s" && lag > 0) cap = o.ff_margin * lag;
       s.max_value = std::max(s.min_value, std::min(s.max_value, std::max(cap, s.default_value)));
     }

@@ -40,9 +40,10 @@ struct TuneOptions {
   OptimizerOptions optimizer;
   std::string baseline_kind = "p";   // hand-tuned axial P
   // Physical bounds on the feed-forward gains, narrower than the factory's boxes: velocity_ff
-  // at most ff_margin / g (g: the drive's gain; 1/g cancels it exactly) and acceleration_ff_s
+  // at most ff_margin / g (g: the drive's gain; 1/g cancels it exactly), acceleration_ff_s
   // at most ff_margin x (tau + latency periods x T) (what a first-order drive behind its
-  // latency needs). Beyond them a feed-forward stops modelling the drive and starts fitting
+  // latency needs) and friction_ff_mm_per_s at most ff_margin x the machine file's Coulomb
+  // friction (what a calibration measures as the dead band). Beyond them a feed-forward stops modelling the drive and starts fitting
   // the test contour's friction: it then leads the setpoint, and cuts the corners of any
   // contour it was not tuned on. false searches the factory's whole boxes.
   bool physical_feed_forward = true;
