@@ -9,8 +9,9 @@
 //       v_ff   setpoint velocity and acceleration at the instant the command will act
 //       a_ff   (command latency + one period ahead): the feed-forward terms
 //       y      measured position, y_dot measured velocity (decoded, filtered by the adapter)
-//       path   the path being followed near the setpoint, for contour controllers (a line or
-//              arc segment; null while holding a point)
+//       path   the programmed segment the tool is on, for contour controllers (a line or arc;
+//              the planned source gives the one nearest the measured position; null while
+//              holding a point or when the source does not know the path)
 //       r_preview  the setpoint 1 .. preview_ticks periods after r (same axes, same instant
 //              convention), for controllers that act ahead of the path (ZPETC); preview_ticks
 //              is 0 when the source cannot look ahead

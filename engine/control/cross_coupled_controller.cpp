@@ -38,7 +38,8 @@ ContourEstimate estimate_contour_error(const ControllerInput& in) noexcept {
       if (len > 1e-9) {
         cos_t = dx / len;
         sin_t = dy / len;
-        est.eps_mm = -ex * sin_t + ey * cos_t;  // signed distance from y to the line through r
+        // Signed distance from y to the segment's line (the line through r when r is on it).
+        est.eps_mm = (in.y_mm[0] - s.start.x()) * sin_t - (in.y_mm[1] - s.start.y()) * cos_t;
         have_geometry = true;
       }
     } else {
@@ -50,7 +51,7 @@ ContourEstimate estimate_contour_error(const ControllerInput& in) noexcept {
         sin_t = turn * rx / rho;
         kappa = std::min(1.0 / rho, kMaxCurvaturePerMm) * turn;
         const double dist = std::hypot(in.y_mm[0] - s.center.x(), in.y_mm[1] - s.center.y());
-        est.eps_mm = turn * (dist - rho);  // the radius error, outward positive when turning left
+        est.eps_mm = turn * (dist - s.radius);  // the radius error, outward positive when turning left
         have_geometry = true;
       }
     }

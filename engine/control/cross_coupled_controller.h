@@ -15,14 +15,16 @@
 // radius error |y - c| - rho to second order in E. The controller estimates eps in real time
 // from the path and uses the model's Cx, Cy to distribute the correction:
 //
-//     line  (ControllerInput::path a line): eps = distance from y to the line through r along
-//           the segment's direction; theta = the segment's direction, kappa = 0;
-//     arc   (path an arc of centre c): eps = +-(|y - c| - |r - c|) (+ turning left), the radius
-//           error; theta = the tangent at r, kappa = +-1/rho;
+//     line  (ControllerInput::path a line): eps = signed distance from y to the segment's line;
+//           theta = the segment's direction, kappa = 0;
+//     arc   (path an arc of centre c, radius rho): eps = +-(|y - c| - rho) (+ turning left),
+//           the radius error; theta = the tangent at r's angle about c, kappa = +-1/rho;
 //     none  (no path given): theta and kappa of the reference's own motion,
 //           theta = atan2(v_y, v_x), kappa = (v x a) / |v|^3 from the feed-forward velocity
 //           and acceleration, and eps = eps_model; at rest (|v| < 1e-6 mm/s) there is no
-//           contour loop. The bundled planned source gives the path; other sources need not.
+//           contour loop. The bundled planned source gives the path (the segment the tool is
+//           on: at a corner the error is measured against the piece being cut, not the one the
+//           setpoint has reached); other sources need not.
 //
 // Control law, per servo period T (W a PID on eps, the axial loops AxialPid of
 // pid_controller.h, normally P with optional feed-forward):

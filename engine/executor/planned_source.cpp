@@ -42,7 +42,8 @@ void PlannedSource::prepare(const SourceContext& ctx, const Eigen::Vector2d& sta
   t_ = 0.0;
 }
 
-void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d&) noexcept {
+void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d& measured_mm) noexcept {
+  measured_mm_ = measured_mm;
   step_ = step;
   cur_ = (*ctx_.trajectories)[step].get();
   stretch_ = &ctx_.job->stretches[ctx_.job->steps[step].stretch];
@@ -50,7 +51,10 @@ void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d&) noexcep
   t_ = 0.0;
 }
 
-void PlannedSource::advance(const Eigen::Vector2d&, const hardware::OperatorInputs&) noexcept { t_ += ctx_.period_s; }
+void PlannedSource::advance(const Eigen::Vector2d& measured_mm, const hardware::OperatorInputs&) noexcept {
+  t_ += ctx_.period_s;
+  measured_mm_ = measured_mm;
+}
 
 bool PlannedSource::move_done() const noexcept { return !cur_ || t_ >= cur_->duration_s(); }
 
@@ -89,15 +93,15 @@ void PlannedSource::demand(Demand& d) const noexcept {
     }
   d.track.preview_ticks = control::ControllerInput::kMaxPreviewTicks;
 
-  // The segment r is on: move the cursor on while the next segment is strictly nearer (a few
-  // per period at most: the setpoint moves far less than a segment per period, except over
-  // runs of tiny segments, which the bound lets it catch up with over a few periods). Strictly:
-  // on a closed contour the last segment ends where the first starts, and at a joint the
-  // cursor waits until r has left the segment it is on.
+  // The segment the tool is on: move the cursor on while the next segment is strictly nearer
+  // the measured position (a few per period at most: the tool moves far less than a segment
+  // per period, except over runs of tiny segments, which the bound lets it catch up with over
+  // a few periods). Strictly: on a closed contour the last segment ends where the first
+  // starts, and at a joint the cursor waits until the tool has left the segment it is on.
   const std::vector<Segment>& segs = stretch_->segments;
   if (segs.empty()) return;
-  const Eigen::Vector2d r(d.track.r_mm[0], d.track.r_mm[1]);
-  const auto dist = [&](std::size_t k) { return (closest_point(segs[k], r) - r).squaredNorm(); };
+  const Eigen::Vector2d y = measured_mm_;
+  const auto dist = [&](std::size_t k) { return (closest_point(segs[k], y) - y).squaredNorm(); };
   for (int n = 0; n < 8 && segment_ + 1 < segs.size() && dist(segment_ + 1) < dist(segment_); ++n) ++segment_;
   d.track.path = &segs[segment_];
 }

@@ -7,9 +7,11 @@
 // rest-to-rest trajectory (clamped at its ends), so they are exact across step boundaries
 // too: between moves the source keeps sampling the last trajectory, which holds its end.
 //
-// For the controllers it also gives the programmed segment the position setpoint is on (the
-// nearest of the move's stretch, found by a cursor that only moves forward, a bounded number
-// of segments per period) and ControllerInput::kMaxPreviewTicks setpoints ahead of it.
+// For the controllers it also gives the programmed segment the TOOL is on (the one nearest the
+// measured position, found by a cursor that only moves forward, a bounded number of segments
+// per period: at a corner the lagging tool keeps its segment until it has turned, so a contour
+// controller measures its error against the piece it is cutting, not the one the setpoint has
+// reached) and ControllerInput::kMaxPreviewTicks setpoints ahead of r.
 #pragma once
 
 #include "engine/executor/setpoint_source.h"
@@ -32,7 +34,8 @@ class PlannedSource final : public SetpointSource {
   Eigen::Vector2d hold_mm_ = Eigen::Vector2d::Zero();
   const motion::Trajectory* cur_ = nullptr;  // the move being (or last) executed
   const motion::Stretch* stretch_ = nullptr;  // its programmed geometry
-  mutable std::size_t segment_ = 0;           // cursor: the segment the setpoint is on
+  mutable std::size_t segment_ = 0;           // cursor: the segment the tool is on
+  Eigen::Vector2d measured_mm_ = Eigen::Vector2d::Zero();  // as given to advance()
   std::size_t step_ = 0;
   double t_ = 0.0;                             // time since the move began, s
   double estimate_s_ = 0.0;

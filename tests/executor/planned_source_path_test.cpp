@@ -40,6 +40,7 @@ TEST(PlannedSourcePath, FollowsTheSegmentsOfAClosedContourInOrder) {
   s.begin_move(1, a);
   std::size_t last = 0;
   std::array<int, 3> ticks_on{};
+  Eigen::Vector2d tool = a;  // a tool that follows the setpoint exactly
   while (!s.move_done()) {
     s.demand(d);
     ASSERT_NE(d.track.path, nullptr);
@@ -49,10 +50,38 @@ TEST(PlannedSourcePath, FollowsTheSegmentsOfAClosedContourInOrder) {
     last = k;
     ++ticks_on[k];
     const Eigen::Vector2d r(d.track.r_mm[0], d.track.r_mm[1]);
-    ASSERT_LT((closest_point(segs[k], r) - r).norm(), 1e-9);  // r lies on the segment given
-    s.advance(a, {});
+    // r lies on the segment given (to within the one period the tool trails it by, at a
+    // corner the legs reach at rest)
+    ASSERT_LT((closest_point(segs[k], r) - r).norm(), 1e-6);
+    tool = r;
+    s.advance(tool, {});
   }
   for (int n : ticks_on) EXPECT_GT(n, 500);
+}
+
+// The segment given is the TOOL's: a tool lagging behind a corner keeps the leg it is on.
+TEST(PlannedSourcePath, ALaggingToolKeepsItsSegmentAtACorner) {
+  const Eigen::Vector2d a(0, 0), b(60, 0), c(60, 40);
+  auto chain = std::make_unique<test::ChainTrajectory>();
+  chain->add(std::make_unique<test::LineTrajectory>(a, b, 50, 500));
+  chain->add(std::make_unique<test::LineTrajectory>(b, c, 50, 500));
+  test::OneCut cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b, c}, false), 50, true), std::move(chain));
+  const std::vector<Segment>& segs = cut.job.stretches[0].segments;
+  const MachineSetup m = machine(1);
+  PlannedSource s;
+  s.prepare({&cut.job, &cut.trajectories, &m, 0.001}, a);
+  s.begin_move(1, a);
+  Demand d;
+  const Eigen::Vector2d lagging(59.0, 0.0);  // 1 mm before the corner
+  while (!s.move_done()) {
+    s.advance(lagging, {});
+    s.demand(d);
+  }
+  EXPECT_GT(d.track.r_mm[1], 39.0);  // the setpoint is at the end of the second leg
+  EXPECT_EQ(d.track.path, &segs[0]);  // the tool is still on the first
+  s.advance(Eigen::Vector2d(60.0, 2.0), {});  // it turns
+  s.demand(d);
+  EXPECT_EQ(d.track.path, &segs[1]);
 }
 
 TEST(PlannedSourcePath, PreviewIsTheTrajectoryOneToEightPeriodsAfterR) {
