@@ -6,7 +6,7 @@
 // between lo and hi for a log-scale parameter (gains spanning decades).
 //
 // Stage 1, global: DIRECT-L (Gablonsky's locally biased DIRECT) by default. Why DIRECT: the
-// problems here have 1 to 6 gains, a simulated objective that is deterministic but not smooth
+// problems here have 1 to 8 gains, a simulated objective that is deterministic but not smooth
 // (quantised encoders, friction sticking, saturation), and a budget of a few hundred to a few
 // thousand evaluations. DIRECT divides the box systematically, needs no gradient, no
 // population and no random seed, and in such low dimension covers the box far better per
