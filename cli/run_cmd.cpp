@@ -21,6 +21,7 @@
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
 #include "solvers/motion/run_plot.h"
+#include "solvers/tuning/store.h"
 
 namespace machplan::cli {
 namespace {
@@ -108,7 +109,9 @@ void add_run(CLI::App& app) {
                   "the machine's active calibration (machplan calibrate apply); planned mode: 'active' starts the "
                   "feed-forward at the stored feed factor, compensates the stored backlash and decodes the encoders "
                   "with the stored scale");
-  cmd->add_option("--db", a->db, "calibration store for --calibration active (default $XDG_DATA_HOME/machplan/calibration.db)");
+  cmd->add_option("--db", a->db,
+                  "calibration store for --calibration active and --controller tuned (default "
+                  "$XDG_DATA_HOME/machplan/calibration.db)");
   cmd->add_option("--kerf", a->kerf, "kerf width, mm: closed cuts are offset by half of it (default 0: as programmed)");
   cmd->add_option("--feed", a->feed, "run every feed move at this speed, mm/s, instead of its F (the paper: 4)");
   cmd->add_option("--no-go", a->no_go, "YAML file of no-go zones (clamps) the rapids must avoid");
@@ -120,7 +123,8 @@ void add_run(CLI::App& app) {
                   "X,Y: where the program's zero sits on the machine, mm (default: the machine file's origin_mm, "
                   "else 0,0)");
   cmd->add_option("--controller", a->controller,
-                  "servo controller: p, pid, pid_ff (default), zpetc, ccc (cross-coupled contour), flc (fuzzy)");
+                  "servo controller: p, pid, pid_ff (default), zpetc, ccc (cross-coupled contour), flc (fuzzy), or tuned "
+                  "(the machine's active tuning from machplan tune --store, in --db)");
   cmd->add_option("--gain", a->gains, "a controller gain, NAME=VALUE (e.g. kp_per_s=120); may be repeated");
   cmd->add_flag("--strict-z", a->strict_z, "refuse a program whose Z moves instead of dropping its Z words");
   add_gcode_options(*cmd, a->params, a->spindles, a->lenient);
@@ -199,6 +203,17 @@ void add_run(CLI::App& app) {
       throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
     o.controller = a->controller;
     for (const std::string& g : a->gains) control::parse_gain(g, o.controller_gains);
+    if (a->controller == "tuned") {
+      // The machine's active tuning (machplan tune --store); a --gain overrides a stored gain.
+      const auto m = cutting::load_machine(cutting::find_machine(a->machine));
+      const std::string db = a->db.empty() ? calibration::default_store_path() : a->db;
+      const auto t = tuning::TuningStore(db).active(m.name);
+      if (!t) throw InputError("--controller", 0, fmt::format("no active tuning for '{}' in {} (machplan tune --store)", m.name, db));
+      control::Gains gains = t->gains;
+      for (const auto& [name, value] : o.controller_gains) gains[name] = value;
+      o.controller = t->controller;
+      o.controller_gains = gains;
+    }
     o.no_go_path = a->no_go;
     o.gcode = gcode_options(a->params, a->spindles, a->lenient);
     o.strict_z = a->strict_z;

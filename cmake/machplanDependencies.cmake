@@ -33,6 +33,8 @@ if(NOT TARGET ompl::ompl)
 endif()
 # Ceres (solvers/calibration/fit.cpp) and SQLite (solvers/calibration/store.cpp).
 machplan_find_package(Ceres)
+# NLopt (solvers/tuning: gain tuning; NLopt::nlopt).
+machplan_find_package(NLopt)
 machplan_find_package(SQLite3)
 machplan_find_package(PkgConfig)
 if(NOT TARGET PkgConfig::CAIRO)

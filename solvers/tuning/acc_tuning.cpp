@@ -1,0 +1,102 @@
+#include "solvers/tuning/acc_tuning.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+
+namespace machplan::tuning {
+
+void AccTuningOptions::validate() const {
+  try {
+    process.validate();
+    acc.validate();
+  } catch (const std::invalid_argument& e) {
+    throw InputError("--acc", 0, e.what());
+  }
+  if (base_depths_mm.empty()) throw InputError("base_depths_mm", 0, "is empty");
+  for (double d : base_depths_mm)
+    if (!(d > 0 && d <= 50)) throw InputError("base_depths_mm", 0, fmt::format("{} mm is out of range (0, 50]", d));
+  if (!(depth_step_mm > 0 && depth_step_mm <= 50))
+    throw InputError("depth_step_mm", 0, fmt::format("{} mm is out of range (0, 50]", depth_step_mm));
+  if (!(settle_before_step_s > 0 && window_s > 0 && settle_before_step_s + window_s <= 600))
+    throw InputError("window_s", 0, "settling and window times must be > 0 and together <= 600 s");
+  if (!(band > 0 && band < 0.5)) throw InputError("band", 0, fmt::format("{} must be in (0, 0.5)", band));
+  if (!(max_overshoot >= 0 && max_overshoot < 1))
+    throw InputError("max_overshoot", 0, fmt::format("{} must be in [0, 1)", max_overshoot));
+  if (!(gain_min > 0 && gain_min < gain_max && gain_max <= 10))
+    throw InputError("gain_min", 0, fmt::format("[{}, {}] must satisfy 0 < min < max <= 10", gain_min, gain_max));
+  optimizer.validate();
+}
+
+AccScore score_acc_gain(const AccTuningOptions& o, double gain) {
+  control::AccOptions acc = o.acc;
+  (acc.variable_gain ? acc.open_loop_gain : acc.kc) = gain;
+  AccScore s;
+  const double engage = 0.5, step_at = engage + o.settle_before_step_s, end = step_at + o.window_s;
+  for (double a : o.base_depths_mm) {
+    const auto run =
+        control::simulate_acc(o.process, acc, {{engage, a}, {step_at, a + o.depth_step_mm}}, end);
+    control::AccStepResponse r = control::acc_step_response(run, acc.reference_force_n, step_at, end, o.band);
+    s.worst_settling_s = std::max(s.worst_settling_s, std::isfinite(r.settling_s) ? r.settling_s : 2.0 * o.window_s);
+    s.worst_overshoot = std::max(s.worst_overshoot, r.overshoot);
+    s.steps.push_back(r);
+  }
+  return s;
+}
+
+AccTuningResult tune_acc(const AccTuningOptions& o, StopToken stop) {
+  o.validate();
+  AccTuningResult out;
+  out.variable_gain = o.acc.variable_gain;
+  out.start_gain = std::clamp(o.acc.variable_gain ? o.acc.open_loop_gain : o.acc.kc, o.gain_min, o.gain_max);
+  out.before = score_acc_gain(o, out.start_gain);
+  Problem p;
+  p.parameters = {{o.acc.variable_gain ? "open_loop_gain" : "kc", o.gain_min, o.gain_max, out.start_gain, true}};
+  p.constraint_count = 1;
+  p.evaluate = [&](const std::vector<double>& x, std::vector<double>& g) {
+    const AccScore s = score_acc_gain(o, x[0]);
+    // Overshoot scaled so that 1 unit is the limit (plus a floor, so a zero limit is usable).
+    g[0] = (s.worst_overshoot - o.max_overshoot) / std::max(o.max_overshoot, 0.005);
+    return s.worst_settling_s;
+  };
+  out.optimizer = optimize(p, o.optimizer, stop);
+  out.gain = out.optimizer.x[0];
+  out.after = score_acc_gain(o, out.gain);
+  out.status = out.optimizer.feasible ? "ok" : "infeasible";
+  return out;
+}
+
+std::string AccTuningResult::report() const {
+  const char* name = variable_gain ? "L0 (variable gain)" : "Kc (fixed gain)";
+  std::string s = fmt::format("ACC gain tuning, {}: {}\n", name, status);
+  s += fmt::format("  before  gain {:.4f}: worst settling {:.2f} s, worst overshoot {:.1f} %\n", start_gain,
+                   before.worst_settling_s, 100 * before.worst_overshoot);
+  s += fmt::format("  after   gain {:.4f}: worst settling {:.2f} s, worst overshoot {:.1f} %\n", gain, after.worst_settling_s,
+                   100 * after.worst_overshoot);
+  s += optimizer.report();
+  return s;
+}
+
+nlohmann::json AccTuningResult::to_json() const {
+  auto score = [](const AccScore& a) {
+    nlohmann::json steps = nlohmann::json::array();
+    for (const auto& r : a.steps)
+      steps.push_back({{"settling_s", std::isfinite(r.settling_s) ? nlohmann::json(r.settling_s) : nlohmann::json(nullptr)},
+                       {"overshoot", r.overshoot}});
+    return nlohmann::json{{"worst_settling_s", a.worst_settling_s}, {"worst_overshoot", a.worst_overshoot}, {"steps", steps}};
+  };
+  return {{"law", variable_gain ? "variable_gain" : "fixed_gain"},
+          {"gain_name", variable_gain ? "open_loop_gain" : "kc"},
+          {"start_gain", start_gain},
+          {"gain", gain},
+          {"before", score(before)},
+          {"after", score(after)},
+          {"optimizer", optimizer.to_json()},
+          {"status", status}};
+}
+
+}  // namespace machplan::tuning

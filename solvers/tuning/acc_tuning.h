@@ -1,0 +1,60 @@
+// Tuning the adaptive control constraint's gain (engine/control/acc.h) with NLopt: the
+// fastest settling of the cutting force after a depth-of-cut step, without overshoot, over a
+// range of depths.
+//
+// For each base depth a in `base_depths_mm` the loop engages at a and, once settled, meets a
+// step to a + `depth_step_mm` (a stepped shaft). Objective: the worst settling time (into
+// +-band of F_r) over the steps; a step that never settles counts as twice its window.
+// Constraint: the overshoot of every step (engine/control/acc.h, acc_step_response) at most
+// `max_overshoot` of F_r. The one gain is Kc for the fixed law and L0 for the variable-gain
+// law; the optimiser is the two-stage one of solvers/tuning/optimizer.h.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/control/acc.h"
+#include "solvers/tuning/optimizer.h"
+
+namespace machplan::tuning {
+
+struct AccTuningOptions {
+  control::TurningProcess process;
+  control::AccOptions acc;               // variable_gain chooses the law; its gain is the start
+  std::vector<double> base_depths_mm{1.0, 2.0, 3.0, 4.0, 5.0, 6.0};
+  double depth_step_mm = 2.0;
+  double settle_before_step_s = 3.0;     // from engagement to the step
+  double window_s = 3.0;                 // after the step
+  double band = 0.02;                    // settling band, fraction of F_r
+  double max_overshoot = 0.02;           // fraction of F_r
+  double gain_min = 0.02, gain_max = 4.0;
+  OptimizerOptions optimizer;            // defaults below: 150 evaluations
+  AccTuningOptions() { optimizer.max_evaluations = 150; }
+  // Throws InputError naming the field.
+  void validate() const;
+};
+
+struct AccScore {
+  double worst_settling_s = 0.0;
+  double worst_overshoot = 0.0;
+  std::vector<control::AccStepResponse> steps;  // one per base depth
+};
+
+// The score of one gain (Kc or L0 by options.acc.variable_gain).
+AccScore score_acc_gain(const AccTuningOptions& options, double gain);
+
+struct AccTuningResult {
+  bool variable_gain = false;
+  double start_gain = 0.0, gain = 0.0;
+  AccScore before, after;
+  OptimizerResult optimizer;
+  std::string status;  // "ok" or "infeasible"
+  std::string report() const;
+  nlohmann::json to_json() const;
+};
+
+AccTuningResult tune_acc(const AccTuningOptions& options, StopToken stop = {});
+
+}  // namespace machplan::tuning

@@ -1,0 +1,84 @@
+#include "solvers/tuning/plot.h"
+
+#include <cairo.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "solvers/common/picture.h"
+
+namespace machplan::tuning {
+
+void write_time_plot(const std::string& path, const std::string& flag, const std::string& title,
+                     const std::vector<Panel>& panels) {
+  const double W = 1000, ph = 280, top = 40, left = 80, right = 20, gap = 50;
+  const double H = top + panels.size() * (ph + gap) + 10;
+  double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
+  for (const Panel& p : panels)
+    for (const Series& s : p.series)
+      for (double t : s.t_s) t0 = std::min(t0, t), t1 = std::max(t1, t);
+  if (!(t1 > t0)) t0 = 0, t1 = 1;
+  write_picture(path, flag, W, H, [&](cairo_t* cr) {
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_paint(cr);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    draw_text(cr, left, 24, title, 15);
+    for (std::size_t k = 0; k < panels.size(); ++k) {
+      const Panel& p = panels[k];
+      const double y0 = top + k * (ph + gap), pw = W - left - right;
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (const Series& s : p.series)
+        for (double v : s.y)
+          if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
+      if (!(hi > lo)) lo -= 1, hi += 1;
+      const double pad = 0.05 * (hi - lo);
+      lo -= pad;
+      hi += pad;
+      const auto X = [&](double t) { return left + (t - t0) / (t1 - t0) * pw; };
+      const auto Y = [&](double v) { return y0 + ph - (v - lo) / (hi - lo) * ph; };
+      cairo_set_source_rgb(cr, 0.5, 0.5, 0.5);
+      cairo_set_line_width(cr, 1);
+      cairo_rectangle(cr, left, y0, pw, ph);
+      cairo_stroke(cr);
+      for (int i = 0; i <= 4; ++i) {
+        const double v = lo + (hi - lo) * i / 4.0, t = t0 + (t1 - t0) * i / 4.0;
+        cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
+        draw_text(cr, 4, Y(v) + 4, fmt::format("{:.4g}", v), 10);
+        draw_text(cr, X(t) - 10, y0 + ph + 14, fmt::format("{:.3g}", t), 10);
+      }
+      cairo_set_source_rgb(cr, 0, 0, 0);
+      draw_text(cr, left + 4, y0 - 6, p.y_label + "   (time, s)", 12);
+      double lx = left + pw - 260, ly = y0 + 16;
+      for (const Series& s : p.series) {
+        cairo_set_source_rgb(cr, s.r, s.g, s.b);
+        cairo_set_line_width(cr, 1.5);
+        if (s.dashed) {
+          const double d[] = {6, 4};
+          cairo_set_dash(cr, d, 2, 0);
+        }
+        bool first = true;
+        for (std::size_t i = 0; i < s.t_s.size() && i < s.y.size(); ++i) {
+          if (!std::isfinite(s.y[i])) {
+            first = true;
+            continue;
+          }
+          if (first) cairo_move_to(cr, X(s.t_s[i]), Y(s.y[i]));
+          else cairo_line_to(cr, X(s.t_s[i]), Y(s.y[i]));
+          first = false;
+        }
+        cairo_stroke(cr);
+        cairo_set_dash(cr, nullptr, 0, 0);
+        cairo_move_to(cr, lx, ly - 4);
+        cairo_line_to(cr, lx + 20, ly - 4);
+        cairo_stroke(cr);
+        draw_text(cr, lx + 26, ly, s.name, 11);
+        ly += 15;
+      }
+    }
+  });
+}
+
+}  // namespace machplan::tuning

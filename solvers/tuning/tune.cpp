@@ -1,0 +1,169 @@
+#include "solvers/tuning/tune.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+
+namespace machplan::tuning {
+
+std::string controller_kind(const std::string& name) {
+  std::string k = name;
+  std::replace(k.begin(), k.end(), '-', '_');
+  const auto kinds = control::controller_kinds();
+  if (std::find(kinds.begin(), kinds.end(), k) == kinds.end()) {
+    std::string list;
+    for (const std::string& s : kinds) {
+      std::string c = s;
+      std::replace(c.begin(), c.end(), '_', '-');
+      list += (list.empty() ? "" : ", ") + c;
+    }
+    throw InputError("--controller", 0, fmt::format("unknown controller '{}' (known: {})", name, list));
+  }
+  return k;
+}
+
+void TuneOptions::validate() const {
+  evaluation.validate();
+  optimizer.validate();
+  if (kind.empty()) throw InputError("--controller", 0, "names no controller");
+}
+
+std::vector<double> constraint_values(const Evaluation& e, const EvaluationOptions& o, double following_limit_mm) {
+  std::vector<double> g(5, -1.0);
+  if (o.constraints) {
+    g[0] = std::isfinite(e.margin_residual) ? e.margin_residual / o.max_residual - 1.0 : 1e3;
+    g[1] = std::isfinite(e.overshoot) ? e.overshoot / o.max_overshoot - 1.0 : 1e3;
+  }
+  g[2] = (e.saturation_share - o.max_saturation_share) / o.max_saturation_share;
+  g[3] = following_limit_mm > 0 ? e.max_following_error_mm / following_limit_mm - 1.0 : -1.0;
+  g[4] = e.faulted ? 1.0 : -1.0;
+  return g;
+}
+
+namespace {
+
+double following_limit(const Evaluator& ev) {
+  const auto& o = ev.options();
+  if (o.following_error_limit_mm > 0) return o.following_error_limit_mm;
+  return std::min(ev.plant().servo[0].following_error_limit_mm, ev.plant().servo[1].following_error_limit_mm);
+}
+
+}  // namespace
+
+TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
+  o.validate();
+  TuneResult r;
+  r.machine = ev.machine().name;
+  r.kind = o.kind;
+  r.objective = o.objective;
+  r.specs = control::gain_specs(o.kind, ev.plant());
+  for (const auto& s : r.specs) r.start_gains[s.name] = s.default_value;
+  for (const auto& [name, value] : o.start) {
+    if (!r.start_gains.count(name))
+      throw InputError("--gain", 0, fmt::format("controller '{}' has no gain '{}'", o.kind, name));
+    r.start_gains[name] = value;
+  }
+  const double flimit = following_limit(ev);
+  r.baseline = ev.evaluate(o.baseline_kind, {});
+  r.start = ev.evaluate(o.kind, r.start_gains);
+  const double scale = std::max(r.baseline.value(o.objective), 1e-9);
+
+  if (o.physical_feed_forward) {
+    const auto& pl = ev.plant();
+    double g = 1.0, lag = 0.0;
+    for (int i = 0; i < control::kAxes; ++i) {
+      g = std::min(g, pl.gain_factor[i] > 0 ? pl.gain_factor[i] : 1.0);
+      lag = std::max(lag, pl.drive_time_constant_s[i] + (pl.command_latency_ticks[i] + pl.reading_latency_ticks[i]) * pl.period_s);
+    }
+    double coulomb = 0.0;  // the machine file's Coulomb friction, as speed, mm/s
+    for (const auto& a : ev.machine().axes) coulomb = std::max(coulomb, a.plant.coulomb_friction_mm_per_s);
+    for (auto& s : r.specs) {
+      double cap = s.max_value;
+      if (s.name == "velocity_ff") cap = o.ff_margin / g;
+      if (s.name == "friction_ff_mm_per_s") cap = o.ff_margin * coulomb;
+      if (s.name == "acceleration_ff_s" && lag > 0) cap = o.ff_margin * lag;
+      s.max_value = std::max(s.min_value, std::min(s.max_value, std::max(cap, s.default_value)));
+    }
+  }
+  Problem p;
+  for (const auto& s : r.specs) {
+    Parameter q;
+    q.name = s.name;
+    q.lo = s.min_value;
+    q.hi = s.max_value;
+    q.start = std::clamp(r.start_gains.at(s.name), s.min_value, s.max_value);
+    if (q.log_scale && q.lo <= 0) q.log_scale = false;
+    q.log_scale = s.log_scale && s.min_value > 0;
+    p.parameters.push_back(q);
+  }
+  p.constraint_count = 5;
+  const auto gains_of = [&](const std::vector<double>& x) {
+    control::Gains g;
+    for (std::size_t i = 0; i < x.size(); ++i) g[r.specs[i].name] = x[i];
+    return g;
+  };
+  int done = 0;
+  p.evaluate = [&](const std::vector<double>& x, std::vector<double>& g) {
+    const Evaluation e = ev.evaluate(o.kind, gains_of(x));
+    g = constraint_values(e, o.evaluation, flimit);
+    if (o.progress) o.progress(std::min(1.0, ++done / static_cast<double>(o.optimizer.max_evaluations)));
+    return e.value(o.objective) / scale;
+  };
+  if (p.parameters.empty()) {
+    r.gains = r.start_gains;
+    r.tuned = r.start;
+    r.status = "ok";
+    return r;
+  }
+  r.optimizer = optimize(p, o.optimizer, stop);
+  r.gains = gains_of(r.optimizer.x);
+  r.tuned = ev.evaluate(o.kind, r.gains);
+  r.status = r.optimizer.stopped ? "stopped" : (r.optimizer.feasible ? "ok" : "infeasible");
+  return r;
+}
+
+std::string TuneResult::report() const {
+  std::string s = fmt::format("tuning {} on {} ({} contour error): {}\n", kind, machine, to_string(objective), status);
+  s += "  gains\n";
+  for (const auto& sp : specs) {
+    const auto it = gains.find(sp.name);
+    const auto st = start_gains.find(sp.name);
+    s += fmt::format("    {:<28} {:>12.6g}   (start {:.6g}, box [{:.6g}, {:.6g}])\n", sp.name,
+                     it != gains.end() ? it->second : sp.default_value, st != start_gains.end() ? st->second : sp.default_value,
+                     sp.min_value, sp.max_value);
+  }
+  const auto line = [](const char* what, const Evaluation& e) {
+    return fmt::format("  {:<26} max {:8.4f} mm  rms {:8.4f} mm  itae {:10.4g} mm s^2{}\n", what, e.max_mm, e.rms_mm,
+                       e.itae_mm_s2, e.faulted ? "  FAULTED" : "");
+  };
+  s += line("baseline (axial P)", baseline);
+  s += line(fmt::format("start ({} defaults)", kind).c_str(), start);
+  s += line("tuned", tuned);
+  if (tuned.max_mm > 0)
+    s += fmt::format("  improvement on the baseline: max {:.2f}x, rms {:.2f}x\n", baseline.max_mm / tuned.max_mm,
+                     tuned.rms_mm > 0 ? baseline.rms_mm / tuned.rms_mm : 0.0);
+  s += fmt::format("  constraints (tuned)        step overshoot {:.1f} %, margin wobble {:.2f} %, saturation {:.2f} %, "
+                   "following error {:.3f} mm\n",
+                   100 * tuned.overshoot, 100 * tuned.margin_residual, 100 * tuned.saturation_share,
+                   tuned.max_following_error_mm);
+  for (const ContourScore& c : tuned.contours)
+    s += fmt::format("    {:<34} max {:8.4f} mm  rms {:8.4f} mm{}\n", c.contour, c.max_mm, c.rms_mm,
+                     c.faulted ? "  FAULT: " + c.fault : "");
+  s += optimizer.report();
+  return s;
+}
+
+nlohmann::json TuneResult::to_json() const {
+  nlohmann::json g = nlohmann::json::object(), sg = nlohmann::json::object();
+  for (const auto& [k, v] : gains) g[k] = v;
+  for (const auto& [k, v] : start_gains) sg[k] = v;
+  return {{"machine", machine},         {"controller", kind},     {"objective", to_string(objective)},
+          {"gains", g},                 {"start_gains", sg},      {"baseline", baseline.to_json()},
+          {"start", start.to_json()},   {"tuned", tuned.to_json()}, {"optimizer", optimizer.to_json()},
+          {"status", status}};
+}
+
+}  // namespace machplan::tuning

@@ -1,0 +1,78 @@
+// Tuning a controller's gains on test contours: the solver behind `machplan tune`.
+//
+//     minimise   J(k) / J(baseline)        J = max, RMS or ITAE contour error (evaluate.h)
+//     over       k in the kind's gain box (engine/control/controller_factory.h, gain_specs),
+//                the feed-forward gains held to their physical range (TuneOptions)
+//     subject to g_0 = residual wobble at the gain margin / max_residual - 1   <= 0  (stability)
+//                g_1 = step overshoot / max_overshoot - 1                      <= 0
+//                g_2 = (saturation share - max share) / max share              <= 0
+//                g_3 = largest following error / limit - 1                     <= 0
+//                g_4 = +1 when a contour run faulted, else -1                  <= 0
+//
+// The baseline is the hand-tuned axial P controller (kind "p" with its default gains, i.e.
+// the machine file's Kp); the start is the tuned kind's defaults. The optimiser is the
+// two-stage DIRECT-L then COBYLA of optimizer.h, with log-scale gains searched in log space.
+// The result says whether a feasible point was found; the gains returned are then feasible
+// (never worse than the start when the start is feasible), else the least-violating ones
+// with status "infeasible".
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/common/stop.h"
+#include "solvers/tuning/evaluate.h"
+#include "solvers/tuning/optimizer.h"
+
+namespace machplan::tuning {
+
+// The CLI's names (p, pid, pid-ff, zpetc, ccc, flc) to the factory's kinds (pid-ff -> pid_ff).
+// InputError("--controller", ...) for an unknown name.
+std::string controller_kind(const std::string& cli_name);
+
+struct TuneOptions {
+  EvaluationOptions evaluation;
+  std::string kind = "ccc";          // the factory's kind
+  Objective objective = Objective::max;
+  OptimizerOptions optimizer;
+  std::string baseline_kind = "p";   // hand-tuned axial P
+  // Physical bounds on the feed-forward gains, narrower than the factory's boxes: velocity_ff
+  // at most ff_margin / g (g: the drive's gain; 1/g cancels it exactly), acceleration_ff_s
+  // at most ff_margin x (tau + latency periods x T) (what a first-order drive behind its
+  // latency needs) and friction_ff_mm_per_s at most ff_margin x the machine file's Coulomb
+  // friction (what a calibration measures as the dead band). Beyond them a feed-forward stops modelling the drive and starts fitting
+  // the test contour's friction: it then leads the setpoint, and cuts the corners of any
+  // contour it was not tuned on. false searches the factory's whole boxes.
+  bool physical_feed_forward = true;
+  double ff_margin = 1.25;
+  // Start values replacing the kind's defaults (names the kind does not have are refused).
+  control::Gains start;
+  // Called after each evaluation with the share of the evaluation budget used (0 .. 1).
+  std::function<void(double)> progress;
+  // Throws InputError naming the field.
+  void validate() const;
+};
+
+struct TuneResult {
+  std::string machine, kind;
+  Objective objective = Objective::max;
+  std::vector<control::GainSpec> specs;
+  control::Gains start_gains, gains;
+  Evaluation baseline, start, tuned;
+  OptimizerResult optimizer;
+  std::string status;  // "ok", "infeasible", "stopped"
+  std::string report() const;
+  // {"machine", "controller", "objective", "gains": {...}, "baseline": {...}, "start": {...},
+  //  "tuned": {...}, "optimizer": {...}, "status"}; the scores as Evaluation::to_json().
+  nlohmann::json to_json() const;
+};
+
+// The constraint values g of the file comment for one evaluation.
+std::vector<double> constraint_values(const Evaluation& e, const EvaluationOptions& o, double following_limit_mm);
+
+TuneResult tune(const Evaluator& evaluator, const TuneOptions& options, StopToken stop = {});
+
+}  // namespace machplan::tuning

@@ -1,0 +1,119 @@
+// `machplan tune` end to end: a small tuning with --json and --plot, storing the gains, the
+// ACC mode, and exit 2 naming the flag for bad input.
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/support/temp_dir.h"
+
+namespace machplan {
+namespace {
+
+struct Run {
+  int code = -1;
+  std::string out, err;
+};
+
+Run cli(const test::TempDir& dir, const std::string& args) {
+  const auto out = (dir.path() / "stdout").string(), err = (dir.path() / "stderr").string();
+  const int rc = std::system(fmt::format("cd '{}' && XDG_DATA_HOME='{}/xdg' '{}' {} > '{}' 2> '{}'", MACHPLAN_SOURCE_DIR,
+                                         dir.path().string(), MACHPLAN_CLI, args, out, err)
+                                 .c_str());
+  auto slurp = [](const std::string& p) {
+    std::ifstream f(p);
+    std::stringstream s;
+    s << f.rdbuf();
+    return s.str();
+  };
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(out), slurp(err)};
+}
+
+TEST(TuneCli, TunesPrintsJsonPlotsAndStores) {
+  test::TempDir dir;
+  const std::string png = (dir.path() / "tune.png").string(), db = (dir.path() / "t.db").string();
+  auto r = cli(dir, fmt::format("tune --machine xy_table --controller p --contour circle:20:960 --evaluations 8 --json "
+                                "--plot '{}'",
+                                png));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["status"], "ok");
+  EXPECT_TRUE(j["gains"].is_object());
+  EXPECT_FALSE(j["gains"].empty());
+  for (const char* part : {"baseline", "tuned"})
+    for (const char* k : {"max_contour_error_mm", "rms_contour_error_mm"}) EXPECT_TRUE(j[part][k].is_number()) << part << k;
+  EXPECT_LE(j["tuned"]["max_contour_error_mm"].get<double>(), j["baseline"]["max_contour_error_mm"].get<double>());
+  EXPECT_LE(j["optimizer"]["evaluations"].get<int>(), 8);
+  EXPECT_GT(std::filesystem::file_size(png), 1000u);
+  // The human form names the gains and both errors.
+  r = cli(dir, "tune --machine xy_table --controller p --contour line:26.6:1200 --evaluations 3");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("baseline (axial P)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("tuned"), std::string::npos) << r.out;
+}
+
+TEST(TuneCli, StoredTuningIsUsedByRun) {
+  test::TempDir dir;
+  const std::string db = (dir.path() / "t.db").string();
+  // The XY table carries no torch: the tuning test program is motion only.
+  const std::string run =
+      fmt::format("run datasets/programs/tune_corners.ngc --machine xy_table --controller tuned --db '{}' --json", db);
+  auto r = cli(dir, run);
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--controller"), std::string::npos) << r.err;
+  r = cli(dir, fmt::format("tune --machine xy_table --controller p --contour line:30:1200 --evaluations 6 --store --db '{}' --json",
+                           db));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto t = nlohmann::json::parse(r.out);
+  EXPECT_EQ(t["stored"]["tuning_id"], 1);
+  r = cli(dir, run);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["controller"], "p");
+}
+
+TEST(TuneCli, AccRunsKorensTestAndPlots) {
+  test::TempDir dir;
+  const std::string png = (dir.path() / "acc.png").string();
+  const auto r = cli(dir, fmt::format("tune --acc --evaluations 40 --json --plot '{}'", png));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const auto& settled = j["koren_fixed_kc_0_5"]["settled"];
+  ASSERT_EQ(settled.size(), 3u);
+  EXPECT_NEAR(settled[0]["feed_mm_per_rev"].get<double>(), 0.25, 0.02);
+  for (const auto& s : settled) EXPECT_NEAR(s["force_n"].get<double>(), 1500.0, 30.0);
+  ASSERT_EQ(j["tunings"].size(), 2u);
+  EXPECT_EQ(j["tunings"][0]["status"], "ok");
+  EXPECT_GT(std::filesystem::file_size(png), 1000u);
+}
+
+TEST(TuneCli, BadInputExitsTwoNamingTheFlag) {
+  test::TempDir dir;
+  const std::pair<const char*, const char*> cases[] = {
+      {"tune --machine xy_table --controller p", "--contour"},
+      {"tune --machine xy_table --controller warp --contour circle:20:960", "--controller"},
+      {"tune --machine xy_table --controller p --contour circle:20", "--contour"},
+      {"tune --machine xy_table --controller p --contour circle:20:960 --objective mean", "--objective"},
+      {"tune --machine xy_table --controller p --contour circle:20:960 --evaluations -3", "--evaluations"},
+      {"tune --machine xy_table --controller p --contour circle:20:960 --plot x.txt", "--plot"},
+      {"tune --controller p --contour circle:20:960", "--machine"},
+      {"tune --machine nowhere --controller p --contour circle:20:960", "nowhere"},
+      {"tune --machine xy_table --controller p --contour program:missing.ngc", "missing.ngc"},
+      {"tune --acc --acc-law sometimes", "--acc-law"},
+      {"tune --acc --controller p", "--controller"},
+  };
+  for (const auto& [args, flag] : cases) {
+    const auto r = cli(dir, args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(flag), std::string::npos) << args << "\n" << r.err;
+  }
+}
+
+}  // namespace
+}  // namespace machplan

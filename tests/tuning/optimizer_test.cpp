@@ -1,0 +1,119 @@
+// The two-stage optimiser (solvers/tuning/optimizer.h) on functions with known minima, with and
+// without constraints, and its budget and stop handling; and the ACC gain tuning.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "engine/common/error.h"
+#include "solvers/tuning/acc_tuning.h"
+#include "solvers/tuning/optimizer.h"
+
+namespace machplan::tuning {
+namespace {
+
+TEST(Optimizer, FindsTheMinimumOfAMultimodalFunction) {
+  // Two basins; the global one at (2, -1) is not where the start is.
+  Problem p;
+  p.parameters = {{"a", -5, 5, -3, false}, {"b", -5, 5, 3, false}};
+  p.evaluate = [](const std::vector<double>& x, std::vector<double>&) {
+    const double d1 = std::pow(x[0] - 2, 2) + std::pow(x[1] + 1, 2), d2 = std::pow(x[0] + 3, 2) + std::pow(x[1] - 3, 2);
+    return std::min(d1, 0.5 + d2);
+  };
+  OptimizerOptions o;
+  o.max_evaluations = 400;
+  const OptimizerResult r = optimize(p, o);
+  ASSERT_TRUE(r.feasible);
+  EXPECT_NEAR(r.x[0], 2.0, 1e-2);
+  EXPECT_NEAR(r.x[1], -1.0, 1e-2);
+  EXPECT_LE(r.evaluations, 400);
+  EXPECT_EQ(r.global.algorithm, "DIRECT-L");
+  EXPECT_EQ(r.local.algorithm, "COBYLA");
+  EXPECT_FALSE(r.global.stop_reason.empty());
+}
+
+TEST(Optimizer, RespectsAConstraintAndLogScale) {
+  // Minimise x on [0.01, 100] (log scale) subject to x >= 3: the answer is on the constraint.
+  Problem p;
+  p.parameters = {{"k", 0.01, 100, 50, true}};
+  p.constraint_count = 1;
+  p.evaluate = [](const std::vector<double>& x, std::vector<double>& g) {
+    g[0] = 3.0 - x[0];
+    return x[0];
+  };
+  OptimizerOptions o;
+  o.max_evaluations = 200;
+  const OptimizerResult r = optimize(p, o);
+  ASSERT_TRUE(r.feasible);
+  EXPECT_GE(r.x[0], 3.0 - 1e-6);
+  EXPECT_NEAR(r.x[0], 3.0, 0.05);
+}
+
+TEST(Optimizer, ReportsInfeasibleProblemsAndKeepsTheBudget) {
+  Problem p;
+  p.parameters = {{"k", 0, 1, 0.5, false}};
+  p.constraint_count = 1;
+  int calls = 0;
+  p.evaluate = [&](const std::vector<double>& x, std::vector<double>& g) {
+    ++calls;
+    g[0] = 1.0 + x[0];  // never <= 0
+    return x[0];
+  };
+  OptimizerOptions o;
+  o.max_evaluations = 30;
+  const OptimizerResult r = optimize(p, o);
+  EXPECT_FALSE(r.feasible);
+  EXPECT_NEAR(r.x[0], 0.0, 1e-3) << "the least violating point";
+  EXPECT_EQ(r.evaluations, calls);
+  EXPECT_LE(calls, 30);
+}
+
+TEST(Optimizer, StopsOnRequest) {
+  Problem p;
+  p.parameters = {{"k", 0, 1, 0.5, false}};
+  StopSource stop;
+  p.evaluate = [&](const std::vector<double>& x, std::vector<double>&) {
+    stop.request_stop();
+    return (x[0] - 0.3) * (x[0] - 0.3);
+  };
+  OptimizerOptions o;
+  o.max_evaluations = 1000;
+  const OptimizerResult r = optimize(p, o, stop.token());
+  EXPECT_TRUE(r.stopped);
+  EXPECT_LT(r.evaluations, 10);
+}
+
+TEST(Optimizer, RejectsMalformedProblemsAndOptions) {
+  Problem p;
+  p.evaluate = [](const std::vector<double>&, std::vector<double>&) { return 0.0; };
+  EXPECT_THROW(optimize(p, {}), std::invalid_argument);
+  p.parameters = {{"k", 1, 1, 1, false}};
+  EXPECT_THROW(optimize(p, {}), std::invalid_argument);
+  p.parameters = {{"k", 0, 1, 0.5, true}};
+  EXPECT_THROW(optimize(p, {}), std::invalid_argument);
+  p.parameters = {{"k", 0, 1, 0.5, false}};
+  OptimizerOptions o;
+  o.max_evaluations = 0;
+  EXPECT_THROW(optimize(p, o), InputError);
+}
+
+TEST(AccTuning, VariableGainSettlesFasterThanTheTunedFixedGainWithoutOvershoot) {
+  AccTuningOptions o;
+  o.optimizer.max_evaluations = 60;
+  const AccTuningResult fixed = tune_acc(o);
+  o.acc.variable_gain = true;
+  const AccTuningResult variable = tune_acc(o);
+  ASSERT_EQ(fixed.status, "ok");
+  ASSERT_EQ(variable.status, "ok");
+  for (const AccTuningResult* r : {&fixed, &variable}) {
+    EXPECT_LE(r->after.worst_overshoot, o.max_overshoot + 1e-3);
+    // Never worse than a feasible start.
+    if (r->before.worst_overshoot <= o.max_overshoot) EXPECT_LE(r->after.worst_settling_s, r->before.worst_settling_s + 1e-9);
+  }
+  // Koren's Kc = 0.5 overshoots on the deepest step here; the tuned fixed gain is lower.
+  EXPECT_LT(fixed.gain, 0.5);
+  // A constant open-loop gain lets every depth settle as fast as the deepest allows.
+  EXPECT_LT(variable.after.worst_settling_s, 0.5 * fixed.after.worst_settling_s);
+}
+
+}  // namespace
+}  // namespace machplan::tuning

@@ -1,0 +1,169 @@
+// solvers/tuning: the evaluation on the simulated machine (contours, determinism, the
+// constraint measures), a small tuning, and the store of tuned gains. Budgets are small (the
+// tests run under ASan); full tunings are in bench/tuning_bench.cpp.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "engine/common/error.h"
+#include "solvers/tuning/store.h"
+#include "solvers/tuning/tune.h"
+#include "tests/support/temp_dir.h"
+
+namespace machplan::tuning {
+namespace {
+
+Evaluator circle_on(const std::string& machine, bool constraints = true) {
+  EvaluationOptions o;
+  o.machine = machine;
+  o.constraints = constraints;
+  return Evaluator(o, {parse_contour("circle:20:960")});
+}
+
+TEST(TuningContour, ParsesTheCommandLineForms) {
+  const TestContour l = parse_contour("line:26.6:1200");
+  EXPECT_EQ(l.kind, TestContour::Kind::line);
+  EXPECT_DOUBLE_EQ(l.angle_deg, 26.6);
+  EXPECT_DOUBLE_EQ(l.feed_mm_per_min, 1200);
+  const TestContour c = parse_contour("circle:20:960");
+  EXPECT_EQ(c.kind, TestContour::Kind::circle);
+  EXPECT_DOUBLE_EQ(c.radius_mm, 20);
+  EXPECT_EQ(parse_contour("program:a.ngc").path, "a.ngc");
+  for (const char* bad : {"", "square:1:2", "line:26.6", "line:x:1200", "circle:20:0", "circle:-1:960", "program:",
+                          "circle:20:960:5", "line:1e400:5"}) {
+    try {
+      parse_contour(bad);
+      ADD_FAILURE() << bad;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.where(), "--contour") << bad;
+    }
+  }
+  EXPECT_THROW(objective_from_string("mean"), InputError);
+  EXPECT_EQ(objective_from_string("itae"), Objective::itae);
+}
+
+TEST(TuningEvaluate, IsDeterministicAndMeasuresTheWholeCircle) {
+  const Evaluator ev = circle_on("xy_table");
+  const Evaluation a = ev.evaluate("p", {}), b = ev.evaluate("p", {});
+  EXPECT_EQ(a.max_mm, b.max_mm);
+  EXPECT_EQ(a.rms_mm, b.rms_mm);
+  ASSERT_EQ(a.contours.size(), 1u);
+  // 125.7 mm at 16 mm/s: at least 7.85 s of samples at 1 kHz, all of the move.
+  EXPECT_GT(a.contours[0].samples, 7850u);
+  EXPECT_LT(a.contours[0].samples, 9000u);
+  EXPECT_GT(a.max_mm, 0.0);
+  EXPECT_LT(a.max_mm, 0.5);
+  EXPECT_LE(a.rms_mm, a.max_mm);
+  EXPECT_GT(a.itae_mm_s2, 0.0);
+  EXPECT_FALSE(a.faulted);
+  EXPECT_TRUE(std::isfinite(a.overshoot));
+  EXPECT_LT(a.margin_residual, 0.05) << "the machine's hand-tuned P is stable with the margin";
+  // A much softer P lags more: the contour error grows.
+  const auto specs = control::gain_specs("p", ev.plant());
+  ASSERT_FALSE(specs.empty());
+  control::Gains soft;
+  soft[specs[0].name] = std::max(specs[0].min_value, specs[0].default_value / 5);
+  EXPECT_GT(ev.evaluate("p", soft).max_mm, a.max_mm);
+}
+
+TEST(TuningEvaluate, ConstraintsFlagFaultsAndViolations) {
+  EvaluationOptions o;
+  Evaluation e;
+  e.faulted = true;
+  e.overshoot = 0.5;
+  e.margin_residual = std::numeric_limits<double>::infinity();
+  const auto g = constraint_values(e, o, 3.0);
+  ASSERT_EQ(g.size(), 5u);
+  EXPECT_GT(g[0], 0);  // unstable at the margin
+  EXPECT_GT(g[1], 0);  // 50 % overshoot
+  EXPECT_LE(g[2], 0);
+  EXPECT_LE(g[3], 0);
+  EXPECT_GT(g[4], 0);  // faulted
+}
+
+TEST(TuningEvaluate, RefusesAContourOutsideTheTravel) {
+  EvaluationOptions o;
+  o.machine = "xy_table";
+  EXPECT_THROW(Evaluator(o, {parse_contour("circle:500:960")}), Infeasible);
+  o.machine = "no_such_machine";
+  EXPECT_THROW(Evaluator(o, {parse_contour("circle:20:960")}), InputError);
+}
+
+TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
+  const Evaluator ev = circle_on("xy_table");
+  TuneOptions o;
+  o.kind = "p";
+  o.optimizer.max_evaluations = 12;
+  const TuneResult r = tune(ev, o);
+  ASSERT_EQ(r.status, "ok") << r.report();
+  EXPECT_LE(r.tuned.max_mm, r.start.max_mm + 1e-12);
+  EXPECT_LE(r.optimizer.evaluations, 12);
+  const auto g = constraint_values(r.tuned, o.evaluation, 3.0);
+  for (double v : g) EXPECT_LE(v, 1e-6);
+  EXPECT_EQ(r.baseline.max_mm, r.start.max_mm) << "p at its defaults is the baseline";
+  const auto j = r.to_json();
+  for (const char* k : {"gains", "baseline", "tuned", "status"}) EXPECT_TRUE(j.contains(k)) << k;
+  EXPECT_TRUE(j["baseline"]["max_contour_error_mm"].is_number());
+  EXPECT_TRUE(j["tuned"]["rms_contour_error_mm"].is_number());
+}
+
+TEST(Tuning, CrossCoupledWithFeedForwardBeatsTheAxialPOnTheCircle) {
+  // From a hand start (the table's friction fed forward, velocity and acceleration feed-forward,
+  // a contour integral), 25 evaluations (the bench runs 600): never worse than the start, and
+  // far below the hand-tuned axial P.
+  const Evaluator ev = circle_on("xy_table");
+  TuneOptions o;
+  o.kind = "ccc";
+  o.start = {{"friction_ff_mm_per_s", 2.0}, {"friction_ff_band_mm_per_s", 0.05}, {"velocity_ff", 1.0},
+             {"acceleration_ff_s", 0.006}, {"ccc_ki_per_s2", 10000.0}};
+  o.optimizer.max_evaluations = 25;
+  const TuneResult r = tune(ev, o);
+  ASSERT_EQ(r.status, "ok") << r.report();
+  EXPECT_LE(r.tuned.max_mm, r.start.max_mm + 1e-12) << r.report();
+  EXPECT_LT(r.tuned.max_mm, r.baseline.max_mm / 3.0) << r.report();
+  EXPECT_LT(r.tuned.rms_mm, r.baseline.rms_mm / 3.0) << r.report();
+  // The feed-forward stays in its physical range (g = 1, Coulomb friction 2 mm/s here).
+  EXPECT_LE(r.gains.at("velocity_ff"), 1.25 + 1e-9);
+  EXPECT_LE(r.gains.at("friction_ff_mm_per_s"), 2.5 + 1e-9);
+  // A start value for a gain the kind does not have is refused.
+  o.start = {{"no_such_gain", 1.0}};
+  EXPECT_THROW(tune(ev, o), InputError);
+}
+
+TEST(TuningContour, CornerIsTwoLegsThroughTheCentre) {
+  EvaluationOptions o;
+  o.machine = "xy_table";
+  o.constraints = false;
+  const Evaluator ev(o, {parse_contour("corner:90:960")});
+  const motion::Job& j = ev.job(0);
+  ASSERT_EQ(j.stretches.size(), 1u);
+  ASSERT_EQ(j.stretches[0].segments.size(), 2u);
+  const Segment& a = j.stretches[0].segments[0];
+  const Segment& b = j.stretches[0].segments[1];
+  EXPECT_NEAR((a.end - a.start).norm(), 25.0, 1e-9);
+  EXPECT_NEAR((b.end - b.start).dot(a.end - a.start), 0.0, 1e-9);
+  EXPECT_GT(ev.evaluate("p", {}).max_mm, 0.0);
+  EXPECT_THROW(parse_contour("corner:0:960"), InputError);
+  EXPECT_THROW(parse_contour("corner:180:960"), InputError);
+}
+
+TEST(TuningStoreTest, SavesActivatesAndRefusesFailedTunings) {
+  test::TempDir dir;
+  const std::string db = (dir.path() / "store.db").string();
+  TuningStore s(db);
+  EXPECT_FALSE(s.active("xy_table"));
+  const auto id1 = s.save("xy_table", "p", {{"kp_per_s", 100}}, "ok", "{}", "tester");
+  const auto id2 = s.save("xy_table", "pid", {{"kp_per_s", 120}, {"ki_per_s2", 900}}, "ok", "{}", "tester");
+  EXPECT_NE(id1, id2);
+  EXPECT_THROW(s.save("xy_table", "p", {}, "infeasible", "{}", "tester"), Infeasible);
+  const auto a = s.active("xy_table");
+  ASSERT_TRUE(a);
+  EXPECT_EQ(a->id, id2);
+  EXPECT_EQ(a->controller, "pid");
+  EXPECT_DOUBLE_EQ(a->gains.at("ki_per_s2"), 900);
+  EXPECT_EQ(s.history("xy_table").size(), 2u);
+  EXPECT_FALSE(s.active("thermal_gantry"));
+}
+
+}  // namespace
+}  // namespace machplan::tuning
