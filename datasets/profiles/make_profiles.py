@@ -153,8 +153,68 @@ def curved_plate():
     d.write("curved_plate.dxf")
 
 
+# Profiles of the hybrid manual / servo-assisted guard. Franco Garcia and Horikawa ("Manual and
+# servo assisted, hybrid system for position control in machine tools") test a triangle
+# (external machining), a quadrilateral (internal) and an irregular seven-sided profile (both
+# sides) but give no dimensions: the shapes below are RECONSTRUCTED to fit their 400 x 350 mm
+# table with room for a tool around them (see README.md). Drawn as LINE entities, the only
+# kind their pre-processor reads, in order and counter-clockwise.
+def polygon_lines(d, pts, layer="CUT"):
+    for i in range(len(pts)):
+        d.line(pts[i], pts[(i + 1) % len(pts)], layer)
+
+
+PAPER_TRIANGLE = [(0, 0), (120, 0), (45, 95)]
+PAPER_QUADRILATERAL = [(0, 0), (130, 10), (120, 100), (-10, 80)]
+PAPER_HEPTAGON = [(0, 0), (90, -10), (140, 30), (120, 80), (70, 60), (30, 100), (-20, 50)]
+
+
+def paper_profiles():
+    for name, pts in [("paper_triangle.dxf", PAPER_TRIANGLE), ("paper_quadrilateral.dxf", PAPER_QUADRILATERAL),
+                      ("paper_heptagon.dxf", PAPER_HEPTAGON)]:
+        d = Dxf()
+        polygon_lines(d, pts)
+        d.write(name)
+
+
+def arc_profile():
+    # A cam-like plate of lines and arcs, both ways round: a convex R40 end, one concave R3
+    # fillet (smaller than a 5 mm tool: their offset collapses when the part is machined
+    # from outside), a concave R20 scallop in the top edge, a rounded R8 corner, and a 20 mm
+    # hole drawn as a CIRCLE. Outline counter-clockwise from (0, 0).
+    d = Dxf()
+    d.line((3, 0), (100, 0))
+    d.arc((100, 40), 40, -90, 90)            # convex end: (100, 0) -> (100, 80), ccw
+    d.line((100, 80), (73, 80))
+    d.arc((73, 83), 3, 180, 270)             # concave fillet (73, 80) -> (70, 83) (drawn ccw, traversed cw)
+    d.line((70, 83), (70, 100))
+    d.line((70, 100), (60, 100))
+    d.arc((40, 100), 20, 180, 360)           # concave scallop (60, 100) -> (20, 100), under the edge
+    d.line((20, 100), (8, 100))
+    d.arc((8, 92), 8, 90, 180)               # convex rounded corner (8, 100) -> (0, 92)
+    d.line((0, 92), (0, 3))
+    d.arc((3, 3), 3, 180, 270)               # convex small corner (0, 3) -> (3, 0)
+    d.circle((100, 40), 10)
+    d.write("arc_profile.dxf")
+
+
+def narrow_slot():
+    # Two separate contours, LWPOLYLINEs, counter-clockwise:
+    # a 120 x 80 plate with an open slot 8 mm wide and 40 mm deep cut down from the middle of
+    # its top edge: machined from outside, a tool of radius 4 or more cannot enter the slot;
+    # a keyhole, a 40 x 40 square with a channel 6 mm wide and 30 mm long on its right side:
+    # machined as a pocket, a tool of radius 3 or more cannot enter the channel.
+    d = Dxf()
+    d.lwpolyline([(0, 0), (120, 0), (120, 80), (64, 80), (64, 40), (56, 40), (56, 80), (0, 80)])
+    d.lwpolyline([(150, 20), (190, 20), (190, 37), (220, 37), (220, 43), (190, 43), (190, 60), (150, 60)])
+    d.write("narrow_slot.dxf")
+
+
 if __name__ == "__main__":
     flange()
     bracket()
     nested_sheet()
     curved_plate()
+    paper_profiles()
+    arc_profile()
+    narrow_slot()

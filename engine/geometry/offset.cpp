@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/geometry/span_index.h"
 
 namespace machplan {
 namespace {
@@ -103,6 +104,8 @@ const char* to_string(OffsetProblem::Kind k) {
     case OffsetProblem::Kind::arc_collapsed: return "arc_collapsed";
     case OffsetProblem::Kind::feature_too_small: return "feature_too_small";
     case OffsetProblem::Kind::contour_vanished: return "contour_vanished";
+    case OffsetProblem::Kind::vertex_dropped: return "vertex_dropped";
+    case OffsetProblem::Kind::gap_too_narrow: return "gap_too_narrow";
   }
   return "?";
 }
@@ -275,19 +278,22 @@ OffsetResult offset_contour(const Contour& contour, double d, const OffsetOption
   {
     std::vector<Eigen::AlignedBox2d> boxes;
     for (const auto& r : raw) boxes.push_back(grown_box(r.seg, 2 * eps));
-    for (std::size_t a = 0; a < nr; ++a)
-      for (std::size_t b = a + 1; b < nr; ++b) {
-        if (!boxes[a].intersects(boxes[b])) continue;
-        const Intersection hit = intersect(raw[a].seg, raw[b].seg, eps);
-        for (const auto& p : hit.points) {
-          bool at_joint = false;
-          if (b == a + 1) at_joint = at_joint || (p - raw[a].seg.end).norm() <= tol;
-          if (a == 0 && b == nr - 1) at_joint = at_joint || (p - raw[b].seg.end).norm() <= tol;
-          if (at_joint) continue;
-          splits[a].push_back({parameter_at(raw[a].seg, p), p});
-          splits[b].push_back({parameter_at(raw[b].seg, p), p});
-        }
+    // Only pairs whose boxes meet (a sweep over the boxes), in a fixed order so that the
+    // splits, and therefore the result, do not depend on the sweep's order.
+    std::vector<std::pair<std::size_t, std::size_t>> pairs;
+    for_each_intersecting_pair(boxes, [&](std::size_t a, std::size_t b) { pairs.push_back({std::min(a, b), std::max(a, b)}); });
+    std::sort(pairs.begin(), pairs.end());
+    for (const auto& [a, b] : pairs) {
+      const Intersection hit = intersect(raw[a].seg, raw[b].seg, eps);
+      for (const auto& p : hit.points) {
+        bool at_joint = false;
+        if (b == a + 1) at_joint = at_joint || (p - raw[a].seg.end).norm() <= tol;
+        if (a == 0 && b == nr - 1) at_joint = at_joint || (p - raw[b].seg.end).norm() <= tol;
+        if (at_joint) continue;
+        splits[a].push_back({parameter_at(raw[a].seg, p), p});
+        splits[b].push_back({parameter_at(raw[b].seg, p), p});
       }
+    }
   }
   std::vector<Piece> pieces;
   for (std::size_t i = 0; i < nr; ++i) {
@@ -305,12 +311,13 @@ OffsetResult offset_contour(const Contour& contour, double d, const OffsetOption
 
   // 5. Keep the pieces at distance >= |d| from the contour, on the correct side.
   const bool want_inside = d < 0;
+  const SpanIndex clean_index({clean});  // distance and side in O(log n) instead of O(n)
   std::vector<std::size_t> kept;
   for (std::size_t p = 0; p < pieces.size(); ++p) {
     bool ok = true;
     for (double f : {0.25, 0.5, 0.75}) {
       const Vector2d q = point_at(pieces[p].seg, f);
-      if (distance(clean, q) < ad - tol || contains(clean, q) != want_inside) {
+      if (clean_index.nearest(q).distance < ad - tol || (clean_index.winding(q) != 0) != want_inside) {
         ok = false;
         break;
       }
@@ -322,6 +329,10 @@ OffsetResult offset_contour(const Contour& contour, double d, const OffsetOption
   const double ctol = 2 * tol;
   std::vector<bool> used(kept.size(), false);
   std::vector<double> surviving(m, 0.0);  // length of each span's own offset that survives
+  // Kept pieces by the x of their start, to find the piece that continues a chain.
+  std::vector<std::pair<double, std::size_t>> by_x;
+  for (std::size_t q = 0; q < kept.size(); ++q) by_x.push_back({pieces[kept[q]].seg.start.x(), q});
+  std::sort(by_x.begin(), by_x.end());
   for (std::size_t first = 0; first < kept.size(); ++first) {
     if (used[first]) continue;
     std::vector<std::size_t> chain{first};
@@ -337,10 +348,12 @@ OffsetResult offset_contour(const Contour& contour, double d, const OffsetOption
         next = follow;
       } else {
         double best = ctol;
-        for (std::size_t q = 0; q < kept.size(); ++q) {
+        auto it = std::lower_bound(by_x.begin(), by_x.end(), std::make_pair(at.x() - ctol, std::size_t{0}));
+        for (; it != by_x.end() && it->first <= at.x() + ctol; ++it) {
+          const std::size_t q = it->second;
           if (used[q]) continue;
           const double g = (pieces[kept[q]].seg.start - at).norm();
-          if (g <= best) {
+          if (g < best || (g == best && (!next || q > *next))) {  // as the former scan: ties to the last
             best = g;
             next = q;
           }
@@ -442,6 +455,213 @@ OffsetResult offset_contour(const Contour& contour, double d, const OffsetOption
                                 a, b, 2 * ad)});
     }
     step += count;
+  }
+  return result;
+}
+
+}  // namespace machplan
+
+namespace machplan {
+namespace {
+
+// A piece of one input contour between two crossings (or the whole contour when it crosses
+// nothing), as the run of (sub)spans it covers.
+struct MergePiece {
+  std::vector<Segment> segs;
+  std::size_t contour = 0;
+  bool closed = false;  // the whole contour
+};
+
+}  // namespace
+
+MergeResult merge_positive(const std::vector<Contour>& contours, const OffsetOptions& options) {
+  options.validate();
+  const double tol = options.tolerance_mm;
+  const double eps = 1e-3 * tol;
+  MergeResult result;
+
+  // Live spans (longer than the tolerance) of every contour.
+  struct Live {
+    std::size_t contour, pos;  // pos: index among the contour's live spans
+    Segment seg;
+  };
+  std::vector<Live> live;
+  std::vector<std::size_t> first_live(contours.size() + 1, 0);
+  for (std::size_t k = 0; k < contours.size(); ++k) {
+    first_live[k] = live.size();
+    std::size_t pos = 0;
+    for (std::size_t i = 0; i < contours[k].size(); ++i) {
+      Segment s = contours[k].span(i);
+      if (length(s) <= tol) continue;
+      live.push_back({k, pos++, s});
+    }
+  }
+  first_live[contours.size()] = live.size();
+  auto live_count = [&](std::size_t k) { return first_live[k + 1] - first_live[k]; };
+
+  // Crossings, by a sweep over the span boxes.
+  std::vector<std::vector<Split>> splits(live.size());
+  {
+    std::vector<Eigen::AlignedBox2d> boxes;
+    boxes.reserve(live.size());
+    for (const auto& l : live) boxes.push_back(grown_box(l.seg, 2 * eps));
+    std::vector<std::pair<std::pair<std::size_t, std::size_t>, Vector2d>> pairs;
+    for_each_intersecting_pair(boxes, [&](std::size_t x, std::size_t y) {
+      if (x > y) std::swap(x, y);
+      const Live& a = live[x];
+      const Live& b = live[y];
+      const Intersection hit = intersect(a.seg, b.seg, eps);
+      if (hit.empty()) return;
+      const std::size_t m = a.contour == b.contour ? live_count(a.contour) : 0;
+      for (const auto& p : hit.points) {
+        bool at_joint = false;
+        if (a.contour == b.contour) {
+          if (b.pos == a.pos + 1) at_joint = (p - a.seg.end).norm() <= tol;
+          if (a.pos == 0 && b.pos == m - 1) at_joint = at_joint || (p - b.seg.end).norm() <= tol;
+        }
+        if (at_joint) continue;
+        splits[x].push_back({parameter_at(a.seg, p), p});
+        splits[y].push_back({parameter_at(b.seg, p), p});
+        pairs.push_back({{std::min(a.contour, b.contour), std::max(a.contour, b.contour)}, p});
+      }
+    });
+    std::stable_sort(pairs.begin(), pairs.end(), [](const auto& u, const auto& v) { return u.first < v.first; });
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      if (i == 0 || pairs[i].first != pairs[i - 1].first)
+        result.crossings.push_back({pairs[i].first.first, pairs[i].first.second, pairs[i].second});
+  }
+
+  // Pieces between crossings.
+  std::vector<MergePiece> pieces;
+  for (std::size_t k = 0; k < contours.size(); ++k) {
+    const std::size_t b0 = first_live[k], m = live_count(k);
+    if (m == 0) continue;
+    bool any = false;
+    for (std::size_t i = b0; i < b0 + m; ++i) {
+      auto& sp = splits[i];
+      std::sort(sp.begin(), sp.end(), [](const Split& x, const Split& y) { return x.t < y.t; });
+      any = any || !sp.empty();
+    }
+    if (!any) {
+      MergePiece pc;
+      pc.contour = k;
+      pc.closed = true;
+      for (std::size_t i = b0; i < b0 + m; ++i) pc.segs.push_back(live[i].seg);
+      pieces.push_back(std::move(pc));
+      continue;
+    }
+    // Walk once round the contour starting at its first split point, cutting at each split.
+    std::size_t s0 = b0;
+    while (splits[s0].empty()) ++s0;
+    MergePiece cur;
+    cur.contour = k;
+    bool started = false;
+    for (std::size_t step = 0; step <= m; ++step) {
+      const std::size_t i = b0 + (s0 - b0 + step) % m;
+      const Segment& s = live[i].seg;
+      const bool last_round = step == m;  // back on the first split span: only up to its first split
+      Split from{0.0, s.start};
+      std::size_t from_index = 0;
+      if (!started) {
+        from = splits[i].front();
+        from_index = 1;
+        started = true;
+      }
+      const auto& sp = splits[i];
+      for (std::size_t q = from_index; q < sp.size() + (last_round ? 0 : 1); ++q) {
+        const bool is_split = q < sp.size();
+        const Split to = is_split ? sp[q] : Split{1.0, s.end};
+        if (to.t > from.t && (to.p - from.p).norm() > 0.0) cur.segs.push_back(sub_segment(s, from.t, to.t, from.p, to.p));
+        from = to;
+        if (is_split) {
+          if (!cur.segs.empty()) pieces.push_back(std::move(cur));
+          cur = MergePiece{};
+          cur.contour = k;
+        }
+        if (last_round && is_split) break;
+      }
+      if (last_round) break;
+    }
+  }
+
+  // Keep the pieces with the positive region on their left only.
+  const SpanIndex index(contours);
+  std::vector<std::size_t> kept;
+  for (std::size_t p = 0; p < pieces.size(); ++p) {
+    const auto& segs = pieces[p].segs;
+    // Sample the middle of the longest (sub)span, away from the crossings at the ends.
+    std::size_t longest = 0;
+    double total = 0.0;
+    for (std::size_t i = 0; i < segs.size(); ++i) {
+      total += length(segs[i]);
+      if (length(segs[i]) > length(segs[longest])) longest = i;
+    }
+    if (total <= tol) continue;
+    const Segment& s = segs[longest];
+    const Vector2d q = point_at(s, 0.5);
+    const Vector2d t = tangent_at(s, q), left(-t.y(), t.x());
+    const double delta = std::min(10.0 * tol, 0.25 * length(s));
+    const int wl = index.winding(q + delta * left), wr = index.winding(q - delta * left);
+    if (wl > 0 && wr <= 0) kept.push_back(p);
+  }
+
+  // Chain the open pieces; closed ones stand alone.
+  const double ctol = 2 * tol;
+  std::vector<std::pair<double, std::size_t>> by_x;  // start x of open kept pieces
+  for (std::size_t q = 0; q < kept.size(); ++q)
+    if (!pieces[kept[q]].closed) by_x.push_back({pieces[kept[q]].segs.front().start.x(), q});
+  std::sort(by_x.begin(), by_x.end());
+  std::vector<bool> used(kept.size(), false);
+  auto find_start = [&](const Vector2d& at) -> std::optional<std::size_t> {
+    auto it = std::lower_bound(by_x.begin(), by_x.end(), std::make_pair(at.x() - ctol, std::size_t{0}));
+    std::optional<std::size_t> best;
+    double best_d = ctol;
+    for (; it != by_x.end() && it->first <= at.x() + ctol; ++it) {
+      if (used[it->second]) continue;
+      const double g = (pieces[kept[it->second]].segs.front().start - at).norm();
+      if (g <= best_d) {
+        best_d = g;
+        best = it->second;
+      }
+    }
+    return best;
+  };
+  auto emit = [&](const std::vector<Segment>& segs) {
+    std::vector<Vector2d> vs;
+    std::vector<double> bs;
+    for (const auto& s : segs) {
+      if (length(s) <= tol) continue;
+      vs.push_back(s.start);
+      bs.push_back(bulge_of(s));
+    }
+    if (vs.size() < 2) return;
+    Contour out(std::move(vs), std::move(bs));
+    if (!(std::abs(signed_area(out)) > tol * perimeter(out))) return;  // a sliver
+    result.contours.push_back(std::move(out));
+  };
+  for (std::size_t first = 0; first < kept.size(); ++first) {
+    if (used[first]) continue;
+    used[first] = true;
+    const MergePiece& p0 = pieces[kept[first]];
+    if (p0.closed) {
+      emit(p0.segs);
+      continue;
+    }
+    std::vector<Segment> segs = p0.segs;
+    const Vector2d origin = segs.front().start;
+    while ((segs.back().end - origin).norm() > ctol) {
+      const auto next = find_start(segs.back().end);
+      if (!next)
+        throw InputError("", 0,
+                         fmt::format("merging offset contours: the region's boundary does not close near "
+                                     "({:.4f}, {:.4f}) (contours touching at the offset distance); change the "
+                                     "offset slightly",
+                                     segs.back().end.x(), segs.back().end.y()));
+      used[*next] = true;
+      const auto& more = pieces[kept[*next]].segs;
+      segs.insert(segs.end(), more.begin(), more.end());
+    }
+    emit(segs);
   }
   return result;
 }

@@ -50,8 +50,10 @@
 // neck or inlet narrower than 2|d|, or a detail at a concave corner smaller than |d|): the
 // feature is too small to be reproduced; a contour that vanished altogether.
 //
-// Cost: O(n^2) in the number of spans (all-pairs intersection tests with bounding boxes,
-// distance checks against every span). Pure, thread-safe, allocates only its result.
+// Cost: O(n log n + k) for n spans and k crossings of the raw offset: crossings come from a
+// sweep over the pieces' bounding boxes, distances and sides from a bounding-volume hierarchy
+// over the contour (span_index.h), and chaining looks pieces up by their start point. (It
+// was all-pairs, O(n^2), before.) Pure, thread-safe.
 //
 // Example:
 //
@@ -88,6 +90,10 @@ struct OffsetProblem {
     arc_collapsed,      // the arc's offset radius would be <= 0: the arc is lost
     feature_too_small,  // no part of these spans' offset survives (narrower than 2|d|)
     contour_vanished,   // nothing survives: the contour is narrower than 2|d| everywhere
+    vertex_dropped,     // the paper's offset (paper_offset.h) dropped a vertex: the setback
+                        // R tan(phi/2) exceeded a neighbouring segment
+    gap_too_narrow,     // two contours (or two parts of one) closer than 2|d|: their offsets
+                        // cross and merge (merge_positive), the tool cannot pass between them
   };
   static constexpr std::size_t kNoSpan = std::numeric_limits<std::size_t>::max();
 
@@ -97,6 +103,9 @@ struct OffsetProblem {
   std::size_t span = kNoSpan;
   std::size_t span_count = 0;
   std::string message;  // one line, for people
+  // Index of the contour concerned when several are offset together (prohibited region);
+  // 0 for offset_contour.
+  std::size_t contour = 0;
 };
 const char* to_string(OffsetProblem::Kind k);
 
@@ -120,5 +129,30 @@ struct OffsetResult {
 // pinches to zero width exactly at the offset distance and its pieces do not close (found by
 // tests/fuzz/offset_fuzz.cpp); and when the options are invalid.
 OffsetResult offset_contour(const Contour& contour, double distance_mm, const OffsetOptions& options = {});
+
+// The boundary of the region where the summed winding number of `contours` is positive.
+//
+// The contours may cross themselves and each other (offsets of neighbouring contours that
+// came closer than twice the offset distance, a mitre offset with loops). They are split at
+// every crossing; a piece is kept when the summed winding number is positive just on its left
+// and not positive just on its right; kept pieces are chained into closed contours. So with
+// every input contour oriented with its region on the left (outer boundaries
+// counter-clockwise, holes clockwise), the result bounds the union of the regions, minus the
+// holes, with loops of negative or zero winding removed; contours that cross nothing are kept
+// unchanged or dropped whole. Lines stay lines and arcs stay arcs.
+//
+// Cost: O(n log n + k log n) for n spans and k crossings (a sweep over the span boxes finds the
+// crossings, a span index answers the winding numbers). Throws InputError when the kept
+// pieces do not close (regions that touch at a single point along a shared curve, within the
+// tolerance), naming the place; and when the options are invalid.
+struct MergeResult {
+  std::vector<Contour> contours;
+  struct Crossing {
+    std::size_t contour_a = 0, contour_b = 0;  // input contours, a <= b (a == b: crosses itself)
+    Eigen::Vector2d at{0, 0};                  // the first crossing found between them
+  };
+  std::vector<Crossing> crossings;  // one per pair of input contours that cross
+};
+MergeResult merge_positive(const std::vector<Contour>& contours, const OffsetOptions& options = {});
 
 }  // namespace machplan

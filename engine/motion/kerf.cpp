@@ -127,6 +127,8 @@ KerfIssue::Kind from_offset_kind(OffsetProblem::Kind k) {
     case OffsetProblem::Kind::arc_collapsed: return KerfIssue::Kind::arc_collapsed;
     case OffsetProblem::Kind::feature_too_small: return KerfIssue::Kind::feature_too_small;
     case OffsetProblem::Kind::contour_vanished: return KerfIssue::Kind::contour_vanished;
+    case OffsetProblem::Kind::vertex_dropped:  // not produced by offset_contour
+    case OffsetProblem::Kind::gap_too_narrow: return KerfIssue::Kind::feature_too_small;
   }
   return KerfIssue::Kind::feature_too_small;
 }
