@@ -39,7 +39,7 @@ done
 run paper_heptagon outside 12 4.5 paper paper "$strokes" > "$tmp/t3_outside.json"
 run paper_heptagon inside 12 4.5 paper paper "$strokes" > "$tmp/t3_inside.json"
 # The latency sweep behind the default (triangle, 12 and 18 mm/s, T = 1 .. 5).
-for L in 60 90 120 150 180; do
+for L in 90 120 150 180 210; do
   for feed in 12 18; do
     for T in 1 2 3 4 5; do run paper_triangle outside $feed $T paper paper 40 $L > "$tmp/sweep_${L}_${feed}_${T}.json"; done
   done
@@ -68,7 +68,7 @@ print("Paper: Franco Garcia and Horikawa, \"Manual and servo assisted, hybrid sy
 print("tools\", Tables 2 and 3 (human operator, joystick, MATLAB on a PC, RS-232C to an NSK controller). Ours: the")
 print("simulated XY table (datasets/machines/xy_table.yaml), the rebuilt profiles (datasets/profiles/paper_*.dxf,")
 print("reconstructed: the paper gives no dimensions), tool radius 5 mm (reconstructed), the paper's offset method, the")
-print("`paper` strategy (ask the position, compare d <= T, send a stop) with the default link round trip of 120 ms,")
+print("`paper` strategy (ask the position, compare d <= T, send a stop) with the default link round trip of 150 ms,")
 print("and the seeded random operator (`--operator random:N`: strokes aimed at the part from random places). Success:")
 print("the tool centre never entered the prohibited region; under-cut: the material left beyond the offset profile where")
 print("the tool stopped, averaged over the successes as the paper does.")
@@ -113,7 +113,7 @@ print()
 print("| L (ms) | 12 mm/s: success % at T = 1..5 | 18 mm/s: success % at T = 1..5 | rms difference to the paper (points) |")
 print("|---|---|---|---|")
 best = None
-for L in (60, 90, 120, 150, 180):
+for L in (90, 120, 150, 180, 210):
     cells, diffs = {}, []
     for feed in (12, 18):
         for T in (1, 2, 3, 4, 5):
@@ -126,9 +126,9 @@ for L in (60, 90, 120, 150, 180):
     print("| %d | %s | %s | %.1f |" % (L, " / ".join("%.0f" % cells[(12, T)] for T in (1, 2, 3, 4, 5)),
           " / ".join("%.0f" % cells[(18, T)] for T in (1, 2, 3, 4, 5)), rms))
 print()
-print("Closest: L = %d ms (the default, `executor::kPaperLatencyS`, is 120 ms)." % best[1])
+print("Closest: L = %d ms (the default, `executor::kPaperLatencyS`, is 150 ms)." % best[1])
 print()
-print("## Beyond the paper: the predictive strategy, T = 0.5 mm, the same 120 ms latency")
+print("## Beyond the paper: the predictive strategy, T = 0.5 mm, the same 150 ms latency")
 print()
 print("| V (mm/s) | profile | side | attempts | successes | invasions | max invasion (mm) | mean under-cut (mm) | max under-cut (mm) |")
 print("|---|---|---|---|---|---|---|---|---|")

@@ -34,6 +34,8 @@ void GuardOptions::validate() const {
         "must be in [0, 10] mm");
   check(std::isfinite(braking_fraction) && braking_fraction > 0 && braking_fraction <= 1, "braking_fraction",
         braking_fraction, "must be in (0, 1]");
+  check(std::isfinite(tracking_limit_mm) && tracking_limit_mm > 0 && tracking_limit_mm <= 100, "tracking_limit_mm",
+        tracking_limit_mm, "must be in (0, 100] mm");
   check(std::isfinite(acceleration_mm_per_s2) && acceleration_mm_per_s2 >= 0 && acceleration_mm_per_s2 <= 1e6,
         "acceleration_mm_per_s2", acceleration_mm_per_s2, "must be in [0, 1e6] mm/s^2 (0: the machine's)");
 }
@@ -51,7 +53,11 @@ Guard::Guard(const ProhibitedRegion& region, const GuardOptions& options, const 
   read_latency_ = 0;
   for (const auto& sig : machine.signals) read_latency_ = std::max(read_latency_, sig.reading_latency_ticks);
   read_latency_ = std::clamp(read_latency_, 0, 64);
-  ring_ = static_cast<std::size_t>(lag_ticks_ + read_latency_ + 4);
+  plant_lag_ = 1;
+  for (const auto& sig : machine.signals)
+    plant_lag_ = std::max(plant_lag_, 1 + sig.command_latency_ticks + sig.reading_latency_ticks);
+  plant_lag_ = std::clamp(plant_lag_, 1, 64);
+  ring_ = static_cast<std::size_t>(lag_ticks_ + std::max(read_latency_, plant_lag_) + 4);
   measured_.assign(ring_, Eigen::Vector2d::Zero());
   setpoint_.assign(ring_, Eigen::Vector2d::Zero());
   measured_ok_.assign(ring_, 1);
@@ -68,7 +74,7 @@ void Guard::reset(const Eigen::Vector2d& start_mm) {
   answer_mm_ = answer_g_mm_ = g_ = start_mm;
   v_.setZero();
   a_.setZero();
-  holding_ = stop_latched_ = false;
+  holding_ = stop_latched_ = tracking_lost_ = false;
   counters_ = {};
 }
 
@@ -78,10 +84,31 @@ double Guard::braking_speed(double clearance_mm) const noexcept {
   return Ab_ * (-dt_ + std::sqrt(dt_ * dt_ + 2.0 * clearance_mm / Ab_));
 }
 
+namespace {
+
+// The direction in which the distance to the boundary grows fastest at p: from the nearest
+// point toward p (away from it when p is inside). Unlike a span's normal this is right at a
+// vertex too (the bisector at a pocket's corner); on the boundary itself the span's normal.
+RegionDistance with_true_normal(RegionDistance q, const Eigen::Vector2d& p) {
+  const Eigen::Vector2d r = p - q.nearest_mm;
+  const double n = r.norm();
+  if (n > 1e-9 && std::isfinite(n)) q.normal = (q.signed_distance_mm >= 0 ? 1.0 : -1.0) * r / n;
+  return q;
+}
+
+// Whether b's constraint is a's: the same tangent line (b's nearest point on a's line, the
+// same normal). Comparing spans is not enough: a vertex belongs to two spans, and the region
+// may name either.
+bool same_line(const RegionDistance& a, const RegionDistance& b) {
+  return a.normal.dot(b.normal) > 1.0 - 1e-9 && std::abs((b.nearest_mm - a.nearest_mm).dot(a.normal)) < 1e-6;
+}
+
+}  // namespace
+
 Eigen::Vector2d Guard::predictive_velocity(const Eigen::Vector2d& p, const Eigen::Vector2d& v_in) const noexcept {
   Eigen::Vector2d v = v_in;
   if (v.squaredNorm() == 0.0) return v;
-  const RegionDistance q0 = region_.query(p);
+  const RegionDistance q0 = with_true_normal(region_.query(p), p);
   if (!std::isfinite(q0.signed_distance_mm)) return Eigen::Vector2d::Zero();
   const double vl0 = braking_speed(q0.signed_distance_mm - s_);
   const auto limit = [&v](const Eigen::Vector2d& n, double vl) {
@@ -89,32 +116,40 @@ Eigen::Vector2d Guard::predictive_velocity(const Eigen::Vector2d& p, const Eigen
     if (vn < -vl) v += (-vl - vn) * n;  // remove the normal part beyond what can still stop
   };
   limit(q0.normal, vl0);
-  double sp = v.norm();
-  if (sp == 0.0) return v;
-  // Where braking from now would end, plus the standoff: a feature met there (the other side
-  // of a pocket's corner) is handled before the table slides into it.
-  const auto ahead = [&](const Eigen::Vector2d& vel) {
-    const double s = vel.norm();
-    return Eigen::Vector2d(p + vel / s * (s * dt_ + s * s / (2.0 * Ab_) + s_));
-  };
-  const RegionDistance q1 = region_.query(ahead(v));
-  if (std::isfinite(q1.signed_distance_mm) && (q1.contour != q0.contour || q1.span != q0.span)) {
-    // Clearance of p from the tangent line of that feature (exact for a line span).
+  // Look ahead where braking from the present speed would end, along the velocity and along
+  // its part tangential to the nearest feature (the way the table slides): a feature met there
+  // (the other side of a pocket's corner) is limited too, by the clearance of p from its tangent
+  // line (exact for a line span), before the table slides into it. Two features at once: the
+  // three alternating projections end on a velocity that satisfies both, or on none (a wedge
+  // the command points into: stop).
+  const double sp_in = v_in.norm();
+  const double reach = sp_in * dt_ + sp_in * sp_in / (2.0 * Ab_) + s_;
+  RegionDistance known[3] = {q0, q0, q0};
+  for (int pass = 0; pass < 2; ++pass) {
+    const Eigen::Vector2d dir = pass == 0 ? v : Eigen::Vector2d(v - v.dot(q0.normal) * q0.normal);
+    const double dn = dir.norm();
+    if (dn < 1e-12) continue;
+    const Eigen::Vector2d p1 = p + dir / dn * reach;
+    const RegionDistance q1 = with_true_normal(region_.query(p1), p1);
+    if (!std::isfinite(q1.signed_distance_mm) || same_line(q0, q1)) continue;
+    known[pass + 1] = q1;
     const double vl1 = braking_speed((p - q1.nearest_mm).dot(q1.normal) - s_);
     for (int k = 0; k < 2; ++k) {
       limit(q1.normal, vl1);
       limit(q0.normal, vl0);
     }
-    // A wedge the command cannot satisfy on both sides: stop.
     if (v.dot(q1.normal) < -vl1 - 1e-9) return Eigen::Vector2d::Zero();
   }
-  sp = v.norm();
+  const double sp = v.norm();
   if (sp == 0.0) return v;
   // Last check along the velocity finally chosen: if braking would still end inside the region
-  // (a curved or third feature), fall back to the ball rule, safe whatever the shape: the speed
-  // is such that the table stops within the clearance of p.
-  const RegionDistance q2 = region_.query(ahead(v));
-  if (!(q2.signed_distance_mm >= 0.0) && sp > vl0) v *= vl0 / sp;
+  // at a feature not yet limited (a curve, a third feature), fall back to the ball rule, safe
+  // whatever the shape: a speed at which the table stops within the clearance of p.
+  const Eigen::Vector2d p2 = p + v / sp * (sp * dt_ + sp * sp / (2.0 * Ab_) + s_);
+  const RegionDistance q2 = with_true_normal(region_.query(p2), p2);
+  bool seen = false;
+  for (const RegionDistance& k : known) seen = seen || same_line(k, q2);
+  if (!seen && !(q2.signed_distance_mm >= 0.0) && sp > vl0) v *= vl0 / sp;
   return v;
 }
 
@@ -133,8 +168,8 @@ void Guard::filter(Demand& d, const Eigen::Vector2d& measured_mm, const Eigen::V
     const std::size_t s = static_cast<std::size_t>(ts) % ring_;
     if (measured_ok_[s]) {
       answer_mm_ = measured_[s];
-      // The setpoint in force when that position was measured: the one of the tick before.
-      answer_g_mm_ = setpoint_[static_cast<std::size_t>(std::max(0L, ts - 1)) % ring_];
+      // The setpoint that position answers to: the one sent plant_lag_ ticks before it was read.
+      answer_g_mm_ = setpoint_[static_cast<std::size_t>(std::max(0L, ts - plant_lag_)) % ring_];
       have_answer_ = true;
       new_answer = true;
       last_answer_tick_ = tick_;
@@ -172,8 +207,17 @@ void Guard::filter(Demand& d, const Eigen::Vector2d& measured_mm, const Eigen::V
     }
     if (stop_latched_) target.setZero();
   } else {
-    const Eigen::Vector2d p = answer_mm_ + (g_ - answer_g_mm_);
-    target = predictive_velocity(p, v_in);
+    // The commanded point is where the table will be (the controller tracks it; at rest it
+    // reaches it), known now whatever the link's delay. The answers check that it does: an
+    // answer farther from the setpoint of its time than the tracking limit (a jam, a slipped
+    // drive) holds the axes.
+    if (new_answer && (answer_mm_ - answer_g_mm_).norm() > o_.tracking_limit_mm) tracking_lost_ = true;
+    if (tracking_lost_) {
+      target.setZero();
+      ++counters_.failsafe_ticks;
+    } else {
+      target = predictive_velocity(g_, v_in);
+    }
   }
   if ((target - v_in).squaredNorm() > 1e-18) ++counters_.limited_ticks;
 
@@ -182,13 +226,31 @@ void Guard::filter(Demand& d, const Eigen::Vector2d& measured_mm, const Eigen::V
   const double dv_max = A_ * dt_;
   const double dvn = dv.norm();
   if (dvn > dv_max) dv *= dv_max / dvn;
-  v_ += dv;
-  a_ = dv / dt_;
+  Eigen::Vector2d v_new = v_ + dv;
+  if (o_.strategy == GuardStrategy::predictive && !failsafe && !tracking_lost_ && v_new.squaredNorm() > 0.0) {
+    // The last word: the next setpoint may not lose clearance below the standoff (or below
+    // what it has, if less). Where the limits above fall short (a corner met at speed, the
+    // acceleration slew), the step is shortened, harder than A if it must: a brake beyond the
+    // ramp is better than a cut into the part. Bounded: four halvings.
+    const double floor = std::min(region_.query(g_).signed_distance_mm, s_) - 1e-4;
+    if (!(region_.query(g_ + v_new * dt_).signed_distance_mm >= floor)) {
+      double lo = 0.0, hi = 1.0;
+      for (int k = 0; k < 4; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        if (region_.query(g_ + mid * v_new * dt_).signed_distance_mm >= floor) lo = mid;
+        else hi = mid;
+      }
+      v_new *= lo;
+      ++counters_.emergency_ticks;
+    }
+  }
+  a_ = (v_new - v_) / dt_;
+  v_ = v_new;
   g_ += v_ * dt_;
   setpoint_[slot] = g_;
 
   const bool was_holding = holding_;
-  holding_ = failsafe || stop_latched_ ||
+  holding_ = failsafe || stop_latched_ || tracking_lost_ ||
              (o_.strategy == GuardStrategy::predictive && v_in.norm() > 1e-6 && target.norm() < 1e-6 * v_in.norm());
   if (holding_ && !was_holding && o_.strategy == GuardStrategy::predictive) ++counters_.stops_sent;
 

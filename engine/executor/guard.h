@@ -23,14 +23,18 @@
 //               an answer finds the operator's direction no longer pointing into the region.
 //               Between answers the table runs blind, so it stops up to v L (1 + 1) + v^2 / 2A
 //               beyond the point where the check fired: the paper's invasions.
-//   predictive  ours: knows its own commands, so it dead-reckons the position now from the
-//               last answer, p = y(t - L) + (g(t) - g(t - L)) (the controller's following error
-//               at the sample carries over), and limits every tick the speed toward the region
-//               to what can still stop at A_b = braking_fraction x A before the boundary plus a
-//               standoff s = min(standoff_mm, T / 2) (the clearance h = d - s must cover one
-//               period at that speed and the braking distance: v T + v^2 / 2 A_b <= h). A second
-//               query at the point where braking would end catches the next feature (a corner
-//               of a pocket) before the table slides into it.
+//   predictive  ours: does not wait for the position. It knows the commands it sends, so it
+//               judges the commanded point g (where the controller takes the table, and where
+//               the table comes to rest), not a position L old, and limits every tick the
+//               speed toward the region to what can still stop at A_b = braking_fraction x A
+//               before the boundary plus a standoff s = min(standoff_mm, T / 2) (the clearance
+//               h = d - s must cover one period at that speed and the braking distance:
+//               v T + v^2 / 2 A_b <= h); the tangential part passes. A second query where
+//               braking would end catches the next feature (the other side of a pocket's
+//               corner) before the table slides into it. The answers, each paired with the
+//               setpoint of its time (plant_lag_ ticks before it was read), check that the
+//               table follows: one off by more than tracking_limit_mm (a jam, a slipped drive)
+//               holds the axes. The standoff covers what the table may still overshoot g.
 //
 // Fail safe: a measured position that is not finite, an answer older than L plus one answer
 // period (a lost or late link; see drop_answers()) or a non-finite intent makes the guard stop
@@ -38,7 +42,7 @@
 // it: the guard's decision happens in the tick that outputs the setpoint.
 //
 // Real time: filter() allocates nothing, takes no lock, does no I/O and never throws; at most
-// three region queries (O(log n) each) per tick. The buffers are sized in the constructor.
+// ten region queries (O(log n) each) per tick. The buffers are sized in the constructor.
 #pragma once
 
 #include <cstdint>
@@ -59,17 +63,19 @@ const char* to_string(GuardStrategy s);
 GuardStrategy guard_strategy_from_string(const std::string& s);
 
 // The round trip that reproduces the paper's Tables 2 and 3 with the paper strategy on our
-// simulated XY table (bench/guard_paper.sh; bench/results/guard_paper.md): 0.12 s, a plausible
+// simulated XY table best (bench/guard_paper.sh; bench/results/guard_paper.md): 0.15 s, a plausible
 // figure for MATLAB polling an NSK controller over RS-232C.
-inline constexpr double kPaperLatencyS = 0.12;
+inline constexpr double kPaperLatencyS = 0.15;
 
 struct GuardOptions {
   GuardStrategy strategy = GuardStrategy::predictive;
   double tolerance_mm = 1.0;          // T: the band outside the boundary where the guard stops the tool
   double latency_s = kPaperLatencyS;  // L, see the file comment; [0, 1] s
-  double standoff_mm = 0.03;          // predictive: aim this far outside the boundary (at most T / 2)
-  double braking_fraction = 0.8;      // predictive: plan braking at this share of A, (0, 1]
+  double standoff_mm = 0.08;          // predictive: aim this far outside the boundary (at most T / 2); covers the
+                                      // table's overshoot of the setpoint when it brakes (up to 0.06 mm measured on xy_table)
+  double braking_fraction = 0.5;      // predictive: plan braking at this share of A, (0, 1]; 1/2 lets two perpendicular limits brake at once
   double acceleration_mm_per_s2 = 0;  // A; 0: the machine's
+  double tracking_limit_mm = 1.0;     // predictive: an answer this far from the setpoint of its time holds the axes
   void validate() const;              // throws InputError naming the field
 };
 
@@ -80,6 +86,7 @@ struct GuardCounters {
   long stops_sent = 0;       // paper: stop commands; predictive: ticks that entered a hold
   long limited_ticks = 0;    // ticks in which the guard changed the operator's velocity
   long failsafe_ticks = 0;   // ticks held because the link was late or a value not finite
+  long emergency_ticks = 0;  // predictive: ticks whose step was shortened beyond the ramp (see filter())
 };
 
 class Guard final : public DemandFilter {
@@ -113,11 +120,12 @@ class Guard final : public DemandFilter {
   double dt_ = 0.001, A_ = 0.0, Ab_ = 0.0, s_ = 0.0;
   int lag_ticks_ = 0;    // L in ticks
   int read_latency_ = 0; // the controller's reading latency (the setpoint lags by it, like the jog source's)
+  int plant_lag_ = 1;    // ticks from a setpoint to the position read back for it
   std::size_t ring_ = 1;
   std::vector<Eigen::Vector2d> measured_, setpoint_;  // per tick, ring of `ring_`
   std::vector<char> measured_ok_;
   long tick_ = 0, next_answer_ = 0, last_answer_tick_ = 0;
-  bool have_answer_ = false, drop_ = false, holding_ = false, stop_latched_ = false;
+  bool have_answer_ = false, drop_ = false, holding_ = false, stop_latched_ = false, tracking_lost_ = false;
   Eigen::Vector2d answer_mm_{0, 0}, answer_g_mm_{0, 0};  // last answer and our setpoint at its sampling
   Eigen::Vector2d g_{0, 0}, v_{0, 0}, a_{0, 0};
   GuardCounters counters_;

@@ -94,7 +94,7 @@ struct Rig {
   GuardRunOptions o;
   double jog_speed = 0.0;
   std::vector<std::string>* warnings = nullptr;
-  long stops = 0, failsafe = 0;
+  long stops = 0, failsafe = 0, emergency = 0;
 };
 
 // One jog session under the guard from `start`. Before every tick `step(t, true_mm, guard,
@@ -145,6 +145,7 @@ double jog_session(Rig& rig, const Eigen::Vector2d& start, std::uint64_t seed, b
       rig.warnings->push_back(fmt::format("session at ({:.2f}, {:.2f}): {}", start.x(), start.y(), f.message));
   rig.stops += guard.counters().stops_sent;
   rig.failsafe += guard.counters().failsafe_ticks;
+  rig.emergency += guard.counters().emergency_ticks;
   end_mm = p;
   return t;
 }
@@ -234,6 +235,23 @@ Eigen::Vector2d random_boundary_point(const ProhibitedRegion& region, std::mt199
     s -= p;
   }
   return point_at_length(region.boundary().back(), 0.0);
+}
+
+// Where an operator aiming at `aim` (a boundary point) starts from: `lo` .. `hi` mm away from
+// it, within 60 degrees of the boundary's normal there (an operator roughing toward the profile
+// pushes at it, not along it), in the allowed region at least `lo` / 2 from the boundary.
+// Falls back to any place at that distance when the neighbourhood has no room (a narrow pocket).
+Eigen::Vector2d approach_start(const ProhibitedRegion& region, std::mt19937_64& rng, const Eigen::Vector2d& aim, double lo,
+                               double hi) {
+  const Eigen::Vector2d n = region.query(aim).normal;
+  std::uniform_real_distribution<double> angle(-M_PI / 3, M_PI / 3), dist(lo, hi);
+  for (int k = 0; k < 200; ++k) {
+    const double a = angle(rng), r = dist(rng);
+    const Eigen::Vector2d dir(std::cos(a) * n.x() - std::sin(a) * n.y(), std::sin(a) * n.x() + std::cos(a) * n.y());
+    const Eigen::Vector2d p = aim + r * dir;
+    if (region.query(p).signed_distance_mm >= 0.5 * lo) return p;
+  }
+  return random_start(region, rng, lo, hi);
 }
 
 void set_stick(hardware::OperatorInputs& in, const Eigen::Vector2d& dir, double speed, double jog_speed) {
@@ -400,8 +418,8 @@ GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string&
       const double v = options.feed_mm_per_s;
       const double lo = T + 2.0 + 0.05 * v, hi = T + 12.0 + 0.05 * v;
       for (int i = 0; i < options.op.strokes; ++i) {
-        const Eigen::Vector2d start = random_start(region, rng, lo, hi);
         const Eigen::Vector2d aim = random_boundary_point(region, rng);
+        const Eigen::Vector2d start = approach_start(region, rng, aim, lo, hi);
         const double delay = std::uniform_real_distribution<double>(0.0, 0.2 + L)(rng);
         const Eigen::Vector2d dir = (aim - start).normalized();
         const double push_s = (aim - start).norm() / v + 0.5;
@@ -504,6 +522,7 @@ GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string&
 
   r.guard_stops = rig.stops;
   r.guard_failsafe_ticks = rig.failsafe;
+  r.guard_emergency_ticks = rig.emergency;
   double sum_u = 0;
   for (const Attempt& a : r.attempts) {
     if (a.success) {
@@ -586,11 +605,13 @@ nlohmann::json GuardRunResult::to_json() const {
   j["roughing_time_s"] = roughing_time_s;
   j["finishing_time_s"] = finishing_time_s;
   j["guard_failsafe_ticks"] = guard_failsafe_ticks;
+  j["guard_emergency_ticks"] = guard_emergency_ticks;
   j["warnings"] = warnings;
   nlohmann::json per = nlohmann::json::array();
   for (const Attempt& a : attempts)
     per.push_back({{"attempt", a.index + 1},
                    {"start_mm", {a.start_mm.x(), a.start_mm.y()}},
+                   {"aim_mm", {a.aim_mm.x(), a.aim_mm.y()}},
                    {"closest_at_mm", {a.closest_at_mm.x(), a.closest_at_mm.y()}},
                    {"speed_mm_per_s", a.speed_mm_per_s},
                    {"closest_mm", a.closest_mm},

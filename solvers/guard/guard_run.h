@@ -22,9 +22,10 @@
 // Totals: attempts, successes, invasions, max invasion, mean and max under-cut over the
 // successes (the paper's Tables 2 and 3 average the under-cut of the successes), time.
 //
-// The random operator (random:N, seeded): N strokes, each from a random place in the allowed
-// region 2 + feed x 0.05 .. 12 + feed x 0.05 mm beyond the band, aimed at a random point of
-// the boundary (uniform along its length), pushed at the feed after a random reaction time of
+// The random operator (random:N, seeded): N strokes, each aimed at a random point of the
+// boundary (uniform along its length) from a random place T + 2 + feed x 0.05 .. T + 12 +
+// feed x 0.05 mm away from it, within 60 degrees of the boundary's normal there (an operator
+// roughing pushes at the profile, not along it), pushed at the feed after a random reaction time of
 // 0 .. 0.2 s + L (so the link's answers fall at random phases of the approach) until the guard
 // holds the table at rest or the aim would have been passed by 0.5 s, then released. Each
 // stroke is one jog session from its start point.
@@ -106,7 +107,7 @@ struct GuardRunResult {
   int successes = 0, invasions = 0;
   double max_invasion_mm = 0.0, mean_undercut_mm = 0.0, max_undercut_mm = 0.0;
   double roughing_time_s = 0.0, finishing_time_s = 0.0;
-  long guard_stops = 0, guard_failsafe_ticks = 0;
+  long guard_stops = 0, guard_failsafe_ticks = 0, guard_emergency_ticks = 0;
   std::vector<FinishPass> finish;
   bool quit_by_operator = false;
 

@@ -59,7 +59,7 @@ TEST(GuardCli, JsonHasTheNamedFieldsAndThePlotIsWritten) {
   EXPECT_EQ(j["attempts"].get<int>(), 6);
   EXPECT_EQ(j["per_attempt"].size(), 6u);
   EXPECT_EQ(j["strategy"], "paper");
-  EXPECT_DOUBLE_EQ(j["latency_s"].get<double>(), 0.12);
+  EXPECT_DOUBLE_EQ(j["latency_s"].get<double>(), 0.15);
   ASSERT_EQ(j["finish"].size(), 1u);
   EXPECT_TRUE(j["finish"][0]["completed"].get<bool>());
   EXPECT_GT(fs::file_size(png), 10000u);

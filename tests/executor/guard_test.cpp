@@ -177,6 +177,19 @@ TEST(Guard, ALostLinkStopsTheAxesFarFromTheRegion) {
   }
 }
 
+TEST(Guard, PredictiveHoldsWhenTheTableDoesNotFollow) {
+  // A jammed table: the answers stay where it stuck while the setpoint runs on.
+  const ProhibitedRegion region = square(MachiningSide::outside);
+  Guard g(region, options(GuardStrategy::predictive, 1.0), table(), 0.001);
+  g.reset({300, 50});
+  Drive dr{region, g, {300, 50}, {300, 50}};
+  const Eigen::Vector2d stuck(300, 50);
+  for (int k = 0; k < 400; ++k) dr.step({20, 0}, &stuck);
+  EXPECT_TRUE(g.holding());
+  EXPECT_EQ(g.setpoint_velocity_mm_per_s().norm(), 0.0);
+  EXPECT_GT(g.counters().failsafe_ticks, 0);
+}
+
 TEST(Guard, ANonFinitePositionHoldsTheAxes) {
   const ProhibitedRegion region = square(MachiningSide::outside);
   Guard g(region, options(GuardStrategy::predictive, 1.0), table(), 0.001);
