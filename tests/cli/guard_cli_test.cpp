@@ -87,7 +87,6 @@ TEST(GuardCli, BadFlagsExit2NamingTheFlag) {
            Case{"--side outside --tool-radius 5 --tolerance 1 --operator random:3 --strategy fast", "--strategy"},
            Case{"--side outside --tool-radius 5 --tolerance 1 --operator random:3 --seed -4", "--seed"},
            Case{"--side outside --tool-radius 5 --tolerance 1 --operator random:3 --plot out.txt", "--plot"},
-           Case{"--side outside --tool-radius 5 --tolerance 1 --operator random:3 --plot /nonexistent/dir/p.png", "--plot"},
            Case{"--side outside --tool-radius 5 --tolerance 1 --operator random:3 --finish-allowance 0.2", "--finish-allowance"},
            Case{"--side outside --tool-radius 5 --tolerance 1 --operator joystick:/dev/input/js-absent-machplan",
                 "--operator joystick"},
@@ -97,6 +96,13 @@ TEST(GuardCli, BadFlagsExit2NamingTheFlag) {
     EXPECT_EQ(o.code, 2) << c.args << "\n" << o.err;
     EXPECT_THAT(o.err, HasSubstr(c.flag)) << c.args;
   }
+  // The plot's folder must exist before the run.
+  test::TempDir dir;
+  const std::string no_dir = (dir.path() / "missing" / "p.png").string();
+  const Outcome nofolder = machplan(base + "--side outside --tool-radius 5 --tolerance 1 --operator random:3 --plot '" + no_dir + "'");
+  EXPECT_EQ(nofolder.code, 2);
+  EXPECT_THAT(nofolder.err, HasSubstr("--plot"));
+  EXPECT_FALSE(fs::exists(no_dir));
   // The plot may not overwrite the profile.
   const Outcome same = machplan(base + "--side outside --tool-radius 5 --tolerance 1 --operator random:3 --plot " + kTriangle);
   EXPECT_EQ(same.code, 2);
