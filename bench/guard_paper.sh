@@ -52,6 +52,18 @@ for feed in 12 18 100; do
   run paper_heptagon inside $feed 0.5 predictive robust "$beyond" > "$tmp/b_${feed}_heptagon_inside.json"
 done
 
+# Automatic finishing after three strokes: single pass, and the paper's double pass (0.3 mm over).
+for prof in paper_triangle arc_profile; do
+  for allow in 0 0.3; do
+    extra=()
+    [[ "$allow" != 0 ]] && extra=(--finish-allowance "$allow")
+    "$bin" guard "datasets/profiles/$prof.dxf" --side outside --tool-radius 5 --tolerance 0.5 --operator random:3 --seed 3 --finish \
+      "${extra[@]}" --json > "$tmp/f_${prof}_${allow}.json"
+  done
+done
+"$bin" guard "datasets/profiles/paper_quadrilateral.dxf" --side inside --tool-radius 5 --tolerance 0.5 --operator random:3 --seed 3 --finish \
+  --json > "$tmp/f_paper_quadrilateral_0.json"
+
 python3 - "$tmp" "$bin" "$strokes" "$beyond" <<'EOF'
 import json, os, sys, datetime, platform
 tmp, binary, strokes, beyond = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
@@ -139,4 +151,34 @@ for feed in (12, 18, 100):
               r["max_invasion_mm"], r["mean_undercut_mm"], r["max_undercut_mm"]))
 print()
 print("The paper's own figures: an average under-cut of about 0.5 mm and more, success below 100 % under 4 mm.")
+print()
+print("## Automatic finishing (predictive roughing, 3 strokes, then `--finish`)")
+print()
+print("Deviation: the largest distance of the simulated true tool centre from the pass's path (the offset profile for")
+print("the final pass, the profile offset 0.3 mm further out for the first of two passes). The issue asks <= 0.05 mm.")
+print()
+print("| profile | side | passes | pass | completed | max deviation (mm) | rms (mm) | time (s) |")
+print("|---|---|---|---|---|---|---|---|")
+for prof, side, allow in (("paper_triangle", "outside", "0"), ("paper_triangle", "outside", "0.3"), ("arc_profile", "outside", "0"),
+                          ("arc_profile", "outside", "0.3"), ("paper_quadrilateral", "inside", "0")):
+    r = load("f_%s_%s" % (prof, allow))
+    for f in r["finish"]:
+        print("| %s | %s | %d | %s | %s | %.4f | %.4f | %.1f |" % (prof, side, len(r["finish"]),
+              "+%g mm" % f["allowance_mm"] if f["allowance_mm"] > 0 else "final", f["completed"], f["max_deviation_mm"],
+              f["rms_deviation_mm"], f["time_s"]))
+print()
+print("## Reading")
+print()
+print("- The trend of Tables 2 and 3 is reproduced: with the paper's check-and-stop over a 150 ms round trip the")
+print("  success rate rises with T to 98-100 % at 5 mm, and the under-cut of the successes grows with T.")
+print("- Where ours differs: one fixed latency makes the overshoot proportional to the feed, so at 18 mm/s our success")
+print("  lags the paper's at T = 3-4 mm, and at 12 mm/s it leads it at T = 2-3 mm. The paper's two feeds give nearly")
+print("  the same rates, which no fixed delay does: its delay was probably not one fixed time (MATLAB and a serial")
+print("  poll; its operators may also have slowed near the part). The sweep shows the compromise.")
+print("- Table 3's under-cut (0.9 and 1.2 mm at T = 4.5 mm) is below ours (about 2.2 mm) and below its own Table 2 at")
+print("  T = 4-5 mm; with a random operator pushing at the profile our under-cut is T minus the overshoot, whatever")
+print("  the shape.")
+print("- The predictive strategy, under the same 150 ms link, has no invasion in 2400 strokes up to 100 mm/s (8 x the")
+print("  paper's feed) at T = 0.5 mm, with a mean under-cut of 0.05-0.06 mm (its 0.08 mm standoff less the table's")
+print("  overshoot when it brakes): 10 to 50 times below the paper's.")
 EOF

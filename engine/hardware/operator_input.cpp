@@ -257,7 +257,7 @@ LiveOperator::LiveOperator(Kind kind, const std::string& device, double max_spee
     const std::string path = device.empty() ? "/dev/input/js0" : device;
     fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd_ < 0)
-      throw InputError(flag, 0, fmt::format("cannot open the joystick {}: {} (is one plugged in? set MACHPLAN_JOYSTICK to another device)",
+      throw InputError(flag, 0, fmt::format("cannot open the joystick {}: {} (is one plugged in? name another with --operator joystick:/dev/input/jsN)",
                                             path, std::strerror(errno)));
   } else {
     fd_ = STDIN_FILENO;
@@ -267,7 +267,7 @@ LiveOperator::LiveOperator(Kind kind, const std::string& device, double max_spee
     if (kind == Kind::joystick) ::close(fd_);
     throw InputError(flag, 0, fmt::format("cannot create a pipe: {}", std::strerror(errno)));
   }
-  word_.store(pack(StickState{0, 0, kind == Kind::keys ? max_speed_mm_per_s : max_speed_mm_per_s, false}));
+  word_.store(pack(StickState{0, 0, max_speed_mm_per_s, false}));
   thread_ = std::thread([this, kind, max_speed_mm_per_s] { loop(kind, max_speed_mm_per_s); });
 }
 

@@ -77,7 +77,18 @@ void draw(cairo_t* cr, double W, double H, const GuardRunResult& r) {
   cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
   cairo_set_line_width(cr, 1.2);
   cairo_stroke(cr);
-  // The offset profile: the prohibited region's boundary.
+  // The prohibited region, lightly filled (outside machining: inside the offset profile;
+  // inside machining: everything outside the pocket's offset), then its boundary.
+  cairo_save(cr);
+  if (r.options.region.side == MachiningSide::inside) {
+    cairo_rectangle(cr, 0, 0, W, H);
+    for (const Contour& c : r.boundary) trace_contour(cr, v, c);
+  } else {
+    for (const Contour& c : r.boundary) trace_contour(cr, v, c);
+  }
+  cairo_set_source_rgba(cr, 0.9, 0.2, 0.1, 0.12);
+  cairo_fill(cr);
+  cairo_restore(cr);
   for (const Contour& c : r.boundary) trace_contour(cr, v, c);
   cairo_set_source_rgb(cr, 0.85, 0.1, 0.05);
   cairo_set_line_width(cr, 1.5);
