@@ -72,7 +72,8 @@ void draw(cairo_t* cr, double W, double H, const GuardRunResult& r) {
   // Profile (the part as drawn).
   cairo_set_fill_rule(cr, CAIRO_FILL_RULE_EVEN_ODD);
   for (const Contour& c : r.profile) trace_contour(cr, v, c);
-  cairo_set_source_rgba(cr, 0.5, 0.5, 0.5, 0.35);
+  // Outside machining: the part is the material; inside: the pocket is empty.
+  cairo_set_source_rgba(cr, 0.5, 0.5, 0.5, r.options.region.side == MachiningSide::outside ? 0.35 : 0.0);
   cairo_fill_preserve(cr);
   cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
   cairo_set_line_width(cr, 1.2);
