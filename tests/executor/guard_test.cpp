@@ -9,8 +9,10 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "engine/executor/executor.h"
 #include "engine/executor/guard.h"
 #include "models/cutting/machine_config.h"
+#include "models/sim/sim_backend.h"
 
 namespace {
 thread_local bool g_counting = false;
@@ -213,6 +215,53 @@ TEST(Guard, ATickAllocatesNothing) {
     dr.run({80, 30}, 2.0);
     g_counting = false;
     EXPECT_EQ(g_allocations, 0) << to_string(s);
+  }
+}
+
+TEST(Guard, AJogSessionUnderTheGuardAllocatesNothingPerTickAndStaysOut) {
+  // The closed loop: jog source -> guard -> controller -> simulated table, ticked by hand.
+  const ProhibitedRegion region = square(MachiningSide::outside);
+  const auto m = cutting::load_machine(cutting::find_machine("xy_table"));
+  for (GuardStrategy s : {GuardStrategy::paper, GuardStrategy::predictive}) {
+    sim::SimOptions so;
+    so.start_mm = {130, 50};
+    sim::SimBackend be(m, so);
+    ExecutorOptions eo;
+    eo.mode = Mode::jog;
+    eo.jog.speed_mm_per_s = 18;
+    eo.record_trace = false;
+    Executor ex(m.setup(), eo);
+    Guard g(region, options(s, s == GuardStrategy::paper ? 5.0 : 0.5), m.setup(), be.period_s());
+    motion::Job job;
+    job.source = "jog";
+    job.start_mm = so.start_mm;
+    static const Trajectories kNone;
+    RunParts parts;
+    parts.filter = &g;
+    Session session(ex, job, kNone, be, parts);
+    hardware::OperatorInputs push;
+    push.jog = {-1.0, 0.0};
+    be.set_operator(push);
+    double closest = 1e9;
+    g_allocations = 0;
+    for (int k = 0; k < 3000; ++k) {
+      g_counting = true;
+      const bool more = session.tick();
+      g_counting = false;
+      ASSERT_TRUE(more);
+      Eigen::Vector2d p;
+      ASSERT_TRUE(be.true_position(p));
+      closest = std::min(closest, region.query(p).signed_distance_mm);
+    }
+    EXPECT_EQ(g_allocations, 0) << to_string(s);
+    EXPECT_GE(closest, 0.0) << to_string(s);
+    EXPECT_TRUE(g.holding()) << to_string(s);
+    hardware::OperatorInputs done;
+    done.cycle_start = true;
+    be.set_operator(done);
+    for (int k = 0; k < 5000 && session.tick(); ++k) {
+    }
+    EXPECT_EQ(session.finish().status, ExecutionResult::Status::completed) << to_string(s);
   }
 }
 
