@@ -1,10 +1,14 @@
 // Operator input for the hybrid guard: the scripted operator's CSV (errors name FILE:LINE), the
 // Linux joystick API's events and a raw terminal's keys decoded from fake byte streams (no
 // device is needed), the lock-free hand-over word, and a clear error for an absent device.
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstdint>
 #include <thread>
@@ -176,6 +180,97 @@ TEST(LiveOperator, AJoystickDeviceIsReadInItsOwnThread) {
   }
   close(fds[0]);
   close(fds[1]);
+}
+
+// A pseudo-terminal stands in for the operator's terminal.
+struct Pty {
+  int master = -1, slave = -1;
+  Pty() {
+    master = posix_openpt(O_RDWR | O_NOCTTY);
+    if (master >= 0 && grantpt(master) == 0 && unlockpt(master) == 0) slave = open(ptsname(master), O_RDWR | O_NOCTTY);
+  }
+  ~Pty() {
+    if (slave >= 0) close(slave);
+    if (master >= 0) close(master);
+  }
+};
+
+TEST(RawTerminal, RawWhileAliveAndRestoredAfter) {
+  Pty pty;
+  ASSERT_GE(pty.slave, 0);
+  termios before{};
+  ASSERT_EQ(tcgetattr(pty.slave, &before), 0);
+  ASSERT_TRUE(before.c_lflag & ICANON);
+  {
+    RawTerminal raw(pty.slave);
+    termios during{};
+    ASSERT_EQ(tcgetattr(pty.slave, &during), 0);
+    EXPECT_FALSE(during.c_lflag & ICANON);
+    EXPECT_FALSE(during.c_lflag & ECHO);
+    EXPECT_FALSE(during.c_lflag & ISIG);
+    EXPECT_THROW(RawTerminal again(pty.slave), InputError);  // one at a time
+  }
+  termios after{};
+  ASSERT_EQ(tcgetattr(pty.slave, &after), 0);
+  EXPECT_EQ(after.c_lflag, before.c_lflag);
+  EXPECT_EQ(after.c_iflag, before.c_iflag);
+}
+
+TEST(RawTerminal, ASignalRestoresTheModeBeforeTheProcessEnds) {
+  Pty pty;
+  ASSERT_GE(pty.slave, 0);
+  termios before{};
+  ASSERT_EQ(tcgetattr(pty.slave, &before), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    RawTerminal raw(pty.slave);
+    raise(SIGTERM);  // the handler restores the mode and ends the process with the signal
+    _exit(3);
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  EXPECT_EQ(WTERMSIG(status), SIGTERM);
+  termios after{};
+  ASSERT_EQ(tcgetattr(pty.slave, &after), 0);
+  EXPECT_EQ(after.c_lflag, before.c_lflag);
+}
+
+TEST(LiveOperator, KeysFromATerminalReachTheLoopAndTheModeComesBack) {
+  Pty pty;
+  ASSERT_GE(pty.slave, 0);
+  const int saved = dup(STDIN_FILENO);
+  ASSERT_GE(saved, 0);
+  ASSERT_EQ(dup2(pty.slave, STDIN_FILENO), STDIN_FILENO);
+  termios before{};
+  tcgetattr(STDIN_FILENO, &before);
+  {
+    LiveOperator op(LiveOperator::Kind::keys, "", 20.0);
+    ASSERT_EQ(write(pty.master, "d5", 2), 2);
+    StickState s;
+    for (int k = 0; k < 2000 && s.x < 0.5; ++k) {
+      s = op.read();
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    EXPECT_NEAR(s.x, 1.0, 1e-4);
+    for (int k = 0; k < 2000 && std::abs(s.speed_mm_per_s - 10.0) > 0.01; ++k) {
+      s = op.read();
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    EXPECT_NEAR(s.speed_mm_per_s, 10.0, 0.01);
+    ASSERT_EQ(write(pty.master, "q", 1), 1);
+    for (int k = 0; k < 2000 && !s.quit; ++k) {
+      s = op.read();
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    EXPECT_TRUE(s.quit);
+  }
+  termios after{};
+  tcgetattr(STDIN_FILENO, &after);
+  EXPECT_EQ(after.c_lflag, before.c_lflag);
+  dup2(saved, STDIN_FILENO);
+  close(saved);
 }
 
 TEST(RawTerminal, RefusesWhatIsNotATerminal) {
