@@ -585,10 +585,25 @@ MergeResult merge_positive(const std::vector<Contour>& contours, const OffsetOpt
   }
 
   // Keep the pieces with the positive region on their left only.
-  const SpanIndex index(contours);
+  // A contour that crosses nothing and whose box meets no other contour's box is alone: the
+  // winding is its own, +1 inside a counter-clockwise one, so it is kept exactly when it runs
+  // counter-clockwise. Only the others need winding numbers (and the index).
+  std::vector<bool> alone(contours.size(), true);
+  {
+    std::vector<Eigen::AlignedBox2d> cboxes;
+    for (const auto& c : contours) cboxes.push_back(c.empty() ? Eigen::AlignedBox2d() : bounding_box(c));
+    for_each_intersecting_pair(cboxes, [&](std::size_t a, std::size_t b) { alone[a] = alone[b] = false; });
+  }
+  bool need_index = false;
+  for (const auto& pc : pieces) need_index = need_index || !pc.closed || !alone[pc.contour];
+  const SpanIndex index = need_index ? SpanIndex(contours) : SpanIndex();
   std::vector<std::size_t> kept;
   for (std::size_t p = 0; p < pieces.size(); ++p) {
     const auto& segs = pieces[p].segs;
+    if (pieces[p].closed && alone[pieces[p].contour]) {
+      if (signed_area(contours[pieces[p].contour]) > 0.0) kept.push_back(p);
+      continue;
+    }
     // Sample the middle of the longest (sub)span, away from the crossings at the ends.
     std::size_t longest = 0;
     double total = 0.0;
@@ -605,8 +620,35 @@ MergeResult merge_positive(const std::vector<Contour>& contours, const OffsetOpt
     if (wl > 0 && wr <= 0) kept.push_back(p);
   }
 
-  // Chain the open pieces; closed ones stand alone.
+  // Two input contours can share a piece of boundary running the same way (collinear
+  // overlapping edges of a mitre offset): both copies pass the winding test, but the boundary
+  // holds it once. Keep the first copy.
   const double ctol = 2 * tol;
+  {
+    auto mid = [&](const MergePiece& pc) { return point_at(pc.segs[pc.segs.size() / 2], 0.5); };
+    std::vector<std::size_t> order(kept.size());
+    for (std::size_t q = 0; q < kept.size(); ++q) order[q] = q;
+    auto sx = [&](std::size_t q) { return pieces[kept[q]].segs.front().start.x(); };
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return sx(a) < sx(b) || (sx(a) == sx(b) && a < b); });
+    std::vector<bool> dup(kept.size(), false);
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      const MergePiece& a = pieces[kept[order[i]]];
+      if (dup[order[i]] || a.closed) continue;
+      for (std::size_t j = i + 1; j < order.size() && sx(order[j]) <= sx(order[i]) + ctol; ++j) {
+        const MergePiece& b = pieces[kept[order[j]]];
+        if (dup[order[j]] || b.closed) continue;
+        if ((a.segs.front().start - b.segs.front().start).norm() <= ctol &&
+            (a.segs.back().end - b.segs.back().end).norm() <= ctol && (mid(a) - mid(b)).norm() <= ctol)
+          dup[std::max(order[i], order[j])] = true;
+      }
+    }
+    std::vector<std::size_t> unique;
+    for (std::size_t q = 0; q < kept.size(); ++q)
+      if (!dup[q]) unique.push_back(kept[q]);
+    kept.swap(unique);
+  }
+
+  // Chain the open pieces; closed ones stand alone.
   std::vector<std::pair<double, std::size_t>> by_x;  // start x of open kept pieces
   for (std::size_t q = 0; q < kept.size(); ++q)
     if (!pieces[kept[q]].closed) by_x.push_back({pieces[kept[q]].segs.front().start.x(), q});

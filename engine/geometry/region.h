@@ -37,7 +37,10 @@
 // bounding-volume hierarchy of the boundary spans (span_index.h): O(log n) for points near
 // the boundary; it allocates nothing and never throws. The sign comes from the side of the
 // nearest span (a vertex: from both spans that meet there), which is exact because the
-// boundary is clean (step 3).
+// boundary is clean (step 3). Measured (bench/results/guard_geometry.txt, one core): about
+// 65 ns at 10 spans, 105 ns at 1 000 and 200 ns at 100 000 for a guard's stream of nearby
+// points; points jumping at random over a 100 000-span profile miss the caches and take
+// about 1-3.5 us. Building the region of a 100 000-span profile takes about 0.5 s.
 //
 // Errors. Bad input throws InputError naming the contour ("contour 2" or the caller's name for
 // it, see build()): an empty profile, a contour that encloses no area, crosses itself, or

@@ -12,13 +12,6 @@ namespace {
 
 using Eigen::Vector2d;
 
-// Squared distance from p to a box (0 inside).
-inline double box_distance2(const Vector2d& lo, const Vector2d& hi, const Vector2d& p) {
-  const double dx = p.x() < lo.x() ? lo.x() - p.x() : (p.x() > hi.x() ? p.x() - hi.x() : 0.0);
-  const double dy = p.y() < lo.y() ? lo.y() - p.y() : (p.y() > hi.y() ? p.y() - hi.y() : 0.0);
-  return dx * dx + dy * dy;
-}
-
 // True when direction v (from the centre) lies in the arc's counter-clockwise range
 // u_from -> u_to, without trigonometry.
 inline bool in_range(const SpanIndex::Item& it, const Vector2d& v) {
@@ -85,7 +78,8 @@ SpanIndex::SpanIndex(const std::vector<Contour>& contours) {
   for (std::size_t i = 0; i < tmp.size(); ++i) centres[i] = boxes[i].center();
   item_boxes_ = std::move(boxes);  // indexed by original position during the build
   nodes_.reserve(2 * (tmp.size() / kLeafSize + 1));
-  build_node(order, centres, 0, order.size(), 0);
+  node_boxes_.reserve(nodes_.capacity());
+  build_node(tmp, order, centres, 0, order.size(), 0);
   // Put items and their boxes in tree order; remap the neighbour links.
   std::vector<std::uint32_t> where(order.size());
   for (std::size_t k = 0; k < order.size(); ++k) where[order[k]] = static_cast<std::uint32_t>(k);
@@ -99,23 +93,81 @@ SpanIndex::SpanIndex(const std::vector<Contour>& contours) {
     sorted_boxes[k] = item_boxes_[order[k]];
   }
   item_boxes_ = std::move(sorted_boxes);
+  hot_.resize(items_.size());
+  for (std::size_t k = 0; k < items_.size(); ++k) {
+    const Item& it = items_[k];
+    Hot& h = hot_[k];
+    if (!it.is_arc()) {
+      h.p0 = it.a;
+      h.p1 = it.b - it.a;
+      const double l2 = h.p1.squaredNorm();
+      h.r = l2 > 0.0 ? 1.0 / l2 : 0.0;
+      h.kind = 0.0;
+    } else {
+      h.p0 = it.center;
+      h.p1 = it.u_from;
+      h.p2 = it.u_to;
+      h.r = it.radius;
+      h.kind = it.big ? 2.0 : 1.0;
+    }
+  }
 }
 
-std::uint32_t SpanIndex::build_node(std::vector<std::uint32_t>& order, std::vector<Vector2d>& centres,
-                                    std::size_t lo, std::size_t hi, std::size_t depth) {
+std::uint32_t SpanIndex::build_node(const std::vector<Item>& items, std::vector<std::uint32_t>& order,
+                                    std::vector<Vector2d>& centres, std::size_t lo, std::size_t hi,
+                                    std::size_t depth) {
   MACHPLAN_ASSERT(depth + 2 < kMaxDepth, "span index deeper than {}", kMaxDepth);
   const auto self = static_cast<std::uint32_t>(nodes_.size());
   nodes_.emplace_back();
   Eigen::AlignedBox2d box, cbox;
+  Vector2d mean = Vector2d::Zero();
   for (std::size_t k = lo; k < hi; ++k) {
     box.extend(item_boxes_[order[k]]);
     cbox.extend(centres[order[k]]);
+    mean += items[order[k]].a + items[order[k]].b;
   }
-  nodes_[self].lo = box.min();
-  nodes_[self].hi = box.max();
+  mean /= 2.0 * static_cast<double>(hi - lo);
+  // Principal direction of the span ends.
+  double sxx = 0, sxy = 0, syy = 0;
+  for (std::size_t k = lo; k < hi; ++k)
+    for (const Vector2d& q : {items[order[k]].a, items[order[k]].b}) {
+      const Vector2d d = q - mean;
+      sxx += d.x() * d.x();
+      sxy += d.x() * d.y();
+      syy += d.y() * d.y();
+    }
+  const double angle = 0.5 * std::atan2(2.0 * sxy, sxx - syy);
+  Node& nd = nodes_[self];
+  node_boxes_.push_back({box.min(), box.max()});
+  nd.origin = mean;
+  nd.axis = Vector2d(std::cos(angle), std::sin(angle));
+  nd.t0 = nd.s0 = std::numeric_limits<double>::infinity();
+  nd.t1 = nd.s1 = -std::numeric_limits<double>::infinity();
+  auto cover = [&](const Vector2d& q) {
+    const Vector2d v = q - nd.origin;
+    const double t = v.dot(nd.axis), s = nd.axis.x() * v.y() - nd.axis.y() * v.x();
+    nd.t0 = std::min(nd.t0, t);
+    nd.t1 = std::max(nd.t1, t);
+    nd.s0 = std::min(nd.s0, s);
+    nd.s1 = std::max(nd.s1, s);
+  };
+  for (std::size_t k = lo; k < hi; ++k) {
+    const Item& it = items[order[k]];
+    if (!it.is_arc()) {  // a line lies in the hull of its ends
+      cover(it.a);
+      cover(it.b);
+    } else {  // an arc in its box (conservative)
+      const auto& b = item_boxes_[order[k]];
+      for (int c = 0; c < 4; ++c) cover(b.corner(static_cast<Eigen::AlignedBox2d::CornerType>(c)));
+    }
+  }
+  // Rounding: widen by a few ulps of the coordinates so that no span pokes out.
+  const double pad = 4 * std::numeric_limits<double>::epsilon() * (1.0 + box.max().cwiseAbs().maxCoeff() +
+                                                                   box.min().cwiseAbs().maxCoeff());
+  nd.t0 -= pad, nd.s0 -= pad, nd.t1 += pad, nd.s1 += pad;
   if (hi - lo <= kLeafSize) {
-    nodes_[self].first = static_cast<std::uint32_t>(lo);
-    nodes_[self].count = static_cast<std::uint32_t>(hi - lo);
+    nd.first = static_cast<std::uint32_t>(lo);
+    nd.count = static_cast<std::uint32_t>(hi - lo);
     return self;
   }
   const int axis = cbox.sizes().x() >= cbox.sizes().y() ? 0 : 1;
@@ -125,16 +177,31 @@ std::uint32_t SpanIndex::build_node(std::vector<std::uint32_t>& order, std::vect
                      const double ca = centres[a][axis], cb = centres[b][axis];
                      return ca < cb || (ca == cb && a < b);
                    });
-  build_node(order, centres, lo, mid, depth + 1);  // left child: self + 1
-  const std::uint32_t right = build_node(order, centres, mid, hi, depth + 1);
-  nodes_[self].first = right;
+  build_node(items, order, centres, lo, mid, depth + 1);  // left child: self + 1
+  const std::uint32_t right = build_node(items, order, centres, mid, hi, depth + 1);
+  nodes_[self].first = right;  // (nodes_ may have grown: no reference held across the calls)
   nodes_[self].count = 0;
   return self;
 }
 
+double SpanIndex::distance2_to(std::uint32_t i, const Vector2d& p) const noexcept {
+  const Hot& h = hot_[i];
+  if (h.kind == 0.0) {
+    const double t = std::clamp((p - h.p0).dot(h.p1) * h.r, 0.0, 1.0);
+    return (h.p0 + t * h.p1 - p).squaredNorm();
+  }
+  const Vector2d v = p - h.p0;
+  const double c1 = cross(h.p1, v), c2 = cross(v, h.p2);
+  if (h.kind == 1.0 ? (c1 >= 0.0 && c2 >= 0.0) : (c1 >= 0.0 || c2 >= 0.0)) {
+    const double r = v.norm() - h.r;
+    return r * r;
+  }
+  return std::min((v - h.r * h.p1).squaredNorm(), (v - h.r * h.p2).squaredNorm());
+}
+
 Eigen::AlignedBox2d SpanIndex::bounds() const {
   if (nodes_.empty()) return {};
-  return {nodes_[0].lo, nodes_[0].hi};
+  return {node_boxes_[0].lo, node_boxes_[0].hi};
 }
 
 SpanIndex::Nearest SpanIndex::closest_on(std::uint32_t i, const Vector2d& p) const noexcept {
@@ -181,17 +248,14 @@ SpanIndex::Nearest SpanIndex::nearest(const Vector2d& p) const noexcept {
   std::array<double, kMaxDepth> bound;
   std::size_t top = 0;
   stack[top] = 0;
-  bound[top++] = box_distance2(nodes_[0].lo, nodes_[0].hi, p);
+  bound[top++] = rect_distance2(nodes_[0], p);
   while (top > 0) {
     --top;
     if (bound[top] >= best2) continue;
     const Node& nd = nodes_[stack[top]];
     if (nd.count > 0) {
       for (std::uint32_t i = nd.first; i < nd.first + nd.count; ++i) {
-        const auto& bb = item_boxes_[i];
-        if (box_distance2(bb.min(), bb.max(), p) >= best2) continue;
-        const Nearest c = closest_on(i, p);
-        const double d2 = (p - c.point).squaredNorm();
+        const double d2 = distance2_to(i, p);
         if (d2 < best2) {
           best2 = d2;
           best_item = i;
@@ -200,7 +264,7 @@ SpanIndex::Nearest SpanIndex::nearest(const Vector2d& p) const noexcept {
       continue;
     }
     const std::uint32_t l = static_cast<std::uint32_t>(&nd - nodes_.data()) + 1, r = nd.first;
-    const double dl = box_distance2(nodes_[l].lo, nodes_[l].hi, p), dr = box_distance2(nodes_[r].lo, nodes_[r].hi, p);
+    const double dl = rect_distance2(nodes_[l], p), dr = rect_distance2(nodes_[r], p);
     // Push the farther child first so that the nearer one is popped next.
     if (dl <= dr) {
       if (dr < best2) stack[top] = r, bound[top++] = dr;
@@ -225,15 +289,33 @@ bool SpanIndex::left_of(const Vector2d& p, const Nearest& n) const noexcept {
     }
     return cross(t, p - n.point) > 0.0;
   }
+  // At a vertex V: the left side is the angular sector swept counter-clockwise from the
+  // outgoing span's direction to the incoming span's (both seen from V). p's nearest point is
+  // V, so p lies in V's normal cone and the tangents decide, except at a cusp (tangents
+  // exactly opposite, two arcs meeting in a point): there the curvatures decide, so each
+  // direction is that of a chord a tiny way along its span: the tangent turned by half the
+  // angle the span turns over that length (1e-6 of the smaller radius).
   const Item& in = n.at_start ? items_[it.prev] : it;
   const Item& out = n.at_start ? it : items_[it.next];
   const Vector2d v = n.at_start ? it.a : it.b;
   const Vector2d w = p - v;
-  const bool l_in = cross(in.t_end, w) > 0.0, l_out = cross(out.t_start, w) > 0.0;
-  const double turn = cross(in.t_end, out.t_start);
-  if (turn > 0.0) return l_in && l_out;  // convex corner (left turn): inside both half planes
-  if (turn < 0.0) return l_in || l_out;  // reflex corner: inside either
-  return l_in;                           // straight on: both agree
+  double r_min = std::numeric_limits<double>::infinity();
+  if (in.is_arc()) r_min = std::min(r_min, in.radius);
+  if (out.is_arc()) r_min = std::min(r_min, out.radius);
+  const double eta = std::isfinite(r_min) ? 1e-6 * r_min : 0.0;
+  auto turned = [](const Vector2d& t, double angle) {
+    const double c = std::cos(angle), sn = std::sin(angle);
+    return Vector2d(c * t.x() - sn * t.y(), sn * t.x() + c * t.y());
+  };
+  // Signed turn per unit length is sweep / (radius |sweep|) = +-1 / radius.
+  const double k_out = out.is_arc() ? (out.sweep > 0 ? 1.0 : -1.0) / out.radius : 0.0;
+  const double k_in = in.is_arc() ? (in.sweep > 0 ? 1.0 : -1.0) / in.radius : 0.0;
+  const Vector2d d_out = turned(out.t_start, 0.5 * eta * k_out);
+  const Vector2d d_in = turned(Vector2d(-in.t_end), -0.5 * eta * k_in);
+  const double a0 = std::atan2(d_out.y(), d_out.x());
+  const double sector = wrap_angle_positive(std::atan2(d_in.y(), d_in.x()) - a0);
+  const double rel = wrap_angle_positive(std::atan2(w.y(), w.x()) - a0);
+  return rel > 0.0 && rel < sector;
 }
 
 int SpanIndex::winding(const Vector2d& p) const noexcept {
@@ -245,7 +327,8 @@ int SpanIndex::winding(const Vector2d& p) const noexcept {
   while (top > 0) {
     const std::uint32_t idx = stack[--top];
     const Node& nd = nodes_[idx];
-    if (nd.hi.x() < p.x() || nd.lo.y() > p.y() || nd.hi.y() < p.y()) continue;
+    const Box& nb = node_boxes_[idx];
+    if (nb.hi.x() < p.x() || nb.lo.y() > p.y() || nb.hi.y() < p.y()) continue;
     if (nd.count == 0) {
       stack[top++] = nd.first;
       stack[top++] = idx + 1;
@@ -255,12 +338,26 @@ int SpanIndex::winding(const Vector2d& p) const noexcept {
       const auto& bb = item_boxes_[i];
       if (bb.max().x() < p.x() || bb.min().y() > p.y() || bb.max().y() < p.y()) continue;
       const Item& it = items_[i];
-      w += ray_crossing(it.a, it.b, p);
-      if (it.is_arc() && (p - it.center).squaredNorm() < it.radius * it.radius) {
-        // Between chord and arc: the arc passes round p once more than its chord.
-        const Vector2d chord = it.b - it.a;
-        if (cross(chord, p - it.a) * cross(chord, it.arc_mid - it.a) > 0.0) w += it.sweep > 0 ? 1 : -1;
+      if (!it.is_arc()) {
+        w += ray_crossing(it.a, it.b, p);
+        continue;
       }
+      // An arc is its chord plus the closed loop (arc, chord back), which winds once round the
+      // points between chord and arc; the chord crossing and the segment test must judge p on
+      // the same side of the chord.
+      const Vector2d chord = it.b - it.a;
+      const double m = cross(chord, it.arc_mid - it.a);
+      double side = cross(chord, p - it.a);
+      // p on the chord's line: the half-open rule above counts an end at p's height as below
+      // the ray, as if p sat a little higher; take the side of the chord that p + (0, e)
+      // would be on (for a chord that is not horizontal, any side gives the same count).
+      if (side == 0.0) side = chord.x() != 0.0 ? chord.x() : -chord.y();
+      if (it.a.y() <= p.y()) {
+        if (it.b.y() > p.y() && side > 0.0) ++w;
+      } else if (it.b.y() <= p.y() && side < 0.0) {
+        --w;
+      }
+      if (side * m > 0.0 && (p - it.center).squaredNorm() < it.radius * it.radius) w += it.sweep > 0 ? 1 : -1;
     }
   }
   return w;

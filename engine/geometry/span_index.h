@@ -11,8 +11,10 @@
 // fixed stack, and its memory is O(n).
 //
 // Layout: spans are copied into a flat array in tree order, each with what a query needs
-// precomputed (unit vectors of an arc's ends, tangents, neighbours), nodes are 48 bytes in
-// depth-first order (left child follows its parent). Leaves hold up to 4 spans.
+// precomputed (unit vectors of an arc's ends, tangents, neighbours), plus a 64-byte copy of
+// what a distance needs; nodes (72 bytes: an oriented rectangle and two links) are in
+// depth-first order (left child follows its parent), their axis-aligned boxes apart. Leaves
+// hold up to 4 spans.
 //
 // Queries allocate nothing and never throw. nearest() is branch and bound: O(log n) nodes for
 // points whose distance to the boundary is small compared with the boundary's curvature (the
@@ -95,9 +97,11 @@ class SpanIndex {
     std::size_t top = 0;
     stack[top++] = 0;
     while (top > 0) {
-      const Node& nd = nodes_[stack[--top]];
-      if (nd.lo.x() > box.max().x() || nd.lo.y() > box.max().y() || nd.hi.x() < box.min().x() ||
-          nd.hi.y() < box.min().y())
+      const std::uint32_t idx = stack[--top];
+      const Node& nd = nodes_[idx];
+      const Box& nb = node_boxes_[idx];
+      if (nb.lo.x() > box.max().x() || nb.lo.y() > box.max().y() || nb.hi.x() < box.min().x() ||
+          nb.hi.y() < box.min().y())
         continue;
       if (nd.count > 0) {
         for (std::uint32_t i = nd.first; i < nd.first + nd.count; ++i) {
@@ -108,7 +112,7 @@ class SpanIndex {
         }
       } else {
         stack[top++] = nd.first;  // right child
-        stack[top++] = static_cast<std::uint32_t>(&nd - nodes_.data()) + 1;
+        stack[top++] = idx + 1;
       }
     }
   }
@@ -119,17 +123,47 @@ class SpanIndex {
  private:
   static constexpr std::size_t kLeafSize = 4;
   static constexpr std::size_t kMaxDepth = 96;  // stack bound; the tree is far shallower
+  // Each node bounds its spans twice: an axis-aligned box (for rays and boxes) and a
+  // rectangle oriented along the spans' principal direction (for nearest(): a run of short
+  // spans along a smooth curve fits in a rectangle as thin as the curve's sagitta over the
+  // run, where an axis-aligned box is as wide as the run itself when the curve runs
+  // diagonally; the thin bound prunes everything but the spans next to the nearest point).
   struct Node {
-    Eigen::Vector2d lo, hi;
-    std::uint32_t first = 0;  // leaf: first item; inner: index of the right child
-    std::uint32_t count = 0;  // leaf: number of items (> 0); inner: 0
+    Eigen::Vector2d origin, axis;  // oriented rectangle: origin + t axis + s perp(axis),
+    double t0, t1, s0, s1;         //   t in [t0, t1], s in [s0, s1]; perp(u) = (-u.y, u.x)
+    std::uint32_t first = 0;       // leaf: first item; inner: index of the right child
+    std::uint32_t count = 0;       // leaf: number of items (> 0); inner: 0
   };
-  std::uint32_t build_node(std::vector<std::uint32_t>& order, std::vector<Eigen::Vector2d>& centres,
-                           std::size_t lo, std::size_t hi, std::size_t depth);
+  struct Box {
+    Eigen::Vector2d lo, hi;  // the node's axis-aligned box (kept apart: nearest() never reads it)
+  };
+  // What nearest() reads of a span, in one cache line. Line: p0 = start, p1 = end - start,
+  // r = 1 / |p1|^2 (0 for a zero-length line), kind 0. Arc: p0 = centre, p1 and p2 = u_from
+  // and u_to, r = radius, kind 1 (range <= pi) or 2 (range > pi).
+  struct Hot {
+    Eigen::Vector2d p0, p1, p2;
+    double r = 0.0;
+    double kind = 0.0;
+  };
+  std::uint32_t build_node(const std::vector<Item>& items, std::vector<std::uint32_t>& order,
+                           std::vector<Eigen::Vector2d>& centres, std::size_t lo, std::size_t hi,
+                           std::size_t depth);
+  // Squared distance from p to the node's oriented rectangle (0 inside).
+  static double rect_distance2(const Node& nd, const Eigen::Vector2d& p) noexcept {
+    const Eigen::Vector2d v = p - nd.origin;
+    const double t = v.dot(nd.axis), s = nd.axis.x() * v.y() - nd.axis.y() * v.x();
+    const double dt = t < nd.t0 ? nd.t0 - t : (t > nd.t1 ? t - nd.t1 : 0.0);
+    const double ds = s < nd.s0 ? nd.s0 - s : (s > nd.s1 ? s - nd.s1 : 0.0);
+    return dt * dt + ds * ds;
+  }
+  // Squared distance from p to item i (no flags; nearest() keeps the best index only).
+  double distance2_to(std::uint32_t i, const Eigen::Vector2d& p) const noexcept;
 
   std::vector<Item> items_;
   std::vector<Eigen::AlignedBox2d> item_boxes_;
   std::vector<Node> nodes_;
+  std::vector<Box> node_boxes_;  // parallel to nodes_
+  std::vector<Hot> hot_;         // parallel to items_
 };
 
 }  // namespace machplan

@@ -125,6 +125,34 @@ TEST(Region, PlateWithHolesMatchesTheExactSetBothSides) {
   }
 }
 
+TEST(Region, LargeWavyProfileMatchesTheExactSet) {
+  // 5 000 spans, concave and convex: the indexed offset, merge and query give the exact set.
+  std::vector<Vector2d> v;
+  const int n = 5000;
+  for (int k = 0; k < n; ++k) {
+    const double t = 2 * kPi * k / n;
+    const double r = 300.0 * (1.0 + 0.15 * std::sin(5 * t) + 0.04 * std::sin(17 * t));
+    v.emplace_back(r * std::cos(t), r * std::sin(t));
+  }
+  const std::vector<Contour> profile = {polygon(v)};
+  for (auto side : {MachiningSide::outside, MachiningSide::inside}) {
+    const auto region = ProhibitedRegion::build(profile, opts(side, 5));
+    ASSERT_EQ(region.boundary().size(), 1u);
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> u(-400, 400);
+    int checked = 0;
+    for (int i = 0; i < 200; ++i) {
+      const Vector2d p(u(rng), u(rng));
+      const double d = distance(profile[0], p);
+      if (std::abs(d - 5) < 1e-6) continue;
+      ASSERT_EQ(region.prohibited(p), exact_prohibited(profile, side, 5, p)) << to_string(side) << " at (" << p.x()
+                                                                           << ", " << p.y() << ")";
+      ++checked;
+    }
+    EXPECT_GT(checked, 190);
+  }
+}
+
 TEST(Region, NeighboursCloserThanTheToolMergeAndAreReported) {
   // Two squares 4 mm apart, tool radius 3: the tool cannot pass between them.
   const std::vector<Contour> profile = {rectangle(0, 0, 10, 10), rectangle(14, 0, 24, 10)};
