@@ -43,6 +43,8 @@
 //
 // Real time: filter() allocates nothing, takes no lock, does no I/O and never throws; at most
 // ten region queries (O(log n) each) per tick. The buffers are sized in the constructor.
+// Measured (bench/guard_bench.cpp, bench/results/guard.txt): about 0.03 us per tick for the
+// paper strategy and 0.5-0.6 us for the predictive one, against the executor's 50 us budget.
 #pragma once
 
 #include <cstdint>

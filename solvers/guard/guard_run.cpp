@@ -191,7 +191,7 @@ class Tracker {
     open_ = false;
     if (!engaged_ || !std::isfinite(cur_.closest_mm)) return;
     cur_.index = static_cast<int>(out_.attempts.size());
-    cur_.success = cur_.closest_mm >= -1e-3 * 1e-3;
+    cur_.success = cur_.closest_mm >= -1e-6;
     cur_.invasion_mm = std::max(0.0, -cur_.closest_mm);
     cur_.undercut_mm = cur_.success ? std::max(0.0, cur_.closest_mm) : 0.0;
     out_.attempts.push_back(std::move(cur_));

@@ -16,7 +16,7 @@
 // to the next push (or the end). Per attempt, from the table's TRUE position (the simulator's):
 //   closest_mm   the least signed distance to the prohibited region's boundary (the offset
 //                profile) in the window; where the tool stopped, as the paper measured
-//   success      closest_mm >= -1 um: the tool centre never entered the prohibited region
+//   success      closest_mm >= -1e-6 mm (rounding): the tool centre never entered the prohibited region
 //   invasion_mm  max(0, -closest_mm): how deep it went in (cut into the part)
 //   undercut_mm  max(0, closest_mm) for a success: material left beyond the offset profile
 // Totals: attempts, successes, invasions, max invasion, mean and max under-cut over the
