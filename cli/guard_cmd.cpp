@@ -1,0 +1,111 @@
+// `machplan guard PROFILE.dxf --side outside|inside --tool-radius R --tolerance T --operator
+// script.csv|random:N|joystick[:DEVICE]|keys [...]`: hybrid manual / servo-assisted machining
+// on the simulated XY table (solvers/guard/guard_run.h): the operator roughs under the guard,
+// then, with --finish, the machine contours the offset profile by itself.
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "cli/command.h"
+#include "cli/output.h"
+#include "engine/common/error.h"
+#include "solvers/common/picture.h"
+#include "solvers/guard/guard_run.h"
+
+namespace machplan::cli {
+namespace {
+
+double number_in(const std::string& flag, const std::string& text) {
+  std::size_t used = 0;
+  double v = std::numeric_limits<double>::quiet_NaN();
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(v)) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  return v;
+}
+
+struct GuardArgs {
+  std::string profile, side, tool_radius, tolerance, op, feed, latency_ms, strategy = "predictive", plot, seed, machine = "xy_table",
+                                                                  offset = "robust", finish_feed, finish_allowance;
+  bool finish = false, json = false;
+};
+
+void add_guard(CLI::App& app) {
+  auto a = std::make_shared<GuardArgs>();
+  auto* cmd = app.add_subcommand("guard", "Hybrid manual machining: an operator roughs under the guard, the machine finishes");
+  cmd->add_option("profile", a->profile, "the part's profile (DXF, closed contours)")->required();
+  cmd->add_option("--side", a->side, "outside (keep out of the part) or inside (keep inside a pocket)")->required();
+  cmd->add_option("--tool-radius", a->tool_radius, "tool radius R, mm")->required();
+  cmd->add_option("--tolerance", a->tolerance, "tolerance T, mm: the band outside the offset profile where the guard stops")
+      ->required();
+  cmd->add_option("--operator", a->op, "script.csv | random:N | joystick[:DEVICE] | keys")->required();
+  cmd->add_option("--feed", a->feed, "operator's speed, mm/s (default 12, the paper's)");
+  cmd->add_option("--latency-ms", a->latency_ms,
+                  fmt::format("PC-to-controller round trip, ms (default {:g}: reproduces the paper's tables)",
+                              executor::kPaperLatencyS * 1000));
+  cmd->add_option("--strategy", a->strategy, "paper (ask, compare, stop) or predictive (default)");
+  cmd->add_option("--offset", a->offset, "offset method: robust (default) or paper");
+  cmd->add_flag("--finish", a->finish, "after roughing, contour the whole offset profile automatically");
+  cmd->add_option("--finish-feed", a->finish_feed, "finishing feed, mm/s (default: --feed)");
+  cmd->add_option("--finish-allowance", a->finish_allowance,
+                  "finish in two passes: first this far off the profile, mm, then on it (the paper's proposal)");
+  cmd->add_option("--plot", a->plot, "write the picture of the run (profile, region, strokes, finishing), .png or .svg");
+  cmd->add_option("--seed", a->seed, "seed of the random operator and the simulator (default 1)");
+  cmd->add_option("--machine", a->machine, "machine name or YAML file (default xy_table)");
+  cmd->add_flag("--json", a->json, "machine-readable output");
+  cmd->callback([a] {
+    guard::GuardRunOptions o;
+    o.machine = a->machine;
+    o.region.side = machining_side_from_string(a->side);
+    o.region.method = offset_method_from_string(a->offset);
+    o.region.tool_radius_mm = number_in("--tool-radius", a->tool_radius);
+    o.guard.tolerance_mm = number_in("--tolerance", a->tolerance);
+    o.guard.strategy = executor::guard_strategy_from_string(a->strategy);
+    if (!a->latency_ms.empty()) o.guard.latency_s = number_in("--latency-ms", a->latency_ms) / 1000.0;
+    if (!a->feed.empty()) o.feed_mm_per_s = number_in("--feed", a->feed);
+    o.op = guard::operator_from_string(a->op);
+    o.finish = a->finish;
+    if (!a->finish_feed.empty()) o.finish_feed_mm_per_s = number_in("--finish-feed", a->finish_feed);
+    if (!a->finish_allowance.empty()) o.finish_allowance_mm = number_in("--finish-allowance", a->finish_allowance);
+    if ((!a->finish_feed.empty() || !a->finish_allowance.empty()) && !a->finish)
+      throw InputError(!a->finish_feed.empty() ? "--finish-feed" : "--finish-allowance", 0, "applies with --finish only");
+    if (!a->seed.empty()) {
+      std::size_t used = 0;
+      unsigned long long s = 0;
+      try {
+        s = std::stoull(a->seed, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != a->seed.size() || a->seed[0] == '-')
+        throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", a->seed));
+      o.seed = s;
+    }
+    if (o.op.kind == guard::OperatorSpec::Kind::keys && a->json)
+      throw InputError("--json", 0, "the keys operator reads the terminal; --json needs a script or random operator");
+    o.validate();
+    if (!a->plot.empty()) {
+      if (!is_picture_path(a->plot)) throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", a->plot));
+      refuse_overwriting_input("--plot", a->plot, {a->profile, a->machine, o.op.path});
+      check_output_folder("--plot", a->plot);
+    }
+    if (o.op.kind == guard::OperatorSpec::Kind::keys)
+      std::fprintf(stderr, "keys: arrows or w/a/s/d steer, 1..9 set the speed, space stops, q ends roughing\n");
+    const guard::GuardRunResult r = guard::run_guard_file(a->profile, o);
+    if (!a->plot.empty()) guard::write_guard_plot(r, a->plot);
+    if (a->json) std::printf("%s\n", json_text(r.to_json(), 2).c_str());
+    else std::fputs(r.report().c_str(), stdout);
+  });
+}
+
+const Registration reg(62, add_guard);
+
+}  // namespace
+}  // namespace machplan::cli

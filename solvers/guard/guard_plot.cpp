@@ -1,0 +1,145 @@
+// The paper's Figure 8 for a guard run: the part's profile (grey), the prohibited region's
+// boundary (the offset profile, red), the operator's roughing strokes (blue, an invasion's
+// closest point as a red dot, a success's as a black one) and the finishing path (green).
+#include <cairo.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "solvers/common/picture.h"
+#include "solvers/guard/guard_run.h"
+
+namespace machplan::guard {
+namespace {
+
+void trace_segment(cairo_t* cr, const PlotView& v, const Segment& s, bool move_first) {
+  if (move_first) cairo_move_to(cr, v.sx(s.start.x()), v.sy(s.start.y()));
+  if (!s.is_arc()) {
+    cairo_line_to(cr, v.sx(s.end.x()), v.sy(s.end.y()));
+    return;
+  }
+  const double a0 = -s.start_angle, a1 = -s.end_angle();
+  if (s.sweep > 0) cairo_arc_negative(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
+  else cairo_arc(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
+}
+
+void trace_contour(cairo_t* cr, const PlotView& v, const Contour& c) {
+  for (std::size_t i = 0; i < c.size(); ++i) trace_segment(cr, v, c.span(i), i == 0);
+  cairo_close_path(cr);
+}
+
+void trace_points(cairo_t* cr, const PlotView& v, const std::vector<Eigen::Vector2d>& pts) {
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (i == 0) cairo_move_to(cr, v.sx(pts[i].x()), v.sy(pts[i].y()));
+    else cairo_line_to(cr, v.sx(pts[i].x()), v.sy(pts[i].y()));
+  }
+}
+
+double legend(cairo_t* cr, double x, double y, double r, double g, double b, const std::string& label) {
+  cairo_set_source_rgb(cr, r, g, b);
+  cairo_set_line_width(cr, 2.5);
+  cairo_move_to(cr, x, y - 4);
+  cairo_line_to(cr, x + 26, y - 4);
+  cairo_stroke(cr);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  draw_text(cr, x + 32, y, label, 12);
+  cairo_text_extents_t e;
+  cairo_set_font_size(cr, 12);
+  cairo_text_extents(cr, label.c_str(), &e);
+  return x + 32 + e.x_advance + 22;
+}
+
+void draw(cairo_t* cr, double W, double H, const GuardRunResult& r) {
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_paint(cr);
+  Eigen::AlignedBox2d box;
+  for (const Contour& c : r.boundary) box.extend(bounding_box(c));
+  for (const Contour& c : r.profile) box.extend(bounding_box(c));
+  for (const Attempt& a : r.attempts)
+    for (const auto& p : a.path_mm) box.extend(p);
+  if (box.isEmpty()) box.extend(Eigen::Vector2d::Zero());
+  const double top = 60, bottom = 56, side = 30;
+  const double margin = 0.05 * std::max({box.sizes().x(), box.sizes().y(), 1.0});
+  box.extend(box.min() - Eigen::Vector2d::Constant(margin));
+  box.extend(box.max() + Eigen::Vector2d::Constant(margin));
+  const double scale = std::min((W - 2 * side) / box.sizes().x(), (H - top - bottom) / box.sizes().y());
+  const double uw = box.sizes().x() * scale, uh = box.sizes().y() * scale;
+  const PlotView v{side + (W - 2 * side - uw) / 2 - scale * box.min().x(), top + (H - top - bottom - uh) / 2 + uh + scale * box.min().y(),
+                   scale};
+
+  // Profile (the part as drawn).
+  cairo_set_fill_rule(cr, CAIRO_FILL_RULE_EVEN_ODD);
+  for (const Contour& c : r.profile) trace_contour(cr, v, c);
+  // Outside machining: the part is the material; inside: the pocket is empty.
+  cairo_set_source_rgba(cr, 0.5, 0.5, 0.5, r.options.region.side == MachiningSide::outside ? 0.35 : 0.0);
+  cairo_fill_preserve(cr);
+  cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
+  cairo_set_line_width(cr, 1.2);
+  cairo_stroke(cr);
+  // The prohibited region, lightly filled (outside machining: inside the offset profile;
+  // inside machining: everything outside the pocket's offset), then its boundary.
+  cairo_save(cr);
+  if (r.options.region.side == MachiningSide::inside) {
+    cairo_rectangle(cr, 0, 0, W, H);
+    for (const Contour& c : r.boundary) trace_contour(cr, v, c);
+  } else {
+    for (const Contour& c : r.boundary) trace_contour(cr, v, c);
+  }
+  cairo_set_source_rgba(cr, 0.9, 0.2, 0.1, 0.12);
+  cairo_fill(cr);
+  cairo_restore(cr);
+  for (const Contour& c : r.boundary) trace_contour(cr, v, c);
+  cairo_set_source_rgb(cr, 0.85, 0.1, 0.05);
+  cairo_set_line_width(cr, 1.5);
+  cairo_stroke(cr);
+  // Roughing strokes.
+  cairo_set_line_width(cr, 0.9);
+  for (const Attempt& a : r.attempts) {
+    trace_points(cr, v, a.path_mm);
+    cairo_set_source_rgba(cr, 0.1, 0.3, 0.85, 0.7);
+    cairo_stroke(cr);
+  }
+  for (const Attempt& a : r.attempts) {
+    cairo_arc(cr, v.sx(a.closest_at_mm.x()), v.sy(a.closest_at_mm.y()), 2.2, 0, 2 * M_PI);
+    if (a.success) cairo_set_source_rgb(cr, 0, 0, 0);
+    else cairo_set_source_rgb(cr, 0.95, 0.05, 0.05);
+    cairo_fill(cr);
+  }
+  // Finishing passes.
+  cairo_set_line_width(cr, 2.0);
+  for (const FinishPass& f : r.finish) {
+    trace_points(cr, v, f.path_mm);
+    if (f.allowance_mm > 0) cairo_set_source_rgb(cr, 0.6, 0.75, 0.1);
+    else cairo_set_source_rgb(cr, 0.05, 0.6, 0.2);
+    cairo_stroke(cr);
+  }
+
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  draw_text(cr, side, 24,
+            fmt::format("{} - {} machining, R {} mm, strategy {}, T {} mm, L {} ms, {} mm/s", r.profile_source,
+                        to_string(r.options.region.side), r.options.region.tool_radius_mm,
+                        executor::to_string(r.options.guard.strategy), r.options.guard.tolerance_mm,
+                        r.options.guard.latency_s * 1000, r.options.feed_mm_per_s),
+            14);
+  draw_text(cr, side, 44,
+            fmt::format("attempts {}, successes {} ({:.1f} %), max invasion {:.3f} mm, under-cut mean {:.3f} / max {:.3f} mm",
+                        r.attempts.size(), r.successes, r.success_percent(), r.max_invasion_mm, r.mean_undercut_mm,
+                        r.max_undercut_mm),
+            12);
+  double x = side;
+  const double y = H - 20;
+  x = legend(cr, x, y, 0.3, 0.3, 0.3, "profile");
+  x = legend(cr, x, y, 0.85, 0.1, 0.05, "offset profile (prohibited region)");
+  x = legend(cr, x, y, 0.1, 0.3, 0.85, "roughing strokes");
+  legend(cr, x, y, 0.05, 0.6, 0.2, "finishing path");
+}
+
+}  // namespace
+
+void write_guard_plot(const GuardRunResult& r, const std::string& path, const std::string& flag) {
+  write_picture(path, flag, 1000, 800, [&](cairo_t* cr) { draw(cr, 1000, 800, r); });
+}
+
+}  // namespace machplan::guard

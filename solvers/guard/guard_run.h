@@ -1,0 +1,132 @@
+// Hybrid manual / servo-assisted machining on the simulated XY table: the pipeline behind
+// `machplan guard`, also used by the tests and the bench so that all three run the same thing.
+//
+//   profile (closed contours, from a DXF) --ProhibitedRegion::build--> region (tool radius R)
+//   operator (script | random:N | joystick | keys) --jog source--> Guard (engine/executor/
+//       guard.h, strategy paper or predictive, tolerance T, link latency L) --> controller
+//       --> simulated XY table (models/sim)
+//   [--finish] automatic mode: from where the operator left the tool touching the part, the
+//       planner contours the whole offset profile at the finishing feed (optionally first at
+//       an over-dimension, the paper's proposed double pass), through the executor's planned
+//       mode
+//
+// Attempts. Each push of the stick (a script row with a speed, a stroke of the random
+// operator, a deflection of a live stick after a release) that brings the tool into the
+// tolerance band (d <= T) or makes the guard act is one attempt. Its window runs from the push
+// to the next push (or the end). Per attempt, from the table's TRUE position (the simulator's):
+//   closest_mm   the least signed distance to the prohibited region's boundary (the offset
+//                profile) in the window; where the tool stopped, as the paper measured
+//   success      closest_mm >= -1e-6 mm (rounding): the tool centre never entered the prohibited region
+//   invasion_mm  max(0, -closest_mm): how deep it went in (cut into the part)
+//   undercut_mm  max(0, closest_mm) for a success: material left beyond the offset profile
+// Totals: attempts, successes, invasions, max invasion, mean and max under-cut over the
+// successes (the paper's Tables 2 and 3 average the under-cut of the successes), time.
+//
+// The random operator (random:N, seeded): N strokes, each aimed at a random point of the
+// boundary (uniform along its length) from a random place T + 2 + feed x 0.05 .. T + 12 +
+// feed x 0.05 mm away from it, within 60 degrees of the boundary's normal there (an operator
+// roughing pushes at the profile, not along it), pushed at the feed after a random reaction time of
+// 0 .. 0.2 s + L (so the link's answers fall at random phases of the approach) until the guard
+// holds the table at rest or the aim would have been passed by 0.5 s, then released. Each
+// stroke is one jog session from its start point.
+//
+// Errors: bad options, profiles, scripts or devices throw InputError (exit 2 in the CLI).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "engine/executor/guard.h"
+#include "engine/geometry/contour.h"
+#include "engine/geometry/region.h"
+#include "engine/hardware/operator_input.h"
+
+namespace machplan::guard {
+
+struct OperatorSpec {
+  enum class Kind { script, random, joystick, keys };
+  Kind kind = Kind::random;
+  std::string path;   // script: the CSV; joystick: the device (default /dev/input/js0)
+  int strokes = 20;   // random
+};
+const char* to_string(OperatorSpec::Kind k);
+// "FILE.csv" | "random:N" (1 <= N <= 100000) | "joystick[:DEVICE]" | "keys";
+// throws InputError("--operator", ...).
+OperatorSpec operator_from_string(const std::string& text);
+
+struct GuardRunOptions {
+  std::string machine = "xy_table";     // bundled name or YAML path
+  RegionOptions region;                 // side, tool radius, offset method
+  executor::GuardOptions guard;         // strategy, T, L
+  double feed_mm_per_s = 12.0;          // operator speed (random operator, and the jog limit)
+  OperatorSpec op;
+  bool finish = false;                  // run the automatic finishing pass after roughing
+  double finish_feed_mm_per_s = 0.0;    // 0: the feed
+  double finish_allowance_mm = 0.0;     // > 0: first pass this far off the profile, then the final one
+  std::uint64_t seed = 1;
+  double max_session_s = 3600.0;        // a live or scripted session ends after this
+  void validate() const;                // InputError naming the CLI flag
+};
+
+struct Attempt {
+  int index = 0;
+  Eigen::Vector2d start_mm{0, 0};       // where the push began
+  Eigen::Vector2d aim_mm{0, 0};         // random: the aimed boundary point; else start + direction
+  Eigen::Vector2d closest_at_mm{0, 0};  // where the tool came closest (stopped)
+  double speed_mm_per_s = 0.0;
+  double closest_mm = 0.0, invasion_mm = 0.0, undercut_mm = 0.0;
+  bool success = true;
+  double time_s = 0.0;
+  std::vector<Eigen::Vector2d> path_mm; // true positions, every 10 ms
+};
+
+struct FinishPass {
+  double allowance_mm = 0.0;            // 0: the final pass on the offset profile
+  bool completed = false;
+  std::string fault;                    // empty when completed
+  double time_s = 0.0;
+  double max_deviation_mm = 0.0;        // max |distance of the true position from the pass's path|
+  double rms_deviation_mm = 0.0;
+  double max_from_profile_mm = 0.0;     // final pass: max |signed distance to the offset profile|
+  std::size_t samples = 0;
+  std::vector<Eigen::Vector2d> path_mm; // true positions, every 10 ms
+};
+
+struct GuardRunResult {
+  std::string profile_source, machine;
+  GuardRunOptions options;
+  std::vector<Contour> profile;
+  std::vector<Contour> boundary;        // the region's boundary (offset profile)
+  std::vector<std::string> warnings;    // region problems
+  std::vector<Attempt> attempts;
+  int strokes = 0;                      // pushes, attempts or not
+  int successes = 0, invasions = 0;
+  double max_invasion_mm = 0.0, mean_undercut_mm = 0.0, max_undercut_mm = 0.0;
+  double roughing_time_s = 0.0, finishing_time_s = 0.0;
+  long guard_stops = 0, guard_failsafe_ticks = 0, guard_emergency_ticks = 0;
+  std::vector<FinishPass> finish;
+  bool quit_by_operator = false;
+
+  double success_percent() const { return attempts.empty() ? 0.0 : 100.0 * successes / attempts.size(); }
+  std::string report() const;
+  // {"attempts", "successes", "invasions", "success_percent", "max_invasion_mm",
+  //  "mean_undercut_mm", "max_undercut_mm", "time_s", "strategy", "tolerance_mm",
+  //  "latency_s", "feed_mm_per_s", "per_attempt": [...], "finish": [...]}
+  nlohmann::json to_json() const;
+};
+
+// Runs the whole thing on `profile` (closed contours in mm). `source` names the profile in
+// messages and reports.
+GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options);
+
+// Reads the DXF (refusing drawings with errors, naming them) and runs run_guard.
+GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options);
+
+// The picture of the paper's Figure 8: profile, offset region, roughing strokes, finishing path.
+void write_guard_plot(const GuardRunResult& r, const std::string& path, const std::string& flag = "--plot");
+
+}  // namespace machplan::guard
