@@ -17,6 +17,7 @@
 #include "cli/output.h"
 #include "engine/calibration/session_log.h"
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 #include "models/backends/backend_factory.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/fit.h"
@@ -41,16 +42,9 @@ std::uint64_t seed_of(const std::string& text) {
 }
 
 double number_of(const char* flag, const std::string& text) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(v))
-    throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
-  return v;
+  const std::optional<double> v = parse_finite(text);
+  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  return *v;
 }
 
 int repeats_of(const std::string& text) {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 #include "engine/programs/gcode.h"
 
 namespace machplan::cli {
@@ -39,16 +40,9 @@ inline GcodeOptions gcode_options(const std::vector<std::string>& params, int sp
     if (name.size() > 2 && name[0] == '#' && name[1] == '<' && name.back() == '>')
       name = name.substr(2, name.size() - 3);
     const std::string text = p.substr(eq + 1);
-    std::size_t used = 0;
-    double v = NAN;
-    try {
-      v = std::stod(text, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != text.size() || !std::isfinite(v))
-      throw InputError("--param", 0, fmt::format("'{}': the value '{}' is not a number", p, text));
-    o.params[name] = v;
+    const std::optional<double> v = parse_finite(text);
+    if (!v) throw InputError("--param", 0, fmt::format("'{}': the value '{}' is not a number", p, text));
+    o.params[name] = *v;
   }
   return o;
 }

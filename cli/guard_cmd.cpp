@@ -13,6 +13,7 @@
 #include "cli/command.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 #include "solvers/common/picture.h"
 #include "solvers/guard/guard_run.h"
 
@@ -20,15 +21,9 @@ namespace machplan::cli {
 namespace {
 
 double number_in(const std::string& flag, const std::string& text) {
-  std::size_t used = 0;
-  double v = std::numeric_limits<double>::quiet_NaN();
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(v)) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
-  return v;
+  const std::optional<double> v = parse_finite(text);
+  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  return *v;
 }
 
 struct GuardArgs {
@@ -100,7 +95,7 @@ void add_guard(CLI::App& app) {
       std::fprintf(stderr, "keys: arrows or w/a/s/d steer, 1..9 set the speed, space stops, q ends roughing\n");
     const guard::GuardRunResult r = guard::run_guard_file(a->profile, o);
     if (!a->plot.empty()) guard::write_guard_plot(r, a->plot);
-    if (a->json) std::printf("%s\n", json_text(r.to_json(), 2).c_str());
+    if (a->json) print_json(r.to_json());
     else std::fputs(r.report().c_str(), stdout);
   });
 }

@@ -11,6 +11,7 @@
 
 #include "cli/command.h"
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 
 namespace machplan::cli {
 
@@ -72,15 +73,9 @@ CLI::Validator finite_number(double min, bool min_exclusive) {
   const std::string desc = min <= -1e300 ? "FINITE" : min_exclusive ? "POSITIVE" : "NON-NEGATIVE";
   return CLI::Validator(
       [min, min_exclusive](std::string& text) -> std::string {
-        double v = 0.0;
-        std::size_t used = 0;
-        try {
-          v = std::stod(text, &used);
-        } catch (const std::exception&) {
-          return fmt::format("'{}' is not a number", text);
-        }
-        if (used != text.size()) return fmt::format("'{}' is not a number", text);
-        if (!std::isfinite(v)) return fmt::format("{} is not a finite number", text);
+        const std::optional<double> parsed = parse_finite(text);
+        if (!parsed) return fmt::format("'{}' is not a finite number", text);
+        const double v = *parsed;
         if (v < min || (min_exclusive && v == min))
           return fmt::format("{} must be {} {}", text, min_exclusive ? "greater than" : "at least", min);
         return {};

@@ -9,6 +9,7 @@
 #include "cli/interrupt.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 #include "solvers/placement/plot.h"
 #include "solvers/placement/search.h"
 
@@ -74,14 +75,9 @@ std::vector<double> parse_list(const std::string& text, const std::string& flag,
   std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, ',')) {
-    try {
-      std::size_t used = 0;
-      const double v = std::stod(item, &used);
-      if (used != item.size() || !std::isfinite(v)) throw std::invalid_argument(item);
-      out.push_back(v);
-    } catch (const std::exception&) {
-      throw InputError(flag, 0, fmt::format("'{}' is not a number", item));
-    }
+    const std::optional<double> v = parse_finite(item);
+    if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", item));
+    out.push_back(*v);
   }
   if (count && out.size() != count) throw InputError(flag, 0, fmt::format("expects {} comma-separated numbers, got '{}'", count, text));
   if (out.empty()) throw InputError(flag, 0, "expects a comma-separated list of numbers");

@@ -18,6 +18,7 @@
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/store.h"
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
 #include "solvers/motion/run_plot.h"
@@ -28,15 +29,9 @@ namespace {
 
 // A number given to `flag`; the message names the flag and the text.
 double number_of(const std::string& flag, const std::string& text) {
-  std::size_t used = 0;
-  double v = std::numeric_limits<double>::quiet_NaN();
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(v)) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
-  return v;
+  const std::optional<double> v = parse_finite(text);
+  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  return *v;
 }
 
 executor::Mode mode_of(const std::string& text) {
@@ -69,13 +64,9 @@ sim::FaultInjection injection_of(const std::string& text) {
               K::arc_start_failure, K::watchdog})
     if (kind == sim::to_string(k)) f.kind = k, found = true;
   if (!found) throw bad(fmt::format("unknown kind '{}'", kind));
-  std::size_t used = 0;
-  try {
-    f.at_s = std::stod(rest, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != rest.size() || !std::isfinite(f.at_s) || f.at_s < 0) throw bad("the time is not a number >= 0");
+  const std::optional<double> at_s = parse_finite(rest);
+  if (!at_s || *at_s < 0) throw bad("the time is not a number >= 0");
+  f.at_s = *at_s;
   if (axis == "x" || axis.empty()) f.axis = 0;
   else if (axis == "y") f.axis = 1;
   else throw bad(fmt::format("unknown axis '{}'", axis));

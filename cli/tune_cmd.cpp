@@ -15,6 +15,7 @@
 #include "cli/interrupt.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 #include "solvers/calibration/store.h"
 #include "solvers/common/picture.h"
 #include "solvers/tuning/acc_tuning.h"
@@ -39,16 +40,9 @@ long whole_number(const std::string& flag, const std::string& text, long lo, lon
 }
 
 double number(const std::string& flag, const std::string& text, double lo, double hi) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(v) || v < lo || v > hi)
-    throw InputError(flag, 0, fmt::format("'{}' is not a number in [{}, {}]", text, lo, hi));
-  return v;
+  const std::optional<double> v = parse_finite(text);
+  if (!v || *v < lo || *v > hi) throw InputError(flag, 0, fmt::format("'{}' is not a number in [{}, {}]", text, lo, hi));
+  return *v;
 }
 
 std::string who() {
@@ -128,7 +122,7 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
     }
     j["tunings"] = t;
     if (!plot.empty()) j["plot"] = plot;
-    std::printf("%s\n", json_text(j, 2).c_str());
+    print_json(j);
     return;
   }
   std::printf("ACC on the turning model, Koren's test: Kc = 0.5, F_r = 1500 N, T = 0.1 s, depth 2 -> 4 -> 6 mm\n");
@@ -216,7 +210,7 @@ void add_tune(CLI::App& app) {
       nlohmann::json j = r.to_json();
       if (stored) j["stored"] = {{"db", db}, {"tuning_id", stored}};
       if (!a->plot.empty()) j["plot"] = a->plot;
-      std::printf("%s\n", json_text(j, 2).c_str());
+      print_json(j);
     } else {
       std::printf("%s", r.report().c_str());
       if (stored) std::printf("stored as tuning %lld, active for %s, in %s\n", static_cast<long long>(stored), r.machine.c_str(), db.c_str());

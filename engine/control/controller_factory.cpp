@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 #include "engine/control/cross_coupled_controller.h"
 #include "engine/control/fuzzy_controller.h"
 #include "engine/control/pid_controller.h"
@@ -290,16 +291,9 @@ void parse_gain(const std::string& text, Gains& gains) {
   if (eq == std::string::npos || eq == 0 || eq + 1 == text.size())
     throw InputError("--gain", 0, fmt::format("'{}': expected NAME=VALUE", text));
   const std::string name = text.substr(0, eq), num = text.substr(eq + 1);
-  double v = 0;
-  std::size_t used = 0;
-  try {
-    v = std::stod(num, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != num.size() || !std::isfinite(v))
-    throw InputError("--gain", 0, fmt::format("'{}': '{}' is not a finite number", text, num));
-  if (!gains.emplace(name, v).second) throw InputError("--gain", 0, fmt::format("gain '{}' given twice", name));
+  const std::optional<double> v = parse_finite(num);
+  if (!v) throw InputError("--gain", 0, fmt::format("'{}': '{}' is not a finite number", text, num));
+  if (!gains.emplace(name, *v).second) throw InputError("--gain", 0, fmt::format("gain '{}' given twice", name));
 }
 
 }  // namespace machplan::control

@@ -263,6 +263,10 @@ void Guard::filter(Demand& d, const Eigen::Vector2d& measured_mm, const Eigen::V
       d.track.v_ff_mm_per_s[i] = v_[i];
       d.track.a_ff_mm_per_s2[i] = a_[i];
     }
+    // The guard's setpoint is its own: the source's path and preview no longer describe it, so
+    // contour controllers fall back to the feed-forward (engine/control/controller.h).
+    d.track.path = nullptr;
+    d.track.preview_ticks = 0;
   } else {
     d.speed_mm_per_s = v_;
   }

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 #include "engine/common/text_file.h"
 
 namespace machplan::hardware {
@@ -43,16 +44,9 @@ std::vector<std::string_view> split(std::string_view s) {
 
 double number(std::string_view f, const std::string& source, int line, const char* what) {
   const std::string text(f);
-  std::size_t used = 0;
-  double v = std::numeric_limits<double>::quiet_NaN();
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (text.empty() || used != text.size() || !std::isfinite(v))
-    throw InputError(source, line, fmt::format("{} '{}' is not a finite number", what, text));
-  return v;
+  const std::optional<double> v = parse_finite(text);
+  if (!v) throw InputError(source, line, fmt::format("{} '{}' is not a finite number", what, text));
+  return *v;
 }
 
 }  // namespace

@@ -20,6 +20,10 @@
 
 #include "solvers/calibration/fit.h"
 
+namespace machplan::store {
+class SqliteDb;
+}
+
 namespace machplan::calibration {
 
 struct StoredFit {
@@ -33,14 +37,15 @@ struct StoredFit {
   double feed_factor[2] = {0, 0}, dead_band_mm_per_s[2] = {0, 0}, mm_per_count[2] = {0, 0}, backlash_mm[2] = {0, 0};
 };
 
+// $XDG_DATA_HOME/machplan/calibration.db (or ~/.local/share/...); creates its folder on first use.
 std::string default_store_path();
 // FNV-1a 64 of `bytes`, as 16 hex digits.
 std::string log_hash(const std::string& bytes);
 
 class CalibrationStore {
  public:
-  // Opens (creating file and schema when needed). Throws InputError("--db", ...) when the file
-  // cannot be opened or is not a calibration store.
+  // Opens (creating file and schema when needed, never its folder: solvers/common/sqlite_db.h).
+  // Throws InputError("--db", ...) when the file cannot be opened or is not a calibration store.
   explicit CalibrationStore(const std::string& path);
   ~CalibrationStore();
   CalibrationStore(const CalibrationStore&) = delete;
@@ -57,9 +62,7 @@ class CalibrationStore {
   std::vector<StoredFit> history(const std::string& machine = {}) const;
 
  private:
-  struct Db;
-  std::unique_ptr<Db> db_;
-  std::string path_;
+  std::unique_ptr<store::SqliteDb> db_;
 };
 
 // The paper modes' open-loop factor (commanded / programmed speed) for a feed, from a stored

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
 #include "models/backends/backend_factory.h"
@@ -17,16 +18,9 @@ namespace machplan::tuning {
 namespace {
 
 double parse_number(const std::string& text, const std::string& spec, const char* what) {
-  std::size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(v))
-    throw InputError("--contour", 0, fmt::format("'{}': {} '{}' is not a number", spec, what, text));
-  return v;
+  const std::optional<double> v = parse_finite(text);
+  if (!v) throw InputError("--contour", 0, fmt::format("'{}': {} '{}' is not a number", spec, what, text));
+  return *v;
 }
 
 // A setpoint that jumps from `a` to `b` at t > 0 and holds: the step of the constraint tests.

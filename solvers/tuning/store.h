@@ -16,6 +16,10 @@
 
 #include "engine/control/controller_factory.h"
 
+namespace machplan::store {
+class SqliteDb;
+}
+
 namespace machplan::tuning {
 
 struct StoredTuning {
@@ -43,9 +47,7 @@ class TuningStore {
   std::vector<StoredTuning> history(const std::string& machine = {}) const;
 
  private:
-  struct Db;
-  std::unique_ptr<Db> db_;
-  std::string path_;
+  std::unique_ptr<store::SqliteDb> db_;
 };
 
 }  // namespace machplan::tuning

@@ -30,12 +30,11 @@ cutting::MachineConfig nominal() {
   return cutting::load_machine(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
 }
 
-// Each test's store lives in a fresh temporary folder (removed at exit), in a subfolder the
-// store must create.
+// Each test's store lives in a fresh temporary folder (removed at exit).
 std::string temp_db(const char* name) {
   static std::vector<std::unique_ptr<test::TempDir>> dirs;
   dirs.push_back(std::make_unique<test::TempDir>());
-  return (dirs.back()->path() / name / "calibration.db").string();
+  return (dirs.back()->path() / fmt::format("{}.db", name)).string();
 }
 
 struct Session {
@@ -139,6 +138,26 @@ TEST(CalibrationStore, AnUnreadableStoreIsNamed) {
   test::TempDir dir;
   const auto path = dir.write("not_a_db", "this is not an SQLite file, and it is long enough to have a header of sorts......\n");
   EXPECT_THROW(CalibrationStore{path}, InputError);
+}
+
+// A --db in a folder that does not exist is refused (a typing mistake must not create folders);
+// only the default location creates its folder.
+TEST(CalibrationStore, AFolderIsCreatedOnlyForTheDefaultLocation) {
+  test::TempDir dir;
+  const auto missing = dir.path() / "no_such_folder";
+  const std::string msg = test::error_of([&] { CalibrationStore s((missing / "calibration.db").string()); });
+  EXPECT_NE(msg.find("no_such_folder"), std::string::npos) << msg;
+  EXPECT_FALSE(std::filesystem::exists(missing));
+
+  const char* old = std::getenv("XDG_DATA_HOME");
+  const std::string saved = old ? old : "";
+  ::setenv("XDG_DATA_HOME", (dir.path() / "xdg").c_str(), 1);
+  const std::string path = default_store_path();
+  if (old) ::setenv("XDG_DATA_HOME", saved.c_str(), 1); else ::unsetenv("XDG_DATA_HOME");
+  EXPECT_EQ(path, (dir.path() / "xdg" / "machplan" / "calibration.db").string());
+  EXPECT_TRUE(std::filesystem::is_directory(dir.path() / "xdg" / "machplan"));
+  CalibrationStore s(path);
+  EXPECT_TRUE(s.history().empty());
 }
 
 // One session, fitted and stored, calibrates the paper's open-loop mode at every feed: the

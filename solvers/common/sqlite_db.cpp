@@ -1,0 +1,79 @@
+#include "solvers/common/sqlite_db.h"
+
+#include <sqlite3.h>
+
+#include <ctime>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+
+namespace machplan::store {
+
+SqliteDb::SqliteDb(const std::string& path, const char* schema) : path_(path) {
+  if (sqlite3_open_v2(path.c_str(), &h_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
+    const std::string why = h_ ? sqlite3_errmsg(h_) : "out of memory";
+    sqlite3_close(h_);
+    h_ = nullptr;
+    throw InputError("--db", 0, fmt::format("cannot open '{}': {} (its folder must exist)", path, why));
+  }
+  sqlite3_busy_timeout(h_, 5000);
+  try {
+    exec("PRAGMA foreign_keys = ON;");
+    exec(schema);
+  } catch (const InputError& e) {
+    sqlite3_close(h_);
+    h_ = nullptr;
+    throw InputError("--db", 0, fmt::format("'{}' is not a machplan store: {}", path, e.message()));
+  }
+}
+
+SqliteDb::~SqliteDb() { sqlite3_close(h_); }
+
+void SqliteDb::exec(const char* sql) const {
+  char* err = nullptr;
+  if (sqlite3_exec(h_, sql, nullptr, nullptr, &err) != SQLITE_OK) {
+    const std::string msg = err ? err : "unknown error";
+    sqlite3_free(err);
+    throw InputError("--db", 0, fmt::format("{}: {}", path_, msg));
+  }
+}
+
+std::int64_t SqliteDb::last_insert_id() const { return sqlite3_last_insert_rowid(h_); }
+
+void SqliteDb::rollback() const noexcept { sqlite3_exec(h_, "ROLLBACK;", nullptr, nullptr, nullptr); }
+
+Statement::Statement(const SqliteDb& db, const char* sql) : db_(db) {
+  if (sqlite3_prepare_v2(db.handle(), sql, -1, &s_, nullptr) != SQLITE_OK)
+    throw InputError("--db", 0, fmt::format("'{}' is not a machplan store: {}", db.path(), sqlite3_errmsg(db.handle())));
+}
+
+Statement::~Statement() { sqlite3_finalize(s_); }
+
+void Statement::bind(int i, const std::string& v) { sqlite3_bind_text(s_, i, v.c_str(), -1, SQLITE_TRANSIENT); }
+void Statement::bind(int i, std::int64_t v) { sqlite3_bind_int64(s_, i, v); }
+
+bool Statement::step() {
+  const int rc = sqlite3_step(s_);
+  if (rc == SQLITE_ROW) return true;
+  if (rc == SQLITE_DONE) return false;
+  throw InputError("--db", 0, fmt::format("{}: {}", db_.path(), sqlite3_errmsg(db_.handle())));
+}
+
+std::string Statement::text(int column) const {
+  const auto* p = sqlite3_column_text(s_, column);
+  return p ? reinterpret_cast<const char*>(p) : "";
+}
+
+std::int64_t Statement::int64(int column) const { return sqlite3_column_int64(s_, column); }
+
+std::string now_utc() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+}  // namespace machplan::store

@@ -1,0 +1,79 @@
+// The SQLite file behind machplan's stores (calibrations in solvers/calibration/store.h, tuned
+// gains in solvers/tuning/store.h): one file, each store owning its own tables.
+//
+// Opening never creates folders: a --db path in a folder that does not exist is an error, so a
+// typing mistake cannot scatter databases over the disk. Only the default location
+// (default_store_path() in solvers/calibration/store.h) has its folder created, on first use.
+// Every failure is an InputError("--db", ...) naming the file.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+struct sqlite3;
+struct sqlite3_stmt;
+
+namespace machplan::store {
+
+class SqliteDb {
+ public:
+  // Opens `path` (creating the file, not its folder), waits up to 5 s for other writers, turns
+  // foreign keys on and runs `schema` (CREATE TABLE IF NOT EXISTS ...).
+  SqliteDb(const std::string& path, const char* schema);
+  ~SqliteDb();
+  SqliteDb(const SqliteDb&) = delete;
+  SqliteDb& operator=(const SqliteDb&) = delete;
+
+  sqlite3* handle() const { return h_; }
+  const std::string& path() const { return path_; }
+  void exec(const char* sql) const;
+  std::int64_t last_insert_id() const;
+
+  // Runs `body` between BEGIN IMMEDIATE and COMMIT; any exception rolls back and propagates.
+  template <class Body>
+  auto transaction(Body&& body) const {
+    exec("BEGIN IMMEDIATE;");
+    try {
+      auto result = body();
+      exec("COMMIT;");
+      return result;
+    } catch (...) {
+      rollback();
+      throw;
+    }
+  }
+
+ private:
+  void rollback() const noexcept;
+  sqlite3* h_ = nullptr;
+  std::string path_;
+};
+
+class Statement {
+ public:
+  Statement(const SqliteDb& db, const char* sql);
+  ~Statement();
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  void bind(int i, const std::string& v);
+  void bind(int i, std::int64_t v);
+  // Steps once: true when a row is ready, false when done.
+  bool step();
+  // Steps a statement that returns no rows.
+  void run() {
+    while (step()) {
+    }
+  }
+  std::string text(int column) const;
+  std::int64_t int64(int column) const;
+
+ private:
+  const SqliteDb& db_;
+  sqlite3_stmt* s_ = nullptr;
+};
+
+// Now as an ISO 8601 UTC timestamp ("2026-11-23T15:00:00Z").
+std::string now_utc();
+
+}  // namespace machplan::store
