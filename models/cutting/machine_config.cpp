@@ -70,17 +70,20 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
   s.reject_unknown_keys({"kp_per_s", "ki_per_s2", "kd", "velocity_ff", "acceleration_ff_s", "ff_adaptation_per_s2", "ff_adaptation_min_speed_mm_per_s", "following_error_limit_mm",
                          "backlash_compensation_mm", "backlash_compensation_time_s"});
   control::ServoGains& g = ax.servo;
-  g.kp_per_s = s.number("kp_per_s", kNonNegative);
-  g.ki_per_s2 = s.number_or("ki_per_s2", 0.0, kNonNegative);
-  g.kd = s.number_or("kd", 0.0, kNonNegative);
+  // The upper bounds lie far beyond any loop that is stable at the usual periods (a P loop needs
+  // Kp T < 2, Kp < 2000 /s at 1 ms): a gain above them is a typing mistake, not a tuning.
+  g.kp_per_s = s.number("kp_per_s", {.min = 0, .max = 1e5});
+  g.ki_per_s2 = s.number_or("ki_per_s2", 0.0, {.min = 0, .max = 1e8});
+  g.kd = s.number_or("kd", 0.0, {.min = 0, .max = 10});
   g.velocity_ff = s.number_or("velocity_ff", 1.0, {.min = 0, .max = 3});
   g.acceleration_ff_s = s.number_or("acceleration_ff_s", 0.0, {.min = 0, .max = 1});
   g.ff_adaptation_per_s2 = s.number_or("ff_adaptation_per_s2", 0.0, {.min = 0, .max = 1e5});
-  g.ff_adaptation_min_speed_mm_per_s =
-      s.number_or("ff_adaptation_min_speed_mm_per_s", g.ff_adaptation_min_speed_mm_per_s, kPositive);
-  g.following_error_limit_mm = s.number("following_error_limit_mm", kPositive);
+  g.ff_adaptation_min_speed_mm_per_s = s.number_or("ff_adaptation_min_speed_mm_per_s", g.ff_adaptation_min_speed_mm_per_s,
+                                                   {.min = 0, .max = 1e4, .min_exclusive = true});
+  g.following_error_limit_mm = s.number("following_error_limit_mm", {.min = 0, .max = 1000, .min_exclusive = true});
   g.backlash_compensation_mm = s.number_or("backlash_compensation_mm", 0.0, {.min = 0, .max = 5});
-  g.backlash_compensation_time_s = s.number_or("backlash_compensation_time_s", g.backlash_compensation_time_s, kPositive);
+  g.backlash_compensation_time_s =
+      s.number_or("backlash_compensation_time_s", g.backlash_compensation_time_s, {.min = 0, .max = 1, .min_exclusive = true});
 
   try {
     p.validate();

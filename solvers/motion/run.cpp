@@ -110,6 +110,9 @@ void refuse_long_run(const Job& job, double estimate_s, double limit_s, const ch
 void RunOptions::validate() const {
   if (machine.empty()) throw InputError("--machine", 0, "names no machine");
   check_range("--kerf", kerf_mm, 0.0, 100.0, false, " mm");
+  // Below a micrometre a kerf is lost in the offset's own tolerance (engine/geometry/offset.h).
+  if (kerf_mm > 0 && kerf_mm < 0.001)
+    throw InputError("--kerf", 0, fmt::format("{} mm is below 0.001 mm, the smallest kerf compensated; give 0 for none", kerf_mm));
   check_range("--blu", executor.blu_mm, 0.01, 1000.0, false, " mm");
   check_range("--calibration", executor.calibration_factor, 0.1, 10.0, true, "");
   if (feed_override_mm_per_s != 0.0) check_range("--feed", feed_override_mm_per_s, 0.0, 10000.0, true, " mm/s");

@@ -107,6 +107,9 @@ TEST(MachineConfig, RefusesBadValuesNamingTheKey) {
             std::string::npos);
   EXPECT_NE(error_after("      bits: 16", "      bits: 4").find("key 'axes.x.counter.bits' must be between 8 and 32"),
             std::string::npos);
+  const std::string huge = error_after("      kp_per_s: 90\n", "      kp_per_s: 1e9\n");
+  EXPECT_NE(huge.find("axes.x.servo.kp_per_s"), std::string::npos) << huge;
+  EXPECT_NE(huge.find("<= 100000"), std::string::npos) << huge;
   const std::string missing = error_after("      kp_per_s: 90\n", "");
   EXPECT_NE(missing.find("missing required key 'axes.x.servo.kp_per_s'"), std::string::npos) << missing;
 }

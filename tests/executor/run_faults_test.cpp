@@ -168,13 +168,14 @@ TEST(Inject, BadValuesExitTwoNamingTheFlag) {
 }
 
 TEST(Supervision, ALoopThatCannotHoldThePathIsAFault) {
-  // The gantry with an absurd proportional gain: the drive output flips between its limits.
+  // The gantry with a proportional gain far beyond stability (Kp T = 50 at its 1 ms period, within
+  // the machine file's bound of 1e5): the drive output flips between its limits.
   test::TempDir dir;
   std::ifstream in(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
   std::string text((std::istreambuf_iterator<char>(in)), {});
-  text = std::regex_replace(text, std::regex("kp_per_s: 90"), "kp_per_s: 1e9");
-  text = std::regex_replace(text, std::regex("name: thermal_gantry"), "name: gantry_kp_1e9");
-  const std::string machine = (dir.path() / "gantry_kp_1e9.yaml").string();
+  text = std::regex_replace(text, std::regex("kp_per_s: 90"), "kp_per_s: 5e4");
+  text = std::regex_replace(text, std::regex("name: thermal_gantry"), "name: gantry_kp_5e4");
+  const std::string machine = (dir.path() / "gantry_kp_5e4.yaml").string();
   std::ofstream(machine) << text;
   const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", machine, "--json"});
   ASSERT_EQ(r.code, 3) << r.err;

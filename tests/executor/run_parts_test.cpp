@@ -222,6 +222,7 @@ TEST(RunCommand, BadFlagsExitWithTwoAndNameTheFlag) {
       {"run " + tri + " --machine thermal_gantry --mode paper-open --calibration 0", "--calibration: 0 is out of range"},
       {"run " + tri + " --machine thermal_gantry --kerf -1", "--kerf: -1 is out of range"},
       {"run " + tri + " --machine thermal_gantry --kerf 1e3", "--kerf: 1000 is out of range"},
+      {"run " + tri + " --machine thermal_gantry --kerf 1e-6", "--kerf: 1e-06 mm is below 0.001 mm"},
       {"run " + tri + " --machine thermal_gantry --feed 0", "--feed: 0 must be > 0"},
       {"run " + tri + " --machine thermal_gantry --magnify 0", "--magnify: 0 must be > 0"},
       {"run " + tri + " --machine thermal_gantry --plot out.jpg", "--plot: 'out.jpg' must end in .png or .svg"},
