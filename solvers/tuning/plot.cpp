@@ -14,7 +14,7 @@ namespace machplan::tuning {
 
 void write_time_plot(const std::string& path, const std::string& flag, const std::string& title,
                      const std::vector<Panel>& panels) {
-  const double W = 1000, ph = 280, top = 40, left = 80, right = 20, gap = 50;
+  const double W = 1000, ph = 280, top = 64, left = 80, right = 20, gap = 50;
   const double H = top + panels.size() * (ph + gap) + 10;
   double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
   for (const Panel& p : panels)
