@@ -11,29 +11,14 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
 namespace {
 
-struct Run {
-  int code = -1;
-  std::string out, err;
-};
-
-Run cli(const test::TempDir& dir, const std::string& args) {
-  const auto out = (dir.path() / "stdout").string(), err = (dir.path() / "stderr").string();
-  const int rc = std::system(fmt::format("cd '{}' && XDG_DATA_HOME='{}/xdg' '{}' {} > '{}' 2> '{}'", MACHPLAN_SOURCE_DIR,
-                                         dir.path().string(), MACHPLAN_CLI, args, out, err)
-                                 .c_str());
-  auto slurp = [](const std::string& p) {
-    std::ifstream f(p);
-    std::stringstream s;
-    s << f.rdbuf();
-    return s.str();
-  };
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, slurp(out), slurp(err)};
-}
+using Run = test::CliResult;
+Run cli(const test::TempDir& dir, const std::string& args) { return test::run_cli(dir, args); }
 
 TEST(TuneCli, TunesPrintsJsonPlotsAndStores) {
   test::TempDir dir;

@@ -7,24 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/control/controller_factory.h"
-
-// Allocation counting: every operator new of this program goes through here; only calls made
-// while `g_counting` is set are counted.
-namespace {
-thread_local bool g_counting = false;
-thread_local long g_allocations = 0;
-void* counted(std::size_t n) {
-  if (g_counting) ++g_allocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-void* operator new(std::size_t n) { return counted(n); }
-void* operator new[](std::size_t n) { return counted(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#include "tests/support/allocation_counter.h"
 
 namespace machplan::control {
 namespace {

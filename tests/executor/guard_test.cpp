@@ -13,22 +13,7 @@
 #include "engine/executor/guard.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
-
-namespace {
-thread_local bool g_counting = false;
-thread_local long g_allocations = 0;
-void* counted(std::size_t n) {
-  if (g_counting) ++g_allocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-void* operator new(std::size_t n) { return counted(n); }
-void* operator new[](std::size_t n) { return counted(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#include "tests/support/allocation_counter.h"
 
 namespace machplan::executor {
 namespace {

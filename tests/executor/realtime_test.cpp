@@ -14,29 +14,11 @@
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
 #include "solvers/motion/run.h"
+#include "tests/support/allocation_counter.h"
 #include "tests/support/forwarding_backend.h"
 #include "tests/support/ideal_backend.h"
 #include "tests/support/temp_dir.h"
 #include "tests/support/test_trajectory.h"
-
-// Allocation counting: every operator new of this program goes through here; only the calls
-// made on the counting thread while `g_counting` is set are counted (the trace stream's writer
-// thread allocates freely, outside the tick).
-namespace {
-thread_local bool g_counting = false;
-thread_local long g_allocations = 0;
-void* counted(std::size_t n) {
-  if (g_counting) ++g_allocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-void* operator new(std::size_t n) { return counted(n); }
-void* operator new[](std::size_t n) { return counted(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 
 namespace machplan::executor {
 namespace {
