@@ -140,7 +140,10 @@ std::string TuneResult::report() const {
                        e.itae_mm_s2, e.faulted ? "  FAULTED" : "");
   };
   s += line("baseline (axial P)", baseline);
-  s += line(fmt::format("start ({} defaults)", kind).c_str(), start);
+  bool given = false;  // a start from --gain values rather than the factory's defaults
+  for (const auto& sp : specs)
+    if (const auto st = start_gains.find(sp.name); st != start_gains.end() && st->second != sp.default_value) given = true;
+  s += line(fmt::format("start ({} {})", kind, given ? "given gains" : "defaults").c_str(), start);
   s += line("tuned", tuned);
   if (tuned.max_mm > 0)
     s += fmt::format("  improvement on the baseline: max {:.2f}x, rms {:.2f}x\n", baseline.max_mm / tuned.max_mm,
