@@ -98,11 +98,20 @@ void PlannedSource::demand(Demand& d) const noexcept {
   // per period, except over runs of tiny segments, which the bound lets it catch up with over
   // a few periods). Strictly: on a closed contour the last segment ends where the first
   // starts, and at a joint the cursor waits until the tool has left the segment it is on.
+  // Also when the setpoint runs back against the segment's direction (within about 25
+  // degrees): after a cusp, a reversal, the next segment starts back along the one the tool is
+  // on, so the tool stays nearer the old one, and a contour controller holding it there would
+  // keep it from ever leaving. Ordinary corners, even sharp ones, keep the nearest rule.
   const std::vector<Segment>& segs = stretch_->segments;
   if (segs.empty()) return;
   const Eigen::Vector2d y = measured_mm_;
+  const Eigen::Vector2d v(now.velocity_mm_per_s[0], now.velocity_mm_per_s[1]);
   const auto dist = [&](std::size_t k) { return (closest_point(segs[k], y) - y).squaredNorm(); };
-  for (int n = 0; n < 8 && segment_ + 1 < segs.size() && dist(segment_ + 1) < dist(segment_); ++n) ++segment_;
+  const auto reversed = [&](std::size_t k) {
+    return v.squaredNorm() > 1e-12 && tangent_at(segs[k], closest_point(segs[k], y)).dot(v) < -0.9 * v.norm();
+  };
+  for (int n = 0; n < 8 && segment_ + 1 < segs.size() && (dist(segment_ + 1) < dist(segment_) || reversed(segment_)); ++n)
+    ++segment_;
   d.track.path = &segs[segment_];
 }
 

@@ -59,6 +59,34 @@ TEST(PlannedSourcePath, FollowsTheSegmentsOfAClosedContourInOrder) {
   for (int n : ticks_on) EXPECT_GT(n, 500);
 }
 
+// At a cusp (the path turns back on itself) the tool lags on the first leg, which is also the
+// nearest to it for the whole way back: the setpoint running back against that leg moves the
+// cursor on, or a contour controller would hold the tool on the leg it has to leave.
+TEST(PlannedSourcePath, ACuspMovesTheCursorOnWhenTheSetpointTurnsBack) {
+  const Eigen::Vector2d a(0, 0), b(60, 0), c(20, 0.5);
+  auto chain = std::make_unique<test::ChainTrajectory>();
+  chain->add(std::make_unique<test::LineTrajectory>(a, b, 50, 500));
+  chain->add(std::make_unique<test::LineTrajectory>(b, c, 50, 500));
+  test::OneCut cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b, c}, false), 50, true), std::move(chain));
+  const std::vector<Segment>& segs = cut.job.stretches[0].segments;
+  const MachineSetup m = machine(1);
+  PlannedSource s;
+  s.prepare({&cut.job, &cut.trajectories, &m, 0.001}, a);
+  s.begin_move(1, a);
+  Demand d;
+  // A tool on the first leg, a little behind the setpoint, all the way.
+  bool turned_back = false;
+  while (!s.move_done()) {
+    s.demand(d);
+    const double x = std::max(0.0, d.track.r_mm[0] - 0.5);
+    if (d.track.v_ff_mm_per_s[0] < -1.0) turned_back = true;
+    if (turned_back && d.track.r_mm[0] < 50.0) break;
+    s.advance(Eigen::Vector2d(x, 0.0), {});
+  }
+  ASSERT_TRUE(turned_back);
+  EXPECT_EQ(d.track.path, &segs[1]);
+}
+
 // The segment given is the TOOL's: a tool lagging behind a corner keeps the leg it is on.
 TEST(PlannedSourcePath, ALaggingToolKeepsItsSegmentAtACorner) {
   const Eigen::Vector2d a(0, 0), b(60, 0), c(60, 40);
