@@ -16,26 +16,9 @@
 #include "engine/common/error.h"
 #include "engine/geometry/contour.h"
 #include "engine/geometry/region.h"
+#include "tests/fuzz/fuzz_bytes.h"
 
-namespace {
-struct Bytes {
-  const uint8_t* p;
-  size_t n;
-  int16_t i16() {
-    int16_t v = 0;
-    if (n >= 2) {
-      std::memcpy(&v, p, 2);
-      p += 2, n -= 2;
-    }
-    return v;
-  }
-  uint8_t u8() {
-    if (n == 0) return 0;
-    --n;
-    return *p++;
-  }
-};
-}  // namespace
+using machplan::fuzz::Bytes;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using machplan::Contour;
