@@ -28,19 +28,6 @@
 namespace machplan::cli {
 namespace {
 
-std::uint64_t seed_of(const std::string& text) {
-  std::size_t used = 0;
-  unsigned long long s = 0;
-  try {
-    s = std::stoull(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || text[0] == '-')
-    throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", text));
-  return s;
-}
-
 double number_of(const char* flag, const std::string& text) {
   const std::optional<double> v = parse_finite(text);
   if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));

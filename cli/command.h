@@ -16,7 +16,9 @@
 // must signal a non-zero status calls set_exit_code().
 #pragma once
 
+#include <cstdint>
 #include <functional>
+#include <string>
 
 #include <CLI/CLI.hpp>
 
@@ -37,5 +39,8 @@ CLI::Validator finite_number(double min, bool min_exclusive);
 inline const CLI::Validator kFinite = finite_number(-1e300, false);
 inline const CLI::Validator kFinitePositive = finite_number(0.0, true);
 inline const CLI::Validator kFiniteNonNegative = finite_number(0.0, false);
+
+// The value of --seed: a whole number >= 0; InputError("--seed", ...) otherwise.
+std::uint64_t seed_of(const std::string& text);
 
 }  // namespace machplan::cli

@@ -71,18 +71,7 @@ void add_guard(CLI::App& app) {
     if (!a->finish_allowance.empty()) o.finish_allowance_mm = number_in("--finish-allowance", a->finish_allowance);
     if ((!a->finish_feed.empty() || !a->finish_allowance.empty()) && !a->finish)
       throw InputError(!a->finish_feed.empty() ? "--finish-feed" : "--finish-allowance", 0, "applies with --finish only");
-    if (!a->seed.empty()) {
-      std::size_t used = 0;
-      unsigned long long s = 0;
-      try {
-        s = std::stoull(a->seed, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used == 0 || used != a->seed.size() || a->seed[0] == '-')
-        throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", a->seed));
-      o.seed = s;
-    }
+    if (!a->seed.empty()) o.seed = seed_of(a->seed);
     if (o.op.kind == guard::OperatorSpec::Kind::keys && a->json)
       throw InputError("--json", 0, "the keys operator reads the terminal; --json needs a script or random operator");
     o.validate();

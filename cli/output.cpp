@@ -69,6 +69,19 @@ void refuse_overwriting_input(const std::string& flag, const std::string& output
   }
 }
 
+std::uint64_t seed_of(const std::string& text) {
+  std::size_t used = 0;
+  unsigned long long s = 0;
+  try {
+    s = std::stoull(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || text[0] == '-')
+    throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", text));
+  return s;
+}
+
 CLI::Validator finite_number(double min, bool min_exclusive) {
   const std::string desc = min <= -1e300 ? "FINITE" : min_exclusive ? "POSITIVE" : "NON-NEGATIVE";
   return CLI::Validator(

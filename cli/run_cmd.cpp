@@ -175,18 +175,7 @@ void add_run(CLI::App& app) {
       refuse_overwriting_input(flag, path, {a->program, a->no_go, a->machine});
       check_output_folder(flag, path);
     }
-    if (!a->seed.empty()) {
-      std::size_t used = 0;
-      unsigned long long s = 0;
-      try {
-        s = std::stoull(a->seed, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used == 0 || used != a->seed.size() || a->seed[0] == '-')
-        throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", a->seed));
-      o.backend.sim.seed = s;
-    }
+    if (!a->seed.empty()) o.backend.sim.seed = seed_of(a->seed);
     o.backend.name = a->backend;
     o.backend.sim.realtime = a->realtime;
     for (const std::string& text : a->inject) o.backend.sim.faults.push_back(injection_of(text));
