@@ -9,8 +9,9 @@
 //       v_ff   setpoint velocity and acceleration at the instant the command will act
 //       a_ff   (command latency + one period ahead): the feed-forward terms
 //       y      measured position, y_dot measured velocity (decoded, filtered by the adapter)
-//       path   the programmed segment the tool is on, for contour controllers (a line or arc;
-//              the planned source gives the one nearest the measured position; null while
+//       path   the path segment the tool is on, for contour controllers (a line or arc of
+//              the path the setpoints follow, blended corners included; the planned source
+//              gives the one nearest the measured position; null while
 //              holding a point or when the source does not know the path)
 //       r_preview  the setpoint 1 .. preview_ticks periods after r (same axes, same instant
 //              convention), for controllers that act ahead of the path (ZPETC); preview_ticks

@@ -66,6 +66,7 @@ class CounterDecoder {
     last_ = counter;
     origin_mm_ = position_mm;
     counts_ = 0;
+    moved_ = false;
   }
 
   enum class Verdict { ok, implausible_jump, byte_carry_misread };
@@ -85,11 +86,20 @@ class CounterDecoder {
       return byte_like ? Verdict::byte_carry_misread : Verdict::implausible_jump;
     }
     counts_ += d;
+    moved_ = moved_ || d != 0;
     last_ = counter;
     return Verdict::ok;
   }
 
-  double position_mm() const { return origin_mm_ + static_cast<double>(counts_) * mm_per_count_; }
+  // The counter shows n = floor((x - x0) / q) edges from the reference x0, itself an edge (the
+  // axis is referenced on one): the axis is somewhere in [x0 + n q, x0 + (n + 1) q). The
+  // middle of that interval is returned, which errs by at most q/2. (The interval's lower edge
+  // errs by q/2 on average, the same way on every axis: on a circle that bias alone is a
+  // contour error of up to q / sqrt(2).) Until the first edge, the reference itself, where
+  // the axis is known to stand.
+  double position_mm() const {
+    return moved_ ? origin_mm_ + (static_cast<double>(counts_) + 0.5) * mm_per_count_ : origin_mm_;
+  }
   std::int64_t counts() const { return counts_; }
   std::int64_t last_jump_counts() const { return jump_; }
   double mm_per_count() const { return mm_per_count_; }
@@ -101,6 +111,7 @@ class CounterDecoder {
   std::uint32_t last_ = 0;
   double origin_mm_ = 0.0;
   std::int64_t counts_ = 0;
+  bool moved_ = false;
   std::int64_t jump_ = 0;
 };
 

@@ -46,7 +46,12 @@ void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d& measured
   measured_mm_ = measured_mm;
   step_ = step;
   cur_ = (*ctx_.trajectories)[step].get();
-  stretch_ = &ctx_.job->stretches[ctx_.job->steps[step].stretch];
+  // The path the setpoints follow: the planner's executed path (its corners blended within
+  // the path tolerance) when the trajectory has one. Given the programmed corner instead, a
+  // contour controller would pull the tool off the blend the setpoint is on, towards the
+  // sharp corner.
+  const motion::Stretch* followed = cur_ ? cur_->followed_path() : nullptr;
+  stretch_ = followed ? followed : &ctx_.job->stretches[ctx_.job->steps[step].stretch];
   segment_ = 0;
   t_ = 0.0;
 }

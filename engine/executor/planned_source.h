@@ -7,11 +7,13 @@
 // rest-to-rest trajectory (clamped at its ends), so they are exact across step boundaries
 // too: between moves the source keeps sampling the last trajectory, which holds its end.
 //
-// For the controllers it also gives the programmed segment the TOOL is on (the one nearest the
-// measured position, found by a cursor that only moves forward, a bounded number of segments
-// per period: at a corner the lagging tool keeps its segment until it has turned, so a contour
-// controller measures its error against the piece it is cutting, not the one the setpoint has
-// reached) and ControllerInput::kMaxPreviewTicks setpoints ahead of r.
+// For the controllers it also gives the segment the TOOL is on, of the path the setpoints
+// follow (the planner's executed path, with its blended corners; the programmed one for
+// trajectories that do not round corners): the one nearest the measured position, found by a
+// cursor that only moves forward, a bounded number of segments per period. At a corner the
+// lagging tool keeps its segment until it has turned, so a contour controller measures its
+// error against the piece it is cutting, not the one the setpoint has reached. And
+// ControllerInput::kMaxPreviewTicks setpoints ahead of r.
 #pragma once
 
 #include "engine/executor/setpoint_source.h"
@@ -33,7 +35,7 @@ class PlannedSource final : public SetpointSource {
   SourceContext ctx_;
   Eigen::Vector2d hold_mm_ = Eigen::Vector2d::Zero();
   const motion::Trajectory* cur_ = nullptr;  // the move being (or last) executed
-  const motion::Stretch* stretch_ = nullptr;  // its programmed geometry
+  const motion::Stretch* stretch_ = nullptr;  // the path it follows (executed, else programmed)
   mutable std::size_t segment_ = 0;           // cursor: the segment the tool is on
   Eigen::Vector2d measured_mm_ = Eigen::Vector2d::Zero();  // as given to advance()
   std::size_t step_ = 0;

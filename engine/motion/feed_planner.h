@@ -160,6 +160,7 @@ class PlannedTrajectory final : public Trajectory {
   // (feeds: the programmed feed; blends: the smaller of their neighbours' feeds; source line:
   // the line of the segment the piece comes from, the later one for a blend).
   const Stretch& executed_path() const { return path_; }
+  const Stretch* followed_path() const override { return &path_; }
   // Upper bound on the distance from any setpoint to the programmed path, mm (the largest
   // blend deviation; 0 when nothing was blended). At most path_tolerance_mm.
   double max_deviation_mm() const { return max_deviation_mm_; }

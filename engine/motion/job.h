@@ -45,11 +45,15 @@ struct Setpoint {
 // bounded time (the executor calls it once per servo period). It is const and may be called
 // from any thread. Times outside [0, duration_s()] are clamped: before 0 the start state,
 // after the end the end state with zero velocity and acceleration.
+struct Stretch;
 class Trajectory {
  public:
   virtual ~Trajectory() = default;
   virtual double duration_s() const = 0;
   virtual void sample(double t_s, Setpoint& out) const = 0;
+  // The path the setpoints follow when it is not the stretch's programmed one (a planner that
+  // rounds corners: its executed path), else null. Contour controllers follow this path.
+  virtual const Stretch* followed_path() const { return nullptr; }
 };
 
 // Programmed geometry between two rest events. `segments` are contiguous (each starts where

@@ -63,7 +63,10 @@ AxisPlant::AxisPlant(const AxisPlantParams& params, double position_mm, std::uin
   p_.validate();
   q_mm_ = p_.mm_per_count();
   motor_mm_ = load_mm_ = position_mm;
-  count_pos_ = static_cast<std::int64_t>(std::floor(load_mm_ / q_mm_));
+  // The encoder's edges are referenced to the start position (the axis was homed there, on
+  // an edge, as a reference run leaves it): the counter shows floor((x - start) / q) counts.
+  grid_origin_mm_ = position_mm;
+  count_pos_ = 0;
   counter_mask_ = p_.counter_bits == 32 ? 0xFFFFFFFFu : ((1u << p_.counter_bits) - 1u);
   counter_ = counter_start & counter_mask_;
   read_line_.fill(CounterReading{counter_, false});
@@ -123,7 +126,7 @@ void AxisPlant::step(std::int32_t dac_code, bool enabled, double dt_s, std::mt19
       motor_mm_ += v_ * h;
     }
     load_mm_ = std::clamp(load_mm_, motor_mm_ - half_gap, motor_mm_ + half_gap);
-    const auto count = static_cast<std::int64_t>(std::floor(load_mm_ / q_mm_));
+    const auto count = static_cast<std::int64_t>(std::floor((load_mm_ - grid_origin_mm_) / q_mm_));
     const std::int64_t edges = count - count_pos_;
     if (edges != 0) {
       const std::uint64_t n = static_cast<std::uint64_t>(edges > 0 ? edges : -edges);

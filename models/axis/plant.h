@@ -93,8 +93,8 @@ double gaussian(std::mt19937_64& rng);
 
 class AxisPlant {
  public:
-  // The axis starts at rest at `position_mm` (motor and load together: mid-gap) and
-  // the counter at `counter_start`. Throws like params.validate().
+  // The axis starts at rest at `position_mm` (motor and load together: mid-gap), on an
+  // encoder edge, and the counter at `counter_start`. Throws like params.validate().
   explicit AxisPlant(const AxisPlantParams& params, double position_mm = 0.0, std::uint32_t counter_start = 0);
 
   // Advances one tick of `dt_s`: the code written now enters the command delay line; the
@@ -118,7 +118,7 @@ class AxisPlant {
  private:
   AxisPlantParams p_;
   double v_ = 0.0, motor_mm_ = 0.0, load_mm_ = 0.0;
-  double q_mm_ = 0.0;
+  double q_mm_ = 0.0, grid_origin_mm_ = 0.0;
   std::int64_t count_pos_ = 0;
   std::uint32_t counter_ = 0, counter_mask_ = 0;
   bool dir_negative_ = false;

@@ -184,7 +184,7 @@ TEST(Executor, SameSeedSameRun) {
 
 TEST(Executor, ReportJsonAndCsv) {
   const auto m = gantry();
-  auto c = line_cut({100, 100}, {150, 100});
+  auto c = line_cut({100, 100}, {150, 130});  // both axes move: a contour error to report
   const ExecutionResult r = sim::simulate(m, c.job, c.trajectories, {});
   EXPECT_NE(r.report().find("completed"), std::string::npos);
   EXPECT_NE(r.report().find("contour error max"), std::string::npos);

@@ -1,8 +1,9 @@
 // What the planned source gives contour and preview controllers beside r, v and a: the
-// programmed segment r is on, and the setpoints of the next periods.
+// segment of the followed path the tool is on, and the setpoints of the next periods.
 #include <gtest/gtest.h>
 
 #include "engine/executor/planned_source.h"
+#include "engine/motion/feed_planner.h"
 #include "tests/support/test_trajectory.h"
 
 namespace machplan::executor {
@@ -110,6 +111,40 @@ TEST(PlannedSourcePath, ALaggingToolKeepsItsSegmentAtACorner) {
   s.advance(Eigen::Vector2d(60.0, 2.0), {});  // it turns
   s.demand(d);
   EXPECT_EQ(d.track.path, &segs[1]);
+}
+
+// A planner that rounds corners: the path given is its executed path, so at the corner the
+// tool following the setpoint is given the blend arc it is on, not the programmed corner it
+// is cutting short (a contour controller would pull it off the blend towards that corner).
+TEST(PlannedSourcePath, ABlendedCornerGivesTheBlendArc) {
+  const Eigen::Vector2d a(0, 0), b(30, 0), c(30, 20);
+  test::OneCut cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b, c}, false), 50, true), nullptr);
+  std::unique_ptr<motion::PlannedTrajectory> tr =
+      motion::plan_stretch_detailed(cut.job.stretches[0], motion::PlannerOptions::xy_table());
+  ASSERT_EQ(tr->blended_junctions(), 1);
+  const motion::Stretch& executed = tr->executed_path();
+  ASSERT_EQ(tr->followed_path(), &executed);
+  cut.trajectories[1] = std::move(tr);
+  const MachineSetup m = machine(1);
+  PlannedSource s;
+  s.prepare({&cut.job, &cut.trajectories, &m, 0.001}, a);
+  s.begin_move(1, a);
+  Demand d;
+  bool on_arc = false;
+  Eigen::Vector2d tool = a;  // a tool that follows the setpoint exactly, one period behind
+  while (!s.move_done()) {
+    s.demand(d);
+    ASSERT_NE(d.track.path, nullptr);
+    const std::size_t k = static_cast<std::size_t>(d.track.path - executed.segments.data());
+    ASSERT_LT(k, executed.segments.size()) << "a segment of the executed path";
+    if (d.track.path->is_arc()) {
+      on_arc = true;
+      EXPECT_LT((closest_point(*d.track.path, tool) - tool).norm(), 1e-6);  // the tool is on the blend
+    }
+    tool = Eigen::Vector2d(d.track.r_mm[0], d.track.r_mm[1]);
+    s.advance(tool, {});
+  }
+  EXPECT_TRUE(on_arc);
 }
 
 TEST(PlannedSourcePath, PreviewIsTheTrajectoryOneToEightPeriodsAfterR) {

@@ -37,14 +37,18 @@ TEST(KorenReproduction, CrossCoupledCutsTheAxialContourErrorAboutFiveToOne) {
   }
 }
 
-TEST(KorenReproduction, ZpetcTracksTheCircleButNotFrictionOnTheLine) {
-  // On the circle the ZPETC does at least as well as the P loop it wraps; on the line, where
-  // friction and not tracking sets the error, it gains nothing over the P (Koren: worst there).
+TEST(KorenReproduction, ZpetcGainsNothingWhereFrictionSetsTheError) {
+  // Koren: ZPETC does well on the circle and worst on the line under friction. On this table
+  // the P loop's tracking error across the path is already a fraction of a micrometre at these
+  // feeds (the radial error of a lag on a 20 mm circle), and friction at the reversals and the
+  // line's start sets the contour error; the ZPETC, a tracking feed-forward, then neither helps
+  // nor hurts: within 5 % of the P loop it wraps, on both contours, maximum and RMS.
   const Evaluation pc = on("circle:20:960", "p", {}), zc = on("circle:20:960", "zpetc", {});
   const Evaluation pl = on("line:26.6:1200", "p", {}), zl = on("line:26.6:1200", "zpetc", {});
-  EXPECT_LE(zc.max_mm, pc.max_mm * 1.01);
-  EXPECT_GT(zl.max_mm, pl.max_mm * 0.98);
-  EXPECT_GT(zl.rms_mm, pl.rms_mm * 0.98);
+  EXPECT_NEAR(zc.max_mm / pc.max_mm, 1.0, 0.05);
+  EXPECT_NEAR(zc.rms_mm / pc.rms_mm, 1.0, 0.05);
+  EXPECT_NEAR(zl.max_mm / pl.max_mm, 1.0, 0.05);
+  EXPECT_NEAR(zl.rms_mm / pl.rms_mm, 1.0, 0.05);
 }
 
 }  // namespace
