@@ -135,8 +135,8 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
 
 void add_tune(CLI::App& app) {
   struct Args {
-    std::string machine, controller, objective = "max", plot, db, evaluations, time, seed, acc_law = "both";
-    std::vector<std::string> contours, gains;
+    std::string machine, controller, objective = "max", plot, db, evaluations, time, seed, noise_runs, acc_law = "both";
+    std::vector<std::string> contours, gains, fixed;
     bool json = false, store = false, acc = false;
   };
   auto a = std::make_shared<Args>();
@@ -148,10 +148,14 @@ void add_tune(CLI::App& app) {
                   "program:FILE.ngc; may be "
                   "repeated");
   cmd->add_option("--gain", a->gains, "start value of a gain, NAME=VALUE, instead of its default; may be repeated");
+  cmd->add_option("--fix", a->fixed, "hold a gain at a value and do not search it, NAME=VALUE; may be repeated");
   cmd->add_option("--objective", a->objective, "contour error to minimise: max (default), rms or itae");
   cmd->add_option("--evaluations", a->evaluations, "evaluation budget of the optimiser (default 600; --acc 150)");
   cmd->add_option("--time", a->time, "wall-clock limit of the optimiser, s (default 25)");
   cmd->add_option("--seed", a->seed, "seed of the simulated machine's noise (default 1)");
+  cmd->add_option("--noise-runs", a->noise_runs,
+                  "runs of each contour, each under its own noise (seeds SEED, SEED+1, ...); the maximum is taken over "
+                  "them (default 3)");
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->add_option("--plot", a->plot, "picture (.png or .svg): contour error against time, or with --acc force and feed");
   cmd->add_flag("--store", a->store, "store the tuned gains as the machine's active tuning (used by run --controller tuned)");
@@ -166,6 +170,8 @@ void add_tune(CLI::App& app) {
     if (a->acc) {
       if (!a->controller.empty()) throw InputError("--controller", 0, "does not apply to --acc");
       if (!a->contours.empty()) throw InputError("--contour", 0, "does not apply to --acc");
+      if (!a->noise_runs.empty()) throw InputError("--noise-runs", 0, "does not apply to --acc");
+      if (!a->fixed.empty()) throw InputError("--fix", 0, "does not apply to --acc");
       if (a->store) throw InputError("--store", 0, "does not apply to --acc (the ACC gain belongs to the lathe, not to an XY machine)");
       run_acc(a->plot, a->json, a->evaluations, a->time, a->acc_law);
       return;
@@ -178,9 +184,11 @@ void add_tune(CLI::App& app) {
     o.kind = tuning::controller_kind(a->controller);
     o.objective = tuning::objective_from_string(a->objective);
     for (const std::string& g : a->gains) control::parse_gain(g, o.start);
+    for (const std::string& g : a->fixed) control::parse_gain(g, o.fixed, "--fix");
     if (!a->evaluations.empty()) o.optimizer.max_evaluations = static_cast<int>(whole_number("--evaluations", a->evaluations, 1, 1000000));
     if (!a->time.empty()) o.optimizer.max_time_s = number("--time", a->time, 0.01, 86400);
     if (!a->seed.empty()) o.evaluation.seed = static_cast<std::uint64_t>(whole_number("--seed", a->seed, 0, 2147483647));
+    o.evaluation.noise_runs = a->noise_runs.empty() ? 3 : static_cast<int>(whole_number("--noise-runs", a->noise_runs, 1, 100));
     std::vector<tuning::TestContour> contours;
     for (const std::string& c : a->contours) contours.push_back(tuning::parse_contour(c));
     const std::string db = a->store ? (a->db.empty() ? calibration::default_store_path() : a->db) : "";

@@ -44,7 +44,27 @@ std::vector<GainSpec> p_specs(const ControllerPlant& pl, int i) {
       spec("acceleration_ff_s", 0.0, 0, 0.1, false, "acceleration feed-forward time (the drive's tau)"),
       spec("friction_ff_mm_per_s", 0.0, 0, 20, false, "Coulomb friction feed-forward, mm/s along the reference"),
       spec("friction_ff_band_mm_per_s", 0.5, 0.01, 10, true, "reference speed over which the friction feed-forward ramps in"),
+      spec("backlash_ff_mm", 0.0, 0, 0.05, false, "backlash feed-forward: motor travel added across a reversal, mm"),
+      spec("observer_per_s", 0.0, 0, 1000, false, "bandwidth of the position observer between encoder counts, rad/s (0: off)"),
   };
+}
+
+// The drive model of axis i's position observer.
+ObserverModel observer_model(const ControllerPlant& pl, int i) {
+  ObserverModel m;
+  m.period_s = pl.period_s;
+  m.gain = pl.gain_factor[i];
+  m.tau_s = pl.drive_time_constant_s[i];
+  m.quantum_mm = pl.position_quantum_mm[i];
+  m.coulomb_mm_per_s = pl.coulomb_friction_mm_per_s[i];
+  m.delay_ticks = std::min(pl.command_latency_ticks[i] + pl.reading_latency_ticks[i], ObserverModel::kMaxDelayTicks);
+  return m;
+}
+
+std::array<ObserverModel, kAxes> observer_models(const ControllerPlant& pl) {
+  std::array<ObserverModel, kAxes> m;
+  for (int i = 0; i < kAxes; ++i) m[i] = observer_model(pl, i);
+  return m;
 }
 
 std::vector<GainSpec> pid_specs(const ControllerPlant& pl, int i) {
@@ -64,6 +84,8 @@ PidGains pid_gains(const Gains& g, const ControllerPlant& pl, int i) {
   p.acceleration_ff_s = g.at("acceleration_ff_s");
   p.friction_ff_mm_per_s = g.at("friction_ff_mm_per_s");
   p.friction_ff_band_mm_per_s = g.at("friction_ff_band_mm_per_s");
+  p.backlash_ff_mm = g.at("backlash_ff_mm");
+  p.observer_per_s = g.at("observer_per_s");
   p.following_error_limit_mm = pl.servo[i].following_error_limit_mm;
   return p;
 }
@@ -73,7 +95,7 @@ std::unique_ptr<Controller> make_pid(const AxisGains& g, const ControllerPlant& 
   std::array<PidGains, kAxes> gains;
   for (int i = 0; i < kAxes; ++i) gains[i] = pid_gains(g[i], pl, i);
   auto c = std::make_unique<PidController>(kName);
-  c->configure(gains, pl.output_limit_mm_per_s, pl.period_s);
+  c->configure(gains, pl.output_limit_mm_per_s, pl.period_s, observer_models(pl));
   return c;
 }
 constexpr char kP[] = "p";
@@ -127,7 +149,7 @@ std::unique_ptr<Controller> make_ccc(const AxisGains& g, const ControllerPlant& 
   w.ki_per_s2 = g[0].at("ccc_ki_per_s2");
   w.kd = g[0].at("ccc_kd");
   auto c = std::make_unique<CrossCoupledController>();
-  c->configure(axial, w, pl.output_limit_mm_per_s, pl.period_s);
+  c->configure(axial, w, pl.output_limit_mm_per_s, pl.period_s, observer_models(pl));
   return c;
 }
 
@@ -228,6 +250,10 @@ void ControllerPlant::validate() const {
       fail(fmt::format("gain_factor[{}] = {}: must be > 0", i, gain_factor[i]));
     if (command_latency_ticks[i] < 0 || reading_latency_ticks[i] < 0)
       fail(fmt::format("latencies of axis {} must be >= 0", i));
+    if (!(std::isfinite(position_quantum_mm[i]) && position_quantum_mm[i] >= 0))
+      fail(fmt::format("position_quantum_mm[{}] = {}: must be >= 0 (0: unknown)", i, position_quantum_mm[i]));
+    if (!(std::isfinite(coulomb_friction_mm_per_s[i]) && coulomb_friction_mm_per_s[i] >= 0))
+      fail(fmt::format("coulomb_friction_mm_per_s[{}] = {}: must be >= 0 (0: unknown)", i, coulomb_friction_mm_per_s[i]));
   }
 }
 
@@ -238,6 +264,8 @@ ControllerPlant plant_from_setup(const executor::MachineSetup& setup) {
     p.output_limit_mm_per_s[i] = setup.signals[i].dac_full_scale_mm_per_s;
     p.command_latency_ticks[i] = setup.signals[i].command_latency_ticks;
     p.reading_latency_ticks[i] = setup.signals[i].reading_latency_ticks;
+    p.position_quantum_mm[i] =
+        setup.calibrated_mm_per_count[i] > 0 ? setup.calibrated_mm_per_count[i] : setup.signals[i].mm_per_count;
   }
   if (setup.servo_period_s > 0) p.period_s = setup.servo_period_s;
   return p;
@@ -286,14 +314,14 @@ std::unique_ptr<Controller> make_controller(const std::string& kind, const Gains
   }
 }
 
-void parse_gain(const std::string& text, Gains& gains) {
+void parse_gain(const std::string& text, Gains& gains, const char* flag) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0 || eq + 1 == text.size())
-    throw InputError("--gain", 0, fmt::format("'{}': expected NAME=VALUE", text));
+    throw InputError(flag, 0, fmt::format("'{}': expected NAME=VALUE", text));
   const std::string name = text.substr(0, eq), num = text.substr(eq + 1);
   const std::optional<double> v = parse_finite(num);
-  if (!v) throw InputError("--gain", 0, fmt::format("'{}': '{}' is not a finite number", text, num));
-  if (!gains.emplace(name, *v).second) throw InputError("--gain", 0, fmt::format("gain '{}' given twice", name));
+  if (!v) throw InputError(flag, 0, fmt::format("'{}': '{}' is not a finite number", text, num));
+  if (!gains.emplace(name, *v).second) throw InputError(flag, 0, fmt::format("gain '{}' given twice", name));
 }
 
 }  // namespace machplan::control

@@ -63,6 +63,8 @@ struct ControllerPlant {
   std::array<double, kAxes> gain_factor{1.0, 1.0};     // drive gain g (speed per commanded speed)
   std::array<int, kAxes> command_latency_ticks{};      // periods from command to drive
   std::array<int, kAxes> reading_latency_ticks{};      // age of the measurement, periods
+  std::array<double, kAxes> position_quantum_mm{};     // one encoder count; 0: unknown
+  std::array<double, kAxes> coulomb_friction_mm_per_s{};  // drive's Coulomb friction as speed; 0: unknown
   double period_s = 0.001;
   // Throws InputError("controller plant", 0, ...) naming the field.
   void validate() const;
@@ -84,8 +86,8 @@ std::vector<GainSpec> gain_specs(const std::string& kind, const ControllerPlant&
 // InputError("--gain") for a gain the kind does not have or outside its box.
 std::unique_ptr<Controller> make_controller(const std::string& kind, const Gains& gains, const ControllerPlant& plant);
 
-// Parses "NAME=VALUE" (the CLI's --gain) into `gains`; InputError("--gain") when malformed or
-// repeated.
-void parse_gain(const std::string& text, Gains& gains);
+// Parses "NAME=VALUE" (the CLI's --gain, or `flag`) into `gains`; InputError(flag) when
+// malformed or repeated.
+void parse_gain(const std::string& text, Gains& gains, const char* flag = "--gain");
 
 }  // namespace machplan::control

@@ -78,11 +78,12 @@ ContourEstimate estimate_contour_error(const ControllerInput& in) noexcept {
 }
 
 void CrossCoupledController::configure(const std::array<PidGains, kAxes>& axial, const ContourGains& contour,
-                                       const std::array<double, kAxes>& output_limit_mm_per_s, double period_s) {
+                                       const std::array<double, kAxes>& output_limit_mm_per_s, double period_s,
+                                       const std::array<ObserverModel, kAxes>& observer) {
   contour.validate();
   double u_max = 0;
   for (int i = 0; i < kAxes; ++i) {
-    axis_[i].configure(axial[i], output_limit_mm_per_s[i], period_s);
+    axis_[i].configure(axial[i], output_limit_mm_per_s[i], period_s, observer[i]);
     u_max = std::max(u_max, output_limit_mm_per_s[i]);
   }
   w_ = contour;
@@ -98,7 +99,10 @@ void CrossCoupledController::reset() {
   est_ = {};
 }
 
-void CrossCoupledController::update(const ControllerInput& in, ControllerOutput& out) noexcept {
+void CrossCoupledController::update(const ControllerInput& raw, ControllerOutput& out) noexcept {
+  // The positions both loops act on: the axial observers' estimates (the readings when off).
+  ControllerInput in = raw;
+  for (int i = 0; i < kAxes; ++i) in.y_mm[i] = axis_[i].observe(raw.y_mm[i]);
   est_ = estimate_contour_error(in);
   double u_c = 0.0;
   if (est_.valid) {

@@ -68,8 +68,11 @@ ContourEstimate estimate_contour_error(const ControllerInput& in) noexcept;
 
 class CrossCoupledController final : public Controller {
  public:
+  // `observer`: the drive model of each axial loop's position observer (pid_controller.h);
+  // the contour error is estimated from the observed positions too.
   void configure(const std::array<PidGains, kAxes>& axial, const ContourGains& contour,
-                 const std::array<double, kAxes>& output_limit_mm_per_s, double period_s);
+                 const std::array<double, kAxes>& output_limit_mm_per_s, double period_s,
+                 const std::array<ObserverModel, kAxes>& observer = {});
   const char* name() const override { return "ccc"; }
   void reset() override;
   void update(const ControllerInput& in, ControllerOutput& out) noexcept override;

@@ -29,11 +29,13 @@ void PidGains::validate() const {
           "must be > 0");
   require(std::isfinite(following_error_limit_mm) && following_error_limit_mm > 0, "following_error_limit_mm",
           following_error_limit_mm, "must be > 0");
+  require(nonneg(backlash_ff_mm) && backlash_ff_mm <= 1, "backlash_ff_mm", backlash_ff_mm, "must be in [0, 1] mm");
+  require(nonneg(observer_per_s), "observer_per_s", observer_per_s, "must be finite and >= 0 (0: off)");
   require(!(ki_per_s2 > 0 && tracking_time_s == 0 && kp_per_s == 0), "kp_per_s", kp_per_s,
           "must be > 0 when Ki > 0 and the tracking time is Kp / Ki (or give tracking_time_s)");
 }
 
-void AxialPid::configure(const PidGains& g, double output_limit_mm_per_s, double period_s) {
+void AxialPid::configure(const PidGains& g, double output_limit_mm_per_s, double period_s, ObserverModel observer) {
   g.validate();
   if (!(std::isfinite(output_limit_mm_per_s) && output_limit_mm_per_s > 0))
     throw std::invalid_argument(fmt::format("AxialPid: output limit {} mm/s must be > 0", output_limit_mm_per_s));
@@ -43,6 +45,8 @@ void AxialPid::configure(const PidGains& g, double output_limit_mm_per_s, double
   u_max_ = output_limit_mm_per_s;
   T_ = period_s;
   tt_ = g.tracking_time_s > 0 ? g.tracking_time_s : (g.ki_per_s2 > 0 ? g.kp_per_s / g.ki_per_s2 : 1.0);
+  observer.period_s = period_s;
+  observer_.configure(observer, g.observer_per_s);
   reset();
 }
 

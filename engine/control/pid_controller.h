@@ -6,7 +6,11 @@
 //
 //     e[k]   = r[k] - y[k]                                           following error, mm
 //     D[k]   = (Tf D[k-1] + Kd (e[k] - e[k-1])) / (Tf + T)          filtered derivative term
-//     v[k]   = Kvff v_r[k] + Ta a_r[k] + Fc sat(v_r[k] / v_b)        feed-forward, mm/s
+//     s[k]   = sat(v_r[k] / v_b)                                     direction of the reference
+//     h[k]   = s[k] when it lies beyond h[k-1] (same sign, larger,    side of the backlash gap
+//              or the other sign), else h[k-1];  h = 0 at the start
+//     v[k]   = Kvff v_r[k] + Ta a_r[k] + Fc s[k]                     feed-forward, mm/s
+//            + (b / 2) (h[k] - h[k-1]) / T                           backlash feed-forward
 //            + Kp e[k] + I[k] + D[k]                                 feedback, mm/s
 //     u[k]   = clamp(v[k], -u_max, +u_max)                           the command
 //     I[k+1] = I[k] + T (Ki e[k] + (u[k] - v[k]) / Tt)               back-calculation
@@ -29,6 +33,16 @@
 // a ramp over the band v_b (`friction_ff_band_mm_per_s`) so that it does not chatter at rest
 // or at a reversal. It pre-empts the error that friction would otherwise cause at every
 // reversal, which the feedback only answers once the error is there.
+// b is backlash feed-forward: when the reference reverses (its direction s turning from -1 to
+// +1 over the same band v_b) the motor is moved b further, across the gap between screw and
+// table, which the table's own encoder otherwise sees as the table standing still while the
+// reference moves away; b/2 at the first start from rest (the table then sits mid-gap, as the
+// simulator starts it). A stop and a start in the same direction move nothing: the motor is
+// still on the side of the gap it pushed on.
+//
+// Position observer (position_observer.h), off unless `observer_per_s` > 0: y is replaced
+// by the observer's estimate between encoder counts, from the counts and the commands this
+// loop sent, before anything above uses it (observe() then update(), once per period).
 //
 // Real time: update() is O(1) per axis, allocates nothing and never throws.
 #pragma once
@@ -37,6 +51,7 @@
 #include <cmath>
 
 #include "engine/control/controller.h"
+#include "engine/control/position_observer.h"
 
 namespace machplan::control {
 
@@ -48,8 +63,10 @@ struct PidGains {
   double acceleration_ff_s = 0.0;    // Ta, s
   double friction_ff_mm_per_s = 0.0;       // Fc, mm/s
   double friction_ff_band_mm_per_s = 0.5;  // v_b, mm/s (> 0)
+  double backlash_ff_mm = 0.0;             // b, mm
   double tracking_time_s = 0.0;      // Tt of the back-calculation; 0: Ti = Kp / Ki
   double derivative_filter_s = 0.001;  // Tf, s (> 0)
+  double observer_per_s = 0.0;       // bandwidth of the position observer, rad/s; 0: off
   double following_error_limit_mm = 2.0;
   // Throws std::invalid_argument naming field, value and rule.
   void validate() const;
@@ -58,13 +75,19 @@ struct PidGains {
 // One axis of the law above; also the axial loop inside the contour and ZPETC controllers.
 class AxialPid {
  public:
-  // Validates `g`; `output_limit_mm_per_s` = u_max, `period_s` = T.
-  void configure(const PidGains& g, double output_limit_mm_per_s, double period_s);
+  // Validates `g`; `output_limit_mm_per_s` = u_max, `period_s` = T; `observer` is the
+  // drive model of the position observer (its period is set to T), used when
+  // g.observer_per_s > 0.
+  void configure(const PidGains& g, double output_limit_mm_per_s, double period_s, ObserverModel observer = {});
   void reset() noexcept {
-    integral_ = derivative_ = e_prev_ = last_error_ = 0.0;
+    integral_ = derivative_ = e_prev_ = last_error_ = side_ = 0.0;
     first_ = true;
     saturated_ = false;
+    observer_.reset();
   }
+  // The position this loop acts on, from this period's reading: the observer's estimate, or
+  // the reading itself with the observer off. Call once per period, before update().
+  double observe(double y_mm) noexcept { return observer_.update(y_mm); }
   // One tick. `extra_mm_per_s` is added to the command before the limit (a cross-coupled
   // correction); it takes part in the anti-windup like any other term.
   double update(double r_mm, double v_r, double a_r, double y_mm, double extra_mm_per_s = 0.0) noexcept {
@@ -73,13 +96,19 @@ class AxialPid {
     first_ = false;
     e_prev_ = e;
     last_error_ = e;
-    const double friction = g_.friction_ff_mm_per_s * std::clamp(v_r / g_.friction_ff_band_mm_per_s, -1.0, 1.0);
-    const double v = g_.velocity_ff * v_r + g_.acceleration_ff_s * a_r + friction + g_.kp_per_s * e + integral_ +
-                     derivative_ + extra_mm_per_s;
+    const double dir = std::clamp(v_r / g_.friction_ff_band_mm_per_s, -1.0, 1.0);
+    // The side of the gap the motor pushes on follows the reference outwards only: a stop
+    // leaves it where it was, a start the other way moves it across.
+    const double side = (dir > 0 && dir > side_) || (dir < 0 && dir < side_) ? dir : side_;
+    const double backlash = 0.5 * g_.backlash_ff_mm * (side - side_) / T_;
+    side_ = side;
+    const double v = g_.velocity_ff * v_r + g_.acceleration_ff_s * a_r + g_.friction_ff_mm_per_s * dir + backlash +
+                     g_.kp_per_s * e + integral_ + derivative_ + extra_mm_per_s;
     const double u = std::clamp(v, -u_max_, u_max_);
     saturated_ = u != v;
     if (g_.ki_per_s2 > 0)
       integral_ = std::clamp(integral_ + T_ * (g_.ki_per_s2 * e + (u - v) / tt_), -u_max_, u_max_);
+    observer_.command(u);
     return u;
   }
   double last_error_mm() const noexcept { return last_error_; }
@@ -91,8 +120,9 @@ class AxialPid {
  private:
   PidGains g_;
   double u_max_ = 1.0, T_ = 1e-3, tt_ = 1.0;
-  double integral_ = 0.0, derivative_ = 0.0, e_prev_ = 0.0, last_error_ = 0.0;
+  double integral_ = 0.0, derivative_ = 0.0, e_prev_ = 0.0, last_error_ = 0.0, side_ = 0.0;
   bool first_ = true, saturated_ = false;
+  PositionObserver observer_;
 };
 
 class PidController final : public Controller {
@@ -100,8 +130,8 @@ class PidController final : public Controller {
   // `name` is what name() returns ("p" or "pid": the factory's kind); it must outlive this.
   explicit PidController(const char* name = "pid") : name_(name) {}
   void configure(const std::array<PidGains, kAxes>& gains, const std::array<double, kAxes>& output_limit_mm_per_s,
-                 double period_s) {
-    for (int i = 0; i < kAxes; ++i) axis_[i].configure(gains[i], output_limit_mm_per_s[i], period_s);
+                 double period_s, const std::array<ObserverModel, kAxes>& observer = {}) {
+    for (int i = 0; i < kAxes; ++i) axis_[i].configure(gains[i], output_limit_mm_per_s[i], period_s, observer[i]);
   }
   const char* name() const override { return name_; }
   void reset() override {
@@ -109,7 +139,8 @@ class PidController final : public Controller {
   }
   void update(const ControllerInput& in, ControllerOutput& out) noexcept override {
     for (int i = 0; i < kAxes; ++i)
-      out.u_mm_per_s[i] = axis_[i].update(in.r_mm[i], in.v_ff_mm_per_s[i], in.a_ff_mm_per_s2[i], in.y_mm[i]);
+      out.u_mm_per_s[i] =
+          axis_[i].update(in.r_mm[i], in.v_ff_mm_per_s[i], in.a_ff_mm_per_s2[i], axis_[i].observe(in.y_mm[i]));
   }
   double following_error_mm(int axis) const noexcept override { return axis_[axis].last_error_mm(); }
   bool following_error_exceeded(int axis) const noexcept override { return axis_[axis].following_error_exceeded(); }

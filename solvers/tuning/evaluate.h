@@ -49,13 +49,14 @@ namespace machplan::tuning {
 
 // One test contour of the command line: line:ANGLE_DEG:FEED_MM_MIN, circle:RADIUS_MM:FEED_MM_MIN,
 // corner:TURN_DEG:FEED_MM_MIN (two 25 mm lines, the second turned by TURN_DEG from the first:
-// the canonical sharp corner), program:FILE.ngc.
+// the canonical sharp corner), square:SIDE_MM:FEED_MM_MIN (the square of the usual contouring
+// test pieces, counter-clockwise from its lower left corner), program:FILE.ngc.
 struct TestContour {
-  enum class Kind { line, circle, corner, program };
+  enum class Kind { line, circle, corner, square, program };
   Kind kind = Kind::circle;
   double angle_deg = 0.0;         // line: direction; corner: turn
   double radius_mm = 20.0;
-  double length_mm = 50.0;        // line; corner: both legs together
+  double length_mm = 50.0;        // line; corner: both legs together; square: the side
   double feed_mm_per_min = 960.0;
   std::string path;               // program
   std::string spec;               // as written
@@ -71,6 +72,11 @@ Objective objective_from_string(const std::string& s);
 struct EvaluationOptions {
   std::string machine = "xy_table";   // bundled name or machine YAML path
   std::uint64_t seed = 1;             // the simulator's (speed noise)
+  // Runs per test contour, each under its own noise (seeds seed .. seed + noise_runs - 1):
+  // a contour's maximum is the largest over its runs, its RMS pooled, its ITAE their mean.
+  // One run tunes the gains to one draw of the noise, whose worst spike then decides the
+  // maximum; a few runs tune them to the machine.
+  int noise_runs = 1;
   bool use_true_position = true;      // contour error from the truth (false: from the encoders)
   bool constraints = true;            // run the step tests
   double step_mm = 0.25;               // small enough not to saturate a stiff loop
@@ -88,6 +94,12 @@ struct ContourScore {
   std::string contour;
   std::size_t samples = 0;
   double max_mm = 0.0, rms_mm = 0.0, itae_mm_s2 = 0.0;
+  // Where the maximum happened (of the run that had it): time from the run's start, the
+  // tool's position on the machine, and the program line of the nearest segment (1 for the
+  // built-in contours).
+  double max_at_s = 0.0;
+  double max_at_x_mm = 0.0, max_at_y_mm = 0.0;
+  int max_at_line = 0;
   double saturation_share = 0.0;
   double max_following_error_mm = 0.0;
   bool faulted = false;

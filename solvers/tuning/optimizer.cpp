@@ -235,8 +235,22 @@ OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, StopToken 
   if (local && budget > 0 && !r.stopped && !stop.stop_requested() && r.elapsed_s() < o.max_time_s) {
     std::vector<double> ul = !r.best_u.empty() ? r.best_u : r.least_u;
     const bool cobyla = o.local == OptimizerOptions::Local::cobyla;
-    out.local = run_stage(r, cobyla ? NLOPT_LN_COBYLA : NLOPT_LN_BOBYQA, to_string(o.local), cobyla, ul, budget,
+    const nlopt_algorithm alg = cobyla ? NLOPT_LN_COBYLA : NLOPT_LN_BOBYQA;
+    // From the global stage's best point, then, with what that leaves of half the budget
+    // and more, from the start (when it was not already the best).
+    const bool two = global && ul != u;
+    out.local = run_stage(r, alg, to_string(o.local), cobyla, ul, two ? (budget + 1) / 2 : budget,
                           o.max_time_s - r.elapsed_s());
+    budget = o.max_evaluations - r.evaluations;
+    if (two && budget > 0 && !r.stopped && !stop.stop_requested() && r.elapsed_s() < o.max_time_s) {
+      const StageReport first = out.local;
+      std::vector<double> us = u;
+      const StageReport second = run_stage(r, alg, to_string(o.local), cobyla, us, budget, o.max_time_s - r.elapsed_s());
+      out.local.evaluations += second.evaluations;
+      out.local.time_s += second.time_s;
+      out.local.best_objective = second.best_objective;
+      out.local.stop_reason = fmt::format("from the global best: {}; from the start: {}", first.stop_reason, second.stop_reason);
+    }
   } else {
     out.local.algorithm = to_string(o.local);
     out.local.stop_reason = local ? (r.stopped || stop.stop_requested() ? "stopped" : "no budget left") : "";

@@ -14,7 +14,10 @@
 // the budget on the first generations). DIRECT has no constraint handling, so this stage
 // minimises the penalised f + penalty * sum_i max(0, g_i) (the caller scales g to O(1)).
 // CRS2 and ISRES (which handles the constraints itself) can be chosen instead.
-// Stage 2, local: COBYLA from the best point of stage 1, with the constraints as NLopt
+// Stage 2, local: COBYLA from the best point of stage 1, then from the start point with the
+// rest of the budget (at least half of it) when the two differ: the callers' starts carry a
+// model (the drive's own feed-forward), whose basin the global stage's coarse division may
+// well miss. Both with the constraints as NLopt
 // inequality constraints (BOBYQA on the penalised objective can be chosen: faster when no
 // constraint is active, blind to them otherwise).
 //

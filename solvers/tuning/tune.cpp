@@ -66,43 +66,65 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
       throw InputError("--gain", 0, fmt::format("controller '{}' has no gain '{}'", o.kind, name));
     r.start_gains[name] = value;
   }
+  for (const auto& [name, value] : o.fixed) {
+    if (!r.start_gains.count(name))
+      throw InputError("--fix", 0, fmt::format("controller '{}' has no gain '{}'", o.kind, name));
+    if (o.start.count(name)) throw InputError("--fix", 0, fmt::format("gain '{}' is both fixed and given a start", name));
+    r.start_gains[name] = value;
+  }
+  r.fixed = o.fixed;
   const double flimit = following_limit(ev);
-  r.baseline = ev.evaluate(o.baseline_kind, {});
-  r.start = ev.evaluate(o.kind, r.start_gains);
-  const double scale = std::max(r.baseline.value(o.objective), 1e-9);
 
   if (o.physical_feed_forward) {
     const auto& pl = ev.plant();
-    double g = 1.0, lag = 0.0;
+    double g = 1.0, lag = 0.0, tau = 0.0;
     for (int i = 0; i < control::kAxes; ++i) {
       g = std::min(g, pl.gain_factor[i] > 0 ? pl.gain_factor[i] : 1.0);
+      tau = std::max(tau, pl.drive_time_constant_s[i]);
       lag = std::max(lag, pl.drive_time_constant_s[i] + (pl.command_latency_ticks[i] + pl.reading_latency_ticks[i]) * pl.period_s);
     }
-    double coulomb = 0.0;  // the machine file's Coulomb friction, as speed, mm/s
-    for (const auto& a : ev.machine().axes) coulomb = std::max(coulomb, a.plant.coulomb_friction_mm_per_s);
+    double coulomb = 0.0, backlash = 0.0;  // the machine file's Coulomb friction (as speed, mm/s) and backlash
+    for (const auto& a : ev.machine().axes) {
+      coulomb = std::max(coulomb, a.plant.coulomb_friction_mm_per_s);
+      backlash = std::max(backlash, a.plant.backlash_mm);
+    }
     for (auto& s : r.specs) {
+      double model = s.default_value;  // the drive model's value of a feed-forward gain
+      if (s.name == "velocity_ff") model = 1.0 / g;
+      if (s.name == "friction_ff_mm_per_s") model = coulomb;
+      if (s.name == "backlash_ff_mm") model = backlash;
+      if (s.name == "acceleration_ff_s" && lag > 0) model = tau;
       double cap = s.max_value;
-      if (s.name == "velocity_ff") cap = o.ff_margin / g;
-      if (s.name == "friction_ff_mm_per_s") cap = o.ff_margin * coulomb;
+      if (s.name == "velocity_ff" || s.name == "friction_ff_mm_per_s" || s.name == "backlash_ff_mm") cap = o.ff_margin * model;
       if (s.name == "acceleration_ff_s" && lag > 0) cap = o.ff_margin * lag;
       s.max_value = std::max(s.min_value, std::min(s.max_value, std::max(cap, s.default_value)));
+      // The search starts from the drive model's own feed-forward (unless the caller gave a
+      // start): the exact cancellation of a first-order drive with the machine file's friction
+      // and backlash, which a local search then only has to refine.
+      if (o.model_start && !o.start.count(s.name) && !o.fixed.count(s.name) && r.start_gains.count(s.name))
+        r.start_gains[s.name] = std::clamp(model, s.min_value, s.max_value);
     }
   }
+  r.baseline = ev.evaluate(o.baseline_kind, {});
+  r.start = ev.evaluate(o.kind, r.start_gains);
+  const double scale = std::max(r.baseline.value(o.objective), 1e-9);
   Problem p;
+  std::vector<std::string> searched;  // the gains the optimiser moves, in its order
   for (const auto& s : r.specs) {
+    if (o.fixed.count(s.name)) continue;
     Parameter q;
     q.name = s.name;
     q.lo = s.min_value;
     q.hi = s.max_value;
     q.start = std::clamp(r.start_gains.at(s.name), s.min_value, s.max_value);
-    if (q.log_scale && q.lo <= 0) q.log_scale = false;
     q.log_scale = s.log_scale && s.min_value > 0;
     p.parameters.push_back(q);
+    searched.push_back(s.name);
   }
   p.constraint_count = 5;
   const auto gains_of = [&](const std::vector<double>& x) {
-    control::Gains g;
-    for (std::size_t i = 0; i < x.size(); ++i) g[r.specs[i].name] = x[i];
+    control::Gains g = r.start_gains;  // the fixed gains as they are
+    for (std::size_t i = 0; i < x.size(); ++i) g[searched[i]] = x[i];
     return g;
   };
   int done = 0;
@@ -131,6 +153,10 @@ std::string TuneResult::report() const {
   for (const auto& sp : specs) {
     const auto it = gains.find(sp.name);
     const auto st = start_gains.find(sp.name);
+    if (fixed.count(sp.name)) {
+      s += fmt::format("    {:<28} {:>12.6g}   (fixed)\n", sp.name, fixed.at(sp.name));
+      continue;
+    }
     s += fmt::format("    {:<28} {:>12.6g}   (start {:.6g}, box [{:.6g}, {:.6g}])\n", sp.name,
                      it != gains.end() ? it->second : sp.default_value, st != start_gains.end() ? st->second : sp.default_value,
                      sp.min_value, sp.max_value);
@@ -153,18 +179,20 @@ std::string TuneResult::report() const {
                    100 * tuned.overshoot, 100 * tuned.margin_residual, 100 * tuned.saturation_share,
                    tuned.max_following_error_mm);
   for (const ContourScore& c : tuned.contours)
-    s += fmt::format("    {:<34} max {:8.4f} mm  rms {:8.4f} mm{}\n", c.contour, c.max_mm, c.rms_mm,
+    s += fmt::format("    {:<34} max {:8.4f} mm  rms {:8.4f} mm  (max at {:.3f} s, X {:.3f} Y {:.3f}, line {}){}\n",
+                     c.contour, c.max_mm, c.rms_mm, c.max_at_s, c.max_at_x_mm, c.max_at_y_mm, c.max_at_line,
                      c.faulted ? "  FAULT: " + c.fault : "");
   s += optimizer.report();
   return s;
 }
 
 nlohmann::json TuneResult::to_json() const {
-  nlohmann::json g = nlohmann::json::object(), sg = nlohmann::json::object();
+  nlohmann::json g = nlohmann::json::object(), sg = nlohmann::json::object(), fx = nlohmann::json::array();
   for (const auto& [k, v] : gains) g[k] = v;
+  for (const auto& [k, v] : fixed) fx.push_back(k);
   for (const auto& [k, v] : start_gains) sg[k] = v;
   return {{"machine", machine},         {"controller", kind},     {"objective", to_string(objective)},
-          {"gains", g},                 {"start_gains", sg},      {"baseline", baseline.to_json()},
+          {"gains", g},                 {"start_gains", sg},      {"fixed", fx},      {"baseline", baseline.to_json()},
           {"start", start.to_json()},   {"tuned", tuned.to_json()}, {"optimizer", optimizer.to_json()},
           {"status", status}};
 }

@@ -10,8 +10,8 @@
 //                g_4 = +1 when a contour run faulted, else -1                  <= 0
 //
 // The baseline is the hand-tuned axial P controller (kind "p" with its default gains, i.e.
-// the machine file's Kp); the start is the tuned kind's defaults. The optimiser is the
-// two-stage DIRECT-L then COBYLA of optimizer.h, with log-scale gains searched in log space.
+// the machine file's Kp); the start is the tuned kind's defaults, with the feed-forward gains
+// at the drive model's values (TuneOptions::model_start). The optimiser is the two-stage DIRECT-L then COBYLA of optimizer.h, with log-scale gains searched in log space.
 // The result says whether a feasible point was found; the gains returned are then feasible
 // (never worse than the start when the start is feasible), else the least-violating ones
 // with status "infeasible".
@@ -43,13 +43,20 @@ struct TuneOptions {
   // at most ff_margin / g (g: the drive's gain; 1/g cancels it exactly), acceleration_ff_s
   // at most ff_margin x (tau + latency periods x T) (what a first-order drive behind its
   // latency needs) and friction_ff_mm_per_s at most ff_margin x the machine file's Coulomb
-  // friction (what a calibration measures as the dead band). Beyond them a feed-forward stops modelling the drive and starts fitting
+  // friction (what a calibration measures as the dead band), backlash_ff_mm at most ff_margin x
+  // the machine file's backlash. Beyond them a feed-forward stops modelling the drive and starts fitting
   // the test contour's friction: it then leads the setpoint, and cuts the corners of any
   // contour it was not tuned on. false searches the factory's whole boxes.
   bool physical_feed_forward = true;
   double ff_margin = 1.25;
+  // With physical_feed_forward: start the feed-forward gains at the drive model's values (1/g,
+  // tau, the Coulomb friction, the backlash) instead of the kind's defaults (zero).
+  bool model_start = true;
   // Start values replacing the kind's defaults (names the kind does not have are refused).
   control::Gains start;
+  // Gains held at the given values and not searched (e.g. feed-forward from a calibration, or
+  // a part of the controller switched off: observer_per_s = 0). Not also in `start`.
+  control::Gains fixed;
   // Called after each evaluation with the share of the evaluation budget used (0 .. 1).
   std::function<void(double)> progress;
   // Throws InputError naming the field.
@@ -61,6 +68,7 @@ struct TuneResult {
   Objective objective = Objective::max;
   std::vector<control::GainSpec> specs;
   control::Gains start_gains, gains;
+  control::Gains fixed;  // TuneOptions::fixed
   Evaluation baseline, start, tuned;
   OptimizerResult optimizer;
   std::string status;  // "ok", "infeasible", "stopped"

@@ -35,7 +35,15 @@ TEST(TuneCli, TunesPrintsJsonPlotsAndStores) {
     for (const char* k : {"max_contour_error_mm", "rms_contour_error_mm"}) EXPECT_TRUE(j[part][k].is_number()) << part << k;
   EXPECT_LE(j["tuned"]["max_contour_error_mm"].get<double>(), j["baseline"]["max_contour_error_mm"].get<double>());
   EXPECT_LE(j["optimizer"]["evaluations"].get<int>(), 8);
+  EXPECT_EQ(j["tuned"]["contours"][0]["max_at"]["line"], 1);
   EXPECT_GT(std::filesystem::file_size(png), 1000u);
+  // A fixed gain stays where it was put; one noise run instead of three.
+  r = cli(dir, "tune --machine xy_table --controller p --contour square:10:960 --evaluations 4 --noise-runs 1 "
+               "--fix kp_per_s=90 --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto f = nlohmann::json::parse(r.out);
+  EXPECT_EQ(f["gains"]["kp_per_s"], 90.0);
+  EXPECT_EQ(f["fixed"][0], "kp_per_s");
   // The human form names the gains and both errors.
   r = cli(dir, "tune --machine xy_table --controller p --contour line:26.6:1200 --evaluations 3");
   ASSERT_EQ(r.code, 0) << r.err;
@@ -92,6 +100,12 @@ TEST(TuneCli, BadInputExitsTwoNamingTheFlag) {
       {"tune --machine xy_table --controller p --contour program:missing.ngc", "missing.ngc"},
       {"tune --acc --acc-law sometimes", "--acc-law"},
       {"tune --acc --controller p", "--controller"},
+      {"tune --machine xy_table --controller p --contour circle:20:960 --noise-runs 0", "--noise-runs"},
+      {"tune --machine xy_table --controller p --contour circle:20:960 --fix kp_per_s", "--fix"},
+      {"tune --machine xy_table --controller p --contour circle:20:960 --fix warp=1", "--fix"},
+      {"tune --machine xy_table --controller p --contour square:0.1:960", "--contour"},
+      {"tune --acc --noise-runs 2", "--noise-runs"},
+      {"tune --acc --fix kp_per_s=1", "--fix"},
   };
   for (const auto& [args, flag] : cases) {
     const auto r = cli(dir, args);

@@ -101,5 +101,24 @@ TEST(PidGains, ValidateNamesTheField) {
   }
 }
 
+TEST(AxialPid, BacklashFeedForwardCrossesTheGapAtAReversalOnly) {
+  PidGains g;
+  g.kp_per_s = 0;
+  g.backlash_ff_mm = 0.004;
+  g.friction_ff_band_mm_per_s = 0.5;
+  AxialPid a;
+  a.configure(g, 500, T);
+  // Motor travel added by the feed-forward, mm: the sum of its speed over the periods.
+  const auto travel = [&](std::initializer_list<double> v_refs) {
+    double s = 0;
+    for (double v : v_refs) s += a.update(0, v, 0, 0) * T;
+    return s;
+  };
+  EXPECT_NEAR(travel({0.0, 0.25, 1.0, 5.0}), 0.002, 1e-12);   // first start: from mid-gap, b/2
+  EXPECT_NEAR(travel({1.0, 0.1, 0.0, 0.0, 2.0}), 0.0, 1e-12);  // stop and go on: nothing
+  EXPECT_NEAR(travel({0.2, -0.1, -0.3, -3.0}), -0.004, 1e-12); // reversal: the whole gap, b
+  EXPECT_NEAR(travel({-1.0, 0.0, 4.0}), 0.004, 1e-12);         // and back
+}
+
 }  // namespace
 }  // namespace machplan::control

@@ -59,12 +59,12 @@ TEST(Optimizer, ReportsInfeasibleProblemsAndKeepsTheBudget) {
     return x[0];
   };
   OptimizerOptions o;
-  o.max_evaluations = 30;
+  o.max_evaluations = 60;  // the local stage runs twice (from the global best and from the start)
   const OptimizerResult r = optimize(p, o);
   EXPECT_FALSE(r.feasible);
   EXPECT_NEAR(r.x[0], 0.0, 1e-3) << "the least violating point";
   EXPECT_EQ(r.evaluations, calls);
-  EXPECT_LE(calls, 30);
+  EXPECT_LE(calls, 60);
 }
 
 TEST(Optimizer, StopsOnRequest) {

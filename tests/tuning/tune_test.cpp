@@ -29,7 +29,10 @@ TEST(TuningContour, ParsesTheCommandLineForms) {
   EXPECT_EQ(c.kind, TestContour::Kind::circle);
   EXPECT_DOUBLE_EQ(c.radius_mm, 20);
   EXPECT_EQ(parse_contour("program:a.ngc").path, "a.ngc");
-  for (const char* bad : {"", "square:1:2", "line:26.6", "line:x:1200", "circle:20:0", "circle:-1:960", "program:",
+  const TestContour q = parse_contour("square:20:960");
+  EXPECT_EQ(q.kind, TestContour::Kind::square);
+  EXPECT_DOUBLE_EQ(q.length_mm, 20);
+  for (const char* bad : {"", "triangle:1:2", "square:0.1:960", "line:26.6", "line:x:1200", "circle:20:0", "circle:-1:960", "program:",
                           "circle:20:960:5", "line:1e400:5"}) {
     try {
       parse_contour(bad);
@@ -100,7 +103,16 @@ TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
   EXPECT_LE(r.optimizer.evaluations, 12);
   const auto g = constraint_values(r.tuned, o.evaluation, 3.0);
   for (double v : g) EXPECT_LE(v, 1e-6);
-  EXPECT_EQ(r.baseline.max_mm, r.start.max_mm) << "p at its defaults is the baseline";
+  // The start is p with the drive model's feed-forward; the baseline p at its defaults.
+  EXPECT_NEAR(r.start_gains.at("velocity_ff"), 1.0, 1e-12);
+  EXPECT_NEAR(r.start_gains.at("acceleration_ff_s"), 0.004, 1e-12);
+  EXPECT_NEAR(r.start_gains.at("friction_ff_mm_per_s"), 2.0, 1e-12);
+  EXPECT_NEAR(r.start_gains.at("backlash_ff_mm"), 0.002, 1e-12);
+  EXPECT_LT(r.start.max_mm, r.baseline.max_mm);
+  TuneOptions plain = o;
+  plain.model_start = false;
+  plain.optimizer.max_evaluations = 1;
+  EXPECT_EQ(tune(ev, plain).start.max_mm, r.baseline.max_mm) << "p at its defaults is the baseline";
   const auto j = r.to_json();
   for (const char* k : {"gains", "baseline", "tuned", "status"}) EXPECT_TRUE(j.contains(k)) << k;
   EXPECT_TRUE(j["baseline"]["max_contour_error_mm"].is_number());
@@ -127,6 +139,74 @@ TEST(Tuning, CrossCoupledWithFeedForwardBeatsTheAxialPOnTheCircle) {
   EXPECT_LE(r.gains.at("friction_ff_mm_per_s"), 2.5 + 1e-9);
   // A start value for a gain the kind does not have is refused.
   o.start = {{"no_such_gain", 1.0}};
+  EXPECT_THROW(tune(ev, o), InputError);
+}
+
+TEST(TuningContour, SquareIsOneClosedStretchOfFourSides) {
+  EvaluationOptions o;
+  o.machine = "xy_table";
+  o.constraints = false;
+  const Evaluator ev(o, {parse_contour("square:20:960")});
+  const motion::Job& j = ev.job(0);
+  ASSERT_EQ(j.stretches.size(), 1u);
+  const auto& segs = j.stretches[0].segments;
+  ASSERT_EQ(segs.size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_NEAR((segs[i].end - segs[i].start).norm(), 20.0, 1e-9);
+    EXPECT_NEAR((segs[(i + 1) % 4].start - segs[i].end).norm(), 0.0, 1e-9);
+  }
+  EXPECT_NEAR((segs[0].end - segs[0].start).x(), 20.0, 1e-9);  // counter-clockwise: +X first
+  EXPECT_NEAR((segs[1].end - segs[1].start).y(), 20.0, 1e-9);
+}
+
+TEST(TuningEvaluate, NoiseRunsTakeTheWorstOfTheirRunsAndSayWhere) {
+  EvaluationOptions o;
+  o.machine = "xy_table";
+  o.constraints = false;
+  const auto with = [&](std::uint64_t seed, int runs) {
+    EvaluationOptions e = o;
+    e.seed = seed;
+    e.noise_runs = runs;
+    return Evaluator(e, {parse_contour("circle:20:960")}).evaluate("p", {}).contours.at(0);
+  };
+  const ContourScore a = with(1, 1), b = with(2, 1), both = with(1, 2);
+  EXPECT_NE(a.max_mm, b.max_mm) << "two draws of the noise";
+  EXPECT_EQ(both.max_mm, std::max(a.max_mm, b.max_mm));
+  EXPECT_EQ(both.samples, a.samples + b.samples);
+  EXPECT_NEAR(both.itae_mm_s2, (a.itae_mm_s2 + b.itae_mm_s2) / 2, 1e-12);
+  EXPECT_NEAR(both.rms_mm * both.rms_mm * both.samples, a.rms_mm * a.rms_mm * a.samples + b.rms_mm * b.rms_mm * b.samples,
+              1e-12);
+  // Where: on the circle (radius 20 about the travel's centre), during the move, line 1.
+  const ContourScore& w = a.max_mm >= b.max_mm ? a : b;
+  EXPECT_EQ(both.max_at_s, w.max_at_s);
+  EXPECT_NEAR(std::hypot(both.max_at_x_mm - 200.0, both.max_at_y_mm - 175.0), 20.0, both.max_mm + 1e-9);
+  EXPECT_GT(both.max_at_s, 0.0);
+  EXPECT_LT(both.max_at_s, 9.0);
+  EXPECT_EQ(both.max_at_line, 1);
+  o.noise_runs = 0;
+  EXPECT_THROW(o.validate(), InputError);
+}
+
+TEST(Tuning, FixedGainsAreHeldAndNotSearched) {
+  const Evaluator ev = circle_on("xy_table");
+  TuneOptions o;
+  o.kind = "p";
+  o.fixed = {{"kp_per_s", 100.0}, {"observer_per_s", 0.0}};
+  o.optimizer.max_evaluations = 8;
+  const TuneResult r = tune(ev, o);
+  EXPECT_EQ(r.gains.at("kp_per_s"), 100.0);
+  EXPECT_EQ(r.gains.at("observer_per_s"), 0.0);
+  EXPECT_EQ(r.to_json()["fixed"].size(), 2u);
+  EXPECT_NE(r.report().find("(fixed)"), std::string::npos);
+  o.fixed = {{"no_such_gain", 1.0}};
+  try {
+    tune(ev, o);
+    ADD_FAILURE() << "an unknown gain was fixed";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "--fix");
+  }
+  o.fixed = {{"kp_per_s", 100.0}};
+  o.start = {{"kp_per_s", 90.0}};
   EXPECT_THROW(tune(ev, o), InputError);
 }
 
