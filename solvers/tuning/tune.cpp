@@ -105,6 +105,13 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
         r.start_gains[s.name] = std::clamp(model, s.min_value, s.max_value);
     }
   }
+  {
+    bool model = false;  // a feed-forward gain moved to the drive model's value
+    for (const auto& sp : r.specs)
+      if (!o.start.count(sp.name) && !o.fixed.count(sp.name) && r.start_gains.at(sp.name) != sp.default_value) model = true;
+    r.start_from = !o.start.empty() || !o.fixed.empty() ? (model ? "given gains, drive-model feed-forward" : "given gains")
+                                                        : (model ? "drive-model feed-forward" : "defaults");
+  }
   r.baseline = ev.evaluate(o.baseline_kind, {});
   r.start = ev.evaluate(o.kind, r.start_gains);
   const double scale = std::max(r.baseline.value(o.objective), 1e-9);
@@ -162,14 +169,11 @@ std::string TuneResult::report() const {
                      sp.min_value, sp.max_value);
   }
   const auto line = [](const char* what, const Evaluation& e) {
-    return fmt::format("  {:<26} max {:8.4f} mm  rms {:8.4f} mm  itae {:10.4g} mm s^2{}\n", what, e.max_mm, e.rms_mm,
+    return fmt::format("  {:<38} max {:8.4f} mm  rms {:8.4f} mm  itae {:10.4g} mm s^2{}\n", what, e.max_mm, e.rms_mm,
                        e.itae_mm_s2, e.faulted ? "  FAULTED" : "");
   };
   s += line("baseline (axial P)", baseline);
-  bool given = false;  // a start from --gain values rather than the factory's defaults
-  for (const auto& sp : specs)
-    if (const auto st = start_gains.find(sp.name); st != start_gains.end() && st->second != sp.default_value) given = true;
-  s += line(fmt::format("start ({} {})", kind, given ? "given gains" : "defaults").c_str(), start);
+  s += line(fmt::format("start ({}, {})", kind, start_from).c_str(), start);
   s += line("tuned", tuned);
   if (tuned.max_mm > 0)
     s += fmt::format("  improvement on the baseline: max {:.2f}x, rms {:.2f}x\n", baseline.max_mm / tuned.max_mm,
@@ -192,7 +196,7 @@ nlohmann::json TuneResult::to_json() const {
   for (const auto& [k, v] : fixed) fx.push_back(k);
   for (const auto& [k, v] : start_gains) sg[k] = v;
   return {{"machine", machine},         {"controller", kind},     {"objective", to_string(objective)},
-          {"gains", g},                 {"start_gains", sg},      {"fixed", fx},      {"baseline", baseline.to_json()},
+          {"gains", g},                 {"start_gains", sg},      {"fixed", fx},  {"start_from", start_from},      {"baseline", baseline.to_json()},
           {"start", start.to_json()},   {"tuned", tuned.to_json()}, {"optimizer", optimizer.to_json()},
           {"status", status}};
 }

@@ -69,6 +69,7 @@ struct TuneResult {
   std::vector<control::GainSpec> specs;
   control::Gains start_gains, gains;
   control::Gains fixed;  // TuneOptions::fixed
+  std::string start_from;  // "defaults", "drive-model feed-forward", "given gains", ...
   Evaluation baseline, start, tuned;
   OptimizerResult optimizer;
   std::string status;  // "ok", "infeasible", "stopped"

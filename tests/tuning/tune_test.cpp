@@ -112,7 +112,10 @@ TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
   TuneOptions plain = o;
   plain.model_start = false;
   plain.optimizer.max_evaluations = 1;
-  EXPECT_EQ(tune(ev, plain).start.max_mm, r.baseline.max_mm) << "p at its defaults is the baseline";
+  EXPECT_EQ(r.start_from, "drive-model feed-forward");
+  const TuneResult rp = tune(ev, plain);
+  EXPECT_EQ(rp.start_from, "defaults");
+  EXPECT_EQ(rp.start.max_mm, r.baseline.max_mm) << "p at its defaults is the baseline";
   const auto j = r.to_json();
   for (const char* k : {"gains", "baseline", "tuned", "status"}) EXPECT_TRUE(j.contains(k)) << k;
   EXPECT_TRUE(j["baseline"]["max_contour_error_mm"].is_number());
