@@ -207,9 +207,12 @@ void add_tune(CLI::App& app) {
       stored = tuning::TuningStore(db).save(r.machine, r.kind, r.gains, r.status, r.to_json().dump(), who());
     }
     if (!a->plot.empty()) {
-      tuning::Panel p{fmt::format("contour error, mm ({})", contours.front().spec), {}};
-      const auto base = ev.error_series(0, o.baseline_kind, {});
-      const auto tuned = ev.error_series(0, r.kind, r.gains);
+      // The first contour under the first noise draw, in micrometres.
+      tuning::Panel p{fmt::format("contour error, um ({}, seed {})", contours.front().spec, o.evaluation.seed), {}};
+      auto base = ev.error_series(0, o.baseline_kind, {});
+      auto tuned = ev.error_series(0, r.kind, r.gains);
+      for (auto* s : {&base, &tuned})
+        for (double& e : s->error_mm) e *= 1000.0;
       p.series.push_back({"baseline: axial P", 0.8, 0.2, 0.1, base.t_s, base.error_mm});
       p.series.push_back({fmt::format("tuned {}", r.kind), 0.1, 0.3, 0.8, tuned.t_s, tuned.error_mm});
       tuning::write_time_plot(a->plot, "--plot", fmt::format("machplan tune: {} on {}", r.kind, r.machine), {p});

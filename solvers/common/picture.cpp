@@ -1,5 +1,7 @@
 #include "solvers/common/picture.h"
 
+#include <cmath>
+
 #include <cairo-svg.h>
 #include <cairo.h>
 
@@ -53,6 +55,11 @@ void draw_text(cairo_t* cr, double x, double y, const std::string& s, double siz
   cairo_set_font_size(cr, size);
   cairo_move_to(cr, x, y);
   cairo_show_text(cr, s.c_str());
+}
+
+double round_step(double want) {
+  const double p10 = std::pow(10.0, std::floor(std::log10(want)));
+  return want >= 5 * p10 ? 5 * p10 : (want >= 2 * p10 ? 2 * p10 : p10);
 }
 
 }  // namespace machplan

@@ -1,5 +1,5 @@
 // Writing a Cairo drawing to a file, PNG or SVG by the file's extension: the part every plot
-// in solvers/ shares (placement, run).
+// in solvers/ shares (placement, run, guard, tuning).
 #pragma once
 
 #include <functional>
@@ -29,5 +29,9 @@ struct PlotView {
 
 // Text with its baseline starting at (x, y), in picture units.
 void draw_text(cairo_t* cr, double x, double y, const std::string& s, double size = 13);
+
+// A round length for scale bars and axis ticks: the largest 1, 2 or 5 times a power of ten
+// that is at most `want` (> 0).
+double round_step(double want);
 
 }  // namespace machplan

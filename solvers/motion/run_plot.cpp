@@ -230,9 +230,7 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
   if (!run.declared_zones.empty()) lx = legend_item(cr, lx, ly, 0.75, 0.1, 0.05, false, "no-go zones", 6.0);
   if (!run.cut_zones.empty()) legend_item(cr, lx, ly, 0.8, 0.8, 0.8, false, "parts cut", 6.0);
   // Scale bar: a round length near a fifth of the drawn width.
-  const double want = 0.2 * box.sizes().x();
-  const double p10 = std::pow(10.0, std::floor(std::log10(want)));
-  const double bar = want >= 5 * p10 ? 5 * p10 : (want >= 2 * p10 ? 2 * p10 : p10);
+  const double bar = round_step(0.2 * box.sizes().x());
   const double bx = W - side - bar * scale, by = H - 40;
   cairo_set_source_rgb(cr, 0, 0, 0);
   cairo_set_line_width(cr, 2.0);

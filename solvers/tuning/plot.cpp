@@ -43,11 +43,20 @@ void write_time_plot(const std::string& path, const std::string& flag, const std
       cairo_set_line_width(cr, 1);
       cairo_rectangle(cr, left, y0, pw, ph);
       cairo_stroke(cr);
-      for (int i = 0; i <= 4; ++i) {
-        const double v = lo + (hi - lo) * i / 4.0, t = t0 + (t1 - t0) * i / 4.0;
+      // Ticks at round values, with light grid lines across the panel.
+      const double vs = round_step((hi - lo) / 4), ts = round_step((t1 - t0) / 5);
+      for (double v = std::ceil(lo / vs) * vs; v <= hi; v += vs) {
+        const double y = Y(std::abs(v) < 1e-9 * vs ? 0.0 : v);
+        cairo_set_source_rgb(cr, 0.88, 0.88, 0.88);
+        cairo_move_to(cr, left, y);
+        cairo_line_to(cr, left + pw, y);
+        cairo_stroke(cr);
         cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
-        draw_text(cr, 4, Y(v) + 4, fmt::format("{:.4g}", v), 10);
-        draw_text(cr, X(t) - 10, y0 + ph + 14, fmt::format("{:.3g}", t), 10);
+        draw_text(cr, 4, y + 4, fmt::format("{:g}", std::abs(v) < 1e-9 * vs ? 0.0 : v), 10);
+      }
+      for (double t = std::ceil(t0 / ts) * ts; t <= t1; t += ts) {
+        cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
+        draw_text(cr, X(t) - 8, y0 + ph + 14, fmt::format("{:g}", std::abs(t) < 1e-9 * ts ? 0.0 : t), 10);
       }
       cairo_set_source_rgb(cr, 0, 0, 0);
       draw_text(cr, left + 4, y0 - 6, p.y_label + "   (time, s)", 12);

@@ -178,12 +178,13 @@ std::string TuneResult::report() const {
   if (tuned.max_mm > 0)
     s += fmt::format("  improvement on the baseline: max {:.2f}x, rms {:.2f}x\n", baseline.max_mm / tuned.max_mm,
                      tuned.rms_mm > 0 ? baseline.rms_mm / tuned.rms_mm : 0.0);
-  s += fmt::format("  constraints (tuned)        step overshoot {:.1f} %, margin wobble {:.2f} %, saturation {:.2f} %, "
+  s += fmt::format("  {:<38} step overshoot {:.1f} %, margin wobble {:.2f} %, saturation {:.2f} %, "
                    "following error {:.3f} mm\n",
+                   "constraints (tuned)",
                    100 * tuned.overshoot, 100 * tuned.margin_residual, 100 * tuned.saturation_share,
                    tuned.max_following_error_mm);
   for (const ContourScore& c : tuned.contours)
-    s += fmt::format("    {:<34} max {:8.4f} mm  rms {:8.4f} mm  (max at {:.3f} s, X {:.3f} Y {:.3f}, line {}){}\n",
+    s += fmt::format("    {:<36} max {:8.4f} mm  rms {:8.4f} mm  (max at {:.3f} s, X {:.3f} Y {:.3f}, line {}){}\n",
                      c.contour, c.max_mm, c.rms_mm, c.max_at_s, c.max_at_x_mm, c.max_at_y_mm, c.max_at_line,
                      c.faulted ? "  FAULT: " + c.fault : "");
   s += optimizer.report();
