@@ -10,32 +10,21 @@
 #include "engine/control/counter_decoder.h"
 #include "engine/control/position_observer.h"
 #include "models/axis/plant.h"
+#include "models/cutting/machine_config.h"
 
 namespace machplan::control {
 namespace {
 
 constexpr double T = 0.001;
 
-// The XY table's axis: 2 um counts, a 4 ms drive, one period of command and one of reading
-// latency; friction and noise as asked.
+// The XY table's X axis as its machine file describes it (2 um counts, a 4 ms drive, one period
+// of command and one of reading latency, no backlash here), with friction and noise as asked.
 axis::AxisPlantParams table_axis(double noise_mm_per_s, double coulomb_mm_per_s) {
-  axis::AxisPlantParams p;
-  p.motor_max_rpm = 3600;
-  p.gear_ratio = 1;
-  p.mm_per_rev = 20;
-  p.dac_full_scale_rpm = 3600;
-  p.dac_bits = 16;
-  p.velocity_loop_time_constant_s = 0.004;
-  p.max_acceleration_mm_per_s2 = 20000;
+  static const cutting::MachineConfig m = cutting::load_machine(cutting::find_machine("xy_table"));
+  axis::AxisPlantParams p = m.axes[0].plant;
   p.coulomb_friction_mm_per_s = coulomb_mm_per_s;
-  p.viscous_friction_ratio = 0.01;
   p.speed_noise_mm_per_s = noise_mm_per_s;
-  p.encoder_lines_per_rev = 2500;
-  p.encoder_mm_per_rev = 20;
-  p.decoding = 4;
-  p.counter_bits = 16;
-  p.command_latency_ticks = 1;
-  p.reading_latency_ticks = 1;
+  p.backlash_mm = 0.0;
   return p;
 }
 
