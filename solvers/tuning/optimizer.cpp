@@ -42,7 +42,7 @@ struct Run {
   Clock::time_point t0;
   std::size_t n;
   int evaluations = 0;
-  bool stopped = false;
+  bool stopped = false, budget_hit = false;
   // Cache of the last point (NLopt asks for f and g at the same x in two calls).
   std::vector<double> last_u;
   double last_f = 0.0;
@@ -71,6 +71,16 @@ struct Run {
 
   void eval(const double* u) {
     if (!last_u.empty() && std::equal(u, u + n, last_u.begin())) return;
+    if (evaluations >= o.max_evaluations) {
+      // The budget is spent (DIRECT samples a whole division before it looks at maxeval): no
+      // more evaluations; a point no stage will keep, and the stage stops.
+      budget_hit = true;
+      last_u.assign(u, u + n);
+      last_g.assign(static_cast<std::size_t>(p.constraint_count), 1e6);
+      last_f = 1e9;
+      if (current) nlopt_force_stop(current);
+      return;
+    }
     last_u.assign(u, u + n);
     last_g.assign(static_cast<std::size_t>(p.constraint_count), 0.0);
     last_f = p.evaluate(to_x(u), last_g);
@@ -156,7 +166,7 @@ StageReport run_stage(Run& r, nlopt_algorithm alg, const char* name, bool constr
   nlopt_destroy(opt);
   s.evaluations = r.evaluations - before;
   s.time_s = std::chrono::duration<double>(Clock::now() - t).count();
-  s.stop_reason = stop_words(res);
+  s.stop_reason = r.budget_hit && !r.stopped ? "evaluation budget reached" : stop_words(res);
   s.best_objective = r.best_f;
   return s;
 }

@@ -67,6 +67,29 @@ TEST(Optimizer, ReportsInfeasibleProblemsAndKeepsTheBudget) {
   EXPECT_LE(calls, 60);
 }
 
+TEST(Optimizer, NeverEvaluatesBeyondTheBudget) {
+  // DIRECT samples a whole division of the box before it checks its own limit: the budget
+  // still holds, stage by stage and in total.
+  Problem p;
+  p.parameters = {{"a", 0, 1, 0.3, false}, {"b", 0, 1, 0.6, false}, {"c", 1, 100, 10, true}};
+  p.constraint_count = 1;
+  int calls = 0;
+  p.evaluate = [&](const std::vector<double>& x, std::vector<double>& g) {
+    ++calls;
+    g[0] = x[0] - 0.9;
+    return (x[0] - 0.5) * (x[0] - 0.5) + (x[1] - 0.2) * (x[1] - 0.2) + std::log(x[2]);
+  };
+  for (int budget : {1, 2, 3, 5, 8, 13, 40}) {
+    calls = 0;
+    OptimizerOptions o;
+    o.max_evaluations = budget;
+    const OptimizerResult r = optimize(p, o);
+    EXPECT_LE(calls, budget) << budget;
+    EXPECT_EQ(r.evaluations, calls) << budget;
+    EXPECT_TRUE(r.feasible) << budget;  // the start is feasible
+  }
+}
+
 TEST(Optimizer, StopsOnRequest) {
   Problem p;
   p.parameters = {{"k", 0, 1, 0.5, false}};
