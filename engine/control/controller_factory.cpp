@@ -57,6 +57,7 @@ ObserverModel observer_model(const ControllerPlant& pl, int i) {
   m.tau_s = pl.drive_time_constant_s[i];
   m.quantum_mm = pl.position_quantum_mm[i];
   m.coulomb_mm_per_s = pl.coulomb_friction_mm_per_s[i];
+  m.backlash_mm = pl.backlash_mm[i];
   m.delay_ticks = std::min(pl.command_latency_ticks[i] + pl.reading_latency_ticks[i], ObserverModel::kMaxDelayTicks);
   return m;
 }
@@ -252,6 +253,8 @@ void ControllerPlant::validate() const {
       fail(fmt::format("latencies of axis {} must be >= 0", i));
     if (!(std::isfinite(position_quantum_mm[i]) && position_quantum_mm[i] >= 0))
       fail(fmt::format("position_quantum_mm[{}] = {}: must be >= 0 (0: unknown)", i, position_quantum_mm[i]));
+    if (!(std::isfinite(backlash_mm[i]) && backlash_mm[i] >= 0))
+      fail(fmt::format("backlash_mm[{}] = {}: must be >= 0 (0: none or unknown)", i, backlash_mm[i]));
     if (!(std::isfinite(coulomb_friction_mm_per_s[i]) && coulomb_friction_mm_per_s[i] >= 0))
       fail(fmt::format("coulomb_friction_mm_per_s[{}] = {}: must be >= 0 (0: unknown)", i, coulomb_friction_mm_per_s[i]));
   }

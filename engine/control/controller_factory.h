@@ -65,6 +65,7 @@ struct ControllerPlant {
   std::array<int, kAxes> reading_latency_ticks{};      // age of the measurement, periods
   std::array<double, kAxes> position_quantum_mm{};     // one encoder count; 0: unknown
   std::array<double, kAxes> coulomb_friction_mm_per_s{};  // drive's Coulomb friction as speed; 0: unknown
+  std::array<double, kAxes> backlash_mm{};             // gap between motor and table; 0: none or unknown
   double period_s = 0.001;
   // Throws InputError("controller plant", 0, ...) naming the field.
   void validate() const;

@@ -100,9 +100,9 @@ void CrossCoupledController::reset() {
 }
 
 void CrossCoupledController::update(const ControllerInput& raw, ControllerOutput& out) noexcept {
-  // The positions both loops act on: the axial observers' estimates (the readings when off).
-  ControllerInput in = raw;
-  for (int i = 0; i < kAxes; ++i) in.y_mm[i] = axis_[i].observe(raw.y_mm[i]);
+  // What both loops act on: the axial observers' estimates or predictions (pid_controller.h).
+  observed_input(axis_, raw, in_);
+  const ControllerInput& in = in_;
   est_ = estimate_contour_error(in);
   double u_c = 0.0;
   if (est_.valid) {

@@ -85,6 +85,7 @@ class CrossCoupledController final : public Controller {
 
  private:
   std::array<AxialPid, kAxes> axis_{};
+  ControllerInput in_;  // what the loops act on this period
   ContourGains w_;
   double T_ = 1e-3, s_max_ = 0.0;
   double sum_ = 0.0, eps_prev_ = 0.0, correction_ = 0.0;

@@ -40,9 +40,10 @@
 // simulator starts it). A stop and a start in the same direction move nothing: the motor is
 // still on the side of the gap it pushed on.
 //
-// Position observer (position_observer.h), off unless `observer_per_s` > 0: y is replaced
-// by the observer's estimate between encoder counts, from the counts and the commands this
-// loop sent, before anything above uses it (observe() then update(), once per period).
+// Position observer (position_observer.h), off unless `observer_per_s` > 0: the loop then acts
+// on the observer's prediction of the position at the instant its command takes effect, from
+// the counts and the commands it sent, against the setpoint of that instant (observed_input()
+// below, then update(), once per period).
 //
 // Real time: update() is O(1) per axis, allocates nothing and never throws.
 #pragma once
@@ -88,6 +89,10 @@ class AxialPid {
   // The position this loop acts on, from this period's reading: the observer's estimate, or
   // the reading itself with the observer off. Call once per period, before update().
   double observe(double y_mm) noexcept { return observer_.update(y_mm); }
+  // With the observer on: the periods from the reading's instant to the one at which this
+  // period's command acts (the model's D), and the position predicted for that instant.
+  int prediction_ticks() const noexcept { return observer_.enabled() ? delay_ticks_ : 0; }
+  double predicted_mm() const noexcept { return observer_.predict(); }
   // One tick. `extra_mm_per_s` is added to the command before the limit (a cross-coupled
   // correction); it takes part in the anti-windup like any other term.
   double update(double r_mm, double v_r, double a_r, double y_mm, double extra_mm_per_s = 0.0) noexcept {
@@ -120,10 +125,28 @@ class AxialPid {
  private:
   PidGains g_;
   double u_max_ = 1.0, T_ = 1e-3, tt_ = 1.0;
+  int delay_ticks_ = 0;
   double integral_ = 0.0, derivative_ = 0.0, e_prev_ = 0.0, last_error_ = 0.0, side_ = 0.0;
   bool first_ = true, saturated_ = false;
   PositionObserver observer_;
 };
+
+// The input the axial loops act on, from the executor's: each axis's measured position through
+// its observer (observe()); where the observer is on and the source previews far enough, the
+// position predicted for the instant this period's command acts, against the setpoint of that
+// same instant (a Smith predictor: the loop no longer waits out the latencies to see what its
+// own commands did). Call once per period.
+inline void observed_input(std::array<AxialPid, kAxes>& axes, const ControllerInput& raw, ControllerInput& in) noexcept {
+  in = raw;
+  for (int i = 0; i < kAxes; ++i) {
+    in.y_mm[i] = axes[i].observe(raw.y_mm[i]);
+    const int d = axes[i].prediction_ticks();
+    if (d > 0 && d <= raw.preview_ticks) {
+      in.y_mm[i] = axes[i].predicted_mm();
+      in.r_mm[i] = raw.r_preview_mm[static_cast<std::size_t>(d - 1)][i];
+    }
+  }
+}
 
 class PidController final : public Controller {
  public:
@@ -137,10 +160,10 @@ class PidController final : public Controller {
   void reset() override {
     for (AxialPid& a : axis_) a.reset();
   }
-  void update(const ControllerInput& in, ControllerOutput& out) noexcept override {
+  void update(const ControllerInput& raw, ControllerOutput& out) noexcept override {
+    observed_input(axis_, raw, in_);
     for (int i = 0; i < kAxes; ++i)
-      out.u_mm_per_s[i] =
-          axis_[i].update(in.r_mm[i], in.v_ff_mm_per_s[i], in.a_ff_mm_per_s2[i], axis_[i].observe(in.y_mm[i]));
+      out.u_mm_per_s[i] = axis_[i].update(in_.r_mm[i], in_.v_ff_mm_per_s[i], in_.a_ff_mm_per_s2[i], in_.y_mm[i]);
   }
   double following_error_mm(int axis) const noexcept override { return axis_[axis].last_error_mm(); }
   bool following_error_exceeded(int axis) const noexcept override { return axis_[axis].following_error_exceeded(); }
@@ -150,6 +173,7 @@ class PidController final : public Controller {
  private:
   const char* name_;
   std::array<AxialPid, kAxes> axis_{};
+  ControllerInput in_;  // what the loops act on this period
 };
 
 }  // namespace machplan::control

@@ -23,6 +23,7 @@ void ObserverModel::validate() const {
   check(std::isfinite(quantum_mm) && quantum_mm >= 0, "quantum_mm", quantum_mm, "must be >= 0");
   check(std::isfinite(coulomb_mm_per_s) && coulomb_mm_per_s >= 0, "coulomb_mm_per_s", coulomb_mm_per_s, "must be >= 0");
   check(delay_ticks >= 0 && delay_ticks <= kMaxDelayTicks, "delay_ticks", delay_ticks, "must be 0 .. 31");
+  check(std::isfinite(backlash_mm) && backlash_mm >= 0, "backlash_mm", backlash_mm, "must be >= 0");
 }
 
 void PositionObserver::configure(const ObserverModel& model, double bandwidth_per_s) {
@@ -40,40 +41,58 @@ void PositionObserver::configure(const ObserverModel& model, double bandwidth_pe
 
 void PositionObserver::reset() noexcept {
   started_ = false;
-  x_ = v_ = d_ = 0.0;
+  x_ = motor_ = v_ = d_ = 0.0;
   u_.fill(0.0);
   head_ = 0;
 }
 
+void PositionObserver::model_step(double u, State& s) const noexcept {
+  const double w = m_.gain * u + d_;
+  const double fc = m_.coulomb_mm_per_s;
+  if (std::abs(s.v) <= kRestMmPerS && std::abs(w) <= fc) {
+    s.v = 0.0;  // sticking: friction holds the axis
+    return;
+  }
+  const double wf = w - fc * (std::abs(s.v) > kRestMmPerS ? sgn(s.v) : sgn(w));
+  const double v_next = wf + (s.v - wf) * a_;
+  s.motor += wf * m_.period_s + (s.v - wf) * m_.tau_s * (1.0 - a_);
+  // Friction alone cannot reverse the motion: crossing zero under it stops the axis.
+  s.v = (sgn(v_next) != sgn(s.v) && std::abs(s.v) > kRestMmPerS && std::abs(w) <= fc) ? 0.0 : v_next;
+  // The table follows the motor only once the motor has crossed the gap.
+  const double half = 0.5 * m_.backlash_mm;
+  s.x = std::clamp(s.x, s.motor - half, s.motor + half);
+}
+
+double PositionObserver::predict() const noexcept {
+  if (!on_ || !started_) return x_;
+  constexpr int N = ObserverModel::kMaxDelayTicks + 1;
+  State s{x_, motor_, v_};
+  for (int j = m_.delay_ticks - 1; j >= 0; --j) model_step(u_[(head_ - j + N) % N], s);
+  return s.x;
+}
+
 double PositionObserver::update(double y) noexcept {
   if (!on_) return y;
-  if (!started_ || !std::isfinite(x_)) {
-    // The first reading (or a state a non-finite input spoiled): start at rest on it.
+  if (!started_ || !std::isfinite(x_) || !std::isfinite(motor_)) {
+    // The first reading (or a state a non-finite input spoiled): start at rest on it, the motor
+    // mid-gap.
     started_ = true;
-    x_ = y;
+    x_ = motor_ = y;
     v_ = d_ = 0.0;
     return y;
   }
   constexpr int N = ObserverModel::kMaxDelayTicks + 1;
-  const double u = u_[(head_ - m_.delay_ticks + N) % N];
-  const double w = m_.gain * u + d_;
-  const double fc = m_.coulomb_mm_per_s;
-  const double T = m_.period_s;
-  double x_pred = x_;
-  if (std::abs(v_) <= kRestMmPerS && std::abs(w) <= fc) {
-    v_ = 0.0;  // sticking: friction holds the axis
-  } else {
-    const double wf = w - fc * (std::abs(v_) > kRestMmPerS ? sgn(v_) : sgn(w));
-    const double v_next = wf + (v_ - wf) * a_;
-    x_pred += wf * T + (v_ - wf) * m_.tau_s * (1.0 - a_);
-    // Friction alone cannot reverse the motion: crossing zero under it stops the axis.
-    v_ = (sgn(v_next) != sgn(v_) && std::abs(v_) > kRestMmPerS && std::abs(w) <= fc) ? 0.0 : v_next;
-  }
-  const double e = y - x_pred;
-  x_ = x_pred + alpha_ * e;
-  if (m_.quantum_mm > 0) x_ = std::clamp(x_, y - 0.5 * m_.quantum_mm, y + 0.5 * m_.quantum_mm);
-  d_ += beta_ * e / T;
-  if (!std::isfinite(x_)) x_ = y;
+  State s{x_, motor_, v_};
+  model_step(u_[(head_ - m_.delay_ticks + N) % N], s);
+  const double e = y - s.x;
+  double x = s.x + alpha_ * e;
+  if (m_.quantum_mm > 0) x = std::clamp(x, y - 0.5 * m_.quantum_mm, y + 0.5 * m_.quantum_mm);
+  // The correction moves motor and table together: it is the model's drift, not the gap.
+  motor_ = s.motor + (x - s.x);
+  x_ = x;
+  v_ = s.v;
+  d_ += beta_ * e / m_.period_s;
+  if (!std::isfinite(x_)) x_ = motor_ = y;
   return x_;
 }
 

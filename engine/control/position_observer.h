@@ -17,12 +17,13 @@
 //     w      = g u[k - 1 - D] + d                   speed the drive aims at, mm/s
 //     w_f    = w - Fc sgn(v)   (0 while the axis sticks: v = 0 and |w| <= Fc)
 //     v+     = w_f + (v - w_f) a,                   a = exp(-T / tau)
-//     x-     = x + w_f T + (v - w_f) tau (1 - a)    the exact integral over the period
+//     m-     = m + w_f T + (v - w_f) tau (1 - a)    the motor: the exact integral over the period
+//     x-     = clamp(x, m- - b/2, m- + b/2)         the table, across a backlash gap b
 //
 // Correction by the reading y (the middle of its count), with e = y - x-:
 //
-//     x = clamp(x- + alpha e,  y - q/2,  y + q/2)
-//     d = d + beta e / T
+//     x = clamp(x- + alpha e,  y - q/2,  y + q/2),   m = m- + (x - x-)   (the model's drift
+//     d = d + beta e / T                                                   moves both)
 //
 // alpha = 1 - p^2, beta = (1 - p)^2 with p = exp(-w_o T): the critically damped alpha-beta
 // gains for an observer bandwidth w_o (rad/s). d, a speed disturbance, takes up what the
@@ -35,7 +36,12 @@
 // What it buys: open loop on the XY table's axis, the RMS error of the position falls from the
 // reading's q / sqrt(12) to about half of that under the table's speed noise and friction
 // (tests/control/position_observer_test.cpp); its largest error does not fall, since a model
-// without backlash mispredicts every reversal until the clamp stops it.
+// that is wrong at a reversal (a gap it does not know, friction it misjudges) is only held
+// off by the clamp.
+//
+// predict() carries the estimate on over the commands in flight, to the instant the next
+// command acts; the controllers (pid_controller.h, observed_input) act on that prediction
+// against the setpoint of the same instant, a Smith predictor.
 //
 // w_o = 0 turns the observer off: update() returns y. With tau unknown (0), the drive is taken
 // as immediate (a = 0).
@@ -53,6 +59,7 @@ struct ObserverModel {
   double tau_s = 0.0;             // 0: unknown (immediate drive)
   double quantum_mm = 0.0;        // q; 0: no clamp
   double coulomb_mm_per_s = 0.0;  // Fc
+  double backlash_mm = 0.0;       // b: the gap between motor and table
   int delay_ticks = 0;            // D = command latency + reading latency
   static constexpr int kMaxDelayTicks = 31;
   // Throws std::invalid_argument naming the field.
@@ -70,12 +77,21 @@ class PositionObserver {
   // The speed command sent this period (after the controller's limit).
   void command(double u_mm_per_s) noexcept;
   double disturbance_mm_per_s() const noexcept { return d_; }
+  // The position D periods after the reading's instant, when the command about to be sent
+  // starts to act: the estimate carried on by the model over the D commands in flight (sent,
+  // not yet seen in a reading). With the observer off, the estimate itself.
+  double predict() const noexcept;
 
  private:
+  struct State {
+    double x, motor, v;  // table (what the encoder reads), motor, motor speed
+  };
+  // One period of the model under command u, with the current disturbance.
+  void model_step(double u, State& s) const noexcept;
   ObserverModel m_;
   bool on_ = false, started_ = false;
   double a_ = 0.0, alpha_ = 1.0, beta_ = 0.0;
-  double x_ = 0.0, v_ = 0.0, d_ = 0.0;
+  double x_ = 0.0, motor_ = 0.0, v_ = 0.0, d_ = 0.0;
   std::array<double, ObserverModel::kMaxDelayTicks + 1> u_{};  // u_[head_] = latest command
   int head_ = 0;
 };
