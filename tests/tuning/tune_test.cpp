@@ -20,6 +20,14 @@ Evaluator circle_on(const std::string& machine, bool constraints = true) {
   return Evaluator(o, {parse_contour("circle:20:960")});
 }
 
+// One built-in contour on the XY table, without the step tests.
+Evaluator table_contour(const char* spec) {
+  EvaluationOptions o;
+  o.machine = "xy_table";
+  o.constraints = false;
+  return Evaluator(o, {parse_contour(spec)});
+}
+
 TEST(TuningContour, ParsesTheCommandLineForms) {
   const TestContour l = parse_contour("line:26.6:1200");
   EXPECT_EQ(l.kind, TestContour::Kind::line);
@@ -146,10 +154,7 @@ TEST(Tuning, CrossCoupledWithFeedForwardBeatsTheAxialPOnTheCircle) {
 }
 
 TEST(TuningContour, SquareIsOneClosedStretchOfFourSides) {
-  EvaluationOptions o;
-  o.machine = "xy_table";
-  o.constraints = false;
-  const Evaluator ev(o, {parse_contour("square:20:960")});
+  const Evaluator ev = table_contour("square:20:960");
   const motion::Job& j = ev.job(0);
   ASSERT_EQ(j.stretches.size(), 1u);
   const auto& segs = j.stretches[0].segments;
@@ -214,10 +219,7 @@ TEST(Tuning, FixedGainsAreHeldAndNotSearched) {
 }
 
 TEST(TuningContour, CornerIsTwoLegsThroughTheCentre) {
-  EvaluationOptions o;
-  o.machine = "xy_table";
-  o.constraints = false;
-  const Evaluator ev(o, {parse_contour("corner:90:960")});
+  const Evaluator ev = table_contour("corner:90:960");
   const motion::Job& j = ev.job(0);
   ASSERT_EQ(j.stretches.size(), 1u);
   ASSERT_EQ(j.stretches[0].segments.size(), 2u);
