@@ -1,8 +1,11 @@
 // The real-time half of the controller contract: update() of every kind the factory builds
-// allocates nothing, with the path and the preview given and without them.
+// allocates nothing, with the path and the preview given and without them, the position
+// observer on and off.
 #include <cmath>
 #include <cstdlib>
 #include <new>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -20,8 +23,18 @@ TEST(ControllerRealtime, UpdateAllocatesNothing) {
     plant.command_latency_ticks[i] = plant.reading_latency_ticks[i] = 1;
   }
   const Segment arc = make_segment({20, 0}, {-20, 0}, 1.0);
-  for (const std::string& kind : controller_kinds()) {
-    auto c = make_controller(kind, {}, plant);
+  for (int i = 0; i < kAxes; ++i) {
+    plant.position_quantum_mm[i] = 0.002;
+    plant.coulomb_friction_mm_per_s[i] = 2.0;
+    plant.backlash_mm[i] = 0.002;
+  }
+  // Every kind at its defaults, and the axial loops' optional parts on where the kind has them.
+  std::vector<std::pair<std::string, Gains>> cases;
+  for (const std::string& kind : controller_kinds()) cases.push_back({kind, {}});
+  for (const char* kind : {"p", "pid", "ccc"})
+    cases.push_back({kind, {{"friction_ff_mm_per_s", 2.0}, {"backlash_ff_mm", 0.002}, {"observer_per_s", 150.0}}});
+  for (const auto& [kind, gains] : cases) {
+    auto c = make_controller(kind, gains, plant);
     ControllerOutput out;
     for (bool with_path : {true, false}) {
       c->reset();
