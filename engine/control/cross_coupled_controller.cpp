@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "engine/control/setting_check.h"
+
 namespace machplan::control {
 
 namespace {
@@ -17,8 +19,7 @@ constexpr double kRestSpeedMmPerS = 1e-6;
 
 void ContourGains::validate() const {
   const auto check = [](double v, const char* field) {
-    if (!(std::isfinite(v) && v >= 0))
-      throw std::invalid_argument(fmt::format("ContourGains::{} = {}: must be finite and >= 0", field, v));
+    require_setting(finite_nonneg(v), "ContourGains", field, v, "must be finite and >= 0");
   };
   check(kp_per_s, "kp_per_s");
   check(ki_per_s2, "ki_per_s2");

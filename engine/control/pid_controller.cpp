@@ -4,33 +4,27 @@
 
 #include <fmt/format.h>
 
+#include "engine/control/setting_check.h"
+
 namespace machplan::control {
 
 namespace {
 void require(bool ok, const char* field, double value, const char* rule) {
-  if (!ok) throw std::invalid_argument(fmt::format("PidGains::{} = {}: {}", field, value, rule));
+  require_setting(ok, "PidGains", field, value, rule);
 }
 }  // namespace
 
 void PidGains::validate() const {
-  auto nonneg = [](double v) { return std::isfinite(v) && v >= 0; };
-  require(nonneg(kp_per_s), "kp_per_s", kp_per_s, "must be finite and >= 0");
-  require(nonneg(ki_per_s2), "ki_per_s2", ki_per_s2, "must be finite and >= 0");
-  require(nonneg(kd), "kd", kd, "must be finite and >= 0");
-  require(nonneg(velocity_ff) && velocity_ff <= 3, "velocity_ff", velocity_ff, "must be in [0, 3]");
-  require(nonneg(acceleration_ff_s) && acceleration_ff_s <= 1, "acceleration_ff_s", acceleration_ff_s,
-          "must be in [0, 1] s");
-  require(nonneg(friction_ff_mm_per_s) && friction_ff_mm_per_s <= 100, "friction_ff_mm_per_s", friction_ff_mm_per_s,
+  require_pid_core("PidGains", kp_per_s, ki_per_s2, kd, velocity_ff, acceleration_ff_s, following_error_limit_mm);
+  require(finite_nonneg(friction_ff_mm_per_s) && friction_ff_mm_per_s <= 100, "friction_ff_mm_per_s", friction_ff_mm_per_s,
           "must be in [0, 100] mm/s");
   require(std::isfinite(friction_ff_band_mm_per_s) && friction_ff_band_mm_per_s > 0, "friction_ff_band_mm_per_s",
           friction_ff_band_mm_per_s, "must be > 0");
-  require(nonneg(tracking_time_s), "tracking_time_s", tracking_time_s, "must be finite and >= 0 (0: Kp / Ki)");
+  require(finite_nonneg(tracking_time_s), "tracking_time_s", tracking_time_s, "must be finite and >= 0 (0: Kp / Ki)");
   require(std::isfinite(derivative_filter_s) && derivative_filter_s > 0, "derivative_filter_s", derivative_filter_s,
           "must be > 0");
-  require(std::isfinite(following_error_limit_mm) && following_error_limit_mm > 0, "following_error_limit_mm",
-          following_error_limit_mm, "must be > 0");
-  require(nonneg(backlash_ff_mm) && backlash_ff_mm <= 1, "backlash_ff_mm", backlash_ff_mm, "must be in [0, 1] mm");
-  require(nonneg(observer_per_s), "observer_per_s", observer_per_s, "must be finite and >= 0 (0: off)");
+  require(finite_nonneg(backlash_ff_mm) && backlash_ff_mm <= 1, "backlash_ff_mm", backlash_ff_mm, "must be in [0, 1] mm");
+  require(finite_nonneg(observer_per_s), "observer_per_s", observer_per_s, "must be finite and >= 0 (0: off)");
   require(!(ki_per_s2 > 0 && tracking_time_s == 0 && kp_per_s == 0), "kp_per_s", kp_per_s,
           "must be > 0 when Ki > 0 and the tracking time is Kp / Ki (or give tracking_time_s)");
 }

@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "engine/control/setting_check.h"
+
 namespace machplan::control {
 
 namespace {
@@ -15,7 +17,7 @@ double sgn(double v) { return v > 0 ? 1.0 : (v < 0 ? -1.0 : 0.0); }
 
 void ObserverModel::validate() const {
   const auto check = [](bool ok, const char* field, double v, const char* rule) {
-    if (!ok) throw std::invalid_argument(fmt::format("ObserverModel::{} = {}: {}", field, v, rule));
+    require_setting(ok, "ObserverModel", field, v, rule);
   };
   check(std::isfinite(period_s) && period_s > 0, "period_s", period_s, "must be > 0");
   check(std::isfinite(gain) && gain > 0, "gain", gain, "must be > 0");
