@@ -1,8 +1,6 @@
 #include "engine/control/servo.h"
 
-#include <stdexcept>
-
-#include <fmt/format.h>
+#include <cmath>
 
 #include "engine/control/setting_check.h"
 
