@@ -56,4 +56,21 @@ void ProgressBar::update(double fraction) {
   drawn_ = true;
 }
 
+ProgressWatch::ProgressWatch(std::string label, bool wanted, const std::atomic<double>& share)
+    : bar_(std::move(label), wanted), share_(share) {
+  if (!bar_.drawing()) return;  // nothing to draw: no thread
+  thread_ = std::thread([this] {
+    while (!over_.load()) {
+      bar_.update(share_.load(std::memory_order_relaxed));
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  });
+}
+
+ProgressWatch::~ProgressWatch() {
+  over_ = true;
+  if (thread_.joinable()) thread_.join();
+  bar_.done();
+}
+
 }  // namespace machplan::cli

@@ -8,10 +8,15 @@
 //   ProgressBar     a one-line bar on stderr for work longer than about a second, drawn only
 //                   when stderr is a terminal and the output is not --json; at most ten
 //                   redraws a second, cleared when done (done() or the destructor).
+//   ProgressWatch   a ProgressBar fed from another thread's progress (an atomic share that a
+//                   real-time loop stores and must not draw itself): polled ten times a
+//                   second by a thread of its own until the watch goes.
 #pragma once
 
+#include <atomic>
 #include <csignal>
 #include <string>
+#include <thread>
 
 #include "engine/common/stop.h"
 
@@ -36,11 +41,28 @@ class ProgressBar {
   void update(double fraction);
   // Clears the bar now (the work is over but the command goes on); later updates draw nothing.
   void done();
+  // Whether it draws at all (wanted, and stderr is a terminal).
+  bool drawing() const noexcept { return on_; }
 
  private:
   std::string label_;
   bool on_ = false, drawn_ = false;
   double last_s_ = -1.0, start_s_ = 0.0;
+};
+
+class ProgressWatch {
+ public:
+  // Watches `share` (0 .. 1) under `label`; draws nothing unless `wanted` (see ProgressBar).
+  ProgressWatch(std::string label, bool wanted, const std::atomic<double>& share);
+  ~ProgressWatch();
+  ProgressWatch(const ProgressWatch&) = delete;
+  ProgressWatch& operator=(const ProgressWatch&) = delete;
+
+ private:
+  ProgressBar bar_;
+  const std::atomic<double>& share_;
+  std::atomic<bool> over_{false};
+  std::thread thread_;
 };
 
 }  // namespace machplan::cli

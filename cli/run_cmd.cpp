@@ -211,9 +211,15 @@ void add_run(CLI::App& app) {
     auto bar = std::make_shared<ProgressBar>("planning rapids", !a->json);
     o.rapids.progress = [bar](double f) { f < 1 ? bar->update(f) : bar->done(); };
 
+    // The run itself: the executor stores its progress, a thread of the watch draws it.
+    std::atomic<double> share{0.0};
+    o.progress = &share;
     // SIGINT, SIGTERM and SIGHUP stop the machine in a controlled way (exit 3), not the process.
     const StopOnSignals signals;
-    const motion::RunOutcome run = motion::run_program(a->program, o);
+    const motion::RunOutcome run = [&] {
+      const ProgressWatch watch("running", !a->json, share);
+      return motion::run_program(a->program, o);
+    }();
     bar->done();
     if (!a->plot.empty()) motion::write_run_plot(a->plot, run, magnify);
 

@@ -134,6 +134,7 @@ struct Session::Impl {
   const Trajectories& trajs;
   hardware::Backend& be;
   RunParts parts;
+  double expected_s = 1.0;  // the job's expected machine time, for RunParts::progress
   std::atomic<bool>& stop_flag;
   const double dt;
 
@@ -245,6 +246,7 @@ void Session::Impl::prepare(double machine_period_s) {
   }
   source->prepare(ctx, job.start_mm);
   est_s += source->estimate_s();
+  expected_s = std::max(parts.expected_s > 0 ? parts.expected_s : est_s, dt);
   // Stop: ramp from the top speed, settle, margins.
   double vmax = 0;
   for (int i = 0; i < hardware::kAxes; ++i) vmax = std::max(vmax, ms.signals[i].dac_full_scale_mm_per_s);
@@ -429,6 +431,7 @@ bool Session::Impl::tick() noexcept {
   const hardware::Health health = be.exchange(out, in);
   ++ticks;
   t += dt;
+  if (parts.progress) parts.progress->store(std::min(t / expected_s, 0.999), std::memory_order_relaxed);
   if (health == hardware::Health::lost) {
     // Nothing more can be commanded; the backend's watchdog stops the machine.
     raise(FK::lost_backend, -1, 0.0);
@@ -526,6 +529,7 @@ bool Session::Impl::tick() noexcept {
 ExecutionResult Session::Impl::finish() {
   // ---- after the loop: allocation and formatting are allowed again ----
   ExecutionResult& r = result;
+  if (parts.progress) parts.progress->store(1.0, std::memory_order_relaxed);
   if (opt.record_trace) recorder.finish();
   r.machine = ms.name;
   r.source = job.source;

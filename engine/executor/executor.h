@@ -161,6 +161,12 @@ struct RunParts {
   control::Controller* controller = nullptr; // default: PidFfController on the machine's gains
   TraceStream* trace_stream = nullptr;       // streams the trace to CSV during the run
   StopToken stop;                            // a stop request from outside (signals)
+  // For a display thread: the share of the job's expected machine time run so far (0 .. 1;
+  // 1 once the run is over), stored each period with relaxed order. The expected time is
+  // `expected_s` when the caller knows it (the planned motion plus the torch process), else
+  // the executor's own estimate, which counts the torch's timeouts and so runs long.
+  std::atomic<double>* progress = nullptr;
+  double expected_s = 0.0;
 };
 
 class Executor;

@@ -337,6 +337,8 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
   executor::RunParts parts;
   parts.trace_stream = stream.get();
   parts.stop = options.stop;
+  parts.progress = options.progress;
+  parts.expected_s = o.planned_motion_s + o.process_time_s;
   std::unique_ptr<control::Controller> controller;
   if (!options.controller.empty()) {
     control::ControllerPlant plant = cutting::controller_plant(o.machine);

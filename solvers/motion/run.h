@@ -46,6 +46,7 @@
 // result.faults and result.status.
 #pragma once
 
+#include <atomic>
 #include <optional>
 #include <string>
 #include <vector>
@@ -80,6 +81,8 @@ struct RunOptions {
   std::string trace_csv_path;
   // A stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it).
   StopToken stop;
+  // The run's progress for a display thread (executor::RunParts::progress).
+  std::atomic<double>* progress = nullptr;
   // The machine's stored calibration (machplan calibrate apply), applied to the executor's
   // setup: the feed-forward gain starts at 1 / feed factor, backlash is compensated at
   // reversals and the counters are decoded with the fitted encoder scale.

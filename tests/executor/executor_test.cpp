@@ -1,4 +1,5 @@
 // The executor's sequencing, validation and results on the simulated gantry.
+#include <atomic>
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -180,6 +181,44 @@ TEST(Executor, SameSeedSameRun) {
   so.seed = 12;
   const ExecutionResult rc = sim::simulate(m, a.job, a.trajectories, o, so);
   EXPECT_NE(ra.cuts[0].max_true_mm, rc.cuts[0].max_true_mm);
+}
+
+TEST(Executor, ProgressRisesToOneOverTheRun) {
+  // A plain move on the XY table (no torch), its expected time the trajectory's own.
+  const auto m = cutting::load_machine(cutting::find_machine("xy_table"));
+  const Eigen::Vector2d a(100, 100), b(150, 130);
+  motion::Job job;
+  job.source = "progress.ngc";
+  job.start_mm = a;
+  job.stretches.push_back(test::make_stretch(test::polyline_segments({a, b}, false), 20, false));
+  job.steps.push_back({motion::Step::Kind::move, 1, 0, 0.0});
+  Trajectories trs(1);
+  trs[0] = std::make_unique<test::LineTrajectory>(a, b, 20, 500);
+  sim::SimOptions so;
+  so.start_mm = a;
+  sim::SimBackend sim(m, so);
+  Executor ex(m.setup(), {});
+  std::atomic<double> share{-1.0};
+  RunParts parts;
+  parts.progress = &share;
+  parts.expected_s = trs[0]->duration_s();
+  Session s(ex, job, trs, sim, parts);
+  double last = 0.0;
+  int ticks = 0, halfway_at = -1;
+  while (s.tick()) {
+    const double v = share.load();
+    ASSERT_GE(v, last) << ticks;  // never back
+    ASSERT_LT(v, 1.0) << ticks;   // 1 only once the run is over
+    if (halfway_at < 0 && v >= 0.5) halfway_at = ticks;
+    last = v;
+    ++ticks;
+  }
+  const ExecutionResult r = s.finish();
+  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  EXPECT_EQ(share.load(), 1.0);
+  EXPECT_GT(last, 0.9);
+  // Half way through the move's time is half way through the run (the stop settles after it).
+  EXPECT_NEAR(halfway_at * 0.001, 0.5 * trs[0]->duration_s(), 0.01);
 }
 
 TEST(Executor, ReportJsonAndCsv) {
