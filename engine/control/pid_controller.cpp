@@ -40,6 +40,7 @@ void AxialPid::configure(const PidGains& g, double output_limit_mm_per_s, double
   T_ = period_s;
   tt_ = g.tracking_time_s > 0 ? g.tracking_time_s : (g.ki_per_s2 > 0 ? g.kp_per_s / g.ki_per_s2 : 1.0);
   observer.period_s = period_s;
+  observer.speed_limit_mm_per_s = output_limit_mm_per_s;
   delay_ticks_ = observer.delay_ticks;
   observer_.configure(observer, g.observer_per_s);
   reset();

@@ -77,8 +77,8 @@ struct PidGains {
 class AxialPid {
  public:
   // Validates `g`; `output_limit_mm_per_s` = u_max, `period_s` = T; `observer` is the
-  // drive model of the position observer (its period is set to T), used when
-  // g.observer_per_s > 0.
+  // drive model of the position observer (its period and speed limit are set to T and u_max),
+  // used when g.observer_per_s > 0.
   void configure(const PidGains& g, double output_limit_mm_per_s, double period_s, ObserverModel observer = {});
   void reset() noexcept {
     integral_ = derivative_ = e_prev_ = last_error_ = side_ = 0.0;

@@ -26,6 +26,8 @@ void ObserverModel::validate() const {
   check(std::isfinite(coulomb_mm_per_s) && coulomb_mm_per_s >= 0, "coulomb_mm_per_s", coulomb_mm_per_s, "must be >= 0");
   check(delay_ticks >= 0 && delay_ticks <= kMaxDelayTicks, "delay_ticks", delay_ticks, "must be 0 .. 31");
   check(std::isfinite(backlash_mm) && backlash_mm >= 0, "backlash_mm", backlash_mm, "must be >= 0");
+  check(std::isfinite(speed_limit_mm_per_s) && speed_limit_mm_per_s >= 0, "speed_limit_mm_per_s", speed_limit_mm_per_s,
+        "must be >= 0 (0: unbounded)");
 }
 
 void PositionObserver::configure(const ObserverModel& model, double bandwidth_per_s) {
@@ -94,6 +96,7 @@ double PositionObserver::update(double y) noexcept {
   x_ = x;
   v_ = s.v;
   d_ += beta_ * e / m_.period_s;
+  if (m_.speed_limit_mm_per_s > 0) d_ = std::clamp(d_, -m_.speed_limit_mm_per_s, m_.speed_limit_mm_per_s);
   if (!std::isfinite(x_)) x_ = motor_ = y;
   return x_;
 }

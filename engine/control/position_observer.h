@@ -25,6 +25,10 @@
 //     x = clamp(x- + alpha e,  y - q/2,  y + q/2),   m = m- + (x - x-)   (the model's drift
 //     d = d + beta e / T                                                   moves both)
 //
+// with |d| held within the drive's speed range, so that a model the machine has left behind
+// (an axis stuck or stopped by hand) cannot wind the disturbance, and with it the prediction,
+// up without bound.
+//
 // alpha = 1 - p^2, beta = (1 - p)^2 with p = exp(-w_o T): the critically damped alpha-beta
 // gains for an observer bandwidth w_o (rad/s). d, a speed disturbance, takes up what the
 // model lacks (a gain error, viscous friction, the slow part of the speed noise). The clamp
@@ -60,6 +64,7 @@ struct ObserverModel {
   double quantum_mm = 0.0;        // q; 0: no clamp
   double coulomb_mm_per_s = 0.0;  // Fc
   double backlash_mm = 0.0;       // b: the gap between motor and table
+  double speed_limit_mm_per_s = 0.0;  // the drive's range: bounds |d| (0: unbounded)
   int delay_ticks = 0;            // D = command latency + reading latency
   static constexpr int kMaxDelayTicks = 31;
   // Throws std::invalid_argument naming the field.

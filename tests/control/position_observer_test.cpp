@@ -158,6 +158,31 @@ TEST(PositionObserver, KnowingTheBacklashFollowsTheTableThroughReversals) {
   EXPECT_LE(knowing.estimate_max, knowing.reading_max + 0.001 + 1e-12);
 }
 
+TEST(PositionObserver, AStuckAxisDoesNotWindThePredictionUp) {
+  // The commands say 50 mm/s, the axis does not move (stuck, or held by hand): the estimate
+  // stays within the count the encoder shows, and the disturbance (which would settle at
+  // -50 mm/s to explain the standstill) stays within a 20 mm/s range, and the prediction with it.
+  ObserverModel m;
+  m.tau_s = 0.004;
+  m.quantum_mm = 0.002;
+  m.delay_ticks = 2;
+  m.speed_limit_mm_per_s = 20;
+  PositionObserver o;
+  o.configure(m, 100.0);
+  double d_min = 0.0;
+  for (int k = 0; k < 20000; ++k) {
+    const double x = o.update(10.0);
+    ASSERT_LE(std::abs(x - 10.0), 0.001 + 1e-12) << k;
+    ASSERT_LE(std::abs(o.disturbance_mm_per_s()), 20.0) << k;
+    ASSERT_LT(std::abs(o.predict() - 10.0), 3 * 0.001 * (50.0 + 20.0)) << k;  // D + 1 periods at most
+    d_min = std::min(d_min, o.disturbance_mm_per_s());
+    o.command(50.0);
+  }
+  EXPECT_EQ(d_min, -20.0) << "the bound was reached";
+  m.speed_limit_mm_per_s = -1;
+  EXPECT_THROW(o.configure(m, 100.0), std::invalid_argument);
+}
+
 TEST(PositionObserver, StaysInsideTheCountWhenTheModelIsWrong) {
   // The model believes in no friction while the axis has 5 mm/s of it and sticks at each
   // reversal: the estimate drifts but the clamp keeps it within half a count of the reading.
