@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/geometry/contour.h"
 
 namespace machplan {
 namespace {
@@ -55,6 +56,22 @@ void draw_text(cairo_t* cr, double x, double y, const std::string& s, double siz
   cairo_set_font_size(cr, size);
   cairo_move_to(cr, x, y);
   cairo_show_text(cr, s.c_str());
+}
+
+void trace_segment(cairo_t* cr, const PlotView& v, const Segment& s, bool move_first) {
+  if (move_first) cairo_move_to(cr, v.sx(s.start.x()), v.sy(s.start.y()));
+  if (!s.is_arc()) {
+    cairo_line_to(cr, v.sx(s.end.x()), v.sy(s.end.y()));
+    return;
+  }
+  const double a0 = -s.start_angle, a1 = -s.end_angle();
+  if (s.sweep > 0) cairo_arc_negative(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
+  else cairo_arc(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
+}
+
+void trace_contour(cairo_t* cr, const PlotView& v, const Contour& c) {
+  for (std::size_t i = 0; i < c.size(); ++i) trace_segment(cr, v, c.span(i), i == 0);
+  cairo_close_path(cr);
 }
 
 double round_step(double want) {

@@ -27,6 +27,15 @@ struct PlotView {
   double sy(double y) const { return oy - scale * y; }
 };
 
+struct Segment;
+class Contour;
+
+// Traces a segment as a path (arcs as Cairo arcs; y is flipped, so the angles are negated),
+// starting a new sub-path at its start when `move_first`.
+void trace_segment(cairo_t* cr, const PlotView& v, const Segment& s, bool move_first);
+// Traces a closed contour as one closed sub-path.
+void trace_contour(cairo_t* cr, const PlotView& v, const Contour& c);
+
 // Text with its baseline starting at (x, y), in picture units.
 void draw_text(cairo_t* cr, double x, double y, const std::string& s, double size = 13);
 

@@ -19,25 +19,8 @@ using Eigen::Vector2d;
 // screen = (ox + scale * x, oy - scale * y), as in solvers/placement/plot.cpp.
 using View = PlotView;
 
-// Traces a segment as a path (arcs with cairo's arc, y flipped: screen angles are negated).
-void trace_segment(cairo_t* cr, const View& v, const Segment& s, bool move_first) {
-  if (move_first) cairo_move_to(cr, v.sx(s.start.x()), v.sy(s.start.y()));
-  if (!s.is_arc()) {
-    cairo_line_to(cr, v.sx(s.end.x()), v.sy(s.end.y()));
-    return;
-  }
-  const double a0 = -s.start_angle, a1 = -s.end_angle();
-  if (s.sweep > 0) cairo_arc_negative(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
-  else cairo_arc(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
-}
-
 void trace_stretch(cairo_t* cr, const View& v, const Stretch& st) {
   for (std::size_t i = 0; i < st.segments.size(); ++i) trace_segment(cr, v, st.segments[i], i == 0);
-}
-
-void trace_contour(cairo_t* cr, const View& v, const Contour& c) {
-  for (std::size_t i = 0; i < c.size(); ++i) trace_segment(cr, v, c.span(i), i == 0);
-  cairo_close_path(cr);
 }
 
 void extend(Eigen::AlignedBox2d& box, const Stretch& st) {
