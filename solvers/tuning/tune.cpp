@@ -151,6 +151,15 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
   r.gains = gains_of(r.optimizer.x);
   r.tuned = ev.evaluate(o.kind, r.gains);
   r.status = r.optimizer.stopped ? "stopped" : (r.optimizer.feasible ? "ok" : "infeasible");
+  if (o.fresh_check && !r.optimizer.stopped) {
+    EvaluationOptions fo = ev.options();
+    fo.seed += static_cast<std::uint64_t>(fo.noise_runs);
+    fo.constraints = false;  // only the contour errors are compared here
+    const Evaluator fresh(fo, ev.contours());
+    r.fresh_seed = fo.seed;
+    r.fresh_baseline = fresh.evaluate(o.baseline_kind, {});
+    r.fresh_tuned = fresh.evaluate(o.kind, r.gains);
+  }
   return r;
 }
 
@@ -178,6 +187,12 @@ std::string TuneResult::report() const {
   if (tuned.max_mm > 0)
     s += fmt::format("  improvement on the baseline: max {:.2f}x, rms {:.2f}x\n", baseline.max_mm / tuned.max_mm,
                      tuned.rms_mm > 0 ? baseline.rms_mm / tuned.rms_mm : 0.0);
+  if (fresh_seed > 0 && fresh_tuned.max_mm > 0) {
+    s += fmt::format("  under noise it was not tuned on (seeds from {}): baseline max {:.4f} mm, tuned max {:.4f} mm: "
+                     "max {:.2f}x, rms {:.2f}x\n",
+                     fresh_seed, fresh_baseline.max_mm, fresh_tuned.max_mm, fresh_baseline.max_mm / fresh_tuned.max_mm,
+                     fresh_tuned.rms_mm > 0 ? fresh_baseline.rms_mm / fresh_tuned.rms_mm : 0.0);
+  }
   s += fmt::format("  {:<38} step overshoot {:.1f} %, margin wobble {:.2f} %, saturation {:.2f} %, "
                    "following error {:.3f} mm\n",
                    "constraints (tuned)",
@@ -196,10 +211,21 @@ nlohmann::json TuneResult::to_json() const {
   for (const auto& [k, v] : gains) g[k] = v;
   for (const auto& [k, v] : fixed) fx.push_back(k);
   for (const auto& [k, v] : start_gains) sg[k] = v;
-  return {{"machine", machine},         {"controller", kind},     {"objective", to_string(objective)},
-          {"gains", g},                 {"start_gains", sg},      {"fixed", fx},  {"start_from", start_from},      {"baseline", baseline.to_json()},
-          {"start", start.to_json()},   {"tuned", tuned.to_json()}, {"optimizer", optimizer.to_json()},
-          {"status", status}};
+  nlohmann::json j = {{"machine", machine},
+                      {"controller", kind},
+                      {"objective", to_string(objective)},
+                      {"gains", g},
+                      {"start_gains", sg},
+                      {"fixed", fx},
+                      {"start_from", start_from},
+                      {"baseline", baseline.to_json()},
+                      {"start", start.to_json()},
+                      {"tuned", tuned.to_json()},
+                      {"optimizer", optimizer.to_json()},
+                      {"status", status}};
+  if (fresh_seed > 0)
+    j["fresh"] = {{"first_seed", fresh_seed}, {"baseline", fresh_baseline.to_json()}, {"tuned", fresh_tuned.to_json()}};
+  return j;
 }
 
 }  // namespace machplan::tuning

@@ -57,6 +57,10 @@ struct TuneOptions {
   // Gains held at the given values and not searched (e.g. feed-forward from a calibration, or
   // a part of the controller switched off: observer_per_s = 0). Not also in `start`.
   control::Gains fixed;
+  // After the tuning, the baseline and the tuned gains are run once more under as many noise
+  // draws the tuning never saw (the seeds after its own): the figure to expect on the machine,
+  // since gains tuned on a few draws partly fit those draws' spikes. false skips it.
+  bool fresh_check = true;
   // Called after each evaluation with the share of the evaluation budget used (0 .. 1).
   std::function<void(double)> progress;
   // Throws InputError naming the field.
@@ -71,11 +75,16 @@ struct TuneResult {
   control::Gains fixed;  // TuneOptions::fixed
   std::string start_from;  // "defaults", "drive-model feed-forward", "given gains", ...
   Evaluation baseline, start, tuned;
+  // TuneOptions::fresh_check: the same under fresh noise, seeds fresh_seed .. + noise_runs - 1;
+  // fresh_seed 0 when not run.
+  Evaluation fresh_baseline, fresh_tuned;
+  std::uint64_t fresh_seed = 0;
   OptimizerResult optimizer;
   std::string status;  // "ok", "infeasible", "stopped"
   std::string report() const;
   // {"machine", "controller", "objective", "gains": {...}, "baseline": {...}, "start": {...},
-  //  "tuned": {...}, "optimizer": {...}, "status"}; the scores as Evaluation::to_json().
+  //  "tuned": {...}, "fresh": {"seeds", "baseline", "tuned"} (when checked), "optimizer": {...},
+  //  "status"}; the scores as Evaluation::to_json().
   nlohmann::json to_json() const;
 };
 

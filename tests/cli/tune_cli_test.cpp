@@ -36,6 +36,8 @@ TEST(TuneCli, TunesPrintsJsonPlotsAndStores) {
   EXPECT_LE(j["tuned"]["max_contour_error_mm"].get<double>(), j["baseline"]["max_contour_error_mm"].get<double>());
   EXPECT_LE(j["optimizer"]["evaluations"].get<int>(), 8);
   EXPECT_EQ(j["tuned"]["contours"][0]["max_at"]["line"], 1);
+  EXPECT_EQ(j["fresh"]["first_seed"], 4);  // after the three draws of seeds 1 .. 3
+  EXPECT_TRUE(j["fresh"]["tuned"]["max_contour_error_mm"].is_number());
   EXPECT_GT(std::filesystem::file_size(png), 1000u);
   // A fixed gain stays where it was put; one noise run instead of three.
   r = cli(dir, "tune --machine xy_table --controller p --contour square:10:960 --evaluations 4 --noise-runs 1 "

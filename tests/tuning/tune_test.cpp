@@ -119,10 +119,20 @@ TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
   EXPECT_LT(r.start.max_mm, r.baseline.max_mm);
   TuneOptions plain = o;
   plain.model_start = false;
+  plain.fresh_check = false;
   plain.optimizer.max_evaluations = 1;
   EXPECT_EQ(r.start_from, "drive-model feed-forward");
+  // Checked under noise the tuning never saw: the seeds after its own.
+  EXPECT_EQ(r.fresh_seed, o.evaluation.seed + static_cast<std::uint64_t>(o.evaluation.noise_runs));
+  ASSERT_EQ(r.fresh_tuned.contours.size(), 1u);
+  EXPECT_GT(r.fresh_tuned.max_mm, 0.0);
+  EXPECT_NE(r.fresh_baseline.max_mm, r.baseline.max_mm) << "another draw of the noise";
+  EXPECT_TRUE(r.to_json().contains("fresh"));
+  EXPECT_NE(r.report().find("under noise it was not tuned on"), std::string::npos);
   const TuneResult rp = tune(ev, plain);
   EXPECT_EQ(rp.start_from, "defaults");
+  EXPECT_EQ(rp.fresh_seed, 0u);
+  EXPECT_FALSE(rp.to_json().contains("fresh"));
   EXPECT_EQ(rp.start.max_mm, r.baseline.max_mm) << "p at its defaults is the baseline";
   const auto j = r.to_json();
   for (const char* k : {"gains", "baseline", "tuned", "status"}) EXPECT_TRUE(j.contains(k)) << k;
