@@ -362,6 +362,7 @@ ContourScore Evaluator::score(const Prepared& p, const executor::ExecutionResult
   double t_start = 0.0;
   std::size_t saturated = 0;
   double s2 = 0.0;
+  int max_stretch = -1;  // the stretch the maximum was measured on
   for (const executor::TraceSample& ts : r.trace) {
     if (ts.step < 0 || static_cast<std::size_t>(ts.step) >= p.measured_stretch.size()) continue;
     const int k = p.measured_stretch[static_cast<std::size_t>(ts.step)];
@@ -381,13 +382,7 @@ ContourScore Evaluator::score(const Prepared& p, const executor::ExecutionResult
       s.max_at_s = ts.t_s;
       s.max_at_x_mm = pos.x();
       s.max_at_y_mm = pos.y();
-      const motion::Stretch& st = p.job.stretches[static_cast<std::size_t>(k)];
-      double best = inf;
-      for (std::size_t g = 0; g < st.segments.size(); ++g)
-        if (const double d = segment_distance(st.segments[g], pos); d < best) {
-          best = d;
-          s.max_at_line = g < st.source_lines.size() ? st.source_lines[g] : 0;
-        }
+      max_stretch = k;
     }
     s2 += e * e;
     s.itae_mm_s2 += (ts.t_s - t_start) * e * T;
@@ -401,6 +396,17 @@ ContourScore Evaluator::score(const Prepared& p, const executor::ExecutionResult
     }
   }
   s.rms_mm = s.samples ? std::sqrt(s2 / static_cast<double>(s.samples)) : 0.0;
+  if (max_stretch >= 0) {
+    // The program line of the programmed segment nearest the maximum, looked up once.
+    const motion::Stretch& st = p.job.stretches[static_cast<std::size_t>(max_stretch)];
+    const Eigen::Vector2d at(s.max_at_x_mm, s.max_at_y_mm);
+    double best = inf;
+    for (std::size_t g = 0; g < st.segments.size(); ++g)
+      if (const double d = segment_distance(st.segments[g], at); d < best) {
+        best = d;
+        s.max_at_line = g < st.source_lines.size() ? st.source_lines[g] : 0;
+      }
+  }
   s.saturation_share = s.samples ? static_cast<double>(saturated) / static_cast<double>(s.samples) : 0.0;
   return s;
 }
