@@ -75,6 +75,7 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
   r.fixed = o.fixed;
   const double flimit = following_limit(ev);
 
+  bool model_moved = false;  // a feed-forward gain starts at the drive model's value, not its default
   if (o.physical_feed_forward) {
     const auto& pl = ev.plant();
     double g = 1.0, lag = 0.0, tau = 0.0;
@@ -101,17 +102,14 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
       // The search starts from the drive model's own feed-forward (unless the caller gave a
       // start): the exact cancellation of a first-order drive with the machine file's friction
       // and backlash, which a local search then only has to refine.
-      if (o.model_start && !o.start.count(s.name) && !o.fixed.count(s.name) && r.start_gains.count(s.name))
+      if (o.model_start && !o.start.count(s.name) && !o.fixed.count(s.name) && r.start_gains.count(s.name)) {
         r.start_gains[s.name] = std::clamp(model, s.min_value, s.max_value);
+        model_moved = model_moved || r.start_gains[s.name] != s.default_value;
+      }
     }
   }
-  {
-    bool model = false;  // a feed-forward gain moved to the drive model's value
-    for (const auto& sp : r.specs)
-      if (!o.start.count(sp.name) && !o.fixed.count(sp.name) && r.start_gains.at(sp.name) != sp.default_value) model = true;
-    r.start_from = !o.start.empty() || !o.fixed.empty() ? (model ? "given gains, drive-model feed-forward" : "given gains")
-                                                        : (model ? "drive-model feed-forward" : "defaults");
-  }
+  r.start_from = !o.start.empty() || !o.fixed.empty() ? (model_moved ? "given gains, drive-model feed-forward" : "given gains")
+                                                      : (model_moved ? "drive-model feed-forward" : "defaults");
   r.baseline = ev.evaluate(o.baseline_kind, {});
   r.start = ev.evaluate(o.kind, r.start_gains);
   const double scale = std::max(r.baseline.value(o.objective), 1e-9);
