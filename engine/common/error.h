@@ -28,6 +28,19 @@ class InputError : public std::runtime_error {
         line_(line),
         message_(std::move(message)) {}
 
+  // A bad value in an options struct, named by its field as the struct spells it
+  // ("kerf_mm", "supervisor.following_error_mm"). The library knows no flags: the CLI renames
+  // a field error to the flag that set the field (cli/field_flags.h), so a user reads
+  // "--kerf: ..." and a library caller reads "kerf_mm: ...".
+  static InputError field(std::string field_name, std::string message) {
+    InputError e(std::move(field_name), 0, std::move(message));
+    e.is_field_ = true;
+    return e;
+  }
+  bool is_field() const { return is_field_; }
+  // The same message under another name (a flag for a field), no longer a field error.
+  InputError renamed(std::string where) const { return InputError(std::move(where), line_, message_); }
+
   const std::string& where() const { return where_; }
   int line() const { return line_; }
   const std::string& message() const { return message_; }
@@ -41,6 +54,7 @@ class InputError : public std::runtime_error {
   std::string where_;
   int line_;
   std::string message_;
+  bool is_field_ = false;
 };
 
 class Infeasible : public std::runtime_error {
