@@ -72,8 +72,8 @@ enum class TraceKind { off, memory, stream };
 
 void tick_percentiles(benchmark::State& state, TraceKind kind) {
   motion::RunOptions o;
-  o.machine = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml";
-  o.executor.record_trace = false;
+  o.session.machine = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml";
+  o.session.executor.record_trace = false;
   const motion::RunOutcome prepared =
       motion::run_program(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/nested_sheet.ngc", o);
   std::vector<double> us;

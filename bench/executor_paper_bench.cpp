@@ -65,10 +65,10 @@ Job cut_only(const std::string& name) {
 
 RunOutcome paper(const Job& job, Mode mode, double blu, double factor) {
   RunOptions o;
-  o.executor.mode = mode;
-  o.executor.blu_mm = blu;
-  o.executor.calibration_factor = factor;
-  o.executor.record_trace = false;
+  o.session.executor.mode = mode;
+  o.session.executor.blu_mm = blu;
+  o.session.executor.calibration_factor = factor;
+  o.session.executor.record_trace = false;
   o.feed_override_mm_per_s = 4.0;
   return motion::run_job(job, o);
 }
@@ -85,7 +85,7 @@ double stopwatch_factor() {
   j.stretches.push_back(s);
   j.steps.push_back({motion::Step::Kind::move, 1, 0, 0.0});
   RunOptions o;
-  o.executor.mode = Mode::paper_open;
+  o.session.executor.mode = Mode::paper_open;
   const RunOutcome r = motion::run_job(j, o);
   return 100.0 / (r.result.trace.back().true_mm.x() - 100.0);
 }
@@ -119,7 +119,7 @@ void reproduction_report() {
               "cycle s", "bound s", "ratio", "motion");
   for (const char* name : {"triangle_45.ngc", "contour_lines_arcs.ngc", "nested_sheet.ngc"}) {
     RunOptions o;
-    o.executor.record_trace = false;
+    o.session.executor.record_trace = false;
     const RunOutcome r = motion::run_program(part(name), o);
     std::printf("  %-24s %5zu  %8.4f  %8.4f  %8.4f  %9.2f  %9.2f  %7.4f  %7.4f  %s\n", name, r.result.cuts.size(),
                 r.result.max_contour_error_mm(), r.result.max_true_contour_error_mm(), r.rms_contour_error_mm,
@@ -131,7 +131,7 @@ void reproduction_report() {
 
 void BM_RunProgram(benchmark::State& state, const char* name) {
   RunOptions o;
-  o.executor.record_trace = false;
+  o.session.executor.record_trace = false;
   double simulated = 0;
   for (auto _ : state) {
     const RunOutcome r = motion::run_program(part(name), o);

@@ -18,7 +18,7 @@
 #include "engine/calibration/session_log.h"
 #include "engine/common/error.h"
 #include "engine/common/parse.h"
-#include "models/backends/backend_factory.h"
+#include "solvers/session/machine_session.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/fit.h"
 #include "engine/common/text_file.h"
@@ -47,6 +47,8 @@ int repeats_of(const std::string& text) {
   return r;
 }
 
+const FieldFlag kRecordFlags[] = {{"backend", "--backend"}, {"speed_fractions", "--speeds"}, {"stroke_hold_s", "--hold"}};
+
 void add_calibrate(CLI::App& app) {
   auto* cal = app.add_subcommand("calibrate", "Calibration sessions: record a session log, fit the axis factors");
   cal->require_subcommand(1);
@@ -72,12 +74,13 @@ void add_calibrate(CLI::App& app) {
     const auto truth = r->truth.empty() ? nominal : cutting::load_machine(r->truth);
     if (!r->truth.empty() && r->backend != "sim")
       throw InputError("--sim-truth", 0, "applies to the simulated machine only (--backend sim)");
-    backends::BackendOptions bo;
-    bo.name = r->backend;
-    bo.sim.seed = seed_of(r->seed);
-    auto backend = backends::make_backend(truth, bo);
+    session::MachineSessionOptions so;
+    so.machine_config = truth;
+    so.backend.name = r->backend;
+    so.backend.sim.seed = seed_of(r->seed);
+    session::MachineSession session(std::move(so));
     calibration::RecordOptions o;
-    o.seed = bo.sim.seed;
+    o.seed = seed_of(r->seed);
     o.repeats = repeats_of(r->repeats);
     if (!r->speeds.empty()) {
       o.speed_fractions.clear();
@@ -95,10 +98,14 @@ void add_calibrate(CLI::App& app) {
       const std::string flag = e.where() == "speed_fractions" ? "--speeds" : e.where() == "stroke_hold_s" ? "--hold" : e.where();
       throw InputError(flag, 0, e.message());
     }
-    // SIGINT, SIGTERM and SIGHUP stop the axes and end the session (Infeasible: exit 3).
+    // SIGINT, SIGTERM and SIGHUP stop the axes and end the session (Cancelled: exit 3).
     const StopOnSignals signals;
-    o.stop = StopOnSignals::stop_token();
-    auto log = calibration::record_session(*backend, nominal, o);
+    Termination stop(StopOnSignals::stop_token());
+    Progress progress;
+    auto log = [&] {
+      const ProgressWatch watch("recording", !r->out.empty(), progress);
+      return with_flag_names(kRecordFlags, [&] { return calibration::record_session(session.backend(), nominal, o, &stop, &progress); });
+    }();
     if (!r->truth.empty()) log.comments.push_back(fmt::format("sim truth: {}", r->truth));
     if (r->out.empty()) {
       calibration::write_session_log(std::cout, log);

@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "cli/command.h"
+#include "cli/interrupt.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
 #include "engine/common/parse.h"
@@ -82,10 +83,19 @@ void add_guard(CLI::App& app) {
     }
     if (o.op.kind == guard::OperatorSpec::Kind::keys)
       std::fprintf(stderr, "keys: arrows or w/a/s/d steer, 1..9 set the speed, space stops, q ends roughing\n");
-    const guard::GuardRunResult r = guard::run_guard_file(a->profile, o);
+    // SIGINT, SIGTERM and SIGHUP end the session in a controlled way (exit 3), not the process.
+    const StopOnSignals signals;
+    Termination stop(StopOnSignals::stop_token());
+    Progress progress;
+    const guard::GuardRunResult r = [&] {
+      // Keys and joystick sessions are paced by the operator: no bar.
+      const ProgressWatch watch("guard", !a->json && o.op.kind != guard::OperatorSpec::Kind::keys, progress);
+      return guard::run_guard_file(a->profile, o, &stop, &progress);
+    }();
     if (!a->plot.empty()) guard::write_guard_plot(r, a->plot);
     if (a->json) print_json(r.to_json());
-    else std::fputs(r.report().c_str(), stdout);
+    else std::fputs(r.summary.full_report().c_str(), stdout);
+    set_exit_code(r.summary.exit_code());
   });
 }
 

@@ -56,12 +56,12 @@ void ProgressBar::update(double fraction) {
   drawn_ = true;
 }
 
-ProgressWatch::ProgressWatch(std::string label, bool wanted, const std::atomic<double>& share)
-    : bar_(std::move(label), wanted), share_(share) {
+ProgressWatch::ProgressWatch(std::string label, bool wanted, const Progress& progress)
+    : bar_(std::move(label), wanted), progress_(progress) {
   if (!bar_.drawing()) return;  // nothing to draw: no thread
   thread_ = std::thread([this] {
     while (!over_.load()) {
-      bar_.update(share_.load(std::memory_order_relaxed));
+      bar_.update(progress_.share());
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   });

@@ -8,9 +8,9 @@
 //   ProgressBar     a one-line bar on stderr for work longer than about a second, drawn only
 //                   when stderr is a terminal and the output is not --json; at most ten
 //                   redraws a second, cleared when done (done() or the destructor).
-//   ProgressWatch   a ProgressBar fed from another thread's progress (an atomic share that a
-//                   real-time loop stores and must not draw itself): polled ten times a
-//                   second by a thread of its own until the watch goes.
+//   ProgressWatch   a ProgressBar fed from the work's Progress (engine/common/progress.h), which
+//                   the worker reports into and never draws itself (a real-time loop must
+//                   not): polled ten times a second by a thread of its own until the watch goes.
 #pragma once
 
 #include <atomic>
@@ -18,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "engine/common/progress.h"
 #include "engine/common/stop.h"
 
 namespace machplan::cli {
@@ -52,15 +53,15 @@ class ProgressBar {
 
 class ProgressWatch {
  public:
-  // Watches `share` (0 .. 1) under `label`; draws nothing unless `wanted` (see ProgressBar).
-  ProgressWatch(std::string label, bool wanted, const std::atomic<double>& share);
+  // Watches `progress` under `label`; draws nothing unless `wanted` (see ProgressBar).
+  ProgressWatch(std::string label, bool wanted, const Progress& progress);
   ~ProgressWatch();
   ProgressWatch(const ProgressWatch&) = delete;
   ProgressWatch& operator=(const ProgressWatch&) = delete;
 
  private:
   ProgressBar bar_;
-  const std::atomic<double>& share_;
+  const Progress& progress_;
   std::atomic<bool> over_{false};
   std::thread thread_;
 };

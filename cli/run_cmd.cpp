@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -73,21 +74,126 @@ sim::FaultInjection injection_of(const std::string& text) {
   return f;
 }
 
+struct RunArgs {
+  std::string program, machine, mode = "planned", blu, calibration, kerf, feed, no_go, trace, plot, magnify = "1", seed,
+      backend = "sim", db;
+  std::vector<std::string> inject;
+  std::string controller;
+  std::vector<std::string> gains;
+  bool json = false, realtime = false;
+  std::string origin;
+  std::vector<std::string> params;
+  int spindles = 1;
+  bool lenient = false, strict_z = false;
+  double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
+};
+
+// Options struct fields and the flags that set them, for field errors (InputError::field).
+const FieldFlag kRunFlags[] = {
+    {"machine", "--machine"},         {"kerf_mm", "--kerf"},          {"feed_override_mm_per_s", "--feed"},
+    {"origin_mm", "--origin"},        {"max_machine_time_s", "--max-machine-time"},
+    {"blu_mm", "--blu"},              {"calibration_factor", "--calibration"},
+    {"controller", "--controller"},   {"gains", "--gain"},            {"active_calibration", "--calibration"},
+    {"paper_feed_mm_per_s", "--feed"}, {"seed", "--seed"},            {"faults", "--inject"}};
+
+motion::RunOptions run_options(const RunArgs& a) {
+  motion::RunOptions o;
+  session::MachineSessionOptions& so = o.session;
+  so.machine = a.machine;
+  so.executor.mode = mode_of(a.mode);
+  const bool paper = so.executor.mode != executor::Mode::planned;
+  if (!a.blu.empty()) {
+    if (!paper) throw InputError("--blu", 0, "applies to the paper modes only (--mode paper-open or paper-closed)");
+    so.executor.blu_mm = number_of("--blu", a.blu);
+  }
+  if (!a.calibration.empty()) {
+    if (!paper && a.calibration != "active")
+      throw InputError("--calibration", 0,
+                       "a factor applies to the paper modes only (--mode paper-open or paper-closed); planned mode "
+                       "takes 'active' (the machine's stored calibration)");
+    if (a.calibration == "active") {
+      if (paper && a.feed.empty())
+        throw InputError("--calibration", 0, "'active' needs --feed: the open-loop factor depends on the feed");
+      // Paper modes: the open-loop factor for the feed; planned mode: the whole fit, applied to
+      // the executor's setup (the machine session does both).
+      so.active_calibration = true;
+    } else {
+      so.executor.calibration_factor = number_of("--calibration", a.calibration);
+    }
+  }
+  so.store_path = a.db;
+  if (!a.kerf.empty()) o.kerf_mm = number_of("--kerf", a.kerf);
+  if (!a.feed.empty()) {
+    o.feed_override_mm_per_s = number_of("--feed", a.feed);
+    if (!(o.feed_override_mm_per_s > 0)) throw InputError("--feed", 0, fmt::format("{} must be > 0 mm/s", a.feed));
+  }
+  if (!a.seed.empty()) so.backend.sim.seed = seed_of(a.seed);
+  so.backend.name = a.backend;
+  so.backend.sim.realtime = a.realtime;
+  for (const std::string& text : a.inject) so.backend.sim.faults.push_back(injection_of(text));
+  if (!so.backend.sim.faults.empty() && a.backend != "sim")
+    throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
+  so.controller = a.controller;
+  for (const std::string& g : a.gains) control::parse_gain(g, so.gains);
+  o.no_go_path = a.no_go;
+  o.gcode = gcode_options(a.params, a.spindles, a.lenient);
+  o.strict_z = a.strict_z;
+  if (!a.origin.empty()) {
+    const auto comma = a.origin.find(',');
+    if (comma == std::string::npos) throw InputError("--origin", 0, fmt::format("'{}' is not X,Y (mm)", a.origin));
+    o.origin_mm = Eigen::Vector2d(number_of("--origin", a.origin.substr(0, comma)), number_of("--origin", a.origin.substr(comma + 1)));
+  }
+  so.executor.record_trace = !a.plot.empty();
+  so.trace_csv_path = a.trace;  // streamed during the run
+  o.max_machine_time_s = a.max_machine_time_s;
+  return o;
+}
+
+void run_command(const RunArgs& a) {
+  const double magnify = number_of("--magnify", a.magnify);
+  if (!(magnify > 0 && magnify <= 1e6)) throw InputError("--magnify", 0, fmt::format("{} must be > 0 and <= 1e6", a.magnify));
+  if (!a.plot.empty() && !is_picture_path(a.plot))
+    throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", a.plot));
+  // Output files: never one of the inputs, and their folders must exist before the run.
+  for (const auto& [flag, path] : {std::pair<const char*, const std::string&>{"--trace", a.trace}, {"--plot", a.plot}}) {
+    if (path.empty()) continue;
+    refuse_overwriting_input(flag, path, {a.program, a.no_go, a.machine});
+    check_output_folder(flag, path);
+  }
+  // SIGINT, SIGTERM and SIGHUP stop the machine in a controlled way (exit 3), not the process.
+  const StopOnSignals signals;
+  Termination stop(StopOnSignals::stop_token());
+  Progress planning, running;
+  const motion::RunOutcome run = with_flag_names(kRunFlags, [&] {
+    const motion::RunOptions o = run_options(a);
+    // Rapid planning can take seconds on a long job, and the run itself long: a bar for each
+    // on a terminal, drawn by a thread of the watch (the real-time loop draws nothing).
+    std::optional<ProgressWatch> watch(std::in_place, "planning rapids", !a.json, planning);
+    session::MachineSession session(motion::session_options_for(o));
+    motion::PlannedRun plan = motion::plan_program(a.program, o, session.machine(), {&stop, &planning, nullptr});
+    watch.emplace("running", !a.json, running);
+    return motion::execute(session, std::move(plan), o, {&stop, nullptr, &running});
+  });
+  if (!a.plot.empty()) motion::write_run_plot(a.plot, run, magnify);
+
+  if (a.json) {
+    nlohmann::json j = run.to_json();
+    if (!a.trace.empty()) j["trace"] = a.trace;
+    if (!a.plot.empty()) j["plot"] = a.plot;
+    print_json(j);
+  } else {
+    std::printf("%s", run.summary.full_report().c_str());
+    if (!a.trace.empty()) std::printf("trace: %s (%zu samples)\n", a.trace.c_str(), run.result.trace_streamed);
+    if (!a.plot.empty()) std::printf("picture: %s\n", a.plot.c_str());
+  }
+  if (!run.summary.done()) {
+    for (const auto& f : run.result.faults) std::fprintf(stderr, "machplan run: fault: %s\n", f.message.c_str());
+    set_exit_code(run.summary.exit_code());
+  }
+}
+
 void add_run(CLI::App& app) {
-  struct Args {
-    std::string program, machine, mode = "planned", blu, calibration, kerf, feed, no_go, trace, plot, magnify = "1", seed,
-        backend = "sim", db;
-    std::vector<std::string> inject;
-    std::string controller;
-    std::vector<std::string> gains;
-    bool json = false, realtime = false;
-    std::string origin;
-    std::vector<std::string> params;
-    int spindles = 1;
-    bool lenient = false, strict_z = false;
-    double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
-  };
-  auto a = std::make_shared<Args>();
+  auto a = std::make_shared<RunArgs>();
   auto* cmd = app.add_subcommand("run", "Run a part program on the simulated XY table or thermal-cutting gantry");
   cmd->add_option("program", a->program, "G-code part program (.ngc)")->required();
   cmd->add_option("--machine", a->machine, "thermal_gantry, xy_table, or a machine YAML file")->required();
@@ -129,120 +235,7 @@ void add_run(CLI::App& app) {
   cmd->add_option("--inject", a->inject,
                   "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "
                   "lost-backend, arc-loss, arc-start-failure, watchdog); may be repeated");
-  cmd->callback([a] {
-    motion::RunOptions o;
-    o.machine = a->machine;
-    o.executor.mode = mode_of(a->mode);
-    const bool paper = o.executor.mode != executor::Mode::planned;
-    if (!a->blu.empty()) {
-      if (!paper) throw InputError("--blu", 0, "applies to the paper modes only (--mode paper-open or paper-closed)");
-      o.executor.blu_mm = number_of("--blu", a->blu);
-    }
-    if (!a->calibration.empty()) {
-      if (!paper && a->calibration != "active")
-        throw InputError("--calibration", 0,
-                         "a factor applies to the paper modes only (--mode paper-open or paper-closed); planned mode "
-                         "takes 'active' (the machine's stored calibration)");
-      if (a->calibration == "active") {
-        if (paper && a->feed.empty())
-          throw InputError("--calibration", 0, "'active' needs --feed: the open-loop factor depends on the feed");
-        const auto m = cutting::load_machine(cutting::find_machine(a->machine));
-        const std::string db = a->db.empty() ? calibration::default_store_path() : a->db;
-        const auto c = calibration::CalibrationStore(db).active(m.name);
-        if (!c) throw InputError("--calibration", 0, fmt::format("no active calibration for '{}' in {}", m.name, db));
-        // Paper modes: the open-loop factor for the feed; planned mode: the whole fit, applied
-        // to the executor's setup.
-        if (paper)
-          o.executor.calibration_factor = calibration::open_loop_factor(*c, number_of("--feed", a->feed));
-        else
-          o.calibration = c;
-      } else {
-        o.executor.calibration_factor = number_of("--calibration", a->calibration);
-      }
-    }
-    if (!a->kerf.empty()) o.kerf_mm = number_of("--kerf", a->kerf);
-    if (!a->feed.empty()) {
-      o.feed_override_mm_per_s = number_of("--feed", a->feed);
-      if (!(o.feed_override_mm_per_s > 0)) throw InputError("--feed", 0, fmt::format("{} must be > 0 mm/s", a->feed));
-    }
-    const double magnify = number_of("--magnify", a->magnify);
-    if (!(magnify > 0 && magnify <= 1e6)) throw InputError("--magnify", 0, fmt::format("{} must be > 0 and <= 1e6", a->magnify));
-    if (!a->plot.empty() && !is_picture_path(a->plot))
-      throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", a->plot));
-    // Output files: never one of the inputs, and their folders must exist before the run.
-    for (const auto& [flag, path] : {std::pair<const char*, const std::string&>{"--trace", a->trace}, {"--plot", a->plot}}) {
-      if (path.empty()) continue;
-      refuse_overwriting_input(flag, path, {a->program, a->no_go, a->machine});
-      check_output_folder(flag, path);
-    }
-    if (!a->seed.empty()) o.backend.sim.seed = seed_of(a->seed);
-    o.backend.name = a->backend;
-    o.backend.sim.realtime = a->realtime;
-    for (const std::string& text : a->inject) o.backend.sim.faults.push_back(injection_of(text));
-    if (!o.backend.sim.faults.empty() && a->backend != "sim")
-      throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
-    o.controller = a->controller;
-    for (const std::string& g : a->gains) control::parse_gain(g, o.controller_gains);
-    if (a->controller == "tuned") {
-      // The machine's active tuning (machplan tune --store); a --gain overrides a stored gain.
-      const auto m = cutting::load_machine(cutting::find_machine(a->machine));
-      const std::string db = a->db.empty() ? calibration::default_store_path() : a->db;
-      const auto t = tuning::TuningStore(db).active(m.name);
-      if (!t) throw InputError("--controller", 0, fmt::format("no active tuning for '{}' in {} (machplan tune --store)", m.name, db));
-      control::Gains gains = t->gains;
-      for (const auto& [name, value] : o.controller_gains) gains[name] = value;
-      o.controller = t->controller;
-      o.controller_gains = gains;
-    }
-    o.no_go_path = a->no_go;
-    o.gcode = gcode_options(a->params, a->spindles, a->lenient);
-    o.strict_z = a->strict_z;
-    if (!a->origin.empty()) {
-      const auto comma = a->origin.find(',');
-      if (comma == std::string::npos) throw InputError("--origin", 0, fmt::format("'{}' is not X,Y (mm)", a->origin));
-      o.origin_mm = Eigen::Vector2d(number_of("--origin", a->origin.substr(0, comma)),
-                                    number_of("--origin", a->origin.substr(comma + 1)));
-    }
-    o.executor.record_trace = !a->plot.empty();
-    o.trace_csv_path = a->trace;  // streamed during the run
-    o.stop = StopOnSignals::stop_token();
-    o.max_machine_time_s = a->max_machine_time_s;
-    // Rapid planning can take seconds on a long job: a bar on a terminal, cleared before the run.
-    auto bar = std::make_shared<ProgressBar>("planning rapids", !a->json);
-    o.rapids.progress = [bar](double f) { f < 1 ? bar->update(f) : bar->done(); };
-
-    // The run itself: the executor stores its progress, a thread of the watch draws it.
-    std::atomic<double> share{0.0};
-    o.progress = &share;
-    // SIGINT, SIGTERM and SIGHUP stop the machine in a controlled way (exit 3), not the process.
-    const StopOnSignals signals;
-    const motion::RunOutcome run = [&] {
-      const ProgressWatch watch("running", !a->json, share);
-      return motion::run_program(a->program, o);
-    }();
-    bar->done();
-    if (!a->plot.empty()) motion::write_run_plot(a->plot, run, magnify);
-
-    if (a->json) {
-      nlohmann::json j = run.to_json();
-      if (!a->trace.empty()) j["trace"] = a->trace;
-      if (!a->plot.empty()) j["plot"] = a->plot;
-      print_json(j);
-    } else {
-      if (run.kerf) std::printf("kerf compensation\n%s\n", run.kerf->brief(run.job.source).c_str());
-      std::printf("rapids (straight G0 against planned, mm)\n%s\n", run.rapids.summary().c_str());
-      if (paper && o.paper_x1_decoding)
-        std::printf("paper mode: encoders counted x1 as in the paper (%.4f mm per count), BLU %g mm, calibration %g\n\n",
-                    run.machine.axes[0].plant.mm_per_count(), o.executor.blu_mm, o.executor.calibration_factor);
-      std::printf("%s", run.report().c_str());
-      if (!a->trace.empty()) std::printf("trace: %s (%zu samples)\n", a->trace.c_str(), run.result.trace_streamed);
-      if (!a->plot.empty()) std::printf("picture: %s\n", a->plot.c_str());
-    }
-    if (run.faulted()) {
-      for (const auto& f : run.result.faults) std::fprintf(stderr, "machplan run: fault: %s\n", f.message.c_str());
-      set_exit_code(3);
-    }
-  });
+  cmd->callback([a] { run_command(*a); });
 }
 
 const Registration reg(60, add_run);

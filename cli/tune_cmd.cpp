@@ -55,7 +55,7 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
              const std::string& law) {
   tuning::AccTuningOptions base;
   if (!evaluations.empty()) base.optimizer.max_evaluations = static_cast<int>(whole_number("--evaluations", evaluations, 1, 1000000));
-  if (!time_s.empty()) base.optimizer.max_time_s = number("--time", time_s, 0.01, 86400);
+  if (!time_s.empty()) base.max_work_s = number("--time", time_s, 0.01, 86400);
   if (law != "fixed" && law != "variable" && law != "both")
     throw InputError("--acc-law", 0, fmt::format("'{}' is not a law (fixed, variable, both)", law));
   const auto steps = control::koren_depth_steps();
@@ -63,11 +63,12 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
   const auto koren = control::simulate_acc(base.process, base.acc, steps, duration);
   std::vector<tuning::AccTuningResult> results;
   const StopOnSignals signals;
+  Termination stop(StopOnSignals::stop_token());
   for (int vg = 0; vg < 2; ++vg) {
     if ((vg == 0 && law == "variable") || (vg == 1 && law == "fixed")) continue;
     tuning::AccTuningOptions o = base;
     o.acc.variable_gain = vg == 1;
-    results.push_back(tuning::tune_acc(o, StopOnSignals::stop_token()));
+    results.push_back(tuning::tune_acc(o, &stop));
   }
   // The settled feed and force before each depth change (and at the end).
   auto settled = [&](const std::vector<control::AccSample>& run) {
@@ -151,7 +152,9 @@ void add_tune(CLI::App& app) {
   cmd->add_option("--fix", a->fixed, "hold a gain at a value and do not search it, NAME=VALUE; may be repeated");
   cmd->add_option("--objective", a->objective, "contour error to minimise: max (default), rms or itae");
   cmd->add_option("--evaluations", a->evaluations, "evaluation budget of the optimiser (default 600; --acc 150)");
-  cmd->add_option("--time", a->time, "wall-clock limit of the optimiser, s (default 25)");
+  cmd->add_option("--time", a->time,
+                  "deadline of the search, s of work: simulated machine time at its cost on a reference PC, so the "
+                  "same inputs give the same gains on any computer (default 25)");
   cmd->add_option("--seed", a->seed, "seed of the simulated machine's noise (default 1)");
   cmd->add_option("--noise-runs", a->noise_runs,
                   "runs of each contour, each under its own noise (seeds SEED, SEED+1, ...); the maximum is taken over "
@@ -186,7 +189,7 @@ void add_tune(CLI::App& app) {
     for (const std::string& g : a->gains) control::parse_gain(g, o.start);
     for (const std::string& g : a->fixed) control::parse_gain(g, o.fixed, "--fix");
     if (!a->evaluations.empty()) o.optimizer.max_evaluations = static_cast<int>(whole_number("--evaluations", a->evaluations, 1, 1000000));
-    if (!a->time.empty()) o.optimizer.max_time_s = number("--time", a->time, 0.01, 86400);
+    if (!a->time.empty()) o.max_work_s = number("--time", a->time, 0.01, 86400);
     if (!a->seed.empty()) o.evaluation.seed = static_cast<std::uint64_t>(whole_number("--seed", a->seed, 0, 2147483647));
     o.evaluation.noise_runs = a->noise_runs.empty() ? 3 : static_cast<int>(whole_number("--noise-runs", a->noise_runs, 1, 100));
     std::vector<tuning::TestContour> contours;
@@ -196,15 +199,16 @@ void add_tune(CLI::App& app) {
     const tuning::Evaluator ev(o.evaluation, contours);
     tuning::TuneResult r;
     {
-      ProgressBar bar(fmt::format("tuning {}", o.kind), !a->json);
-      o.progress = [&bar](double f) { bar.update(f); };
-      r = tuning::tune(ev, o, StopOnSignals::stop_token());
+      Termination stop(StopOnSignals::stop_token());
+      Progress progress;
+      const ProgressWatch watch(fmt::format("tuning {}", o.kind), !a->json, progress);
+      r = tuning::tune(ev, o, &stop, &progress);
     }
     std::int64_t stored = 0;
     if (a->store) {
-      if (r.status != "ok")
-        throw Infeasible(fmt::format("the tuning's status is '{}': nothing stored", r.status));
-      stored = tuning::TuningStore(db).save(r.machine, r.kind, r.gains, r.status, r.to_json().dump(), who());
+      if (!r.summary.done())
+        throw Infeasible(fmt::format("the tuning's status is '{}': nothing stored", to_string(r.summary.status)));
+      stored = tuning::TuningStore(db).save(r.machine, r.kind, r.gains, "ok", r.to_json().dump(), who());
     }
     if (!a->plot.empty()) {
       // The first contour under the first noise draw, in micrometres.
@@ -223,11 +227,11 @@ void add_tune(CLI::App& app) {
       if (!a->plot.empty()) j["plot"] = a->plot;
       print_json(j);
     } else {
-      std::printf("%s", r.report().c_str());
+      std::printf("%s", r.summary.full_report().c_str());
       if (stored) std::printf("stored as tuning %lld, active for %s, in %s\n", static_cast<long long>(stored), r.machine.c_str(), db.c_str());
       if (!a->plot.empty()) std::printf("picture: %s\n", a->plot.c_str());
     }
-    if (r.status != "ok") set_exit_code(3);
+    set_exit_code(r.summary.exit_code());
   });
 }
 

@@ -20,6 +20,8 @@ class StopToken {
   StopToken() = default;
   explicit StopToken(const std::atomic<bool>* flag) : flag_(flag) {}
   bool stop_requested() const noexcept { return flag_ && flag_->load(std::memory_order_relaxed); }
+  // Whether a StopSource stands behind this token.
+  bool bound() const noexcept { return flag_ != nullptr; }
 
  private:
   const std::atomic<bool>* flag_ = nullptr;

@@ -65,6 +65,10 @@ class Termination {
   // Ends the work as if by a stop request (the executor's own stop button).
   void request_stop() noexcept { end(Reason::stop_requested); }
 
+  // The stop request this work obeys (its own, else its parent's), for an API that takes a
+  // StopToken.
+  StopToken stop_token() const noexcept { return parent_ && !stop_.bound() ? parent_->stop_token() : stop_; }
+
   Reason reason() const noexcept { return static_cast<Reason>(reason_.load(std::memory_order_relaxed)); }
   bool ended() const noexcept { return reason() != Reason::none; }
   std::int64_t units_spent() const noexcept { return units_.load(std::memory_order_relaxed); }

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/motion/process_time.h"
 
 namespace machplan::executor {
 
@@ -38,9 +39,11 @@ void ExecutorOptions::validate() const {
   auto fail = [](const char* field, double v, const char* rule) {
     throw InputError("", 0, fmt::format("ExecutorOptions::{} = {}: {}", field, v, rule));
   };
-  if (!(std::isfinite(blu_mm) && blu_mm >= 0.01 && blu_mm <= 1000)) fail("blu_mm", blu_mm, "must be in [0.01, 1000] mm");
+  if (!(std::isfinite(blu_mm) && blu_mm >= 0.01 && blu_mm <= 1000))
+    throw InputError::field("blu_mm", fmt::format("{} is out of range: must be >= 0.01 and <= 1000 mm", blu_mm));
   if (!(std::isfinite(calibration_factor) && calibration_factor > 0.1 && calibration_factor <= 10))
-    fail("calibration_factor", calibration_factor, "must be in (0.1, 10]");
+    throw InputError::field("calibration_factor",
+                            fmt::format("{} is out of range: must be > 0.1 and <= 10", calibration_factor));
   if (!(std::isfinite(paper_compute_s) && paper_compute_s >= 0 && paper_compute_s <= 10))
     fail("paper_compute_s", paper_compute_s, "must be in [0, 10] s");
   if (!(std::isfinite(paper_settle_s) && paper_settle_s >= 0 && paper_settle_s <= 60))
@@ -108,7 +111,7 @@ enum class Phase { dispatch, move, torch, dwell, end_hold, jog, done };
 
 struct Session::Impl {
   Impl(Executor& ex, const motion::Job& job, const Trajectories& trajs, hardware::Backend& be, const RunParts& parts)
-      : ms(ex.setup_), opt(ex.options_), job(job), trajs(trajs), be(be), parts(parts), stop_flag(ex.stop_requested_),
+      : ms(ex.setup_), opt(ex.options_), job(job), trajs(trajs), be(be), parts(parts),
         dt(be.period_s()) {}
 
   void prepare(double machine_period_s);
@@ -135,7 +138,6 @@ struct Session::Impl {
   hardware::Backend& be;
   RunParts parts;
   double expected_s = 1.0;  // the job's expected machine time, for RunParts::progress
-  std::atomic<bool>& stop_flag;
   const double dt;
 
   // --- parts --------------------------------------------------------------------------------
@@ -203,9 +205,7 @@ void Session::Impl::prepare(double machine_period_s) {
   // The job, independent of the source.
   Eigen::Vector2d at = job.start_mm;
   bool torch_on = false;
-  double est_s = 1.0;
   const TorchSetup& ts = ms.torch;
-  const double torch_seq_s = 2 * ts.height_timeout_s + ts.arc_ok_timeout_s + ts.preheat_s + ts.pierce_delay_s + 0.1;
   for (std::size_t i = 0; i < job.steps.size(); ++i) {
     const Step& st = job.steps[i];
     switch (st.kind) {
@@ -230,22 +230,22 @@ void Session::Impl::prepare(double machine_period_s) {
       case Step::Kind::torch_on:
         if (ts.kind == TorchSetup::Kind::none) fail(st.source_line, fmt::format("torch on, but machine '{}' has no torch", ms.name));
         torch_on = true;
-        est_s += torch_seq_s;
         break;
       case Step::Kind::torch_off:
         if (ts.kind == TorchSetup::Kind::none) fail(st.source_line, fmt::format("torch off, but machine '{}' has no torch", ms.name));
         torch_on = false;
-        est_s += ts.height_timeout_s;
         break;
       case Step::Kind::dwell:
         if (!(std::isfinite(st.seconds) && st.seconds >= 0 && st.seconds <= 3600))
           fail(st.source_line, fmt::format("dwell of {} s (must be 0 .. 3600)", st.seconds));
-        est_s += st.seconds;
         break;
     }
   }
   source->prepare(ctx, job.start_mm);
-  est_s += source->estimate_s();
+  // At most: every torch step waits out its timeouts (engine/motion/process_time.h).
+  const motion::TorchTimes longest{2 * ts.height_timeout_s + ts.arc_ok_timeout_s + ts.preheat_s + 0.1, 0.0,
+                                   ts.pierce_delay_s, ts.height_timeout_s};
+  double est_s = 1.0 + motion::process_time_s(job, longest) + source->estimate_s();
   expected_s = std::max(parts.expected_s > 0 ? parts.expected_s : est_s, dt);
   // Stop: ramp from the top speed, settle, margins.
   double vmax = 0;
@@ -431,7 +431,8 @@ bool Session::Impl::tick() noexcept {
   const hardware::Health health = be.exchange(out, in);
   ++ticks;
   t += dt;
-  if (parts.progress) parts.progress->store(std::min(t / expected_s, 0.999), std::memory_order_relaxed);
+  if (parts.progress) parts.progress->report(std::min(t / expected_s, 0.999));
+  if (parts.termination) parts.termination->charge(1, dt);
   if (health == hardware::Health::lost) {
     // Nothing more can be commanded; the backend's watchdog stops the machine.
     raise(FK::lost_backend, -1, 0.0);
@@ -463,7 +464,7 @@ bool Session::Impl::tick() noexcept {
     sup.note_trusted(adapter.position_mm());
   if (in.estop) raise(FK::estop, -1, 0.0);
   if (in.watchdog_tripped) raise(FK::watchdog, -1, be.watchdog_periods());
-  if (stop_flag.load(std::memory_order_relaxed) || parts.stop.stop_requested()) raise(FK::stop_requested, -1, 0.0);
+  if (parts.termination && parts.termination->should_end()) raise(FK::stop_requested, -1, 0.0);
   if (sup.arc_lost(moving_cut() && ms.torch.kind == TorchSetup::Kind::plasma, in.arc_ok))
     raise(FK::arc_lost, -1, sup.arc_low_s());
 
@@ -529,11 +530,12 @@ bool Session::Impl::tick() noexcept {
 ExecutionResult Session::Impl::finish() {
   // ---- after the loop: allocation and formatting are allowed again ----
   ExecutionResult& r = result;
-  if (parts.progress) parts.progress->store(1.0, std::memory_order_relaxed);
+  if (parts.progress) parts.progress->finish();
   if (opt.record_trace) recorder.finish();
   r.machine = ms.name;
   r.source = job.source;
   r.backend = be.name();
+  r.backend_notes = be.notes();
   r.mode = opt.mode;
   r.cycle_time_s = t;
   r.torch_on_s = torch_on_s;
@@ -613,7 +615,12 @@ ExecutionResult Session::Impl::finish() {
                                 "cannot give)",
                                 f.value, ms.contour_error_limit_mm);
         break;
-      case FK::stop_requested: f.message = "stop requested"; break;
+      case FK::stop_requested:
+        f.message = parts.termination && parts.termination->ended() &&
+                            parts.termination->reason() != Termination::Reason::stop_requested
+                        ? parts.termination->describe()
+                        : "stop requested";
+        break;
     }
     f.message = fmt::format("{}: {} at t = {:.3f} s, step {}, last known position ({:.3f}, {:.3f}) mm", where, f.message,
                             f.time_s, f.step, f.last_known_mm.x(), f.last_known_mm.y());
@@ -630,7 +637,6 @@ ExecutionResult Session::Impl::finish() {
 Session::Session(Executor& ex, const motion::Job& job, const Trajectories& trajectories, hardware::Backend& backend,
                  const RunParts& parts)
     : impl_(std::make_unique<Impl>(ex, job, trajectories, backend, parts)) {
-  ex.stop_requested_.store(false);
   impl_->prepare(ex.setup_.servo_period_s);
 }
 
@@ -705,6 +711,7 @@ nlohmann::json ExecutionResult::to_json(bool include_trace) const {
   j["steps_completed"] = steps_completed;
   j["stopped_at_rest"] = stopped_at_rest;
   j["torch_off_at_end"] = torch_off_at_end;
+  j["backend_notes"] = backend_notes;
   auto num = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
   j["cuts"] = json::array();
   for (const CutError& c : cuts)

@@ -26,8 +26,9 @@
 //
 // Faults (FaultKind, supervisor.h): following error, encoder glitch, counter wrap misread,
 // E-stop, lost backend, watchdog, arc start failure, arc lost while cutting, torch height
-// timeout, axis stalled, drive saturated off the contour, stop requested (request_stop(), a
-// StopToken, a signal in the CLI). On any of them, in the same tick: torch off and retract;
+// timeout, axis stalled, drive saturated off the contour, stop requested (the run's
+// Termination ended: a stop request, its deadline in machine time or its budget of periods;
+// engine/common/termination.h). On any of them, in the same tick: torch off and retract;
 // then the controlled stop of the supervisor; the report keeps the last trusted position.
 //
 // Time budget: the servo period is 1 ms (the backend's). The executor's own work per tick (two
@@ -39,8 +40,9 @@
 // buffers are filled or reserved and touched before the first tick, and fault messages are
 // composed after the run from numbers recorded in the tick.
 //
-// Threading: run() occupies the calling thread until the job ends. request_stop() and a
-// StopToken's source may be used from any thread (and a signal handler).
+// Threading: run() occupies the calling thread until the job ends. The run's Termination may
+// be ended from any thread (its stop request also from a signal handler), and its Progress
+// read from any thread.
 #pragma once
 
 #include <atomic>
@@ -52,7 +54,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "engine/common/stop.h"
+#include "engine/common/progress.h"
+#include "engine/common/termination.h"
 #include "engine/control/controller.h"
 #include "engine/control/pid_ff_controller.h"
 #include "engine/executor/blu_vector_source.h"
@@ -143,6 +146,9 @@ struct ExecutionResult {
   bool trace_truncated = false;
   std::size_t trace_streamed = 0;     // samples written to a TraceStream
   std::size_t trace_stream_dropped = 0;
+  // What the backend had to say after the run that the executor could not know (a simulator:
+  // an injected fault that never took effect).
+  std::vector<std::string> backend_notes;
   bool stopped_at_rest = true;        // after a fault: the axes were seen at rest (false for lost backend)
   bool torch_off_at_end = true;
 
@@ -160,12 +166,16 @@ struct RunParts {
   DemandFilter* filter = nullptr;            // between source and controller (the hybrid guard)
   control::Controller* controller = nullptr; // default: PidFfController on the machine's gains
   TraceStream* trace_stream = nullptr;       // streams the trace to CSV during the run
-  StopToken stop;                            // a stop request from outside (signals)
+  // When the run ends early: polled once per period; a stop request, a deadline (charged one
+  // servo period of machine time per tick) or a budget (one unit per tick) ends the run with a
+  // stop_requested fault, torch off and a controlled stop, and the fault's message says which.
+  // Null: the run ends only with its job or a fault.
+  Termination* termination = nullptr;
   // For a display thread: the share of the job's expected machine time run so far (0 .. 1;
-  // 1 once the run is over), stored each period with relaxed order. The expected time is
-  // `expected_s` when the caller knows it (the planned motion plus the torch process), else
-  // the executor's own estimate, which counts the torch's timeouts and so runs long.
-  std::atomic<double>* progress = nullptr;
+  // 1 once the run is over), reported each period. The expected time is `expected_s` when the
+  // caller knows it (the planned motion plus the torch process), else the executor's own
+  // estimate, which counts the torch's timeouts and so runs long.
+  Progress* progress = nullptr;
   double expected_s = 0.0;
 };
 
@@ -207,9 +217,6 @@ class Executor {
   ExecutionResult run(const motion::Job& job, const Trajectories& trajectories, hardware::Backend& backend,
                       const RunParts& parts = {});
 
-  // Asks a running run() to stop (torch off, controlled stop, reported as stop_requested).
-  void request_stop() { stop_requested_.store(true, std::memory_order_relaxed); }
-
   const MachineSetup& setup() const { return setup_; }
   const ExecutorOptions& options() const { return options_; }
 
@@ -217,7 +224,6 @@ class Executor {
   friend class Session;
   MachineSetup setup_;
   ExecutorOptions options_;
-  std::atomic<bool> stop_requested_{false};
 };
 
 }  // namespace machplan::executor

@@ -44,6 +44,8 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -120,6 +122,10 @@ class Backend {
     (void)out_mm;
     return false;
   }
+
+  // After a run (not real time): what the backend has to say about it that the executor
+  // cannot know, one sentence each; e.g. a simulator's injected fault that never took effect.
+  virtual std::vector<std::string> notes() const { return {}; }
 };
 
 }  // namespace machplan::hardware

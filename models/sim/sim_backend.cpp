@@ -51,12 +51,14 @@ SimBackend::SimBackend(const cutting::MachineConfig& machine, const SimOptions& 
   height_mm_ = height_target_mm_ = m_.torch_height.fitted ? m_.torch_height.retract_height_mm : 0.0;
   pending_.reserve(16 + opt_.faults.size());
   fired_.reserve(16 + opt_.faults.size());
+  effective_.reserve(16 + opt_.faults.size());
   for (const FaultInjection& f : opt_.faults) inject(f);
 }
 
 void SimBackend::inject(const FaultInjection& f) {
   pending_.push_back(f);
   fired_.push_back(0);
+  effective_.push_back(0);
 }
 
 hardware::AxisSignals SimBackend::axis_signals(int axis) const {
@@ -115,8 +117,16 @@ void SimBackend::advance(const hardware::Outputs& out) {
 
   for (int i = 0; i < 2; ++i) plants_[i]->step(enabled_ ? out.dac_code[i] : 0, enabled_, dt, rng_);
 
-  // Torch.
-  if (fire && !fire_) {
+  // Torch: an injected arc fault takes effect on the first arc it meets.
+  const bool starting = fire && !fire_;
+  for (std::size_t k = 0; k < pending_.size(); ++k) {
+    if (!fired_[k] || effective_[k]) continue;
+    const FaultInjection::Kind kind = pending_[k].kind;
+    if (kind == FaultInjection::Kind::arc_start_failure) effective_[k] = starting;
+    else if (kind == FaultInjection::Kind::arc_loss) effective_[k] = fire;
+    else effective_[k] = 1;
+  }
+  if (starting) {
     ++arc_starts_;
     arc_timer_s_ = 0.0;
     arc_fails_ = arc_start_fails_ || uniform_fail();
@@ -185,6 +195,21 @@ hardware::Health SimBackend::exchange(const hardware::Outputs& out, hardware::In
     last_return_ = std::chrono::steady_clock::now();
   }
   return lost_ ? hardware::Health::lost : hardware::Health::ok;
+}
+
+std::vector<std::string> SimBackend::notes() const {
+  std::vector<std::string> out;
+  for (std::size_t k = 0; k < pending_.size(); ++k) {
+    const FaultInjection& f = pending_[k];
+    if (!fired_[k])
+      out.push_back(fmt::format("the injected fault {}@{:g} s never fired: the run ended at {:.3f} s", to_string(f.kind), f.at_s,
+                                time_s_));
+    else if (!effective_[k])
+      out.push_back(fmt::format("the injected fault {}@{:g} s never took effect: {}", to_string(f.kind), f.at_s,
+                                f.kind == FaultInjection::Kind::arc_start_failure ? "no arc was started after it"
+                                                                                  : "no arc burned after it"));
+  }
+  return out;
 }
 
 bool SimBackend::true_position(Eigen::Vector2d& out_mm) const noexcept {

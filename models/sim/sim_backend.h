@@ -95,6 +95,9 @@ class SimBackend final : public hardware::Backend {
   hardware::Inputs initial_inputs() override;
   hardware::Health exchange(const hardware::Outputs& out, hardware::Inputs& in) noexcept override;
   bool true_position(Eigen::Vector2d& out_mm) const noexcept override;
+  // Injected faults that never fired (the run ended before their time) or never took effect
+  // (an arc fault with no arc after it).
+  std::vector<std::string> notes() const override;
 
   // Runs the machine on for `seconds` with the drives disabled and the torch off (what the
   // hardware does once the controller is gone or finished).
@@ -125,6 +128,7 @@ class SimBackend final : public hardware::Backend {
   std::array<std::unique_ptr<axis::AxisPlant>, 2> plants_;
   std::vector<FaultInjection> pending_;
   std::vector<char> fired_;
+  std::vector<char> effective_;  // a fired injection changed what the machine did
   double time_s_ = 0.0;
   long ticks_ = 0;
   bool enabled_ = false, fire_ = false, arc_burning_ = false, arc_fails_ = false, arc_lost_ = false;

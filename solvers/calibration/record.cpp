@@ -65,10 +65,11 @@ long record_periods(const RecordOptions& o, double period_s) {
   return static_cast<long>(program(o, period_s).size());
 }
 
-SessionLog record_session(hardware::Backend& backend, const cutting::MachineConfig& nominal, const RecordOptions& o) {
+SessionLog record_session(hardware::Backend& backend, const cutting::MachineConfig& nominal, const RecordOptions& o,
+                          Termination* termination, Progress* progress) {
   o.validate();
   if (backend.command_kind() != hardware::CommandKind::speed_dac)
-    throw InputError("--backend", 0,
+    throw InputError::field("backend",
                      fmt::format("backend '{}' takes position commands; calibration needs a speed_dac backend "
                                  "(raw DAC codes and counters)",
                                  backend.name()));
@@ -119,7 +120,9 @@ SessionLog record_session(hardware::Backend& backend, const cutting::MachineConf
   hardware::Outputs out;
   out.drives_enabled = true;
   for (std::size_t k = 0; k < steps.size(); ++k) {
-    if (o.stop.stop_requested()) {
+    report_progress(progress, static_cast<double>(k) / static_cast<double>(steps.size()));
+    if (termination) termination->charge(1, dt);
+    if (termination && termination->should_end()) {
       // Zero speed until the drives' lag has run out, then drives off.
       out.dac_code = {0, 0};
       const long n = std::max(1L, std::lround(o.stop_s / dt));
@@ -127,7 +130,7 @@ SessionLog record_session(hardware::Backend& backend, const cutting::MachineConf
         if (backend.exchange(out, in) == hardware::Health::lost) break;
       out = hardware::Outputs{};
       backend.exchange(out, in);
-      throw Infeasible(fmt::format("calibration cancelled at {:.3f} s; the axes were stopped", k * dt));
+      throw Cancelled(fmt::format("calibration ended at {:.3f} s ({}); the axes were stopped", k * dt, termination->describe()));
     }
     std::array<std::int32_t, 2> code{};
     for (int a = 0; a < 2; ++a)
@@ -144,6 +147,7 @@ SessionLog record_session(hardware::Backend& backend, const cutting::MachineConf
   // Leave the machine at rest with the drives off.
   out = hardware::Outputs{};
   backend.exchange(out, in);
+  report_progress(progress, 1.0);
   return log;
 }
 

@@ -30,7 +30,8 @@
 #include <vector>
 
 #include "engine/calibration/session_log.h"
-#include "engine/common/stop.h"
+#include "engine/common/progress.h"
+#include "engine/common/termination.h"
 #include "engine/hardware/backend.h"
 #include "models/cutting/machine_config.h"
 
@@ -46,9 +47,8 @@ struct RecordOptions {
   int repeats = 1;                // >= 1
   double ruler_noise_mm = 0.005;  // std dev of a reference reading, >= 0
   std::uint64_t seed = 1;         // the ruler's noise
-  // Cancellation, checked every period: the routine then commands zero speed for
-  // `stop_s`, disables the drives and throws Infeasible ("cancelled").
-  StopToken stop;
+  // After a stop request (or the deadline or budget of the routine's Termination, charged one
+  // period per period): zero speed for this long, then drives off.
   double stop_s = 0.3;            // > several lags of the drive, so the axes are at rest
   void validate() const;          // throws InputError naming the field
 };
@@ -59,7 +59,9 @@ long record_periods(const RecordOptions& o, double period_s);
 // Runs the routine on `backend` (speed_dac only; InputError otherwise) and returns the log.
 // `nominal` is the machine file (names, DAC scale); its comments go into the log. Throws
 // Infeasible when the backend is lost, the E-stop opens or the watchdog trips mid-session, and
-// when cancelled through `o.stop` (after stopping the axes).
-SessionLog record_session(hardware::Backend& backend, const cutting::MachineConfig& nominal, const RecordOptions& o);
+// Cancelled when `termination` ends the work (after stopping the axes). `progress` follows the
+// routine's periods. Both may be null.
+SessionLog record_session(hardware::Backend& backend, const cutting::MachineConfig& nominal, const RecordOptions& o,
+                          Termination* termination = nullptr, Progress* progress = nullptr);
 
 }  // namespace machplan::calibration

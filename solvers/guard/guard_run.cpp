@@ -14,8 +14,8 @@
 #include "engine/motion/feed_planner.h"
 #include "engine/programs/dxf.h"
 #include "models/cutting/machine_config.h"
-#include "models/sim/sim_backend.h"
 #include "solvers/motion/run.h"
+#include "solvers/session/machine_session.h"
 
 namespace machplan::guard {
 
@@ -89,12 +89,24 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // What every session shares.
 struct Rig {
   cutting::MachineConfig machine;
-  executor::MachineSetup setup;
   const ProhibitedRegion* region = nullptr;
   GuardRunOptions o;
   double jog_speed = 0.0;
   std::vector<std::string>* warnings = nullptr;
+  Termination* termination = nullptr;
   long stops = 0, failsafe = 0, emergency = 0;
+
+  // A machine session on the rig's machine: the simulated table from `start_mm`, seeded.
+  session::MachineSessionOptions session(executor::Mode mode, std::uint64_t seed, bool realtime) const {
+    session::MachineSessionOptions so;
+    so.machine_config = machine;
+    so.backend.sim.seed = seed;
+    so.backend.sim.realtime = realtime;
+    so.executor.mode = mode;
+    so.executor.jog.speed_mm_per_s = jog_speed;
+    so.executor.record_trace = mode != executor::Mode::jog;
+    return so;
+  }
 };
 
 // One jog session under the guard from `start`. Before every tick `step(t, true_mm, guard,
@@ -103,24 +115,16 @@ struct Rig {
 template <class Step>
 double jog_session(Rig& rig, const Eigen::Vector2d& start, std::uint64_t seed, bool realtime, Step&& step,
                    Eigen::Vector2d& end_mm) {
-  executor::ExecutorOptions eo;
-  eo.mode = executor::Mode::jog;
-  eo.jog.speed_mm_per_s = rig.jog_speed;
-  eo.record_trace = false;
-  executor::Executor ex(rig.setup, eo);
-  sim::SimOptions so;
-  so.seed = seed;
-  so.start_mm = start;
-  so.realtime = realtime;
-  sim::SimBackend be(rig.machine, so);
-  executor::Guard guard(*rig.region, rig.o.guard, rig.setup, be.period_s());
+  session::MachineSession ms(rig.session(executor::Mode::jog, seed, realtime));
+  hardware::Backend& be = ms.backend(start);
+  executor::Guard guard(*rig.region, rig.o.guard, ms.setup(), be.period_s());
   motion::Job job;
   job.source = "operator";
   job.start_mm = start;
-  static const executor::Trajectories kNone;
-  executor::RunParts parts;
-  parts.filter = &guard;
-  executor::Session s(ex, job, kNone, be, parts);
+  session::MachineSession::RunHooks hooks;
+  hooks.filter = &guard;
+  hooks.termination = rig.termination;
+  const std::unique_ptr<executor::Session> s = ms.start(job, {}, hooks);
   hardware::OperatorInputs in{};
   const double dt = be.period_s();
   double t = 0.0;
@@ -133,13 +137,13 @@ double jog_session(Rig& rig, const Eigen::Vector2d& start, std::uint64_t seed, b
       in = {};
       in.cycle_start = true;
     }
-    be.set_operator(in);
-    if (!s.tick()) break;
+    ms.operator_inputs().set(in);
+    if (!s->tick()) break;
     t += dt;
     if (!be.true_position(p)) p = guard.setpoint_mm();
     if (ending && ++after_end > 20000) break;  // the controlled stop takes far less
   }
-  const executor::ExecutionResult r = s.finish();
+  const executor::ExecutionResult r = s->finish();
   for (const auto& f : r.faults)
     if (f.kind != executor::FaultKind::stop_requested && rig.warnings)
       rig.warnings->push_back(fmt::format("session at ({:.2f}, {:.2f}): {}", start.x(), start.y(), f.message));
@@ -351,14 +355,10 @@ void finish_profile(Rig& rig, const Eigen::Vector2d& from, GuardRunResult& r) {
   executor::Trajectories trajs(job.steps.size());
   for (std::size_t i = 0; i < job.steps.size(); ++i) trajs[i] = motion::plan_stretch(job.stretches[job.steps[i].stretch], po);
 
-  executor::ExecutorOptions eo;
-  eo.mode = executor::Mode::planned;
-  executor::Executor ex(rig.setup, eo);
-  sim::SimOptions so;
-  so.seed = rig.o.seed + 7919;
-  so.start_mm = from;
-  sim::SimBackend be(rig.machine, so);
-  const executor::ExecutionResult res = ex.run(job, trajs, be);
+  session::MachineSession ms(rig.session(executor::Mode::planned, rig.o.seed + 7919, false));
+  session::MachineSession::RunHooks hooks;
+  hooks.termination = rig.termination;
+  const executor::ExecutionResult res = ms.run(job, trajs, hooks);
   r.finishing_time_s = res.cycle_time_s;
 
   for (std::size_t i = 0; i < passes.size(); ++i) {
@@ -389,137 +389,126 @@ void finish_profile(Rig& rig, const Eigen::Vector2d& from, GuardRunResult& r) {
 
 }  // namespace
 
-GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options) {
-  options.validate();
-  GuardRunResult r;
-  r.profile_source = source;
-  r.options = options;
-  r.profile = profile;
-  Rig rig;
-  rig.o = options;
-  rig.machine = cutting::load_machine(cutting::find_machine(options.machine));
-  rig.setup = rig.machine.setup();
-  r.machine = rig.machine.name;
-  rig.warnings = &r.warnings;
-  const ProhibitedRegion region = ProhibitedRegion::build(profile, options.region);
-  rig.region = &region;
-  r.boundary = region.boundary();
-  for (const OffsetProblem& p : region.problems()) r.warnings.push_back(p.message);
+namespace {
 
+// Seeded random strokes toward random boundary points (the paper's repeated attempts).
+void rough_random(Rig& rig, const ProhibitedRegion& region, Tracker& tracker, std::mt19937_64& rng, Eigen::Vector2d& last,
+                  GuardRunResult& r, Progress* progress) {
+  const GuardRunOptions& options = rig.o;
   const double T = options.guard.tolerance_mm;
   const double L = options.guard.latency_s;
-  Tracker tracker(region, T, r);
-  Eigen::Vector2d last = Eigen::Vector2d::Zero();
-  std::mt19937_64 rng(options.seed);
-
-  switch (options.op.kind) {
-    case OperatorSpec::Kind::random: {
-      rig.jog_speed = options.feed_mm_per_s;
-      const double v = options.feed_mm_per_s;
-      const double lo = T + 2.0 + 0.05 * v, hi = T + 12.0 + 0.05 * v;
-      for (int i = 0; i < options.op.strokes; ++i) {
-        const Eigen::Vector2d aim = random_boundary_point(region, rng);
-        const Eigen::Vector2d start = approach_start(region, rng, aim, lo, hi);
-        const double delay = std::uniform_real_distribution<double>(0.0, 0.2 + L)(rng);
-        const Eigen::Vector2d dir = (aim - start).normalized();
-        const double push_s = (aim - start).norm() / v + 0.5;
-        bool pushed = false, released = false;
-        double released_at = 0.0, rest_since = -1.0;
-        tracker.rebase(0);
-        r.roughing_time_s += jog_session(
-            rig, start, options.seed * 1000003u + static_cast<std::uint64_t>(i), false,
-            [&](double t, const Eigen::Vector2d& p, const executor::Guard& g, hardware::OperatorInputs& in) {
-              tracker.sample(t, p, g.counters().limited_ticks);
-              if (t < delay) {
-                in = {};
-                return true;
-              }
-              if (!pushed) {
-                tracker.push_start(t, p, aim, v, g.counters().limited_ticks);
-                pushed = true;
-              }
-              if (!released) {
-                const bool at_rest = g.holding() && g.setpoint_velocity_mm_per_s().norm() < 1e-9;
-                if (at_rest && rest_since < 0) rest_since = t;
-                if (!at_rest) rest_since = -1.0;
-                if (t - delay > push_s || (rest_since >= 0 && t - rest_since > 0.05)) {
-                  released = true;
-                  released_at = t;
-                }
-              }
-              if (released) {
-                in = {};
-                return t - released_at < 0.15;
-              }
-              set_stick(in, dir, v, rig.jog_speed);
-              return true;
-            },
-            last);
-        tracker.close();
-      }
-      break;
-    }
-    case OperatorSpec::Kind::script: {
-      const hardware::OperatorScript script = hardware::read_operator_script(options.op.path);
-      if (!script.start_mm)
-        throw InputError(script.source, script.rows.front().line, "the script has no start row (start,X,Y) before its first data row");
-      if (region.prohibited(*script.start_mm))
-        throw InputError(script.source, 0,
-                         fmt::format("the start ({:.3f}, {:.3f}) lies in the prohibited region", script.start_mm->x(), script.start_mm->y()));
-      double top = options.feed_mm_per_s;
-      for (const auto& row : script.rows) top = std::max(top, row.speed_mm_per_s);
-      rig.jog_speed = top;
-      const hardware::ScriptRow* prev = nullptr;
-      r.roughing_time_s += jog_session(
-          rig, *script.start_mm, options.seed, false,
-          [&](double t, const Eigen::Vector2d& p, const executor::Guard& g, hardware::OperatorInputs& in) {
-            tracker.sample(t, p, g.counters().limited_ticks);
-            const hardware::ScriptRow* row = script.at(t);
+  rig.jog_speed = options.feed_mm_per_s;
+  const double v = options.feed_mm_per_s;
+  const double lo = T + 2.0 + 0.05 * v, hi = T + 12.0 + 0.05 * v;
+  for (int i = 0; i < options.op.strokes; ++i) {
+    const Eigen::Vector2d aim = random_boundary_point(region, rng);
+    const Eigen::Vector2d start = approach_start(region, rng, aim, lo, hi);
+    const double delay = std::uniform_real_distribution<double>(0.0, 0.2 + L)(rng);
+    const Eigen::Vector2d dir = (aim - start).normalized();
+    const double push_s = (aim - start).norm() / v + 0.5;
+    bool pushed = false, released = false;
+    double released_at = 0.0, rest_since = -1.0;
+    tracker.rebase(0);
+    r.roughing_time_s += jog_session(
+        rig, start, options.seed * 1000003u + static_cast<std::uint64_t>(i), false,
+        [&](double t, const Eigen::Vector2d& p, const executor::Guard& g, hardware::OperatorInputs& in) {
+          tracker.sample(t, p, g.counters().limited_ticks);
+          if (t < delay) {
             in = {};
-            if (!row) return true;
-            const double a = row->direction_deg * M_PI / 180.0;
-            const Eigen::Vector2d dir(std::cos(a), std::sin(a));
-            if (row != prev && row->speed_mm_per_s > 0)
-              tracker.push_start(t, p, p + dir * 10.0, row->speed_mm_per_s, g.counters().limited_ticks);
-            prev = row;
-            if (row->speed_mm_per_s > 0) set_stick(in, dir, row->speed_mm_per_s, rig.jog_speed);
-            return t < script.end_s() && t < options.max_session_s;
-          },
-          last);
-      tracker.close();
-      break;
-    }
-    case OperatorSpec::Kind::joystick:
-    case OperatorSpec::Kind::keys: {
-      const bool js = options.op.kind == OperatorSpec::Kind::joystick;
-      hardware::LiveOperator live(js ? hardware::LiveOperator::Kind::joystick : hardware::LiveOperator::Kind::keys,
-                                  options.op.path, options.feed_mm_per_s);
-      rig.jog_speed = options.feed_mm_per_s;
-      const Eigen::Vector2d start = random_start(region, rng, T + 10.0, T + 30.0);
-      bool was_pushing = false;
-      r.roughing_time_s += jog_session(
-          rig, start, options.seed, true,
-          [&](double t, const Eigen::Vector2d& p, const executor::Guard& g, hardware::OperatorInputs& in) {
-            tracker.sample(t, p, g.counters().limited_ticks);
-            const hardware::StickState st = live.read();
-            const Eigen::Vector2d dir(st.x, st.y);
-            const bool pushing = dir.norm() > 0.02 && st.speed_mm_per_s > 0;
-            if (pushing && !was_pushing)
-              tracker.push_start(t, p, p + dir.normalized() * 10.0, st.speed_mm_per_s, g.counters().limited_ticks);
-            was_pushing = pushing;
+            return true;
+          }
+          if (!pushed) {
+            tracker.push_start(t, p, aim, v, g.counters().limited_ticks);
+            pushed = true;
+          }
+          if (!released) {
+            const bool at_rest = g.holding() && g.setpoint_velocity_mm_per_s().norm() < 1e-9;
+            if (at_rest && rest_since < 0) rest_since = t;
+            if (!at_rest) rest_since = -1.0;
+            if (t - delay > push_s || (rest_since >= 0 && t - rest_since > 0.05)) {
+              released = true;
+              released_at = t;
+            }
+          }
+          if (released) {
             in = {};
-            const double k = std::min(1.0, st.speed_mm_per_s / rig.jog_speed);
-            in.jog[0] = std::clamp(st.x * k, -1.0, 1.0);
-            in.jog[1] = std::clamp(st.y * k, -1.0, 1.0);
-            if (st.quit) r.quit_by_operator = true;
-            return !st.quit && t < options.max_session_s;
-          },
-          last);
-      tracker.close();
-      break;
-    }
+            return t - released_at < 0.15;
+          }
+          set_stick(in, dir, v, rig.jog_speed);
+          return true;
+        },
+        last);
+    tracker.close();
   }
+}
 
+// A scripted operator (engine/hardware/operator_input.h).
+void rough_script(Rig& rig, const ProhibitedRegion& region, Tracker& tracker, Eigen::Vector2d& last, GuardRunResult& r,
+                  Progress* progress) {
+  const GuardRunOptions& options = rig.o;
+  const hardware::OperatorScript script = hardware::read_operator_script(options.op.path);
+  if (!script.start_mm)
+    throw InputError(script.source, script.rows.front().line, "the script has no start row (start,X,Y) before its first data row");
+  if (region.prohibited(*script.start_mm))
+    throw InputError(script.source, 0,
+                     fmt::format("the start ({:.3f}, {:.3f}) lies in the prohibited region", script.start_mm->x(), script.start_mm->y()));
+  double top = options.feed_mm_per_s;
+  for (const auto& row : script.rows) top = std::max(top, row.speed_mm_per_s);
+  rig.jog_speed = top;
+  const hardware::ScriptRow* prev = nullptr;
+  r.roughing_time_s += jog_session(
+      rig, *script.start_mm, options.seed, false,
+      [&](double t, const Eigen::Vector2d& p, const executor::Guard& g, hardware::OperatorInputs& in) {
+        tracker.sample(t, p, g.counters().limited_ticks);
+        const hardware::ScriptRow* row = script.at(t);
+        in = {};
+        if (!row) return true;
+        const double a = row->direction_deg * M_PI / 180.0;
+        const Eigen::Vector2d dir(std::cos(a), std::sin(a));
+        if (row != prev && row->speed_mm_per_s > 0)
+          tracker.push_start(t, p, p + dir * 10.0, row->speed_mm_per_s, g.counters().limited_ticks);
+        prev = row;
+        if (row->speed_mm_per_s > 0) set_stick(in, dir, row->speed_mm_per_s, rig.jog_speed);
+        return t < script.end_s() && t < options.max_session_s;
+      },
+      last);
+  tracker.close();
+}
+
+// A person at a joystick or the keyboard, paced to the wall clock.
+void rough_live(Rig& rig, const ProhibitedRegion& region, Tracker& tracker, std::mt19937_64& rng, Eigen::Vector2d& last,
+                GuardRunResult& r) {
+  const GuardRunOptions& options = rig.o;
+  const double T = options.guard.tolerance_mm;
+  const bool js = options.op.kind == OperatorSpec::Kind::joystick;
+  hardware::LiveOperator live(js ? hardware::LiveOperator::Kind::joystick : hardware::LiveOperator::Kind::keys,
+                              options.op.path, options.feed_mm_per_s);
+  rig.jog_speed = options.feed_mm_per_s;
+  const Eigen::Vector2d start = random_start(region, rng, T + 10.0, T + 30.0);
+  bool was_pushing = false;
+  r.roughing_time_s += jog_session(
+      rig, start, options.seed, true,
+      [&](double t, const Eigen::Vector2d& p, const executor::Guard& g, hardware::OperatorInputs& in) {
+        tracker.sample(t, p, g.counters().limited_ticks);
+        const hardware::StickState st = live.read();
+        const Eigen::Vector2d dir(st.x, st.y);
+        const bool pushing = dir.norm() > 0.02 && st.speed_mm_per_s > 0;
+        if (pushing && !was_pushing)
+          tracker.push_start(t, p, p + dir.normalized() * 10.0, st.speed_mm_per_s, g.counters().limited_ticks);
+        was_pushing = pushing;
+        in = {};
+        const double k = std::min(1.0, st.speed_mm_per_s / rig.jog_speed);
+        in.jog[0] = std::clamp(st.x * k, -1.0, 1.0);
+        in.jog[1] = std::clamp(st.y * k, -1.0, 1.0);
+        if (st.quit) r.quit_by_operator = true;
+        return !st.quit && t < options.max_session_s;
+      },
+      last);
+  tracker.close();
+}
+
+// Successes, invasions and under-cut over the attempts.
+void count_attempts(Rig& rig, GuardRunResult& r) {
   r.guard_stops = rig.stops;
   r.guard_failsafe_ticks = rig.failsafe;
   r.guard_emergency_ticks = rig.emergency;
@@ -535,12 +524,71 @@ GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string&
     }
   }
   r.mean_undercut_mm = r.successes ? sum_u / r.successes : 0.0;
+}
 
-  if (options.finish) finish_profile(rig, last, r);
+}  // namespace
+
+namespace {
+
+// How the session ended, and its reports.
+void summarize(GuardRunResult& r, const Termination* termination) {
+  Summary& s = r.summary;
+  s.status = termination && termination->ended() ? status_of(termination->reason()) : Status::done;
+  if (!s.done()) s.message = fmt::format("{} after {} strokes", termination->describe(), r.strokes);
+  s.brief = fmt::format("guard on {}: {}{} attempts, {} successes ({:.1f} %), {} invasions, mean under-cut {:.2f} mm",
+                        r.profile_source, s.done() ? "" : fmt::format("{} ({}); ", to_string(s.status), s.message),
+                        r.attempts.size(), r.successes, r.success_percent(), r.invasions, r.mean_undercut_mm);
+  s.full = r.report();
+  if (!s.done()) s.full += fmt::format("  {}: {}; the figures above count the attempts made until then\n", to_string(s.status), s.message);
+}
+
+GuardRunResult guard_session(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options,
+                             std::vector<std::string> warnings, Termination* termination, Progress* progress) {
+  options.validate();
+  GuardRunResult r;
+  r.warnings = std::move(warnings);
+  r.profile_source = source;
+  r.options = options;
+  r.profile = profile;
+  Rig rig;
+  rig.o = options;
+  rig.machine = cutting::load_machine(cutting::find_machine(options.machine));
+  rig.termination = termination;
+  r.machine = rig.machine.name;
+  rig.warnings = &r.warnings;
+  const ProhibitedRegion region = ProhibitedRegion::build(profile, options.region);
+  rig.region = &region;
+  r.boundary = region.boundary();
+  for (const OffsetProblem& p : region.problems()) r.warnings.push_back(p.message);
+
+  Tracker tracker(region, options.guard.tolerance_mm, r);
+  Eigen::Vector2d last = Eigen::Vector2d::Zero();
+  std::mt19937_64 rng(options.seed);
+  // Roughing is most of the work: 0 .. 0.9, finishing the rest.
+  Progress roughing(progress, 0.0, options.finish ? 0.9 : 1.0);
+  switch (options.op.kind) {
+    case OperatorSpec::Kind::random: rough_random(rig, region, tracker, rng, last, r, &roughing); break;
+    case OperatorSpec::Kind::script: rough_script(rig, region, tracker, last, r, &roughing); break;
+    case OperatorSpec::Kind::joystick:
+    case OperatorSpec::Kind::keys: rough_live(rig, region, tracker, rng, last, r); break;
+  }
+  count_attempts(rig, r);
+  const bool stopped = termination && termination->should_end();
+  if (options.finish && !stopped) finish_profile(rig, last, r);
+  report_progress(progress, 1.0);
+  summarize(r, termination);
   return r;
 }
 
-GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options) {
+}  // namespace
+
+GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options,
+                         Termination* termination, Progress* progress) {
+  return guard_session(profile, source, options, {}, termination, progress);
+}
+
+GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options, Termination* termination,
+                              Progress* progress) {
   options.validate();
   const ProfileReadResult pr = read_dxf_profile(dxf_path);
   for (const ProfileProblem& p : pr.problems)
@@ -548,9 +596,9 @@ GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions
   if (pr.contours.empty()) throw InputError(dxf_path, 0, "no closed contour in the drawing");
   std::vector<Contour> profile;
   for (const ProfileContour& c : pr.contours) profile.push_back(c.contour);
-  GuardRunResult r = run_guard(profile, dxf_path, options);
-  for (const ProfileProblem& p : pr.problems) r.warnings.insert(r.warnings.begin(), p.message);
-  return r;
+  std::vector<std::string> warnings;
+  for (const ProfileProblem& p : pr.problems) warnings.insert(warnings.begin(), p.message);
+  return guard_session(profile, dxf_path, options, std::move(warnings), termination, progress);
 }
 
 std::string GuardRunResult::report() const {

@@ -40,6 +40,9 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "engine/common/progress.h"
+#include "engine/common/summary.h"
+#include "engine/common/termination.h"
 #include "engine/executor/guard.h"
 #include "engine/geometry/contour.h"
 #include "engine/geometry/region.h"
@@ -110,6 +113,9 @@ struct GuardRunResult {
   long guard_stops = 0, guard_failsafe_ticks = 0, guard_emergency_ticks = 0;
   std::vector<FinishPass> finish;
   bool quit_by_operator = false;
+  // How the session ended (done, or cancelled by a stop request), with the brief and the full
+  // report for people.
+  Summary summary;
 
   double success_percent() const { return attempts.empty() ? 0.0 : 100.0 * successes / attempts.size(); }
   std::string report() const;
@@ -121,10 +127,16 @@ struct GuardRunResult {
 
 // Runs the whole thing on `profile` (closed contours in mm). `source` names the profile in
 // messages and reports.
-GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options);
+// `termination` (may be null) ends the session early: a stop request ends the stroke under way
+// (the machine stops in a controlled way) and the rest; the result then counts the attempts
+// made and its summary says why it ended. `progress` (may be null) follows the strokes
+// (random), the script's time (script), and the finishing pass.
+GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options,
+                         Termination* termination = nullptr, Progress* progress = nullptr);
 
 // Reads the DXF (refusing drawings with errors, naming them) and runs run_guard.
-GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options);
+GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options, Termination* termination = nullptr,
+                              Progress* progress = nullptr);
 
 // The picture of the paper's Figure 8: profile, offset region, roughing strokes, finishing path.
 void write_guard_plot(const GuardRunResult& r, const std::string& path, const std::string& flag = "--plot");

@@ -9,20 +9,18 @@
 
 #include "engine/common/error.h"
 #include "engine/motion/make_job.h"
+#include "engine/motion/process_time.h"
 #include "engine/programs/gcode.h"
-#include "models/backends/backend_factory.h"
-#include "models/cutting/controller_plant.h"
-#include "solvers/calibration/apply.h"
 
 namespace machplan::motion {
 namespace {
 
 using executor::Mode;
 
-void check_range(const char* flag, double v, double lo, double hi, bool lo_open, const char* unit) {
+void check_range(const char* field, double v, double lo, double hi, bool lo_open, const char* unit) {
   const bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
   if (!ok)
-    throw InputError(flag, 0, fmt::format("{} is out of range: must be {} {} and <= {}{}", v, lo_open ? ">" : ">=", lo, hi,
+    throw InputError::field(field, fmt::format("{} is out of range: must be {} {} and <= {}{}", v, lo_open ? ">" : ">=", lo, hi,
                                           unit));
 }
 
@@ -108,36 +106,22 @@ void refuse_long_run(const Job& job, double estimate_s, double limit_s, const ch
 }  // namespace
 
 void RunOptions::validate() const {
-  if (machine.empty()) throw InputError("--machine", 0, "names no machine");
-  check_range("--kerf", kerf_mm, 0.0, 100.0, false, " mm");
+  check_range("kerf_mm", kerf_mm, 0.0, 100.0, false, " mm");
   // Below a micrometre a kerf is lost in the offset's own tolerance (engine/geometry/offset.h).
   if (kerf_mm > 0 && kerf_mm < 0.001)
-    throw InputError("--kerf", 0, fmt::format("{} mm is below 0.001 mm, the smallest kerf compensated; give 0 for none", kerf_mm));
-  check_range("--blu", executor.blu_mm, 0.01, 1000.0, false, " mm");
-  check_range("--calibration", executor.calibration_factor, 0.1, 10.0, true, "");
-  if (feed_override_mm_per_s != 0.0) check_range("--feed", feed_override_mm_per_s, 0.0, 10000.0, true, " mm/s");
-  executor.validate();
-  backend.sim.validate();
+    throw InputError::field("kerf_mm",
+                            fmt::format("{} mm is below 0.001 mm, the smallest kerf compensated; give 0 for none", kerf_mm));
+  if (feed_override_mm_per_s != 0.0) check_range("feed_override_mm_per_s", feed_override_mm_per_s, 0.0, 10000.0, true, " mm/s");
   if (origin_mm) {
-    check_range("--origin", origin_mm->x(), -1e6, 1e6, false, " mm");
-    check_range("--origin", origin_mm->y(), -1e6, 1e6, false, " mm");
+    check_range("origin_mm", origin_mm->x(), -1e6, 1e6, false, " mm");
+    check_range("origin_mm", origin_mm->y(), -1e6, 1e6, false, " mm");
   }
   gcode.validate();
-  if (controller.empty() && !controller_gains.empty())
-    throw InputError("--gain", 0, "gains need a controller (--controller KIND)");
-  if (!controller.empty()) {
-    const std::vector<std::string> kinds = control::controller_kinds();
-    if (std::find(kinds.begin(), kinds.end(), controller) == kinds.end()) {
-      std::string all;
-      for (const std::string& k : kinds) all += (all.empty() ? "" : ", ") + k;
-      throw InputError("--controller", 0, fmt::format("unknown controller '{}' (kinds: {})", controller, all));
-    }
-  }
-  check_range("--max-machine-time", max_machine_time_s, 0.0, 365 * 24 * 3600.0, true, " s");
+  check_range("max_machine_time_s", max_machine_time_s, 0.0, 365 * 24 * 3600.0, true, " s");
   try {
     rapids.validate();
   } catch (const std::invalid_argument& e) {
-    throw InputError("", 0, e.what());
+    throw InputError::field("rapids", e.what());
   }
 }
 
@@ -154,145 +138,103 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
   const auto& th = m.torch_height;
   const bool plasma = m.torch.kind == executor::TorchSetup::Kind::plasma;
   const bool oxy = m.torch.kind == executor::TorchSetup::Kind::oxy_fuel;
-  const double default_pierce_s = oxy ? m.torch.oxy_fuel.pierce_delay_s : m.torch.plasma.pierce_delay_s;
-  double t = 0.0;
-  for (std::size_t i = 0; i < job.steps.size(); ++i) {
-    const Step& s = job.steps[i];
-    switch (s.kind) {
-      case Step::Kind::torch_on: {
-        if (th.fitted)
-          t += th.initial_height_sense_s + height_move_s(th.retract_height_mm, th.pierce_height_mm, tol, th.speed_mm_per_s) +
-               height_move_s(th.pierce_height_mm, th.cut_height_mm, tol, th.speed_mm_per_s);
-        if (plasma) t += m.torch.plasma.arc_start_delay_s;
-        if (oxy) t += m.torch.oxy_fuel.preheat_s;
-        const bool programmed = i + 1 < job.steps.size() && job.steps[i + 1].kind == Step::Kind::dwell;
-        if (!programmed) t += default_pierce_s;  // a following G4 is counted as a dwell below
-        break;
-      }
-      case Step::Kind::torch_off:
-        if (th.fitted) t += height_move_s(th.cut_height_mm, th.retract_height_mm, tol, th.speed_mm_per_s);
-        break;
-      case Step::Kind::dwell: t += s.seconds; break;
-      case Step::Kind::move: break;
-    }
+  TorchTimes times;
+  if (th.fitted) {
+    times.torch_on_s = th.initial_height_sense_s + height_move_s(th.retract_height_mm, th.pierce_height_mm, tol, th.speed_mm_per_s) +
+                       height_move_s(th.pierce_height_mm, th.cut_height_mm, tol, th.speed_mm_per_s);
+    times.torch_off_s = height_move_s(th.cut_height_mm, th.retract_height_mm, tol, th.speed_mm_per_s);
   }
-  return t;
+  if (plasma) times.start_s = m.torch.plasma.arc_start_delay_s;
+  if (oxy) times.start_s = m.torch.oxy_fuel.preheat_s;
+  times.pierce_s = oxy ? m.torch.oxy_fuel.pierce_delay_s : m.torch.plasma.pierce_delay_s;
+  return motion::process_time_s(job, times);
 }
 
-RunOutcome run_program(const std::string& program_path, const RunOptions& options) {
-  options.validate();
-  const cutting::MachineConfig machine = cutting::load_machine(cutting::find_machine(options.machine));
-  // The machine file's parameters and spindles; the command line's --param wins.
-  GcodeOptions gcode = options.gcode;
-  for (const auto& [name, value] : machine.gcode_params) gcode.params.emplace(name, value);
-  gcode.spindle_count = std::max(gcode.spindle_count, machine.gcode_spindles);
-  Program program = read_gcode_file(program_path, gcode);
-  std::vector<std::string> warnings = program.warnings;
-  // Words the simulated machine does not act on: one note per kind, naming the first line.
+namespace {
+
+bool paper_mode(const RunOptions& o) { return o.session.executor.mode != Mode::planned; }
+
+// Words the machine does not act on: one note per kind, naming the first line.
+std::vector<std::string> ignored_words(const Program& program, const std::string& machine) {
   std::vector<std::string> notes;
-  {
-    std::map<ProgramEvent::Kind, std::pair<int, int>> seen;  // kind -> (first line, count)
-    for (const ProgramEvent& e : program.events) {
-      auto [it, fresh] = seen.try_emplace(e.kind, e.line, 0);
-      ++it->second.second;
-    }
-    for (const auto& [kind, where] : seen)
-      notes.push_back(fmt::format("{}:{}: {} ({} in the program) ignored: machine '{}' does not act on it",
-                                     program.source, where.first, to_string(kind), where.second, machine.name));
+  std::map<ProgramEvent::Kind, std::pair<int, int>> seen;  // kind -> (first line, count)
+  for (const ProgramEvent& e : program.events) {
+    auto [it, fresh] = seen.try_emplace(e.kind, e.line, 0);
+    ++it->second.second;
   }
-  if (!options.strict_z) {
-    // The first move that changes Z (a helix included): report it once, then flatten all.
-    double z = program.start.z();
-    for (const Move& m : program.moves) {
-      const bool motion = m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc;
-      if (!motion || m.plane != Move::Plane::xy) continue;
-      if (std::abs(m.end.z() - z) > 1e-9) {
-        warnings.push_back(fmt::format("{}:{}: Z words dropped from here on (Z {:.6g} -> {:.6g} mm): machine '{}' sets "
-                                       "the torch height itself (--strict-z refuses them instead)",
-                                       program.source, m.line, z, m.end.z(), machine.name));
-        break;
-      }
-      z = m.end.z();
-    }
-    for (Move& m : program.moves)
-      if (m.plane == Move::Plane::xy) m.end.z() = program.start.z();
-  }
-  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
-  std::string from = "none";
-  if (options.origin_mm) {
-    origin = *options.origin_mm;
-    from = "--origin";
-  } else if (machine.origin_mm) {
-    origin = Eigen::Vector2d((*machine.origin_mm)[0], (*machine.origin_mm)[1]);
-    from = "machine file";
-  }
-  if (origin != Eigen::Vector2d::Zero()) {
-    program.start.head<2>() += origin;
-    for (Move& m : program.moves) {
-      m.end.head<2>() += origin;
-      if (m.kind != Move::Kind::arc) continue;
-      // The centre is in the plane's axis order: (x, y), (z, x) or (y, z).
-      if (m.plane == Move::Plane::xy) m.center += origin;
-      else if (m.plane == Move::Plane::xz) m.center.y() += origin.x();
-      else m.center.x() += origin.y();
-    }
-  }
-  JobOptions jo;
-  jo.rapid_feed_mm_per_s = machine.limits.rapid_mm_per_s;
-  RunOutcome o = run_job(make_job(program, jo), options);
-  o.origin_mm = origin;
-  o.origin_from = from;
-  o.warnings = std::move(warnings);
-  o.notes = std::move(notes);
-  return o;
+  for (const auto& [kind, where] : seen)
+    notes.push_back(fmt::format("{}:{}: {} ({} in the program) ignored: machine '{}' does not act on it", program.source,
+                                where.first, to_string(kind), where.second, machine));
+  return notes;
 }
 
-RunOutcome run_job(Job programmed, const RunOptions& options) {
-  options.validate();
-  RunOutcome o;
-  o.machine = cutting::load_machine(cutting::find_machine(options.machine));
-  const bool planned = options.executor.mode == Mode::planned;
-  if (!planned && options.paper_x1_decoding)
-    for (auto& a : o.machine.axes) a.plant.decoding = 1;
-  o.planner = planner_options_for(o.machine);
-  o.programmed = std::move(programmed);
-  if (options.feed_override_mm_per_s > 0)
-    for (Stretch& s : o.programmed.stretches)
-      if (!s.rapid) std::fill(s.feed_mm_per_s.begin(), s.feed_mm_per_s.end(), options.feed_override_mm_per_s);
-  if (!planned && options.paper_rapids_at_feed) {
-    double slowest = std::numeric_limits<double>::infinity();
-    for (const Stretch& s : o.programmed.stretches)
-      if (!s.rapid)
-        for (double f : s.feed_mm_per_s) slowest = std::min(slowest, f);
-    if (std::isfinite(slowest))
-      for (Stretch& s : o.programmed.stretches)
-        if (s.rapid)
-          for (double& f : s.feed_mm_per_s) f = std::min(f, slowest);
+// On these 2-axis machines the torch height is the machine's: the first move that changes Z
+// (a helix included) is reported once, then every Z word is dropped.
+void flatten_z(Program& program, const std::string& machine, std::vector<std::string>& warnings) {
+  double z = program.start.z();
+  for (const Move& m : program.moves) {
+    const bool motion = m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc;
+    if (!motion || m.plane != Move::Plane::xy) continue;
+    if (std::abs(m.end.z() - z) > 1e-9) {
+      warnings.push_back(fmt::format("{}:{}: Z words dropped from here on (Z {:.6g} -> {:.6g} mm): machine '{}' sets "
+                                     "the torch height itself (strict Z refuses them instead)",
+                                     program.source, m.line, z, m.end.z(), machine));
+      break;
+    }
+    z = m.end.z();
   }
-  o.job = o.programmed;
+  for (Move& m : program.moves)
+    if (m.plane == Move::Plane::xy) m.end.z() = program.start.z();
+}
 
-  if (options.kerf_mm > 0) o.kerf = apply_kerf(o.job, options.kerf_mm);
-  check_travel(o.job, o.machine);
+// Moves the program's zero to `origin` on the machine.
+void place_program(Program& program, const Eigen::Vector2d& origin) {
+  if (origin == Eigen::Vector2d::Zero()) return;
+  program.start.head<2>() += origin;
+  for (Move& m : program.moves) {
+    m.end.head<2>() += origin;
+    if (m.kind != Move::Kind::arc) continue;
+    // The centre is in the plane's axis order: (x, y), (z, x) or (y, z).
+    if (m.plane == Move::Plane::xy) m.center += origin;
+    else if (m.plane == Move::Plane::xz) m.center.y() += origin.x();
+    else m.center.x() += origin.y();
+  }
+}
 
-  // Refused before any planning when even the fastest conceivable motion is too long.
-  const double height_tolerance_mm = o.machine.setup().torch.height_tolerance_mm;
-  refuse_long_run(o.job, motion_floor_s(o.job, o.machine.limits.velocity_mm_per_s) +
-                             process_time_s(o.job, o.machine, height_tolerance_mm),
-                  options.max_machine_time_s, "at least: every move at its feed, no time to accelerate");
+// The feeds the job runs at: --feed on every cut, and in the paper modes the rapids at the
+// slowest cutting feed (RunOptions::paper_rapids_at_feed).
+void set_feeds(Job& job, const RunOptions& options) {
+  if (options.feed_override_mm_per_s > 0)
+    for (Stretch& s : job.stretches)
+      if (!s.rapid) std::fill(s.feed_mm_per_s.begin(), s.feed_mm_per_s.end(), options.feed_override_mm_per_s);
+  if (!paper_mode(options) || !options.paper_rapids_at_feed) return;
+  double slowest = std::numeric_limits<double>::infinity();
+  for (const Stretch& s : job.stretches)
+    if (!s.rapid)
+      for (double f : s.feed_mm_per_s) slowest = std::min(slowest, f);
+  if (std::isfinite(slowest))
+    for (Stretch& s : job.stretches)
+      if (s.rapid)
+        for (double& f : s.feed_mm_per_s) f = std::min(f, slowest);
+}
 
+// Rapids round the declared zones and the parts cut so far; a rapid left as programmed must at
+// least not run into a declared zone (a clamp).
+void plan_the_rapids(PlannedRun& o, const RunOptions& options, const RunControl& control) {
   if (!options.no_go_path.empty()) o.declared_zones = load_zones(options.no_go_path);
   const std::vector<Contour> declared = zone_contours(o.declared_zones);
   check_cuts_clear_of(o.job, o.declared_zones, options.no_go_path);
   RapidOptions ro = options.rapids;
   ro.bounds = travel_box(o.machine);
   ro.slug_tip_size_mm = o.machine.slug_tip_size_mm;
-  ro.stop = options.stop;
+  if (control.termination) ro.stop = control.termination->stop_token();
+  if (control.planning) ro.progress = [p = control.planning](double f) { p->report(f); };
   o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts);
-  if (o.rapids.cancelled) throw Cancelled(fmt::format("{}: stopped on request while planning the rapids; nothing was run", o.job.source));
+  if (o.rapids.cancelled)
+    throw Cancelled(fmt::format("{}: stopped on request while planning the rapids; nothing was run", o.job.source));
   for (const Stretch& s : o.job.stretches)
     if (s.cutting && !s.rapid)
       if (auto loop = closed_loop(s)) o.cut_zones.push_back(std::move(*loop));
-  // A rapid left as programmed must at least not run into a declared zone (a clamp).
   for (const RapidReport& r : o.rapids.rapids) {
     if (r.replaced || r.programmed_clear || declared.empty()) continue;
     const Stretch& s = o.job.stretches[r.stretch];
@@ -304,91 +246,146 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
                                    o.job.source, r.source_line, r.from.x(), r.from.y(), r.to.x(), r.to.y(),
                                    to_string(r.status), r.message));
   }
+}
 
-  // Feed planning (also for the paper modes, for the bound).
+// One trajectory per move step (also for the paper modes, for the bound), and the bounds.
+void plan_the_feeds(PlannedRun& o, const RunControl& control) {
   o.trajectories.resize(o.job.steps.size());
   for (std::size_t i = 0; i < o.job.steps.size(); ++i) {
     const Step& st = o.job.steps[i];
     if (st.kind != Step::Kind::move) continue;
-    if (options.stop.stop_requested())
-      throw Cancelled(fmt::format("{}: stopped on request while planning the feeds; nothing was run", o.job.source));
+    if (control.termination && control.termination->should_end())
+      throw Cancelled(fmt::format("{}: {} while planning the feeds; nothing was run", o.job.source,
+                                  control.termination->describe()));
     auto tr = plan_stretch_detailed(o.job.stretches[st.stretch], o.planner);
     o.planned_motion_s += tr->duration_s();
     o.motion_lower_bound_s += time_lower_bound_s(tr->executed_path(), o.planner);
     o.motion_optimum_s += time_optimal_s(tr->executed_path(), o.planner);
     o.trajectories[i] = std::move(tr);
   }
-  executor::MachineSetup setup = o.machine.setup();
-  // A stored calibration: feed-forward start, backlash compensation, encoder scale.
-  if (options.calibration) setup = calibration::apply_calibration(setup, *options.calibration);
-  o.process_time_s = process_time_s(o.job, o.machine, setup.torch.height_tolerance_mm);
+  o.process_time_s = process_time_s(o.job, o.machine, o.machine.setup().torch.height_tolerance_mm);
   o.lower_bound_s = o.motion_lower_bound_s + o.process_time_s;
   o.motion_ratio = o.motion_lower_bound_s > 0 ? o.planned_motion_s / o.motion_lower_bound_s : 1.0;
   o.optimum_ratio = o.motion_optimum_s > 0 ? o.planned_motion_s / o.motion_optimum_s : 1.0;
-  refuse_long_run(o.job, o.planned_motion_s + o.process_time_s, options.max_machine_time_s,
-                  "the planned motion plus the torch process and dwells");
+}
 
-  static const executor::Trajectories kNone;
-  backends::BackendOptions bo = options.backend;
-  bo.sim.start_mm = o.job.start_mm;
-  const std::unique_ptr<hardware::Backend> backend = backends::make_backend(o.machine, bo);
-  std::unique_ptr<executor::TraceStream> stream;
-  if (!options.trace_csv_path.empty()) stream = std::make_unique<executor::TraceStream>(options.trace_csv_path);
-  executor::RunParts parts;
-  parts.trace_stream = stream.get();
-  parts.stop = options.stop;
-  parts.progress = options.progress;
-  parts.expected_s = o.planned_motion_s + o.process_time_s;
-  std::unique_ptr<control::Controller> controller;
-  if (!options.controller.empty()) {
-    control::ControllerPlant plant = cutting::controller_plant(o.machine);
-    plant.servo = setup.servo;  // with the stored calibration, when one is applied
-    controller = control::make_controller(options.controller, options.controller_gains, plant);
-    parts.controller = controller.get();
-  }
-  o.controller = controller ? controller->name() : "pid_ff";
-  executor::Executor ex(setup, options.executor);
-  o.result = ex.run(o.job, planned ? o.trajectories : kNone, *backend, parts);
-  o.cycle_ratio = o.lower_bound_s > 0 ? o.result.cycle_time_s / o.lower_bound_s : 1.0;
+}  // namespace
 
-  double sum2 = 0, sum2_true = 0;
-  std::size_t n = 0;
-  for (const executor::CutError& c : o.result.cuts) {
-    sum2 += c.rms_mm * c.rms_mm * static_cast<double>(c.samples);
-    if (!std::isnan(c.rms_true_mm)) sum2_true += c.rms_true_mm * c.rms_true_mm * static_cast<double>(c.samples);
-    n += c.samples;
+session::MachineSessionOptions session_options_for(const RunOptions& options) {
+  session::MachineSessionOptions so = options.session;
+  if (!so.machine_config) so.machine_config = cutting::load_machine(cutting::find_machine(so.machine));
+  if (paper_mode(options) && options.paper_x1_decoding)
+    for (auto& a : so.machine_config->axes) a.plant.decoding = 1;
+  if (options.feed_override_mm_per_s > 0) so.paper_feed_mm_per_s = options.feed_override_mm_per_s;
+  return so;
+}
+
+Program read_program_for(const std::string& program_path, GcodeOptions gcode, const cutting::MachineConfig& machine,
+                         bool strict_z, std::vector<std::string>& warnings) {
+  // The machine file's parameters and spindles; the given values win.
+  for (const auto& [name, value] : machine.gcode_params) gcode.params.emplace(name, value);
+  gcode.spindle_count = std::max(gcode.spindle_count, machine.gcode_spindles);
+  Program program = read_gcode_file(program_path, gcode);
+  warnings.insert(warnings.end(), program.warnings.begin(), program.warnings.end());
+  if (!strict_z) flatten_z(program, machine.name, warnings);
+  return program;
+}
+
+PlannedRun plan_program(const std::string& program_path, const RunOptions& options, const cutting::MachineConfig& machine,
+                        const RunControl& control) {
+  options.validate();
+  std::vector<std::string> warnings;
+  Program program = read_program_for(program_path, options.gcode, machine, options.strict_z, warnings);
+  std::vector<std::string> notes = ignored_words(program, machine.name);
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+  std::string from = "none";
+  if (options.origin_mm) {
+    origin = *options.origin_mm;
+    from = "--origin";
+  } else if (machine.origin_mm) {
+    origin = Eigen::Vector2d((*machine.origin_mm)[0], (*machine.origin_mm)[1]);
+    from = "machine file";
   }
-  o.rms_contour_error_mm = n ? std::sqrt(sum2 / static_cast<double>(n)) : 0.0;
-  o.rms_true_contour_error_mm = n ? std::sqrt(sum2_true / static_cast<double>(n)) : 0.0;
+  place_program(program, origin);
+  JobOptions jo;
+  jo.rapid_feed_mm_per_s = machine.limits.rapid_mm_per_s;
+  PlannedRun o = plan_job(make_job(program, jo), options, machine, control);
+  o.origin_mm = origin;
+  o.origin_from = from;
+  o.warnings = std::move(warnings);
+  o.notes = std::move(notes);
   return o;
 }
 
-std::string RunOutcome::report() const {
-  const executor::ExecutionResult& r = result;
-  std::string s = fmt::format("{} on {} ({} mode): {}\n", r.source, r.machine, executor::to_string(r.mode),
-                              faulted() ? "FAULTED" : "completed");
-  s += fmt::format("  program origin   X {:.3f} Y {:.3f} mm on the machine ({})\n", origin_mm.x(), origin_mm.y(),
-                   origin_from == "none" ? "none given: program zero is machine zero" : origin_from);
-  if (controller != "pid_ff") s += fmt::format("  servo controller {}\n", controller);
-  for (const std::string& w : warnings) s += fmt::format("  warning: {}\n", w);
-  for (const std::string& n : notes) s += fmt::format("  note: {}\n", n);
+PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::MachineConfig& machine,
+                    const RunControl& control) {
+  options.validate();
+  PlannedRun o;
+  o.machine = machine;
+  o.paper_x1_decoding = paper_mode(options) && options.paper_x1_decoding;
+  o.planner = planner_options_for(o.machine);
+  o.programmed = std::move(programmed);
+  set_feeds(o.programmed, options);
+  o.job = o.programmed;
+
+  if (options.kerf_mm > 0) o.kerf = apply_kerf(o.job, options.kerf_mm);
+  check_travel(o.job, o.machine);
+
+  // Refused before any planning when even the fastest conceivable motion is too long.
+  const double height_tolerance_mm = o.machine.setup().torch.height_tolerance_mm;
+  refuse_long_run(o.job, motion_floor_s(o.job, o.machine.limits.velocity_mm_per_s) +
+                             process_time_s(o.job, o.machine, height_tolerance_mm),
+                  options.max_machine_time_s, "at least: every move at its feed, no time to accelerate");
+  plan_the_rapids(o, options, control);
+  plan_the_feeds(o, control);
+  refuse_long_run(o.job, o.expected_s(), options.max_machine_time_s, "the planned motion plus the torch process and dwells");
+  return o;
+}
+
+namespace {
+
+// The full report for people: what the planning did, then the run.
+std::string full_report(const RunOutcome& o, const session::MachineSession& session) {
+  const executor::ExecutionResult& r = o.result;
+  std::string s;
+  if (o.kerf) s += fmt::format("kerf compensation\n{}\n", o.kerf->brief(o.job.source));
+  s += fmt::format("rapids (straight G0 against planned, mm)\n{}\n", o.rapids.summary());
+  if (o.paper_x1_decoding)
+    s += fmt::format("paper mode: encoders counted x1 as in the paper ({:.4f} mm per count), BLU {:g} mm, calibration {:g}\n\n",
+                     o.machine.axes[0].plant.mm_per_count(), session.executor_options().blu_mm,
+                     session.executor_options().calibration_factor);
+  s += fmt::format("{} on {} ({} mode): {}\n", r.source, r.machine, executor::to_string(r.mode),
+                   o.summary.done() ? "completed" : o.faulted() && o.summary.status == Status::faulted ? "FAULTED"
+                                                                                                         : to_string(o.summary.status));
+  s += fmt::format("  program origin   X {:.3f} Y {:.3f} mm on the machine ({})\n", o.origin_mm.x(), o.origin_mm.y(),
+                   o.origin_from == "none" ? "none given: program zero is machine zero" : o.origin_from);
+  if (o.controller != "pid_ff") s += fmt::format("  servo controller {}\n", o.controller);
+  for (const std::string& w : o.warnings) s += fmt::format("  warning: {}\n", w);
+  for (const std::string& w : r.backend_notes) s += fmt::format("  warning: {}\n", w);
+  for (const std::string& n : o.notes) s += fmt::format("  note: {}\n", n);
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
   s += fmt::format("  torch on         {:9.3f} s\n", r.torch_on_s);
   s += fmt::format("  rapid distance   {:9.1f} mm  (straight {:.1f} mm; {} detours, +{:.1f} mm)\n", r.rapid_distance_mm,
-                   rapids.straight_length_mm, rapids.detours, rapids.detour_extra_mm);
-  for (const RapidReport& d : rapids.rapids)
-    if (!d.reason.empty()) s += fmt::format("    detour at line {:>5}: +{:.1f} mm round {}\n", d.source_line, d.extra_length_mm, d.reason);
+                   o.rapids.straight_length_mm, o.rapids.detours, o.rapids.detour_extra_mm);
+  for (const RapidReport& d : o.rapids.rapids)
+    if (!d.reason.empty())
+      s += fmt::format("    detour at line {:>5}: +{:.1f} mm round {}\n", d.source_line, d.extra_length_mm, d.reason);
   s += fmt::format("  lower bound      {:9.3f} s  (motion {:.3f} s on the planned paths at the machine's limits + "
                    "torch sequence and dwells {:.3f} s)\n",
-                   lower_bound_s, motion_lower_bound_s, process_time_s);
-  s += fmt::format("  cycle ratio      {:9.4f}    (cycle time / lower bound; planned motion / motion bound {:.4f})\n",
-                   cycle_ratio, motion_ratio);
+                   o.lower_bound_s, o.motion_lower_bound_s, o.process_time_s);
+  if (o.summary.done())
+    s += fmt::format("  cycle ratio      {:9.4f}    (cycle time / lower bound; planned motion / motion bound {:.4f})\n",
+                     o.cycle_ratio, o.motion_ratio);
+  else
+    s += fmt::format("  cycle ratio           -      (the run did not complete; planned motion / motion bound {:.4f})\n",
+                     o.motion_ratio);
   s += fmt::format("  motion           {:9.3f} s  planned; time-optimal on the same paths {:.3f} s (ratio {:.4f})\n",
-                   planned_motion_s, motion_optimum_s, optimum_ratio);
+                   o.planned_motion_s, o.motion_optimum_s, o.optimum_ratio);
   s += fmt::format("  contour error    max {:.4f} mm, rms {:.4f} mm over {} cuts, torch on, from the encoders",
-                   r.max_contour_error_mm(), rms_contour_error_mm, r.cuts.size());
+                   r.max_contour_error_mm(), o.rms_contour_error_mm, r.cuts.size());
   const double mt = r.max_true_contour_error_mm();
-  if (!std::isnan(mt)) s += fmt::format(" (simulated truth: max {:.4f}, rms {:.4f})", mt, rms_true_contour_error_mm);
+  if (!std::isnan(mt)) s += fmt::format(" (simulated truth: max {:.4f}, rms {:.4f})", mt, o.rms_true_contour_error_mm);
+  if (!o.summary.done()) s += " (until the run stopped)";
   s += "\n";
   s += fmt::format("  {:>4} {:>7} {:>6} {:>10} {:>10} {:>10} {:>10}\n", "cut", "line", "samples", "max mm", "rms mm",
                    "true max", "true rms");
@@ -408,10 +405,75 @@ std::string RunOutcome::report() const {
   return s;
 }
 
+// How the run ended: done; faulted (the first fault); or what ended its Termination.
+Summary summarize(const RunOutcome& o, const Termination& t) {
+  const executor::ExecutionResult& r = o.result;
+  Summary s;
+  if (!o.faulted()) {
+    s.status = Status::done;
+    s.brief = fmt::format("{} on {}: done in {:.3f} s, max contour error {:.4f} mm over {} cuts", r.source, r.machine,
+                          r.cycle_time_s, r.max_contour_error_mm(), r.cuts.size());
+    return s;
+  }
+  const executor::FaultReport& f = r.faults.front();
+  s.status = f.kind == executor::FaultKind::stop_requested && t.ended() ? status_of(t.reason()) : Status::faulted;
+  s.message = f.message;
+  s.brief = fmt::format("{} on {}: {} at {:.3f} s (line {}): {}", r.source, r.machine,
+                        s.status == Status::faulted ? "FAULTED" : to_string(s.status), f.time_s, f.source_line,
+                        executor::to_string(f.kind));
+  return s;
+}
+
+}  // namespace
+
+RunOutcome execute(session::MachineSession& session, PlannedRun plan, const RunOptions& options, const RunControl& control) {
+  RunOutcome o;
+  static_cast<PlannedRun&>(o) = std::move(plan);
+  // The caller's stop request, and the deadline: no run lasts longer than the machine time
+  // allowed (a job held and never resumed, an input that never comes).
+  Termination t(control.termination);
+  t.set_deadline(options.max_machine_time_s, "machine time");
+  session::MachineSession::RunHooks hooks;
+  hooks.termination = &t;
+  hooks.progress = control.running;
+  hooks.expected_s = o.expected_s();
+  static const executor::Trajectories kNone;
+  const bool planned = session.executor_options().mode == Mode::planned;
+  o.result = session.run(o.job, planned ? o.trajectories : kNone, hooks);
+  o.controller = session.controller_name();
+  o.cycle_ratio = o.lower_bound_s > 0 ? o.result.cycle_time_s / o.lower_bound_s : 1.0;
+
+  double sum2 = 0, sum2_true = 0;
+  std::size_t n = 0;
+  for (const executor::CutError& c : o.result.cuts) {
+    sum2 += c.rms_mm * c.rms_mm * static_cast<double>(c.samples);
+    if (!std::isnan(c.rms_true_mm)) sum2_true += c.rms_true_mm * c.rms_true_mm * static_cast<double>(c.samples);
+    n += c.samples;
+  }
+  o.rms_contour_error_mm = n ? std::sqrt(sum2 / static_cast<double>(n)) : 0.0;
+  o.rms_true_contour_error_mm = n ? std::sqrt(sum2_true / static_cast<double>(n)) : 0.0;
+  o.summary = summarize(o, t);
+  o.summary.full = full_report(o, session);
+  return o;
+}
+
+RunOutcome run_program(const std::string& program_path, const RunOptions& options, const RunControl& control) {
+  session::MachineSession session(session_options_for(options));
+  PlannedRun plan = plan_program(program_path, options, session.machine(), control);
+  return execute(session, std::move(plan), options, control);
+}
+
+RunOutcome run_job(Job programmed, const RunOptions& options, const RunControl& control) {
+  session::MachineSession session(session_options_for(options));
+  PlannedRun plan = plan_job(std::move(programmed), options, session.machine(), control);
+  return execute(session, std::move(plan), options, control);
+}
+
 nlohmann::json RunOutcome::to_json() const {
   nlohmann::json j = result.to_json(false);
   const double mt = result.max_true_contour_error_mm();
   j["controller"] = controller;
+  j["summary"] = {{"status", to_string(summary.status)}, {"message", summary.message}, {"brief", summary.brief}};
   j["max_contour_error_mm"] = result.max_contour_error_mm();
   j["rms_contour_error_mm"] = rms_contour_error_mm;
   j["max_true_contour_error_mm"] = std::isnan(mt) ? nlohmann::json(nullptr) : nlohmann::json(mt);

@@ -1,12 +1,17 @@
-// Running a part program on a simulated cutting machine, start to end: the pipeline behind
-// `machplan run`, also used by the tests and the bench so that all three run the same thing.
+// Running a part program on a cutting machine, start to end: the pipeline behind `machplan
+// run`, also used by the web panel, the tests and the bench so that all of them run the same
+// thing. Two halves, so that a job can be planned once and run when the operator says:
 //
-//   program (.ngc) --read_gcode_file--> Program --make_job--> Job
+//   plan_program (or plan_job):
+//     program (.ngc) --read_gcode_file--> Program --make_job--> Job
 //       --apply_kerf (when kerf_mm > 0)--> closed cuts moved by half the kerf
 //       --plan_rapids--> rapids routed round the declared no-go zones and the parts cut so far
-//       --plan_stretch, one per move step--> Trajectories (planned mode)
-//       --Executor on the named backend (models/backends)--> ExecutionResult (cycle time,
-//         contour error per cut, faults, trace)
+//       --plan_stretch, one per move step--> Trajectories (planned mode)   = PlannedRun
+//   execute: the PlannedRun on a machine session (solvers/session/machine_session.h: the
+//     machine, the named backend, the controller, the calibration) --> RunOutcome (cycle
+//     time, contour error per cut, faults, trace, and its Summary)
+//
+// run_program and run_job do both on a session of their own.
 //
 // Beside the run it computes what the run should be measured against:
 //
@@ -38,22 +43,24 @@
 // moves Z (the torch height belongs to the machine), unless strict_z keeps them as an error.
 //
 // Errors: a bad program, machine file, zones file or option throws InputError naming the file
-// and line or the flag (exit 2 in the CLI). A job the machine cannot do throws Infeasible
-// (exit 3): the program leaves the machine's travel, or a rapid with no clear route would
-// enter a declared no-go zone, or the run's estimate exceeds max_machine_time_s. A stop
-// request (RunOptions::stop) during rapid or feed planning throws Cancelled (also exit 3);
-// once the executor runs, it stops the machine instead. A fault during the run is not an exception: it is in
-// result.faults and result.status.
+// and line or the field (exit 2 in the CLI, which names the flag). A job the machine cannot do
+// throws Infeasible (exit 3): the program leaves the machine's travel, or a rapid with no
+// clear route would enter a declared no-go zone, or the run's estimate exceeds
+// max_machine_time_s. A stop request (the RunControl's Termination) during rapid or feed
+// planning throws Cancelled (also exit 3): there is nothing to report. Once the executor runs,
+// nothing throws: a fault, a stop request or the deadline (max_machine_time_s of machine time,
+// for a job held longer than its estimate) stops the machine and is the run's Summary.
 #pragma once
 
-#include <atomic>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
-#include "engine/control/controller_factory.h"
+#include "engine/common/progress.h"
+#include "engine/common/summary.h"
+#include "engine/common/termination.h"
 #include "engine/executor/executor.h"
 #include "engine/motion/feed_planner.h"
 #include "engine/motion/job.h"
@@ -61,38 +68,17 @@
 #include "engine/motion/time_optimal.h"
 #include "engine/programs/gcode.h"
 #include "engine/programs/zones.h"
-#include "engine/common/stop.h"
-#include "models/backends/backend_factory.h"
-#include "solvers/calibration/store.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/motion/rapid_planner.h"
 #include "solvers/motion/rapids.h"
+#include "solvers/session/machine_session.h"
 
 namespace machplan::motion {
 
 struct RunOptions {
-  // A bundled machine name (thermal_gantry, xy_table) or a machine YAML path (find_machine).
-  std::string machine = "thermal_gantry";
-  // Mode, BLU, calibration factor, supervision, trace recording in memory.
-  executor::ExecutorOptions executor;
-  // The backend by name and its own options (the simulator's seed, pacing, injected faults).
-  backends::BackendOptions backend;
-  // When set, the trace is streamed to this CSV file during the run (any length of run).
-  std::string trace_csv_path;
-  // A stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it).
-  StopToken stop;
-  // The run's progress for a display thread (executor::RunParts::progress).
-  std::atomic<double>* progress = nullptr;
-  // The machine's stored calibration (machplan calibrate apply), applied to the executor's
-  // setup: the feed-forward gain starts at 1 / feed factor, backlash is compensated at
-  // reversals and the counters are decoded with the fitted encoder scale.
-  std::optional<calibration::StoredFit> calibration;
-  // The servo controller by kind (engine/control/controller_factory.h: p, pid, pid_ff, zpetc,
-  // ccc, flc) and its gains (missing names take their defaults: the machine's servo section,
-  // with a stored calibration applied). Empty: the executor's default, pid_ff on the servo
-  // section. The gains may come from the command line (--gain) or from a store of tuned gains.
-  std::string controller;
-  control::Gains controller_gains;
+  // The machine, its backend, controller, calibration, executor options and trace
+  // (solvers/session/machine_session.h).
+  session::MachineSessionOptions session;
   // Kerf width, mm; 0 leaves the program as written. At most 100 mm.
   double kerf_mm = 0.0;
   // YAML file of declared no-go zones (engine/programs/zones.h); empty for none.
@@ -114,8 +100,8 @@ struct RunOptions {
   // pierce point, and every cut would start with that error.
   bool paper_rapids_at_feed = true;
 
-  // How the program is read: --param values, spindles, --lenient (require_program_end). The
-  // machine file's gcode: params are added (a --param of the same name wins) and its spindles
+  // How the program is read: parameter values, spindles, require_program_end. The machine
+  // file's gcode: params are added (a given value of the same name wins) and its spindles
   // raise spindle_count.
   GcodeOptions gcode;
   // Where the program's zero sits on the machine, mm; unset: the machine file's origin_mm,
@@ -123,37 +109,46 @@ struct RunOptions {
   std::optional<Eigen::Vector2d> origin_mm;
   // Refuse a program whose Z moves (true) instead of dropping its Z words with a warning.
   bool strict_z = false;
-  // The longest run accepted, s of machine time (--max-machine-time; > 0, at most one year).
-  // A run is refused before it starts, with Infeasible (exit 3) giving the estimate and the
-  // flag, when its time estimate exceeds this: first the time no motion can beat (each move
-  // at its feed capped by the machine's speed, plus the torch process and dwells), checked
-  // before rapid and feed planning, then the planned motion plus process time, checked before
-  // the executor starts. A simulation runs faster than the machine, but it still takes wall
-  // time in proportion: an absurd feed (1e-6 mm/s), a machine with a tiny speed or
-  // acceleration or a helix of enormous length would otherwise simulate for days.
+  // The longest run accepted, s of machine time (> 0, at most one year). A run is refused
+  // before it starts, with Infeasible (exit 3) giving the estimate, when its time estimate
+  // exceeds this: first the time no motion can beat (each move at its feed capped by the
+  // machine's speed, plus the torch process and dwells), checked before rapid and feed
+  // planning, then the planned motion plus process time, checked before the executor starts.
+  // It is also the run's deadline in machine time: a run that lasts longer (held, waiting on
+  // an input that never comes) is stopped with the torch off and ends with status deadline. A
+  // simulation runs faster than the machine, but it still takes wall time in proportion: an
+  // absurd feed (1e-6 mm/s), a machine with a tiny speed or acceleration or a helix of
+  // enormous length would otherwise simulate for days.
   double max_machine_time_s = 4 * 3600.0;
 
-  // Throws InputError naming the CLI flag of the offending field (--kerf, --blu, ...).
+  // Throws InputError naming the field, its value and the rule.
   void validate() const;
 };
 
-// What a run made, what it did, and what it is measured against.
-struct RunOutcome {
+// Who watches and stops a run; each may be null.
+struct RunControl {
+  Termination* termination = nullptr;  // stop request; its deadline and budget cap the run too
+  Progress* planning = nullptr;        // rapid planning (the slow part of planning)
+  Progress* running = nullptr;         // the run itself, by its expected machine time
+};
+
+// A job planned for a machine, ready to run: what the run will do and what it is measured
+// against.
+struct PlannedRun {
   cutting::MachineConfig machine;
   PlannerOptions planner;
   Job programmed;                    // after make_job (before kerf and rapid planning)
-  Job job;                           // what ran: after kerf and rapid planning
+  Job job;                           // what runs: after kerf and rapid planning
   std::optional<KerfReport> kerf;    // when kerf_mm > 0
   RapidsReport rapids;
   std::vector<NoGoZone> declared_zones;
   std::vector<Contour> cut_zones;    // the closed cuts, as plan_rapids saw them
-  executor::Trajectories trajectories;  // planned mode: one per step (null for non-moves)
-  executor::ExecutionResult result;
-  std::string controller;            // the servo controller's kind
+  executor::Trajectories trajectories;  // one per step (null for non-moves)
   Eigen::Vector2d origin_mm = Eigen::Vector2d::Zero();  // where the program's zero sat
   std::string origin_from = "none";                     // "--origin", "machine file" or "none"
   std::vector<std::string> warnings;                    // from reading and placing the program
   std::vector<std::string> notes;                       // program words the machine ignores (M8, M52, ...)
+  bool paper_x1_decoding = false;    // the encoders are counted x1 (paper modes)
 
   double planned_motion_s = 0.0;     // sum of trajectory durations
   double motion_lower_bound_s = 0.0;
@@ -161,15 +156,24 @@ struct RunOutcome {
   double optimum_ratio = 0.0;        // planned_motion_s / motion_optimum_s
   double process_time_s = 0.0;
   double lower_bound_s = 0.0;
-  double cycle_ratio = 0.0;
   double motion_ratio = 0.0;
+  // The run's expected machine time: the planned motion plus the torch process and dwells.
+  double expected_s() const { return planned_motion_s + process_time_s; }
+};
+
+// What a run did, beside what it planned.
+struct RunOutcome : PlannedRun {
+  executor::ExecutionResult result;
+  std::string controller;            // the servo controller's kind
+  double cycle_ratio = 0.0;
   // Over all cuts, weighted by samples: the RMS of the measured contour error, mm.
   double rms_contour_error_mm = 0.0;
   double rms_true_contour_error_mm = 0.0;
+  // How the run ended (done, faulted, cancelled, deadline), with the brief and the full report
+  // for people: run summary, per-cut errors, faults, bound and ratio.
+  Summary summary;
 
   bool faulted() const { return result.status == executor::ExecutionResult::Status::faulted; }
-  // The whole report for people: run summary, per-cut errors, faults, bound and ratio.
-  std::string report() const;
   // {"cycle_time_s", "max_contour_error_mm", "rms_contour_error_mm", "cuts", "faults",
   //  "lower_bound_s", "cycle_ratio", "planned_motion_s", "motion_optimum_s", "optimum_ratio",
   //  "rapids": {..., "detours": [{"source_line", "extra_length_mm", "reason"}]}, ...}; see
@@ -177,13 +181,35 @@ struct RunOutcome {
   nlohmann::json to_json() const;
 };
 
-// Runs `program_path` as described in the file comment.
-RunOutcome run_program(const std::string& program_path, const RunOptions& options);
+// The machine session a run of these options runs on: its machine loaded once (the paper
+// modes count the encoders x1 when paper_x1_decoding is set), the feed override as the feed
+// for a calibration's open-loop factor.
+session::MachineSessionOptions session_options_for(const RunOptions& options);
+
+// Reads a program for `machine`: the machine file's G-code parameters and spindles added to
+// `gcode` (a given value of the same name wins); unless `strict_z`, Z words dropped from the
+// first move that changes Z, with one warning added to `warnings` (the torch height, or the
+// tool's, is the machine's on these 2-axis machines).
+Program read_program_for(const std::string& program_path, GcodeOptions gcode, const cutting::MachineConfig& machine,
+                         bool strict_z, std::vector<std::string>& warnings);
+
+// Plans `program_path` for `machine` as described in the file comment.
+PlannedRun plan_program(const std::string& program_path, const RunOptions& options, const cutting::MachineConfig& machine,
+                        const RunControl& control = {});
 // The same from a Job already made (make_job with the machine's rapid feed): for callers that
 // build or trim jobs themselves, such as the paper reproduction in bench/.
-RunOutcome run_job(Job programmed, const RunOptions& options);
+PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::MachineConfig& machine,
+                    const RunControl& control = {});
+// Runs a planned job on `session` (whose machine it was planned for).
+RunOutcome execute(session::MachineSession& session, PlannedRun plan, const RunOptions& options,
+                   const RunControl& control = {});
 
-// The process time of the file comment for `job` on `machine`, s.
+// Plan and execute on a session of their own.
+RunOutcome run_program(const std::string& program_path, const RunOptions& options, const RunControl& control = {});
+RunOutcome run_job(Job programmed, const RunOptions& options, const RunControl& control = {});
+
+// The process time of the file comment for `job` on `machine`, s: the torch sequence at the
+// machine file's delays and speeds, and the dwells (engine/motion/process_time.h).
 double process_time_s(const Job& job, const cutting::MachineConfig& machine, double height_tolerance_mm);
 
 // The feed planner's limits for a machine: its limits block and servo period.

@@ -48,7 +48,7 @@ AccScore score_acc_gain(const AccTuningOptions& o, double gain) {
   return s;
 }
 
-AccTuningResult tune_acc(const AccTuningOptions& o, StopToken stop) {
+AccTuningResult tune_acc(const AccTuningOptions& o, Termination* termination) {
   o.validate();
   AccTuningResult out;
   out.variable_gain = o.acc.variable_gain;
@@ -57,22 +57,29 @@ AccTuningResult tune_acc(const AccTuningOptions& o, StopToken stop) {
   Problem p;
   p.parameters = {{o.acc.variable_gain ? "open_loop_gain" : "kc", o.gain_min, o.gain_max, out.start_gain, true}};
   p.constraint_count = 1;
+  Termination work(termination);
+  work.set_deadline(o.max_work_s, "work (evaluations at the reference cost)");
   p.evaluate = [&](const std::vector<double>& x, std::vector<double>& g) {
     const AccScore s = score_acc_gain(o, x[0]);
+    work.charge(1, kAccWorkPerEvaluation_s);
     // Overshoot scaled so that 1 unit is the limit (plus a floor, so a zero limit is usable).
     g[0] = (s.worst_overshoot - o.max_overshoot) / std::max(o.max_overshoot, 0.005);
     return s.worst_settling_s;
   };
-  out.optimizer = optimize(p, o.optimizer, stop);
+  out.optimizer = optimize(p, o.optimizer, &work);
   out.gain = out.optimizer.x[0];
   out.after = score_acc_gain(o, out.gain);
-  out.status = out.optimizer.feasible ? "ok" : "infeasible";
+  Summary& s = out.summary;
+  s.status = out.optimizer.stopped() ? status_of(out.optimizer.ended_by) : out.optimizer.feasible ? Status::done : Status::infeasible;
+  if (!s.done()) s.message = out.optimizer.stopped() ? work.describe() : "no gain met the overshoot limit";
+  s.brief = fmt::format("ACC {} gain: {} ({:.4f})", out.variable_gain ? "variable" : "fixed", to_string(s.status), out.gain);
+  s.full = out.report();
   return out;
 }
 
 std::string AccTuningResult::report() const {
   const char* name = variable_gain ? "L0 (variable gain)" : "Kc (fixed gain)";
-  std::string s = fmt::format("ACC gain tuning, {}: {}\n", name, status);
+  std::string s = fmt::format("ACC gain tuning, {}: {}\n", name, summary.done() ? "ok" : to_string(summary.status));
   s += fmt::format("  before  gain {:.4f}: worst settling {:.2f} s, worst overshoot {:.1f} %\n", start_gain,
                    before.worst_settling_s, 100 * before.worst_overshoot);
   s += fmt::format("  after   gain {:.4f}: worst settling {:.2f} s, worst overshoot {:.1f} %\n", gain, after.worst_settling_s,
@@ -96,7 +103,7 @@ nlohmann::json AccTuningResult::to_json() const {
           {"before", score(before)},
           {"after", score(after)},
           {"optimizer", optimizer.to_json()},
-          {"status", status}};
+          {"status", summary.done() ? "ok" : to_string(summary.status)}};
 }
 
 }  // namespace machplan::tuning

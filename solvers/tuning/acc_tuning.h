@@ -16,6 +16,8 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/control/acc.h"
+#include "engine/common/summary.h"
+#include "engine/common/termination.h"
 #include "solvers/tuning/optimizer.h"
 
 namespace machplan::tuning {
@@ -31,6 +33,10 @@ struct AccTuningOptions {
   double max_overshoot = 0.02;           // fraction of F_r
   double gain_min = 0.02, gain_max = 4.0;
   OptimizerOptions optimizer;            // defaults below: 150 evaluations
+  // Deadline in seconds of work: each evaluation (the same simulated depth steps) is charged
+  // kAccWorkPerEvaluation_s, about its cost on the reference PC, so the deadline decides the
+  // same way on any computer.
+  double max_work_s = 25.0;
   AccTuningOptions() { optimizer.max_evaluations = 150; }
   // Throws InputError naming the field.
   void validate() const;
@@ -45,16 +51,18 @@ struct AccScore {
 // The score of one gain (Kc or L0 by options.acc.variable_gain).
 AccScore score_acc_gain(const AccTuningOptions& options, double gain);
 
+inline constexpr double kAccWorkPerEvaluation_s = 1.2e-3;
+
 struct AccTuningResult {
   bool variable_gain = false;
   double start_gain = 0.0, gain = 0.0;
   AccScore before, after;
   OptimizerResult optimizer;
-  std::string status;  // "ok" or "infeasible"
+  Summary summary;      // done, infeasible, or what ended the search early; reports: report()
   std::string report() const;
   nlohmann::json to_json() const;
 };
 
-AccTuningResult tune_acc(const AccTuningOptions& options, StopToken stop = {});
+AccTuningResult tune_acc(const AccTuningOptions& options, Termination* termination = nullptr);
 
 }  // namespace machplan::tuning

@@ -10,7 +10,7 @@
 #include "engine/common/parse.h"
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
-#include "models/backends/backend_factory.h"
+#include "solvers/session/machine_session.h"
 #include "models/cutting/controller_plant.h"
 #include "solvers/motion/run.h"
 
@@ -65,12 +65,8 @@ motion::Job one_move_job(const std::string& source, const Eigen::Vector2d& start
 // The program as a Job of motion only: torch and dwell steps dropped (a tuning run cuts
 // nothing; the XY table has no torch), every feed stretch counted.
 motion::Job program_job(const TestContour& c, const cutting::MachineConfig& m) {
-  GcodeOptions go;
-  for (const auto& [name, value] : m.gcode_params) go.params.emplace(name, value);
-  go.spindle_count = std::max(go.spindle_count, m.gcode_spindles);
-  Program program = read_gcode_file(c.path, go);
-  for (Move& mv : program.moves)
-    if (mv.plane == Move::Plane::xy) mv.end.z() = program.start.z();  // the torch height is the machine's
+  std::vector<std::string> warnings;  // a tuning run moves X and Y only: the Z words go unremarked
+  const Program program = motion::read_program_for(c.path, {}, m, false, warnings);
   motion::JobOptions jo;
   jo.rapid_feed_mm_per_s = m.limits.rapid_mm_per_s;
   motion::Job full = motion::make_job(program, jo);
@@ -217,21 +213,23 @@ double Evaluation::value(Objective o) const {
 
 nlohmann::json Evaluation::to_json() const {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  // A faulted run's errors are not measurements: null.
+  auto measured = [](bool faulted, double v) { return faulted ? nlohmann::json(nullptr) : nlohmann::json(v); };
   nlohmann::json cs = nlohmann::json::array();
   for (const ContourScore& c : contours)
     cs.push_back({{"contour", c.contour},
                   {"samples", c.samples},
-                  {"max_contour_error_mm", c.max_mm},
+                  {"max_contour_error_mm", measured(c.faulted || c.samples == 0, c.max_mm)},
                   {"max_at", {{"t_s", c.max_at_s}, {"x_mm", c.max_at_x_mm}, {"y_mm", c.max_at_y_mm}, {"line", c.max_at_line}}},
-                  {"rms_contour_error_mm", c.rms_mm},
-                  {"itae_mm_s2", c.itae_mm_s2},
+                  {"rms_contour_error_mm", measured(c.faulted || c.samples == 0, c.rms_mm)},
+                  {"itae_mm_s2", measured(c.faulted || c.samples == 0, c.itae_mm_s2)},
                   {"saturation_share", c.saturation_share},
                   {"max_following_error_mm", c.max_following_error_mm},
                   {"faulted", c.faulted},
                   {"fault", c.fault}});
-  return {{"max_contour_error_mm", max_mm},
-          {"rms_contour_error_mm", rms_mm},
-          {"itae_mm_s2", itae_mm_s2},
+  return {{"max_contour_error_mm", measured(faulted, max_mm)},
+          {"rms_contour_error_mm", measured(faulted, rms_mm)},
+          {"itae_mm_s2", measured(faulted, itae_mm_s2)},
           {"saturation_share", saturation_share},
           {"max_following_error_mm", max_following_error_mm},
           {"step_overshoot", num(overshoot)},
@@ -327,20 +325,17 @@ const motion::Job& Evaluator::job(std::size_t i) const { return prepared_.at(i)-
 namespace {
 
 executor::ExecutionResult run_prepared(const motion::Job& job, const executor::Trajectories& trajectories,
-                                       const cutting::MachineConfig& m, const executor::MachineSetup& setup,
-                                       control::Controller& controller, std::uint64_t seed) {
-  backends::BackendOptions bo;
-  bo.sim.seed = seed;
-  bo.sim.realtime = false;
-  bo.sim.start_mm = job.start_mm;
-  const std::unique_ptr<hardware::Backend> backend = backends::make_backend(m, bo);
-  executor::ExecutorOptions eo;
-  eo.record_trace = true;
-  eo.trace_every_ticks = 1;
-  executor::Executor ex(setup, eo);
-  executor::RunParts parts;
-  parts.controller = &controller;
-  return ex.run(job, trajectories, *backend, parts);
+                                       const cutting::MachineConfig& m, control::Controller& controller, std::uint64_t seed) {
+  session::MachineSessionOptions so;
+  so.machine_config = m;
+  so.backend.sim.seed = seed;
+  so.backend.sim.realtime = false;
+  so.executor.record_trace = true;
+  so.executor.trace_every_ticks = 1;
+  session::MachineSession session(std::move(so));
+  session::MachineSession::RunHooks hooks;
+  hooks.controller = &controller;
+  return session.run(job, trajectories, hooks);
 }
 
 }  // namespace
@@ -348,7 +343,7 @@ executor::ExecutionResult run_prepared(const motion::Job& job, const executor::T
 executor::ExecutionResult Evaluator::run_contour(std::size_t i, const std::string& kind, const control::Gains& gains) const {
   const Prepared& p = *prepared_.at(i);
   auto c = control::make_controller(kind, gains, plant_);
-  return run_prepared(p.job, p.trajectories, machine_, setup_, *c, options_.seed);
+  return run_prepared(p.job, p.trajectories, machine_, *c, options_.seed);
 }
 
 ContourScore Evaluator::score(const Prepared& p, const executor::ExecutionResult& r, ErrorSeries* series) const {
@@ -429,7 +424,8 @@ Evaluation Evaluator::evaluate(const std::string& kind, const control::Gains& ga
     for (int run = 0; run < options_.noise_runs; ++run) {
       auto ctl = control::make_controller(kind, gains, plant_);
       const executor::ExecutionResult r =
-          run_prepared(p.job, p.trajectories, machine_, setup_, *ctl, options_.seed + static_cast<std::uint64_t>(run));
+          run_prepared(p.job, p.trajectories, machine_, *ctl, options_.seed + static_cast<std::uint64_t>(run));
+      ev.machine_s += r.cycle_time_s;
       const ContourScore one = score(p, r, nullptr);
       s2 += one.rms_mm * one.rms_mm * static_cast<double>(one.samples);
       s.samples += one.samples;
@@ -466,7 +462,8 @@ Evaluation Evaluator::evaluate(const std::string& kind, const control::Gains& ga
   for (int margin = 0; margin < 2; ++margin) {
     auto ctl = control::make_controller(kind, gains, plant_);
     const executor::ExecutionResult r =
-        run_prepared(step_->job, step_->trajectories, margin ? margin_machine_ : machine_, setup_, *ctl, options_.seed);
+        run_prepared(step_->job, step_->trajectories, margin ? margin_machine_ : machine_, *ctl, options_.seed);
+    ev.machine_s += r.cycle_time_s;
     const bool faulted = r.status == executor::ExecutionResult::Status::faulted;
     double overshoot = 0.0;
     double lo[2] = {inf, inf}, hi[2] = {-inf, -inf};

@@ -113,6 +113,7 @@ struct Evaluation {
   double overshoot = 0.0;        // fraction of the step (NaN when constraints are off)
   double margin_residual = 0.0;  // fraction of the step; infinity when the margin run faulted
   bool faulted = false;          // a contour run faulted (following error, ...)
+  double machine_s = 0.0;        // machine time simulated for this evaluation, all runs, s
   double value(Objective o) const;
   nlohmann::json to_json() const;
 };

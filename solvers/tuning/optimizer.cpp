@@ -38,7 +38,7 @@ const char* stop_words(nlopt_result r) {
 struct Run {
   const Problem& p;
   const OptimizerOptions& o;
-  StopToken stop;
+  Termination* termination;
   Clock::time_point t0;
   std::size_t n;
   int evaluations = 0;
@@ -53,7 +53,8 @@ struct Run {
   double least_violation = std::numeric_limits<double>::infinity(), least_f = 0.0;
   nlopt_opt current = nullptr;
 
-  Run(const Problem& p, const OptimizerOptions& o, StopToken s) : p(p), o(o), stop(s), n(p.parameters.size()) {}
+  Run(const Problem& p, const OptimizerOptions& o, Termination* t) : p(p), o(o), termination(t), n(p.parameters.size()) {}
+  bool ended() const { return termination && termination->should_end(); }
 
   std::vector<double> to_x(const double* u) const {
     std::vector<double> x(n);
@@ -105,7 +106,7 @@ struct Run {
       least_u = last_u;
       least_g = last_g;
     }
-    if (current && (stop.stop_requested())) {
+    if (current && ended()) {
       stopped = true;
       nlopt_force_stop(current);
     }
@@ -134,8 +135,7 @@ void constraints_f(unsigned m, double* result, unsigned, const double* u, double
   for (unsigned i = 0; i < m; ++i) result[i] = r->last_g[i];
 }
 
-StageReport run_stage(Run& r, nlopt_algorithm alg, const char* name, bool constrained, std::vector<double>& u, int budget,
-                      double time_s) {
+StageReport run_stage(Run& r, nlopt_algorithm alg, const char* name, bool constrained, std::vector<double>& u, int budget) {
   StageReport s;
   s.algorithm = name;
   const int before = r.evaluations;
@@ -145,7 +145,6 @@ StageReport run_stage(Run& r, nlopt_algorithm alg, const char* name, bool constr
   nlopt_set_lower_bounds(opt, lo.data());
   nlopt_set_upper_bounds(opt, hi.data());
   nlopt_set_maxeval(opt, std::max(1, budget));
-  nlopt_set_maxtime(opt, std::max(0.01, time_s));
   if (constrained) {
     nlopt_set_min_objective(opt, plain_f, &r);
     if (r.p.constraint_count > 0) {
@@ -166,7 +165,7 @@ StageReport run_stage(Run& r, nlopt_algorithm alg, const char* name, bool constr
   nlopt_destroy(opt);
   s.evaluations = r.evaluations - before;
   s.time_s = std::chrono::duration<double>(Clock::now() - t).count();
-  s.stop_reason = r.budget_hit && !r.stopped ? "evaluation budget reached" : stop_words(res);
+  s.stop_reason = r.stopped ? r.termination->describe() : r.budget_hit ? "evaluation budget reached" : stop_words(res);
   s.best_objective = r.best_f;
   return s;
 }
@@ -196,13 +195,11 @@ void OptimizerOptions::validate() const {
     throw InputError("--evaluations", 0, fmt::format("{} is out of range: must be in [1, 10000000]", max_evaluations));
   if (!(global_share > 0.0 && global_share <= 1.0))
     throw InputError("global_share", 0, fmt::format("{} is out of range: must be in (0, 1]", global_share));
-  if (!(std::isfinite(max_time_s) && max_time_s > 0.0))
-    throw InputError("--time", 0, fmt::format("{} is out of range: must be > 0 s", max_time_s));
   if (!(xtol_rel > 0.0 && xtol_rel < 1.0)) throw InputError("xtol_rel", 0, fmt::format("{} must be in (0, 1)", xtol_rel));
   if (!(std::isfinite(penalty) && penalty > 0.0)) throw InputError("penalty", 0, fmt::format("{} must be > 0", penalty));
 }
 
-OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, StopToken stop) {
+OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, Termination* termination) {
   o.validate();
   if (p.parameters.empty()) throw std::invalid_argument("optimize: no parameters");
   if (!p.evaluate) throw std::invalid_argument("optimize: no evaluate function");
@@ -215,7 +212,7 @@ OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, StopToken 
     if (!(q.start >= q.lo && q.start <= q.hi))
       throw std::invalid_argument(fmt::format("optimize: parameter {}: start {} outside [{}, {}]", q.name, q.start, q.lo, q.hi));
   }
-  Run r(p, o, stop);
+  Run r(p, o, termination);
   r.t0 = Clock::now();
   nlopt_srand(o.seed);
 
@@ -227,7 +224,7 @@ OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, StopToken 
   const bool local = o.local != OptimizerOptions::Local::none;
   const bool global = o.global != OptimizerOptions::Global::none;
   int budget = o.max_evaluations - 1;
-  if (global && budget > 0 && !stop.stop_requested()) {
+  if (global && budget > 0 && !r.ended()) {
     const int b = local ? std::max(1, static_cast<int>(std::lround(budget * o.global_share))) : budget;
     std::vector<double> ug = u;
     nlopt_algorithm alg = NLOPT_GN_DIRECT_L;
@@ -237,25 +234,24 @@ OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, StopToken 
       alg = NLOPT_GN_ISRES;
       constrained = true;
     }
-    out.global = run_stage(r, alg, to_string(o.global), constrained, ug, b, o.max_time_s - r.elapsed_s());
+    out.global = run_stage(r, alg, to_string(o.global), constrained, ug, b);
     budget = o.max_evaluations - r.evaluations;
   } else {
     out.global.algorithm = "none";
   }
-  if (local && budget > 0 && !r.stopped && !stop.stop_requested() && r.elapsed_s() < o.max_time_s) {
+  if (local && budget > 0 && !r.stopped && !r.ended()) {
     std::vector<double> ul = !r.best_u.empty() ? r.best_u : r.least_u;
     const bool cobyla = o.local == OptimizerOptions::Local::cobyla;
     const nlopt_algorithm alg = cobyla ? NLOPT_LN_COBYLA : NLOPT_LN_BOBYQA;
     // From the global stage's best point, then, with what that leaves of half the budget
     // and more, from the start (when it was not already the best).
     const bool two = global && ul != u;
-    out.local = run_stage(r, alg, to_string(o.local), cobyla, ul, two ? (budget + 1) / 2 : budget,
-                          o.max_time_s - r.elapsed_s());
+    out.local = run_stage(r, alg, to_string(o.local), cobyla, ul, two ? (budget + 1) / 2 : budget);
     budget = o.max_evaluations - r.evaluations;
-    if (two && budget > 0 && !r.stopped && !stop.stop_requested() && r.elapsed_s() < o.max_time_s) {
+    if (two && budget > 0 && !r.stopped && !r.ended()) {
       const StageReport first = out.local;
       std::vector<double> us = u;
-      const StageReport second = run_stage(r, alg, to_string(o.local), cobyla, us, budget, o.max_time_s - r.elapsed_s());
+      const StageReport second = run_stage(r, alg, to_string(o.local), cobyla, us, budget);
       out.local.evaluations += second.evaluations;
       out.local.time_s += second.time_s;
       out.local.best_objective = second.best_objective;
@@ -263,7 +259,7 @@ OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, StopToken 
     }
   } else {
     out.local.algorithm = to_string(o.local);
-    out.local.stop_reason = local ? (r.stopped || stop.stop_requested() ? "stopped" : "no budget left") : "";
+    out.local.stop_reason = local ? (r.ended() ? termination->describe() : "no budget left") : "";
   }
 
   out.feasible = !r.best_u.empty();
@@ -273,7 +269,7 @@ OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, StopToken 
   out.constraints = out.feasible ? r.best_g : r.least_g;
   out.evaluations = r.evaluations;
   out.time_s = r.elapsed_s();
-  out.stopped = r.stopped || stop.stop_requested();
+  if (r.ended()) out.ended_by = termination->reason();
   return out;
 }
 
@@ -293,7 +289,7 @@ nlohmann::json OptimizerResult::to_json() const {
     return nlohmann::json{{"algorithm", s.algorithm}, {"evaluations", s.evaluations}, {"time_s", s.time_s},
                           {"stop_reason", s.stop_reason}};
   };
-  return {{"evaluations", evaluations}, {"time_s", time_s}, {"feasible", feasible}, {"stopped", stopped},
+  return {{"evaluations", evaluations}, {"time_s", time_s}, {"feasible", feasible}, {"stopped", stopped()},
           {"objective", objective},     {"global", stage(global)}, {"local", stage(local)}};
 }
 

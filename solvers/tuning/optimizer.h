@@ -26,9 +26,10 @@
 // one, with feasible = false. Each evaluation of the caller's function is counted once:
 // NLopt's separate calls for the objective and the constraints at the same x share it.
 //
-// Stopping: the evaluation budget (shared: global_share of it to stage 1), the wall-clock
-// limit, xtol_rel in stage 2, or the StopToken. The stop reason of each stage is NLopt's,
-// in words.
+// Stopping: the evaluation budget (shared: global_share of it to stage 1), xtol_rel in stage 2,
+// or the caller's Termination (a stop request, or a deadline or budget the caller's evaluate
+// charges), polled after every evaluation. The stop reason of each stage is NLopt's, in words.
+// No wall clock decides anything: the same problem gives the same answer on any machine.
 //
 // Threading: optimize() calls `evaluate` from the calling thread only.
 #pragma once
@@ -40,7 +41,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/common/stop.h"
+#include "engine/common/termination.h"
 
 namespace machplan::tuning {
 
@@ -66,7 +67,6 @@ struct OptimizerOptions {
   Local local = Local::cobyla;
   int max_evaluations = 600;   // both stages together
   double global_share = 0.6;   // of max_evaluations for stage 1 (when a local stage follows)
-  double max_time_s = 25.0;    // both stages together, wall clock
   double xtol_rel = 1e-3;      // stage 2, in the normalised cube
   double penalty = 100.0;      // stage 1 (and BOBYQA): weight of the summed violations
   std::uint64_t seed = 1;      // CRS2 and ISRES are randomised
@@ -91,7 +91,9 @@ struct OptimizerResult {
   bool feasible = false;
   int evaluations = 0;
   double time_s = 0.0;
-  bool stopped = false;        // the StopToken fired
+  // The caller's Termination ended the search (none: it ran to its budget or tolerance).
+  Termination::Reason ended_by = Termination::Reason::none;
+  bool stopped() const { return ended_by != Termination::Reason::none; }
   StageReport global, local;
   std::string report() const;  // a few lines for people
   nlohmann::json to_json() const;
@@ -99,6 +101,6 @@ struct OptimizerResult {
 
 // Throws std::invalid_argument when the problem is malformed (empty, lo >= hi, start outside,
 // non-positive bound of a log-scale parameter) and InputError when options do not validate.
-OptimizerResult optimize(const Problem& problem, const OptimizerOptions& options, StopToken stop = {});
+OptimizerResult optimize(const Problem& problem, const OptimizerOptions& options, Termination* termination = nullptr);
 
 }  // namespace machplan::tuning

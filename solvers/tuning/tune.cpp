@@ -53,7 +53,48 @@ double following_limit(const Evaluator& ev) {
 
 }  // namespace
 
-TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
+Comparison compare(const Evaluation& baseline, const Evaluation& tuned) {
+  Comparison c;
+  double b2 = 0.0, t2 = 0.0;
+  std::size_t bn = 0, tn = 0;
+  for (std::size_t i = 0; i < baseline.contours.size() && i < tuned.contours.size(); ++i) {
+    const ContourScore& b = baseline.contours[i];
+    const ContourScore& t = tuned.contours[i];
+    if (b.faulted || b.samples == 0) {
+      c.faulted.push_back(fmt::format("{}: {}", b.contour, b.faulted ? b.fault : "no samples"));
+      continue;
+    }
+    c.contours.push_back(b.contour);
+    c.baseline_max_mm = std::max(c.baseline_max_mm, b.max_mm);
+    c.tuned_max_mm = std::max(c.tuned_max_mm, t.max_mm);
+    b2 += b.rms_mm * b.rms_mm * static_cast<double>(b.samples);
+    t2 += t.rms_mm * t.rms_mm * static_cast<double>(t.samples);
+    bn += b.samples;
+    tn += t.samples;
+  }
+  c.baseline_rms_mm = bn ? std::sqrt(b2 / static_cast<double>(bn)) : 0.0;
+  c.tuned_rms_mm = tn ? std::sqrt(t2 / static_cast<double>(tn)) : 0.0;
+  return c;
+}
+
+namespace {
+
+// How the tuning ended; its reports.
+void summarize(TuneResult& r) {
+  Summary& s = r.summary;
+  s.status = r.optimizer.stopped() ? status_of(r.optimizer.ended_by) : !r.optimizer.feasible ? Status::infeasible : Status::done;
+  if (s.status == Status::infeasible) s.message = "no gains met the constraints; the least violating are shown";
+  else if (!s.done()) s.message = r.optimizer.local.stop_reason.empty() ? r.optimizer.global.stop_reason : r.optimizer.local.stop_reason;
+  s.brief = fmt::format("tuning {} on {}: {}", r.kind, r.machine, to_string(s.status));
+  if (r.improvement.any())
+    s.brief += fmt::format(", max contour error {:.4f} -> {:.4f} mm ({:.2f}x)", r.improvement.baseline_max_mm,
+                           r.improvement.tuned_max_mm, r.improvement.max_ratio());
+  s.full = r.report();
+}
+
+}  // namespace
+
+TuneResult tune(const Evaluator& ev, const TuneOptions& o, Termination* termination, Progress* progress) {
   o.validate();
   TuneResult r;
   r.machine = ev.machine().name;
@@ -112,7 +153,13 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
                                                       : (model_moved ? "drive-model feed-forward" : "defaults");
   r.baseline = ev.evaluate(o.baseline_kind, {});
   r.start = ev.evaluate(o.kind, r.start_gains);
-  const double scale = std::max(r.baseline.value(o.objective), 1e-9);
+  // The objective is scaled by the baseline's, or the start's where the baseline faulted (a
+  // faulted run's figures are not measurements).
+  const Evaluation& ref = r.baseline.faulted && !r.start.faulted ? r.start : r.baseline;
+  const double scale = std::max(ref.value(o.objective), 1e-9);
+  // The deadline in work and the evaluation budget (a hard cap), under the caller's stop.
+  Termination work(termination);
+  work.set_deadline(o.max_work_s, "work (simulated machine time at the reference cost)");
   Problem p;
   std::vector<std::string> searched;  // the gains the optimiser moves, in its order
   for (const auto& s : r.specs) {
@@ -135,21 +182,24 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
   int done = 0;
   p.evaluate = [&](const std::vector<double>& x, std::vector<double>& g) {
     const Evaluation e = ev.evaluate(o.kind, gains_of(x));
+    work.charge(1, e.machine_s * kWorkPerMachineSecond);
     g = constraint_values(e, o.evaluation, flimit);
-    if (o.progress) o.progress(std::min(1.0, ++done / static_cast<double>(o.optimizer.max_evaluations)));
+    report_progress(progress, std::min(1.0, ++done / static_cast<double>(o.optimizer.max_evaluations)));
     return e.value(o.objective) / scale;
   };
   if (p.parameters.empty()) {
     r.gains = r.start_gains;
     r.tuned = r.start;
-    r.status = "ok";
+    r.optimizer.feasible = true;
+    r.improvement = compare(r.baseline, r.tuned);
+    summarize(r);
     return r;
   }
-  r.optimizer = optimize(p, o.optimizer, stop);
+  r.optimizer = optimize(p, o.optimizer, &work);
   r.gains = gains_of(r.optimizer.x);
   r.tuned = ev.evaluate(o.kind, r.gains);
-  r.status = r.optimizer.stopped ? "stopped" : (r.optimizer.feasible ? "ok" : "infeasible");
-  if (o.fresh_check && !r.optimizer.stopped) {
+  r.improvement = compare(r.baseline, r.tuned);
+  if (o.fresh_check && !r.optimizer.stopped()) {
     EvaluationOptions fo = ev.options();
     fo.seed += static_cast<std::uint64_t>(fo.noise_runs);
     fo.constraints = false;  // only the contour errors are compared here
@@ -157,12 +207,16 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, StopToken stop) {
     r.fresh_seed = fo.seed;
     r.fresh_baseline = fresh.evaluate(o.baseline_kind, {});
     r.fresh_tuned = fresh.evaluate(o.kind, r.gains);
+    r.fresh_improvement = compare(r.fresh_baseline, r.fresh_tuned);
   }
+  summarize(r);
   return r;
 }
 
 std::string TuneResult::report() const {
-  std::string s = fmt::format("tuning {} on {} ({} contour error): {}\n", kind, machine, to_string(objective), status);
+  std::string s = fmt::format("tuning {} on {} ({} contour error): {}\n", kind, machine, to_string(objective),
+                              summary.done() ? "ok" : to_string(summary.status));
+  if (!summary.done() && !summary.message.empty()) s += fmt::format("  {}\n", summary.message);
   s += "  gains\n";
   for (const auto& sp : specs) {
     const auto it = gains.find(sp.name);
@@ -175,21 +229,33 @@ std::string TuneResult::report() const {
                      it != gains.end() ? it->second : sp.default_value, st != start_gains.end() ? st->second : sp.default_value,
                      sp.min_value, sp.max_value);
   }
-  const auto line = [](const char* what, const Evaluation& e) {
-    return fmt::format("  {:<38} max {:8.4f} mm  rms {:8.4f} mm  itae {:10.4g} mm s^2{}\n", what, e.max_mm, e.rms_mm,
-                       e.itae_mm_s2, e.faulted ? "  FAULTED" : "");
+  // A faulted run has no contour error to show: its fault is shown instead.
+  const auto line = [](const std::string& what, const Evaluation& e) {
+    if (!e.faulted)
+      return fmt::format("  {:<38} max {:8.4f} mm  rms {:8.4f} mm  itae {:10.4g} mm s^2\n", what, e.max_mm, e.rms_mm, e.itae_mm_s2);
+    std::string t = fmt::format("  {:<38} FAULTED on", what);
+    for (const ContourScore& c : e.contours)
+      if (c.faulted) t += fmt::format(" {} ({})", c.contour, c.fault);
+    return t + "\n";
   };
   s += line("baseline (axial P)", baseline);
-  s += line(fmt::format("start ({}, {})", kind, start_from).c_str(), start);
+  s += line(fmt::format("start ({}, {})", kind, start_from), start);
   s += line("tuned", tuned);
-  if (tuned.max_mm > 0)
-    s += fmt::format("  improvement on the baseline: max {:.2f}x, rms {:.2f}x\n", baseline.max_mm / tuned.max_mm,
-                     tuned.rms_mm > 0 ? baseline.rms_mm / tuned.rms_mm : 0.0);
-  if (fresh_seed > 0 && fresh_tuned.max_mm > 0) {
+  const auto improvement_text = [](const Comparison& c) {
+    std::string t;
+    if (!c.faulted.empty()) t += fmt::format(" (left out, the baseline faulted: {})", fmt::join(c.faulted, "; "));
+    return t;
+  };
+  if (improvement.any() && improvement.tuned_max_mm > 0)
+    s += fmt::format("  improvement on the baseline: max {:.2f}x, rms {:.2f}x{}\n", improvement.max_ratio(),
+                     improvement.rms_ratio(), improvement_text(improvement));
+  else if (!improvement.any())
+    s += fmt::format("  no improvement figure: the baseline completed none of the contours{}\n", improvement_text(improvement));
+  if (fresh_seed > 0 && fresh_improvement.any() && fresh_improvement.tuned_max_mm > 0) {
     s += fmt::format("  under noise it was not tuned on (seeds from {}): baseline max {:.4f} mm, tuned max {:.4f} mm: "
-                     "max {:.2f}x, rms {:.2f}x\n",
-                     fresh_seed, fresh_baseline.max_mm, fresh_tuned.max_mm, fresh_baseline.max_mm / fresh_tuned.max_mm,
-                     fresh_tuned.rms_mm > 0 ? fresh_baseline.rms_mm / fresh_tuned.rms_mm : 0.0);
+                     "max {:.2f}x, rms {:.2f}x{}\n",
+                     fresh_seed, fresh_improvement.baseline_max_mm, fresh_improvement.tuned_max_mm, fresh_improvement.max_ratio(),
+                     fresh_improvement.rms_ratio(), improvement_text(fresh_improvement));
   }
   s += fmt::format("  {:<38} step overshoot {:.1f} %, margin wobble {:.2f} %, saturation {:.2f} %, "
                    "following error {:.3f} mm\n",
@@ -220,9 +286,24 @@ nlohmann::json TuneResult::to_json() const {
                       {"start", start.to_json()},
                       {"tuned", tuned.to_json()},
                       {"optimizer", optimizer.to_json()},
-                      {"status", status}};
+                      {"status", summary.done() ? "ok" : to_string(summary.status)},
+                      {"message", summary.message}};
+  const auto comparison = [](const Comparison& c) {
+    nlohmann::json j = {{"contours", c.contours}, {"baseline_faulted", c.faulted}};
+    if (c.any() && c.tuned_max_mm > 0) {
+      j["baseline_max_contour_error_mm"] = c.baseline_max_mm;
+      j["tuned_max_contour_error_mm"] = c.tuned_max_mm;
+      j["max_ratio"] = c.max_ratio();
+      j["rms_ratio"] = c.rms_ratio();
+    }
+    return j;
+  };
+  j["improvement"] = comparison(improvement);
   if (fresh_seed > 0)
-    j["fresh"] = {{"first_seed", fresh_seed}, {"baseline", fresh_baseline.to_json()}, {"tuned", fresh_tuned.to_json()}};
+    j["fresh"] = {{"first_seed", fresh_seed},
+                  {"baseline", fresh_baseline.to_json()},
+                  {"tuned", fresh_tuned.to_json()},
+                  {"improvement", comparison(fresh_improvement)}};
   return j;
 }
 

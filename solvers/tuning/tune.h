@@ -17,13 +17,14 @@
 // with status "infeasible".
 #pragma once
 
-#include <functional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
-#include "engine/common/stop.h"
+#include "engine/common/progress.h"
+#include "engine/common/summary.h"
+#include "engine/common/termination.h"
 #include "solvers/tuning/evaluate.h"
 #include "solvers/tuning/optimizer.h"
 
@@ -61,11 +62,31 @@ struct TuneOptions {
   // draws the tuning never saw (the seeds after its own): the figure to expect on the machine,
   // since gains tuned on a few draws partly fit those draws' spikes. false skips it.
   bool fresh_check = true;
-  // Called after each evaluation with the share of the evaluation budget used (0 .. 1).
-  std::function<void(double)> progress;
+  // The tuning's deadline in seconds of work (the CLI's --time): each evaluation is charged the
+  // machine time it simulated at kWorkPerMachineSecond, so the deadline decides the same way on
+  // any computer (about wall-clock seconds on the 2-core PC the figures were measured on).
+  double max_work_s = 25.0;
   // Throws InputError naming the field.
   void validate() const;
 };
+
+// Seconds of work charged per second of simulated machine time: one 1 ms period of the
+// simulated axes, controller and executor costs about 2.5 us on the reference PC (2 cores,
+// 2026; measured from `machplan tune` runs).
+inline constexpr double kWorkPerMachineSecond = 2.5e-3;
+
+// The tuned controller against the baseline on what both completed: the contours the baseline
+// ran to their end without a fault. A baseline that faulted on a contour (its first long
+// rapid beyond the following-error limit, say) has no contour error there to compare with.
+struct Comparison {
+  std::vector<std::string> contours;   // compared: the baseline completed them
+  std::vector<std::string> faulted;    // left out: the baseline faulted on them (with why)
+  double baseline_max_mm = 0.0, tuned_max_mm = 0.0, baseline_rms_mm = 0.0, tuned_rms_mm = 0.0;
+  bool any() const { return !contours.empty(); }
+  double max_ratio() const { return tuned_max_mm > 0 ? baseline_max_mm / tuned_max_mm : 0.0; }
+  double rms_ratio() const { return tuned_rms_mm > 0 ? baseline_rms_mm / tuned_rms_mm : 0.0; }
+};
+Comparison compare(const Evaluation& baseline, const Evaluation& tuned);
 
 struct TuneResult {
   std::string machine, kind;
@@ -80,7 +101,11 @@ struct TuneResult {
   Evaluation fresh_baseline, fresh_tuned;
   std::uint64_t fresh_seed = 0;
   OptimizerResult optimizer;
-  std::string status;  // "ok", "infeasible", "stopped"
+  Comparison improvement, fresh_improvement;  // tuned against the baseline (fresh: under fresh noise)
+  // done; infeasible (no gains met the constraints: the least violating shown); cancelled,
+  // deadline or budget (the search ended early: the best gains so far shown). Its reports are
+  // report()'s text.
+  Summary summary;
   std::string report() const;
   // {"machine", "controller", "objective", "gains": {...}, "baseline": {...}, "start": {...},
   //  "tuned": {...}, "fresh": {"seeds", "baseline", "tuned"} (when checked), "optimizer": {...},
@@ -91,6 +116,10 @@ struct TuneResult {
 // The constraint values g of the file comment for one evaluation.
 std::vector<double> constraint_values(const Evaluation& e, const EvaluationOptions& o, double following_limit_mm);
 
-TuneResult tune(const Evaluator& evaluator, const TuneOptions& options, StopToken stop = {});
+// `termination` (may be null) ends the search early (a stop request); the tuning's own
+// deadline is TuneOptions::max_work_s and its budget the optimizer's max_evaluations.
+// `progress` follows the evaluation budget.
+TuneResult tune(const Evaluator& evaluator, const TuneOptions& options, Termination* termination = nullptr,
+                Progress* progress = nullptr);
 
 }  // namespace machplan::tuning

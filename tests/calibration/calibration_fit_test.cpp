@@ -243,12 +243,12 @@ TEST(CalibrationRecord, CancellationStopsTheAxesAndSaysSo) {
   StopSource stop;
   StopAfter backend(sim, stop, 1500);  // in the middle of the first strokes
   RecordOptions o;
-  o.stop = stop.token();
+  Termination t(stop.token());
   try {
-    record_session(backend, m, o);
+    record_session(backend, m, o, &t);
     FAIL() << "a cancelled session returned a log";
-  } catch (const Infeasible& e) {
-    EXPECT_NE(std::string(e.what()).find("cancelled at 1.500 s"), std::string::npos) << e.what();
+  } catch (const Cancelled& e) {
+    EXPECT_NE(std::string(e.what()).find("ended at 1.500 s (stopped on request)"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(backend.last_.drives_enabled);
   EXPECT_FALSE(sim.drives_enabled());

@@ -173,18 +173,18 @@ TEST(CalibrationStore, OneSessionCalibratesPaperOpenLoopAtThreeFeeds) {
   const std::string part = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/triangle_45.ngc";
   for (double feed : {4.0, 8.0, 16.0}) {
     motion::RunOptions o;
-    o.machine = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml";
-    o.executor.mode = executor::Mode::paper_open;
+    o.session.machine = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml";
+    o.session.executor.mode = executor::Mode::paper_open;
     o.feed_override_mm_per_s = feed;
     const auto before = motion::run_program(part, o).to_json();
-    o.executor.calibration_factor = open_loop_factor(*active, feed);
+    o.session.executor.calibration_factor = open_loop_factor(*active, feed);
     const auto after = motion::run_program(part, o).to_json();
     const double e0 = before["max_true_contour_error_mm"].get<double>();
     const double e1 = after["max_true_contour_error_mm"].get<double>();
     RecordProperty(fmt::format("feed_{}_before_mm", feed), fmt::format("{:.3f}", e0));
     RecordProperty(fmt::format("feed_{}_after_mm", feed), fmt::format("{:.3f}", e1));
     std::printf("paper-open triangle at %g mm/s: max contour error %.3f mm uncalibrated, %.3f mm calibrated (factor %.5f)\n",
-                feed, e0, e1, o.executor.calibration_factor);
+                feed, e0, e1, o.session.executor.calibration_factor);
     EXPECT_GT(e0, 5.0 * e1) << "feed " << feed;
   }
 }

@@ -9,7 +9,7 @@
 
 #include "engine/control/controller_factory.h"
 #include "models/cutting/controller_plant.h"
-#include "models/sim/simulate.h"
+#include "tests/support/simulate.h"
 #include "tests/support/test_trajectory.h"
 
 namespace machplan::control {
@@ -59,11 +59,11 @@ ContourError run(const std::string& kind, const Gains& gains, Shape shape, doubl
   trajs.push_back(std::move(traj));
 
   auto c = make_controller(kind, gains, cutting::controller_plant(m));
-  executor::RunParts parts;
-  parts.controller = c.get();
+  session::MachineSession::RunHooks hooks;
+  hooks.controller = c.get();
   sim::SimOptions so;
   so.seed = 1;
-  const executor::ExecutionResult r = sim::simulate(m, job, trajs, {}, so, {}, parts);
+  const executor::ExecutionResult r = test::simulate(m, job, trajs, {}, so, hooks);
   ContourError e;
   e.completed = r.status == executor::ExecutionResult::Status::completed;
   double sum2 = 0;

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "models/cutting/machine_config.h"
-#include "models/sim/simulate.h"
+#include "tests/support/simulate.h"
 #include "tests/support/test_trajectory.h"
 
 namespace machplan::executor {
@@ -33,7 +33,7 @@ ExecutionResult run_line(const cutting::MachineConfig& m, Eigen::Vector2d a, Eig
                            std::make_unique<test::LineTrajectory>(a, b, 80, m.limits.acceleration_mm_per_s2));
   sim::SimOptions so;
   so.seed = seed;
-  return sim::simulate(m, cut.job, cut.trajectories, {}, so);
+  return test::simulate(m, cut.job, cut.trajectories, {}, so);
 }
 
 ExecutionResult run_circle(const cutting::MachineConfig& m, double R, bool ccw, std::uint64_t seed) {
@@ -49,7 +49,7 @@ ExecutionResult run_circle(const cutting::MachineConfig& m, double R, bool ccw, 
                            std::make_unique<test::ArcTrajectory>(c, R, 0, sweep, 80, m.limits.acceleration_mm_per_s2));
   sim::SimOptions so;
   so.seed = seed;
-  return sim::simulate(m, cut.job, cut.trajectories, {}, so);
+  return test::simulate(m, cut.job, cut.trajectories, {}, so);
 }
 
 void expect_within(const ExecutionResult& r, const char* what) {

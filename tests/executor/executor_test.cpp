@@ -8,7 +8,7 @@
 #include "engine/executor/executor.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
-#include "models/sim/simulate.h"
+#include "tests/support/simulate.h"
 #include "tests/support/temp_dir.h"
 #include "tests/support/test_trajectory.h"
 
@@ -74,7 +74,7 @@ TEST(Executor, ProgrammedDwellIsThePierceDelay) {
   // torch_on, dwell 1.7 s (G4), move, torch_off.
   cut.job.steps.insert(cut.job.steps.begin() + 1, Step{Step::Kind::dwell, 6, 0, 1.7});
   cut.trajectories.insert(cut.trajectories.begin() + 1, nullptr);
-  const ExecutionResult r = sim::simulate(m, cut.job, cut.trajectories, {});
+  const ExecutionResult r = test::simulate(m, cut.job, cut.trajectories, {});
   ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
   const long arc = first(r.trace, [](auto& s) { return s.arc_ok; });
   const long move = first(r.trace, [](auto& s) { return s.step == 2; });
@@ -88,7 +88,7 @@ TEST(Executor, OxyFuelPreheatsAndNeedsNoArcSignal) {
   m.torch.kind = TorchSetup::Kind::oxy_fuel;
   m.torch.oxy_fuel.preheat_s = 3.0;
   auto cut = line_cut({100, 100}, {120, 100});
-  const ExecutionResult r = sim::simulate(m, cut.job, cut.trajectories, {});
+  const ExecutionResult r = test::simulate(m, cut.job, cut.trajectories, {});
   ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
   const long fire = first(r.trace, [](auto& s) { return s.torch_fire; });
   EXPECT_GE(r.trace[fire].t_s, 3.0);
@@ -98,7 +98,7 @@ TEST(Executor, ArcThatNeverStartsIsAFaultWithTorchOff) {
   auto m = gantry();
   m.torch.plasma.arc_start_failure_probability = 1.0;
   auto cut = line_cut({100, 100}, {120, 100});
-  const ExecutionResult r = sim::simulate(m, cut.job, cut.trajectories, {});
+  const ExecutionResult r = test::simulate(m, cut.job, cut.trajectories, {});
   ASSERT_EQ(r.status, ExecutionResult::Status::faulted);
   ASSERT_EQ(r.faults.size(), 1u);
   EXPECT_EQ(r.faults[0].kind, FaultReport::Kind::arc_start_failed);
@@ -118,7 +118,7 @@ TEST(Executor, TorchIsTurnedOffBeforeARapidEvenWithoutATorchOffStep) {
   c.job.stretches.push_back(test::make_stretch(test::polyline_segments({{130, 100}, {130, 160}}, false), 80, false, true, 20));
   c.job.steps.push_back({Step::Kind::move, 20, 1, 0.0});
   c.trajectories.push_back(std::make_unique<test::LineTrajectory>(Eigen::Vector2d(130, 100), Eigen::Vector2d(130, 160), 80, 500));
-  const ExecutionResult r = sim::simulate(m, c.job, c.trajectories, {});
+  const ExecutionResult r = test::simulate(m, c.job, c.trajectories, {});
   ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
   for (const auto& s : r.trace)
     if (s.step == 2) ASSERT_FALSE(s.torch_fire);
@@ -173,13 +173,13 @@ TEST(Executor, SameSeedSameRun) {
   ExecutorOptions o;
   sim::SimOptions so;
   so.seed = 11;
-  const ExecutionResult ra = sim::simulate(m, a.job, a.trajectories, o, so);
-  const ExecutionResult rb = sim::simulate(m, b.job, b.trajectories, o, so);
+  const ExecutionResult ra = test::simulate(m, a.job, a.trajectories, o, so);
+  const ExecutionResult rb = test::simulate(m, b.job, b.trajectories, o, so);
   ASSERT_EQ(ra.trace.size(), rb.trace.size());
   EXPECT_EQ(ra.cuts[0].max_true_mm, rb.cuts[0].max_true_mm);
   EXPECT_EQ(ra.trace.back().true_mm, rb.trace.back().true_mm);
   so.seed = 12;
-  const ExecutionResult rc = sim::simulate(m, a.job, a.trajectories, o, so);
+  const ExecutionResult rc = test::simulate(m, a.job, a.trajectories, o, so);
   EXPECT_NE(ra.cuts[0].max_true_mm, rc.cuts[0].max_true_mm);
 }
 
@@ -198,7 +198,7 @@ TEST(Executor, ProgressRisesToOneOverTheRun) {
   so.start_mm = a;
   sim::SimBackend sim(m, so);
   Executor ex(m.setup(), {});
-  std::atomic<double> share{-1.0};
+  Progress share;
   RunParts parts;
   parts.progress = &share;
   parts.expected_s = trs[0]->duration_s();
@@ -206,7 +206,7 @@ TEST(Executor, ProgressRisesToOneOverTheRun) {
   double last = 0.0;
   int ticks = 0, halfway_at = -1;
   while (s.tick()) {
-    const double v = share.load();
+    const double v = share.share();
     ASSERT_GE(v, last) << ticks;  // never back
     ASSERT_LT(v, 1.0) << ticks;   // 1 only once the run is over
     if (halfway_at < 0 && v >= 0.5) halfway_at = ticks;
@@ -215,7 +215,7 @@ TEST(Executor, ProgressRisesToOneOverTheRun) {
   }
   const ExecutionResult r = s.finish();
   ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
-  EXPECT_EQ(share.load(), 1.0);
+  EXPECT_EQ(share.share(), 1.0);
   EXPECT_GT(last, 0.9);
   // Half way through the move's time is half way through the run (the stop settles after it).
   EXPECT_NEAR(halfway_at * 0.001, 0.5 * trs[0]->duration_s(), 0.01);
@@ -224,7 +224,7 @@ TEST(Executor, ProgressRisesToOneOverTheRun) {
 TEST(Executor, ReportJsonAndCsv) {
   const auto m = gantry();
   auto c = line_cut({100, 100}, {150, 130});  // both axes move: a contour error to report
-  const ExecutionResult r = sim::simulate(m, c.job, c.trajectories, {});
+  const ExecutionResult r = test::simulate(m, c.job, c.trajectories, {});
   EXPECT_NE(r.report().find("completed"), std::string::npos);
   EXPECT_NE(r.report().find("contour error max"), std::string::npos);
   const auto j = r.to_json();
@@ -278,7 +278,9 @@ TEST(ExecutorOptions, ValidateNamesTheField) {
     o.validate();
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("ExecutorOptions::blu_mm = 0"), std::string::npos);
+    EXPECT_TRUE(e.is_field());
+    EXPECT_EQ(e.where(), "blu_mm");
+    EXPECT_EQ(std::string(e.what()), "blu_mm: 0 is out of range: must be >= 0.01 and <= 1000 mm");
   }
 }
 

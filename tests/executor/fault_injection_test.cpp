@@ -129,18 +129,21 @@ TEST(StopRequest, FromAnotherPlaceEndsLikeAFault) {
   // A backend wrapper that asks the executor to stop after 2.5 s of simulated time.
   struct Stopper final : test::ForwardingBackend {
     sim::SimBackend& sim;
-    Executor* ex = nullptr;
+    Termination* stop = nullptr;
     explicit Stopper(sim::SimBackend& s) : ForwardingBackend(s), sim(s) {}
     hardware::Health exchange(const hardware::Outputs& o, hardware::Inputs& i) noexcept override {
-      if (sim.time_s() >= 2.5) ex->request_stop();
+      if (sim.time_s() >= 2.5) stop->request_stop();
       return ForwardingBackend::exchange(o, i);
     }
   };
   sim::SimBackend sim(m, so);
   Stopper st(sim);
   Executor ex(m.setup(), {});
-  st.ex = &ex;
-  const ExecutionResult r = ex.run(cut.job, cut.trajectories, st);
+  Termination stop;
+  st.stop = &stop;
+  RunParts parts;
+  parts.termination = &stop;
+  const ExecutionResult r = ex.run(cut.job, cut.trajectories, st, parts);
   ASSERT_EQ(r.faults.size(), 1u);
   EXPECT_EQ(r.faults[0].kind, FK::stop_requested);
   EXPECT_NEAR(r.faults[0].time_s, 2.5, 0.003);

@@ -20,7 +20,7 @@
 #include "engine/programs/gcode.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
-#include "models/sim/simulate.h"
+#include "tests/support/simulate.h"
 #include "tests/support/test_trajectory.h"
 
 namespace machplan::executor {
@@ -57,7 +57,7 @@ double run(const cutting::MachineConfig& m, const motion::Stretch& s, Mode mode,
   o.mode = mode;
   o.blu_mm = blu;
   o.calibration_factor = cal;
-  const ExecutionResult r = sim::simulate(m, cut.job, {}, o);
+  const ExecutionResult r = test::simulate(m, cut.job, {}, o);
   EXPECT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
   EXPECT_TRUE(r.cuts.at(0).complete);
   std::printf("%-12s BLU %5.1f mm  factor %.3f  max contour error %7.3f mm (measured %7.3f)\n", to_string(mode), blu, cal,

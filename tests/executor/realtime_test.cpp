@@ -36,14 +36,14 @@ class TickAllocations : public ::testing::TestWithParam<Case> {};
 TEST_P(TickAllocations, AreZero) {
   const Case c = GetParam();
   motion::RunOptions o;
-  o.machine = "thermal_gantry";
-  o.executor.mode = c.mode;
-  o.executor.record_trace = false;
+  o.session.machine = "thermal_gantry";
+  o.session.executor.mode = c.mode;
+  o.session.executor.record_trace = false;
   if (c.mode != Mode::planned) o.feed_override_mm_per_s = 4.0;
   const motion::RunOutcome prepared = motion::run_program(part(c.part), o);  // job, trajectories, machine
   ASSERT_FALSE(prepared.faulted());
 
-  ExecutorOptions eo = o.executor;
+  ExecutorOptions eo = o.session.executor;
   eo.record_trace = true;
   sim::SimOptions so;
   so.start_mm = prepared.job.start_mm;
@@ -91,14 +91,14 @@ INSTANTIATE_TEST_SUITE_P(EveryMode, TickAllocations,
 
 TEST(TraceStream, WritesWhatTheRecorderKeeps) {
   motion::RunOptions o;
-  o.machine = "thermal_gantry";
+  o.session.machine = "thermal_gantry";
   test::TempDir dir;
-  o.trace_csv_path = (dir.path() / "streamed.csv").string();
+  o.session.trace_csv_path = (dir.path() / "streamed.csv").string();
   const motion::RunOutcome run = motion::run_program(part("triangle_45.ngc"), o);
   ASSERT_FALSE(run.faulted());
   const std::string kept = (dir.path() / "kept.csv").string();
   run.result.write_trace_csv(kept);
-  std::ifstream a(o.trace_csv_path), b(kept);
+  std::ifstream a(o.session.trace_csv_path), b(kept);
   const std::string sa((std::istreambuf_iterator<char>(a)), {}), sb((std::istreambuf_iterator<char>(b)), {});
   EXPECT_GT(sa.size(), 100000u);
   EXPECT_EQ(sa, sb);
@@ -116,8 +116,9 @@ TEST(StopRequest, FromAnotherThreadStopsTheMachineAndReports) {
   sim::SimBackend sim(m, so);
   Executor ex(m.setup(), {});
   StopSource token;
+  Termination stop(token.token());
   RunParts parts;
-  parts.stop = token.token();
+  parts.termination = &stop;
   std::thread other([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // inside the cut (it starts at about 1.3 s)
     token.request_stop();

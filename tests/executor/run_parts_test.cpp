@@ -41,7 +41,7 @@ std::size_t torch_on_count(const Job& job) {
 // The checks every planned run at 80 mm/s must pass.
 void expect_planned_run_meets_the_issue(const RunOutcome& r, const std::string& name) {
   SCOPED_TRACE(name);
-  ASSERT_EQ(r.result.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.result.status, ExecutionResult::Status::completed) << r.summary.full_report();
   EXPECT_TRUE(r.result.faults.empty());
   EXPECT_TRUE(r.result.torch_off_at_end);
   EXPECT_TRUE(r.rapids.ok()) << r.rapids.summary();
@@ -70,14 +70,14 @@ void expect_planned_run_meets_the_issue(const RunOutcome& r, const std::string& 
 
 TEST(RunParts, PlannedAt80OnTheGantryMeetsAccuracyAndCycleTime) {
   RunOptions o;  // thermal_gantry, planned, seed 1
-  o.executor.record_trace = false;
+  o.session.executor.record_trace = false;
   for (const char* name : {"triangle_45.ngc", "contour_lines_arcs.ngc", "nested_sheet.ngc"})
     expect_planned_run_meets_the_issue(run_program(part(name), o), name);
 }
 
 TEST(RunParts, NestedSheetHasSeveralDozenCutsAndRapidsRoundTheParts) {
   RunOptions o;
-  o.executor.record_trace = false;
+  o.session.executor.record_trace = false;
   const RunOutcome r = run_program(part("nested_sheet.ngc"), o);
   EXPECT_GE(torch_on_count(r.job), 36u);
   // Every cut closes; the 14 parts' outlines are zones, the holes' slugs (all under the
@@ -123,7 +123,7 @@ TEST(RunParts, TorchOnlyFiresForCutsAndIsOffAtTheEnd) {
 TEST(RunParts, KerfCompensatedContourStaysOnItsCompensatedPath) {
   RunOptions o;
   o.kerf_mm = 1.5;
-  o.executor.record_trace = false;
+  o.session.executor.record_trace = false;
   const RunOutcome r = run_program(part("contour_lines_arcs.ngc"), o);
   ASSERT_TRUE(r.kerf.has_value());
   EXPECT_EQ(r.kerf->compensated_count(), 1u);
@@ -144,13 +144,13 @@ TEST(RunParts, KerfCompensatedContourStaysOnItsCompensatedPath) {
 
 double paper_run(Mode mode, double blu, double calibration, double* rms = nullptr) {
   RunOptions o;
-  o.executor.mode = mode;
-  o.executor.blu_mm = blu;
-  o.executor.calibration_factor = calibration;
-  o.executor.record_trace = false;
+  o.session.executor.mode = mode;
+  o.session.executor.blu_mm = blu;
+  o.session.executor.calibration_factor = calibration;
+  o.session.executor.record_trace = false;
   o.feed_override_mm_per_s = 4.0;  // the paper's feed
   const RunOutcome r = run_program(part("triangle_45.ngc"), o);
-  EXPECT_EQ(r.result.status, ExecutionResult::Status::completed) << r.report();
+  EXPECT_EQ(r.result.status, ExecutionResult::Status::completed) << r.summary.full_report();
   EXPECT_EQ(r.machine.axes[0].plant.decoding, 1);  // measured as the paper did
   std::printf("%-12s BLU %5.1f mm  factor %.4f  max %7.3f mm (true %7.3f)  rms %.3f mm\n", executor::to_string(mode), blu,
               calibration, r.result.max_contour_error_mm(), r.result.max_true_contour_error_mm(), r.rms_contour_error_mm);
@@ -164,7 +164,7 @@ double stopwatch_factor() {
   test::TempDir dir;
   const std::string prog = dir.write("calibrate.ngc", "G21 G90\nG1 X100 F240\nM2\n");
   RunOptions o;
-  o.executor.mode = Mode::paper_open;
+  o.session.executor.mode = Mode::paper_open;
   const RunOutcome r = run_program(prog, o);
   EXPECT_EQ(r.result.status, ExecutionResult::Status::completed);
   return 100.0 / r.result.trace.back().true_mm.x();

@@ -28,12 +28,12 @@ std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_D
 
 RunOutcome run(const std::string& name) {
   RunOptions o;  // thermal_gantry, planned mode, its jerk limit on
-  o.executor.record_trace = false;
+  o.session.executor.record_trace = false;
   RunOutcome r = run_program(part(name), o);
   std::printf("%-24s planned motion %.3f s  optimum %.3f s (ratio %.4f)  bound %.3f s  rapids %.1f mm (straight %.1f)\n",
               name.c_str(), r.planned_motion_s, r.motion_optimum_s, r.optimum_ratio, r.motion_lower_bound_s,
               r.rapids.length_mm, r.rapids.straight_length_mm);
-  EXPECT_EQ(r.result.status, executor::ExecutionResult::Status::completed) << r.report();
+  EXPECT_EQ(r.result.status, executor::ExecutionResult::Status::completed) << r.summary.full_report();
   EXPECT_LE(r.result.max_contour_error_mm(), 0.1) << name;
   // bound <= optimum <= planned.
   EXPECT_GE(r.motion_optimum_s, r.motion_lower_bound_s * (1 - 1e-9)) << name;
@@ -78,7 +78,7 @@ TEST(MotionTime, NestedSheetDetoursOnlyRoundCutParts) {
     EXPECT_THAT(r.reason, HasSubstr("part cut at line")) << "rapid at line " << r.source_line;
     EXPECT_THAT(r.reason, ::testing::Not(HasSubstr("slug"))) << "rapid at line " << r.source_line;
   }
-  const std::string report = n.report();
+  const std::string report = n.summary.full_report();
   EXPECT_THAT(report, HasSubstr("detour at line"));
   EXPECT_THAT(report, HasSubstr("time-optimal on the same paths"));
   const nlohmann::json j = n.to_json();
@@ -94,15 +94,15 @@ TEST(MotionTime, SlugTipSizeComesFromTheMachineFile) {
   ASSERT_NE(at, std::string::npos);
   test::TempDir dir;
   RunOptions o;
-  o.executor.record_trace = false;
+  o.session.executor.record_trace = false;
   // 10 mm: the bracket's 12 mm slugs may tip up, so they are zones like the outline.
-  o.machine = dir.write("small.yaml", std::string(yaml).replace(at, key.size(), "slug_tip_size_mm: 10"));
+  o.session.machine = dir.write("small.yaml", std::string(yaml).replace(at, key.size(), "slug_tip_size_mm: 10"));
   const RunOutcome r = run_program(part("bracket_l.ngc"), o);
   EXPECT_EQ(r.machine.slug_tip_size_mm, 10.0);
   EXPECT_EQ(r.rapids.small_slugs, 0u);
   EXPECT_EQ(r.rapids.cut_zones, 5u);
   // A negative size is refused, naming the file and line.
-  o.machine = dir.write("bad.yaml", std::string(yaml).replace(at, key.size(), "slug_tip_size_mm: -1"));
+  o.session.machine = dir.write("bad.yaml", std::string(yaml).replace(at, key.size(), "slug_tip_size_mm: -1"));
   try {
     (void)run_program(part("bracket_l.ngc"), o);
     FAIL() << "a negative slug size was accepted";

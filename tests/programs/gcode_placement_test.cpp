@@ -38,7 +38,7 @@ const char* kCornerPart = "G21 G90\nG0 X-4 Y-3\nM3 S1\nG1 X6 Y-3 F3000\nG1 X6 Y5
 TEST(GcodePlacement, OriginMovesTheProgramOntoTheMachine) {
   const ProgramFile f("corner.ngc", kCornerPart);
   motion::RunOptions o;
-  o.machine = "thermal_gantry";
+  o.session.machine = "thermal_gantry";
   EXPECT_THROW(motion::run_program(f.path(), o), Infeasible) << "X -4 lies outside the travel without an origin";
   o.origin_mm = Eigen::Vector2d(100, 200);
   const motion::RunOutcome run = motion::run_program(f.path(), o);
@@ -50,7 +50,7 @@ TEST(GcodePlacement, OriginMovesTheProgramOntoTheMachine) {
   const auto& first = run.programmed.stretches.front().segments.front();
   EXPECT_NEAR(first.end.x(), 96, 1e-9);
   EXPECT_NEAR(first.end.y(), 197, 1e-9);
-  EXPECT_NE(run.report().find("X 100.000 Y 200.000 mm on the machine (--origin)"), std::string::npos) << run.report();
+  EXPECT_NE(run.summary.full_report().find("X 100.000 Y 200.000 mm on the machine (--origin)"), std::string::npos) << run.summary.full_report();
   EXPECT_EQ(run.to_json().at("origin_from"), "--origin");
   EXPECT_FALSE(run.faulted());
 }
@@ -58,7 +58,7 @@ TEST(GcodePlacement, OriginMovesTheProgramOntoTheMachine) {
 TEST(GcodePlacement, ZWordsAreDroppedWithOneWarningUnlessStrict) {
   const ProgramFile f("with_z.ngc", "G21\nG0 X10 Y10\nG0 Z5\nG1 Z-1 F100\nM3 S1\nG1 X20 F3000\nG1 Z3\nM5\nM2\n");
   motion::RunOptions o;
-  o.machine = "thermal_gantry";
+  o.session.machine = "thermal_gantry";
   const motion::RunOutcome run = motion::run_program(f.path(), o);
   ASSERT_EQ(run.warnings.size(), 1u);
   EXPECT_NE(run.warnings[0].find("with_z.ngc:3: Z words dropped"), std::string::npos) << run.warnings[0];
@@ -76,7 +76,7 @@ TEST(GcodePlacement, ZWordsAreDroppedWithOneWarningUnlessStrict) {
 TEST(GcodePlacement, LenientEndAndParametersReachTheRun) {
   const ProgramFile f("grbl.ngc", "G21\nF#<_hal[plasmac.cut-feed-rate]>\nG0 X10 Y10\nM3 $0 S1\nG1 X20\nM5 $0\n");
   motion::RunOptions o;
-  o.machine = "thermal_gantry";
+  o.session.machine = "thermal_gantry";
   o.gcode.params["_hal[plasmac.cut-feed-rate]"] = 3000;
   EXPECT_THROW(motion::run_program(f.path(), o), InputError) << "no M2: refused as rs274 does";
   o.gcode.require_program_end = false;
@@ -103,7 +103,7 @@ TEST(GcodePlacement, MachineFileGivesOriginParametersAndSpindles) {
   yaml.replace(yaml.find(from), from.size(), "value: 1800");
   const ProgramFile machine("placed_gantry.yaml", yaml + "origin_mm: [500, 400]\n");
   motion::RunOptions o;
-  o.machine = machine.path();
+  o.session.machine = machine.path();
   const motion::RunOutcome run = motion::run_program(f.path(), o);
   EXPECT_EQ(run.origin_from, "machine file");
   EXPECT_NEAR(run.programmed.start_mm.x(), 500, 1e-12);
@@ -119,7 +119,7 @@ TEST(GcodePlacement, MachineFileGivesOriginParametersAndSpindles) {
 TEST(GcodePlacement, WordsTheMachineIgnoresAreNotedOncePerKind) {
   const ProgramFile f("notes.ngc", "G21 F1000\nM8\nM52 P1\nG0 X10 Y10\nM3 S1\nG1 X20\nM9\nM5\nM2\n");
   motion::RunOptions o;
-  o.machine = "thermal_gantry";
+  o.session.machine = "thermal_gantry";
   const motion::RunOutcome run = motion::run_program(f.path(), o);
   EXPECT_TRUE(run.warnings.empty());
   ASSERT_EQ(run.notes.size(), 2u);

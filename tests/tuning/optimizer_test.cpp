@@ -100,8 +100,10 @@ TEST(Optimizer, StopsOnRequest) {
   };
   OptimizerOptions o;
   o.max_evaluations = 1000;
-  const OptimizerResult r = optimize(p, o, stop.token());
-  EXPECT_TRUE(r.stopped);
+  Termination t(stop.token());
+  const OptimizerResult r = optimize(p, o, &t);
+  EXPECT_TRUE(r.stopped());
+  EXPECT_EQ(r.ended_by, Termination::Reason::stop_requested);
   EXPECT_LT(r.evaluations, 10);
 }
 
@@ -125,8 +127,8 @@ TEST(AccTuning, VariableGainSettlesFasterThanTheTunedFixedGainWithoutOvershoot) 
   const AccTuningResult fixed = tune_acc(o);
   o.acc.variable_gain = true;
   const AccTuningResult variable = tune_acc(o);
-  ASSERT_EQ(fixed.status, "ok");
-  ASSERT_EQ(variable.status, "ok");
+  ASSERT_TRUE(fixed.summary.done()) << fixed.summary.full_report();
+  ASSERT_TRUE(variable.summary.done()) << variable.summary.full_report();
   for (const AccTuningResult* r : {&fixed, &variable}) {
     EXPECT_LE(r->after.worst_overshoot, o.max_overshoot + 1e-3);
     // Never worse than a feasible start.

@@ -1,0 +1,71 @@
+// The operator's inputs from outside the servo loop: a keyboard thread, the web panel, a
+// scripted test. They reach the executor the way every other signal does: merged into the
+// backend's Inputs at each exchange, sampled once per period.
+//
+//   OperatorChannel   a lock-free mailbox of the newest OperatorInputs: writers (any thread;
+//                     writers serialise among themselves) set() whole states, the servo loop
+//                     reads the newest one without a lock or an allocation (a triple buffer:
+//                     the writer fills a spare slot and swaps it in with one atomic exchange;
+//                     the reader swaps the newest out the same way).
+//   OperatorMerge     a Backend that wraps another and merges a channel into its inputs after
+//                     each exchange. Everything else passes through unchanged.
+//
+// Merge rule (merge_operator): buttons (feed hold, cycle start) are pressed when either side
+// presses them; the jog is the channel's while the channel deflects any axis, else the
+// backend's own (a pendant, a HAL pin, the simulator's timeline).
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <mutex>
+
+#include "engine/hardware/backend.h"
+
+namespace machplan::hardware {
+
+OperatorInputs merge_operator(const OperatorInputs& backend, const OperatorInputs& channel);
+
+class OperatorChannel {
+ public:
+  OperatorChannel() = default;
+  OperatorChannel(const OperatorChannel&) = delete;
+  OperatorChannel& operator=(const OperatorChannel&) = delete;
+
+  // Any thread; not real time (writers take a mutex among themselves).
+  void set(const OperatorInputs& inputs);
+  // The servo loop only (one reader): the newest state set, or the last one read when
+  // nothing new came. Lock-free, allocation-free.
+  const OperatorInputs& latest() noexcept;
+
+ private:
+  static constexpr std::uint8_t kFresh = 0x4;  // the middle slot holds a state not yet read
+  std::array<OperatorInputs, 3> slots_{};
+  std::atomic<std::uint8_t> middle_{1};  // slot index | kFresh
+  std::uint8_t back_ = 2;                // the writer's spare slot (guarded by write_)
+  std::uint8_t front_ = 0;               // the reader's slot
+  std::mutex write_;
+};
+
+class OperatorMerge final : public Backend {
+ public:
+  // Neither is owned; both must outlive this.
+  OperatorMerge(Backend& inner, OperatorChannel& channel) : inner_(inner), channel_(channel) {}
+  const char* name() const override { return inner_.name(); }
+  CommandKind command_kind() const override { return inner_.command_kind(); }
+  double period_s() const override { return inner_.period_s(); }
+  AxisSignals axis_signals(int axis) const override { return inner_.axis_signals(axis); }
+  int watchdog_periods() const override { return inner_.watchdog_periods(); }
+  bool realtime() const override { return inner_.realtime(); }
+  Inputs initial_inputs() override;
+  Health exchange(const Outputs& out, Inputs& in) noexcept override;
+  bool true_position(Eigen::Vector2d& out_mm) const noexcept override { return inner_.true_position(out_mm); }
+  std::vector<std::string> notes() const override { return inner_.notes(); }
+  Backend& inner() { return inner_; }
+
+ private:
+  Backend& inner_;
+  OperatorChannel& channel_;
+};
+
+}  // namespace machplan::hardware

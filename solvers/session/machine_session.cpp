@@ -1,0 +1,148 @@
+#include "solvers/session/machine_session.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+#include "models/cutting/controller_plant.h"
+#include "solvers/calibration/apply.h"
+#include "solvers/tuning/store.h"
+
+namespace machplan::session {
+
+void MachineSessionOptions::validate() const {
+  if (!machine_config && machine.empty()) throw InputError::field("machine", "names no machine");
+  if (controller.empty() && !gains.empty())
+    throw InputError::field("gains", "gains need a controller kind");
+  if (!controller.empty() && controller != "tuned") {
+    const std::vector<std::string> kinds = control::controller_kinds();
+    if (std::find(kinds.begin(), kinds.end(), controller) == kinds.end()) {
+      std::string all;
+      for (const std::string& k : kinds) all += (all.empty() ? "" : ", ") + k;
+      throw InputError::field("controller", fmt::format("unknown controller '{}' (kinds: {}; or tuned: the stored tuning)", controller, all));
+    }
+  }
+  if (calibration && active_calibration)
+    throw InputError::field("calibration", "a calibration is given and the active one is asked for: choose one");
+  const bool paper = executor.mode == executor::Mode::paper_open || executor.mode == executor::Mode::paper_closed;
+  if (paper && (calibration || active_calibration) && !(std::isfinite(paper_feed_mm_per_s) && paper_feed_mm_per_s > 0))
+    throw InputError::field("paper_feed_mm_per_s",
+                            "a calibration in the paper modes needs the feed: the open-loop factor depends on it");
+  executor.validate();
+  backend.sim.validate();
+}
+
+struct MachineSession::Impl {
+  MachineSessionOptions o;
+  cutting::MachineConfig machine;
+  executor::MachineSetup setup;
+  control::ControllerPlant plant;
+  std::optional<calibration::StoredFit> calibration;
+  std::string controller_name = "pid_ff";
+  std::unique_ptr<control::Controller> controller;
+  std::optional<executor::Executor> executor;
+  std::unique_ptr<hardware::Backend> backend;
+  hardware::OperatorChannel channel;
+  std::unique_ptr<hardware::OperatorMerge> merged;
+  std::unique_ptr<executor::TraceStream> trace;
+
+  std::string store() const { return o.store_path.empty() ? calibration::default_store_path() : o.store_path; }
+  executor::RunParts parts(const RunHooks& h);
+};
+
+executor::RunParts MachineSession::Impl::parts(const RunHooks& h) {
+  executor::RunParts p;
+  p.source = h.source;
+  p.filter = h.filter;
+  p.controller = h.controller ? h.controller : controller.get();
+  p.termination = h.termination;
+  p.progress = h.progress;
+  p.expected_s = h.expected_s;
+  if (!o.trace_csv_path.empty()) {
+    trace = std::make_unique<executor::TraceStream>(o.trace_csv_path);
+    p.trace_stream = trace.get();
+  }
+  return p;
+}
+
+MachineSession::MachineSession(MachineSessionOptions options) : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  options.validate();
+  m.o = std::move(options);
+  m.machine = m.o.machine_config ? *m.o.machine_config : cutting::load_machine(cutting::find_machine(m.o.machine));
+  m.setup = m.machine.setup();
+
+  // The calibration: given, or the machine's active one.
+  if (m.o.calibration) m.calibration = m.o.calibration;
+  if (m.o.active_calibration) {
+    m.calibration = calibration::CalibrationStore(m.store()).active(m.machine.name);
+    if (!m.calibration)
+      throw InputError::field("active_calibration", fmt::format("no active calibration for '{}' in {}", m.machine.name, m.store()));
+  }
+  executor::ExecutorOptions eo = m.o.executor;
+  if (m.calibration) {
+    const bool paper = eo.mode == executor::Mode::paper_open || eo.mode == executor::Mode::paper_closed;
+    // Paper modes: the open-loop factor for the feed; otherwise the whole fit, applied to the
+    // executor's setup.
+    if (paper) eo.calibration_factor = calibration::open_loop_factor(*m.calibration, m.o.paper_feed_mm_per_s);
+    else m.setup = calibration::apply_calibration(m.setup, *m.calibration);
+  }
+  m.plant = cutting::controller_plant(m.machine);
+  m.plant.servo = m.setup.servo;  // with the calibration, when one is applied
+
+  // The controller: given, or the machine's active tuning (a given gain overrides a stored one).
+  std::string kind = m.o.controller;
+  control::Gains gains = m.o.gains;
+  if (kind == "tuned") {
+    const auto t = tuning::TuningStore(m.store()).active(m.machine.name);
+    if (!t)
+      throw InputError::field("controller",
+                              fmt::format("no active tuning for '{}' in {} (machplan tune --store)", m.machine.name, m.store()));
+    kind = t->controller;
+    gains = t->gains;
+    for (const auto& [name, value] : m.o.gains) gains[name] = value;
+  }
+  if (!kind.empty()) {
+    m.controller = control::make_controller(kind, gains, m.plant);
+    m.controller_name = m.controller->name();
+  }
+  m.executor.emplace(m.setup, eo);
+}
+
+MachineSession::~MachineSession() = default;
+
+const cutting::MachineConfig& MachineSession::machine() const { return impl_->machine; }
+const executor::MachineSetup& MachineSession::setup() const { return impl_->setup; }
+const control::ControllerPlant& MachineSession::plant() const { return impl_->plant; }
+const std::optional<calibration::StoredFit>& MachineSession::calibration() const { return impl_->calibration; }
+const std::string& MachineSession::controller_name() const { return impl_->controller_name; }
+const executor::ExecutorOptions& MachineSession::executor_options() const { return impl_->executor->options(); }
+hardware::OperatorChannel& MachineSession::operator_inputs() { return impl_->channel; }
+bool MachineSession::backend_open() const { return impl_->backend != nullptr; }
+
+hardware::Backend& MachineSession::backend(const Eigen::Vector2d& start_mm) {
+  Impl& m = *impl_;
+  if (!m.backend) {
+    backends::BackendOptions bo = m.o.backend;
+    bo.sim.start_mm = start_mm;
+    m.backend = backends::make_backend(m.machine, bo);
+    m.merged = std::make_unique<hardware::OperatorMerge>(*m.backend, m.channel);
+  }
+  return *m.merged;
+}
+
+executor::ExecutionResult MachineSession::run(const motion::Job& job, const executor::Trajectories& trajectories,
+                                              const RunHooks& hooks) {
+  hardware::Backend& be = backend(job.start_mm);
+  return impl_->executor->run(job, trajectories, be, impl_->parts(hooks));
+}
+
+std::unique_ptr<executor::Session> MachineSession::start(const motion::Job& job, const executor::Trajectories& trajectories,
+                                                         const RunHooks& hooks) {
+  hardware::Backend& be = backend(job.start_mm);
+  return std::make_unique<executor::Session>(*impl_->executor, job, trajectories, be, impl_->parts(hooks));
+}
+
+}  // namespace machplan::session

@@ -1,0 +1,181 @@
+// The machine session: one rig for every caller (run, tuning, guard, calibration, panel).
+#include <memory>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "engine/common/error.h"
+#include "engine/hardware/operator_channel.h"
+#include "solvers/motion/run.h"
+#include "solvers/session/machine_session.h"
+#include "tests/support/stretches.h"
+#include "tests/support/temp_dir.h"
+#include "tests/support/test_trajectory.h"
+
+namespace machplan::session {
+namespace {
+
+using executor::ExecutionResult;
+
+std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+
+// A move of the table from a to b, no torch.
+struct Move {
+  motion::Job job;
+  executor::Trajectories trajectories;
+};
+Move move(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  Move m;
+  m.job.source = "move";
+  m.job.start_mm = a;
+  m.job.stretches.push_back(test::make_stretch(test::polyline_segments({a, b}, false), 20, false));
+  m.job.steps.push_back({motion::Step::Kind::move, 1, 0, 0.0});
+  m.trajectories.resize(1);
+  m.trajectories[0] = std::make_unique<test::LineTrajectory>(a, b, 20, 500);
+  return m;
+}
+
+TEST(MachineSession, LoadsTheMachineOnceAndOpensTheBackendOnFirstUse) {
+  MachineSessionOptions o;
+  o.machine = "xy_table";
+  MachineSession s(o);
+  EXPECT_EQ(s.machine().name, "xy_table");
+  EXPECT_EQ(s.setup().name, "xy_table");
+  EXPECT_EQ(s.controller_name(), "pid_ff");
+  EXPECT_FALSE(s.calibration().has_value());
+  EXPECT_FALSE(s.backend_open());
+  const Move a = move({100, 100}, {150, 120});
+  const ExecutionResult r = s.run(a.job, a.trajectories);
+  EXPECT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  EXPECT_TRUE(s.backend_open());
+  EXPECT_EQ(r.backend, "sim");
+}
+
+TEST(MachineSession, JobsRunOneAfterTheOtherOnTheSameMachine) {
+  MachineSessionOptions o;
+  o.machine = "xy_table";
+  o.executor.record_trace = false;
+  MachineSession s(o);
+  const Move a = move({100, 100}, {150, 120}), b = move({150, 120}, {120, 160});
+  ASSERT_EQ(s.run(a.job, a.trajectories).status, ExecutionResult::Status::completed);
+  Eigen::Vector2d at;
+  ASSERT_TRUE(s.backend().true_position(at));
+  EXPECT_NEAR((at - Eigen::Vector2d(150, 120)).norm(), 0.0, 0.05) << "the simulated table stays where the first job left it";
+  ASSERT_EQ(s.run(b.job, b.trajectories).status, ExecutionResult::Status::completed);
+  ASSERT_TRUE(s.backend().true_position(at));
+  EXPECT_NEAR((at - Eigen::Vector2d(120, 160)).norm(), 0.0, 0.05);
+}
+
+TEST(MachineSession, BadChoicesNameTheirField) {
+  test::TempDir dir;
+  const std::string store = (dir.path() / "store.db").string();
+  const auto field_of = [](const MachineSessionOptions& o) {
+    try {
+      MachineSession s(o);
+    } catch (const InputError& e) {
+      EXPECT_TRUE(e.is_field()) << e.what();
+      return std::string(e.what());
+    }
+    return std::string("<no InputError>");
+  };
+  MachineSessionOptions o;
+  o.machine = "xy_table";
+  o.store_path = store;
+  o.gains["kp_per_s"] = 10;
+  EXPECT_EQ(field_of(o), "gains: gains need a controller kind");
+  o.gains.clear();
+  o.controller = "pd";
+  EXPECT_NE(field_of(o).find("controller: unknown controller 'pd'"), std::string::npos);
+  o.controller = "tuned";
+  EXPECT_NE(field_of(o).find("controller: no active tuning for 'xy_table' in " + store), std::string::npos);
+  o.controller.clear();
+  o.active_calibration = true;
+  EXPECT_NE(field_of(o).find("active_calibration: no active calibration for 'xy_table'"), std::string::npos);
+}
+
+TEST(MachineSession, OperatorInputsReachTheExecutorThroughTheBackend) {
+  MachineSessionOptions o;
+  o.machine = "xy_table";
+  o.executor.mode = executor::Mode::jog;
+  o.executor.jog.speed_mm_per_s = 20;
+  o.executor.record_trace = false;
+  MachineSession s(o);
+  motion::Job job;
+  job.source = "operator";
+  job.start_mm = {200, 175};
+  const auto session = s.start(job, {}, {});
+  hardware::OperatorInputs in;
+  in.jog = {1.0, 0.0};
+  s.operator_inputs().set(in);
+  for (int i = 0; i < 1000; ++i) ASSERT_TRUE(session->tick());
+  Eigen::Vector2d at;
+  ASSERT_TRUE(s.backend().true_position(at));
+  EXPECT_GT(at.x(), 210.0) << "a second at 20 mm/s to the right";
+  EXPECT_NEAR(at.y(), 175.0, 0.05);
+  in = {};
+  in.cycle_start = true;  // ends the manual part
+  s.operator_inputs().set(in);
+  int ticks = 0;
+  while (session->tick() && ticks < 20000) ++ticks;
+  EXPECT_LT(ticks, 20000);
+  EXPECT_EQ(session->finish().status, ExecutionResult::Status::completed);
+}
+
+TEST(OperatorChannel, TheNewestStateWinsAndButtonsMerge) {
+  hardware::OperatorChannel ch;
+  EXPECT_EQ(ch.latest().jog[0], 0.0);
+  hardware::OperatorInputs a, b;
+  a.jog = {0.5, 0.0};
+  b.jog = {-0.25, 0.75};
+  b.feed_hold = true;
+  ch.set(a);
+  ch.set(b);
+  EXPECT_EQ(ch.latest().jog[0], -0.25);
+  EXPECT_EQ(ch.latest().jog[1], 0.75);  // read twice: still the newest
+  hardware::OperatorInputs pendant;
+  pendant.jog = {0.1, 0.1};
+  pendant.cycle_start = true;
+  const hardware::OperatorInputs m = hardware::merge_operator(pendant, ch.latest());
+  EXPECT_EQ(m.jog[0], -0.25) << "the channel's stick wins while it is deflected";
+  EXPECT_TRUE(m.feed_hold);
+  EXPECT_TRUE(m.cycle_start);
+  const hardware::OperatorInputs idle = hardware::merge_operator(pendant, hardware::OperatorInputs{});
+  EXPECT_EQ(idle.jog[0], 0.1) << "a centred channel leaves the pendant's stick";
+}
+
+TEST(RunOnASession, TheDeadlineInMachineTimeStopsTheRunTorchOff) {
+  motion::RunOptions o;
+  o.session.executor.record_trace = false;
+  Termination t;
+  t.set_deadline(5.0, "machine time");
+  const motion::RunOutcome r = motion::run_program(part("triangle_45.ngc"), o, {&t, nullptr, nullptr});
+  EXPECT_EQ(r.summary.status, Status::deadline) << r.summary.full_report();
+  EXPECT_TRUE(r.result.torch_off_at_end);
+  EXPECT_NE(r.summary.message.find("the deadline of 5 s of machine time was reached"), std::string::npos) << r.summary.message;
+  EXPECT_NE(r.summary.full_report().find("cycle ratio           -"), std::string::npos) << "no ratio for a run that did not complete";
+  EXPECT_EQ(r.summary.exit_code(), 3);
+}
+
+TEST(RunOnASession, AnInjectedFaultThatNeverTookEffectIsReported) {
+  motion::RunOptions o;
+  o.session.executor.record_trace = false;
+  sim::FaultInjection late;
+  late.kind = sim::FaultInjection::Kind::arc_start_failure;
+  late.at_s = 500;
+  o.session.backend.sim.faults.push_back(late);
+  const motion::RunOutcome r = motion::run_program(part("triangle_45.ngc"), o);
+  EXPECT_TRUE(r.summary.done());
+  ASSERT_EQ(r.result.backend_notes.size(), 1u);
+  EXPECT_NE(r.result.backend_notes[0].find("arc-start-failure@500 s never fired"), std::string::npos) << r.result.backend_notes[0];
+  EXPECT_NE(r.summary.full_report().find("warning: the injected fault arc-start-failure@500 s never fired"), std::string::npos);
+
+  // Fired after the last pierce: it took effect on nothing.
+  o.session.backend.sim.faults[0].at_s = r.result.cycle_time_s - 0.5;
+  const motion::RunOutcome after = motion::run_program(part("triangle_45.ngc"), o);
+  ASSERT_EQ(after.result.backend_notes.size(), 1u);
+  EXPECT_NE(after.result.backend_notes[0].find("never took effect: no arc was started after it"), std::string::npos)
+      << after.result.backend_notes[0];
+}
+
+}  // namespace
+}  // namespace machplan::session
