@@ -105,7 +105,8 @@ void check_backend(const MachineSetup& m, double machine_period_s, hardware::Bac
   }
 }
 
-enum class Phase { dispatch, move, torch, dwell, end_hold, jog, done };
+// `held`: the operator holds the job while no move runs (an interrupted torch-on step).
+enum class Phase { dispatch, move, torch, dwell, end_hold, jog, held, done };
 
 }  // namespace
 
@@ -125,9 +126,17 @@ struct Session::Impl {
   void torch_off_and_retract(bool resume) noexcept;
   void raise(FK kind, int axis, double value) noexcept;
   bool moving_cut() const noexcept {
-    return phase == Phase::move && !sup.stopping() && source->travelling() && step < job.steps.size() &&
+    return phase == Phase::move && !sup.stopping() && !cut_off && source->travelling() && step < job.steps.size() &&
            job.stretches[job.steps[step].stretch].cutting;
   }
+  // The operator's buttons and overrides (feed hold, resume, stop).
+  void operate() noexcept;
+  void begin_hold(bool by_override) noexcept;
+  void follow_hold() noexcept;
+  bool move_is_rapid() const noexcept {
+    return step < job.steps.size() && job.steps[step].kind == Step::Kind::move && job.stretches[job.steps[step].stretch].rapid;
+  }
+  double move_rate() const noexcept { return held ? 0.0 : move_is_rapid() ? rapid_rate : feed_rate; }
   void record_trace() noexcept;
 
   // --- inputs -------------------------------------------------------------------------------
@@ -176,6 +185,19 @@ struct Session::Impl {
   double rapid_mm = 0.0;
   std::vector<double> stretch_len;
   bool over = false;
+  // The operator: feed hold, resume, overrides, stop.
+  hardware::OperatorInputs prev_op{};
+  double feed_rate = 1.0, rapid_rate = 1.0;  // the overrides as rates of the plan
+  bool held = false;              // a hold is in force
+  bool held_by_override = false;  // ... because the feed override is 0 %
+  bool resume_asked = false;
+  bool cut_off = false;           // the hold turned the torch off in a cut: the resume re-pierces
+  bool torch_off_running = false; // that torch-off sequence runs beside the braking
+  bool repiercing = false;
+  bool restart_step = false;      // the hold interrupted a torch-on step: it runs again on resume
+  HoldReport* hold = nullptr;     // the hold being recorded (in result.holds)
+  Eigen::Vector2d last_sp = Eigen::Vector2d::Zero();
+  double progress_s = 0.0;        // the job's expected time done: path time in moves, else machine time
   bool be_realtime = true;
 };
 
@@ -257,6 +279,7 @@ void Session::Impl::prepare(double machine_period_s) {
   stretch_len.resize(job.stretches.size());
   for (std::size_t k = 0; k < job.stretches.size(); ++k) stretch_len[k] = stretch_length(job.stretches[k]);
   trace_out = &result.trace;
+  result.holds.reserve(kMaxHolds);
   if (opt.record_trace) {
     const double samples = source->runs_job() ? est_s / dt / opt.trace_every_ticks * 1.1 + 1000 : 1e9;
     recorder.prepare(result.trace, static_cast<std::size_t>(std::min(samples, 1e12)));
@@ -315,7 +338,9 @@ void Session::Impl::begin_step() noexcept {
         return;
       }
       phase = Phase::move;
+      if (!s.cutting) cut_off = false;  // a held cut that ended while braking needs no re-pierce
       contour.begin(st.stretch);
+      source->set_rate(move_rate());
       source->begin_move(step, adapter.position_mm());
       break;
     }
@@ -337,6 +362,117 @@ void Session::Impl::torch_off_and_retract(bool resume) noexcept {
   phase = Phase::torch;
 }
 
+// The operator's inputs of this period: the stop button, the overrides, feed hold and resume
+// (buttons act on their rising edge). Runs first in every tick.
+void Session::Impl::operate() noexcept {
+  const hardware::OperatorInputs& op = in.op;
+  const bool hold_edge = op.feed_hold && !prev_op.feed_hold;
+  const bool start_edge = op.cycle_start && !prev_op.cycle_start;
+  const bool stop_edge = op.stop && !prev_op.stop;
+  prev_op = op;
+  if (stop_edge && phase != Phase::jog) {
+    raise(FK::operator_stop, -1, 0.0);
+    return;
+  }
+  feed_rate = std::isfinite(op.feed_override_pct) ? std::clamp(op.feed_override_pct, 0.0, 200.0) / 100.0 : 1.0;
+  rapid_rate = std::isfinite(op.rapid_override_pct) ? std::clamp(op.rapid_override_pct, 1.0, 100.0) / 100.0 : 1.0;
+  if (!source->supports_rate() || phase == Phase::jog || phase == Phase::end_hold || phase == Phase::done) return;
+  // A 0 % feed override holds a feed move like the button, and lets go when it rises again.
+  const bool zero_feed = feed_rate == 0.0 && phase == Phase::move && !move_is_rapid();
+  if (!held && (hold_edge || zero_feed)) begin_hold(!hold_edge);
+  if (held && (held_by_override ? feed_rate > 0.0 : start_edge)) resume_asked = true;
+}
+
+void Session::Impl::begin_hold(bool by_override) noexcept {
+  held = true;
+  held_by_override = by_override;
+  resume_asked = false;
+  const bool cutting = out.torch_fire || torch.lit() || torch.lighting();
+  if (result.holds.size() < result.holds.capacity()) {
+    HoldReport& h = result.holds.emplace_back();
+    h.t_s = t;
+    h.step = step < job.steps.size() ? static_cast<int>(step) : -1;
+    h.source_line = phase == Phase::move && source->source_line() > 0 ? source->source_line()
+                    : step < job.steps.size()                        ? job.steps[step].source_line
+                                                                     : 0;
+    h.by_override = by_override;
+    h.in_rapid = phase == Phase::move && move_is_rapid();
+    h.in_cut = cutting;
+    h.position_mm = sp_mm;
+    h.speed_mm_per_s = Eigen::Vector2d(demand.track.v_ff_mm_per_s[0], demand.track.v_ff_mm_per_s[1]).norm();
+    const Eigen::Vector2d v(demand.track.v_ff_mm_per_s[0], demand.track.v_ff_mm_per_s[1]);
+    const Eigen::Vector2d a(demand.track.a_ff_mm_per_s2[0], demand.track.a_ff_mm_per_s2[1]);
+    // The stop's limits along the path: per axis, what the plan's own acceleration leaves.
+    double at = std::numeric_limits<double>::infinity(), jt = at;
+    for (int i = 0; i < hardware::kAxes; ++i) {
+      if (h.speed_mm_per_s <= 0) break;
+      const double u = std::abs(v[i]) / h.speed_mm_per_s;
+      if (u < 1e-9) continue;
+      at = std::min(at, std::max(0.0, ms.max_acceleration_mm_per_s2 - std::abs(a[i] - v[i] * a.dot(v) / (h.speed_mm_per_s * h.speed_mm_per_s))) / u);
+      jt = std::min(jt, ms.max_jerk_mm_per_s3 / u);
+    }
+    h.stop_acceleration_mm_per_s2 = at;
+    h.stop_jerk_mm_per_s3 = jt;
+    h.acceleration_mm_per_s2 = h.speed_mm_per_s > 0 ? a.dot(v) / h.speed_mm_per_s : 0.0;
+    h.torch_off_before_rest = true;  // follow_hold turns a cutting torch off in this period
+    hold = &h;
+  } else {
+    ++result.holds_dropped;
+    hold = nullptr;
+  }
+  last_sp = sp_mm;
+  // In a move the torch goes off in this same period (follow_hold), while the axes brake
+  // along the path. A pierce under way goes off now and its step runs again on resume;
+  // dwells and torch-off sequences run on, and the next move starts held.
+  if (phase == Phase::torch && torch.lighting()) {
+    torch.kill(out);
+    restart_step = true;
+    phase = Phase::held;
+    if (hold) hold->stopped = true;
+  }
+}
+
+// While a move is held: the torch-off beside the braking, the record of the stop, and the
+// resume (re-pierce first when a cut was held).
+void Session::Impl::follow_hold() noexcept {
+  if (held && !cut_off && !torch_off_running && (out.torch_fire || torch.lit())) {
+    torch.start_off(out);  // fire off now; the retract runs beside the braking
+    torch_off_running = true;
+    cut_off = true;
+    if (hold) hold->in_cut = true, hold->torch_off_before_rest = source->rate() > 0.0 || !hold->stopped;
+  }
+  if (torch_off_running) {
+    const TorchSequencer::Status st = torch.tick(in, out);
+    if (st == TorchSequencer::Status::failed) raise(FK::torch_height_timeout, -1, torch.failure_value());
+    if (st != TorchSequencer::Status::busy) torch_off_running = false;
+  }
+  if (!held) return;
+  const bool at_rest = source->rate() == 0.0;
+  if (hold && !hold->stopped) {
+    hold->distance_to_stop_mm += (sp_mm - last_sp).norm();
+    hold->off_path_mm = std::max(hold->off_path_mm, source->path_distance_mm(sp_mm));
+    hold->off_path_measured_mm = std::max(hold->off_path_measured_mm, source->path_distance_mm(adapter.position_mm()));
+    if (at_rest) {
+      hold->stopped = true;
+      hold->stop_s = t - hold->t_s;
+      hold->stop_mm = sp_mm;
+    }
+  }
+  last_sp = sp_mm;
+  if (!resume_asked || !at_rest || torch_off_running) return;
+  resume_asked = false;
+  if (hold) hold->resumed_at_s = t;
+  if (cut_off) {
+    // Re-pierce where the cut stopped (an oxy-fuel preheat flame kept burning).
+    torch.start_on(false, out, ms.torch.kind == TorchSetup::Kind::oxy_fuel);
+    repiercing = true;
+    phase = Phase::torch;
+    return;
+  }
+  held = false;
+  hold = nullptr;
+}
+
 void Session::Impl::next_step() noexcept {
   ++steps_completed;
   ++step;
@@ -344,10 +480,14 @@ void Session::Impl::next_step() noexcept {
 }
 
 void Session::Impl::sequence() noexcept {
+  operate();
+  if (sup.faulted()) return;
   // Dispatch may chain through zero-time steps, bounded by the number of steps.
   for (std::size_t guard = 0; phase == Phase::dispatch && guard <= job.steps.size() + 1; ++guard) begin_step();
   phase_t += dt;
+  if (phase == Phase::move) source->set_rate(move_rate());
   source->advance(adapter.position_mm(), in.op);
+  if (phase == Phase::move) follow_hold();
   switch (phase) {
     case Phase::dispatch:
     case Phase::done: break;
@@ -362,7 +502,15 @@ void Session::Impl::sequence() noexcept {
     case Phase::torch:
       switch (torch.tick(in, out)) {
         case TorchSequencer::Status::done:
-          if (resume_after_torch_off) {
+          if (repiercing) {
+            // The held cut goes on from where it stopped.
+            repiercing = false;
+            cut_off = false;
+            held = false;
+            if (hold) hold->repierce_s = t - hold->resumed_at_s;
+            hold = nullptr;
+            phase = Phase::move;
+          } else if (resume_after_torch_off) {
             resume_after_torch_off = false;
             phase = Phase::dispatch;  // the same step again, now with the torch off
           } else {
@@ -388,6 +536,15 @@ void Session::Impl::sequence() noexcept {
         } else {
           next_step();
         }
+      }
+      break;
+    case Phase::held:
+      // The interrupted torch-on step runs again once the operator resumes.
+      if (resume_asked) {
+        resume_asked = held = restart_step = false;
+        if (hold) hold->resumed_at_s = t;
+        hold = nullptr;
+        phase = Phase::dispatch;
       }
       break;
     case Phase::end_hold:
@@ -431,7 +588,8 @@ bool Session::Impl::tick() noexcept {
   const hardware::Health health = be.exchange(out, in);
   ++ticks;
   t += dt;
-  if (parts.progress) parts.progress->report(std::min(t / expected_s, 0.999));
+  progress_s += phase == Phase::move ? source->rate() * dt : (held ? 0.0 : dt);
+  if (parts.progress) parts.progress->report(std::min(progress_s / expected_s, 0.999));
   if (parts.termination) parts.termination->charge(1, dt);
   if (health == hardware::Health::lost) {
     // Nothing more can be commanded; the backend's watchdog stops the machine.

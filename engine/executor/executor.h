@@ -47,6 +47,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -118,6 +119,34 @@ struct FaultReport {
   std::string message;
 };
 
+// One feed hold (the operator's button, or a feed override of 0 %): where it came, how the
+// machine stopped along the path, and how the job went on.
+struct HoldReport {
+  double t_s = 0.0;                 // the input, since the start of the run
+  int step = -1;
+  int source_line = 0;
+  bool in_cut = false;              // the torch was cutting: it went off at the hold
+  bool in_rapid = false;
+  bool by_override = false;         // a 0 % feed override, not the button
+  Eigen::Vector2d position_mm = Eigen::Vector2d::Zero();  // commanded point at the input
+  double speed_mm_per_s = 0.0;      // commanded path speed at the input
+  // Limits of the stop along the path at the input (tangential, with the plan's own
+  // acceleration taken off), for the jerk-limited stopping distance.
+  double stop_acceleration_mm_per_s2 = 0.0, stop_jerk_mm_per_s3 = 0.0, acceleration_mm_per_s2 = 0.0;
+  bool stopped = false;             // the motion came to rest
+  double stop_s = 0.0;              // from the input to rest
+  Eigen::Vector2d stop_mm = Eigen::Vector2d::Zero();      // commanded point at rest
+  double distance_to_stop_mm = 0.0; // along the path, commanded
+  double off_path_mm = 0.0;         // largest distance of the commanded point from the path while stopping
+  double off_path_measured_mm = 0.0;// the same for the measured position
+  bool torch_off_before_rest = true;// in a cut: the torch was off before the axes came to rest
+  double resumed_at_s = std::numeric_limits<double>::quiet_NaN();
+  double repierce_s = 0.0;          // the re-pierce before moving on (cuts)
+  // The jerk-limited stopping distance from the state at the input (S-curve with the limits
+  // above), mm: the shortest stop the limits allow.
+  double jerk_limited_stop_mm() const;
+};
+
 // Contour error of one cutting stretch: distance from the position to the stretch's
 // programmed XY path (its Segments), over the ticks in which the torch burns while that
 // stretch is executed.
@@ -142,6 +171,8 @@ struct ExecutionResult {
   int steps_completed = 0;
   std::vector<CutError> cuts;
   std::vector<FaultReport> faults;    // empty when completed; the first one stopped the run
+  std::vector<HoldReport> holds;      // every feed hold, in order (at most kMaxHolds are kept)
+  std::size_t holds_dropped = 0;
   std::vector<TraceSample> trace;
   bool trace_truncated = false;
   std::size_t trace_streamed = 0;     // samples written to a TraceStream
@@ -178,6 +209,8 @@ struct RunParts {
   Progress* progress = nullptr;
   double expected_s = 0.0;
 };
+
+inline constexpr std::size_t kMaxHolds = 1024;
 
 class Executor;
 

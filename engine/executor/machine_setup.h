@@ -34,6 +34,7 @@ struct MachineSetup {
   // Encoder scale measured by a calibration (mm per count), used to decode the counters in
   // place of signals[i].mm_per_count (the scale the backend declares); 0: not calibrated.
   std::array<double, hardware::kAxes> calibrated_mm_per_count{};
+  double max_velocity_mm_per_s = 80.0;        // the planner's speed limit per axis (overrides above 100 %)
   double max_acceleration_mm_per_s2 = 500.0;  // used for the controlled stop and jogging
   double max_jerk_mm_per_s3 = 20000.0;        // jogging
   double contour_error_limit_mm = 0.5;        // supervisor: saturated drive off the contour

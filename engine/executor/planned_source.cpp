@@ -40,6 +40,14 @@ void PlannedSource::prepare(const SourceContext& ctx, const Eigen::Vector2d& sta
   hold_mm_ = start_mm;
   cur_ = nullptr;
   t_ = 0.0;
+  const MachineSetup& m = *ctx.machine;
+  TimeScaleLimits lim;
+  lim.max_velocity_mm_per_s = Eigen::Vector2d::Constant(m.max_velocity_mm_per_s);
+  lim.max_acceleration_mm_per_s2 = Eigen::Vector2d::Constant(m.max_acceleration_mm_per_s2);
+  lim.max_jerk_mm_per_s3 = m.max_jerk_mm_per_s3;
+  lim.period_s = ctx.period_s;
+  scale_.configure(lim);
+  scale_.reset(1.0);
 }
 
 void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d& measured_mm) noexcept {
@@ -54,11 +62,24 @@ void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d& measured
   stretch_ = followed ? followed : &ctx_.job->stretches[ctx_.job->steps[step].stretch];
   segment_ = 0;
   t_ = 0.0;
+  scale_.reset(target_);  // the plan starts at rest: the rate takes its target at no cost
 }
 
 void PlannedSource::advance(const Eigen::Vector2d& measured_mm, const hardware::OperatorInputs&) noexcept {
-  t_ += ctx_.period_s;
   measured_mm_ = measured_mm;
+  if (!cur_) return;
+  if (target_ == 1.0 && scale_.k() == 1.0 && scale_.k_dot() == 0.0) {
+    t_ += ctx_.period_s;  // as planned
+    return;
+  }
+  motion::Setpoint at;
+  cur_->sample(t_, at);
+  t_ += scale_.step(target_, at, cur_->cruise_left_s(t_));
+}
+
+double PlannedSource::path_distance_mm(const Eigen::Vector2d& p) const noexcept {
+  if (!stretch_ || stretch_->segments.empty()) return 0.0;
+  return (closest_point(stretch_->segments[segment_], p) - p).norm();
 }
 
 bool PlannedSource::move_done() const noexcept { return !cur_ || t_ >= cur_->duration_s(); }
@@ -77,13 +98,17 @@ void PlannedSource::demand(Demand& d) const noexcept {
   }
   const double dt = ctx_.period_s;
   const MachineSetup& m = *ctx_.machine;
+  // Real time T ahead is path time k T ahead (the rate k, time_scale.h); at k = 1 these are the
+  // plan's own samples.
+  const double k = scale_.k(), kd = scale_.k_dot();
+  const double pdt = k * dt;
   motion::Setpoint fb, ff, now;
   for (int i = 0; i < control::kAxes; ++i) {
-    cur_->sample(t_ - m.signals[i].reading_latency_ticks * dt, fb);
-    cur_->sample(t_ + (m.signals[i].command_latency_ticks + 1) * dt, ff);
+    cur_->sample(t_ - m.signals[i].reading_latency_ticks * pdt, fb);
+    cur_->sample(t_ + (m.signals[i].command_latency_ticks + 1) * pdt, ff);
     d.track.r_mm[i] = fb.position_mm[i];
-    d.track.v_ff_mm_per_s[i] = ff.velocity_mm_per_s[i];
-    d.track.a_ff_mm_per_s2[i] = ff.acceleration_mm_per_s2[i];
+    d.track.v_ff_mm_per_s[i] = ff.velocity_mm_per_s[i] * k;
+    d.track.a_ff_mm_per_s2[i] = ff.acceleration_mm_per_s2[i] * k * k + ff.velocity_mm_per_s[i] * kd;
   }
   cur_->sample(std::min(t_, cur_->duration_s()), now);
   d.commanded_mm = now.position_mm;
@@ -93,7 +118,7 @@ void PlannedSource::demand(Demand& d) const noexcept {
   for (int j = 0; j < control::ControllerInput::kMaxPreviewTicks; ++j)
     for (int i = 0; i < control::kAxes; ++i) {
       if (i == 0 || m.signals[i].reading_latency_ticks != m.signals[0].reading_latency_ticks)
-        cur_->sample(t_ + (j + 1 - m.signals[i].reading_latency_ticks) * dt, ahead);
+        cur_->sample(t_ + (j + 1 - m.signals[i].reading_latency_ticks) * pdt, ahead);
       d.track.r_preview_mm[j][i] = ahead.position_mm[i];
     }
   d.track.preview_ticks = control::ControllerInput::kMaxPreviewTicks;
@@ -110,7 +135,7 @@ void PlannedSource::demand(Demand& d) const noexcept {
   const std::vector<Segment>& segs = stretch_->segments;
   if (segs.empty()) return;
   const Eigen::Vector2d y = measured_mm_;
-  const Eigen::Vector2d v(now.velocity_mm_per_s[0], now.velocity_mm_per_s[1]);
+  const Eigen::Vector2d v(now.velocity_mm_per_s[0] * k, now.velocity_mm_per_s[1] * k);
   const auto dist = [&](std::size_t k) { return (closest_point(segs[k], y) - y).squaredNorm(); };
   const auto reversed = [&](std::size_t k) {
     return v.squaredNorm() > 1e-12 && tangent_at(segs[k], closest_point(segs[k], y)).dot(v) < -0.9 * v.norm();

@@ -17,6 +17,7 @@
 #pragma once
 
 #include "engine/executor/setpoint_source.h"
+#include "engine/executor/time_scale.h"
 
 namespace machplan::executor {
 
@@ -30,6 +31,10 @@ class PlannedSource final : public SetpointSource {
   bool move_done() const noexcept override;
   void demand(Demand& d) const noexcept override;
   int source_line() const noexcept override;
+  bool supports_rate() const noexcept override { return true; }
+  void set_rate(double target) noexcept override { target_ = target; }
+  double rate() const noexcept override { return scale_.k(); }
+  double path_distance_mm(const Eigen::Vector2d& p) const noexcept override;
 
  private:
   SourceContext ctx_;
@@ -39,7 +44,9 @@ class PlannedSource final : public SetpointSource {
   mutable std::size_t segment_ = 0;           // cursor: the segment the tool is on
   Eigen::Vector2d measured_mm_ = Eigen::Vector2d::Zero();  // as given to advance()
   std::size_t step_ = 0;
-  double t_ = 0.0;                             // time since the move began, s
+  double t_ = 0.0;                             // path time of the move: the plan's time, s
+  TimeScale scale_;                            // how fast t_ runs (hold, overrides)
+  double target_ = 1.0;
   double estimate_s_ = 0.0;
 };
 

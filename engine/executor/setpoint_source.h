@@ -74,6 +74,20 @@ class SetpointSource {
   virtual void demand(Demand& d) const noexcept = 0;
   // Program line of the piece being executed (0 when not known).
   virtual int source_line() const noexcept { return 0; }
+
+  // Feed hold and overrides (engine/executor/time_scale.h): the rate the move should run at,
+  // 0 (at rest on the path) .. 2 (200 %), reached within the machine's limits. A source that
+  // cannot change its rate says so (supports_rate() false) and runs as planned.
+  virtual bool supports_rate() const noexcept { return false; }
+  virtual void set_rate(double target) noexcept { (void)target; }
+  // The rate now (1 when the source cannot change it) and whether the move is at rest.
+  virtual double rate() const noexcept { return 1.0; }
+  // Distance from `p` to the path the move follows, mm (0 when not known): a hold's
+  // deviation from the path.
+  virtual double path_distance_mm(const Eigen::Vector2d& p) const noexcept {
+    (void)p;
+    return 0.0;
+  }
 };
 
 // Sits between a source and the controller and may change the demand (the hybrid guard keeps

@@ -19,6 +19,7 @@ const char* to_string(FaultKind k) {
     case FaultKind::axis_stalled: return "axis_stalled";
     case FaultKind::drive_saturated: return "drive_saturated";
     case FaultKind::stop_requested: return "stop_requested";
+    case FaultKind::operator_stop: return "operator_stop";
   }
   return "?";
 }

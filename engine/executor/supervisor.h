@@ -51,7 +51,8 @@ enum class FaultKind {
   torch_height_timeout,
   axis_stalled,
   drive_saturated,
-  stop_requested
+  stop_requested,
+  operator_stop   // the operator's stop button (or a `stop` event): the job ends, not a machine fault
 };
 const char* to_string(FaultKind k);
 

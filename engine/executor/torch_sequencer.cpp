@@ -6,13 +6,17 @@ namespace machplan::executor {
 
 using Kind = TorchSetup::Kind;
 
-void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out) noexcept {
+void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated) noexcept {
   programmed_ = programmed_pierce;
+  preheated_ = preheated;
   if (t_.height_axis) {
     out.torch_height_target_mm = t_.pierce_height_mm;
     enter(Phase::height_pierce);
-  } else if (t_.kind == Kind::oxy_fuel) {
+  } else if (t_.kind == Kind::oxy_fuel && !preheated_) {
     enter(Phase::preheat);
+  } else if (t_.kind == Kind::oxy_fuel) {
+    out.torch_fire = true;
+    enter(Phase::pierce);
   } else {
     out.torch_fire = true;
     enter(Phase::wait_arc);
@@ -42,8 +46,11 @@ TorchSequencer::Status TorchSequencer::tick(const hardware::Inputs& in, hardware
     case Phase::idle: return Status::idle;
     case Phase::height_pierce:
       if (at(in, t_.pierce_height_mm)) {
-        if (t_.kind == Kind::oxy_fuel) {
+        if (t_.kind == Kind::oxy_fuel && !preheated_) {
           enter(Phase::preheat);
+        } else if (t_.kind == Kind::oxy_fuel) {
+          out.torch_fire = true;
+          enter(Phase::pierce);
         } else {
           out.torch_fire = true;
           enter(Phase::wait_arc);

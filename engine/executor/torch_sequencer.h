@@ -35,8 +35,10 @@ class TorchSequencer {
     lit_ = false;
   }
 
-  // A torch_on step; `programmed_pierce` when a dwell step follows it.
-  void start_on(bool programmed_pierce, hardware::Outputs& out) noexcept;
+  // A torch_on step; `programmed_pierce` when a dwell step follows it. `preheated`: an
+  // oxy-fuel torch whose preheat flame kept burning (a re-pierce after a hold) goes straight
+  // to the cutting oxygen.
+  void start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated = false) noexcept;
   void start_off(hardware::Outputs& out) noexcept;
   void lower_to_cut_height(hardware::Outputs& out) noexcept;
   // Torch off and retract now (faults, stops); the sequence in progress is abandoned.
@@ -45,6 +47,8 @@ class TorchSequencer {
   Status tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept;
 
   bool busy() const noexcept { return phase_ != Phase::idle; }
+  // A torch-on sequence is under way (not the retract).
+  bool lighting() const noexcept { return busy() && phase_ != Phase::off_retract; }
   // The torch-on sequence completed and the torch has not been turned off since.
   bool lit() const noexcept { return lit_; }
   Failure failure() const noexcept { return failure_; }
@@ -70,7 +74,7 @@ class TorchSequencer {
   double dt_ = 0.001;
   Phase phase_ = Phase::idle;
   double pt_ = 0.0;  // time in the phase
-  bool programmed_ = false, lit_ = false;
+  bool programmed_ = false, lit_ = false, preheated_ = false;
   Failure failure_ = Failure::none;
   double failure_value_ = 0.0;
 };

@@ -56,11 +56,21 @@ inline constexpr int kAxes = 2;  // X and Y; the torch height is a separate outp
 enum class CommandKind { speed_dac, position };
 const char* to_string(CommandKind k);
 
-// What the operator's panel says this period.
+// What the operator's panel says this period. Buttons are levels that the executor reads on
+// their rising edge (a press must last at least one period; a HAL pin, a panel button, the
+// simulator's timeline all hold it longer); overrides and switches are levels that last.
 struct OperatorInputs {
   std::array<double, kAxes> jog{};  // joystick deflection per axis, -1 .. 1 (0: centred)
-  bool feed_hold = false;
-  bool cycle_start = false;
+  bool feed_hold = false;           // button: bring the motion to rest along the path (GRBL '!')
+  bool cycle_start = false;         // button: resume after a hold (GRBL '~'); ends a jog session
+  bool stop = false;                // button: end the job with a controlled stop, torch off
+  double feed_override_pct = 100.0;   // feed moves' speed, 0 .. 200 % of the programmed (0: as a hold)
+  double rapid_override_pct = 100.0;  // rapids' speed, 1 .. 100 % of the planned
+  // Cut recovery: the total distance asked along the executed path so far, mm (negative:
+  // backwards). A counter, so that no request is lost between two samples: each change is a
+  // request of that many millimetres.
+  double recover_mm = 0.0;
+  bool thc_enabled = true;          // torch height control allowed (plasma)
 };
 
 struct Outputs {

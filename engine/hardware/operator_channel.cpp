@@ -2,13 +2,31 @@
 
 namespace machplan::hardware {
 
-OperatorInputs merge_operator(const OperatorInputs& backend, const OperatorInputs& channel) {
+OperatorInputs OperatorMerger::merge(const OperatorInputs& backend, const OperatorInputs& channel) noexcept {
   OperatorInputs m = backend;
   bool deflected = false;
   for (double j : channel.jog) deflected = deflected || j != 0.0;
   if (deflected) m.jog = channel.jog;
   m.feed_hold = backend.feed_hold || channel.feed_hold;
   m.cycle_start = backend.cycle_start || channel.cycle_start;
+  m.stop = backend.stop || channel.stop;
+  // Levels: whichever side changed last.
+  const auto level = [](double b, double c, double& last_b, double& last_c, double& held) {
+    if (b != last_b) held = b;
+    if (c != last_c) held = c;
+    last_b = b, last_c = c;
+    return held;
+  };
+  m.feed_override_pct = level(backend.feed_override_pct, channel.feed_override_pct, last_backend_.feed_override_pct,
+                              last_channel_.feed_override_pct, levels_.feed_override_pct);
+  m.rapid_override_pct = level(backend.rapid_override_pct, channel.rapid_override_pct, last_backend_.rapid_override_pct,
+                               last_channel_.rapid_override_pct, levels_.rapid_override_pct);
+  if (backend.thc_enabled != last_backend_.thc_enabled) levels_.thc_enabled = backend.thc_enabled;
+  if (channel.thc_enabled != last_channel_.thc_enabled) levels_.thc_enabled = channel.thc_enabled;
+  last_backend_.thc_enabled = backend.thc_enabled;
+  last_channel_.thc_enabled = channel.thc_enabled;
+  m.thc_enabled = levels_.thc_enabled;
+  m.recover_mm = backend.recover_mm + channel.recover_mm;
   return m;
 }
 
@@ -26,13 +44,13 @@ const OperatorInputs& OperatorChannel::latest() noexcept {
 
 Inputs OperatorMerge::initial_inputs() {
   Inputs in = inner_.initial_inputs();
-  in.op = merge_operator(in.op, channel_.latest());
+  in.op = merger_.merge(in.op, channel_.latest());
   return in;
 }
 
 Health OperatorMerge::exchange(const Outputs& out, Inputs& in) noexcept {
   const Health h = inner_.exchange(out, in);
-  in.op = merge_operator(in.op, channel_.latest());
+  in.op = merger_.merge(in.op, channel_.latest());
   return h;
 }
 

@@ -10,9 +10,11 @@
 //   OperatorMerge     a Backend that wraps another and merges a channel into its inputs after
 //                     each exchange. Everything else passes through unchanged.
 //
-// Merge rule (merge_operator): buttons (feed hold, cycle start) are pressed when either side
-// presses them; the jog is the channel's while the channel deflects any axis, else the
-// backend's own (a pendant, a HAL pin, the simulator's timeline).
+// Merge rule (OperatorMerger): buttons (feed hold, cycle start, stop) are pressed when either
+// side presses them; the jog is the channel's while the channel deflects any axis, else the
+// backend's own (a pendant, a HAL pin, the simulator's timeline); a level (the overrides, THC
+// on/off) is the one that changed last, as when a panel's knob and a HAL pin both set the
+// same override; recovery requests of both sides add up.
 #pragma once
 
 #include <array>
@@ -24,7 +26,14 @@
 
 namespace machplan::hardware {
 
-OperatorInputs merge_operator(const OperatorInputs& backend, const OperatorInputs& channel);
+class OperatorMerger {
+ public:
+  // The merged inputs of this period. Real time: no allocation.
+  OperatorInputs merge(const OperatorInputs& backend, const OperatorInputs& channel) noexcept;
+
+ private:
+  OperatorInputs last_backend_{}, last_channel_{}, levels_{};
+};
 
 class OperatorChannel {
  public:
@@ -66,6 +75,7 @@ class OperatorMerge final : public Backend {
  private:
   Backend& inner_;
   OperatorChannel& channel_;
+  OperatorMerger merger_;
 };
 
 }  // namespace machplan::hardware

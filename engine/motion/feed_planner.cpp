@@ -573,6 +573,24 @@ void PlannedTrajectory::sample(double t_s, Setpoint& out) const {
   out.acceleration_mm_per_s2 = a * pp.tangent + v * v * pp.curvature_per_mm * left_normal(pp.tangent);
 }
 
+double PlannedTrajectory::cruise_left_s(double t_s) const {
+  if (!(t_s >= 0.0) || t_s >= duration_s_ || phases_.empty()) return 0.0;
+  const auto it = std::upper_bound(phase_t0_.begin(), phase_t0_.end(), t_s);
+  std::size_t k = it == phase_t0_.begin() ? 0 : static_cast<std::size_t>(it - phase_t0_.begin()) - 1;
+  const auto cruising = [](const ProfilePhase& p) { return p.a0_mm_per_s2 == 0.0 && p.jerk_mm_per_s3 == 0.0 && p.v0_mm_per_s > 0.0; };
+  if (!cruising(phases_[k])) return 0.0;
+  const double v = phases_[k].v0_mm_per_s;
+  std::size_t last = k;
+  while (last + 1 < phases_.size() && cruising(phases_[last + 1]) && phases_[last + 1].v0_mm_per_s == v) ++last;
+  const double phase_left = phases_[last].t0_s + phases_[last].duration_s - t_s;
+  // The piece under the tool now.
+  const double s = phases_[k].s0_mm + (t_s - phases_[k].t0_s) * v;
+  const auto pt = std::upper_bound(piece_s0_.begin(), piece_s0_.end(), s);
+  const std::size_t piece = pt == piece_s0_.begin() ? 0 : static_cast<std::size_t>(pt - piece_s0_.begin()) - 1;
+  const double piece_end = piece + 1 < piece_s0_.size() ? piece_s0_[piece + 1] : length_mm_;
+  return std::max(0.0, std::min(phase_left, (piece_end - s) / v));
+}
+
 double time_lower_bound_s(const Stretch& stretch, const PlannerOptions& o) {
   o.validate();
   validate_stretch(stretch);

@@ -161,6 +161,9 @@ class PlannedTrajectory final : public Trajectory {
   // the line of the segment the piece comes from, the later one for a blend).
   const Stretch& executed_path() const { return path_; }
   const Stretch* followed_path() const override { return &path_; }
+  // The cruise left: to the end of the constant-speed phases at t_s and of the path piece the
+  // tool is on, whichever comes first.
+  double cruise_left_s(double t_s) const override;
   // Upper bound on the distance from any setpoint to the programmed path, mm (the largest
   // blend deviation; 0 when nothing was blended). At most path_tolerance_mm.
   double max_deviation_mm() const { return max_deviation_mm_; }

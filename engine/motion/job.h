@@ -54,6 +54,13 @@ class Trajectory {
   // The path the setpoints follow when it is not the stretch's programmed one (a planner that
   // rounds corners: its executed path), else null. Contour controllers follow this path.
   virtual const Stretch* followed_path() const { return nullptr; }
+  // How long from t_s the motion goes on at constant path speed on the same piece of path (no
+  // speed change, no change of curvature), s; 0 when it is not cruising or does not know.
+  // What a feed override above 100 % may use (engine/executor/time_scale.h). Real time.
+  virtual double cruise_left_s(double t_s) const {
+    (void)t_s;
+    return 0.0;
+  }
 };
 
 // Programmed geometry between two rest events. `segments` are contiguous (each starts where

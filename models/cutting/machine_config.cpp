@@ -208,6 +208,7 @@ executor::MachineSetup MachineConfig::setup() const {
     s.servo[i] = axes[i].servo;
     s.max_speed_mm_per_s[i] = p.max_speed_mm_per_s();
   }
+  s.max_velocity_mm_per_s = limits.velocity_mm_per_s;
   s.max_acceleration_mm_per_s2 = limits.acceleration_mm_per_s2;
   s.max_jerk_mm_per_s3 = limits.jerk_mm_per_s3;
   s.contour_error_limit_mm = limits.contour_error_mm;

@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "engine/hardware/backend.h"
+#include "engine/hardware/operator_events.h"
 #include "models/axis/plant.h"
 #include "models/cutting/machine_config.h"
 
@@ -58,10 +59,7 @@ struct FaultInjection {
 };
 const char* to_string(FaultInjection::Kind k);
 
-struct OperatorEvent {
-  double at_s = 0.0;
-  hardware::OperatorInputs inputs;
-};
+using hardware::OperatorEvent;
 
 // The simulator's own settings (the executor's options know nothing of them).
 struct SimOptions {

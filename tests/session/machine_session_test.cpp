@@ -135,12 +135,29 @@ TEST(OperatorChannel, TheNewestStateWinsAndButtonsMerge) {
   hardware::OperatorInputs pendant;
   pendant.jog = {0.1, 0.1};
   pendant.cycle_start = true;
-  const hardware::OperatorInputs m = hardware::merge_operator(pendant, ch.latest());
+  hardware::OperatorMerger merger;
+  const hardware::OperatorInputs m = merger.merge(pendant, ch.latest());
   EXPECT_EQ(m.jog[0], -0.25) << "the channel's stick wins while it is deflected";
   EXPECT_TRUE(m.feed_hold);
   EXPECT_TRUE(m.cycle_start);
-  const hardware::OperatorInputs idle = hardware::merge_operator(pendant, hardware::OperatorInputs{});
+  const hardware::OperatorInputs idle = merger.merge(pendant, hardware::OperatorInputs{});
   EXPECT_EQ(idle.jog[0], 0.1) << "a centred channel leaves the pendant's stick";
+}
+
+TEST(OperatorMerger, TheLevelThatChangedLastWinsAndRecoveryRequestsAdd) {
+  hardware::OperatorMerger merger;
+  hardware::OperatorInputs pin, panel;
+  EXPECT_EQ(merger.merge(pin, panel).feed_override_pct, 100.0);
+  panel.feed_override_pct = 50;
+  EXPECT_EQ(merger.merge(pin, panel).feed_override_pct, 50.0) << "the panel's knob moved";
+  EXPECT_EQ(merger.merge(pin, panel).feed_override_pct, 50.0) << "and stays";
+  pin.feed_override_pct = 120;
+  EXPECT_EQ(merger.merge(pin, panel).feed_override_pct, 120.0) << "then the pin moved";
+  panel.thc_enabled = false;
+  EXPECT_FALSE(merger.merge(pin, panel).thc_enabled);
+  pin.recover_mm = -5;
+  panel.recover_mm = 2;
+  EXPECT_EQ(merger.merge(pin, panel).recover_mm, -3.0);
 }
 
 TEST(RunOnASession, TheDeadlineInMachineTimeStopsTheRunTorchOff) {

@@ -1,0 +1,76 @@
+// Feed hold, resume and live overrides on a planned trajectory, by scaling its time.
+//
+// The planner (engine/motion/feed_planner.h) plans each move once, rest to rest, at the
+// programmed feeds. The executor samples it at the path time tau; running tau at a rate
+// k = dtau/dt instead of 1 keeps the tool exactly on the planned path (corner blends
+// included: a hold never leaves the path) while changing how fast it goes along it:
+//
+//     p = p(tau)        v = p'(tau) k        a = p''(tau) k^2 + p'(tau) k'
+//     j = p'''(tau) k^3 + 3 p''(tau) k k' + p'(tau) k''
+//
+// k = 1 is the plan as planned (bit for bit: the same samples), k = 0.5 a feed override of
+// 50 %, k = 0 at rest on the path (a hold), k = 1.5 an override of 150 % where the machine
+// allows it. The governor moves k toward its target each period with k'' bounded so that the
+// axes' jerk stays within J and k' bounded so that their acceleration stays within A, from
+// the plan's own p' and p'' at tau:
+//
+//     |p'_i k''| <= J_margin - |3 p''_i k k'|            (the jerk the change adds)
+//     |p''_i k^2 + p'_i k'| <= A_i  for every axis i     (the acceleration with the change)
+//
+// and a jerk-limited approach to the target (the discrete time-optimal rule of LinuxCNC's
+// limit3 component, applied to k): k' runs toward sign(e) sqrt(2 k''max |e|), e = target - k,
+// so k arrives at its target with k' = 0. A hold from cruise is then the jerk-limited stop at
+// the plan's path speed v: k' = -A_t / v, k'' = J / v, stopping distance that of an S-curve
+// from v; when the plan is itself braking at the limit the hold cannot brake harder, and
+// does not.
+//
+// Above 100 %: the plan uses the whole acceleration A when it speeds up or slows down, so the
+// time may only run faster while the plan cruises (p'' = 0): k is capped by the axes' speed
+// limits (k <= V_i / |p'_i|) and by the time left in the cruise (the trajectory says it:
+// Trajectory::cruise_left_s), from which k must still come back to 1 at the rates above
+// before the plan's next speed change.
+//
+// Real time: step() is O(1), allocates nothing and never throws.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "engine/motion/job.h"
+
+namespace machplan::executor {
+
+struct TimeScaleLimits {
+  Eigen::Vector2d max_velocity_mm_per_s = Eigen::Vector2d::Constant(80.0);
+  Eigen::Vector2d max_acceleration_mm_per_s2 = Eigen::Vector2d::Constant(500.0);
+  double max_jerk_mm_per_s3 = 20000.0;
+  double period_s = 0.001;
+  // Share of the limits a change of k may use on top of the plan (the rest is numerical
+  // margin: the plan's own jerk p''' is not known to the governor).
+  double margin = 0.95;
+};
+
+class TimeScale {
+ public:
+  void configure(const TimeScaleLimits& limits) noexcept { lim_ = limits; }
+  // A new move begins (the plan at rest): k jumps to `k0` at no cost, k' = 0.
+  void reset(double k0) noexcept {
+    k_ = k0;
+    kd_ = 0.0;
+  }
+
+  // One period at path time tau where the plan samples `at` (p', p'' in velocity and
+  // acceleration); `target` the scale asked for (0 .. 2), `cruise_left_s` the plan's cruise
+  // time left from tau (0 when it is not cruising). Returns the path time to advance, k dt.
+  double step(double target, const motion::Setpoint& at, double cruise_left_s) noexcept;
+
+  double k() const noexcept { return k_; }
+  double k_dot() const noexcept { return kd_; }
+  // The ceiling of k at the last step (1 outside a cruise).
+  double ceiling() const noexcept { return ceiling_; }
+
+ private:
+  TimeScaleLimits lim_;
+  double k_ = 1.0, kd_ = 0.0, ceiling_ = 1.0;
+};
+
+}  // namespace machplan::executor
