@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "cli/command.h"
+#include "cli/json/guard.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
 #include "engine/common/parse.h"
@@ -84,7 +85,7 @@ void add_guard(CLI::App& app) {
       std::fprintf(stderr, "keys: arrows or w/a/s/d steer, 1..9 set the speed, space stops, q ends roughing\n");
     const guard::GuardRunResult r = guard::run_guard_file(a->profile, o);
     if (!a->plot.empty()) guard::write_guard_plot(r, a->plot);
-    if (a->json) print_json(r.to_json());
+    if (a->json) print_json(to_json(r));
     else std::fputs(r.report().c_str(), stdout);
   });
 }

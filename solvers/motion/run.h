@@ -51,8 +51,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/control/controller_factory.h"
 #include "engine/executor/executor.h"
 #include "engine/motion/feed_planner.h"
@@ -170,11 +168,6 @@ struct RunOutcome {
   bool faulted() const { return result.status == executor::ExecutionResult::Status::faulted; }
   // The whole report for people: run summary, per-cut errors, faults, bound and ratio.
   std::string report() const;
-  // {"cycle_time_s", "max_contour_error_mm", "rms_contour_error_mm", "cuts", "faults",
-  //  "lower_bound_s", "cycle_ratio", "planned_motion_s", "motion_optimum_s", "optimum_ratio",
-  //  "rapids": {..., "detours": [{"source_line", "extra_length_mm", "reason"}]}, ...}; see
-  //  run.cpp for the full list.
-  nlohmann::json to_json() const;
 };
 
 // Runs `program_path` as described in the file comment.

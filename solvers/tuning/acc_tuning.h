@@ -13,8 +13,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/control/acc.h"
 #include "solvers/tuning/optimizer.h"
 
@@ -52,7 +50,6 @@ struct AccTuningResult {
   OptimizerResult optimizer;
   std::string status;  // "ok" or "infeasible"
   std::string report() const;
-  nlohmann::json to_json() const;
 };
 
 AccTuningResult tune_acc(const AccTuningOptions& options, StopToken stop = {});

@@ -37,8 +37,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/control/controller_factory.h"
 #include "engine/executor/executor.h"
 #include "engine/motion/feed_planner.h"
@@ -114,7 +112,6 @@ struct Evaluation {
   double margin_residual = 0.0;  // fraction of the step; infinity when the margin run faulted
   bool faulted = false;          // a contour run faulted (following error, ...)
   double value(Objective o) const;
-  nlohmann::json to_json() const;
 };
 
 class Evaluator {

@@ -38,8 +38,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/common/stop.h"
 
 namespace machplan::tuning {
@@ -94,7 +92,6 @@ struct OptimizerResult {
   bool stopped = false;        // the StopToken fired
   StageReport global, local;
   std::string report() const;  // a few lines for people
-  nlohmann::json to_json() const;
 };
 
 // Throws std::invalid_argument when the problem is malformed (empty, lo >= hi, start outside,

@@ -204,26 +204,4 @@ std::string TuneResult::report() const {
   return s;
 }
 
-nlohmann::json TuneResult::to_json() const {
-  nlohmann::json g = nlohmann::json::object(), sg = nlohmann::json::object(), fx = nlohmann::json::array();
-  for (const auto& [k, v] : gains) g[k] = v;
-  for (const auto& [k, v] : fixed) fx.push_back(k);
-  for (const auto& [k, v] : start_gains) sg[k] = v;
-  nlohmann::json j = {{"machine", machine},
-                      {"controller", kind},
-                      {"objective", to_string(objective)},
-                      {"gains", g},
-                      {"start_gains", sg},
-                      {"fixed", fx},
-                      {"start_from", start_from},
-                      {"baseline", baseline.to_json()},
-                      {"start", start.to_json()},
-                      {"tuned", tuned.to_json()},
-                      {"optimizer", optimizer.to_json()},
-                      {"status", status}};
-  if (fresh_seed > 0)
-    j["fresh"] = {{"first_seed", fresh_seed}, {"baseline", fresh_baseline.to_json()}, {"tuned", fresh_tuned.to_json()}};
-  return j;
-}
-
 }  // namespace machplan::tuning

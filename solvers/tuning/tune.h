@@ -21,8 +21,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/common/stop.h"
 #include "solvers/tuning/evaluate.h"
 #include "solvers/tuning/optimizer.h"
@@ -82,10 +80,6 @@ struct TuneResult {
   OptimizerResult optimizer;
   std::string status;  // "ok", "infeasible", "stopped"
   std::string report() const;
-  // {"machine", "controller", "objective", "gains": {...}, "baseline": {...}, "start": {...},
-  //  "tuned": {...}, "fresh": {"seeds", "baseline", "tuned"} (when checked), "optimizer": {...},
-  //  "status"}; the scores as Evaluation::to_json().
-  nlohmann::json to_json() const;
 };
 
 // The constraint values g of the file comment for one evaluation.
