@@ -12,6 +12,7 @@
 
 #include "cli/command.h"
 #include "cli/interrupt.h"
+#include "cli/json/guard.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
 #include "engine/common/parse.h"
@@ -93,7 +94,7 @@ void add_guard(CLI::App& app) {
       return guard::run_guard_file(a->profile, o, &stop, &progress);
     }();
     if (!a->plot.empty()) guard::write_guard_plot(r, a->plot);
-    if (a->json) print_json(r.to_json());
+    if (a->json) print_json(to_json(r));
     else std::fputs(r.summary.full_report().c_str(), stdout);
     set_exit_code(r.summary.exit_code());
   });

@@ -1,6 +1,6 @@
 // Output that cannot lose data silently.
 //
-//   * print_json(): --json output, streamed (engine/common/json_stream.h), never held whole
+//   * print_json(): --json output, streamed (cli/json/json_stream.h), never held whole
 //     as text. nlohmann's dump() throws on a string that is not valid UTF-8 (a Latin-1 layer
 //     name, a file name in a legacy encoding); here each invalid byte becomes U+FFFD instead
 //     and a warning on stderr says so, so --json output is always valid UTF-8. Output that
@@ -19,7 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/common/json_stream.h"
+#include "cli/json/json_stream.h"
 
 namespace machplan::cli {
 

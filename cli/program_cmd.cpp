@@ -64,7 +64,7 @@ nlohmann::json move_json(const machplan::Move& m) {
 // (a long program's document would take about 0.9 KB of memory per move). A failed write
 // stops the writing; main() reports it.
 void write_json(const machplan::Program& program) {
-  machplan::JsonStream out(stdout);
+  machplan::cli::JsonStream out(stdout);
   out.begin_object();
   out.member("units", "mm");
   out.member("coordinates", "machine (work offsets applied)");

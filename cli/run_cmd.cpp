@@ -14,6 +14,7 @@
 
 #include "cli/command.h"
 #include "cli/interrupt.h"
+#include "cli/json/run.h"
 #include "cli/output.h"
 #include "cli/gcode_flags.h"
 #include "models/cutting/machine_config.h"
@@ -177,7 +178,7 @@ void run_command(const RunArgs& a) {
   if (!a.plot.empty()) motion::write_run_plot(a.plot, run, magnify);
 
   if (a.json) {
-    nlohmann::json j = run.to_json();
+    nlohmann::json j = to_json(run);
     if (!a.trace.empty()) j["trace"] = a.trace;
     if (!a.plot.empty()) j["plot"] = a.plot;
     print_json(j);

@@ -13,6 +13,7 @@
 
 #include "cli/command.h"
 #include "cli/interrupt.h"
+#include "cli/json/tuning.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
 #include "engine/common/parse.h"
@@ -117,7 +118,7 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
     j["koren_fixed_kc_0_5"] = {{"settled", settled(koren)}};
     nlohmann::json t = nlohmann::json::array();
     for (std::size_t i = 0; i < results.size(); ++i) {
-      nlohmann::json r = results[i].to_json();
+      nlohmann::json r = to_json(results[i]);
       r["settled"] = settled(tuned_runs[i]);
       t.push_back(r);
     }
@@ -208,7 +209,7 @@ void add_tune(CLI::App& app) {
     if (a->store) {
       if (!r.summary.done())
         throw Infeasible(fmt::format("the tuning's status is '{}': nothing stored", to_string(r.summary.status)));
-      stored = tuning::TuningStore(db).save(r.machine, r.kind, r.gains, "ok", r.to_json().dump(), who());
+      stored = tuning::TuningStore(db).save(r.machine, r.kind, r.gains, "ok", to_json(r).dump(), who());
     }
     if (!a->plot.empty()) {
       // The first contour under the first noise draw, in micrometres.
@@ -222,7 +223,7 @@ void add_tune(CLI::App& app) {
       tuning::write_time_plot(a->plot, "--plot", fmt::format("machplan tune: {} on {}", r.kind, r.machine), {p});
     }
     if (a->json) {
-      nlohmann::json j = r.to_json();
+      nlohmann::json j = to_json(r);
       if (stored) j["stored"] = {{"db", db}, {"tuning_id", stored}};
       if (!a->plot.empty()) j["plot"] = a->plot;
       print_json(j);

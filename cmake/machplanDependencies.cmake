@@ -4,7 +4,8 @@
 # a missing package is reported through find_package(machplan) instead of aborting).
 #
 # The libraries are static, so a consumer links the private dependencies too: every package
-# below is needed by the consumer of the installed targets, not only by the headers.
+# below but nlohmann-json is needed by the consumer of the installed targets, though only
+# Eigen and fmt are seen by the headers.
 if(MACHPLAN_FIND_AS_DEPENDENCY)
   include(CMakeFindDependencyMacro)
   macro(machplan_find_package)
@@ -16,13 +17,18 @@ else()
   endmacro()
 endif()
 
-# Seen by the public headers: Eigen (vectors, transforms), fmt, nlohmann-json (to_json
-# results), yaml-cpp (engine/config/yaml.h).
+# Seen by the public headers: Eigen (points, vectors, transforms) and fmt (messages), nothing
+# else; the install test (tests/install) compiles every installed header with only these.
 machplan_find_package(Eigen3 3.3 NO_MODULE)
 machplan_find_package(fmt)
-machplan_find_package(nlohmann_json 3)
+
+# Linked privately: no public header includes them, but the libraries are static, so whatever
+# links machplan links these too. yaml-cpp (engine/config/yaml.cpp, behind Yaml), FCL
+# (engine/interference/collision.cpp, behind Shape), OMPL (solvers/motion), Ceres
+# (solvers/calibration/fit.cpp), NLopt (solvers/tuning/optimizer.cpp), SQLite
+# (solvers/common/sqlite_db.cpp, behind SqliteDb), Cairo (solvers/common/picture.cpp, behind
+# Canvas).
 machplan_find_package(yaml-cpp)
-# Linked privately: FCL (engine/interference), OMPL (solvers/motion), Cairo (solvers: pictures).
 machplan_find_package(fcl)
 machplan_find_package(ompl)
 if(NOT TARGET ompl::ompl)
@@ -31,12 +37,17 @@ if(NOT TARGET ompl::ompl)
   set_target_properties(ompl::ompl PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "${OMPL_INCLUDE_DIRS}"
                         INTERFACE_LINK_LIBRARIES "${OMPL_LIBRARIES}")
 endif()
-# Ceres (solvers/calibration/fit.cpp) and SQLite (solvers/calibration/store.cpp).
 machplan_find_package(Ceres)
-# NLopt (solvers/tuning: gain tuning; NLopt::nlopt).
 machplan_find_package(NLopt)
 machplan_find_package(SQLite3)
 machplan_find_package(PkgConfig)
 if(NOT TARGET PkgConfig::CAIRO)
   pkg_check_modules(CAIRO REQUIRED IMPORTED_TARGET cairo)
+endif()
+
+# nlohmann-json (headers only) is for machplan's own build: the stored fits and gains in
+# solvers/ and the --json forms in cli/json/. The installed libraries do not ask for it (the
+# solvers link it as a build-only dependency), so a consumer needs it only to use it itself.
+if(NOT MACHPLAN_FIND_AS_DEPENDENCY)
+  machplan_find_package(nlohmann_json 3)
 endif()

@@ -3,9 +3,15 @@
 #include <cmath>
 #include <filesystem>
 
+#include <yaml-cpp/yaml.h>
+
 #include "engine/common/text_file.h"
 
 namespace machplan {
+
+struct Yaml::Node {
+  YAML::Node yaml;
+};
 
 Yaml Yaml::load_file(const std::string& path) { return load_string(read_text_file(path, 64u << 20), path); }
 
@@ -36,17 +42,21 @@ Yaml Yaml::load_string(const std::string& text, const std::string& name) {
   try {
     YAML::Node root = YAML::Load(text);
     if (!root.IsDefined() || root.IsNull()) throw InputError(name, 0, "the file is empty");
-    return Yaml(root, name, "");
+    return Yaml(std::make_shared<const Node>(Node{root}), name, "");
   } catch (const YAML::Exception& e) {
     throw InputError(name, e.mark.is_null() ? 0 : e.mark.line + 1, "YAML syntax error: " + e.msg);
   }
 }
 
-Yaml::Yaml(YAML::Node node, std::string file, std::string key_path)
+Yaml::Yaml(std::shared_ptr<const Node> node, std::string file, std::string key_path)
     : node_(std::move(node)), file_(std::move(file)), key_path_(std::move(key_path)) {}
 
+bool Yaml::is_map() const { return node_->yaml.IsMap(); }
+bool Yaml::is_sequence() const { return node_->yaml.IsSequence(); }
+bool Yaml::is_scalar() const { return node_->yaml.IsScalar(); }
+
 int Yaml::line() const {
-  const YAML::Mark m = node_.Mark();
+  const YAML::Mark m = node_->yaml.Mark();
   return m.is_null() ? 0 : m.line + 1;
 }
 
@@ -56,25 +66,25 @@ void Yaml::fail(const std::string& message) const {
 }
 
 std::string Yaml::kind_name() const {
-  switch (node_.Type()) {
+  switch (node_->yaml.Type()) {
     case YAML::NodeType::Map: return "a map";
     case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Scalar: return "'" + node_.Scalar() + "'";
+    case YAML::NodeType::Scalar: return "'" + node_->yaml.Scalar() + "'";
     case YAML::NodeType::Null: return "nothing";
     default: return "an undefined value";
   }
 }
 
-bool Yaml::has(const std::string& key) const { return node_.IsMap() && node_[key].IsDefined(); }
+bool Yaml::has(const std::string& key) const { return node_->yaml.IsMap() && node_->yaml[key].IsDefined(); }
 
 Yaml Yaml::at(const std::string& key) const {
   const std::string path = key_path_.empty() ? key : key_path_ + "." + key;
-  if (!node_.IsMap()) fail("must be a map with key '" + key + "', got " + kind_name());
-  YAML::Node child = node_[key];
+  if (!node_->yaml.IsMap()) fail("must be a map with key '" + key + "', got " + kind_name());
+  YAML::Node child = node_->yaml[key];
   if (!child.IsDefined()) {
     throw InputError(file_, line(), "missing required key '" + path + "'");
   }
-  return Yaml(child, file_, path);
+  return Yaml(std::make_shared<const Node>(Node{child}), file_, path);
 }
 
 std::optional<Yaml> Yaml::get(const std::string& key) const {
@@ -83,18 +93,20 @@ std::optional<Yaml> Yaml::get(const std::string& key) const {
 }
 
 std::vector<Yaml> Yaml::items() const {
-  if (!node_.IsSequence()) fail("must be a list, got " + kind_name());
+  if (!node_->yaml.IsSequence()) fail("must be a list, got " + kind_name());
   std::vector<Yaml> out;
-  out.reserve(node_.size());
-  for (std::size_t i = 0; i < node_.size(); ++i)
-    out.emplace_back(node_[i], file_, key_path_ + "[" + std::to_string(i) + "]");
+  out.reserve(node_->yaml.size());
+  for (std::size_t i = 0; i < node_->yaml.size(); ++i) {
+    const std::string path = key_path_ + "[" + std::to_string(i) + "]";
+    out.push_back(Yaml(std::make_shared<const Node>(Node{node_->yaml[i]}), file_, path));
+  }
   return out;
 }
 
 double Yaml::number(const NumberRule& rule) const {
-  if (!node_.IsScalar()) fail("must be a number, got " + kind_name());
+  if (!node_->yaml.IsScalar()) fail("must be a number, got " + kind_name());
   double v = 0;
-  const std::string& s = node_.Scalar();
+  const std::string& s = node_->yaml.Scalar();
   try {
     std::size_t used = 0;
     v = std::stod(s, &used);
@@ -117,20 +129,20 @@ int Yaml::integer(int min, int max) const {
 }
 
 bool Yaml::boolean() const {
-  if (!node_.IsScalar()) fail("must be true or false, got " + kind_name());
-  const std::string& s = node_.Scalar();
+  if (!node_->yaml.IsScalar()) fail("must be true or false, got " + kind_name());
+  const std::string& s = node_->yaml.Scalar();
   if (s == "true" || s == "yes" || s == "on") return true;
   if (s == "false" || s == "no" || s == "off") return false;
   fail("must be true or false, got '" + s + "'");
 }
 
 std::string Yaml::string() const {
-  if (!node_.IsScalar()) fail("must be a text value, got " + kind_name());
-  return node_.Scalar();
+  if (!node_->yaml.IsScalar()) fail("must be a text value, got " + kind_name());
+  return node_->yaml.Scalar();
 }
 
 std::vector<double> Yaml::numbers(std::size_t count, const NumberRule& rule) const {
-  if (!node_.IsSequence() || (count != 0 && node_.size() != count))
+  if (!node_->yaml.IsSequence() || (count != 0 && node_->yaml.size() != count))
     fail(count ? fmt::format("must be a list of {} numbers, got {}", count, kind_name())
                : "must be a list of numbers, got " + kind_name());
   std::vector<double> out;
@@ -161,8 +173,8 @@ bool Yaml::boolean_or(const std::string& key, bool fallback) const {
 }
 
 void Yaml::reject_unknown_keys(std::initializer_list<const char*> known) const {
-  if (!node_.IsMap()) fail("must be a map, got " + kind_name());
-  for (auto it = node_.begin(); it != node_.end(); ++it) {
+  if (!node_->yaml.IsMap()) fail("must be a map, got " + kind_name());
+  for (auto it = node_->yaml.begin(); it != node_->yaml.end(); ++it) {
     const std::string key = it->first.Scalar();
     bool ok = false;
     for (const char* k : known) ok = ok || key == k;

@@ -14,16 +14,19 @@
 //
 // Unknown keys are errors (a typo must not be a silent guess), which is why readers call
 // reject_unknown_keys() on every map they read.
+//
+// yaml-cpp parses the text; it stays in yaml.cpp, behind Yaml::Node. A Yaml value is cheap to
+// copy: copies share the parsed node.
 #pragma once
 
 #include <initializer_list>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
-#include <yaml-cpp/yaml.h>
 
 #include "engine/common/error.h"
 
@@ -42,15 +45,13 @@ class Yaml {
   // Parses text that came from `name` (used in messages).
   static Yaml load_string(const std::string& text, const std::string& name);
 
-  Yaml(YAML::Node node, std::string file, std::string key_path);
-
   bool has(const std::string& key) const;
   Yaml at(const std::string& key) const;         // required key of a map
   std::optional<Yaml> get(const std::string& key) const;  // optional key of a map
   std::vector<Yaml> items() const;               // elements of a sequence
-  bool is_map() const { return node_.IsMap(); }
-  bool is_sequence() const { return node_.IsSequence(); }
-  bool is_scalar() const { return node_.IsScalar(); }
+  bool is_map() const;
+  bool is_sequence() const;
+  bool is_scalar() const;
 
   double number(const NumberRule& rule = {}) const;
   int integer(int min = std::numeric_limits<int>::min(), int max = std::numeric_limits<int>::max()) const;
@@ -81,8 +82,10 @@ class Yaml {
   std::string resolve_path(const std::string& relative) const;
 
  private:
+  struct Node;  // the parsed yaml-cpp node (yaml.cpp)
+  Yaml(std::shared_ptr<const Node> node, std::string file, std::string key_path);
   std::string kind_name() const;
-  YAML::Node node_;
+  std::shared_ptr<const Node> node_;
   std::string file_;
   std::string key_path_;
 };

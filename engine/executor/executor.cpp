@@ -855,53 +855,24 @@ std::string ExecutionResult::report() const {
   return s;
 }
 
-nlohmann::json ExecutionResult::to_json(bool include_trace) const {
-  using nlohmann::json;
-  json j;
-  j["source"] = source;
-  j["machine"] = machine;
-  j["mode"] = to_string(mode);
-  j["backend"] = backend;
-  j["status"] = status == Status::completed ? "completed" : "faulted";
-  j["cycle_time_s"] = cycle_time_s;
-  j["torch_on_s"] = torch_on_s;
-  j["rapid_distance_mm"] = rapid_distance_mm;
-  j["steps_completed"] = steps_completed;
-  j["stopped_at_rest"] = stopped_at_rest;
-  j["torch_off_at_end"] = torch_off_at_end;
-  j["backend_notes"] = backend_notes;
-  auto num = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
-  j["cuts"] = json::array();
-  for (const CutError& c : cuts)
-    j["cuts"].push_back({{"stretch", c.stretch},
-                         {"source_line", c.source_line},
-                         {"samples", c.samples},
-                         {"complete", c.complete},
-                         {"max_contour_error_mm", c.max_mm},
-                         {"rms_contour_error_mm", c.rms_mm},
-                         {"max_true_contour_error_mm", num(c.max_true_mm)},
-                         {"rms_true_contour_error_mm", num(c.rms_true_mm)}});
-  j["faults"] = json::array();
-  for (const FaultReport& f : faults)
-    j["faults"].push_back({{"kind", to_string(f.kind)},
-                           {"time_s", f.time_s},
-                           {"step", f.step},
-                           {"source_line", f.source_line},
-                           {"axis", f.axis < 0 ? json(nullptr) : json(f.axis == 0 ? "x" : "y")},
-                           {"last_known_mm", {f.last_known_mm.x(), f.last_known_mm.y()}},
-                           {"commanded_mm", {f.commanded_mm.x(), f.commanded_mm.y()}},
-                           {"value", f.value},
-                           {"message", f.message}});
-  if (include_trace) {
-    json t = json::array();
-    for (const TraceSample& s : trace)
-      t.push_back({s.t_s, s.step, s.commanded_mm.x(), s.commanded_mm.y(), s.measured_mm.x(), s.measured_mm.y(),
-                   num(s.true_mm.x()), num(s.true_mm.y()), s.dac_x, s.dac_y, s.drives_enabled, s.torch_fire, s.arc_ok});
-    j["trace_columns"] = {"t_s",       "step",      "cmd_x_mm", "cmd_y_mm", "meas_x_mm", "meas_y_mm", "true_x_mm",
-                          "true_y_mm", "dac_x",     "dac_y",    "enabled",  "torch_fire", "arc_ok"};
-    j["trace"] = std::move(t);
+double HoldReport::jerk_limited_stop_mm() const {
+  // From (v, a) along the path: the jerk -J brings the acceleration down to -A, -A holds, then
+  // +J brings it back to 0 as the speed reaches 0 (the S-curve's time-optimal stop), integrated
+  // in small steps of the exact piecewise-cubic motion.
+  const double A = stop_acceleration_mm_per_s2, J = stop_jerk_mm_per_s3;
+  if (!(speed_mm_per_s > 0) || !(A > 0) || !(J > 0)) return 0.0;
+  double v = speed_mm_per_s, a = acceleration_mm_per_s2, s = 0.0;
+  const double h = 1e-5;
+  for (int n = 0; n < 100000000 && v > 0; ++n) {
+    // Ramp the acceleration back up when the speed left is what the ramp from a to 0 takes.
+    const double ramp_dv = a < 0 ? a * a / (2 * J) : 0.0;
+    const double j = v <= ramp_dv ? J : (a > -A ? -J : 0.0);
+    const double a1 = std::clamp(a + j * h, -A, std::max(a, 0.0) + J * h);
+    s += v * h + a * h * h / 2;
+    v += (a + a1) / 2 * h;
+    a = a1;
   }
-  return j;
+  return s;
 }
 
 void ExecutionResult::write_trace_csv(const std::string& path) const {

@@ -53,7 +53,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <nlohmann/json.hpp>
 
 #include "engine/common/progress.h"
 #include "engine/common/termination.h"
@@ -186,7 +185,6 @@ struct ExecutionResult {
   double max_contour_error_mm() const;       // over all cuts, measured
   double max_true_contour_error_mm() const;  // over all cuts, truth (NaN if unknown)
   std::string report() const;                // human-readable summary
-  nlohmann::json to_json(bool include_trace = false) const;
   // kTraceCsvHeader's columns (engine/executor/trace.h)
   void write_trace_csv(const std::string& path) const;  // throws InputError(path) on failure
 };

@@ -20,10 +20,55 @@ bool ends_with(const std::string& s, const char* tail) {
 
 }  // namespace
 
+struct Canvas::Context {
+  cairo_t* cr;
+};
+
+void Canvas::set_source_rgb(double r, double g, double b) { cairo_set_source_rgb(context_.cr, r, g, b); }
+void Canvas::set_source_rgba(double r, double g, double b, double a) { cairo_set_source_rgba(context_.cr, r, g, b, a); }
+void Canvas::set_line_width(double width) { cairo_set_line_width(context_.cr, width); }
+void Canvas::set_dash(const double* dashes, int count, double offset) {
+  cairo_set_dash(context_.cr, dashes, count, offset);
+}
+void Canvas::set_fill_rule(FillRule rule) {
+  cairo_set_fill_rule(context_.cr, rule == FillRule::even_odd ? CAIRO_FILL_RULE_EVEN_ODD : CAIRO_FILL_RULE_WINDING);
+}
+void Canvas::set_line_join(LineJoin join) {
+  cairo_set_line_join(context_.cr, join == LineJoin::round   ? CAIRO_LINE_JOIN_ROUND
+                                   : join == LineJoin::bevel ? CAIRO_LINE_JOIN_BEVEL
+                                                             : CAIRO_LINE_JOIN_MITER);
+}
+void Canvas::set_font_size(double size) { cairo_set_font_size(context_.cr, size); }
+void Canvas::save() { cairo_save(context_.cr); }
+void Canvas::restore() { cairo_restore(context_.cr); }
+void Canvas::move_to(double x, double y) { cairo_move_to(context_.cr, x, y); }
+void Canvas::line_to(double x, double y) { cairo_line_to(context_.cr, x, y); }
+void Canvas::arc(double xc, double yc, double radius, double angle1, double angle2) {
+  cairo_arc(context_.cr, xc, yc, radius, angle1, angle2);
+}
+void Canvas::arc_negative(double xc, double yc, double radius, double angle1, double angle2) {
+  cairo_arc_negative(context_.cr, xc, yc, radius, angle1, angle2);
+}
+void Canvas::rectangle(double x, double y, double width, double height) {
+  cairo_rectangle(context_.cr, x, y, width, height);
+}
+void Canvas::close_path() { cairo_close_path(context_.cr); }
+void Canvas::stroke() { cairo_stroke(context_.cr); }
+void Canvas::fill() { cairo_fill(context_.cr); }
+void Canvas::fill_preserve() { cairo_fill_preserve(context_.cr); }
+void Canvas::clip() { cairo_clip(context_.cr); }
+void Canvas::paint() { cairo_paint(context_.cr); }
+void Canvas::show_text(const std::string& s) { cairo_show_text(context_.cr, s.c_str()); }
+double Canvas::text_advance(const std::string& s) {
+  cairo_text_extents_t extents;
+  cairo_text_extents(context_.cr, s.c_str(), &extents);
+  return extents.x_advance;
+}
+
 bool is_picture_path(const std::string& path) { return ends_with(path, ".png") || ends_with(path, ".svg"); }
 
 void write_picture(const std::string& path, const std::string& flag, double width, double height,
-                   const std::function<void(cairo_t*)>& draw) {
+                   const std::function<void(Canvas&)>& draw) {
   const bool svg = ends_with(path, ".svg");
   const bool png = ends_with(path, ".png");
   if (!svg && !png) throw InputError(flag, 0, fmt::format("'{}' must end in .png or .svg", path));
@@ -36,7 +81,9 @@ void write_picture(const std::string& path, const std::string& flag, double widt
   }
   cairo_t* cr = cairo_create(surface);
   try {
-    draw(cr);
+    Canvas::Context context{cr};
+    Canvas canvas(context);
+    draw(canvas);
   } catch (...) {
     cairo_destroy(cr);
     cairo_surface_destroy(surface);
@@ -52,26 +99,26 @@ void write_picture(const std::string& path, const std::string& flag, double widt
     throw InputError(path, 0, std::string("cannot write the picture: ") + cairo_status_to_string(st));
 }
 
-void draw_text(cairo_t* cr, double x, double y, const std::string& s, double size) {
-  cairo_set_font_size(cr, size);
-  cairo_move_to(cr, x, y);
-  cairo_show_text(cr, s.c_str());
+void draw_text(Canvas& canvas, double x, double y, const std::string& s, double size) {
+  canvas.set_font_size(size);
+  canvas.move_to(x, y);
+  canvas.show_text(s);
 }
 
-void trace_segment(cairo_t* cr, const PlotView& v, const Segment& s, bool move_first) {
-  if (move_first) cairo_move_to(cr, v.sx(s.start.x()), v.sy(s.start.y()));
+void trace_segment(Canvas& canvas, const PlotView& v, const Segment& s, bool move_first) {
+  if (move_first) canvas.move_to(v.sx(s.start.x()), v.sy(s.start.y()));
   if (!s.is_arc()) {
-    cairo_line_to(cr, v.sx(s.end.x()), v.sy(s.end.y()));
+    canvas.line_to(v.sx(s.end.x()), v.sy(s.end.y()));
     return;
   }
   const double a0 = -s.start_angle, a1 = -s.end_angle();
-  if (s.sweep > 0) cairo_arc_negative(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
-  else cairo_arc(cr, v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
+  if (s.sweep > 0) canvas.arc_negative(v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
+  else canvas.arc(v.sx(s.center.x()), v.sy(s.center.y()), s.radius * v.scale, a0, a1);
 }
 
-void trace_contour(cairo_t* cr, const PlotView& v, const Contour& c) {
-  for (std::size_t i = 0; i < c.size(); ++i) trace_segment(cr, v, c.span(i), i == 0);
-  cairo_close_path(cr);
+void trace_contour(Canvas& canvas, const PlotView& v, const Contour& c) {
+  for (std::size_t i = 0; i < c.size(); ++i) trace_segment(canvas, v, c.span(i), i == 0);
+  canvas.close_path();
 }
 
 double round_step(double want) {

@@ -10,62 +10,75 @@
 
 namespace machplan::store {
 
-SqliteDb::SqliteDb(const std::string& path, const char* schema) : path_(path) {
-  if (sqlite3_open_v2(path.c_str(), &h_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
-    const std::string why = h_ ? sqlite3_errmsg(h_) : "out of memory";
-    sqlite3_close(h_);
-    h_ = nullptr;
+struct SqliteDb::Connection {
+  sqlite3* h = nullptr;
+  ~Connection() { sqlite3_close(h); }
+};
+
+struct Statement::Prepared {
+  sqlite3_stmt* s = nullptr;
+  ~Prepared() { sqlite3_finalize(s); }
+};
+
+SqliteDb::SqliteDb(const std::string& path, const char* schema)
+    : connection_(std::make_unique<Connection>()), path_(path) {
+  sqlite3*& h = connection_->h;
+  if (sqlite3_open_v2(path.c_str(), &h, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
+    const std::string why = h ? sqlite3_errmsg(h) : "out of memory";
+    sqlite3_close(h);
+    h = nullptr;
     throw InputError("--db", 0, fmt::format("cannot open '{}': {} (its folder must exist)", path, why));
   }
-  sqlite3_busy_timeout(h_, 5000);
+  sqlite3_busy_timeout(h, 5000);
   try {
     exec("PRAGMA foreign_keys = ON;");
     exec(schema);
   } catch (const InputError& e) {
-    sqlite3_close(h_);
-    h_ = nullptr;
+    sqlite3_close(h);
+    h = nullptr;
     throw InputError("--db", 0, fmt::format("'{}' is not a machplan store: {}", path, e.message()));
   }
 }
 
-SqliteDb::~SqliteDb() { sqlite3_close(h_); }
+SqliteDb::~SqliteDb() = default;
 
 void SqliteDb::exec(const char* sql) const {
   char* err = nullptr;
-  if (sqlite3_exec(h_, sql, nullptr, nullptr, &err) != SQLITE_OK) {
+  if (sqlite3_exec(connection_->h, sql, nullptr, nullptr, &err) != SQLITE_OK) {
     const std::string msg = err ? err : "unknown error";
     sqlite3_free(err);
     throw InputError("--db", 0, fmt::format("{}: {}", path_, msg));
   }
 }
 
-std::int64_t SqliteDb::last_insert_id() const { return sqlite3_last_insert_rowid(h_); }
+std::int64_t SqliteDb::last_insert_id() const { return sqlite3_last_insert_rowid(connection_->h); }
 
-void SqliteDb::rollback() const noexcept { sqlite3_exec(h_, "ROLLBACK;", nullptr, nullptr, nullptr); }
+void SqliteDb::rollback() const noexcept { sqlite3_exec(connection_->h, "ROLLBACK;", nullptr, nullptr, nullptr); }
 
-Statement::Statement(const SqliteDb& db, const char* sql) : db_(db) {
-  if (sqlite3_prepare_v2(db.handle(), sql, -1, &s_, nullptr) != SQLITE_OK)
-    throw InputError("--db", 0, fmt::format("'{}' is not a machplan store: {}", db.path(), sqlite3_errmsg(db.handle())));
+Statement::Statement(const SqliteDb& db, const char* sql) : db_(db), prepared_(std::make_unique<Prepared>()) {
+  if (sqlite3_prepare_v2(db.connection_->h, sql, -1, &prepared_->s, nullptr) != SQLITE_OK)
+    throw InputError("--db", 0,
+                     fmt::format("'{}' is not a machplan store: {}", db.path(), sqlite3_errmsg(db.connection_->h)));
 }
 
-Statement::~Statement() { sqlite3_finalize(s_); }
+Statement::~Statement() = default;
 
-void Statement::bind(int i, const std::string& v) { sqlite3_bind_text(s_, i, v.c_str(), -1, SQLITE_TRANSIENT); }
-void Statement::bind(int i, std::int64_t v) { sqlite3_bind_int64(s_, i, v); }
+void Statement::bind(int i, const std::string& v) { sqlite3_bind_text(prepared_->s, i, v.c_str(), -1, SQLITE_TRANSIENT); }
+void Statement::bind(int i, std::int64_t v) { sqlite3_bind_int64(prepared_->s, i, v); }
 
 bool Statement::step() {
-  const int rc = sqlite3_step(s_);
+  const int rc = sqlite3_step(prepared_->s);
   if (rc == SQLITE_ROW) return true;
   if (rc == SQLITE_DONE) return false;
-  throw InputError("--db", 0, fmt::format("{}: {}", db_.path(), sqlite3_errmsg(db_.handle())));
+  throw InputError("--db", 0, fmt::format("{}: {}", db_.path(), sqlite3_errmsg(db_.connection_->h)));
 }
 
 std::string Statement::text(int column) const {
-  const auto* p = sqlite3_column_text(s_, column);
+  const auto* p = sqlite3_column_text(prepared_->s, column);
   return p ? reinterpret_cast<const char*>(p) : "";
 }
 
-std::int64_t Statement::int64(int column) const { return sqlite3_column_int64(s_, column); }
+std::int64_t Statement::int64(int column) const { return sqlite3_column_int64(prepared_->s, column); }
 
 std::string now_utc() {
   const std::time_t t = std::time(nullptr);

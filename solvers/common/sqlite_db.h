@@ -5,13 +5,14 @@
 // typing mistake cannot scatter databases over the disk. Only the default location
 // (default_store_path() in solvers/calibration/store.h) has its folder created, on first use.
 // Every failure is an InputError("--db", ...) naming the file.
+//
+// SQLite itself stays in sqlite_db.cpp: the connection and the prepared statement are held
+// behind pointers to types defined there, so this header needs no SQLite header.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
-
-struct sqlite3;
-struct sqlite3_stmt;
 
 namespace machplan::store {
 
@@ -24,7 +25,6 @@ class SqliteDb {
   SqliteDb(const SqliteDb&) = delete;
   SqliteDb& operator=(const SqliteDb&) = delete;
 
-  sqlite3* handle() const { return h_; }
   const std::string& path() const { return path_; }
   void exec(const char* sql) const;
   std::int64_t last_insert_id() const;
@@ -44,8 +44,10 @@ class SqliteDb {
   }
 
  private:
+  friend class Statement;
+  struct Connection;  // the open SQLite handle
   void rollback() const noexcept;
-  sqlite3* h_ = nullptr;
+  std::unique_ptr<Connection> connection_;
   std::string path_;
 };
 
@@ -69,8 +71,9 @@ class Statement {
   std::int64_t int64(int column) const;
 
  private:
+  struct Prepared;  // the prepared SQLite statement
   const SqliteDb& db_;
-  sqlite3_stmt* s_ = nullptr;
+  std::unique_ptr<Prepared> prepared_;
 };
 
 // Now as an ISO 8601 UTC timestamp ("2026-11-23T15:00:00Z").

@@ -1,8 +1,6 @@
 // The paper's Figure 8 for a guard run: the part's profile (grey), the prohibited region's
 // boundary (the offset profile, red), the operator's roughing strokes (blue, an invasion's
 // closest point as a red dot, a success's as a black one) and the finishing path (green).
-#include <cairo.h>
-
 #include <algorithm>
 #include <cmath>
 
@@ -14,30 +12,28 @@
 namespace machplan::guard {
 namespace {
 
-void trace_points(cairo_t* cr, const PlotView& v, const std::vector<Eigen::Vector2d>& pts) {
+void trace_points(Canvas& cr, const PlotView& v, const std::vector<Eigen::Vector2d>& pts) {
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    if (i == 0) cairo_move_to(cr, v.sx(pts[i].x()), v.sy(pts[i].y()));
-    else cairo_line_to(cr, v.sx(pts[i].x()), v.sy(pts[i].y()));
+    if (i == 0) cr.move_to(v.sx(pts[i].x()), v.sy(pts[i].y()));
+    else cr.line_to(v.sx(pts[i].x()), v.sy(pts[i].y()));
   }
 }
 
-double legend(cairo_t* cr, double x, double y, double r, double g, double b, const std::string& label) {
-  cairo_set_source_rgb(cr, r, g, b);
-  cairo_set_line_width(cr, 2.5);
-  cairo_move_to(cr, x, y - 4);
-  cairo_line_to(cr, x + 26, y - 4);
-  cairo_stroke(cr);
-  cairo_set_source_rgb(cr, 0, 0, 0);
+double legend(Canvas& cr, double x, double y, double r, double g, double b, const std::string& label) {
+  cr.set_source_rgb(r, g, b);
+  cr.set_line_width(2.5);
+  cr.move_to(x, y - 4);
+  cr.line_to(x + 26, y - 4);
+  cr.stroke();
+  cr.set_source_rgb(0, 0, 0);
   draw_text(cr, x + 32, y, label, 12);
-  cairo_text_extents_t e;
-  cairo_set_font_size(cr, 12);
-  cairo_text_extents(cr, label.c_str(), &e);
-  return x + 32 + e.x_advance + 22;
+  cr.set_font_size(12);
+  return x + 32 + cr.text_advance(label) + 22;
 }
 
-void draw(cairo_t* cr, double W, double H, const GuardRunResult& r) {
-  cairo_set_source_rgb(cr, 1, 1, 1);
-  cairo_paint(cr);
+void draw(Canvas& cr, double W, double H, const GuardRunResult& r) {
+  cr.set_source_rgb(1, 1, 1);
+  cr.paint();
   Eigen::AlignedBox2d box;
   for (const Contour& c : r.boundary) box.extend(bounding_box(c));
   for (const Contour& c : r.profile) box.extend(bounding_box(c));
@@ -54,53 +50,53 @@ void draw(cairo_t* cr, double W, double H, const GuardRunResult& r) {
                    scale};
 
   // Profile (the part as drawn).
-  cairo_set_fill_rule(cr, CAIRO_FILL_RULE_EVEN_ODD);
+  cr.set_fill_rule(Canvas::FillRule::even_odd);
   for (const Contour& c : r.profile) trace_contour(cr, v, c);
   // Outside machining: the part is the material; inside: the pocket is empty.
-  cairo_set_source_rgba(cr, 0.5, 0.5, 0.5, r.options.region.side == MachiningSide::outside ? 0.35 : 0.0);
-  cairo_fill_preserve(cr);
-  cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
-  cairo_set_line_width(cr, 1.2);
-  cairo_stroke(cr);
+  cr.set_source_rgba(0.5, 0.5, 0.5, r.options.region.side == MachiningSide::outside ? 0.35 : 0.0);
+  cr.fill_preserve();
+  cr.set_source_rgb(0.3, 0.3, 0.3);
+  cr.set_line_width(1.2);
+  cr.stroke();
   // The prohibited region, lightly filled (outside machining: inside the offset profile;
   // inside machining: everything outside the pocket's offset), then its boundary.
-  cairo_save(cr);
+  cr.save();
   if (r.options.region.side == MachiningSide::inside) {
-    cairo_rectangle(cr, 0, 0, W, H);
+    cr.rectangle(0, 0, W, H);
     for (const Contour& c : r.boundary) trace_contour(cr, v, c);
   } else {
     for (const Contour& c : r.boundary) trace_contour(cr, v, c);
   }
-  cairo_set_source_rgba(cr, 0.9, 0.2, 0.1, 0.12);
-  cairo_fill(cr);
-  cairo_restore(cr);
+  cr.set_source_rgba(0.9, 0.2, 0.1, 0.12);
+  cr.fill();
+  cr.restore();
   for (const Contour& c : r.boundary) trace_contour(cr, v, c);
-  cairo_set_source_rgb(cr, 0.85, 0.1, 0.05);
-  cairo_set_line_width(cr, 1.5);
-  cairo_stroke(cr);
+  cr.set_source_rgb(0.85, 0.1, 0.05);
+  cr.set_line_width(1.5);
+  cr.stroke();
   // Roughing strokes.
-  cairo_set_line_width(cr, 0.9);
+  cr.set_line_width(0.9);
   for (const Attempt& a : r.attempts) {
     trace_points(cr, v, a.path_mm);
-    cairo_set_source_rgba(cr, 0.1, 0.3, 0.85, 0.7);
-    cairo_stroke(cr);
+    cr.set_source_rgba(0.1, 0.3, 0.85, 0.7);
+    cr.stroke();
   }
   for (const Attempt& a : r.attempts) {
-    cairo_arc(cr, v.sx(a.closest_at_mm.x()), v.sy(a.closest_at_mm.y()), 2.2, 0, 2 * M_PI);
-    if (a.success) cairo_set_source_rgb(cr, 0, 0, 0);
-    else cairo_set_source_rgb(cr, 0.95, 0.05, 0.05);
-    cairo_fill(cr);
+    cr.arc(v.sx(a.closest_at_mm.x()), v.sy(a.closest_at_mm.y()), 2.2, 0, 2 * M_PI);
+    if (a.success) cr.set_source_rgb(0, 0, 0);
+    else cr.set_source_rgb(0.95, 0.05, 0.05);
+    cr.fill();
   }
   // Finishing passes.
-  cairo_set_line_width(cr, 2.0);
+  cr.set_line_width(2.0);
   for (const FinishPass& f : r.finish) {
     trace_points(cr, v, f.path_mm);
-    if (f.allowance_mm > 0) cairo_set_source_rgb(cr, 0.6, 0.75, 0.1);
-    else cairo_set_source_rgb(cr, 0.05, 0.6, 0.2);
-    cairo_stroke(cr);
+    if (f.allowance_mm > 0) cr.set_source_rgb(0.6, 0.75, 0.1);
+    else cr.set_source_rgb(0.05, 0.6, 0.2);
+    cr.stroke();
   }
 
-  cairo_set_source_rgb(cr, 0, 0, 0);
+  cr.set_source_rgb(0, 0, 0);
   draw_text(cr, side, 24,
             fmt::format("{} - {} machining, R {} mm, strategy {}, T {} mm, L {} ms, {} mm/s", r.profile_source,
                         to_string(r.options.region.side), r.options.region.tool_radius_mm,
@@ -123,7 +119,7 @@ void draw(cairo_t* cr, double W, double H, const GuardRunResult& r) {
 }  // namespace
 
 void write_guard_plot(const GuardRunResult& r, const std::string& path, const std::string& flag) {
-  write_picture(path, flag, 1000, 800, [&](cairo_t* cr) { draw(cr, 1000, 800, r); });
+  write_picture(path, flag, 1000, 800, [&](Canvas& cr) { draw(cr, 1000, 800, r); });
 }
 
 }  // namespace machplan::guard

@@ -38,7 +38,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <nlohmann/json.hpp>
 
 #include "engine/common/progress.h"
 #include "engine/common/summary.h"
@@ -119,10 +118,6 @@ struct GuardRunResult {
 
   double success_percent() const { return attempts.empty() ? 0.0 : 100.0 * successes / attempts.size(); }
   std::string report() const;
-  // {"attempts", "successes", "invasions", "success_percent", "max_invasion_mm",
-  //  "mean_undercut_mm", "max_undercut_mm", "time_s", "strategy", "tolerance_mm",
-  //  "latency_s", "feed_mm_per_s", "per_attempt": [...], "finish": [...]}
-  nlohmann::json to_json() const;
 };
 
 // Runs the whole thing on `profile` (closed contours in mm). `source` names the profile in

@@ -56,8 +56,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/common/progress.h"
 #include "engine/common/summary.h"
 #include "engine/common/termination.h"
@@ -174,11 +172,6 @@ struct RunOutcome : PlannedRun {
   Summary summary;
 
   bool faulted() const { return result.status == executor::ExecutionResult::Status::faulted; }
-  // {"cycle_time_s", "max_contour_error_mm", "rms_contour_error_mm", "cuts", "faults",
-  //  "lower_bound_s", "cycle_ratio", "planned_motion_s", "motion_optimum_s", "optimum_ratio",
-  //  "rapids": {..., "detours": [{"source_line", "extra_length_mm", "reason"}]}, ...}; see
-  //  run.cpp for the full list.
-  nlohmann::json to_json() const;
 };
 
 // The machine session a run of these options runs on: its machine loaded once (the paper

@@ -1,7 +1,5 @@
 #include "solvers/motion/run_plot.h"
 
-#include <cairo.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -19,7 +17,7 @@ using Eigen::Vector2d;
 // screen = (ox + scale * x, oy - scale * y), as in solvers/placement/plot.cpp.
 using View = PlotView;
 
-void trace_stretch(cairo_t* cr, const View& v, const Stretch& st) {
+void trace_stretch(Canvas& cr, const View& v, const Stretch& st) {
   for (std::size_t i = 0; i < st.segments.size(); ++i) trace_segment(cr, v, st.segments[i], i == 0);
 }
 
@@ -54,31 +52,29 @@ Eigen::AlignedBox2d job_extent(const RunOutcome& run) {
 }
 
 // Draws one legend entry at x and returns where the next one starts.
-double legend_item(cairo_t* cr, double x, double y, double r, double g, double b, bool dashed, const std::string& label,
+double legend_item(Canvas& cr, double x, double y, double r, double g, double b, bool dashed, const std::string& label,
                    double width = 2.0) {
-  cairo_save(cr);
-  cairo_set_source_rgb(cr, r, g, b);
-  cairo_set_line_width(cr, width);
+  cr.save();
+  cr.set_source_rgb(r, g, b);
+  cr.set_line_width(width);
   if (dashed) {
     const double dash[] = {6.0, 4.0};
-    cairo_set_dash(cr, dash, 2, 0);
+    cr.set_dash(dash, 2, 0);
   }
-  cairo_move_to(cr, x, y - 4);
-  cairo_line_to(cr, x + 28, y - 4);
-  cairo_stroke(cr);
-  cairo_restore(cr);
-  cairo_set_source_rgb(cr, 0, 0, 0);
+  cr.move_to(x, y - 4);
+  cr.line_to(x + 28, y - 4);
+  cr.stroke();
+  cr.restore();
+  cr.set_source_rgb(0, 0, 0);
   draw_text(cr, x + 34, y, label, 12);
-  cairo_text_extents_t ext;
-  cairo_text_extents(cr, label.c_str(), &ext);
-  return x + 34 + ext.x_advance + 24;
+  return x + 34 + cr.text_advance(label) + 24;
 }
 
-void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
+void draw(Canvas& cr, double W, double H, const RunOutcome& run, double K) {
   const Job& job = run.job;
   const executor::ExecutionResult& res = run.result;
-  cairo_set_source_rgb(cr, 1, 1, 1);
-  cairo_paint(cr);
+  cr.set_source_rgb(1, 1, 1);
+  cr.paint();
 
   // Extent: the cuts and the declared zones; rapids from and to a far-away home leave the
   // frame (clipped) rather than shrink the parts to a corner.
@@ -94,68 +90,68 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
          scale};
 
   // Frame of the drawn area; everything up to the title is clipped to it.
-  cairo_set_source_rgb(cr, 0.97, 0.97, 0.97);
-  cairo_rectangle(cr, v.sx(box.min().x()), v.sy(box.max().y()), used_w, used_h);
-  cairo_fill_preserve(cr);
-  cairo_save(cr);
-  cairo_clip(cr);
+  cr.set_source_rgb(0.97, 0.97, 0.97);
+  cr.rectangle(v.sx(box.min().x()), v.sy(box.max().y()), used_w, used_h);
+  cr.fill_preserve();
+  cr.save();
+  cr.clip();
 
   // Parts cut (closed cuts), then declared zones.
-  cairo_set_line_width(cr, 1.0);
+  cr.set_line_width(1.0);
   for (const Contour& c : run.cut_zones) {
     trace_contour(cr, v, c);
-    cairo_set_source_rgba(cr, 0.55, 0.55, 0.55, 0.18);
-    cairo_set_fill_rule(cr, CAIRO_FILL_RULE_EVEN_ODD);
-    cairo_fill(cr);
+    cr.set_source_rgba(0.55, 0.55, 0.55, 0.18);
+    cr.set_fill_rule(Canvas::FillRule::even_odd);
+    cr.fill();
   }
   for (const NoGoZone& z : run.declared_zones) {
     trace_contour(cr, v, z.contour);
-    cairo_set_source_rgba(cr, 0.9, 0.2, 0.1, 0.3);
-    cairo_fill_preserve(cr);
-    cairo_set_source_rgb(cr, 0.75, 0.1, 0.05);
-    cairo_stroke(cr);
+    cr.set_source_rgba(0.9, 0.2, 0.1, 0.3);
+    cr.fill_preserve();
+    cr.set_source_rgb(0.75, 0.1, 0.05);
+    cr.stroke();
     const Eigen::AlignedBox2d b = bounding_box(z.contour);
-    cairo_set_source_rgb(cr, 0.6, 0.05, 0.0);
+    cr.set_source_rgb(0.6, 0.05, 0.0);
     draw_text(cr, v.sx(b.min().x()), v.sy(b.max().y()) - 4, z.name, 11);
   }
 
   // Outline before kerf compensation.
   if (run.kerf) {
-    cairo_set_source_rgb(cr, 0.6, 0.6, 0.6);
-    cairo_set_line_width(cr, 0.8);
+    cr.set_source_rgb(0.6, 0.6, 0.6);
+    cr.set_line_width(0.8);
     for (const Stretch& st : run.programmed.stretches)
       if (st.cutting && !st.rapid) {
         trace_stretch(cr, v, st);
-        cairo_stroke(cr);
+        cr.stroke();
       }
   }
 
   // Rapids as planned, dashed; programmed cutting path, black; pierce points.
   const double dash[] = {6.0, 4.0};
-  cairo_set_line_width(cr, 1.0);
-  cairo_set_source_rgb(cr, 0.2, 0.4, 0.85);
-  cairo_set_dash(cr, dash, 2, 0);
+  cr.set_line_width(1.0);
+  cr.set_source_rgb(0.2, 0.4, 0.85);
+  cr.set_dash(dash, 2, 0);
   for (const Stretch& st : job.stretches)
     if (st.rapid) {
       trace_stretch(cr, v, st);
-      cairo_stroke(cr);
+      cr.stroke();
     }
-  cairo_set_dash(cr, nullptr, 0, 0);
-  cairo_set_source_rgb(cr, 0, 0, 0);
-  cairo_set_line_width(cr, 1.0);
+  cr.set_dash(nullptr, 0, 0);
+  cr.set_source_rgb(0, 0, 0);
+  cr.set_line_width(1.0);
   for (const Stretch& st : job.stretches)
     if (st.cutting && !st.rapid) {
       trace_stretch(cr, v, st);
-      cairo_stroke(cr);
+      cr.stroke();
       const Vector2d p = st.segments.front().start;
-      cairo_arc(cr, v.sx(p.x()), v.sy(p.y()), 3.0, 0, 2 * M_PI);
-      cairo_stroke(cr);
+      cr.arc(v.sx(p.x()), v.sy(p.y()), 3.0, 0, 2 * M_PI);
+      cr.stroke();
     }
 
   // Executed path while the torch burned, error magnified K times.
-  cairo_set_source_rgb(cr, 0.85, 0.1, 0.1);
-  cairo_set_line_width(cr, 1.3);
-  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  cr.set_source_rgb(0.85, 0.1, 0.1);
+  cr.set_line_width(1.3);
+  cr.set_line_join(Canvas::LineJoin::round);
   bool open = false;
   int last_step = -2;
   for (const executor::TraceSample& s : res.trace) {
@@ -163,7 +159,7 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
                          job.steps[s.step].kind == Step::Kind::move && job.stretches[job.steps[s.step].stretch].cutting &&
                          s.torch_fire && s.arc_ok;
     if (!cutting || s.step != last_step) {
-      if (open) cairo_stroke(cr);
+      if (open) cr.stroke();
       open = false;
     }
     last_step = s.step;
@@ -172,16 +168,16 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
     const Vector2d p = std::isnan(s.true_mm.x()) ? s.measured_mm : s.true_mm;
     const Vector2d q = nearest_on(st, p);
     const Vector2d d = q + K * (p - q);
-    if (!open) cairo_move_to(cr, v.sx(d.x()), v.sy(d.y()));
-    else cairo_line_to(cr, v.sx(d.x()), v.sy(d.y()));
+    if (!open) cr.move_to(v.sx(d.x()), v.sy(d.y()));
+    else cr.line_to(v.sx(d.x()), v.sy(d.y()));
     open = true;
   }
-  if (open) cairo_stroke(cr);
-  cairo_restore(cr);  // end of the clip
+  if (open) cr.stroke();
+  cr.restore();  // end of the clip
 
   // Title.
   const bool truth = !std::isnan(res.max_true_contour_error_mm());
-  cairo_set_source_rgb(cr, 0, 0, 0);
+  cr.set_source_rgb(0, 0, 0);
   draw_text(cr, side, 26,
        fmt::format("{} on {}, {} mode: {}   cycle {:.2f} s ({:.3f} x the lower bound)", res.source, res.machine,
                    executor::to_string(res.mode), run.faulted() ? "FAULTED" : "completed", res.cycle_time_s, run.cycle_ratio),
@@ -194,11 +190,11 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
                    run.rms_contour_error_mm, res.cuts.size(), K),
        13);
   for (const executor::FaultReport& f : res.faults) {
-    cairo_set_source_rgb(cr, 0.8, 0, 0);
+    cr.set_source_rgb(0.8, 0, 0);
     draw_text(cr, side, H - bottom + 18, fmt::format("FAULT {}: {}", executor::to_string(f.kind), f.message), 12);
     const Vector2d p = f.last_known_mm;
-    cairo_arc(cr, v.sx(p.x()), v.sy(p.y()), 7, 0, 2 * M_PI);
-    cairo_stroke(cr);
+    cr.arc(v.sx(p.x()), v.sy(p.y()), 7, 0, 2 * M_PI);
+    cr.stroke();
   }
 
   // Legend and scale bar.
@@ -215,11 +211,11 @@ void draw(cairo_t* cr, double W, double H, const RunOutcome& run, double K) {
   // Scale bar: a round length near a fifth of the drawn width.
   const double bar = round_step(0.2 * box.sizes().x());
   const double bx = W - side - bar * scale, by = H - 40;
-  cairo_set_source_rgb(cr, 0, 0, 0);
-  cairo_set_line_width(cr, 2.0);
-  cairo_move_to(cr, bx, by);
-  cairo_line_to(cr, bx + bar * scale, by);
-  cairo_stroke(cr);
+  cr.set_source_rgb(0, 0, 0);
+  cr.set_line_width(2.0);
+  cr.move_to(bx, by);
+  cr.line_to(bx + bar * scale, by);
+  cr.stroke();
   draw_text(cr, bx, by - 6, fmt::format("{:g} mm", bar), 11);
 }
 
@@ -232,7 +228,7 @@ void write_run_plot(const std::string& path, const RunOutcome& run, double magni
   const Eigen::AlignedBox2d box = job_extent(run);
   const double aspect = std::clamp(box.sizes().y() / std::max(box.sizes().x(), 1.0), 0.45, 1.2);
   const double W = 1400, H = std::round(134 + (W - 80) * aspect);
-  write_picture(path, "--plot", W, H, [&](cairo_t* cr) { draw(cr, W, H, run, magnify); });
+  write_picture(path, "--plot", W, H, [&](Canvas& cr) { draw(cr, W, H, run, magnify); });
 }
 
 }  // namespace machplan::motion

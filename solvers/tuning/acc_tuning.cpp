@@ -88,22 +88,4 @@ std::string AccTuningResult::report() const {
   return s;
 }
 
-nlohmann::json AccTuningResult::to_json() const {
-  auto score = [](const AccScore& a) {
-    nlohmann::json steps = nlohmann::json::array();
-    for (const auto& r : a.steps)
-      steps.push_back({{"settling_s", std::isfinite(r.settling_s) ? nlohmann::json(r.settling_s) : nlohmann::json(nullptr)},
-                       {"overshoot", r.overshoot}});
-    return nlohmann::json{{"worst_settling_s", a.worst_settling_s}, {"worst_overshoot", a.worst_overshoot}, {"steps", steps}};
-  };
-  return {{"law", variable_gain ? "variable_gain" : "fixed_gain"},
-          {"gain_name", variable_gain ? "open_loop_gain" : "kc"},
-          {"start_gain", start_gain},
-          {"gain", gain},
-          {"before", score(before)},
-          {"after", score(after)},
-          {"optimizer", optimizer.to_json()},
-          {"status", summary.done() ? "ok" : to_string(summary.status)}};
-}
-
 }  // namespace machplan::tuning

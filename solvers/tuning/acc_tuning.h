@@ -13,8 +13,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/control/acc.h"
 #include "engine/common/summary.h"
 #include "engine/common/termination.h"
@@ -60,7 +58,6 @@ struct AccTuningResult {
   OptimizerResult optimizer;
   Summary summary;      // done, infeasible, or what ended the search early; reports: report()
   std::string report() const;
-  nlohmann::json to_json() const;
 };
 
 AccTuningResult tune_acc(const AccTuningOptions& options, Termination* termination = nullptr);

@@ -211,33 +211,6 @@ double Evaluation::value(Objective o) const {
   return max_mm;
 }
 
-nlohmann::json Evaluation::to_json() const {
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  // A faulted run's errors are not measurements: null.
-  auto measured = [](bool faulted, double v) { return faulted ? nlohmann::json(nullptr) : nlohmann::json(v); };
-  nlohmann::json cs = nlohmann::json::array();
-  for (const ContourScore& c : contours)
-    cs.push_back({{"contour", c.contour},
-                  {"samples", c.samples},
-                  {"max_contour_error_mm", measured(c.faulted || c.samples == 0, c.max_mm)},
-                  {"max_at", {{"t_s", c.max_at_s}, {"x_mm", c.max_at_x_mm}, {"y_mm", c.max_at_y_mm}, {"line", c.max_at_line}}},
-                  {"rms_contour_error_mm", measured(c.faulted || c.samples == 0, c.rms_mm)},
-                  {"itae_mm_s2", measured(c.faulted || c.samples == 0, c.itae_mm_s2)},
-                  {"saturation_share", c.saturation_share},
-                  {"max_following_error_mm", c.max_following_error_mm},
-                  {"faulted", c.faulted},
-                  {"fault", c.fault}});
-  return {{"max_contour_error_mm", measured(faulted, max_mm)},
-          {"rms_contour_error_mm", measured(faulted, rms_mm)},
-          {"itae_mm_s2", measured(faulted, itae_mm_s2)},
-          {"saturation_share", saturation_share},
-          {"max_following_error_mm", max_following_error_mm},
-          {"step_overshoot", num(overshoot)},
-          {"margin_residual", num(margin_residual)},
-          {"faulted", faulted},
-          {"contours", cs}};
-}
-
 Evaluator::Evaluator(const EvaluationOptions& options, const std::vector<TestContour>& contours)
     : options_(options), contours_(contours) {
   options_.validate();

@@ -37,8 +37,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/control/controller_factory.h"
 #include "engine/executor/executor.h"
 #include "engine/motion/feed_planner.h"
@@ -115,7 +113,6 @@ struct Evaluation {
   bool faulted = false;          // a contour run faulted (following error, ...)
   double machine_s = 0.0;        // machine time simulated for this evaluation, all runs, s
   double value(Objective o) const;
-  nlohmann::json to_json() const;
 };
 
 class Evaluator {

@@ -284,13 +284,4 @@ std::string OptimizerResult::report() const {
   return s;
 }
 
-nlohmann::json OptimizerResult::to_json() const {
-  auto stage = [](const StageReport& s) {
-    return nlohmann::json{{"algorithm", s.algorithm}, {"evaluations", s.evaluations}, {"time_s", s.time_s},
-                          {"stop_reason", s.stop_reason}};
-  };
-  return {{"evaluations", evaluations}, {"time_s", time_s}, {"feasible", feasible}, {"stopped", stopped()},
-          {"objective", objective},     {"global", stage(global)}, {"local", stage(local)}};
-}
-
 }  // namespace machplan::tuning

@@ -39,8 +39,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/common/termination.h"
 
 namespace machplan::tuning {
@@ -96,7 +94,6 @@ struct OptimizerResult {
   bool stopped() const { return ended_by != Termination::Reason::none; }
   StageReport global, local;
   std::string report() const;  // a few lines for people
-  nlohmann::json to_json() const;
 };
 
 // Throws std::invalid_argument when the problem is malformed (empty, lo >= hi, start outside,

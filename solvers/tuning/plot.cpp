@@ -1,7 +1,5 @@
 #include "solvers/tuning/plot.h"
 
-#include <cairo.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -21,10 +19,10 @@ void write_time_plot(const std::string& path, const std::string& flag, const std
     for (const Series& s : p.series)
       for (double t : s.t_s) t0 = std::min(t0, t), t1 = std::max(t1, t);
   if (!(t1 > t0)) t0 = 0, t1 = 1;
-  write_picture(path, flag, W, H, [&](cairo_t* cr) {
-    cairo_set_source_rgb(cr, 1, 1, 1);
-    cairo_paint(cr);
-    cairo_set_source_rgb(cr, 0, 0, 0);
+  write_picture(path, flag, W, H, [&](Canvas& cr) {
+    cr.set_source_rgb(1, 1, 1);
+    cr.paint();
+    cr.set_source_rgb(0, 0, 0);
     draw_text(cr, left, 24, title, 15);
     for (std::size_t k = 0; k < panels.size(); ++k) {
       const Panel& p = panels[k];
@@ -39,34 +37,34 @@ void write_time_plot(const std::string& path, const std::string& flag, const std
       hi += pad;
       const auto X = [&](double t) { return left + (t - t0) / (t1 - t0) * pw; };
       const auto Y = [&](double v) { return y0 + ph - (v - lo) / (hi - lo) * ph; };
-      cairo_set_source_rgb(cr, 0.5, 0.5, 0.5);
-      cairo_set_line_width(cr, 1);
-      cairo_rectangle(cr, left, y0, pw, ph);
-      cairo_stroke(cr);
+      cr.set_source_rgb(0.5, 0.5, 0.5);
+      cr.set_line_width(1);
+      cr.rectangle(left, y0, pw, ph);
+      cr.stroke();
       // Ticks at round values, with light grid lines across the panel.
       const double vs = round_step((hi - lo) / 4), ts = round_step((t1 - t0) / 5);
       for (double v = std::ceil(lo / vs) * vs; v <= hi; v += vs) {
         const double y = Y(std::abs(v) < 1e-9 * vs ? 0.0 : v);
-        cairo_set_source_rgb(cr, 0.88, 0.88, 0.88);
-        cairo_move_to(cr, left, y);
-        cairo_line_to(cr, left + pw, y);
-        cairo_stroke(cr);
-        cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
+        cr.set_source_rgb(0.88, 0.88, 0.88);
+        cr.move_to(left, y);
+        cr.line_to(left + pw, y);
+        cr.stroke();
+        cr.set_source_rgb(0.3, 0.3, 0.3);
         draw_text(cr, 4, y + 4, fmt::format("{:g}", std::abs(v) < 1e-9 * vs ? 0.0 : v), 10);
       }
       for (double t = std::ceil(t0 / ts) * ts; t <= t1; t += ts) {
-        cairo_set_source_rgb(cr, 0.3, 0.3, 0.3);
+        cr.set_source_rgb(0.3, 0.3, 0.3);
         draw_text(cr, X(t) - 8, y0 + ph + 14, fmt::format("{:g}", std::abs(t) < 1e-9 * ts ? 0.0 : t), 10);
       }
-      cairo_set_source_rgb(cr, 0, 0, 0);
+      cr.set_source_rgb(0, 0, 0);
       draw_text(cr, left + 4, y0 - 6, p.y_label + "   (time, s)", 12);
       double lx = left + pw - 260, ly = y0 + 16;
       for (const Series& s : p.series) {
-        cairo_set_source_rgb(cr, s.r, s.g, s.b);
-        cairo_set_line_width(cr, 1.5);
+        cr.set_source_rgb(s.r, s.g, s.b);
+        cr.set_line_width(1.5);
         if (s.dashed) {
           const double d[] = {6, 4};
-          cairo_set_dash(cr, d, 2, 0);
+          cr.set_dash(d, 2, 0);
         }
         bool first = true;
         for (std::size_t i = 0; i < s.t_s.size() && i < s.y.size(); ++i) {
@@ -74,15 +72,15 @@ void write_time_plot(const std::string& path, const std::string& flag, const std
             first = true;
             continue;
           }
-          if (first) cairo_move_to(cr, X(s.t_s[i]), Y(s.y[i]));
-          else cairo_line_to(cr, X(s.t_s[i]), Y(s.y[i]));
+          if (first) cr.move_to(X(s.t_s[i]), Y(s.y[i]));
+          else cr.line_to(X(s.t_s[i]), Y(s.y[i]));
           first = false;
         }
-        cairo_stroke(cr);
-        cairo_set_dash(cr, nullptr, 0, 0);
-        cairo_move_to(cr, lx, ly - 4);
-        cairo_line_to(cr, lx + 20, ly - 4);
-        cairo_stroke(cr);
+        cr.stroke();
+        cr.set_dash(nullptr, 0, 0);
+        cr.move_to(lx, ly - 4);
+        cr.line_to(lx + 20, ly - 4);
+        cr.stroke();
         draw_text(cr, lx + 26, ly, s.name, 11);
         ly += 15;
       }

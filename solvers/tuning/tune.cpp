@@ -270,41 +270,4 @@ std::string TuneResult::report() const {
   return s;
 }
 
-nlohmann::json TuneResult::to_json() const {
-  nlohmann::json g = nlohmann::json::object(), sg = nlohmann::json::object(), fx = nlohmann::json::array();
-  for (const auto& [k, v] : gains) g[k] = v;
-  for (const auto& [k, v] : fixed) fx.push_back(k);
-  for (const auto& [k, v] : start_gains) sg[k] = v;
-  nlohmann::json j = {{"machine", machine},
-                      {"controller", kind},
-                      {"objective", to_string(objective)},
-                      {"gains", g},
-                      {"start_gains", sg},
-                      {"fixed", fx},
-                      {"start_from", start_from},
-                      {"baseline", baseline.to_json()},
-                      {"start", start.to_json()},
-                      {"tuned", tuned.to_json()},
-                      {"optimizer", optimizer.to_json()},
-                      {"status", summary.done() ? "ok" : to_string(summary.status)},
-                      {"message", summary.message}};
-  const auto comparison = [](const Comparison& c) {
-    nlohmann::json j = {{"contours", c.contours}, {"baseline_faulted", c.faulted}};
-    if (c.any() && c.tuned_max_mm > 0) {
-      j["baseline_max_contour_error_mm"] = c.baseline_max_mm;
-      j["tuned_max_contour_error_mm"] = c.tuned_max_mm;
-      j["max_ratio"] = c.max_ratio();
-      j["rms_ratio"] = c.rms_ratio();
-    }
-    return j;
-  };
-  j["improvement"] = comparison(improvement);
-  if (fresh_seed > 0)
-    j["fresh"] = {{"first_seed", fresh_seed},
-                  {"baseline", fresh_baseline.to_json()},
-                  {"tuned", fresh_tuned.to_json()},
-                  {"improvement", comparison(fresh_improvement)}};
-  return j;
-}
-
 }  // namespace machplan::tuning

@@ -20,8 +20,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "engine/common/progress.h"
 #include "engine/common/summary.h"
 #include "engine/common/termination.h"
@@ -107,10 +105,6 @@ struct TuneResult {
   // report()'s text.
   Summary summary;
   std::string report() const;
-  // {"machine", "controller", "objective", "gains": {...}, "baseline": {...}, "start": {...},
-  //  "tuned": {...}, "fresh": {"seeds", "baseline", "tuned"} (when checked), "optimizer": {...},
-  //  "status"}; the scores as Evaluation::to_json().
-  nlohmann::json to_json() const;
 };
 
 // The constraint values g of the file comment for one evaluation.

@@ -176,11 +176,9 @@ TEST(CalibrationStore, OneSessionCalibratesPaperOpenLoopAtThreeFeeds) {
     o.session.machine = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml";
     o.session.executor.mode = executor::Mode::paper_open;
     o.feed_override_mm_per_s = feed;
-    const auto before = motion::run_program(part, o).to_json();
+    const double e0 = motion::run_program(part, o).result.max_true_contour_error_mm();
     o.session.executor.calibration_factor = open_loop_factor(*active, feed);
-    const auto after = motion::run_program(part, o).to_json();
-    const double e0 = before["max_true_contour_error_mm"].get<double>();
-    const double e1 = after["max_true_contour_error_mm"].get<double>();
+    const double e1 = motion::run_program(part, o).result.max_true_contour_error_mm();
     RecordProperty(fmt::format("feed_{}_before_mm", feed), fmt::format("{:.3f}", e0));
     RecordProperty(fmt::format("feed_{}_after_mm", feed), fmt::format("{:.3f}", e1));
     std::printf("paper-open triangle at %g mm/s: max contour error %.3f mm uncalibrated, %.3f mm calibrated (factor %.5f)\n",

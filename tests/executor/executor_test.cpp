@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "cli/json/executor.h"
 #include "engine/common/error.h"
 #include "engine/executor/executor.h"
 #include "models/cutting/machine_config.h"
@@ -227,13 +228,13 @@ TEST(Executor, ReportJsonAndCsv) {
   const ExecutionResult r = test::simulate(m, c.job, c.trajectories, {});
   EXPECT_NE(r.report().find("completed"), std::string::npos);
   EXPECT_NE(r.report().find("contour error max"), std::string::npos);
-  const auto j = r.to_json();
+  const auto j = cli::to_json(r);
   EXPECT_EQ(j["status"], "completed");
   EXPECT_EQ(j["mode"], "planned");
   EXPECT_EQ(j["cuts"].size(), 1u);
   EXPECT_GT(j["cuts"][0]["max_contour_error_mm"].get<double>(), 0.0);
   EXPECT_FALSE(j.contains("trace"));
-  EXPECT_EQ(r.to_json(true)["trace"].size(), r.trace.size());
+  EXPECT_EQ(cli::to_json(r, true)["trace"].size(), r.trace.size());
   test::TempDir dir;
   const std::string path = (dir.path() / "trace.csv").string();
   r.write_trace_csv(path);

@@ -1,4 +1,4 @@
-// Fuzz target: --json output of arbitrary bytes (engine/common/json_stream.h), as the CLI
+// Fuzz target: --json output of arbitrary bytes (cli/json/json_stream.h), as the CLI
 // writes names read from files (a DXF layer, a file name) into its documents. Whatever the
 // bytes, used as a member name and as string values, compact or pretty, streamed or dumped
 // whole: the text must parse as JSON (the parser refuses invalid UTF-8), the replacement flag
@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/common/json_stream.h"
+#include "cli/json/json_stream.h"
 
 namespace {
 
@@ -58,7 +58,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!out) std::abort();
   bool replaced_stream = false;
   {
-    machplan::JsonStream stream(out, indent);
+    machplan::cli::JsonStream stream(out, indent);
     stream.begin_object();
     stream.member(name, value);
     stream.key("list");
@@ -79,7 +79,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
   bool replaced_whole = false;
   const nlohmann::json whole{{name, value}, {"k", {value}}};
-  const std::string dumped = machplan::json_dump_utf8(whole, indent, &replaced_whole);
+  const std::string dumped = machplan::cli::json_dump_utf8(whole, indent, &replaced_whole);
 
   if (replaced_stream == valid || replaced_whole == valid) std::abort();
   if (text.empty() || text.back() != '\n') std::abort();
@@ -97,7 +97,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     size_t l2 = 0;
     FILE* o2 = open_memstream(&b2, &l2);
     {
-      machplan::JsonStream s2(o2, indent);
+      machplan::cli::JsonStream s2(o2, indent);
       s2.begin_object();
       s2.member("a", value);
       s2.key("b");

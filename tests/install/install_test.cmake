@@ -1,9 +1,14 @@
 # The installed machplan, tested from outside the source and build trees. Run by ctest as
-#   cmake -DSTEP=install|downstream|run|cleanup -DBUILD_DIR=... -DPREFIX=... [...] -P install_test.cmake
+#   cmake -DSTEP=install|headers|downstream|run|cleanup -DBUILD_DIR=... -DPREFIX=... [...] -P install_test.cmake
 #
 #   install     cmake --install BUILD_DIR --prefix PREFIX, then checks the layout
+#   headers     no installed file #includes a private dependency (yaml-cpp, nlohmann-json,
+#               Cairo, SQLite, FCL, Ceres, NLopt, OMPL), and every installed header compiles on
+#               its own with only PREFIX/include, PREFIX/include/machplan and HEADER_INCLUDES
+#               (Eigen's and fmt's folders, |-separated) on the include path, reading no file
+#               of a private dependency
 #   downstream  configures and builds tests/install/downstream (find_package(machplan)) against
-#               PREFIX and runs it
+#               PREFIX and runs it: it links the private dependencies without seeing them
 #   run         runs PREFIX/bin/machplan from / : `machines` lists the installed machines,
 #               `run PART --machine thermal_gantry` works, and a folder holding
 #               datasets/machines/thermal_gantry.yaml is not searched when it is the current one
@@ -46,6 +51,64 @@ if(STEP STREQUAL "install")
   if(cpp)
     message(FATAL_ERROR "sources installed as headers: ${cpp}")
   endif()
+elseif(STEP STREQUAL "headers")
+  set(private_deps "yaml-cpp|nlohmann|cairo|sqlite3|fcl|ceres|nlopt|ompl")
+  # 1. The text: no #include naming a private dependency, in any installed file.
+  file(GLOB_RECURSE installed "${PREFIX}/include/*")
+  set(found "")
+  foreach(f ${installed})
+    file(STRINGS "${f}" lines REGEX "^[ \t]*#[ \t]*include[ \t]*[<\"](${private_deps})")
+    foreach(line ${lines})
+      string(APPEND found "\n  ${f}: ${line}")
+    endforeach()
+  endforeach()
+  if(found)
+    message(FATAL_ERROR "installed headers include private dependencies (they must stay in .cpp files):${found}")
+  endif()
+  # 2. The compiler: each header alone in a translation unit, as a consumer includes it,
+  # compiled by a generated project with nothing else on the include path. -H lists every file
+  # read; none may come from a private dependency's folder.
+  file(GLOB_RECURSE headers RELATIVE "${PREFIX}/include" "${PREFIX}/include/machplan/*.h")
+  list(LENGTH headers count)
+  if(count LESS 10)
+    message(FATAL_ERROR "only ${count} headers installed under ${PREFIX}/include/machplan")
+  endif()
+  set(project "${PREFIX}-headers")
+  file(REMOVE_RECURSE "${project}")
+  foreach(h ${headers})
+    string(REGEX REPLACE "^machplan/(.*)\\.h$" "\\1" name "${h}")
+    string(REPLACE "/" "__" name "${name}")
+    file(WRITE "${project}/tu/${name}.cpp" "#include <${h}>\n")
+  endforeach()
+  string(REPLACE "|" ";" extra "${HEADER_INCLUDES}")
+  file(WRITE "${project}/CMakeLists.txt" "cmake_minimum_required(VERSION 3.25)
+project(machplan_headers LANGUAGES CXX)
+set(CMAKE_CXX_STANDARD 20)
+file(GLOB units tu/*.cpp)
+add_library(headers OBJECT \${units})
+target_include_directories(headers PRIVATE \"${PREFIX}/include\" \"${PREFIX}/include/machplan\" ${extra})
+target_compile_options(headers PRIVATE -H)
+")
+  run_checked("configuring the header project" ${CMAKE_COMMAND} -S "${project}" -B "${project}/build" -G "${GENERATOR}"
+              -DCMAKE_CXX_COMPILER=${CXX} -DCMAKE_CXX_COMPILER_LAUNCHER=${LAUNCHER})
+  set(keep_going -k)  # report every header that fails, not only the first
+  if(GENERATOR MATCHES "Ninja")
+    set(keep_going -k 0)
+  endif()
+  execute_process(COMMAND ${CMAKE_COMMAND} --build "${project}/build" -j 2 -- ${keep_going} RESULT_VARIABLE rc
+                  OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  string(APPEND out "\n${err}")
+  if(NOT rc EQUAL 0)
+    string(REGEX REPLACE "\n\\.+ [^\n]*" "" out "${out}")  # the -H lines
+    message(FATAL_ERROR "installed headers do not compile on their own with only ${PREFIX}/include, "
+                        "${PREFIX}/include/machplan and '${HEADER_INCLUDES}' on the include path:\n${out}")
+  endif()
+  string(REGEX MATCHALL "\n\\.+ [^\n]*/(${private_deps})[^/\n]*(/[^\n]*)?" read "${out}")
+  if(read)
+    list(REMOVE_DUPLICATES read)
+    message(FATAL_ERROR "installed headers read files of private dependencies:${read}")
+  endif()
+  message("${count} installed headers compile on their own; none includes a private dependency")
 elseif(STEP STREQUAL "downstream")
   set(build "${PREFIX}-downstream")
   file(REMOVE_RECURSE "${build}")
@@ -53,9 +116,15 @@ elseif(STEP STREQUAL "downstream")
               -B "${build}" -G "${GENERATOR}" -DCMAKE_PREFIX_PATH=${PREFIX} -DCMAKE_CXX_COMPILER=${CXX}
               -DCMAKE_CXX_COMPILER_LAUNCHER=${LAUNCHER} -DCMAKE_BUILD_TYPE=${BUILD_TYPE})
   run_checked("building the downstream project" ${CMAKE_COMMAND} --build "${build}")
-  run_checked("running the downstream program" "${build}/downstream")
+  set(scratch "${build}/scratch")
+  file(MAKE_DIRECTORY "${scratch}")
+  run_checked("running the downstream program" "${build}/downstream" "${scratch}")
   message("${last_out}")
   expect_in("${last_out}" "machine: thermal_gantry from ${PREFIX}/share/machplan/machines/" "downstream")
+  expect_in("${last_out}" "calibration store: 0 fits" "downstream")
+  if(NOT EXISTS "${scratch}/picture.png")
+    message(FATAL_ERROR "the downstream program wrote no picture")
+  endif()
 elseif(STEP STREQUAL "run")
   set(xdg "${PREFIX}-xdg")
   set(EXTRA_ARGS WORKING_DIRECTORY /)
@@ -84,7 +153,7 @@ elseif(STEP STREQUAL "run")
               --machine thermal_gantry)
   file(REMOVE_RECURSE "${stray}" "${xdg}")
 elseif(STEP STREQUAL "cleanup")
-  file(REMOVE_RECURSE "${PREFIX}" "${PREFIX}-downstream")
+  file(REMOVE_RECURSE "${PREFIX}" "${PREFIX}-downstream" "${PREFIX}-headers")
 else()
-  message(FATAL_ERROR "STEP must be install, downstream, run or cleanup (got '${STEP}')")
+  message(FATAL_ERROR "STEP must be install, headers, downstream, run or cleanup (got '${STEP}')")
 endif()

@@ -14,6 +14,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "cli/json/run.h"
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
 #include "solvers/motion/run.h"
@@ -81,7 +82,7 @@ TEST(MotionTime, NestedSheetDetoursOnlyRoundCutParts) {
   const std::string report = n.summary.full_report();
   EXPECT_THAT(report, HasSubstr("detour at line"));
   EXPECT_THAT(report, HasSubstr("time-optimal on the same paths"));
-  const nlohmann::json j = n.to_json();
+  const nlohmann::json j = cli::to_json(n);
   EXPECT_EQ(j["rapids"]["detours"].size(), n.rapids.detours);
   EXPECT_DOUBLE_EQ(j["motion_optimum_s"].get<double>(), n.motion_optimum_s);
 }

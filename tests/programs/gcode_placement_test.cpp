@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli/json/run.h"
 #include "engine/common/error.h"
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
@@ -51,7 +52,7 @@ TEST(GcodePlacement, OriginMovesTheProgramOntoTheMachine) {
   EXPECT_NEAR(first.end.x(), 96, 1e-9);
   EXPECT_NEAR(first.end.y(), 197, 1e-9);
   EXPECT_NE(run.summary.full_report().find("X 100.000 Y 200.000 mm on the machine (--origin)"), std::string::npos) << run.summary.full_report();
-  EXPECT_EQ(run.to_json().at("origin_from"), "--origin");
+  EXPECT_EQ(cli::to_json(run).at("origin_from"), "--origin");
   EXPECT_FALSE(run.faulted());
 }
 

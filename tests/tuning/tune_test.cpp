@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "cli/json/tuning.h"
 #include "engine/common/error.h"
 #include "solvers/tuning/store.h"
 #include "solvers/tuning/tune.h"
@@ -127,14 +128,14 @@ TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
   ASSERT_EQ(r.fresh_tuned.contours.size(), 1u);
   EXPECT_GT(r.fresh_tuned.max_mm, 0.0);
   EXPECT_NE(r.fresh_baseline.max_mm, r.baseline.max_mm) << "another draw of the noise";
-  EXPECT_TRUE(r.to_json().contains("fresh"));
+  EXPECT_TRUE(cli::to_json(r).contains("fresh"));
   EXPECT_NE(r.report().find("under noise it was not tuned on"), std::string::npos);
   const TuneResult rp = tune(ev, plain);
   EXPECT_EQ(rp.start_from, "defaults");
   EXPECT_EQ(rp.fresh_seed, 0u);
-  EXPECT_FALSE(rp.to_json().contains("fresh"));
+  EXPECT_FALSE(cli::to_json(rp).contains("fresh"));
   EXPECT_EQ(rp.start.max_mm, r.baseline.max_mm) << "p at its defaults is the baseline";
-  const auto j = r.to_json();
+  const auto j = cli::to_json(r);
   for (const char* k : {"gains", "baseline", "tuned", "status"}) EXPECT_TRUE(j.contains(k)) << k;
   EXPECT_TRUE(j["baseline"]["max_contour_error_mm"].is_number());
   EXPECT_TRUE(j["tuned"]["rms_contour_error_mm"].is_number());
@@ -214,7 +215,7 @@ TEST(Tuning, FixedGainsAreHeldAndNotSearched) {
   const TuneResult r = tune(ev, o);
   EXPECT_EQ(r.gains.at("kp_per_s"), 100.0);
   EXPECT_EQ(r.gains.at("observer_per_s"), 0.0);
-  EXPECT_EQ(r.to_json()["fixed"].size(), 2u);
+  EXPECT_EQ(cli::to_json(r)["fixed"].size(), 2u);
   EXPECT_NE(r.report().find("(fixed)"), std::string::npos);
   o.fixed = {{"no_such_gain", 1.0}};
   try {

@@ -1,8 +1,8 @@
-#include "engine/common/json_stream.h"
+#include "cli/json/json_stream.h"
 
 #include "engine/common/error.h"
 
-namespace machplan {
+namespace machplan::cli {
 
 std::string json_dump_utf8(const nlohmann::json& j, int indent, bool* replaced) {
   // Strict first: valid text (nearly always) costs one dump and no scan of our own.
@@ -103,4 +103,4 @@ void JsonStream::value(const nlohmann::json& j) {
   if (levels_.empty()) finish();
 }
 
-}  // namespace machplan
+}  // namespace machplan::cli

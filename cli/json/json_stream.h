@@ -35,7 +35,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace machplan {
+namespace machplan::cli {
 
 std::string json_dump_utf8(const nlohmann::json& j, int indent = -1, bool* replaced = nullptr);
 
@@ -80,4 +80,4 @@ class JsonStream {
   bool after_key_ = false, replaced_ = false, failed_ = false;
 };
 
-}  // namespace machplan
+}  // namespace machplan::cli

@@ -1,0 +1,77 @@
+#include "cli/json/executor.h"
+
+#include <cmath>
+
+namespace machplan::cli {
+
+nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
+  using nlohmann::json;
+  using namespace executor;
+  json j;
+  j["source"] = r.source;
+  j["machine"] = r.machine;
+  j["mode"] = to_string(r.mode);
+  j["backend"] = r.backend;
+  j["status"] = r.status == ExecutionResult::Status::completed ? "completed" : "faulted";
+  j["cycle_time_s"] = r.cycle_time_s;
+  j["torch_on_s"] = r.torch_on_s;
+  j["rapid_distance_mm"] = r.rapid_distance_mm;
+  j["steps_completed"] = r.steps_completed;
+  j["stopped_at_rest"] = r.stopped_at_rest;
+  j["torch_off_at_end"] = r.torch_off_at_end;
+  j["backend_notes"] = r.backend_notes;
+  auto num = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
+  j["cuts"] = json::array();
+  for (const CutError& c : r.cuts)
+    j["cuts"].push_back({{"stretch", c.stretch},
+                         {"source_line", c.source_line},
+                         {"samples", c.samples},
+                         {"complete", c.complete},
+                         {"max_contour_error_mm", c.max_mm},
+                         {"rms_contour_error_mm", c.rms_mm},
+                         {"max_true_contour_error_mm", num(c.max_true_mm)},
+                         {"rms_true_contour_error_mm", num(c.rms_true_mm)}});
+  j["faults"] = json::array();
+  for (const FaultReport& f : r.faults)
+    j["faults"].push_back({{"kind", to_string(f.kind)},
+                           {"time_s", f.time_s},
+                           {"step", f.step},
+                           {"source_line", f.source_line},
+                           {"axis", f.axis < 0 ? json(nullptr) : json(f.axis == 0 ? "x" : "y")},
+                           {"last_known_mm", {f.last_known_mm.x(), f.last_known_mm.y()}},
+                           {"commanded_mm", {f.commanded_mm.x(), f.commanded_mm.y()}},
+                           {"value", f.value},
+                           {"message", f.message}});
+  j["holds"] = json::array();
+  for (const executor::HoldReport& h : r.holds)
+    j["holds"].push_back({{"t_s", h.t_s},
+                          {"source_line", h.source_line},
+                          {"in_cut", h.in_cut},
+                          {"in_rapid", h.in_rapid},
+                          {"by_override", h.by_override},
+                          {"position_mm", {h.position_mm.x(), h.position_mm.y()}},
+                          {"speed_mm_per_s", h.speed_mm_per_s},
+                          {"stopped", h.stopped},
+                          {"stop_s", h.stop_s},
+                          {"stop_mm", {h.stop_mm.x(), h.stop_mm.y()}},
+                          {"distance_to_stop_mm", h.distance_to_stop_mm},
+                          {"jerk_limited_stop_mm", h.jerk_limited_stop_mm()},
+                          {"off_path_mm", h.off_path_mm},
+                          {"off_path_measured_mm", h.off_path_measured_mm},
+                          {"torch_off_before_rest", h.torch_off_before_rest},
+                          {"resumed_at_s", num(h.resumed_at_s)},
+                          {"repierce_s", h.repierce_s}});
+  if (r.holds_dropped) j["holds_dropped"] = r.holds_dropped;
+  if (include_trace) {
+    json t = json::array();
+    for (const TraceSample& s : r.trace)
+      t.push_back({s.t_s, s.step, s.commanded_mm.x(), s.commanded_mm.y(), s.measured_mm.x(), s.measured_mm.y(),
+                   num(s.true_mm.x()), num(s.true_mm.y()), s.dac_x, s.dac_y, s.drives_enabled, s.torch_fire, s.arc_ok});
+    j["trace_columns"] = {"t_s",       "step",      "cmd_x_mm", "cmd_y_mm", "meas_x_mm", "meas_y_mm", "true_x_mm",
+                          "true_y_mm", "dac_x",     "dac_y",    "enabled",  "torch_fire", "arc_ok"};
+    j["trace"] = std::move(t);
+  }
+  return j;
+}
+
+}  // namespace machplan::cli

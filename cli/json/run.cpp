@@ -1,0 +1,59 @@
+#include "cli/json/run.h"
+
+#include <cmath>
+
+#include "cli/json/executor.h"
+
+namespace machplan::cli {
+
+nlohmann::json to_json(const motion::RunOutcome& run) {
+  using namespace motion;
+  nlohmann::json j = to_json(run.result, false);
+  const double mt = run.result.max_true_contour_error_mm();
+  j["controller"] = run.controller;
+  j["summary"] = {{"status", to_string(run.summary.status)}, {"message", run.summary.message}, {"brief", run.summary.brief}};
+  j["max_contour_error_mm"] = run.result.max_contour_error_mm();
+  j["rms_contour_error_mm"] = run.rms_contour_error_mm;
+  j["max_true_contour_error_mm"] = std::isnan(mt) ? nlohmann::json(nullptr) : nlohmann::json(mt);
+  j["rms_true_contour_error_mm"] = run.rms_true_contour_error_mm;
+  j["lower_bound_s"] = run.lower_bound_s;
+  j["motion_lower_bound_s"] = run.motion_lower_bound_s;
+  j["process_time_s"] = run.process_time_s;
+  j["planned_motion_s"] = run.planned_motion_s;
+  j["cycle_ratio"] = run.cycle_ratio;
+  j["motion_ratio"] = run.motion_ratio;
+  j["motion_optimum_s"] = run.motion_optimum_s;
+  j["optimum_ratio"] = run.optimum_ratio;
+  j["origin_mm"] = {run.origin_mm.x(), run.origin_mm.y()};
+  j["origin_from"] = run.origin_from;
+  j["warnings"] = run.warnings;
+  j["notes"] = run.notes;
+  j["rapids"] = {{"count", run.rapids.rapids.size()},
+                 {"re_routed", run.rapids.replaced},
+                 {"blocked_straight", run.rapids.blocked},
+                 {"without_clear_route", run.rapids.failed},
+                 {"zones_from_cuts", run.rapids.cut_zones},
+                 {"declared_zones", run.declared_zones.size()},
+                 {"straight_length_mm", run.rapids.straight_length_mm},
+                 {"programmed_length_mm", run.rapids.programmed_length_mm},
+                 {"planned_length_mm", run.rapids.length_mm},
+                 {"small_slugs_crossed", run.rapids.small_slugs},
+                 {"detour_extra_mm", run.rapids.detour_extra_mm}};
+  nlohmann::json detours = nlohmann::json::array();
+  for (const RapidReport& r : run.rapids.rapids)
+    if (!r.reason.empty())
+      detours.push_back({{"source_line", r.source_line}, {"extra_length_mm", r.extra_length_mm}, {"reason", r.reason}});
+  j["rapids"]["detours"] = detours;
+  if (run.kerf) {
+    nlohmann::json issues = nlohmann::json::array();
+    for (const KerfIssue& i : run.kerf->issues)
+      issues.push_back({{"kind", to_string(i.kind)}, {"source_line", i.source_line}, {"message", i.message}});
+    j["kerf"] = {{"width_mm", run.kerf->kerf_width_mm},
+                 {"loops", run.kerf->loops.size()},
+                 {"compensated", run.kerf->compensated_count()},
+                 {"issues", issues}};
+  }
+  return j;
+}
+
+}  // namespace machplan::cli
