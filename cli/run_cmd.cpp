@@ -21,6 +21,7 @@
 #include "solvers/calibration/store.h"
 #include "engine/common/error.h"
 #include "engine/common/parse.h"
+#include "engine/hardware/operator_events.h"
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
 #include "solvers/motion/run_plot.h"
@@ -87,6 +88,7 @@ struct RunArgs {
   int spindles = 1;
   bool lenient = false, strict_z = false;
   double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
+  std::string operator_events;
 };
 
 // Options struct fields and the flags that set them, for field errors (InputError::field).
@@ -132,6 +134,11 @@ motion::RunOptions run_options(const RunArgs& a) {
   so.backend.name = a.backend;
   so.backend.sim.realtime = a.realtime;
   for (const std::string& text : a.inject) so.backend.sim.faults.push_back(injection_of(text));
+  if (!a.operator_events.empty()) {
+    if (a.backend != "sim")
+      throw InputError("--operator-events", 0, "a timeline of operator events plays on the simulator only (--backend sim)");
+    so.backend.sim.operator_events = hardware::read_operator_events(a.operator_events).states;
+  }
   if (!so.backend.sim.faults.empty() && a.backend != "sim")
     throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
   so.controller = a.controller;
@@ -158,7 +165,7 @@ void run_command(const RunArgs& a) {
   // Output files: never one of the inputs, and their folders must exist before the run.
   for (const auto& [flag, path] : {std::pair<const char*, const std::string&>{"--trace", a.trace}, {"--plot", a.plot}}) {
     if (path.empty()) continue;
-    refuse_overwriting_input(flag, path, {a.program, a.no_go, a.machine});
+    refuse_overwriting_input(flag, path, {a.program, a.no_go, a.machine, a.operator_events});
     check_output_folder(flag, path);
   }
   // SIGINT, SIGTERM and SIGHUP stop the machine in a controlled way (exit 3), not the process.
@@ -232,6 +239,9 @@ void add_run(CLI::App& app) {
                   "refuse, before it starts, a run whose estimate exceeds this many seconds of machine time "
                   "(default 14400: 4 h)")
       ->check(kFinitePositive);
+  cmd->add_option("--operator-events", a->operator_events,
+                  "simulator: the operator's inputs on a timeline, a CSV 't_s,event,value' (hold, start, stop, "
+                  "feed_override, rapid_override, recover, thc)");
   cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default)");
   cmd->add_option("--inject", a->inject,
                   "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "

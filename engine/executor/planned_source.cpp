@@ -72,9 +72,7 @@ void PlannedSource::advance(const Eigen::Vector2d& measured_mm, const hardware::
     t_ += ctx_.period_s;  // as planned
     return;
   }
-  motion::Setpoint at;
-  cur_->sample(t_, at);
-  t_ += scale_.step(target_, at, cur_->cruise_left_s(t_));
+  t_ += scale_.step(target_, *cur_, t_);
 }
 
 double PlannedSource::path_distance_mm(const Eigen::Vector2d& p) const noexcept {

@@ -12,7 +12,65 @@ constexpr double kTiny = 1e-9;
 constexpr double kMaxScale = 2.0;  // 200 %
 }  // namespace
 
-double TimeScale::step(double target, const motion::Setpoint& at, double cruise_left_s) noexcept {
+double TimeScale::stop_step(const motion::Trajectory& plan, double tau, const motion::Setpoint& at) noexcept {
+  const double dt = lim_.period_s;
+  const Eigen::Vector2d& v = at.velocity_mm_per_s;
+  const Eigen::Vector2d& a = at.acceleration_mm_per_s2;
+  const double vp = v.norm();
+  if (vp <= kTiny) {  // the plan stands still here: so does the tool
+    k_ = kd_ = u_ = ud_ = 0.0;
+    return 0.0;
+  }
+  const Eigen::Vector2d t = v / vp;
+  const double at_plan = a.dot(t);
+  const Eigen::Vector2d normal = a - at_plan * t;  // grows with k^2
+  if (!stopping_) {  // the tool's path speed and tangential acceleration as the hold comes
+    stopping_ = true;
+    u_ = vp * k_;
+    ud_ = at_plan * k_ * k_ + vp * kd_;
+  }
+  // The stop's limits along the path: per axis, what the normal acceleration leaves of A,
+  // and J, over the axis' share of the direction.
+  double A = kInf, J = kInf;
+  for (int i = 0; i < 2; ++i) {
+    if (std::abs(t[i]) < kTiny) continue;
+    A = std::min(A, std::max(0.0, lim_.max_acceleration_mm_per_s2[i] - std::abs(normal[i]) * k_ * k_) / std::abs(t[i]));
+    J = std::min(J, lim_.max_jerk_mm_per_s3 / std::abs(t[i]));
+  }
+  // Bang-bang jerk: down to -A, hold, then back to 0 acceleration as the speed runs out.
+  const double ramp_dv = ud_ < 0 ? ud_ * ud_ / (2 * J) : 0.0;
+  const double j = u_ <= ramp_dv ? J : (ud_ > -A ? -J : 0.0);
+  const double ud1 = std::clamp(ud_ + j * dt, -A, std::max(ud_, 0.0));
+  const double u1 = std::max(0.0, u_ + 0.5 * (ud_ + ud1) * dt);
+  // k such that the plan's speed where the tool will be, times k, is that speed (one more
+  // sample of the plan there); never above k, so a plan that brakes by itself is followed.
+  double k = 0.0;
+  if (u1 > J * dt * dt) {
+    const double k_est = std::min(k_, u1 / vp);
+    motion::Setpoint ahead;
+    plan.sample(tau + 0.5 * (k_ + k_est) * dt, ahead);
+    const double vp1 = ahead.velocity_mm_per_s.norm();
+    k = vp1 > kTiny ? std::min(k_, u1 / vp1) : 0.0;
+  }
+  u_ = k > 0.0 ? u1 : 0.0;
+  ud_ = k > 0.0 ? ud1 : 0.0;
+  kd_ = k > 0.0 ? (k - k_) / dt : 0.0;
+  const double advance = 0.5 * (k_ + k) * dt;
+  k_ = k;
+  ceiling_ = 1.0;
+  return advance;
+}
+
+double TimeScale::step(double target, const motion::Trajectory& plan, double tau) noexcept {
+  motion::Setpoint at;
+  plan.sample(tau, at);
+  // A hold: the time-optimal jerk-limited stop along the path, in path speed.
+  if (target <= 0.0 && k_ > 0.0) return stop_step(plan, tau, at);
+  stopping_ = false;
+  return change_step(target, at, plan.cruise_left_s(tau));
+}
+
+double TimeScale::change_step(double target, const motion::Setpoint& at, double cruise_left_s) noexcept {
   const double dt = lim_.period_s;
   const Eigen::Vector2d& v = at.velocity_mm_per_s;
   const Eigen::Vector2d& a = at.acceleration_mm_per_s2;

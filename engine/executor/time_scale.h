@@ -19,10 +19,15 @@
 //
 // and a jerk-limited approach to the target (the discrete time-optimal rule of LinuxCNC's
 // limit3 component, applied to k): k' runs toward sign(e) sqrt(2 k''max |e|), e = target - k,
-// so k arrives at its target with k' = 0. A hold from cruise is then the jerk-limited stop at
-// the plan's path speed v: k' = -A_t / v, k'' = J / v, stopping distance that of an S-curve
-// from v; when the plan is itself braking at the limit the hold cannot brake harder, and
-// does not.
+// so k arrives at its target with k' = 0.
+//
+// A hold (target 0) is planned in path speed instead, so that it is the shortest stop the
+// limits allow: the tool's path speed u = |p'| k and tangential acceleration u' follow the
+// time-optimal jerk-limited stop (jerk -J_t down to -A_t, hold, +J_t back to 0 as u reaches
+// 0), with A_t and J_t the largest the axes give along the path direction (per axis, what the
+// normal acceleration leaves, over the axis' share of the direction), recomputed each period;
+// k = u / |p'(tau)|, never above its value (when the plan brakes harder by itself, the tool
+// follows the plan).
 //
 // Above 100 %: the plan uses the whole acceleration A when it speeds up or slows down, so the
 // time may only run faster while the plan cruises (p'' = 0): k is capped by the axes' speed
@@ -56,12 +61,12 @@ class TimeScale {
   void reset(double k0) noexcept {
     k_ = k0;
     kd_ = 0.0;
+    stopping_ = false;
   }
 
-  // One period at path time tau where the plan samples `at` (p', p'' in velocity and
-  // acceleration); `target` the scale asked for (0 .. 2), `cruise_left_s` the plan's cruise
-  // time left from tau (0 when it is not cruising). Returns the path time to advance, k dt.
-  double step(double target, const motion::Setpoint& at, double cruise_left_s) noexcept;
+  // One period of `plan` at path time `tau`, `target` the scale asked for (0 .. 2). Returns the
+  // path time to advance.
+  double step(double target, const motion::Trajectory& plan, double tau) noexcept;
 
   double k() const noexcept { return k_; }
   double k_dot() const noexcept { return kd_; }
@@ -69,8 +74,13 @@ class TimeScale {
   double ceiling() const noexcept { return ceiling_; }
 
  private:
+  double change_step(double target, const motion::Setpoint& at, double cruise_left_s) noexcept;
+  double stop_step(const motion::Trajectory& plan, double tau, const motion::Setpoint& at) noexcept;
   TimeScaleLimits lim_;
   double k_ = 1.0, kd_ = 0.0, ceiling_ = 1.0;
+  // The stop under way: the tool's path speed and tangential acceleration.
+  bool stopping_ = false;
+  double u_ = 0.0, ud_ = 0.0;
 };
 
 }  // namespace machplan::executor
