@@ -32,6 +32,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tests/support/cli_run.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -267,7 +269,8 @@ TEST_P(GcodeConformance, MatchesRs274) {
   const RunResult ref = run("cd " + quote(dir.string()) + " && flock " + quote(lock) +
                                 " timeout 60 /usr/bin/rs274 -g -t tool.tbl " + quote(file.string()),
                             dir);
-  const RunResult ours = run(std::string(MACHPLAN_CLI) + " program " + quote(file.string()) + " --json", dir);
+  const machplan::test::CliResult mine = machplan::test::Cli().run({"program", file.string(), "--json"});
+  const RunResult ours{mine.code, mine.out, mine.err};
   fs::remove_all(dir);
 
   const bool ref_ok = ref.exit_code == 0;
