@@ -169,11 +169,11 @@ TEST(CalibrationFit, AnAxisWithNoMotionIsNamed) {
   EXPECT_EQ(fit.summary.message.find("x."), std::string::npos) << fit.summary.message;  // x is fine
 }
 
-TEST(CalibrationFit, OneSpeedAndOneDirectionLeaveDeadBandAndBacklashOpen) {
+// A session cut after the first, positive stroke of each axis: one speed, one direction.
+SessionLog first_stroke_only() {
   RecordOptions o;
   o.speed_fractions = {0.4};
   auto log = record(with_truth({}), 9, o);
-  // Keep only the first, positive stroke of each axis.
   std::vector<LogSample> kept;
   bool negative_seen = false;
   for (const auto& s : log.samples) {
@@ -181,25 +181,18 @@ TEST(CalibrationFit, OneSpeedAndOneDirectionLeaveDeadBandAndBacklashOpen) {
     if (!negative_seen) kept.push_back(s);
   }
   log.samples = kept;
-  const auto fit = fit_session(log, nominal());
+  return log;
+}
+
+TEST(CalibrationFit, OneSpeedAndOneDirectionLeaveDeadBandAndBacklashOpen) {
+  const auto fit = fit_session(first_stroke_only(), nominal());
   EXPECT_EQ(fit.summary.status, Status::infeasible);
   EXPECT_NE(fit.summary.message.find("x.dead_band_mm_per_s"), std::string::npos) << fit.summary.message;
   EXPECT_NE(fit.summary.message.find("x.backlash_mm: the axis never reversed"), std::string::npos) << fit.summary.message;
 }
 
 TEST(CalibrationFit, TheReportMarksWhatTheLogDoesNotDetermine) {
-  RecordOptions o;
-  o.speed_fractions = {0.4, 0.6};
-  auto log = record(with_truth({}), 9, o);
-  // Keep the positive strokes only: the axes never reverse.
-  std::vector<LogSample> kept;
-  bool negative_seen = false;
-  for (const auto& s : log.samples) {
-    negative_seen |= s.dac < 0;
-    if (!negative_seen) kept.push_back(s);
-  }
-  log.samples = kept;
-  const auto fit = fit_session(log, nominal());
+  const auto fit = fit_session(first_stroke_only(), nominal());
   ASSERT_EQ(fit.summary.status, Status::infeasible) << fit.summary.full_report();
   EXPECT_EQ(fit.summary.exit_code(), 3);
   EXPECT_STREQ(fit.status_label(), "not identifiable");
