@@ -92,7 +92,7 @@ TEST(MachineLookup, TheUsersMachineReplacesTheBundledOne) {
       ++shadowed;
       EXPECT_TRUE(m.shadowed);
     }
-    if (m.name == "xy_table" && m.kind == "source") EXPECT_FALSE(m.shadowed);
+    if (m.name == "xy_table" && m.kind == "source") { EXPECT_FALSE(m.shadowed); }
   }
   EXPECT_EQ(users, 1);
   EXPECT_EQ(shadowed, 1);

@@ -161,7 +161,7 @@ TEST(StopRequest, FromAnotherThreadStopsTheMachineAndReports) {
   EXPECT_FALSE(sim.drives_enabled());
   EXPECT_FALSE(r.cuts[0].complete);
   for (const TraceSample& t : r.trace)
-    if (t.t_s > r.faults[0].time_s) ASSERT_FALSE(t.torch_fire);
+    if (t.t_s > r.faults[0].time_s) { ASSERT_FALSE(t.torch_fire); }
 }
 
 TEST(PositionBackend, RunsAJobThroughTheSameLoop) {

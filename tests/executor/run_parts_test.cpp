@@ -15,6 +15,7 @@
 #include <iterator>
 #include <string>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -199,7 +200,7 @@ using CliRun = test::CliResult;
 CliRun machplan(const std::string& args) { return test::Cli().run(args); }
 
 TEST(RunCommand, BadFlagsExitWithTwoAndNameTheFlag) {
-  const std::string tri = "'" + part("triangle_45.ngc") + "'";
+  const std::string tri = fmt::format("'{}'", part("triangle_45.ngc"));
   const struct {
     std::string args, expect;
   } cases[] = {

@@ -187,7 +187,7 @@ TEST_P(SetpointSourceContract, HoldsTheStartUntilAMotionBegins) {
     s.demand(d);
     ASSERT_EQ(d.commanded_mm, rig.start) << k;
     ASSERT_TRUE(at_rest(d)) << k;
-    if (d.kind == Demand::Kind::track) ASSERT_EQ(vec(d.track.r_mm), rig.start) << k;
+    if (d.kind == Demand::Kind::track) { ASSERT_EQ(vec(d.track.r_mm), rig.start) << k; }
   }
 }
 

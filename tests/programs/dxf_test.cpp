@@ -327,7 +327,7 @@ TEST(DxfCurves, FitPointSplinePassesThroughItsPoints) {
     if ((c.vertices()[i] - Vector2d(0, 0)).norm() < 1e-9) {
       const Segment s = c.span(i);
       const Vector2d t = start_tangent(s);
-      if ((s.end - s.start).x() > 0) EXPECT_NEAR(std::abs(t.y()), 0.0, 1e-6);
+      if ((s.end - s.start).x() > 0) { EXPECT_NEAR(std::abs(t.y()), 0.0, 1e-6); }
       else EXPECT_NEAR(std::abs(end_tangent(c.span((i + c.size() - 1) % c.size())).y()), 0.0, 1e-6);
     }
 }

@@ -156,7 +156,7 @@ TEST(Weld, ContractOnRandomCorners) {
     for (std::size_t c = 0; c < corners.size(); ++c) {
       EXPECT_LE((m.vertices[index[c]] - corners[c]).norm(), tol) << "corner " << c << " tol " << tol;
       for (std::size_t d = 0; d < c; ++d)
-        if (corners[d] == corners[c]) EXPECT_EQ(index[d], index[c]) << "corners " << d << ", " << c << " tol " << tol;
+        if (corners[d] == corners[c]) { EXPECT_EQ(index[d], index[c]) << "corners " << d << ", " << c << " tol " << tol; }
       if (index[c] == made) {  // a new vertex: nothing earlier was close enough
         for (int v = 0; v < made; ++v)
           EXPECT_GT((m.vertices[v] - corners[c]).norm(), tol) << "corner " << c << " vertex " << v;
