@@ -44,7 +44,7 @@ void BM_FitSession60s(benchmark::State& state) {
     const auto fit = calibration::fit_session(log, nominal());
     benchmark::DoNotOptimize(fit.rms_residual_mm);
     state.counters["feed_x"] = fit.axes[0].feed_factor;
-    state.counters["ok"] = fit.status == calibration::CalibrationFit::Status::ok;
+    state.counters["ok"] = fit.summary.done();
   }
   state.counters["session_s"] = log.samples.back().t_s;
   state.counters["rows"] = static_cast<double>(log.samples.size());

@@ -28,6 +28,7 @@
 #include <fmt/format.h>
 
 #include "engine/control/acc.h"
+#include "models/turning/turning_process.h"
 #include "solvers/tuning/acc_tuning.h"
 #include "solvers/tuning/tune.h"
 
@@ -108,16 +109,16 @@ void report() {
 
   // Adaptive control constraint.
   std::printf("\n## Adaptive control constraint (turning model, engine/control/acc.h)\n\n");
-  const control::TurningProcess proc;
+  const turning::TurningProcess proc;
   control::AccOptions acc;
-  const auto run = control::simulate_acc(proc, acc, control::koren_depth_steps(), 10.0);
+  const auto run = turning::simulate_acc(proc, acc, turning::koren_depth_steps(), 10.0);
   std::printf("Koren: Kc = 0.5, F_r = 1500 N, T = 0.1 s; feed 0.5 mm/rev before engagement, about 0.25 after;\n"
               "each 2 mm depth step: a small transient, the force back at 1500 N, the feed lower.\n\n");
   std::printf("| t s | depth mm | feed mm/rev | force N | settling after the change s | overshoot %% |\n|---|---|---|---|---|---|\n");
-  const auto steps = control::koren_depth_steps();
+  const auto steps = turning::koren_depth_steps();
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const double end = i + 1 < steps.size() ? steps[i + 1].from_s : 10.0;
-    const auto r = control::acc_step_response(run, acc.reference_force_n, steps[i].from_s, end);
+    const auto r = turning::acc_step_response(run, acc.reference_force_n, steps[i].from_s, end);
     for (const auto& s : run)
       if (std::abs(s.t_s - (end - 0.1)) < 1e-6)
         std::printf("| %.1f | %.0f | %.3f | %.1f | %.2f | %.1f |\n", s.t_s, s.depth_mm, s.feed_mm_per_rev, s.force_n,

@@ -132,14 +132,17 @@ void add_calibrate(CLI::App& app) {
   fit->callback([f] {
     const auto machine = cutting::load_machine(cutting::find_machine(f->machine));
     const auto log = calibration::read_session_log(f->log);
-    const auto result = calibration::fit_session(log, machine);
+    // SIGINT, SIGTERM and SIGHUP end the fit after its current iteration (exit 3).
+    const StopOnSignals signals;
+    Termination term(StopOnSignals::stop_token());
+    const auto result = calibration::fit_session(log, machine, {}, term);
     if (f->json) {
       std::printf("%s\n", result.json().c_str());
     } else {
-      std::printf("%s", result.report().c_str());
+      std::printf("%s", result.summary.full_report().c_str());
     }
     // A fit that does not determine every factor finished, but must not pass for a good one.
-    if (result.status != calibration::CalibrationFit::Status::ok) set_exit_code(3);
+    set_exit_code(result.summary.exit_code());
   });
 }
 
@@ -163,8 +166,10 @@ void add_store_commands(CLI::App& app) {
     const auto machine = cutting::load_machine(cutting::find_machine(a->machine));
     const std::string bytes = read_text_file(a->log);
     const auto log = calibration::read_session_log_text(bytes, a->log);
-    const auto fit = calibration::fit_session(log, machine);
-    std::printf("%s", fit.report().c_str());
+    const StopOnSignals signals;
+    Termination term(StopOnSignals::stop_token());
+    const auto fit = calibration::fit_session(log, machine, {}, term);
+    std::printf("%s", fit.summary.full_report().c_str());
     std::string who = a->who;
     if (who.empty()) who = std::getenv("USER") ? std::getenv("USER") : "unknown";
     const std::string path = db_path();
@@ -189,12 +194,7 @@ void add_store_commands(CLI::App& app) {
       print_json(j);
       return;
     }
-    if (rows.empty()) std::printf("no calibrations stored\n");
-    for (const auto& f : rows)
-      std::printf("fit %lld%s  %s  %s by %s  feed x %.5f y %.5f  backlash x %.4f y %.4f mm  log %s (%s)\n",
-                  static_cast<long long>(f.fit_id), f.active ? " (active)" : "", f.machine.c_str(), f.created_utc.c_str(),
-                  f.who.c_str(), f.feed_factor[0], f.feed_factor[1], f.backlash_mm[0], f.backlash_mm[1],
-                  f.log_path.c_str(), f.log_hash.c_str());
+    std::printf("%s", calibration::history_report(rows).c_str());
   });
 
   auto* show = cal->add_subcommand("show", "Print a machine's active calibration and the paper modes' factor for a feed");
@@ -206,13 +206,7 @@ void add_store_commands(CLI::App& app) {
     calibration::CalibrationStore store(db_path());
     const auto c = store.active(a->machine);
     if (!c) throw Infeasible(fmt::format("no active calibration for '{}' in {}", a->machine, db_path()));
-    std::printf("active calibration for %s: fit %lld of %s by %s\n", c->machine.c_str(), static_cast<long long>(c->fit_id),
-                c->created_utc.c_str(), c->who.c_str());
-    for (int i = 0; i < 2; ++i)
-      std::printf("  %s: feed factor %.5f, dead band %.4f mm/s, %.7f mm/count, backlash %.4f mm\n", i ? "y" : "x",
-                  c->feed_factor[i], c->dead_band_mm_per_s[i], c->mm_per_count[i], c->backlash_mm[i]);
-    if (!a->feed.empty())
-      std::printf("open-loop factor at %g mm/s: %.5f\n", feed, calibration::open_loop_factor(*c, feed));
+    std::printf("%s", calibration::calibration_report(*c, a->feed.empty() ? std::nullopt : std::optional<double>(feed)).c_str());
   });
 }
 

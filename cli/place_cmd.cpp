@@ -98,7 +98,13 @@ void add_place(CLI::App& app) {
   cmd->add_option("--rotations", o->rotations, "workpiece rotations about z to try (optimal), e.g. 0,90,180,270");
   cmd->add_option("--plot", o->plot, "write a top and side view (.png or .svg)");
   cmd->add_flag("--json", o->json, "machine-readable output");
-  cmd->add_flag("--dense-check", o->verify, "also re-check the answer at every pose and every 0.5 mm (slow)");
+  cmd->add_flag("--dense", o->verify, "also re-check the answer at every pose and every 0.5 mm (slow)");
+  // The former name (`check` has always said --dense): still accepted, with a warning.
+  cmd->add_flag_callback("--dense-check", [o] {
+       o->verify = true;
+       std::fputs("machplan place: warning: --dense-check is now --dense\n", stderr);
+     })
+      ->group("");
   cmd->callback([o] {
     PlacementOptions po;
     po.strategy = o->strategy == "paper" ? PlacementOptions::Strategy::paper : PlacementOptions::Strategy::optimal;

@@ -25,7 +25,7 @@
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
 #include "solvers/motion/run_plot.h"
-#include "solvers/tuning/store.h"
+#include "solvers/session/tuning_store.h"
 
 namespace machplan::cli {
 namespace {

@@ -21,7 +21,7 @@
 #include "solvers/common/picture.h"
 #include "solvers/tuning/acc_tuning.h"
 #include "solvers/tuning/plot.h"
-#include "solvers/tuning/store.h"
+#include "solvers/session/tuning_store.h"
 #include "solvers/tuning/tune.h"
 
 namespace machplan::cli {
@@ -59,9 +59,9 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
   if (!time_s.empty()) base.max_work_s = number("--time", time_s, 0.01, 86400);
   if (law != "fixed" && law != "variable" && law != "both")
     throw InputError("--acc-law", 0, fmt::format("'{}' is not a law (fixed, variable, both)", law));
-  const auto steps = control::koren_depth_steps();
+  const auto steps = turning::koren_depth_steps();
   const double duration = 10.0;
-  const auto koren = control::simulate_acc(base.process, base.acc, steps, duration);
+  const auto koren = turning::simulate_acc(base.process, base.acc, steps, duration);
   std::vector<tuning::AccTuningResult> results;
   const StopOnSignals signals;
   Termination stop(StopOnSignals::stop_token());
@@ -72,7 +72,7 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
     results.push_back(tuning::tune_acc(o, &stop));
   }
   // The settled feed and force before each depth change (and at the end).
-  auto settled = [&](const std::vector<control::AccSample>& run) {
+  auto settled = [&](const std::vector<turning::AccSample>& run) {
     nlohmann::json a = nlohmann::json::array();
     std::vector<double> at;
     for (std::size_t i = 1; i < steps.size(); ++i) at.push_back(steps[i].from_s - 0.1);
@@ -83,16 +83,16 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
           a.push_back({{"t_s", t}, {"depth_mm", s.depth_mm}, {"feed_mm_per_rev", s.feed_mm_per_rev}, {"force_n", s.force_n}});
     return a;
   };
-  std::vector<std::vector<control::AccSample>> tuned_runs;
+  std::vector<std::vector<turning::AccSample>> tuned_runs;
   for (const auto& r : results) {
     control::AccOptions a = base.acc;
     a.variable_gain = r.variable_gain;
     (a.variable_gain ? a.open_loop_gain : a.kc) = r.gain;
-    tuned_runs.push_back(control::simulate_acc(base.process, a, steps, duration));
+    tuned_runs.push_back(turning::simulate_acc(base.process, a, steps, duration));
   }
   if (!plot.empty()) {
     tuning::Panel force{"cutting force, N", {}}, feed{"feed, mm/rev", {}}, depth{"depth of cut, mm", {}};
-    auto add = [&](const std::vector<control::AccSample>& run, const std::string& name, double r, double g, double b) {
+    auto add = [&](const std::vector<turning::AccSample>& run, const std::string& name, double r, double g, double b) {
       tuning::Series f{name, r, g, b, {}, {}}, v{name, r, g, b, {}, {}};
       for (const auto& s : run) {
         f.t_s.push_back(s.t_s), f.y.push_back(s.force_n);

@@ -19,7 +19,9 @@ JsonStream::JsonStream(std::FILE* out, int indent) : out_(out), indent_(indent) 
 
 std::string JsonStream::newline(std::size_t depth) const {
   if (indent_ < 0) return {};
-  return "\n" + std::string(depth * static_cast<std::size_t>(indent_), ' ');
+  std::string s(1 + depth * static_cast<std::size_t>(indent_), ' ');
+  s.front() = '\n';
+  return s;
 }
 
 void JsonStream::write(std::string_view text) {
@@ -40,7 +42,8 @@ void JsonStream::before_item(bool is_key) {
   }
   MACHPLAN_ASSERT(level.object == is_key && !after_key_, "JsonStream: {} where {} is due", is_key ? "a key" : "a value",
                   level.object ? "a key" : "a value");
-  write(level.empty ? newline(levels_.size()) : "," + newline(levels_.size()));
+  if (!level.empty) write(",");
+  write(newline(levels_.size()));
   level.empty = false;
 }
 

@@ -13,7 +13,6 @@
 #include "engine/control/pid_controller.h"
 #include "engine/control/pid_ff_controller.h"
 #include "engine/control/zpetc_controller.h"
-#include "engine/executor/machine_setup.h"
 
 namespace machplan::control {
 
@@ -258,20 +257,6 @@ void ControllerPlant::validate() const {
     if (!(std::isfinite(coulomb_friction_mm_per_s[i]) && coulomb_friction_mm_per_s[i] >= 0))
       fail(fmt::format("coulomb_friction_mm_per_s[{}] = {}: must be >= 0 (0: unknown)", i, coulomb_friction_mm_per_s[i]));
   }
-}
-
-ControllerPlant plant_from_setup(const executor::MachineSetup& setup) {
-  ControllerPlant p;
-  p.servo = setup.servo;
-  for (int i = 0; i < kAxes; ++i) {
-    p.output_limit_mm_per_s[i] = setup.signals[i].dac_full_scale_mm_per_s;
-    p.command_latency_ticks[i] = setup.signals[i].command_latency_ticks;
-    p.reading_latency_ticks[i] = setup.signals[i].reading_latency_ticks;
-    p.position_quantum_mm[i] =
-        setup.calibrated_mm_per_count[i] > 0 ? setup.calibrated_mm_per_count[i] : setup.signals[i].mm_per_count;
-  }
-  if (setup.servo_period_s > 0) p.period_s = setup.servo_period_s;
-  return p;
 }
 
 std::vector<std::string> controller_kinds() {

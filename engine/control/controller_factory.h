@@ -2,7 +2,7 @@
 // NAME=VALUE`) and the tuner (solvers/tuning) build any controller of this folder without
 // knowing its type.
 //
-//     ControllerPlant plant = plant_from_setup(setup);      // + drive tau and gain if known
+//     ControllerPlant plant = executor::plant_from_setup(setup);  // + drive tau and gain if known
 //     for (const GainSpec& s : gain_specs("pid", plant)) ...  // names, units, defaults, box
 //     auto c = make_controller("pid", {{"kp_per_s", 120}}, plant);
 //     executor::RunParts parts; parts.controller = c.get();
@@ -37,10 +37,6 @@
 #include "engine/control/controller.h"
 #include "engine/control/servo.h"
 
-namespace machplan::executor {
-struct MachineSetup;
-}
-
 namespace machplan::control {
 
 // One tunable gain of a controller kind.
@@ -70,12 +66,6 @@ struct ControllerPlant {
   // Throws InputError("controller plant", 0, ...) naming the field.
   void validate() const;
 };
-
-// Servo gains, output limits, latencies and period from the executor's setup. The drive's time
-// constant and gain are not part of the setup (they belong to the machine model): they are
-// left unknown (0) and nominal (1); models/cutting/controller_plant.h fills them from the
-// machine file.
-ControllerPlant plant_from_setup(const executor::MachineSetup& setup);
 
 // The kinds make_controller builds, in a stable order.
 std::vector<std::string> controller_kinds();

@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "engine/control/controller_factory.h"
+
 namespace machplan::executor {
 
 namespace {
@@ -44,6 +46,20 @@ void MachineSetup::validate() const {
   require(torch.pierce_delay_s >= 0, "torch.pierce_delay_s", torch.pierce_delay_s, "must be >= 0");
   require(torch.preheat_s >= 0, "torch.preheat_s", torch.preheat_s, "must be >= 0");
   require(torch.height_timeout_s > 0, "torch.height_timeout_s", torch.height_timeout_s, "must be > 0");
+}
+
+control::ControllerPlant plant_from_setup(const executor::MachineSetup& setup) {
+  control::ControllerPlant p;
+  p.servo = setup.servo;
+  for (int i = 0; i < control::kAxes; ++i) {
+    p.output_limit_mm_per_s[i] = setup.signals[i].dac_full_scale_mm_per_s;
+    p.command_latency_ticks[i] = setup.signals[i].command_latency_ticks;
+    p.reading_latency_ticks[i] = setup.signals[i].reading_latency_ticks;
+    p.position_quantum_mm[i] =
+        setup.calibrated_mm_per_count[i] > 0 ? setup.calibrated_mm_per_count[i] : setup.signals[i].mm_per_count;
+  }
+  if (setup.servo_period_s > 0) p.period_s = setup.servo_period_s;
+  return p;
 }
 
 }  // namespace machplan::executor

@@ -8,6 +8,10 @@
 #include "engine/control/servo.h"
 #include "engine/hardware/backend.h"
 
+namespace machplan::control {
+struct ControllerPlant;
+}
+
 namespace machplan::executor {
 
 struct TorchSetup {
@@ -42,5 +46,11 @@ struct MachineSetup {
   TorchSetup torch;
   void validate() const;  // throws std::invalid_argument naming field, value and rule
 };
+
+// What a controller may know of this setup (engine/control/controller_factory.h): servo gains,
+// output limits, latencies, encoder quantum and period. The drive's time constant and gain are
+// not part of the setup (they belong to the machine model): they are left unknown (0) and
+// nominal (1); models/cutting/controller_plant.h fills them from the machine file.
+control::ControllerPlant plant_from_setup(const MachineSetup& setup);
 
 }  // namespace machplan::executor

@@ -156,19 +156,3 @@ class ProhibitedRegion {
 };
 
 }  // namespace machplan
-
-namespace machplan {
-
-struct ProfileReadResult;  // engine/programs/dxf.h
-
-// The region of a profile read from a DXF file (engine/programs/dxf.h): refuses a profile
-// with errors (open chain, self-intersection, overlap...) with InputError("FILE", 0,
-// "<kind> (entities H1, H2) at (x, y): <message>"), then builds with every contour named
-// "contour K (entities H1, H2, ...)" in messages. DXF warnings are not repeated here; the
-// caller prints profile.report() if it wants them.
-ProhibitedRegion build_region(const ProfileReadResult& profile, const RegionOptions& options);
-
-// "contour K (entities H1, H2, H3, ... N more)": how messages name a DXF contour.
-std::string describe_contour(const ProfileReadResult& profile, std::size_t k);
-
-}  // namespace machplan

@@ -43,11 +43,11 @@ class SpanIndex {
   // the ends of its angular range taken counter-clockwise (start, end for a ccw arc; end,
   // start for a cw one) and `big` says the range exceeds pi.
   struct Item {
-    Eigen::Vector2d a, b;            // start and end, as in the contour
-    Eigen::Vector2d center;          // arc only
-    Eigen::Vector2d u_from, u_to;    // arc only, see above
-    Eigen::Vector2d t_start, t_end;  // unit tangents (direction of travel) at a and b
-    Eigen::Vector2d arc_mid;         // arc only: the arc's middle point
+    Eigen::Vector2d a{0, 0}, b{0, 0};              // start and end, as in the contour
+    Eigen::Vector2d center{0, 0};                  // arc only
+    Eigen::Vector2d u_from{0, 0}, u_to{0, 0};      // arc only, see above
+    Eigen::Vector2d t_start{0, 0}, t_end{0, 0};    // unit tangents (direction of travel) at a and b
+    Eigen::Vector2d arc_mid{0, 0};                 // arc only: the arc's middle point
     double radius = 0.0;             // 0 for a line
     double sweep = 0.0;              // signed, 0 for a line
     bool big = false;

@@ -316,6 +316,221 @@ double axis_cap(const Vector2d& lim, double wx, double wy) {
   return r;
 }
 
+// Step 1 of plan_stretch_detailed: what happens at each junction between the non-degenerate
+// programmed segments idx[k] and idx[k+1]: passed (tangent), blended (trims and blend
+// pieces) or a stop.
+struct Junctions {
+  std::vector<double> len, trim_start, trim_end;  // per segment of idx
+  std::vector<std::vector<Segment>> blends;       // blends[k]: between k and k+1
+  std::vector<bool> stop_after;
+  double max_deviation_mm = 0.0;
+  int blended = 0;
+};
+
+// The blend replacing the corner between a and b (turning by phi, te: a's end tangent): its
+// pieces (none: stop there), the trim length d on both sides and its deviation.
+std::vector<Segment> blend_corner(const Segment& a, const Segment& b, double len_a, double len_b, double phi,
+                                  const Vector2d& te, double tol, double& d, double& dev) {
+  const double d_max = std::min(0.5 * len_a, 0.5 * len_b);
+  const double q = std::tan(phi / 4.0);
+  std::vector<Segment> pieces;
+  dev = 0.0;
+  d = std::min(0.999 * tol / q, d_max);
+  if (!a.is_arc() && !b.is_arc()) {
+    if (d >= kMinBlendMm) {
+      const Vector2d p1 = interpolate(a, len_a - d).position_mm, p2 = interpolate(b, d).position_mm;
+      Segment s = arc_from(p1, te, p2);
+      s.end = p2;
+      pieces.push_back(s);
+      dev = d * q;
+    }
+  } else {
+    d = std::min(tol / q, d_max);
+    for (int it = 0; it < 60 && d >= kMinBlendMm; ++it, d *= 0.5) {
+      const PathPoint p1 = interpolate(a, len_a - d), p2 = interpolate(b, d);
+      pieces = biarc(p1.position_mm, p1.tangent, p2.position_mm, p2.tangent);
+      if (pieces.empty()) continue;
+      dev = sampled_deviation(pieces, a, b);
+      if (dev <= 0.9 * tol) break;
+      pieces.clear();
+    }
+  }
+  return pieces;
+}
+
+Junctions plan_junctions(const Stretch& stretch, const std::vector<std::size_t>& idx, double tol) {
+  const std::size_t n = idx.size();
+  Junctions j;
+  j.len.resize(n);
+  j.trim_start.assign(n, 0.0);
+  j.trim_end.assign(n, 0.0);
+  j.blends.resize(n);
+  j.stop_after.assign(n, false);
+  for (std::size_t k = 0; k < n; ++k) j.len[k] = length(stretch.segments[idx[k]]);
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const Segment& a = stretch.segments[idx[k]];
+    const Segment& b = stretch.segments[idx[k + 1]];
+    const Vector2d te = interpolate(a, j.len[k]).tangent, ts = interpolate(b, 0.0).tangent;
+    const double phi = std::atan2(std::abs(cross(te, ts)), te.dot(ts));
+    if (phi <= kTangentRad) continue;
+    if (phi > kStopAngleRad) {
+      j.stop_after[k] = true;
+      continue;
+    }
+    double d = 0.0, dev = 0.0;
+    std::vector<Segment> pieces = blend_corner(a, b, j.len[k], j.len[k + 1], phi, te, tol, d, dev);
+    if (pieces.empty()) {
+      j.stop_after[k] = true;
+      continue;
+    }
+    j.trim_end[k] = d;
+    j.trim_start[k + 1] = d;
+    j.blends[k] = std::move(pieces);
+    j.max_deviation_mm = std::max(j.max_deviation_mm, dev);
+    ++j.blended;
+  }
+  return j;
+}
+
+// Step 2: the speed cap, acceleration cap and jerk limit of one piece of the executed path.
+PieceInfo piece_caps(const Segment& s, double feed, const PlannerOptions& o) {
+  const Vector2d& vmax = o.max_velocity_mm_per_s;
+  const Vector2d& amax = o.max_acceleration_mm_per_s2;
+  const double f_n = o.curve_normal_fraction;
+  const double tol = o.path_tolerance_mm;
+  PieceInfo pi;
+  if (s.is_arc()) {
+    const double r = s.radius;
+    // The radial angle range; the tangent is perpendicular, so |u_x| = |sin|, |u_y| = |cos|.
+    pi.arc = arc_range(s);
+    const double nx = pi.arc.n_max[0], ny = pi.arc.n_max[1];
+    const double a_n = axis_cap(amax, nx, ny);        // most normal acceleration everywhere on the arc
+    const double v_axes = axis_cap(vmax, ny, nx);     // |u_x| = |sin| <= ny, |u_y| = |cos| <= nx
+    pi.cap = std::min({feed, v_axes, std::sqrt(f_n * a_n * r), std::sqrt(8.0 * r * tol) / o.servo_period_s});
+    pi.kappa = 1.0 / r;
+    pi.jerk = o.max_jerk_mm_per_s3;
+  } else {
+    const Vector2d u = (s.end - s.start).normalized();
+    pi.cap = std::min(feed, axis_cap(vmax, std::abs(u.x()), std::abs(u.y())));
+    pi.a_line = axis_cap(amax, std::abs(u.x()), std::abs(u.y()));
+    pi.jerk = o.max_jerk_mm_per_s3 / std::max(std::abs(u.x()), std::abs(u.y()));
+  }
+  return pi;
+}
+
+// Step 2: the executed path (trimmed segments and blends, sharing their end points exactly)
+// into `path`, the caps of each of its pieces; returns the number of stop junctions.
+int build_executed_path(const Stretch& stretch, const std::vector<std::size_t>& idx, const Junctions& j,
+                        const PlannerOptions& o, Stretch& path, std::vector<PieceInfo>& info) {
+  const std::size_t n = idx.size();
+  int stops = 0;
+  bool pending_stop = false;
+  auto add = [&](const Segment& s, double feed, int line) {
+    PieceInfo pi = piece_caps(s, feed, o);
+    pi.stop_before = pending_stop && !path.segments.empty();
+    pending_stop = false;
+    path.segments.push_back(s);
+    path.feed_mm_per_s.push_back(feed);
+    path.source_lines.push_back(line);
+    info.push_back(pi);
+  };
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = idx[k];
+    const double a = j.trim_start[k], b = j.len[k] - j.trim_end[k];
+    if (b - a > kMinPieceMm) add(sub_segment(stretch.segments[i], a, b), stretch.feed_mm_per_s[i], stretch.source_lines[i]);
+    if (k + 1 < n) {
+      if (j.stop_after[k]) {
+        pending_stop = true;
+        ++stops;
+      }
+      const double feed = std::min(stretch.feed_mm_per_s[i], stretch.feed_mm_per_s[idx[k + 1]]);
+      for (const Segment& s : j.blends[k]) add(s, feed, stretch.source_lines[idx[k + 1]]);
+    }
+  }
+  // Make consecutive pieces share their end points exactly (trimmed ends are computed from
+  // either side with the same formula; blends end where the next piece starts).
+  for (std::size_t k = 1; k < path.segments.size(); ++k) path.segments[k].start = path.segments[k - 1].end;
+  return stops;
+}
+
+// Step 3: zones, consecutive pieces whose speed caps agree within kZoneMergeRel, with the
+// tangential acceleration table of those holding arcs.
+std::vector<Zone> make_zones(const Stretch& path, const std::vector<PieceInfo>& info,
+                             const std::vector<double>& piece_s0, const Vector2d& amax) {
+  std::vector<Zone> zones;
+  for (std::size_t k = 0; k < info.size(); ++k) {
+    const PieceInfo& pi = info[k];
+    const double l = length(path.segments[k]);
+    bool join = !zones.empty() && !pi.stop_before;
+    if (join) join = std::abs(pi.cap - info[zones.back().first].cap) <= kZoneMergeRel * info[zones.back().first].cap;
+    if (!join) {
+      Zone z;
+      z.first = k;
+      z.s0 = piece_s0[k];
+      z.cap = pi.cap;
+      zones.push_back(z);
+    }
+    Zone& z = zones.back();
+    z.last = k;
+    z.length += l;
+    z.cap = std::min(z.cap, pi.cap);
+    z.a_line = std::min(z.a_line, pi.a_line);
+    z.kappa = std::max(z.kappa, pi.kappa);
+    z.jerk = std::min(z.jerk, pi.jerk);
+  }
+  for (Zone& z : zones) {
+    if (!(z.kappa > 0.0)) continue;
+    z.a_arc.assign(kAccelTable + 1, std::numeric_limits<double>::infinity());
+    for (std::size_t k = z.first; k <= z.last; ++k) {
+      if (!(info[k].arc.kappa > 0.0)) continue;
+      for (int t = 0; t <= kAccelTable; ++t)
+        z.a_arc[t] = std::min(z.a_arc[t], arc_tangential_accel(info[k].arc, z.cap * t / kAccelTable, amax));
+    }
+  }
+  return zones;
+}
+
+// Step 3: the node speeds between zones: caps (0 at a stop), then the reverse and forward
+// passes.
+std::vector<double> node_speeds(const std::vector<Zone>& zones, const std::vector<PieceInfo>& info) {
+  const std::size_t nz = zones.size();
+  std::vector<double> node(nz + 1, 0.0);
+  for (std::size_t k = 1; k < nz; ++k)
+    node[k] = info[zones[k].first].stop_before ? 0.0 : std::min(zones[k - 1].cap, zones[k].cap);
+  for (std::size_t k = nz; k-- > 1;)
+    node[k] = std::min(node[k], reachable(node[k + 1], zones[k], node[k]));
+  for (std::size_t k = 1; k < nz; ++k)
+    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1], node[k]));
+  return node;
+}
+
+// Step 3: one accelerate / cruise / decelerate profile per zone, at the highest peak speed
+// that fits its length, into `phases`; returns the duration.
+double build_profile(const std::vector<Zone>& zones, const std::vector<double>& node,
+                     std::vector<ProfilePhase>& phases) {
+  ProfileBuilder pb(phases);
+  for (std::size_t k = 0; k < zones.size(); ++k) {
+    const Zone& z = zones[k];
+    const double v0 = node[k], v1 = node[k + 1];
+    auto need = [&](double vp) { return transition_distance(v0, vp, z) + transition_distance(vp, v1, z); };
+    double vp = z.cap;
+    if (need(vp) > z.length) {
+      double lo = std::max(v0, v1), hi = z.cap;
+      for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (need(mid) <= z.length ? lo : hi) = mid;
+      }
+      vp = lo;
+    }
+    pb.anchor(pb.t(), z.s0, v0);
+    pb.transition(v0, vp, z);
+    const double cruise = z.length - need(vp);
+    if (cruise > 0.0 && vp > 0.0) pb.phase(0.0, cruise / vp);
+    pb.transition(vp, v1, z);
+  }
+  return pb.t();
+}
+
 }  // namespace
 
 PlannerOptions PlannerOptions::thermal_gantry() { return PlannerOptions{}; }
@@ -351,7 +566,6 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
   o.validate();
   validate_stretch(stretch);
   auto traj = std::make_unique<PlannedTrajectory>();
-  const double tol = o.path_tolerance_mm;
 
   // Non-degenerate programmed segments.
   std::vector<std::size_t> idx;
@@ -371,104 +585,13 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
   }
 
   // 1. Junctions: blend, pass or stop.
-  const std::size_t n = idx.size();
-  std::vector<double> len(n), trim_start(n, 0.0), trim_end(n, 0.0);
-  for (std::size_t k = 0; k < n; ++k) len[k] = length(stretch.segments[idx[k]]);
-  std::vector<std::vector<Segment>> blends(n);  // blends[k]: between k and k+1
-  std::vector<bool> stop_after(n, false);
-  for (std::size_t k = 0; k + 1 < n; ++k) {
-    const Segment& a = stretch.segments[idx[k]];
-    const Segment& b = stretch.segments[idx[k + 1]];
-    const Vector2d te = interpolate(a, len[k]).tangent, ts = interpolate(b, 0.0).tangent;
-    const double phi = std::atan2(std::abs(cross(te, ts)), te.dot(ts));
-    if (phi <= kTangentRad) continue;
-    if (phi > kStopAngleRad) {
-      stop_after[k] = true;
-      continue;
-    }
-    const double d_max = std::min(0.5 * len[k], 0.5 * len[k + 1]);
-    const double q = std::tan(phi / 4.0);
-    std::vector<Segment> pieces;
-    double dev = 0.0;
-    double d = std::min(0.999 * tol / q, d_max);
-    if (!a.is_arc() && !b.is_arc()) {
-      if (d >= kMinBlendMm) {
-        const Vector2d p1 = interpolate(a, len[k] - d).position_mm, p2 = interpolate(b, d).position_mm;
-        Segment s = arc_from(p1, te, p2);
-        s.end = p2;
-        pieces.push_back(s);
-        dev = d * q;
-      }
-    } else {
-      d = std::min(tol / q, d_max);
-      for (int it = 0; it < 60 && d >= kMinBlendMm; ++it, d *= 0.5) {
-        const PathPoint p1 = interpolate(a, len[k] - d), p2 = interpolate(b, d);
-        pieces = biarc(p1.position_mm, p1.tangent, p2.position_mm, p2.tangent);
-        if (pieces.empty()) continue;
-        dev = sampled_deviation(pieces, a, b);
-        if (dev <= 0.9 * tol) break;
-        pieces.clear();
-      }
-    }
-    if (pieces.empty()) {
-      stop_after[k] = true;
-      continue;
-    }
-    trim_end[k] = d;
-    trim_start[k + 1] = d;
-    blends[k] = std::move(pieces);
-    traj->max_deviation_mm_ = std::max(traj->max_deviation_mm_, dev);
-    ++traj->blended_;
-  }
+  const Junctions junctions = plan_junctions(stretch, idx, o.path_tolerance_mm);
+  traj->max_deviation_mm_ = junctions.max_deviation_mm;
+  traj->blended_ = junctions.blended;
 
   // 2. The executed path and the caps of each piece.
   std::vector<PieceInfo> info;
-  const Vector2d& vmax = o.max_velocity_mm_per_s;
-  const Vector2d& amax = o.max_acceleration_mm_per_s2;
-  const double f_n = o.curve_normal_fraction;
-  bool pending_stop = false;
-  auto add = [&](const Segment& s, double feed, int line) {
-    PieceInfo pi;
-    pi.stop_before = pending_stop && !path.segments.empty();
-    pending_stop = false;
-    if (s.is_arc()) {
-      const double r = s.radius;
-      // The radial angle range; the tangent is perpendicular, so |u_x| = |sin|, |u_y| = |cos|.
-      pi.arc = arc_range(s);
-      const double nx = pi.arc.n_max[0], ny = pi.arc.n_max[1];
-      const double a_n = axis_cap(amax, nx, ny);        // most normal acceleration everywhere on the arc
-      const double v_axes = axis_cap(vmax, ny, nx);     // |u_x| = |sin| <= ny, |u_y| = |cos| <= nx
-      pi.cap = std::min({feed, v_axes, std::sqrt(f_n * a_n * r), std::sqrt(8.0 * r * tol) / o.servo_period_s});
-      pi.kappa = 1.0 / r;
-      pi.jerk = o.max_jerk_mm_per_s3;
-    } else {
-      const Vector2d u = (s.end - s.start).normalized();
-      pi.cap = std::min(feed, axis_cap(vmax, std::abs(u.x()), std::abs(u.y())));
-      pi.a_line = axis_cap(amax, std::abs(u.x()), std::abs(u.y()));
-      pi.jerk = o.max_jerk_mm_per_s3 / std::max(std::abs(u.x()), std::abs(u.y()));
-    }
-    path.segments.push_back(s);
-    path.feed_mm_per_s.push_back(feed);
-    path.source_lines.push_back(line);
-    info.push_back(pi);
-  };
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t i = idx[k];
-    const double a = trim_start[k], b = len[k] - trim_end[k];
-    if (b - a > kMinPieceMm) add(sub_segment(stretch.segments[i], a, b), stretch.feed_mm_per_s[i], stretch.source_lines[i]);
-    if (k + 1 < n) {
-      if (stop_after[k]) {
-        pending_stop = true;
-        ++traj->stops_;
-      }
-      const double feed = std::min(stretch.feed_mm_per_s[i], stretch.feed_mm_per_s[idx[k + 1]]);
-      for (const Segment& s : blends[k]) add(s, feed, stretch.source_lines[idx[k + 1]]);
-    }
-  }
-  // Make consecutive pieces share their end points exactly (trimmed ends are computed from
-  // either side with the same formula; blends end where the next piece starts).
-  for (std::size_t k = 1; k < path.segments.size(); ++k) path.segments[k].start = path.segments[k - 1].end;
-
+  traj->stops_ = build_executed_path(stretch, idx, junctions, o, path, info);
   double total = 0.0;
   for (const Segment& s : path.segments) {
     traj->piece_s0_.push_back(total);
@@ -476,71 +599,10 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
   }
   traj->length_mm_ = total;
 
-  // 3. Zones: consecutive pieces whose speed caps agree within kZoneMergeRel.
-  std::vector<Zone> zones;
-  for (std::size_t k = 0; k < info.size(); ++k) {
-    const PieceInfo& pi = info[k];
-    const double l = length(path.segments[k]);
-    bool join = !zones.empty() && !pi.stop_before;
-    if (join) join = std::abs(pi.cap - info[zones.back().first].cap) <= kZoneMergeRel * info[zones.back().first].cap;
-    if (!join) {
-      Zone z;
-      z.first = k;
-      z.s0 = traj->piece_s0_[k];
-      z.cap = pi.cap;
-      zones.push_back(z);
-    }
-    Zone& z = zones.back();
-    z.last = k;
-    z.length += l;
-    z.cap = std::min(z.cap, pi.cap);
-    z.a_line = std::min(z.a_line, pi.a_line);
-    z.kappa = std::max(z.kappa, pi.kappa);
-    z.jerk = std::min(z.jerk, pi.jerk);
-  }
-
-  for (Zone& z : zones) {
-    if (!(z.kappa > 0.0)) continue;
-    z.a_arc.assign(kAccelTable + 1, std::numeric_limits<double>::infinity());
-    for (std::size_t k = z.first; k <= z.last; ++k) {
-      if (!(info[k].arc.kappa > 0.0)) continue;
-      for (int t = 0; t <= kAccelTable; ++t)
-        z.a_arc[t] = std::min(z.a_arc[t], arc_tangential_accel(info[k].arc, z.cap * t / kAccelTable, amax));
-    }
-  }
-
-  // 4. Node speeds: caps, then the reverse and forward passes.
-  const std::size_t nz = zones.size();
-  std::vector<double> node(nz + 1, 0.0);
-  for (std::size_t k = 1; k < nz; ++k)
-    node[k] = info[zones[k].first].stop_before ? 0.0 : std::min(zones[k - 1].cap, zones[k].cap);
-  for (std::size_t k = nz; k-- > 1;)
-    node[k] = std::min(node[k], reachable(node[k + 1], zones[k], node[k]));
-  for (std::size_t k = 1; k < nz; ++k)
-    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1], node[k]));
-
-  // 5. One accelerate / cruise / decelerate profile per zone.
-  ProfileBuilder pb(traj->phases_);
-  for (std::size_t k = 0; k < nz; ++k) {
-    const Zone& z = zones[k];
-    const double v0 = node[k], v1 = node[k + 1];
-    auto need = [&](double vp) { return transition_distance(v0, vp, z) + transition_distance(vp, v1, z); };
-    double vp = z.cap;
-    if (need(vp) > z.length) {
-      double lo = std::max(v0, v1), hi = z.cap;
-      for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (need(mid) <= z.length ? lo : hi) = mid;
-      }
-      vp = lo;
-    }
-    pb.anchor(pb.t(), z.s0, v0);
-    pb.transition(v0, vp, z);
-    const double cruise = z.length - need(vp);
-    if (cruise > 0.0 && vp > 0.0) pb.phase(0.0, cruise / vp);
-    pb.transition(vp, v1, z);
-  }
-  traj->duration_s_ = pb.t();
+  // 3. Zones, node speeds (reverse and forward passes), one profile per zone.
+  const std::vector<Zone> zones = make_zones(path, info, traj->piece_s0_, o.max_acceleration_mm_per_s2);
+  const std::vector<double> node = node_speeds(zones, info);
+  traj->duration_s_ = build_profile(zones, node, traj->phases_);
   for (const ProfilePhase& p : traj->phases_) traj->phase_t0_.push_back(p.t0_s);
   return traj;
 }

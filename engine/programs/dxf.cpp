@@ -253,7 +253,7 @@ Scan scan(std::string_view text, const std::string& source) {
       if (i + 1 >= pairs.size() || pairs[i + 1].code != 2)
         throw InputError(source, p.line, "0/SECTION is not followed by its name (group code 2)");
       section = pairs[i + 1].value;
-      if (section.empty()) section = "?";
+      if (section.empty()) section.push_back('?');  // not = "?": g++ 12 warns falsely (-Wrestrict)
       i += 2;
       continue;
     }

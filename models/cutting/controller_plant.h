@@ -11,7 +11,7 @@
 namespace machplan::cutting {
 
 inline control::ControllerPlant controller_plant(const MachineConfig& m) {
-  control::ControllerPlant p = control::plant_from_setup(m.setup());
+  control::ControllerPlant p = executor::plant_from_setup(m.setup());
   for (int i = 0; i < control::kAxes; ++i) {
     p.drive_time_constant_s[i] = m.axes[i].plant.velocity_loop_time_constant_s;
     p.gain_factor[i] = m.axes[i].plant.gain_factor;

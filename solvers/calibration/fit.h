@@ -39,10 +39,11 @@
 //    top speed, a non-linear amplifier) shows as a spread (`by_speed_spread`) instead of hiding
 //    in the one number.
 //
-// What the data must hold, and what the fit says otherwise (status not_identifiable, with the
-// parameter named in the message; never a silent default): motion on the axis (feed factor),
-// two reference readings at different places (encoder scale), strokes at two or more speeds
-// (dead band vs feed factor), a reversal (backlash), steps of speed command (lag and latency).
+// What the data must hold, and what the fit says otherwise (summary infeasible, "not
+// identifiable" in the report and the JSON, with the parameter named in the message; never a
+// silent default): motion on the axis (feed factor), two reference readings at different
+// places (encoder scale), strokes at two or more speeds (dead band vs feed factor), a reversal
+// (backlash), steps of speed command (lag and latency).
 //
 // Ceres stays inside fit.cpp: this header shows only machplan's types.
 #pragma once
@@ -52,6 +53,9 @@
 #include <vector>
 
 #include "engine/calibration/session_log.h"
+#include "engine/common/progress.h"
+#include "engine/common/summary.h"
+#include "engine/common/termination.h"
 #include "models/cutting/machine_config.h"
 
 namespace machplan::calibration {
@@ -103,23 +107,36 @@ struct AxisFit {
 };
 
 struct CalibrationFit {
-  enum class Status { ok, not_identifiable };
-  Status status = Status::ok;
-  std::string message;            // why not identifiable, naming axis and parameter
   std::string machine;
   std::array<AxisFit, 2> axes;
   double rms_residual_mm = 0.0;   // over both axes
   double period_s = 0.0;          // sampling period found in the log
+  // How the fit ended: done (every factor determined), infeasible (the log does not determine
+  // a parameter: the message names each as AXIS.PARAMETER with the reason; the figures are
+  // where the solver ended, not a calibration), or cancelled / deadline / budget (the
+  // Termination ended it: an axis it had not finished is not fitted). brief_report() is one
+  // line, full_report() what `machplan calibrate fit` prints.
+  Summary summary;
 
-  std::string report() const;     // human-readable
+  // The status word of the JSON form and of the calibration store: "ok" (done), "not
+  // identifiable" (infeasible), else the summary's status ("cancelled", "deadline", "budget").
+  const char* status_label() const;
   std::string json() const;       // the --json form
 };
-const char* to_string(CalibrationFit::Status s);
 
 // Fits `log` against the nominal machine `machine` (DAC scale, drive current limit, counter
 // width, and the starting point of the search). Throws InputError naming the log line for
-// logs the fit cannot use at all (irregular sampling, an axis absent); returns
-// not_identifiable for logs that do not determine a parameter.
+// logs the fit cannot use at all (irregular sampling, an axis absent); returns an infeasible
+// summary for logs that do not determine a parameter.
+//
+// The work is the dynamics fit, one Ceres iteration after another, each integrating the whole
+// session once more: each iteration charges `term` one unit ("iterations") and the seconds of
+// session it integrated, and reports to `progress` (may be null; each axis is half). When
+// `term` ends, the solve stops after the current iteration and the fit is not done.
+CalibrationFit fit_session(const SessionLog& log, const cutting::MachineConfig& machine, const FitOptions& o,
+                           Termination& term, Progress* progress = nullptr);
+// The same without a stop, deadline or budget: runs to the end (at most
+// FitOptions::max_iterations iterations per axis).
 CalibrationFit fit_session(const SessionLog& log, const cutting::MachineConfig& machine, const FitOptions& o = {});
 
 // The true factors of a simulated machine, in the fit's terms (feed factor, dead band and lag

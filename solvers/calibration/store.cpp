@@ -91,9 +91,9 @@ CalibrationStore::~CalibrationStore() = default;
 std::int64_t CalibrationStore::apply(const CalibrationFit& fit, const std::string& log_path,
                                      const std::string& log_bytes, const std::string& who,
                                      void (*before_commit)()) {
-  if (fit.status != CalibrationFit::Status::ok)
+  if (!fit.summary.done())
     throw Infeasible(fmt::format("a fit with status '{}' cannot become the active calibration: {}",
-                                 to_string(fit.status), fit.message));
+                                 fit.status_label(), fit.summary.message));
   return db_->transaction([&] {
     const std::string when = store::now_utc();
     store::Statement s(*db_, "INSERT INTO sessions(machine, log_path, log_hash, who, added_utc) VALUES(?,?,?,?,?)");
@@ -107,7 +107,7 @@ std::int64_t CalibrationStore::apply(const CalibrationFit& fit, const std::strin
     store::Statement f(*db_, "INSERT INTO fits(session_id, machine, status, fit_json, who, created_utc) VALUES(?,?,?,?,?,?)");
     f.bind(1, session);
     f.bind(2, fit.machine);
-    f.bind(3, std::string(to_string(fit.status)));
+    f.bind(3, std::string(fit.status_label()));
     f.bind(4, fit.json());
     f.bind(5, who);
     f.bind(6, when);
@@ -162,6 +162,26 @@ double open_loop_factor(const StoredFit& c, double feed_mm_per_s) {
     sum += (feed_mm_per_s + c.dead_band_mm_per_s[a]) / (c.feed_factor[a] * feed_mm_per_s);
   }
   return sum / 2;
+}
+
+std::string history_report(const std::vector<StoredFit>& fits) {
+  if (fits.empty()) return "no calibrations stored\n";
+  std::string s;
+  for (const auto& f : fits)
+    s += fmt::format("fit {}{}  {}  {} by {}  feed x {:.5f} y {:.5f}  backlash x {:.4f} y {:.4f} mm  log {} ({})\n",
+                     f.fit_id, f.active ? " (active)" : "", f.machine, f.created_utc, f.who, f.feed_factor[0],
+                     f.feed_factor[1], f.backlash_mm[0], f.backlash_mm[1], f.log_path, f.log_hash);
+  return s;
+}
+
+std::string calibration_report(const StoredFit& c, std::optional<double> feed_mm_per_s) {
+  std::string s = fmt::format("active calibration for {}: fit {} of {} by {}\n", c.machine, c.fit_id, c.created_utc, c.who);
+  for (int i = 0; i < 2; ++i)
+    s += fmt::format("  {}: feed factor {:.5f}, dead band {:.4f} mm/s, {:.7f} mm/count, backlash {:.4f} mm\n",
+                     i ? "y" : "x", c.feed_factor[i], c.dead_band_mm_per_s[i], c.mm_per_count[i], c.backlash_mm[i]);
+  if (feed_mm_per_s)
+    s += fmt::format("open-loop factor at {:g} mm/s: {:.5f}\n", *feed_mm_per_s, open_loop_factor(c, *feed_mm_per_s));
+  return s;
 }
 
 }  // namespace machplan::calibration

@@ -71,4 +71,11 @@ class CalibrationStore {
 // One session gives it for every feed; the paper measured it anew for each.
 double open_loop_factor(const StoredFit& calibration, double feed_mm_per_s);
 
+// What `machplan calibrate history` prints: one line per stored fit in the order given (newest
+// first from history()), the active one marked; "no calibrations stored" when there is none.
+std::string history_report(const std::vector<StoredFit>& fits);
+// What `machplan calibrate show` prints: the active calibration's factors per axis, and with
+// a feed the paper modes' open-loop factor for it (open_loop_factor()).
+std::string calibration_report(const StoredFit& calibration, std::optional<double> feed_mm_per_s = std::nullopt);
+
 }  // namespace machplan::calibration

@@ -1,5 +1,5 @@
 // The SQLite file behind machplan's stores (calibrations in solvers/calibration/store.h, tuned
-// gains in solvers/tuning/store.h): one file, each store owning its own tables.
+// gains in solvers/session/tuning_store.h): one file, each store owning its own tables.
 //
 // Opening never creates folders: a --db path in a folder that does not exist is an error, so a
 // typing mistake cannot scatter databases over the disk. Only the default location

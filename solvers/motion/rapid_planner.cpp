@@ -507,6 +507,45 @@ bool leaves_directly(const Vector2d& from, const Vector2d& to, const Zones& zone
   return true;
 }
 
+// The box the rapid may use: the options' bounds, or the box round its ends and the zones
+// grown by the automatic margin and the clearance.
+Eigen::AlignedBox2d travel_box(const Vector2d& from, const Vector2d& to, const std::vector<Contour>& no_go,
+                               const RapidOptions& options) {
+  Eigen::AlignedBox2d bounds = options.bounds;
+  if (bounds.isEmpty()) {
+    bounds.extend(from);
+    bounds.extend(to);
+    for (const Contour& z : no_go)
+      if (!z.empty()) bounds.extend(bounding_box(z));
+    bounds.min().array() -= options.auto_margin_mm + options.clearance_mm;
+    bounds.max().array() += options.auto_margin_mm + options.clearance_mm;
+  }
+  return bounds;
+}
+
+// Step 5: the path smoothed by B-splines (OMPL's simplifier), its collinear points dropped,
+// kept only if it stays clear; its ends stay bit-exact. Returns the report's note ("" or why
+// the unsmoothed path was kept).
+std::string smooth_path(Polyline& best, bool& smoothed, const ob::SpaceInformationPtr& si, const Zones& zones,
+                        std::uint32_t seed) {
+  if (best.size() <= 2) return "";
+  const Vector2d a = best.front(), b = best.back();
+  og::PathGeometric path(si);
+  for (const Vector2d& q : best) {
+    ob::ScopedState<ob::RealVectorStateSpace> s(si->getStateSpace());
+    s[0] = q.x(), s[1] = q.y();
+    path.append(s.get());
+  }
+  SeededSimplifier simplifier(si, derive_seed(seed, 0, 4));
+  simplifier.smoothBSpline(path, 3);
+  Polyline smooth = drop_collinear(to_polyline(path), zones, 0.01);
+  smooth.front() = a, smooth.back() = b;
+  if (!zones.polyline_clear(smooth)) return "; smoothing broke the clearance, unsmoothed path kept";
+  smoothed = smooth != best;
+  best = std::move(smooth);
+  return "";
+}
+
 RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector<Contour>& no_go,
                      const RapidOptions& options, std::size_t first_part_zone) {
   options.validate();
@@ -514,17 +553,7 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector
   RapidPlan plan;
   plan.straight_length_mm = (to - from).norm();
   const Zones zones(no_go, options.clearance_mm);
-  const double c = options.clearance_mm;
-
-  Eigen::AlignedBox2d bounds = options.bounds;
-  if (bounds.isEmpty()) {
-    bounds.extend(from);
-    bounds.extend(to);
-    for (const Contour& z : no_go)
-      if (!z.empty()) bounds.extend(bounding_box(z));
-    bounds.min().array() -= options.auto_margin_mm + c;
-    bounds.max().array() += options.auto_margin_mm + c;
-  }
+  const Eigen::AlignedBox2d bounds = travel_box(from, to, no_go, options);
   if (!bounds.contains(from) || !bounds.contains(to)) {
     plan.status = RapidStatus::out_of_bounds;
     plan.message = fmt::format("({:.3f}, {:.3f}) or ({:.3f}, {:.3f}) lies outside the travel box", from.x(),
@@ -656,25 +685,7 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector
   }
 
   // Step 5.
-  std::string smooth_note;
-  if (options.smooth && best.size() > 2) {
-    og::PathGeometric path(si);
-    for (const Vector2d& q : best) {
-      ob::ScopedState<ob::RealVectorStateSpace> s(space);
-      s[0] = q.x(), s[1] = q.y();
-      path.append(s.get());
-    }
-    SeededSimplifier simplifier(si, derive_seed(options.seed, 0, 4));
-    simplifier.smoothBSpline(path, 3);
-    Polyline smooth = drop_collinear(to_polyline(path), zones, 0.01);
-    smooth.front() = a, smooth.back() = b;
-    if (zones.polyline_clear(smooth)) {
-      plan.smoothed = smooth != best;
-      best = std::move(smooth);
-    } else {
-      smooth_note = "; smoothing broke the clearance, unsmoothed path kept";
-    }
-  }
+  const std::string smooth_note = options.smooth ? smooth_path(best, plan.smoothed, si, zones, options.seed) : "";
   return finish(RapidStatus::planned, std::move(best), start, end,
                 fmt::format("planned round the zones ({} of {} attempts found a path, {} samples{}){}{}", found,
                             options.attempts, plan.samples, timed_out ? ", time limit reached" : "", escape_note,

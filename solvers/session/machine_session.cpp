@@ -8,7 +8,7 @@
 #include "engine/common/error.h"
 #include "models/cutting/controller_plant.h"
 #include "solvers/calibration/apply.h"
-#include "solvers/tuning/store.h"
+#include "solvers/session/tuning_store.h"
 
 namespace machplan::session {
 

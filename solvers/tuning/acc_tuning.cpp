@@ -39,8 +39,8 @@ AccScore score_acc_gain(const AccTuningOptions& o, double gain) {
   const double engage = 0.5, step_at = engage + o.settle_before_step_s, end = step_at + o.window_s;
   for (double a : o.base_depths_mm) {
     const auto run =
-        control::simulate_acc(o.process, acc, {{engage, a}, {step_at, a + o.depth_step_mm}}, end);
-    control::AccStepResponse r = control::acc_step_response(run, acc.reference_force_n, step_at, end, o.band);
+        turning::simulate_acc(o.process, acc, {{engage, a}, {step_at, a + o.depth_step_mm}}, end);
+    turning::AccStepResponse r = turning::acc_step_response(run, acc.reference_force_n, step_at, end, o.band);
     s.worst_settling_s = std::max(s.worst_settling_s, std::isfinite(r.settling_s) ? r.settling_s : 2.0 * o.window_s);
     s.worst_overshoot = std::max(s.worst_overshoot, r.overshoot);
     s.steps.push_back(r);

@@ -1,11 +1,12 @@
-// Tuning the adaptive control constraint's gain (engine/control/acc.h) with NLopt: the
+// Tuning the adaptive control constraint's gain (engine/control/acc.h) with NLopt on the turning
+// model (models/turning/turning_process.h): the
 // fastest settling of the cutting force after a depth-of-cut step, without overshoot, over a
 // range of depths.
 //
 // For each base depth a in `base_depths_mm` the loop engages at a and, once settled, meets a
 // step to a + `depth_step_mm` (a stepped shaft). Objective: the worst settling time (into
 // +-band of F_r) over the steps; a step that never settles counts as twice its window.
-// Constraint: the overshoot of every step (engine/control/acc.h, acc_step_response) at most
+// Constraint: the overshoot of every step (models/turning/turning_process.h, acc_step_response) at most
 // `max_overshoot` of F_r. The one gain is Kc for the fixed law and L0 for the variable-gain
 // law; the optimiser is the two-stage one of solvers/tuning/optimizer.h.
 #pragma once
@@ -16,12 +17,13 @@
 #include "engine/control/acc.h"
 #include "engine/common/summary.h"
 #include "engine/common/termination.h"
+#include "models/turning/turning_process.h"
 #include "solvers/tuning/optimizer.h"
 
 namespace machplan::tuning {
 
 struct AccTuningOptions {
-  control::TurningProcess process;
+  turning::TurningProcess process;
   control::AccOptions acc;               // variable_gain chooses the law; its gain is the start
   std::vector<double> base_depths_mm{1.0, 2.0, 3.0, 4.0, 5.0, 6.0};
   double depth_step_mm = 2.0;
@@ -43,7 +45,7 @@ struct AccTuningOptions {
 struct AccScore {
   double worst_settling_s = 0.0;
   double worst_overshoot = 0.0;
-  std::vector<control::AccStepResponse> steps;  // one per base depth
+  std::vector<turning::AccStepResponse> steps;  // one per base depth
 };
 
 // The score of one gain (Kc or L0 by options.acc.variable_gain).

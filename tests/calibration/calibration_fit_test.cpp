@@ -60,11 +60,11 @@ SessionLog record(const cutting::MachineConfig& truth, std::uint64_t seed, Recor
 }
 
 void expect_recovers(const cutting::MachineConfig& truth, const CalibrationFit& fit) {
-  ASSERT_EQ(fit.status, CalibrationFit::Status::ok) << fit.message << "\n" << fit.report();
+  ASSERT_EQ(fit.summary.status, Status::done) << fit.summary.full_report();
   for (int a = 0; a < 2; ++a) {
     const AxisFit t = true_factors(truth, nominal(), a);
     const AxisFit& f = fit.axes[a];
-    SCOPED_TRACE(fit.report());
+    SCOPED_TRACE(fit.summary.full_report());
     SCOPED_TRACE(fmt::format("axis {}: truth k {:.5f} s {:.7f} b {:.4f} tau {:.5f} L {:.4f} d {:.4f}", f.axis, t.feed_factor,
                              t.mm_per_count, t.backlash_mm, t.lag_s, t.latency_s, t.dead_band_mm_per_s));
     EXPECT_NEAR(f.feed_factor / t.feed_factor, 1.0, 0.002);
@@ -149,9 +149,9 @@ TEST(CalibrationFit, NoReferenceReadingsMakeTheScaleNotIdentifiable) {
   auto log = record(with_truth({}), 7);
   for (auto& s : log.samples) s.has_ref = false;
   const auto fit = fit_session(log, nominal());
-  EXPECT_EQ(fit.status, CalibrationFit::Status::not_identifiable);
-  EXPECT_NE(fit.message.find("x.mm_per_count"), std::string::npos) << fit.message;
-  EXPECT_NE(fit.message.find("no reference readings"), std::string::npos) << fit.message;
+  EXPECT_EQ(fit.summary.status, Status::infeasible);
+  EXPECT_NE(fit.summary.message.find("x.mm_per_count"), std::string::npos) << fit.summary.message;
+  EXPECT_NE(fit.summary.message.find("no reference readings"), std::string::npos) << fit.summary.message;
 }
 
 TEST(CalibrationFit, AnAxisWithNoMotionIsNamed) {
@@ -164,16 +164,16 @@ TEST(CalibrationFit, AnAxisWithNoMotionIsNamed) {
     s.counter = frozen;  // the y axis is jammed: commands, but no counts
   }
   const auto fit = fit_session(log, nominal());
-  EXPECT_EQ(fit.status, CalibrationFit::Status::not_identifiable);
-  EXPECT_NE(fit.message.find("y.feed_factor: the axis never moved"), std::string::npos) << fit.message;
-  EXPECT_EQ(fit.message.find("x."), std::string::npos) << fit.message;  // x is fine
+  EXPECT_EQ(fit.summary.status, Status::infeasible);
+  EXPECT_NE(fit.summary.message.find("y.feed_factor: the axis never moved"), std::string::npos) << fit.summary.message;
+  EXPECT_EQ(fit.summary.message.find("x."), std::string::npos) << fit.summary.message;  // x is fine
 }
 
-TEST(CalibrationFit, OneSpeedAndOneDirectionLeaveDeadBandAndBacklashOpen) {
+// A session cut after the first, positive stroke of each axis: one speed, one direction.
+SessionLog first_stroke_only() {
   RecordOptions o;
   o.speed_fractions = {0.4};
   auto log = record(with_truth({}), 9, o);
-  // Keep only the first, positive stroke of each axis.
   std::vector<LogSample> kept;
   bool negative_seen = false;
   for (const auto& s : log.samples) {
@@ -181,10 +181,82 @@ TEST(CalibrationFit, OneSpeedAndOneDirectionLeaveDeadBandAndBacklashOpen) {
     if (!negative_seen) kept.push_back(s);
   }
   log.samples = kept;
-  const auto fit = fit_session(log, nominal());
-  EXPECT_EQ(fit.status, CalibrationFit::Status::not_identifiable);
-  EXPECT_NE(fit.message.find("x.dead_band_mm_per_s"), std::string::npos) << fit.message;
-  EXPECT_NE(fit.message.find("x.backlash_mm: the axis never reversed"), std::string::npos) << fit.message;
+  return log;
+}
+
+TEST(CalibrationFit, OneSpeedAndOneDirectionLeaveDeadBandAndBacklashOpen) {
+  const auto fit = fit_session(first_stroke_only(), nominal());
+  EXPECT_EQ(fit.summary.status, Status::infeasible);
+  EXPECT_NE(fit.summary.message.find("x.dead_band_mm_per_s"), std::string::npos) << fit.summary.message;
+  EXPECT_NE(fit.summary.message.find("x.backlash_mm: the axis never reversed"), std::string::npos) << fit.summary.message;
+}
+
+TEST(CalibrationFit, TheReportMarksWhatTheLogDoesNotDetermine) {
+  const auto fit = fit_session(first_stroke_only(), nominal());
+  ASSERT_EQ(fit.summary.status, Status::infeasible) << fit.summary.full_report();
+  EXPECT_EQ(fit.summary.exit_code(), 3);
+  EXPECT_STREQ(fit.status_label(), "not identifiable");
+  const std::string& r = fit.summary.full_report();
+  // The backlash and dead band lines of x are marked, x's encoder scale is not.
+  const auto x = r.find("axis x:"), y = r.find("axis y:");
+  ASSERT_NE(x, std::string::npos);
+  ASSERT_NE(y, std::string::npos);
+  const std::string xs = r.substr(x, y - x);
+  const auto line_of = [&](const std::string& label) { return xs.substr(xs.find(label), xs.find('\n', xs.find(label)) - xs.find(label)); };
+  EXPECT_NE(line_of("backlash").find("(not identifiable)"), std::string::npos) << r;
+  EXPECT_NE(line_of("dead band").find("(not identifiable)"), std::string::npos) << r;
+  EXPECT_EQ(line_of("mm_per_count").find("(not identifiable)"), std::string::npos) << r;
+  EXPECT_EQ(fit.summary.brief_report().find("calibration fit for thermal_gantry: not identifiable: "), 0u)
+      << fit.summary.brief_report();
+  EXPECT_NE(fit.summary.brief_report().find("x.backlash_mm"), std::string::npos)
+      << fit.summary.brief_report();
+}
+
+TEST(CalibrationFit, ADoneFitHasOneLineBriefAndTheFullReport) {
+  const auto fit = fit_session(record(with_truth({}), 4), nominal());
+  ASSERT_TRUE(fit.summary.done()) << fit.summary.full_report();
+  EXPECT_STREQ(fit.status_label(), "ok");
+  EXPECT_EQ(fit.summary.brief_report().find('\n'), std::string::npos);
+  EXPECT_NE(fit.summary.brief_report().find(fmt::format("{:.5f}", fit.axes[0].feed_factor)), std::string::npos);
+  EXPECT_NE(fit.summary.full_report().find(fmt::format("{:.5f}", fit.axes[1].lag_s)), std::string::npos);
+}
+
+TEST(CalibrationFit, ABudgetOfIterationsEndsTheFitUnfitted) {
+  const auto log = record(with_truth({}), 5);
+  Termination term;
+  term.set_budget(3, "iterations");
+  Progress progress;
+  const auto fit = fit_session(log, nominal(), {}, term, &progress);
+  EXPECT_EQ(fit.summary.status, Status::budget) << fit.summary.full_report();
+  EXPECT_EQ(term.units_spent(), 3);
+  // Neither axis reports factors as if measured.
+  EXPECT_FALSE(fit.axes[0].fitted);
+  EXPECT_FALSE(fit.axes[1].fitted);
+  EXPECT_EQ(fit.summary.full_report().find("feed_factor"), std::string::npos) << fit.summary.full_report();
+  EXPECT_NE(fit.summary.message.find("3 iterations"), std::string::npos) << fit.summary.message;
+  EXPECT_EQ(progress.share(), 1.0);
+}
+
+TEST(CalibrationFit, AStopRequestCancelsAndTheWorkIsChargedInSessionSeconds) {
+  const auto log = record(with_truth({}), 6);
+  {
+    Termination unlimited;
+    Progress progress;
+    const auto fit = fit_session(log, nominal(), {}, unlimited, &progress);
+    ASSERT_TRUE(fit.summary.done());
+    // Every iteration integrates the session once: the work charged is iterations x its length.
+    const int iterations = fit.axes[0].iterations + fit.axes[1].iterations;
+    EXPECT_EQ(unlimited.units_spent(), iterations);
+    const double per_axis = fit.axes[0].samples * fit.period_s;
+    EXPECT_NEAR(unlimited.work_s_spent(), iterations * per_axis, 1e-6 * iterations * per_axis);
+  }
+  StopSource stop;
+  stop.request_stop();
+  Termination term(stop.token());
+  const auto fit = fit_session(log, nominal(), {}, term);
+  EXPECT_EQ(fit.summary.status, Status::cancelled);
+  EXPECT_EQ(fit.summary.exit_code(), 3);
+  EXPECT_FALSE(fit.axes[0].fitted);
 }
 
 TEST(CalibrationFit, IrregularSamplingNamesTheLine) {
@@ -280,7 +352,7 @@ TEST(CalibrationFit, FeedFactorBySpeedShowsADriveThatSaturates) {
   const auto& x = fit.axes[0];
   ASSERT_EQ(x.by_speed.size(), 6u);
   const double top = x.by_speed.back().feed_factor, mid = x.by_speed[4].feed_factor;
-  EXPECT_LT(top, 0.95 * mid) << fit.report();
+  EXPECT_LT(top, 0.95 * mid) << fit.summary.full_report();
   EXPECT_GT(x.by_speed_spread, 0.05);
 }
 

@@ -64,8 +64,8 @@ TEST(CalibrationStore, AppliesListsAndActivates) {
   const auto a = session(truth, 1);
   truth.axes[0].plant.gain_factor = 0.65;
   const auto b = session(truth, 2);
-  ASSERT_EQ(a.fit.status, CalibrationFit::Status::ok) << a.fit.message;
-  ASSERT_EQ(b.fit.status, CalibrationFit::Status::ok) << b.fit.message;
+  ASSERT_EQ(a.fit.summary.status, Status::done) << a.fit.summary.message;
+  ASSERT_EQ(b.fit.summary.status, Status::done) << b.fit.summary.message;
   {
     CalibrationStore store(db);
     EXPECT_FALSE(store.active("thermal_gantry"));
@@ -93,8 +93,8 @@ TEST(CalibrationStore, AppliesListsAndActivates) {
 TEST(CalibrationStore, RefusesAFitThatIsNotOk) {
   const std::string db = temp_db("refuse");
   auto s = session(nominal(), 3);
-  s.fit.status = CalibrationFit::Status::not_identifiable;
-  s.fit.message = "x.backlash_mm: the axis never reversed";
+  s.fit.summary.status = Status::infeasible;
+  s.fit.summary.message = "x.backlash_mm: the axis never reversed";
   CalibrationStore store(db);
   EXPECT_THROW(store.apply(s.fit, "a.csv", s.bytes, "carol"), Infeasible);
   EXPECT_TRUE(store.history().empty());
@@ -165,7 +165,7 @@ TEST(CalibrationStore, AFolderIsCreatedOnlyForTheDefaultLocation) {
 TEST(CalibrationStore, OneSessionCalibratesPaperOpenLoopAtThreeFeeds) {
   const std::string db = temp_db("paper");
   const auto s = session(nominal(), 6);
-  ASSERT_EQ(s.fit.status, CalibrationFit::Status::ok) << s.fit.message;
+  ASSERT_EQ(s.fit.summary.status, Status::done) << s.fit.summary.message;
   CalibrationStore store(db);
   store.apply(s.fit, "session.csv", s.bytes, "frank");
   const auto active = store.active("thermal_gantry");

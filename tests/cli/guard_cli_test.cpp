@@ -1,7 +1,5 @@
 // `machplan guard`: the JSON fields the issue names, the plot, and bad flags exiting 2 with the
 // flag named, output paths checked before the run.
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
@@ -21,28 +20,9 @@ namespace {
 using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
-struct Outcome {
-  int code = -1;
-  std::string out, err;
-};
+using Outcome = test::CliResult;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-Outcome machplan(const std::string& args) {
-  test::TempDir dir;
-  const fs::path out = dir.path() / "out", err = dir.path() / "err";
-  const int rc = std::system(fmt::format("cd '{}' && '{}' {} > '{}' 2> '{}' < /dev/null", MACHPLAN_SOURCE_DIR, MACHPLAN_CLI, args,
-                                         out.string(), err.string())
-                                 .c_str());
-  Outcome r;
-  r.code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
+Outcome machplan(const std::string& args) { return test::Cli().run(args); }
 
 const std::string kTriangle = "datasets/profiles/paper_triangle.dxf";
 

@@ -2,8 +2,6 @@
 // reason, --json is valid UTF-8 whatever the input's bytes, an output path that is an input is
 // refused before any work, and bad option values (NaN, infinities, too many or repeated
 // rotations, absurd placements) exit 2 naming the flag.
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -16,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/programs/mesh.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
@@ -26,10 +25,7 @@ using ::testing::Not;
 using test::TempDir;
 namespace fs = std::filesystem;
 
-struct Outcome {
-  int code = -1;
-  std::string out, err;
-};
+using Outcome = test::CliResult;
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -37,18 +33,11 @@ std::string slurp(const fs::path& p) {
 }
 
 // Runs `machplan ARGS` (ARGS already quoted for the shell); stdout goes to `stdout_to` when
-// given, else to a file that is returned.
+// given, else it is captured.
 Outcome machplan(const std::string& args, const std::string& stdout_to = "") {
-  TempDir dir;
-  const fs::path out = dir.path() / "out", err = dir.path() / "err";
-  const int rc = std::system(fmt::format("'{}' {} > '{}' 2> '{}'", MACHPLAN_CLI, args,
-                                         stdout_to.empty() ? out.string() : stdout_to, err.string())
-                                 .c_str());
-  Outcome r;
-  r.code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
+  test::CliIo io;
+  io.stdout_path = stdout_to;
+  return test::Cli().run(args, io);
 }
 
 const std::string kSource = MACHPLAN_SOURCE_DIR;

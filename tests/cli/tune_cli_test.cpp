@@ -12,18 +12,16 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/support/cli_run.h"
-#include "tests/support/temp_dir.h"
 
 namespace machplan {
 namespace {
 
 using Run = test::CliResult;
-Run cli(const test::TempDir& dir, const std::string& args) { return test::run_cli(dir, args); }
 
 TEST(TuneCli, TunesPrintsJsonPlotsAndStores) {
-  test::TempDir dir;
-  const std::string png = (dir.path() / "tune.png").string(), db = (dir.path() / "t.db").string();
-  auto r = cli(dir, fmt::format("tune --machine xy_table --controller p --contour circle:20:960 --evaluations 8 --json "
+  test::Cli cli;
+  const std::string png = (cli.dir() / "tune.png").string(), db = (cli.dir() / "t.db").string();
+  auto r = cli.run(fmt::format("tune --machine xy_table --controller p --contour circle:20:960 --evaluations 8 --json "
                                 "--plot '{}'",
                                 png));
   ASSERT_EQ(r.code, 0) << r.err;
@@ -40,43 +38,43 @@ TEST(TuneCli, TunesPrintsJsonPlotsAndStores) {
   EXPECT_TRUE(j["fresh"]["tuned"]["max_contour_error_mm"].is_number());
   EXPECT_GT(std::filesystem::file_size(png), 1000u);
   // A fixed gain stays where it was put; one noise run instead of three.
-  r = cli(dir, "tune --machine xy_table --controller p --contour square:10:960 --evaluations 4 --noise-runs 1 "
+  r = cli.run("tune --machine xy_table --controller p --contour square:10:960 --evaluations 4 --noise-runs 1 "
                "--fix kp_per_s=90 --json");
   ASSERT_EQ(r.code, 0) << r.err;
   const auto f = nlohmann::json::parse(r.out);
   EXPECT_EQ(f["gains"]["kp_per_s"], 90.0);
   EXPECT_EQ(f["fixed"][0], "kp_per_s");
   // The human form names the gains and both errors.
-  r = cli(dir, "tune --machine xy_table --controller p --contour line:26.6:1200 --evaluations 3");
+  r = cli.run("tune --machine xy_table --controller p --contour line:26.6:1200 --evaluations 3");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("baseline (axial P)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("tuned"), std::string::npos) << r.out;
 }
 
 TEST(TuneCli, StoredTuningIsUsedByRun) {
-  test::TempDir dir;
-  const std::string db = (dir.path() / "t.db").string();
+  test::Cli cli;
+  const std::string db = (cli.dir() / "t.db").string();
   // The XY table carries no torch: the tuning test program is motion only.
   const std::string run =
       fmt::format("run datasets/programs/tune_corners.ngc --machine xy_table --controller tuned --db '{}' --json", db);
-  auto r = cli(dir, run);
+  auto r = cli.run(run);
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("--controller"), std::string::npos) << r.err;
-  r = cli(dir, fmt::format("tune --machine xy_table --controller p --contour line:30:1200 --evaluations 6 --store --db '{}' --json",
+  r = cli.run(fmt::format("tune --machine xy_table --controller p --contour line:30:1200 --evaluations 6 --store --db '{}' --json",
                            db));
   ASSERT_EQ(r.code, 0) << r.err;
   const auto t = nlohmann::json::parse(r.out);
   EXPECT_EQ(t["stored"]["tuning_id"], 1);
-  r = cli(dir, run);
+  r = cli.run(run);
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["controller"], "p");
 }
 
 TEST(TuneCli, AccRunsKorensTestAndPlots) {
-  test::TempDir dir;
-  const std::string png = (dir.path() / "acc.png").string();
-  const auto r = cli(dir, fmt::format("tune --acc --evaluations 40 --json --plot '{}'", png));
+  test::Cli cli;
+  const std::string png = (cli.dir() / "acc.png").string();
+  const auto r = cli.run(fmt::format("tune --acc --evaluations 40 --json --plot '{}'", png));
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   const auto& settled = j["koren_fixed_kc_0_5"]["settled"];
@@ -89,7 +87,7 @@ TEST(TuneCli, AccRunsKorensTestAndPlots) {
 }
 
 TEST(TuneCli, BadInputExitsTwoNamingTheFlag) {
-  test::TempDir dir;
+  test::Cli cli;
   const std::pair<const char*, const char*> cases[] = {
       {"tune --machine xy_table --controller p", "--contour"},
       {"tune --machine xy_table --controller warp --contour circle:20:960", "--controller"},
@@ -110,7 +108,7 @@ TEST(TuneCli, BadInputExitsTwoNamingTheFlag) {
       {"tune --acc --fix kp_per_s=1", "--fix"},
   };
   for (const auto& [args, flag] : cases) {
-    const auto r = cli(dir, args);
+    const auto r = cli.run(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.err;
     EXPECT_NE(r.err.find(flag), std::string::npos) << args << "\n" << r.err;
   }

@@ -1,4 +1,5 @@
-// The adaptive control constraint (engine/control/acc.h) against Koren's turning result: with
+// The adaptive control constraint (engine/control/acc.h, on the turning model of
+// models/turning/turning_process.h) against Koren's turning result: with
 // Kc = 0.5 and F_r = 1500 N the feed falls from 0.5 to about 0.25 mm/rev at engagement, the
 // force settles at 1500 N after every 2 mm depth step, and the feed falls with each step; the
 // variable-gain law keeps its open-loop gain constant; a too-high fixed gain goes unstable.
@@ -7,9 +8,12 @@
 #include <gtest/gtest.h>
 
 #include "engine/control/acc.h"
+#include "models/turning/turning_process.h"
 
 namespace machplan::control {
 namespace {
+
+using namespace machplan::turning;
 
 const AccSample& at(const std::vector<AccSample>& run, double t) {
   for (const AccSample& s : run)

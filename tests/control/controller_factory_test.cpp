@@ -47,7 +47,7 @@ TEST(ControllerFactory, EveryKindBuildsWithItsDefaultsAndNamesItself) {
       EXPECT_LE(s.min_value, s.default_value) << k << " " << s.name;
       EXPECT_LE(s.default_value, s.max_value) << k << " " << s.name;
       EXPECT_LT(s.min_value, s.max_value) << k << " " << s.name;
-      if (s.log_scale) EXPECT_GT(s.min_value, 0.0) << k << " " << s.name;
+      if (s.log_scale) { EXPECT_GT(s.min_value, 0.0) << k << " " << s.name; }
       EXPECT_FALSE(s.description.empty()) << k << " " << s.name;
     }
   }

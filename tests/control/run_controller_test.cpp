@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "solvers/motion/run.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
@@ -21,22 +22,9 @@ using ::testing::HasSubstr;
 
 std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
+using CliRun = test::CliResult;
 
-CliRun machplan(const std::string& args) {
-  test::TempDir dir;
-  const std::string out = (dir.path() / "out.txt").string(), err = (dir.path() / "err.txt").string();
-  const int rc = std::system(fmt::format("'{}' {} > '{}' 2> '{}'", MACHPLAN_CLI, args, out, err).c_str());
-  CliRun r;
-  r.code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  std::ifstream o(out), e(err);
-  r.out.assign(std::istreambuf_iterator<char>(o), {});
-  r.err.assign(std::istreambuf_iterator<char>(e), {});
-  return r;
-}
+CliRun machplan(const std::string& args) { return test::Cli().run(args); }
 
 TEST(RunController, BadKindsAndGainsExitWithTwoAndNameTheFlag) {
   const std::string tri = "run '" + part("triangle_45.ngc") + "' --machine thermal_gantry ";

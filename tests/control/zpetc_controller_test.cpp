@@ -72,7 +72,7 @@ TEST(ZpetcDesign, CascadeWithTheDriveModelHasZeroPhase) {
     EXPECT_NEAR(h.imag(), 0.0, 1e-9) << w;
     EXPECT_GT(h.real(), 0.0) << w;
     EXPECT_LE(h.real(), 1.0 + 1e-12) << w;
-    if (w == 0.0) EXPECT_NEAR(h.real(), 1.0, 1e-12);
+    if (w == 0.0) { EXPECT_NEAR(h.real(), 1.0, 1e-12); }
   }
 }
 

@@ -8,11 +8,11 @@
 #include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include "engine/common/error.h"
 #include "models/cutting/machine_config.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::cutting {
@@ -92,7 +92,7 @@ TEST(MachineLookup, TheUsersMachineReplacesTheBundledOne) {
       ++shadowed;
       EXPECT_TRUE(m.shadowed);
     }
-    if (m.name == "xy_table" && m.kind == "source") EXPECT_FALSE(m.shadowed);
+    if (m.name == "xy_table" && m.kind == "source") { EXPECT_FALSE(m.shadowed); }
   }
   EXPECT_EQ(users, 1);
   EXPECT_EQ(shadowed, 1);
@@ -119,26 +119,23 @@ TEST(MachineLookup, TheCurrentFolderIsUsedOnlyThroughAPath) {
   EXPECT_THAT(error_of([] { find_machine("missing/file.yaml"); }), HasSubstr("no such machine file"));
 }
 
-std::string run(const std::string& command) {
-  TempDir dir;
-  const std::string out = (dir.path() / "out.txt").string();
-  const int rc = std::system(fmt::format("{} > '{}' 2>&1", command, out).c_str());
-  std::ifstream in(out);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return fmt::format("{}\n{}", WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, text);
-}
-
 TEST(MachineLookup, MachinesCommandListsFoldersAndMachines) {
-  UserConfig user;  // the child process inherits XDG_CONFIG_HOME
-  const std::string text = run(fmt::format("'{}' machines", MACHPLAN_CLI));
-  EXPECT_THAT(text, testing::StartsWith("0\n"));
-  EXPECT_THAT(text, HasSubstr("user      " + user.machines().string()));
-  EXPECT_THAT(text, HasSubstr("source    " + fs::path(kSourceMachines).lexically_normal().string()));
-  EXPECT_THAT(text, HasSubstr("thermal_gantry"));
-  EXPECT_THAT(text, HasSubstr("xy_table"));
-  const std::string json = run(fmt::format("'{}' machines --json", MACHPLAN_CLI));
-  EXPECT_THAT(json, HasSubstr("\"kind\": \"user\""));
-  EXPECT_THAT(json, HasSubstr("\"name\": \"thermal_gantry\""));
+  test::Cli cli;  // its XDG_CONFIG_HOME is the user's folder of this test
+  const fs::path user_machines = cli.config_home() / "machplan" / "machines";
+  const test::CliResult text = cli.run({"machines"});
+  EXPECT_EQ(text.code, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr("user      " + user_machines.string()));
+  EXPECT_THAT(text.out, HasSubstr("source    " + fs::path(kSourceMachines).lexically_normal().string()));
+  EXPECT_THAT(text.out, HasSubstr("thermal_gantry"));
+  EXPECT_THAT(text.out, HasSubstr("xy_table"));
+  // A machine file put in the user's folder is listed as the user's.
+  fs::create_directories(user_machines);
+  fs::copy_file(fs::path(kSourceMachines) / "xy_table.yaml", user_machines / "my_table.yaml");
+  const test::CliResult json = cli.run({"machines", "--json"});
+  EXPECT_EQ(json.code, 0) << json.err;
+  EXPECT_THAT(json.out, HasSubstr("\"kind\": \"user\""));
+  EXPECT_THAT(json.out, HasSubstr("\"name\": \"my_table\""));
+  EXPECT_THAT(json.out, HasSubstr("\"name\": \"thermal_gantry\""));
 }
 
 }  // namespace

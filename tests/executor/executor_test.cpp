@@ -122,7 +122,7 @@ TEST(Executor, TorchIsTurnedOffBeforeARapidEvenWithoutATorchOffStep) {
   const ExecutionResult r = test::simulate(m, c.job, c.trajectories, {});
   ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
   for (const auto& s : r.trace)
-    if (s.step == 2) ASSERT_FALSE(s.torch_fire);
+    if (s.step == 2) { ASSERT_FALSE(s.torch_fire); }
   EXPECT_NEAR(r.rapid_distance_mm, 60.0, 1e-9);
 }
 

@@ -77,7 +77,7 @@ TEST_P(FaultInjection, EndsTorchOffAtRestReportedWithNoMotionAfter) {
     // Torch off from the fault on; off at the end.
     EXPECT_TRUE(r.torch_off_at_end);
     for (const TraceSample& s : r.trace)
-      if (s.t_s > fr.time_s) ASSERT_FALSE(s.torch_fire) << "t " << s.t_s;
+      if (s.t_s > fr.time_s) { ASSERT_FALSE(s.torch_fire) << "t " << s.t_s; }
 
     // The stop: the commanded speed never grows after the fault and keeps its direction, and
     // after the ramp (at most the largest command vector / stop deceleration) every command is
@@ -89,7 +89,7 @@ TEST_P(FaultInjection, EndsTorchOffAtRestReportedWithNoMotionAfter) {
       const double mag = std::hypot(s.dac_x, s.dac_y);
       EXPECT_LE(mag, last_mag + 1.5) << "t " << s.t_s;  // +1.5: DAC rounding of each axis
       last_mag = mag;
-      if (s.t_s > fr.time_s + ramp_s + 0.002) ASSERT_EQ(mag, 0.0) << "motion commanded after the stop, t " << s.t_s;
+      if (s.t_s > fr.time_s + ramp_s + 0.002) { ASSERT_EQ(mag, 0.0) << "motion commanded after the stop, t " << s.t_s; }
     }
 
     if (cs.inject == FI::Kind::lost_backend) {

@@ -78,7 +78,7 @@ TEST(Guard, PaperStopArrivesLateByOneToTwoRoundTrips) {
     EXPECT_GE(d, T - 2 * v * L - brake - 0.02);
     EXPECT_TRUE(g.holding());
     EXPECT_EQ(g.setpoint_velocity_mm_per_s().norm(), 0.0);
-    if (T == 1.0) EXPECT_LT(dr.closest, 0.0) << "at T = 1 mm the paper's stop must come too late";
+    if (T == 1.0) { EXPECT_LT(dr.closest, 0.0) << "at T = 1 mm the paper's stop must come too late"; }
   }
 }
 

@@ -3,6 +3,7 @@
 // and an operator's jog session driven through the same loop.
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <new>
@@ -104,7 +105,30 @@ TEST(TraceStream, WritesWhatTheRecorderKeeps) {
   EXPECT_EQ(sa, sb);
 }
 
-// A realtime-paced run on the simulator, stopped from another thread after `after_s`.
+// Holds the loop at one exchange (a moment of machine time) until a stop has been requested,
+// so that a test can ask from another thread at a known point of the run.
+class HoldUntilStopped : public test::ForwardingBackend {
+ public:
+  HoldUntilStopped(hardware::Backend& inner, long hold_at_exchange, const StopSource& stop)
+      : ForwardingBackend(inner), hold_at_(hold_at_exchange), stop_(stop) {}
+  hardware::Health exchange(const hardware::Outputs& o, hardware::Inputs& i) noexcept override {
+    if (++exchanges_ == hold_at_) {
+      reached_.store(true);
+      while (!stop_.stop_requested()) std::this_thread::yield();
+    }
+    return ForwardingBackend::exchange(o, i);
+  }
+  bool reached() const { return reached_.load(); }
+
+ private:
+  long hold_at_, exchanges_ = 0;
+  const StopSource& stop_;
+  std::atomic<bool> reached_{false};
+};
+
+// A stop requested from another thread while the torch cuts: the loop is held at 2 s of machine
+// time (inside the cut, which starts at about 1.3 s) until the other thread has asked, so the
+// stop lands at a known moment whatever the speed of the computer.
 TEST(StopRequest, FromAnotherThreadStopsTheMachineAndReports) {
   const auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
   const Eigen::Vector2d c(700, 700);
@@ -112,30 +136,33 @@ TEST(StopRequest, FromAnotherThreadStopsTheMachineAndReports) {
                            std::make_unique<test::ArcTrajectory>(c, 50, 0, 2 * M_PI, 80, 500));
   sim::SimOptions so;
   so.start_mm = cut.job.start_mm;
-  so.realtime = true;
   sim::SimBackend sim(m, so);
-  Executor ex(m.setup(), {});
   StopSource token;
+  const double at_s = 2.0;
+  HoldUntilStopped held(sim, std::lround(at_s / sim.period_s()), token);
+  Executor ex(m.setup(), {});
   Termination stop(token.token());
   RunParts parts;
   parts.termination = &stop;
   std::thread other([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // inside the cut (it starts at about 1.3 s)
+    while (!held.reached()) std::this_thread::yield();
     token.request_stop();
   });
-  const ExecutionResult r = ex.run(cut.job, cut.trajectories, sim, parts);
+  const ExecutionResult r = ex.run(cut.job, cut.trajectories, held, parts);
   other.join();
+  ASSERT_TRUE(held.reached()) << r.report();
   ASSERT_EQ(r.faults.size(), 1u) << r.report();
   EXPECT_EQ(r.faults[0].kind, FaultKind::stop_requested);
-  EXPECT_GT(r.faults[0].time_s, 1.5);
-  EXPECT_LT(r.faults[0].time_s, 3.0);
+  // Seen within a few periods of the request.
+  EXPECT_GE(r.faults[0].time_s, at_s - 2 * sim.period_s());
+  EXPECT_LT(r.faults[0].time_s, at_s + 5 * sim.period_s());
   EXPECT_TRUE(r.torch_off_at_end);
   EXPECT_TRUE(r.stopped_at_rest);
   EXPECT_FALSE(sim.torch_firing());
   EXPECT_FALSE(sim.drives_enabled());
   EXPECT_FALSE(r.cuts[0].complete);
   for (const TraceSample& t : r.trace)
-    if (t.t_s > r.faults[0].time_s) ASSERT_FALSE(t.torch_fire);
+    if (t.t_s > r.faults[0].time_s) { ASSERT_FALSE(t.torch_fire); }
 }
 
 TEST(PositionBackend, RunsAJobThroughTheSameLoop) {

@@ -15,12 +15,14 @@
 #include <iterator>
 #include <string>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "engine/programs/gcode.h"
 #include "solvers/motion/run.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::motion {
@@ -193,25 +195,12 @@ TEST(RunParts, PaperModesOnTheWholeTriangleProgram) {
 
 // --- the command ----------------------------------------------------------------------------
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
+using CliRun = test::CliResult;
 
-CliRun machplan(const std::string& args) {
-  test::TempDir dir;
-  const std::string out = (dir.path() / "out.txt").string(), err = (dir.path() / "err.txt").string();
-  const int rc = std::system(fmt::format("'{}' {} > '{}' 2> '{}'", MACHPLAN_CLI, args, out, err).c_str());
-  CliRun r;
-  r.code = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  std::ifstream o(out), e(err);
-  r.out.assign(std::istreambuf_iterator<char>(o), {});
-  r.err.assign(std::istreambuf_iterator<char>(e), {});
-  return r;
-}
+CliRun machplan(const std::string& args) { return test::Cli().run(args); }
 
 TEST(RunCommand, BadFlagsExitWithTwoAndNameTheFlag) {
-  const std::string tri = "'" + part("triangle_45.ngc") + "'";
+  const std::string tri = fmt::format("'{}'", part("triangle_45.ngc"));
   const struct {
     std::string args, expect;
   } cases[] = {

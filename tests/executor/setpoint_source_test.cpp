@@ -140,8 +140,8 @@ TEST(JogSource, FollowsTheStickWithinSpeedAccelerationAndJerk) {
     EXPECT_NEAR(v - v_prev, a * 0.001, 1e-9);
     vmax = std::max(vmax, std::abs(v));
     v_prev = v, a_prev = a;
-    if (k == 999) EXPECT_NEAR(v, 30, 1e-6);
-    if (k == 1999) EXPECT_NEAR(v, -15, 1e-6);
+    if (k == 999) { EXPECT_NEAR(v, 30, 1e-6); }
+    if (k == 1999) { EXPECT_NEAR(v, -15, 1e-6); }
   }
   EXPECT_LE(vmax, 30 + 1e-6);  // no overshoot past the stick's speed
   EXPECT_EQ(s.velocity_mm_per_s().x(), 0.0);

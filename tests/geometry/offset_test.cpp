@@ -400,8 +400,9 @@ void check_random(const Contour& c, double d, std::mt19937& rng, const std::stri
     ASSERT_EQ(res.source_spans[k].size(), res.contours[k].size());
     for (auto s : res.source_spans[k]) EXPECT_LT(s, c.size());
   }
-  if (d < 0)
+  if (d < 0) {
     for (const auto& o : res.contours) EXPECT_EQ(orientation(o), orientation(c)) << what;
+  }
 }
 
 TEST(Offset, RandomStarPolygonsSatisfyTheDistanceProperty) {

@@ -10,6 +10,7 @@
 #include "engine/common/error.h"
 #include "engine/geometry/region.h"
 #include "engine/programs/dxf.h"
+#include "engine/programs/region_profile.h"
 
 namespace machplan {
 namespace {

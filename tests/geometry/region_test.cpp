@@ -112,7 +112,7 @@ void expect_matches_exact(const std::vector<Contour>& profile, MachiningSide sid
                                                   << p.y() << ") profile distance " << d;
     // Outside the prohibited region the distance to it is exactly the distance to the
     // material minus R (the offset is exact).
-    if (!expected && side == MachiningSide::outside) ASSERT_NEAR(q.signed_distance_mm, d - r, 1e-7);
+    if (!expected && side == MachiningSide::outside) { ASSERT_NEAR(q.signed_distance_mm, d - r, 1e-7); }
     ++checked;
   }
   EXPECT_GT(checked, count * 9 / 10);

@@ -292,7 +292,7 @@ TEST(Kerf, SlotNarrowerThanTheKerfIsReportedWithItsLine) {
   ASSERT_EQ(r.compensated_count(), 1u);
   ASSERT_EQ(count_kind(r, KerfIssue::Kind::feature_too_small), 1);
   for (const auto& i : r.issues)
-    if (i.kind == KerfIssue::Kind::feature_too_small) EXPECT_EQ(i.source_line, 54) << i.message;  // first slot side
+    if (i.kind == KerfIssue::Kind::feature_too_small) { EXPECT_EQ(i.source_line, 54) << i.message; }  // first slot side
   expect_continuous(job);
   const Stretch& s = job.stretches[1];
   const Contour cut_loop = loop_of(s, 1, s.segments.size() - 1);
@@ -332,7 +332,7 @@ TEST(Kerf, ConcaveFilletSmallerThanHalfTheKerfIsReported) {
   const KerfReport r = apply_kerf(job, 3.0);
   ASSERT_EQ(count_kind(r, KerfIssue::Kind::arc_collapsed), 1);
   for (const auto& i : r.issues)
-    if (i.kind == KerfIssue::Kind::arc_collapsed) EXPECT_EQ(i.source_line, 63);
+    if (i.kind == KerfIssue::Kind::arc_collapsed) { EXPECT_EQ(i.source_line, 63); }
   expect_continuous(job);
 }
 

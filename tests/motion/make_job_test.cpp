@@ -65,7 +65,7 @@ TEST(MakeJob, GroupsRapidsFeedsAndTorchEvents) {
   EXPECT_EQ(job.steps[1].source_line, 4);
   EXPECT_NEAR(job.steps[6].seconds, 0.5, 1e-12);
   for (const Step& s : job.steps)
-    if (s.kind == K::move) EXPECT_LT(s.stretch, job.stretches.size());
+    if (s.kind == K::move) { EXPECT_LT(s.stretch, job.stretches.size()); }
   // Contiguity: every stretch starts where the tool is.
   Eigen::Vector2d at = job.start_mm;
   for (const Step& s : job.steps) {
@@ -88,7 +88,7 @@ TEST(MakeJob, FullCircleAndExtraTurnsAreSplitIntoArcsOfLessThanAFullTurn) {
     EXPECT_LT(std::abs(g.sweep), 2 * kPi);
     EXPECT_NEAR(g.radius, 10.0, 1e-12);
     (s.source_lines[i] == 2 ? ccw_sweep : cw_sweep) += g.sweep;
-    if (i > 0) EXPECT_LT((g.start - s.segments[i - 1].end).norm(), 1e-9);
+    if (i > 0) { EXPECT_LT((g.start - s.segments[i - 1].end).norm(), 1e-9); }
     // The end point lies on the circle at the end angle.
     const Eigen::Vector2d e = g.center + g.radius * Eigen::Vector2d(std::cos(g.end_angle()), std::sin(g.end_angle()));
     EXPECT_LT((e - g.end).norm(), 1e-9);

@@ -404,7 +404,7 @@ TEST(Rapids, ZonesFromCutsReRouteRoundTheCutPart) {
     EXPECT_FALSE(s.segments[i].is_arc());
     EXPECT_EQ(s.feed_mm_per_s[i], 400);
     EXPECT_EQ(s.source_lines[i], 20);
-    if (i > 0) EXPECT_LT((s.segments[i].start - s.segments[i - 1].end).norm(), 1e-9);
+    if (i > 0) { EXPECT_LT((s.segments[i].start - s.segments[i - 1].end).norm(), 1e-9); }
     route.push_back(s.segments[i].end);
   }
   EXPECT_EQ(route.front(), Vector2d(100, 50));

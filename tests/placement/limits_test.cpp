@@ -2,8 +2,7 @@
 // beyond the scene's bounds are refused as input errors, too many peripherals are refused by
 // name, and a check that would run for minutes (a large safe distance) stops at its query
 // limit with exit 3 and says how to raise it.
-#include <sys/wait.h>
-
+#include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
@@ -17,6 +16,7 @@
 #include "solvers/placement/checker.h"
 #include "solvers/placement/scene.h"
 #include "solvers/placement/search.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::placement {
@@ -82,12 +82,9 @@ TEST(SceneLimits, MorePeripheralsThanTheCheckerHandlesAreRefused) {
 TEST(CheckLimits, ACheckStopsAtTheQueryLimitWithExitThreeAndSaysHowToRaiseIt) {
   TempDir dir;
   const std::string scene = write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 200\n  max_pose_queries: 50"}});
-  const std::string err = (dir.path() / "err").string();
-  const int rc = std::system(fmt::format("'{}' check '{}' --at -68,-22,57 > /dev/null 2> '{}'", MACHPLAN_CLI, scene, err).c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 3);
-  std::ifstream in(err);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const test::CliResult r = test::Cli().run({"check", scene, "--at", "-68,-22,57"});
+  EXPECT_EQ(r.code, 3);
+  const std::string& text = r.err;
   EXPECT_THAT(text, HasSubstr("limit of 50 exact pose queries (search.max_pose_queries in the scene)"));
   EXPECT_THAT(text, HasSubstr("Raise the limit"));
   // The default leaves the ordinary check alone.
@@ -116,22 +113,17 @@ TEST(CheckStop, AStopRequestEndsACheckAndASearchWithoutAnAnswer) {
 }
 
 TEST(CheckStop, SigintEndsADenseCheckOfTheWholePathWithExitThree) {
-  // The bundled scene's dense check visits 123k poses every 0.5 mm: minutes. A signal two
-  // seconds in ends it through the stop token, with exit 3 and no verdict printed.
-  TempDir dir;
-  const std::string out = (dir.path() / "out").string(), err = (dir.path() / "err").string();
-  const std::string script = fmt::format(
-      "'{}' check '{}scene.yaml' --at -42.05,-42.05,70 --dense > '{}' 2> '{}' & pid=$!; sleep 2; kill -INT $pid; "
-      "wait $pid; exit $?",
-      MACHPLAN_CLI, kData, out, err);
-  const int rc = std::system(script.c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 3);
-  std::ifstream e(err), o(out);
-  const std::string text((std::istreambuf_iterator<char>(e)), std::istreambuf_iterator<char>());
-  const std::string printed((std::istreambuf_iterator<char>(o)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(text, HasSubstr("stopped on request"));
-  EXPECT_EQ(printed, "");
+  // The bundled scene's dense check visits 123k poses every 0.5 mm: minutes. SIGINT, sent once
+  // the command has taken over the signal, ends it through the stop token, with exit 3 and no
+  // verdict printed.
+  test::Cli cli;
+  test::CliProcess p = cli.start({"check", kData + "scene.yaml", "--at", "-42.05,-42.05,70", "--dense"});
+  ASSERT_TRUE(p.wait_until_catching(SIGINT));
+  ASSERT_TRUE(p.signal(SIGINT));
+  const test::CliResult r = p.wait();
+  EXPECT_EQ(r.code, 3);
+  EXPECT_THAT(r.err, HasSubstr("stopped on request"));
+  EXPECT_EQ(r.out, "");
 }
 
 TEST(CheckStop, TheDenseCheckReportsItsProgress) {

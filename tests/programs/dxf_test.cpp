@@ -2,7 +2,6 @@
 // and error the reader promises to report.
 #include "engine/programs/dxf.h"
 
-#include <sys/wait.h>
 
 #include <cmath>
 #include <numbers>
@@ -14,6 +13,7 @@
 
 #include "engine/common/error.h"
 #include "engine/geometry/curve_fit.h"
+#include "tests/support/cli_run.h"
 
 namespace machplan {
 namespace {
@@ -327,7 +327,7 @@ TEST(DxfCurves, FitPointSplinePassesThroughItsPoints) {
     if ((c.vertices()[i] - Vector2d(0, 0)).norm() < 1e-9) {
       const Segment s = c.span(i);
       const Vector2d t = start_tangent(s);
-      if ((s.end - s.start).x() > 0) EXPECT_NEAR(std::abs(t.y()), 0.0, 1e-6);
+      if ((s.end - s.start).x() > 0) { EXPECT_NEAR(std::abs(t.y()), 0.0, 1e-6); }
       else EXPECT_NEAR(std::abs(end_tangent(c.span((i + c.size() - 1) % c.size())).y()), 0.0, 1e-6);
     }
 }
@@ -605,15 +605,14 @@ TEST(Dxf, BundledProfiles) {
 }
 
 TEST(Dxf, CliPrintsJsonAndExitCodes) {
-  const std::string dir = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/profiles/";
-  const std::string cli = MACHPLAN_CLI;
-  EXPECT_EQ(std::system((cli + " profile " + dir + "flange_plate.dxf --json > /dev/null").c_str()), 0);
-  EXPECT_NE(std::system((cli + " profile /nonexistent.dxf 2> /dev/null").c_str()), 0);
-  EXPECT_NE(std::system((cli + " profile " + dir + "flange_plate.dxf --tolerance -1 2> /dev/null").c_str()), 0);
-  auto exit_code = [&](const std::string& args) {
-    const int rc = std::system((cli + " profile " + dir + "flange_plate.dxf " + args + " > /dev/null 2>&1").c_str());
-    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  };
+  const std::string flange = "datasets/profiles/flange_plate.dxf";
+  test::Cli cli;
+  const test::CliResult json = cli.run({"profile", flange, "--json"});
+  EXPECT_EQ(json.code, 0) << json.err;
+  EXPECT_NE(json.out.find("\"contours\""), std::string::npos);
+  EXPECT_EQ(cli.run({"profile", "/nonexistent.dxf"}).code, 2);
+  EXPECT_EQ(cli.run({"profile", flange, "--tolerance", "-1"}).code, 2);
+  auto exit_code = [&](const std::string& args) { return cli.run("profile " + flange + " " + args).code; };
   EXPECT_EQ(exit_code("--units inch --flatten-tolerance 0.5"), 0);
   EXPECT_EQ(exit_code("--units furlong"), 2);
   EXPECT_EQ(exit_code("--flatten-tolerance 9"), 2);

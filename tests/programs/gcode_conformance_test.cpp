@@ -32,6 +32,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tests/support/cli_run.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -267,7 +269,8 @@ TEST_P(GcodeConformance, MatchesRs274) {
   const RunResult ref = run("cd " + quote(dir.string()) + " && flock " + quote(lock) +
                                 " timeout 60 /usr/bin/rs274 -g -t tool.tbl " + quote(file.string()),
                             dir);
-  const RunResult ours = run(std::string(MACHPLAN_CLI) + " program " + quote(file.string()) + " --json", dir);
+  const machplan::test::CliResult mine = machplan::test::Cli().run({"program", file.string(), "--json"});
+  const RunResult ours{mine.code, mine.out, mine.err};
   fs::remove_all(dir);
 
   const bool ref_ok = ref.exit_code == 0;
@@ -327,16 +330,17 @@ TEST_P(GcodeConformance, MatchesRs274) {
     const Expected& b = expected.moves[i];
     SCOPED_TRACE("move " + std::to_string(i) + "\n  machplan: " + a.text + "\n  rs274:    " + b.text);
     ASSERT_EQ(a.kind, b.kind);
-    if (a.kind == "rapid" || a.kind == "line" || a.kind == "arc")
+    if (a.kind == "rapid" || a.kind == "line" || a.kind == "arc") {
       for (int k = 0; k < 3; ++k) EXPECT_NEAR(a.end[k], b.end[k], tol_mm) << "end[" << k << "]";
-    if (a.kind == "line" || a.kind == "arc") EXPECT_NEAR(a.feed, b.feed, 1e-4 * std::max(1.0, b.feed)) << "feed";
+    }
+    if (a.kind == "line" || a.kind == "arc") { EXPECT_NEAR(a.feed, b.feed, 1e-4 * std::max(1.0, b.feed)) << "feed"; }
     if (a.kind == "arc") {
       for (int k = 0; k < 2; ++k) EXPECT_NEAR(a.center[k], b.center[k], tol_mm) << "center[" << k << "]";
       EXPECT_EQ(a.clockwise, b.clockwise);
       EXPECT_EQ(a.turns, b.turns);
     }
-    if (a.kind == "dwell") EXPECT_NEAR(a.seconds, b.seconds, 1e-4);
-    if (a.kind == "torch_on") EXPECT_NEAR(a.speed, b.speed, 1e-4 * std::max(1.0, b.speed));
+    if (a.kind == "dwell") { EXPECT_NEAR(a.seconds, b.seconds, 1e-4); }
+    if (a.kind == "torch_on") { EXPECT_NEAR(a.speed, b.speed, 1e-4 * std::max(1.0, b.speed)); }
   }
 }
 

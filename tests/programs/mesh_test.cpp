@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "engine/common/error.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
@@ -155,7 +156,7 @@ TEST(Weld, ContractOnRandomCorners) {
     for (std::size_t c = 0; c < corners.size(); ++c) {
       EXPECT_LE((m.vertices[index[c]] - corners[c]).norm(), tol) << "corner " << c << " tol " << tol;
       for (std::size_t d = 0; d < c; ++d)
-        if (corners[d] == corners[c]) EXPECT_EQ(index[d], index[c]) << "corners " << d << ", " << c << " tol " << tol;
+        if (corners[d] == corners[c]) { EXPECT_EQ(index[d], index[c]) << "corners " << d << ", " << c << " tol " << tol; }
       if (index[c] == made) {  // a new vertex: nothing earlier was close enough
         for (int v = 0; v < made; ++v)
           EXPECT_GT((m.vertices[v] - corners[c]).norm(), tol) << "corner " << c << " vertex " << v;
@@ -231,7 +232,7 @@ TEST(Stl, AsciiLayoutsAssimpWouldMisread) {
 }
 
 TEST(Stl, BinaryHeaderThatLooksLikeAByteOrderMark) {
-  for (const std::string bom : {std::string("\xEF\xBB\xBF"), std::string("\xFF\xFE"), std::string("\xFE\xFF"),
+  for (const std::string& bom : {std::string("\xEF\xBB\xBF"), std::string("\xFF\xFE"), std::string("\xFE\xFF"),
                                 std::string("\x00\x00\xFE\xFF", 4)}) {
     std::string bytes = to_binary_stl(cube());
     bytes.replace(0, bom.size(), bom);
@@ -329,25 +330,17 @@ TEST(Stl, GarbageIsRefused) {
 }
 
 TEST(Cli, MeshCommand) {
-  TempDir dir;
-  const std::string good = dir.write("cube.stl", to_binary_stl(cube()));
-  const std::string out = dir.write("out.json", "");
-  const int ok = std::system(fmt::format("'{}' mesh '{}' --json > '{}'", MACHPLAN_CLI, good, out).c_str());
-  ASSERT_TRUE(WIFEXITED(ok));
-  EXPECT_EQ(WEXITSTATUS(ok), 0);
-  std::ifstream in(out);
-  const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(json, HasSubstr("\"closed\": true"));
-  EXPECT_THAT(json, HasSubstr(fmt::format("\"volume_mm3\": {}", kCubeVolume)));
+  test::Cli cli;
+  const std::string good = cli.write("cube.stl", to_binary_stl(cube()));
+  const test::CliResult ok = cli.run({"mesh", good, "--json"});
+  EXPECT_EQ(ok.code, 0);
+  EXPECT_THAT(ok.out, HasSubstr("\"closed\": true"));
+  EXPECT_THAT(ok.out, HasSubstr(fmt::format("\"volume_mm3\": {}", kCubeVolume)));
 
-  const std::string bad = dir.write("bad.stl", "solid x\nfacet normal 0 0 1\nendsolid\n");
-  const std::string err = dir.write("err.txt", "");
-  const int rc = std::system(fmt::format("'{}' mesh '{}' 2> '{}' > /dev/null", MACHPLAN_CLI, bad, err).c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 2);
-  std::ifstream ein(err);
-  const std::string message((std::istreambuf_iterator<char>(ein)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(message, HasSubstr(bad + ":3: expected 'outer', found 'endsolid'"));
+  const std::string bad = cli.write("bad.stl", "solid x\nfacet normal 0 0 1\nendsolid\n");
+  const test::CliResult r = cli.run({"mesh", bad});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.err, HasSubstr(bad + ":3: expected 'outer', found 'endsolid'"));
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "engine/common/error.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
@@ -378,34 +379,23 @@ TEST(Reader, HexamSizedPathReadsWhole) {
 }
 
 TEST(Cli, BadInputExitsWithTwoAndNamesTheLine) {
-  TempDir dir;
-  const std::string bad = dir.write("bad.cl", "GOTO/0,0,0\nCIRCLE/1\n");
-  const std::string err = dir.write("err.txt", "");
-  const int rc = std::system(fmt::format("'{}' toolpath '{}' 2> '{}' > /dev/null", MACHPLAN_CLI, bad, err).c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 2);
-  std::ifstream in(err);
-  const std::string message((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(message, HasSubstr(bad + ":2: CIRCLE: expected at least 6 values"));
+  test::Cli cli;
+  const std::string bad = cli.write("bad.cl", "GOTO/0,0,0\nCIRCLE/1\n");
+  const test::CliResult r = cli.run({"toolpath", bad});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.err, HasSubstr(bad + ":2: CIRCLE: expected at least 6 values"));
 
   // Skipped statements are warnings on stderr, and the exit code stays 0.
-  const std::string skipped = dir.write("skipped.apt", "UNIT/MM\nSPINDL/1000\nGOTO/0,0,0\nGOTO/1,0,0\nFINI\n");
-  const int rs = std::system(fmt::format("'{}' toolpath '{}' 2> '{}' > /dev/null", MACHPLAN_CLI, skipped, err).c_str());
-  ASSERT_TRUE(WIFEXITED(rs));
-  EXPECT_EQ(WEXITSTATUS(rs), 0);
-  std::ifstream win(err);
-  const std::string warning((std::istreambuf_iterator<char>(win)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(warning, HasSubstr("warning: " + skipped + ":2: APT statement 'SPINDL'"));
+  const std::string skipped = cli.write("skipped.apt", "UNIT/MM\nSPINDL/1000\nGOTO/0,0,0\nGOTO/1,0,0\nFINI\n");
+  const test::CliResult w = cli.run({"toolpath", skipped});
+  EXPECT_EQ(w.code, 0);
+  EXPECT_THAT(w.err, HasSubstr("warning: " + skipped + ":2: APT statement 'SPINDL'"));
 
-  const std::string good = dir.write("good.csv", "1,2,3\n4,6,3\n");
-  const std::string out = dir.write("out.json", "");
-  const int ok = std::system(fmt::format("'{}' toolpath '{}' --json > '{}'", MACHPLAN_CLI, good, out).c_str());
-  ASSERT_TRUE(WIFEXITED(ok));
-  EXPECT_EQ(WEXITSTATUS(ok), 0);
-  std::ifstream jin(out);
-  const std::string json((std::istreambuf_iterator<char>(jin)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(json, HasSubstr("\"poses\": 2"));
-  EXPECT_THAT(json, HasSubstr("\"max_step_mm\": 5.0"));
+  const std::string good = cli.write("good.csv", "1,2,3\n4,6,3\n");
+  const test::CliResult ok = cli.run({"toolpath", good, "--json"});
+  EXPECT_EQ(ok.code, 0);
+  EXPECT_THAT(ok.out, HasSubstr("\"poses\": 2"));
+  EXPECT_THAT(ok.out, HasSubstr("\"max_step_mm\": 5.0"));
 }
 
 }  // namespace

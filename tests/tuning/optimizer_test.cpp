@@ -132,7 +132,7 @@ TEST(AccTuning, VariableGainSettlesFasterThanTheTunedFixedGainWithoutOvershoot) 
   for (const AccTuningResult* r : {&fixed, &variable}) {
     EXPECT_LE(r->after.worst_overshoot, o.max_overshoot + 1e-3);
     // Never worse than a feasible start.
-    if (r->before.worst_overshoot <= o.max_overshoot) EXPECT_LE(r->after.worst_settling_s, r->before.worst_settling_s + 1e-9);
+    if (r->before.worst_overshoot <= o.max_overshoot) { EXPECT_LE(r->after.worst_settling_s, r->before.worst_settling_s + 1e-9); }
   }
   // Koren's Kc = 0.5 overshoots on the deepest step here; the tuned fixed gain is lower.
   EXPECT_LT(fixed.gain, 0.5);

@@ -44,17 +44,17 @@ TEST(TuneBaseline, AFaultedBaselineGivesNoRatio) {
 }
 
 TEST(TuneBaseline, TheCommandSaysSoInTextAndJson) {
-  test::TempDir dir;
+  const test::Cli cli;
   const std::string args = "tune --machine xy_table --controller ccc --contour program:'" + kTriangle +
                            "' --evaluations 2 --noise-runs 1";
-  const test::CliResult text = test::run_cli(dir, args);
+  const test::CliResult text = cli.run(args);
   ASSERT_EQ(text.code, 0) << text.err;
   EXPECT_NE(text.out.find("FAULTED on program:"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("no improvement figure: the baseline completed none of the contours"), std::string::npos) << text.out;
   EXPECT_EQ(text.out.find("improvement on the baseline: max"), std::string::npos) << text.out;
   EXPECT_EQ(text.out.find("0.00x"), std::string::npos) << text.out;
 
-  const test::CliResult json = test::run_cli(dir, args + " --json");
+  const test::CliResult json = cli.run(args + " --json");
   ASSERT_EQ(json.code, 0) << json.err;
   const auto j = nlohmann::json::parse(json.out);
   EXPECT_TRUE(j["baseline"]["faulted"].get<bool>());

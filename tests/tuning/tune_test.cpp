@@ -7,7 +7,7 @@
 
 #include "cli/json/tuning.h"
 #include "engine/common/error.h"
-#include "solvers/tuning/store.h"
+#include "solvers/session/tuning_store.h"
 #include "solvers/tuning/tune.h"
 #include "tests/support/temp_dir.h"
 

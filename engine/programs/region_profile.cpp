@@ -1,10 +1,8 @@
-// ProhibitedRegion from a DXF profile: the reader's errors refused with the entities named,
-// contours named by their entities.
+#include "engine/programs/region_profile.h"
+
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
-#include "engine/geometry/region.h"
-#include "engine/programs/dxf.h"
 
 namespace machplan {
 namespace {

@@ -1,4 +1,4 @@
-#include "solvers/tuning/store.h"
+#include "solvers/session/tuning_store.h"
 
 
 #include <fmt/format.h>
