@@ -138,6 +138,7 @@ struct Session::Impl {
   }
   double move_rate() const noexcept { return held ? 0.0 : move_is_rapid() ? rapid_rate : feed_rate; }
   void record_trace() noexcept;
+  void publish_live() noexcept;
 
   // --- inputs -------------------------------------------------------------------------------
   const MachineSetup& ms;
@@ -682,7 +683,42 @@ bool Session::Impl::tick() noexcept {
   }
   if (sup.stopping()) out.torch_fire = false;
   record_trace();
+  publish_live();
   return true;
+}
+
+void Session::Impl::publish_live() noexcept {
+  if (!parts.live) return;
+  LiveState l;
+  l.run = sup.faulted() ? (sup.stopping() ? LiveState::Run::stopping : LiveState::Run::faulted)
+          : held        ? LiveState::Run::held
+          : over        ? LiveState::Run::done
+                        : LiveState::Run::running;
+  l.tick = static_cast<std::uint64_t>(ticks);
+  l.t_s = t;
+  l.step = step < job.steps.size() ? static_cast<int>(step) : -1;
+  l.source_line = phase == Phase::move && source->source_line() > 0 ? source->source_line()
+                  : step < job.steps.size()                        ? job.steps[step].source_line
+                                                                   : 0;
+  l.commanded_mm = sp_mm;
+  l.measured_mm = adapter.position_mm();
+  l.path_speed_mm_per_s = demand.kind == Demand::Kind::track
+                              ? Eigen::Vector2d(demand.track.v_ff_mm_per_s[0], demand.track.v_ff_mm_per_s[1]).norm()
+                              : demand.speed_mm_per_s.norm();
+  l.rate = phase == Phase::move ? source->rate() : 0.0;
+  l.feed_override_pct = 100.0 * feed_rate;
+  l.rapid_override_pct = 100.0 * rapid_rate;
+  l.drives_enabled = out.drives_enabled;
+  l.torch_fire = out.torch_fire;
+  l.arc_ok = in.arc_ok;
+  l.torch_height_mm = in.torch_height_mm;
+  l.progress = std::min(progress_s / expected_s, over ? 1.0 : 0.999);
+  // What is left at the current feed override; a hold stops the clock, it does not run it.
+  const double left = std::max(0.0, expected_s - progress_s);
+  l.time_left_s = held ? left : left / std::max(feed_rate, 0.05);
+  l.fault = sup.faulted() ? static_cast<int>(sup.kind()) : -1;
+  l.holds = static_cast<int>(result.holds.size());
+  parts.live->publish(l);
 }
 
 ExecutionResult Session::Impl::finish() {

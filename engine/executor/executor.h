@@ -54,6 +54,7 @@
 
 #include <Eigen/Core>
 
+#include "engine/common/latest.h"
 #include "engine/common/progress.h"
 #include "engine/common/termination.h"
 #include "engine/control/controller.h"
@@ -62,6 +63,7 @@
 #include "engine/executor/contour_monitor.h"
 #include "engine/executor/feedback_adapter.h"
 #include "engine/executor/jog_source.h"
+#include "engine/executor/live_state.h"
 #include "engine/executor/machine_setup.h"
 #include "engine/executor/planned_source.h"
 #include "engine/executor/setpoint_source.h"
@@ -206,6 +208,9 @@ struct RunParts {
   // estimate, which counts the torch's timeouts and so runs long.
   Progress* progress = nullptr;
   double expected_s = 0.0;
+  // For a display: the machine's state, published at the end of every period (engine/
+  // executor/live_state.h); null: not published.
+  Latest<LiveState>* live = nullptr;
 };
 
 inline constexpr std::size_t kMaxHolds = 1024;

@@ -30,18 +30,6 @@ OperatorInputs OperatorMerger::merge(const OperatorInputs& backend, const Operat
   return m;
 }
 
-void OperatorChannel::set(const OperatorInputs& inputs) {
-  const std::lock_guard<std::mutex> lock(write_);
-  slots_[back_] = inputs;
-  back_ = middle_.exchange(static_cast<std::uint8_t>(back_ | kFresh), std::memory_order_acq_rel) & 0x3;
-}
-
-const OperatorInputs& OperatorChannel::latest() noexcept {
-  if (middle_.load(std::memory_order_relaxed) & kFresh)
-    front_ = middle_.exchange(front_, std::memory_order_acq_rel) & 0x3;
-  return slots_[front_];
-}
-
 Inputs OperatorMerge::initial_inputs() {
   Inputs in = inner_.initial_inputs();
   in.op = merger_.merge(in.op, channel_.latest());

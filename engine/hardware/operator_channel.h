@@ -2,11 +2,9 @@
 // scripted test. They reach the executor the way every other signal does: merged into the
 // backend's Inputs at each exchange, sampled once per period.
 //
-//   OperatorChannel   a lock-free mailbox of the newest OperatorInputs: writers (any thread;
-//                     writers serialise among themselves) set() whole states, the servo loop
-//                     reads the newest one without a lock or an allocation (a triple buffer:
-//                     the writer fills a spare slot and swaps it in with one atomic exchange;
-//                     the reader swaps the newest out the same way).
+//   OperatorChannel   a mailbox of the newest OperatorInputs (a Latest, engine/common/latest.h):
+//                     writers (any thread; they serialise among themselves) set() whole
+//                     states, the servo loop reads the newest one.
 //   OperatorMerge     a Backend that wraps another and merges a channel into its inputs after
 //                     each exchange. Everything else passes through unchanged.
 //
@@ -22,6 +20,7 @@
 #include <cstdint>
 #include <mutex>
 
+#include "engine/common/latest.h"
 #include "engine/hardware/backend.h"
 
 namespace machplan::hardware {
@@ -35,24 +34,19 @@ class OperatorMerger {
   OperatorInputs last_backend_{}, last_channel_{}, levels_{};
 };
 
+// The operator's inputs from any thread (the newest set wins), read by the tick.
 class OperatorChannel {
  public:
-  OperatorChannel() = default;
-  OperatorChannel(const OperatorChannel&) = delete;
-  OperatorChannel& operator=(const OperatorChannel&) = delete;
-
-  // Any thread; not real time (writers take a mutex among themselves).
-  void set(const OperatorInputs& inputs);
-  // The servo loop only (one reader): the newest state set, or the last one read when
-  // nothing new came. Lock-free, allocation-free.
-  const OperatorInputs& latest() noexcept;
+  // Any thread; not real time.
+  void set(const OperatorInputs& inputs) {
+    const std::lock_guard<std::mutex> lock(write_);
+    latest_.publish(inputs);
+  }
+  // The servo loop only: lock-free (the only reader), allocation-free.
+  const OperatorInputs& latest() noexcept { return latest_.read_single(); }
 
  private:
-  static constexpr std::uint8_t kFresh = 0x4;  // the middle slot holds a state not yet read
-  std::array<OperatorInputs, 3> slots_{};
-  std::atomic<std::uint8_t> middle_{1};  // slot index | kFresh
-  std::uint8_t back_ = 2;                // the writer's spare slot (guarded by write_)
-  std::uint8_t front_ = 0;               // the reader's slot
+  Latest<OperatorInputs> latest_;
   std::mutex write_;
 };
 

@@ -45,6 +45,7 @@ struct MachineSession::Impl {
   std::optional<executor::Executor> executor;
   std::unique_ptr<hardware::Backend> backend;
   hardware::OperatorChannel channel;
+  Latest<executor::LiveState> live;
   std::unique_ptr<hardware::OperatorMerge> merged;
   std::unique_ptr<executor::TraceStream> trace;
 
@@ -60,6 +61,7 @@ executor::RunParts MachineSession::Impl::parts(const RunHooks& h) {
   p.termination = h.termination;
   p.progress = h.progress;
   p.expected_s = h.expected_s;
+  p.live = &live;
   if (!o.trace_csv_path.empty()) {
     trace = std::make_unique<executor::TraceStream>(o.trace_csv_path);
     p.trace_stream = trace.get();
@@ -120,6 +122,7 @@ const std::optional<calibration::StoredFit>& MachineSession::calibration() const
 const std::string& MachineSession::controller_name() const { return impl_->controller_name; }
 const executor::ExecutorOptions& MachineSession::executor_options() const { return impl_->executor->options(); }
 hardware::OperatorChannel& MachineSession::operator_inputs() { return impl_->channel; }
+Latest<executor::LiveState>& MachineSession::live() { return impl_->live; }
 bool MachineSession::backend_open() const { return impl_->backend != nullptr; }
 
 hardware::Backend& MachineSession::backend(const Eigen::Vector2d& start_mm) {

@@ -111,6 +111,9 @@ class MachineSession {
   // The operator's inputs, merged into the backend's at every exchange (engine/hardware/
   // operator_channel.h). Any thread.
   hardware::OperatorChannel& operator_inputs();
+  // The machine's state, published by the running job's tick every period (engine/executor/
+  // live_state.h); any thread may read it.
+  Latest<executor::LiveState>& live();
 
   // What a run is made of beyond the session's own parts.
   struct RunHooks {
