@@ -57,11 +57,25 @@ void ProgressBar::update(double fraction) {
 }
 
 ProgressWatch::ProgressWatch(std::string label, bool wanted, const std::atomic<double>& share)
-    : bar_(std::move(label), wanted), share_(share) {
+    : bar_(std::move(label), wanted), read_([&share] { return share.load(std::memory_order_relaxed); }) {
+  start();
+}
+
+ProgressWatch::ProgressWatch(std::string label, bool wanted, const Progress& progress)
+    : bar_(std::move(label), wanted), read_([&progress] { return progress.share(); }), clear_at_one_(true) {
+  start();
+}
+
+void ProgressWatch::start() {
   if (!bar_.drawing()) return;  // nothing to draw: no thread
   thread_ = std::thread([this] {
     while (!over_.load()) {
-      bar_.update(share_.load(std::memory_order_relaxed));
+      const double share = read_();
+      if (clear_at_one_ && share >= 1.0) {
+        bar_.done();
+        return;
+      }
+      bar_.update(share);
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   });

@@ -208,8 +208,8 @@ void add_run(CLI::App& app) {
     o.stop = StopOnSignals::stop_token();
     o.max_machine_time_s = a->max_machine_time_s;
     // Rapid planning can take seconds on a long job: a bar on a terminal, cleared before the run.
-    auto bar = std::make_shared<ProgressBar>("planning rapids", !a->json);
-    o.rapids.progress = [bar](double f) { f < 1 ? bar->update(f) : bar->done(); };
+    Progress rapids_progress;
+    o.rapids_progress = &rapids_progress;
 
     // The run itself: the executor stores its progress, a thread of the watch draws it.
     std::atomic<double> share{0.0};
@@ -217,10 +217,10 @@ void add_run(CLI::App& app) {
     // SIGINT, SIGTERM and SIGHUP stop the machine in a controlled way (exit 3), not the process.
     const StopOnSignals signals;
     const motion::RunOutcome run = [&] {
+      const ProgressWatch rapids_watch("planning rapids", !a->json, rapids_progress);
       const ProgressWatch watch("running", !a->json, share);
       return motion::run_program(a->program, o);
     }();
-    bar->done();
     if (!a->plot.empty()) motion::write_run_plot(a->plot, run, magnify);
 
     if (a->json) {
@@ -230,7 +230,7 @@ void add_run(CLI::App& app) {
       print_json(j);
     } else {
       if (run.kerf) std::printf("kerf compensation\n%s\n", run.kerf->brief(run.job.source).c_str());
-      std::printf("rapids (straight G0 against planned, mm)\n%s\n", run.rapids.summary().c_str());
+      std::printf("rapids (straight G0 against planned, mm)\n%s\n", run.rapids.summary.full_report().c_str());
       if (paper && o.paper_x1_decoding)
         std::printf("paper mode: encoders counted x1 as in the paper (%.4f mm per count), BLU %g mm, calibration %g\n\n",
                     run.machine.axes[0].plant.mm_per_count(), o.executor.blu_mm, o.executor.calibration_factor);

@@ -119,7 +119,7 @@ struct Session::Impl {
   void sequence() noexcept;
   void begin_step() noexcept;
   void next_step() noexcept;
-  void torch_off_and_retract(bool resume) noexcept;
+  void torch_off_and_retract(bool resume, double height_mm = 0.0) noexcept;
   void raise(FK kind, int axis, double value) noexcept;
   bool moving_cut() const noexcept {
     return phase == Phase::move && !sup.stopping() && source->travelling() && step < job.steps.size() &&
@@ -326,13 +326,13 @@ void Session::Impl::begin_step() noexcept {
       phase = Phase::torch;
       break;
     }
-    case Step::Kind::torch_off: torch_off_and_retract(/*resume=*/false); break;
+    case Step::Kind::torch_off: torch_off_and_retract(/*resume=*/false, st.height_mm); break;
     case Step::Kind::dwell: phase = Phase::dwell; break;
   }
 }
 
-void Session::Impl::torch_off_and_retract(bool resume) noexcept {
-  torch.start_off(out);
+void Session::Impl::torch_off_and_retract(bool resume, double height_mm) noexcept {
+  torch.start_off(out, height_mm);
   resume_after_torch_off = resume;
   phase = Phase::torch;
 }

@@ -9,7 +9,7 @@
 //       -> [height to cut height]
 //   a dwell step right after the torch_on IS the pierce delay (G4): the sequence then ends at
 //       the pierce, and lower_to_cut_height() follows the dwell
-//   torch off:  stop firing, height to retract height
+//   torch off:  stop firing, height to retract height (or the step's higher travel height)
 //
 // Every wait on the height axis fails after height_timeout_s (torch_height_timeout); a missing
 // arc OK fails the start (arc_start_failed). kill() turns the torch off and retracts in the
@@ -37,7 +37,9 @@ class TorchSequencer {
 
   // A torch_on step; `programmed_pierce` when a dwell step follows it.
   void start_on(bool programmed_pierce, hardware::Outputs& out) noexcept;
-  void start_off(hardware::Outputs& out) noexcept;
+  // A torch_off step: the torch retracts to the retract height, or to `height_mm` when that
+  // is higher (a rapid over parts already cut follows).
+  void start_off(hardware::Outputs& out, double height_mm = 0.0) noexcept;
   void lower_to_cut_height(hardware::Outputs& out) noexcept;
   // Torch off and retract now (faults, stops); the sequence in progress is abandoned.
   void kill(hardware::Outputs& out) noexcept;
@@ -71,6 +73,7 @@ class TorchSequencer {
   Phase phase_ = Phase::idle;
   double pt_ = 0.0;  // time in the phase
   bool programmed_ = false, lit_ = false;
+  double retract_mm_ = 0.0;  // the height of the retract in progress
   Failure failure_ = Failure::none;
   double failure_value_ = 0.0;
 };

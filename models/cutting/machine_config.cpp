@@ -177,7 +177,7 @@ MachineConfig machine_from_yaml(const Yaml& root) {
   }
   if (const auto h = root.get("torch_height")) {
     h->reject_unknown_keys({"initial_height_sense_s", "pierce_height_mm", "cut_height_mm", "retract_height_mm",
-                            "speed_mm_per_s", "timeout_s"});
+                            "speed_mm_per_s", "timeout_s", "travel_height_over_cut_mm"});
     TorchHeightConfig& th = m.torch_height;
     th.fitted = true;
     th.initial_height_sense_s = h->number("initial_height_sense_s", kNonNegative);
@@ -191,6 +191,15 @@ MachineConfig machine_from_yaml(const Yaml& root) {
     const double worst = th.initial_height_sense_s + th.retract_height_mm / th.speed_mm_per_s;
     if (th.timeout_s <= worst)
       h->at("timeout_s").fail(fmt::format("must exceed the sense time plus a full stroke ({:.3f} s)", worst));
+    th.travel_height_over_cut_mm = h->number_or("travel_height_over_cut_mm", 0.0, {.min = 0.0, .max = 1000.0});
+    if (th.travel_height_over_cut_mm > 0.0) {
+      if (th.travel_height_over_cut_mm < th.retract_height_mm)
+        h->at("travel_height_over_cut_mm").fail("must be at least retract_height_mm (or 0: the retract height)");
+      const double stroke = th.initial_height_sense_s + th.travel_height_over_cut_mm / th.speed_mm_per_s;
+      if (th.timeout_s <= stroke)
+        h->at("travel_height_over_cut_mm")
+            .fail(fmt::format("is a stroke of {:.3f} s, beyond the height axis' timeout_s {:g} s", stroke, th.timeout_s));
+    }
   }
   return m;
 }

@@ -73,6 +73,12 @@ struct TorchHeightConfig {
   double retract_height_mm = 15.0;
   double speed_mm_per_s = 50.0;
   double timeout_s = 3.0;
+  // The torch height over the table while a rapid crosses a part already cut (its target lies
+  // inside the part: a hole cut after its outline), mm: high enough that a part that has
+  // tipped up in the skeleton cannot catch the torch. `travel_height_over_cut_mm` in the
+  // torch_height block; 0 (absent): the retract height, nothing raised. At least the retract
+  // height, and a stroke from cut height the timeout allows.
+  double travel_height_over_cut_mm = 0.0;
 };
 
 struct MachineConfig {

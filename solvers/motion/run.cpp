@@ -156,12 +156,13 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
   const bool oxy = m.torch.kind == executor::TorchSetup::Kind::oxy_fuel;
   const double default_pierce_s = oxy ? m.torch.oxy_fuel.pierce_delay_s : m.torch.plasma.pierce_delay_s;
   double t = 0.0;
+  double retracted_mm = th.retract_height_mm;  // where the torch waits between cuts
   for (std::size_t i = 0; i < job.steps.size(); ++i) {
     const Step& s = job.steps[i];
     switch (s.kind) {
       case Step::Kind::torch_on: {
         if (th.fitted)
-          t += th.initial_height_sense_s + height_move_s(th.retract_height_mm, th.pierce_height_mm, tol, th.speed_mm_per_s) +
+          t += th.initial_height_sense_s + height_move_s(retracted_mm, th.pierce_height_mm, tol, th.speed_mm_per_s) +
                height_move_s(th.pierce_height_mm, th.cut_height_mm, tol, th.speed_mm_per_s);
         if (plasma) t += m.torch.plasma.arc_start_delay_s;
         if (oxy) t += m.torch.oxy_fuel.preheat_s;
@@ -170,7 +171,8 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
         break;
       }
       case Step::Kind::torch_off:
-        if (th.fitted) t += height_move_s(th.cut_height_mm, th.retract_height_mm, tol, th.speed_mm_per_s);
+        retracted_mm = std::max(th.retract_height_mm, s.height_mm);  // higher before a rapid over cut parts
+        if (th.fitted) t += height_move_s(th.cut_height_mm, retracted_mm, tol, th.speed_mm_per_s);
         break;
       case Step::Kind::dwell: t += s.seconds; break;
       case Step::Kind::move: break;
@@ -286,9 +288,11 @@ RunOutcome run_job(Job programmed, const RunOptions& options) {
   RapidOptions ro = options.rapids;
   ro.bounds = travel_box(o.machine);
   ro.slug_tip_size_mm = o.machine.slug_tip_size_mm;
-  ro.stop = options.stop;
-  o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts);
-  if (o.rapids.cancelled) throw Cancelled(fmt::format("{}: stopped on request while planning the rapids; nothing was run", o.job.source));
+  ro.travel_height_over_cut_mm = o.machine.torch_height.fitted ? o.machine.torch_height.travel_height_over_cut_mm : 0.0;
+  Termination rapids_end(options.stop);
+  o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts, rapids_end, options.rapids_progress);
+  if (o.rapids.ended_early())
+    throw Cancelled(fmt::format("{}: {} while planning the rapids; nothing was run", o.job.source, rapids_end.describe()));
   for (const Stretch& s : o.job.stretches)
     if (s.cutting && !s.rapid)
       if (auto loop = closed_loop(s)) o.cut_zones.push_back(std::move(*loop));

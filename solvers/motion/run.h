@@ -61,6 +61,7 @@
 #include "engine/motion/time_optimal.h"
 #include "engine/programs/gcode.h"
 #include "engine/programs/zones.h"
+#include "engine/common/progress.h"
 #include "engine/common/stop.h"
 #include "models/backends/backend_factory.h"
 #include "solvers/calibration/store.h"
@@ -83,6 +84,8 @@ struct RunOptions {
   StopToken stop;
   // The run's progress for a display thread (executor::RunParts::progress).
   std::atomic<double>* progress = nullptr;
+  // The rapid planning's progress (plan_rapids), for a display thread; may be null.
+  Progress* rapids_progress = nullptr;
   // The machine's stored calibration (machplan calibrate apply), applied to the executor's
   // setup: the feed-forward gain starts at 1 / feed factor, backlash is compensated at
   // reversals and the counters are decoded with the fitted encoder scale.
