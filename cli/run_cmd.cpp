@@ -82,9 +82,8 @@ void add_run(CLI::App& app) {
     std::vector<std::string> gains;
     bool json = false, realtime = false;
     std::string origin;
-    std::vector<std::string> params;
-    int spindles = 1;
-    bool lenient = false, strict_z = false;
+    GcodeFlags gcode;
+    bool strict_z = false;
     double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
   };
   auto a = std::make_shared<Args>();
@@ -118,7 +117,7 @@ void add_run(CLI::App& app) {
                   "(the machine's active tuning from machplan tune --store, in --db)");
   cmd->add_option("--gain", a->gains, "a controller gain, NAME=VALUE (e.g. kp_per_s=120); may be repeated");
   cmd->add_flag("--strict-z", a->strict_z, "refuse a program whose Z moves instead of dropping its Z words");
-  add_gcode_options(*cmd, a->params, a->spindles, a->lenient);
+  add_gcode_options(*cmd, a->gcode);
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->add_flag("--realtime", a->realtime, "pace the simulation to the wall clock");
   cmd->add_option("--max-machine-time", a->max_machine_time_s,
@@ -195,7 +194,7 @@ void add_run(CLI::App& app) {
       o.controller_gains = gains;
     }
     o.no_go_path = a->no_go;
-    o.gcode = gcode_options(a->params, a->spindles, a->lenient);
+    o.gcode = gcode_options(a->gcode);
     o.strict_z = a->strict_z;
     if (!a->origin.empty()) {
       const auto comma = a->origin.find(',');

@@ -267,7 +267,11 @@ TEST_P(GcodeConformance, MatchesRs274) {
   const RunResult ref = run("cd " + quote(dir.string()) + " && flock " + quote(lock) +
                                 " timeout 60 /usr/bin/rs274 -g -t tool.tbl " + quote(file.string()),
                             dir);
-  const RunResult ours = run(std::string(MACHPLAN_CLI) + " program " + quote(file.string()) + " --json", dir);
+  // The reference reading is LinuxCNC's dialect; the default (auto) must read every program
+  // rs274 reads exactly as it (checked below), and may read as GRBL's what rs274 refuses.
+  const RunResult ours =
+      run(std::string(MACHPLAN_CLI) + " program " + quote(file.string()) + " --json --dialect linuxcnc", dir);
+  const RunResult ours_auto = run(std::string(MACHPLAN_CLI) + " program " + quote(file.string()) + " --json", dir);
   fs::remove_all(dir);
 
   const bool ref_ok = ref.exit_code == 0;
@@ -311,7 +315,9 @@ TEST_P(GcodeConformance, MatchesRs274) {
     return;
   }
 
-  // Both accept: compare the moves.
+  // Both accept: compare the moves. The default dialect reads it identically.
+  EXPECT_EQ(ours_auto.exit_code, ours.exit_code);
+  EXPECT_EQ(ours_auto.out, ours.out) << "the automatic dialect must read a program rs274 reads as LinuxCNC does";
   const Rs274Program expected = parse_rs274(ref.out);
   EXPECT_TRUE(expected.unmodelled.empty()) << "rs274 issues calls machplan does not model, yet machplan accepted: "
                                           << expected.unmodelled.front();
