@@ -15,6 +15,7 @@
 #include "cli/interrupt.h"
 #include "cli/output.h"
 #include "cli/gcode_flags.h"
+#include "cli/json/cut_order_json.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/store.h"
 #include "engine/common/error.h"
@@ -84,6 +85,7 @@ void add_run(CLI::App& app) {
     std::string origin;
     GcodeFlags gcode;
     bool strict_z = false;
+    std::string order;
     double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
   };
   auto a = std::make_shared<Args>();
@@ -117,6 +119,10 @@ void add_run(CLI::App& app) {
                   "(the machine's active tuning from machplan tune --store, in --db)");
   cmd->add_option("--gain", a->gains, "a controller gain, NAME=VALUE (e.g. kp_per_s=120); may be repeated");
   cmd->add_flag("--strict-z", a->strict_z, "refuse a program whose Z moves instead of dropping its Z words");
+  cmd->add_option("--order", a->order,
+                  "cut order: program (as written; warns when an outline is cut before its holes), nearest, or "
+                  "optimise (inner contours first, pierce points chosen, least travel); default: the machine file's "
+                  "cut_order, else program");
   add_gcode_options(*cmd, a->gcode);
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->add_flag("--realtime", a->realtime, "pace the simulation to the wall clock");
@@ -196,6 +202,10 @@ void add_run(CLI::App& app) {
     o.no_go_path = a->no_go;
     o.gcode = gcode_options(a->gcode);
     o.strict_z = a->strict_z;
+    if (!a->order.empty()) {
+      o.order = motion::cut_order_from(a->order);
+      if (!o.order) throw InputError("--order", 0, fmt::format("'{}' is not an order (program, nearest, optimise)", a->order));
+    }
     if (!a->origin.empty()) {
       const auto comma = a->origin.find(',');
       if (comma == std::string::npos) throw InputError("--origin", 0, fmt::format("'{}' is not X,Y (mm)", a->origin));
@@ -224,11 +234,13 @@ void add_run(CLI::App& app) {
 
     if (a->json) {
       nlohmann::json j = run.to_json();
+      j["cut_order"] = cut_order_json(run.cut_order);
       if (!a->trace.empty()) j["trace"] = a->trace;
       if (!a->plot.empty()) j["plot"] = a->plot;
       print_json(j);
     } else {
       if (run.kerf) std::printf("kerf compensation\n%s\n", run.kerf->brief(run.job.source).c_str());
+      if (run.cut_order.reordered) std::printf("%s\n", run.cut_order.summary.full_report().c_str());
       std::printf("rapids (straight G0 against planned, mm)\n%s\n", run.rapids.summary.full_report().c_str());
       if (paper && o.paper_x1_decoding)
         std::printf("paper mode: encoders counted x1 as in the paper (%.4f mm per count), BLU %g mm, calibration %g\n\n",

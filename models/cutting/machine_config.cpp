@@ -98,13 +98,17 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 
 MachineConfig machine_from_yaml(const Yaml& root) {
   root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height",
-                           "slug_tip_size_mm", "origin_mm", "gcode"});
+                           "slug_tip_size_mm", "origin_mm", "gcode", "cut_order"});
   MachineConfig m;
   m.source = root.file();
   m.name = root.string("name");
   m.description = root.string_or("description", "");
   m.servo_period_s = root.number_or("servo_period_s", 0.001, {.min = 1e-5, .max = 0.1});
   m.slug_tip_size_mm = root.number_or("slug_tip_size_mm", m.slug_tip_size_mm, {.min = 0.0, .max = 1e6});
+  if (const auto c = root.get("cut_order")) {
+    m.cut_order = c->string();  // the name is checked where it is read (motion::cut_order_of)
+    m.cut_order_line = c->line();
+  }
   if (const auto o = root.get("origin_mm")) {
     const std::vector<double> xy = o->numbers(2, {.min = -1e6, .max = 1e6});
     m.origin_mm = std::array<double, 2>{xy[0], xy[1]};

@@ -89,6 +89,11 @@ struct MachineConfig {
   // Outer contours (parts) are always kept clear of. Default: 50 mm, about the pitch of a
   // cutting table's support slats.
   double slug_tip_size_mm = 50.0;
+  // The order `machplan run` cuts a program in when --order is not given (`cut_order:` in the
+  // file: program, nearest or optimise; solvers/motion/cut_order.h reads the name). Empty:
+  // the program's own order.
+  std::string cut_order;
+  int cut_order_line = 0;  // where the file gives it
   Limits limits;
   std::array<AxisConfig, 2> axes;
   TorchConfig torch;

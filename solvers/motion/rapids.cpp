@@ -286,8 +286,7 @@ void summarise(RapidsReport& report, const Termination& termination, bool ended)
 
 }  // namespace
 
-std::optional<Contour> closed_loop(const Stretch& stretch, double tolerance_mm) {
-  const auto& segs = stretch.segments;
+std::optional<Loop> find_loop(const std::vector<Segment>& segs, double tolerance_mm) {
   for (std::size_t j = 0; j < segs.size(); ++j)
     for (std::size_t i = 0; i <= j; ++i) {
       if ((segs[j].end - segs[i].start).norm() > tolerance_mm) continue;
@@ -299,12 +298,18 @@ std::optional<Contour> closed_loop(const Stretch& stretch, double tolerance_mm) 
       try {
         Contour c(std::move(v), std::move(b));
         if (orientation(c, 1e-6) == Orientation::degenerate) return std::nullopt;
-        return c;
+        return Loop{i, j, std::move(c)};
       } catch (const std::invalid_argument&) {
         return std::nullopt;  // non-finite or absurd coordinates: no zone
       }
     }
   return std::nullopt;
+}
+
+std::optional<Contour> closed_loop(const Stretch& stretch, double tolerance_mm) {
+  std::optional<Loop> loop = find_loop(stretch.segments, tolerance_mm);
+  if (!loop) return std::nullopt;
+  return std::move(loop->contour);
 }
 
 std::string RapidReport::why() const {

@@ -130,6 +130,15 @@ struct RapidsReport {
 RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, const RapidOptions& options,
                          bool zones_from_cuts, Termination& termination, Progress* progress = nullptr);
 
+// The closed loop of a cut path (see the file comment): segments first .. last (inclusive)
+// return to the start of `first`, as a Contour. Nothing when the path never closes or its
+// loop encloses no area.
+struct Loop {
+  std::size_t first = 0, last = 0;
+  Contour contour;
+};
+std::optional<Loop> find_loop(const std::vector<Segment>& segments, double tolerance_mm = 1e-3);
+
 // The closed loop of a cutting stretch as a Contour (see the file comment), or nothing.
 // tolerance_mm: how near a segment's end must come to an earlier start to close the loop.
 std::optional<Contour> closed_loop(const Stretch& stretch, double tolerance_mm = 1e-3);

@@ -141,6 +141,15 @@ void RunOptions::validate() const {
   }
 }
 
+CutOrder cut_order_of(const cutting::MachineConfig& m) {
+  if (m.cut_order.empty()) return CutOrder::program;
+  const std::optional<CutOrder> o = cut_order_from(m.cut_order);
+  if (!o)
+    throw InputError(m.source, m.cut_order_line,
+                     fmt::format("key 'cut_order' must be program, nearest or optimise, got '{}'", m.cut_order.substr(0, 40)));
+  return *o;
+}
+
 PlannerOptions planner_options_for(const cutting::MachineConfig& m) {
   PlannerOptions p;
   p.max_velocity_mm_per_s = Eigen::Vector2d::Constant(m.limits.velocity_mm_per_s);
@@ -219,6 +228,12 @@ RunOutcome run_program(const std::string& program_path, const RunOptions& option
     for (Move& m : program.moves)
       if (m.plane == Move::Plane::xy) m.end.z() = program.start.z();
   }
+  // The order of the cuts: the option, else the machine file's, else the program's own.
+  CutOrderOptions order;
+  order.order = options.order.value_or(cut_order_of(machine));
+  OrderedProgram ordered = order_cuts(program, order);
+  program = std::move(ordered.program);
+  warnings.insert(warnings.end(), ordered.report.warnings.begin(), ordered.report.warnings.end());
   Eigen::Vector2d origin = Eigen::Vector2d::Zero();
   std::string from = "none";
   if (options.origin_mm) {
@@ -246,6 +261,7 @@ RunOutcome run_program(const std::string& program_path, const RunOptions& option
   o.origin_from = from;
   o.warnings = std::move(warnings);
   o.notes = std::move(notes);
+  o.cut_order = std::move(ordered.report);
   return o;
 }
 
