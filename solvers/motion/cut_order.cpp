@@ -495,7 +495,10 @@ void summarise(const Program& p, CutOrderReport& r) {
   if (r.reordered) {
     full += fmt::format("  cuts {} ({} closed, {} with a lead-in), order (by their first line):", r.cuts, r.closed_cuts,
                         r.with_lead_in);
-    for (int k : r.sequence) full += fmt::format(" {}", r.cut_lines[static_cast<std::size_t>(k)]);
+    constexpr std::size_t kShown = 40;
+    for (std::size_t k = 0; k < std::min(kShown, r.sequence.size()); ++k)
+      full += fmt::format(" {}", r.cut_lines[static_cast<std::size_t>(r.sequence[k])]);
+    if (r.sequence.size() > kShown) full += fmt::format(" ... ({} more)", r.sequence.size() - kShown);
     full += "\n";
     if (r.lower_bound_mm > 0)
       full += fmt::format("  at most {:.1f} % above the shortest travel any order could have\n",
