@@ -168,22 +168,8 @@ class SpanIndex {
   // Calls f(i) for every item whose box meets the ray from p towards +x.
   template <class F>
   void for_each_on_ray(const Eigen::Vector2d& p, F&& f) const {
-    if (nodes_.empty()) return;
-    std::array<std::uint32_t, kMaxDepth> stack;
-    std::size_t top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const std::uint32_t idx = stack[--top];
-      const Node& nd = nodes_[idx];
-      const Box& nb = node_boxes_[idx];
-      if (nb.hi.x() < p.x() || nb.lo.y() > p.y() || nb.hi.y() < p.y()) continue;
-      if (nd.count == 0) {
-        stack[top++] = nd.first;
-        stack[top++] = idx + 1;
-        continue;
-      }
-      for (std::uint32_t i = nd.first; i < nd.first + nd.count; ++i) f(i);
-    }
+    const Eigen::AlignedBox2d ray(p, Eigen::Vector2d(std::numeric_limits<double>::infinity(), p.y()));
+    for_each_in_box(ray, [&](std::size_t i) { f(static_cast<std::uint32_t>(i)); });
   }
   // Signed crossing of item i with the ray from p towards +x (0 when its box misses the ray).
   int crossing(std::uint32_t i, const Eigen::Vector2d& p) const noexcept;

@@ -575,9 +575,10 @@ TEST(Rapids, OpenCutsAreCounted) {
 }
 
 // A 200 x 100 plate at [100, 300] x [0, 100] with three round holes: each hole is pierced at
-// its centre, reached by a 10 mm lead-in and cut counter-clockwise; then the outline is cut
-// from a pierce 6 mm to its left. `hole_d` is the holes' diameter.
-Job plate_with_holes(double hole_d) {
+// its centre, reached by a 10 mm lead-in and cut counter-clockwise; the outline is cut from a
+// pierce 6 mm to its left, after the holes (or, `outline_first`, before them, as a naive
+// program does). `hole_d` is the holes' diameter.
+Job plate_with_holes(double hole_d, bool outline_first = false) {
   Job job;
   job.source = "plate.ngc";
   job.start_mm = {0, 0};
@@ -599,6 +600,11 @@ Job plate_with_holes(double hole_d) {
     at = job.stretches.back().segments.back().end;
     line += 10;
   };
+  const auto outline = [&] {
+    rapid_to({94, 50});
+    cut(test::polyline_segments({{94, 50}, {100, 50}, {100, 100}, {300, 100}, {300, 0}, {100, 0}, {100, 50}}, false));
+  };
+  if (outline_first) outline();
   for (const Vector2d& c : centres) {
     rapid_to(c);
     const double r = hole_d / 2;
@@ -606,8 +612,7 @@ Job plate_with_holes(double hole_d) {
     for (const Segment& g : Contour::circle(c, r).segments()) segs.push_back(g);  // starts at angle 0
     cut(segs);
   }
-  rapid_to({94, 50});
-  cut(test::polyline_segments({{94, 50}, {100, 50}, {100, 100}, {300, 100}, {300, 0}, {100, 0}, {100, 50}}, false));
+  if (!outline_first) outline();
   rapid_to({0, 0});
   return job;
 }
@@ -666,46 +671,11 @@ TEST(Rapids, LargeSlugsAndPartsAreDetouredWithAReason) {
   EXPECT_NE(a.rapids.back().reason.find("part cut at line"), std::string::npos) << a.rapids.back().reason;
 }
 
-// The plate of plate_with_holes cut outline first: the outline, then the holes inside it.
-Job plate_outline_first(double hole_d) {
-  Job job;
-  job.source = "outline_first.ngc";
-  job.start_mm = {0, 0};
-  using K = Step::Kind;
-  Vector2d at = job.start_mm;
-  int line = 10;
-  const auto rapid_to = [&](const Vector2d& p) {
-    job.stretches.push_back(line_stretch({at, p}, false, true, 80, line));
-    job.steps.push_back({K::move, line, job.stretches.size() - 1, 0});
-    at = p;
-    line += 10;
-  };
-  const auto cut = [&](std::vector<Segment> segs) {
-    job.steps.push_back({K::torch_on, line, 0, 0});
-    job.stretches.push_back(test::make_stretch(std::move(segs), 40, true, false, line));
-    job.steps.push_back({K::move, line, job.stretches.size() - 1, 0});
-    job.steps.push_back({K::torch_off, line, 0, 0});
-    at = job.stretches.back().segments.back().end;
-    line += 10;
-  };
-  rapid_to({94, 50});
-  cut(test::polyline_segments({{94, 50}, {100, 50}, {100, 100}, {300, 100}, {300, 0}, {100, 0}, {100, 50}}, false));
-  for (const Vector2d& c : {Vector2d(140, 50), Vector2d(200, 30), Vector2d(260, 70)}) {
-    rapid_to(c);
-    const double r = hole_d / 2;
-    std::vector<Segment> segs{make_segment(c, c + Vector2d(r, 0), 0.0)};
-    for (const Segment& g : Contour::circle(c, r).segments()) segs.push_back(g);
-    cut(segs);
-  }
-  rapid_to({0, 0});
-  return job;
-}
-
 TEST(Rapids, RapidsIntoAPartAlreadyCutCrossItRaised) {
   // Outline first: each rapid to a hole's pierce point lies inside the plate just cut. It
   // crosses the plate straight instead of leaving it, going round and coming back in, and the
   // torch is raised to the travel height over cut parts before it.
-  Job job = plate_outline_first(20.0);
+  Job job = plate_with_holes(20.0, true);
   RapidOptions o;
   o.travel_height_over_cut_mm = 40.0;
   const RapidsReport r = plan_rapids(job, {}, o, true);
@@ -734,7 +704,7 @@ TEST(Rapids, RapidsIntoAPartAlreadyCutCrossItRaised) {
   EXPECT_NE(r.summary.full_report().find("over part cut at line 20"), std::string::npos);
 
   // Without a travel height (0): the same route, nothing raised.
-  Job flat = plate_outline_first(20.0);
+  Job flat = plate_with_holes(20.0, true);
   const RapidsReport f = plan_rapids(flat, {}, RapidOptions{}, true);
   EXPECT_EQ(f.crossings, 4u);
   for (const Step& st : flat.steps) EXPECT_EQ(st.height_mm, 0.0);
@@ -744,7 +714,7 @@ TEST(Rapids, InsideAPartOtherZonesAreStillAvoided) {
   // Holes of 60 mm (slugs that may tip, above the 50 mm tip size): the rapid from the first
   // hole to the second crosses the plate (it is inside it) but goes round the first hole's
   // slug; and a declared clamp on the plate is avoided whatever is crossed.
-  Job job = plate_outline_first(36.0);
+  Job job = plate_with_holes(36.0, true);
   RapidOptions o;
   o.slug_tip_size_mm = 30.0;
   const Box clamp{225, 40, 240, 60};  // between the second hole (200, 30) and the third (260, 70)
