@@ -35,6 +35,7 @@ struct Entry {
 // One cut of the program.
 struct Cut {
   std::size_t approach = 0, on = 0, end = 0;  // moves [approach, on): the rapids to it; [on, end): the cut
+  std::size_t off = 0;                        // its torch_off (end when it has none); dwells after it are its own
   int line = 0;                     // its first feed move's line (the torch_on's when it has none)
   Vector2d pierce = Vector2d::Zero(), exit = Vector2d::Zero();
   std::vector<Segment> path;        // its feed moves as segments
@@ -72,7 +73,7 @@ void read_path(const Program& p, const Layout& l, Cut& c) {
   bool fed = false, pinned = false;
   for (std::size_t i = c.on; i < c.end; ++i) {
     const Move& m = p.moves[i];
-    if (m.kind == Move::Kind::dwell && fed) pinned = true;
+    if (m.kind == Move::Kind::dwell && fed && i < c.off) pinned = true;
     if (m.kind != Move::Kind::line && m.kind != Move::Kind::arc) continue;
     fed = true;
     if (m.kind == Move::Kind::arc && m.turns > 0) pinned = true;
@@ -116,7 +117,10 @@ Layout layout(const Program& p) {
         return l.refused = refuse_at(p, p.moves[j], "the torch is turned on again before it was turned off"), l;
       if (p.moves[j].kind == Move::Kind::rapid) return l.refused = refuse_at(p, p.moves[j], "a rapid with the torch on"), l;
     }
+    c.off = j;
     c.end = std::min(j + 1, n);
+    // A pause after the torch_off (to let the arc die, as some posts write) goes with the cut.
+    while (c.end < n && p.moves[c.end].kind == Move::Kind::dwell) ++c.end;
     // Its approach: the rapids (and stray torch_offs) since the previous cut, or the trailing
     // rapids of the preamble.
     std::size_t a = l.cuts.empty() ? i : l.cuts.back().end;

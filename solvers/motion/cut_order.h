@@ -39,6 +39,9 @@
 // edge. A cut with no lead-in (pierced on its own edge) keeps its pierce point: moving it
 // would pierce the edge of the part.
 //
+// A cut is a torch_on ... torch_off run; dwells right after its torch_off (a pause to let the
+// arc die, as some posts write) go with it.
+//
 // What is kept. Every cut's geometry (the loop is the same closed path, started elsewhere),
 // feeds, path modes, torch words, dwells and source lines; the program's preamble (moves
 // before the first cut's approach) and its postamble (from the last cut's end on); events,

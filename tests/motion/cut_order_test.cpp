@@ -157,6 +157,19 @@ TEST(CutOrder, NearestKeepsPiercePointsAndPrecedences) {
   for (int inner : {15, 22, 28}) EXPECT_LT(at[inner], at[5]) << inner;  // the plate after its three
 }
 
+TEST(CutOrder, APauseAfterTheTorchOffGoesWithItsCut) {
+  // A post that pauses after each M5 (to let the arc die): the pause stays right after its cut.
+  const Program p = read("G0 X200 Y0\nM3 S1\nG1 X210 F600\nG1 X210 Y10\nM5\nG4 P0.6\n"
+                         "G0 X10 Y0\nM3 S1\nG1 X20 F600\nG1 X20 Y10\nM5\nG4 P0.7\nM2\n");
+  const OrderedProgram r = order_cuts(p, {});
+  ASSERT_TRUE(r.report.reordered) << r.report.summary.full_report();
+  EXPECT_EQ(r.report.cut_lines[static_cast<std::size_t>(r.report.sequence[0])], 9);  // the nearer cut first
+  const auto& m = r.program.moves;
+  for (std::size_t i = 0; i + 1 < m.size(); ++i)
+    if (m[i].kind == Move::Kind::torch_off) EXPECT_EQ(m[i + 1].kind, Move::Kind::dwell) << i;
+  EXPECT_NEAR(m[5].seconds, 0.7, 1e-12);  // the second cut's pause, now after the first cut made
+}
+
 TEST(CutOrder, WhatCannotBeReorderedIsLeftAsWritten) {
   const Program z = read("G0 X1 Y1\nM3 S1\nG1 X5 F100\nM5\nG0 Z5\nG0 X10\nM3 S1\nG1 X20 F100\nM5\nM2\n");
   const OrderedProgram r = order_cuts(z, {});
