@@ -954,16 +954,15 @@ class Assembler {
     pieces_ = std::move(kept);
   }
 
-  // Overlapping collinear lines (single straight spans, open): a line lying within an earlier
-  // one is dropped, a line overlapping an earlier one's end is cut back to the part the earlier
+  // Overlapping collinear lines and concentric arcs (single spans, open): a span lying within
+  // another is dropped, a line overlapping another line's end is cut back to the part the other
   // does not cover. Pairs are found by their boxes (sweep and prune), in file order.
   void merge_collinear_overlaps() {
-    const auto is_line = [&](const Piece& p) { return !p.closed && p.v.size() == 2 && p.b[0] == 0.0; };
+    const auto single = [&](const Piece& p) { return !p.closed && p.v.size() == 2; };
     std::vector<Eigen::AlignedBox2d> boxes(pieces_.size());
     for (std::size_t i = 0; i < pieces_.size(); ++i)
-      if (is_line(pieces_[i])) {
-        boxes[i] = Eigen::AlignedBox2d(pieces_[i].v[0]);
-        boxes[i].extend(pieces_[i].v[1]);
+      if (single(pieces_[i])) {
+        boxes[i] = bounding_box(make_segment(pieces_[i].v[0], pieces_[i].v[1], pieces_[i].b[0]));
         boxes[i].min().array() -= tol_;
         boxes[i].max().array() += tol_;
       }
@@ -973,40 +972,77 @@ class Assembler {
     std::vector<bool> gone(pieces_.size(), false);
     for (const auto& [a, b] : pairs) {
       if (gone[a] || gone[b]) continue;
-      const Piece& keep = pieces_[a];
-      Piece& later = pieces_[b];
-      const Vector2d p0 = keep.v[0], d = keep.v[1] - keep.v[0];
-      const double len = d.norm();
-      if (!(len > tol_)) continue;
-      const Vector2d u = d / len;
-      // Both ends of the later line on the earlier one's line, within the tolerance.
-      const auto off = [&](const Vector2d& q) { return std::abs(cross(u, q - p0)); };
-      if (off(later.v[0]) > tol_ || off(later.v[1]) > tol_) continue;
-      const double t0 = u.dot(later.v[0] - p0), t1 = u.dot(later.v[1] - p0);
-      const double lo = std::min(t0, t1), hi = std::max(t0, t1);
-      if (hi - tol_ <= 0.0 || lo + tol_ >= len) continue;  // they meet at most at an end
-      const std::string what = fmt::format("{} overlaps {}", where(later.entities[0]), where(keep.entities[0]));
-      if (lo >= -tol_ && hi <= len + tol_) {
-        gone[b] = true;
-        problem(ProfileProblem::Severity::warning, "merged_overlap", {keep.entities[0], later.entities[0]},
-                what + " along its whole length; the later line is dropped", later.v[0]);
-        continue;
-      }
-      if (lo < -tol_ && hi > len + tol_) continue;  // the later one covers the earlier: left as drawn
-      // Cut the later line back to the part beyond the earlier one's end it overlaps.
-      const bool beyond_end = hi > len + tol_;
-      const Vector2d cut = beyond_end ? keep.v[1] : keep.v[0];
-      const bool first_inside = beyond_end ? (t0 < t1) : (t0 > t1);  // the later line's start lies on the earlier
-      (first_inside ? later.v[0] : later.v[1]) = cut;
-      problem(ProfileProblem::Severity::warning, "merged_overlap", {keep.entities[0], later.entities[0]},
-              fmt::format("{} by {:.4f} mm; the later line is cut back to {}", what,
-                          beyond_end ? len - lo : hi, fmt_pt(cut)),
-              cut);
+      const bool arcs = pieces_[a].b[0] != 0.0 && pieces_[b].b[0] != 0.0;
+      if (arcs) merge_arcs(a, b, gone);
+      else if (pieces_[a].b[0] == 0.0 && pieces_[b].b[0] == 0.0) merge_lines(a, b, gone);
     }
     std::vector<Piece> kept;
     for (std::size_t i = 0; i < pieces_.size(); ++i)
       if (!gone[i]) kept.push_back(std::move(pieces_[i]));
     pieces_ = std::move(kept);
+  }
+
+  void note_merged(std::size_t dropped, std::size_t other, const std::string& what) {
+    problem(ProfileProblem::Severity::warning, "merged_overlap", {pieces_[other].entities[0], pieces_[dropped].entities[0]},
+            fmt::format("{} lies along {} over its whole length{}; it is dropped", where(pieces_[dropped].entities[0]),
+                        where(pieces_[other].entities[0]), what),
+            pieces_[dropped].v[0]);
+  }
+
+  // Two lines, the earlier `a`: see merge_collinear_overlaps.
+  void merge_lines(std::size_t a, std::size_t b, std::vector<bool>& gone) {
+    const Piece& keep = pieces_[a];
+    Piece& later = pieces_[b];
+    const Vector2d p0 = keep.v[0], d = keep.v[1] - keep.v[0];
+    const double len = d.norm();
+    if (!(len > tol_)) return;
+    const Vector2d u = d / len;
+    // Both ends of the later line on the earlier one's line, within the tolerance.
+    const auto off = [&](const Vector2d& q) { return std::abs(cross(u, q - p0)); };
+    if (off(later.v[0]) > tol_ || off(later.v[1]) > tol_) return;
+    const double t0 = u.dot(later.v[0] - p0), t1 = u.dot(later.v[1] - p0);
+    const double lo = std::min(t0, t1), hi = std::max(t0, t1);
+    if (hi - tol_ <= 0.0 || lo + tol_ >= len) return;  // they meet at most at an end
+    if (lo >= -tol_ && hi <= len + tol_) {
+      gone[b] = true;
+      note_merged(b, a, "");
+      return;
+    }
+    if (lo < -tol_ && hi > len + tol_) {  // the earlier lies within the later
+      gone[a] = true;
+      note_merged(a, b, "");
+      return;
+    }
+    // Cut the later line back to the part beyond the earlier one's end it overlaps.
+    const bool beyond_end = hi > len + tol_;
+    const Vector2d cut = beyond_end ? keep.v[1] : keep.v[0];
+    const bool first_inside = beyond_end ? (t0 < t1) : (t0 > t1);  // the later line's start lies on the earlier
+    (first_inside ? later.v[0] : later.v[1]) = cut;
+    problem(ProfileProblem::Severity::warning, "merged_overlap", {keep.entities[0], later.entities[0]},
+            fmt::format("{} overlaps {} by {:.4f} mm; the later line is cut back to {}", where(later.entities[0]),
+                        where(keep.entities[0]), beyond_end ? len - lo : hi, fmt_pt(cut)),
+            cut);
+  }
+
+  // Two arcs, the earlier `a`: one lying on the other's circle within its range is dropped.
+  void merge_arcs(std::size_t a, std::size_t b, std::vector<bool>& gone) {
+    const Segment sa = make_segment(pieces_[a].v[0], pieces_[a].v[1], pieces_[a].b[0]);
+    const Segment sb = make_segment(pieces_[b].v[0], pieces_[b].v[1], pieces_[b].b[0]);
+    if (!sa.is_arc() || !sb.is_arc() || (sa.center - sb.center).norm() > tol_ || std::abs(sa.radius - sb.radius) > tol_) return;
+    const auto within = [&](const Segment& inner, const Segment& outer) {
+      for (double t : {0.0, 0.5, 1.0}) {
+        const Vector2d q = point_at(inner, t);
+        if ((closest_point(outer, q) - q).norm() > tol_) return false;
+      }
+      return true;
+    };
+    if (within(sb, sa)) {
+      gone[b] = true;
+      note_merged(b, a, " (the same circle)");
+    } else if (within(sa, sb)) {
+      gone[a] = true;
+      note_merged(a, b, " (the same circle)");
+    }
   }
 
   // Closed chains that trace the same outline (every vertex and span middle of each within

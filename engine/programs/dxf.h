@@ -44,9 +44,10 @@
 //     `join_tolerance_mm`, so ends closer than it are joined (the earlier point kept, the
 //     later end moved onto it); each join is a `joined` warning with both entities, the gap
 //     (gap_mm) and the place. What still cannot close is an open_chain error, as before.
-//   * overlapping collinear lines (a LINE drawn over part of another, or twice): a line lying
-//     within another is dropped, a line overlapping another's end is cut back to the part
-//     the other does not cover (`merged_overlap`), so the shared piece is cut once.
+//   * overlapping collinear lines and concentric arcs (a LINE or ARC drawn over part of
+//     another, or twice): a span lying within another is dropped, a line overlapping another
+//     line's end is cut back to the part the other does not cover (`merged_overlap`), so the
+//     shared piece is cut once.
 //   * an outline drawn twice, the copy split differently (a polyline and the same shape as
 //     separate lines): a closed contour every vertex and span middle of which lies within the
 //     chain tolerance of an earlier one, and the other way round, is dropped (`duplicate`).
@@ -64,7 +65,7 @@
 //                     no_contours.
 //   severity warning: duplicate (same geometry drawn twice, entity or closed contour; the later
 //                     copy is dropped), joined (a gap closed by healing: gap_mm, at),
-//                     merged_overlap (a line over part of another, cut back or dropped),
+//                     merged_overlap (a span over part of another, cut back or dropped),
 //                     zero_length (an entity or polyline span shorter than the tolerance;
 //                     dropped), annotation_ignored (TEXT, MTEXT, DIMENSION, HATCH, POINT, SOLID,
 //                     XLINE, ...), paper_space (an entity on a layout, not in model space;

@@ -452,6 +452,23 @@ TEST(DxfHealing, OverlappingCollinearLinesAreMerged) {
   for (const auto& p : r.problems) EXPECT_EQ(p.severity, ProfileProblem::Severity::warning) << p.message;
 }
 
+TEST(DxfHealing, AnArcDrawnTwiceOrWithinAnotherIsKeptOnce) {
+  // A 40 x 20 slot with round ends; its right end drawn again as a smaller arc of the same
+  // circle (within it, after it), and its left end drawn first as a piece and then whole.
+  Writer w;
+  w.line("B", {0, 0}, {40, 0});
+  w.arc("R", {40, 10}, 10, 270, 90);
+  w.arc("R2", {40, 10}, 10, 300, 60);
+  w.line("T", {40, 20}, {0, 20});
+  w.arc("L2", {0, 10}, 10, 120, 240);
+  w.arc("L", {0, 10}, 10, 90, 270);
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  EXPECT_NEAR(std::abs(r.contours[0].area_mm2), 40 * 20 + kPi * 100, 1e-6);
+  EXPECT_EQ(count(r, "merged_overlap"), 2) << r.report();
+}
+
 TEST(DxfHealing, AnOutlineDrawnTwiceIsKeptOnce) {
   // The same plate as one closed polyline and again as four lines, plus its hole once.
   Writer w;
