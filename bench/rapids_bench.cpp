@@ -55,7 +55,8 @@ Scene five_zones() {
 void run(benchmark::State& state, const Scene& scene, const RapidOptions& o) {
   RapidPlan p;
   for (auto _ : state) {
-    p = plan_rapid(scene.from, scene.to, scene.zones, o);
+    machplan::Termination never;
+    p = plan_rapid(scene.from, scene.to, scene.zones, o, never);
     benchmark::DoNotOptimize(p.polyline.data());
   }
   if (!p.ok()) state.SkipWithError(p.message.c_str());
@@ -98,7 +99,8 @@ void BM_NestedSheet(benchmark::State& state) {
   machplan::motion::RapidsReport r;
   for (auto _ : state) {
     machplan::motion::Job j = job;
-    r = machplan::motion::plan_rapids(j, {}, o, true);
+    machplan::Termination never;
+    r = machplan::motion::plan_rapids(j, {}, o, true, never);
     benchmark::DoNotOptimize(j.stretches.data());
   }
   if (!r.ok()) state.SkipWithError("a rapid without a clear route");

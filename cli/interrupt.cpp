@@ -57,11 +57,20 @@ void ProgressBar::update(double fraction) {
 }
 
 ProgressWatch::ProgressWatch(std::string label, bool wanted, const Progress& progress)
-    : bar_(std::move(label), wanted), progress_(progress) {
+    : bar_(std::move(label), wanted), read_([&progress] { return progress.share(); }), clear_at_one_(true) {
+  start();
+}
+
+void ProgressWatch::start() {
   if (!bar_.drawing()) return;  // nothing to draw: no thread
   thread_ = std::thread([this] {
     while (!over_.load()) {
-      bar_.update(progress_.share());
+      const double share = read_();
+      if (clear_at_one_ && share >= 1.0) {
+        bar_.done();
+        return;
+      }
+      bar_.update(share);
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   });

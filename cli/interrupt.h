@@ -15,6 +15,7 @@
 
 #include <atomic>
 #include <csignal>
+#include <functional>
 #include <string>
 #include <thread>
 
@@ -53,15 +54,17 @@ class ProgressBar {
 
 class ProgressWatch {
  public:
-  // Watches `progress` under `label`; draws nothing unless `wanted` (see ProgressBar).
+  // Watches a Progress (engine/common/progress.h); the bar is cleared once it reads 1.
   ProgressWatch(std::string label, bool wanted, const Progress& progress);
   ~ProgressWatch();
   ProgressWatch(const ProgressWatch&) = delete;
   ProgressWatch& operator=(const ProgressWatch&) = delete;
 
  private:
+  void start();
   ProgressBar bar_;
-  const Progress& progress_;
+  std::function<double()> read_;
+  bool clear_at_one_ = false;
   std::atomic<bool> over_{false};
   std::thread thread_;
 };

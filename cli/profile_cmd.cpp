@@ -1,7 +1,7 @@
-// `machplan profile FILE.dxf [--json] [--tolerance MM] [--units NAME] [--flatten-tolerance DEG]
-// [--max-entities N]`:
+// `machplan profile FILE.dxf [--json] [--tolerance MM] [--join-tolerance MM] [--units NAME]
+// [--flatten-tolerance DEG] [--max-entities N]`:
 // the closed contours of a DXF profile and every problem found in the drawing (an open chain
-// with the gap between its ends: how far it is from closing). Exit 2 when the file is malformed or a problem of
+// with the gap between its ends: how far it is from closing; each gap healed, with its size). Exit 2 when the file is malformed or a problem of
 // severity error was found (after printing everything).
 #include <cstdio>
 #include <string>
@@ -23,6 +23,8 @@ nlohmann::json to_json(const machplan::ProfileReadResult& r) {
   out["source"] = r.source;
   out["mm_per_drawing_unit"] = r.mm_per_unit;
   out["units_stated"] = r.has_insunits;
+  out["chain_tolerance_mm"] = r.chain_tolerance_mm;
+  out["join_tolerance_mm"] = r.join_tolerance_mm;
   json contours = json::array();
   for (const auto& c : r.contours) {
     json v = json::array();
@@ -65,6 +67,11 @@ void add_profile(CLI::App& app) {
   cmd->add_flag("--json", *json_out, "Print JSON instead of the readable report");
   cmd->add_option("--tolerance", *tolerance, "Largest gap (mm) still joined when chaining entities")
       ->capture_default_str();
+  auto join = std::make_shared<double>(machplan::DxfOptions{}.join_tolerance_mm);
+  cmd->add_option("--join-tolerance", *join,
+                  "Heal gaps up to this (mm, <= 10; 0: off): open chains whose ends are closer are joined, each join "
+                  "reported")
+      ->capture_default_str();
   auto units = std::make_shared<std::string>();
   auto flatten = std::make_shared<double>(machplan::DxfOptions{}.flatten_tolerance_deg);
   cmd->add_option("--units", *units,
@@ -80,6 +87,7 @@ void add_profile(CLI::App& app) {
     machplan::DxfOptions options;
     options.max_entities = *max_entities;
     options.chain_tolerance_mm = *tolerance;
+    options.join_tolerance_mm = *join;
     options.flatten_tolerance_deg = *flatten;
     if (!units->empty()) {
       options.assumed_mm_per_unit = machplan::mm_per_drawing_unit(*units);
@@ -94,6 +102,7 @@ void add_profile(CLI::App& app) {
     } catch (const machplan::InputError& e) {
       const std::string flag = e.where() == "flatten_tolerance_deg" ? "--flatten-tolerance"
                                : e.where() == "max_entities"        ? "--max-entities"
+                               : e.where() == "join_tolerance_mm"   ? "--join-tolerance"
                                                                     : "--tolerance";
       throw machplan::InputError(flag, 0, e.message());
     }

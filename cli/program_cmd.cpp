@@ -69,6 +69,7 @@ void write_json(const machplan::Program& program) {
   out.member("units", "mm");
   out.member("coordinates", "machine (work offsets applied)");
   out.member("source", program.source);
+  out.member("dialect", machplan::to_string(program.dialect));
   out.member("warnings", program.warnings);
   out.member("start", {program.start.x(), program.start.y(), program.start.z()});
   out.member("ends_with_program_end", program.ends_with_program_end);
@@ -76,9 +77,11 @@ void write_json(const machplan::Program& program) {
   out.begin_array();
   for (const machplan::ProgramEvent& e : program.events) {
     if (out.failed()) break;
-    out.value({{"kind", machplan::to_string(e.kind)}, {"line", e.line}, {"before_move", e.before_move},
-               {"number", e.number}, {"value", e.value}, {"value2", e.value2}, {"mode", e.mode},
-               {"synchronized", e.synchronized}});
+    nlohmann::json j = {{"kind", machplan::to_string(e.kind)}, {"line", e.line}, {"before_move", e.before_move},
+                        {"number", e.number}, {"value", e.value}, {"value2", e.value2}, {"mode", e.mode},
+                        {"synchronized", e.synchronized}};
+    if (!e.text.empty()) j["text"] = e.text;
+    out.value(j);
   }
   out.end_array();
   out.key("moves");
@@ -115,20 +118,18 @@ void add_program(CLI::App& app) {
     std::string file;
     bool json = false;
     double rapid_mm_per_min = 5000.0;
-    std::vector<std::string> params;
-    int spindles = 1;
-    bool lenient = false;
+    machplan::cli::GcodeFlags gcode;
   };
   auto args = std::make_shared<Args>();
-  auto* cmd = app.add_subcommand("program", "Interpret a G-code part program (RS274NGC as LinuxCNC reads it)");
+  auto* cmd = app.add_subcommand("program", "Interpret a G-code part program (as LinuxCNC or GRBL reads it)");
   cmd->add_option("file", args->file, "G-code file (.ngc)")->required();
   cmd->add_flag("--json", args->json, "Print the canonical moves as JSON (mm, absolute)");
   cmd->add_option("--rapid-mm-per-min", args->rapid_mm_per_min, "Rapid rate for the time estimate")
       ->check(machplan::cli::kFinitePositive);
-  add_gcode_options(*cmd, args->params, args->spindles, args->lenient);
+  add_gcode_options(*cmd, args->gcode);
   cmd->callback([args] {
     const machplan::Program program =
-        machplan::read_gcode_file(args->file, gcode_options(args->params, args->spindles, args->lenient));
+        machplan::read_gcode_file(args->file, gcode_options(args->gcode));
     for (const std::string& w : program.warnings) std::cerr << "warning: " << w << "\n";
     if (args->json) write_json(program);
     else print_summary(program, args->rapid_mm_per_min);

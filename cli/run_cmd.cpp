@@ -14,9 +14,11 @@
 
 #include "cli/command.h"
 #include "cli/interrupt.h"
+#include "cli/json/cut_order_json.h"
 #include "cli/json/run.h"
 #include "cli/output.h"
 #include "cli/gcode_flags.h"
+#include "cli/json/cut_order_json.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/store.h"
 #include "engine/common/error.h"
@@ -84,9 +86,9 @@ struct RunArgs {
   std::vector<std::string> gains;
   bool json = false, realtime = false;
   std::string origin;
-  std::vector<std::string> params;
-  int spindles = 1;
-  bool lenient = false, strict_z = false;
+  GcodeFlags gcode;
+  bool strict_z = false;
+  std::string order;
   double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
   std::string operator_events;
 };
@@ -144,8 +146,12 @@ motion::RunOptions run_options(const RunArgs& a) {
   so.controller = a.controller;
   for (const std::string& g : a.gains) control::parse_gain(g, so.gains);
   o.no_go_path = a.no_go;
-  o.gcode = gcode_options(a.params, a.spindles, a.lenient);
+  o.gcode = gcode_options(a.gcode);
   o.strict_z = a.strict_z;
+  if (!a.order.empty()) {
+    o.order = motion::cut_order_from(a.order);
+    if (!o.order) throw InputError("--order", 0, fmt::format("'{}' is not an order (program, nearest, optimise)", a.order));
+  }
   if (!a.origin.empty()) {
     const auto comma = a.origin.find(',');
     if (comma == std::string::npos) throw InputError("--origin", 0, fmt::format("'{}' is not X,Y (mm)", a.origin));
@@ -186,6 +192,7 @@ void run_command(const RunArgs& a) {
 
   if (a.json) {
     nlohmann::json j = to_json(run);
+    j["cut_order"] = cut_order_json(run.cut_order);
     if (!a.trace.empty()) j["trace"] = a.trace;
     if (!a.plot.empty()) j["plot"] = a.plot;
     print_json(j);
@@ -232,7 +239,11 @@ void add_run(CLI::App& app) {
                   "(the machine's active tuning from machplan tune --store, in --db)");
   cmd->add_option("--gain", a->gains, "a controller gain, NAME=VALUE (e.g. kp_per_s=120); may be repeated");
   cmd->add_flag("--strict-z", a->strict_z, "refuse a program whose Z moves instead of dropping its Z words");
-  add_gcode_options(*cmd, a->params, a->spindles, a->lenient);
+  cmd->add_option("--order", a->order,
+                  "cut order: program (as written; warns when an outline is cut before its holes), nearest, or "
+                  "optimise (inner contours first, pierce points chosen, least travel); default: the machine file's "
+                  "cut_order, else program");
+  add_gcode_options(*cmd, a->gcode);
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->add_flag("--realtime", a->realtime, "pace the simulation to the wall clock");
   cmd->add_option("--max-machine-time", a->max_machine_time_s,

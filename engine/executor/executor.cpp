@@ -123,7 +123,7 @@ struct Session::Impl {
   void sequence() noexcept;
   void begin_step() noexcept;
   void next_step() noexcept;
-  void torch_off_and_retract(bool resume) noexcept;
+  void torch_off_and_retract(bool resume, double height_mm = 0.0) noexcept;
   void raise(FK kind, int axis, double value) noexcept;
   bool moving_cut() const noexcept {
     return phase == Phase::move && !sup.stopping() && !cut_off && source->travelling() && step < job.steps.size() &&
@@ -266,8 +266,10 @@ void Session::Impl::prepare(double machine_period_s) {
   }
   source->prepare(ctx, job.start_mm);
   // At most: every torch step waits out its timeouts (engine/motion/process_time.h).
-  const motion::TorchTimes longest{2 * ts.height_timeout_s + ts.arc_ok_timeout_s + ts.preheat_s + 0.1, 0.0,
-                                   ts.pierce_delay_s, ts.height_timeout_s};
+  motion::TorchTimes longest;
+  longest.torch_on_s = 2 * ts.height_timeout_s + ts.arc_ok_timeout_s + ts.preheat_s + 0.1;
+  longest.pierce_s = ts.pierce_delay_s;
+  longest.torch_off_s = ts.height_timeout_s;
   double est_s = 1.0 + motion::process_time_s(job, longest) + source->estimate_s();
   expected_s = std::max(parts.expected_s > 0 ? parts.expected_s : est_s, dt);
   // Stop: ramp from the top speed, settle, margins.
@@ -352,13 +354,13 @@ void Session::Impl::begin_step() noexcept {
       phase = Phase::torch;
       break;
     }
-    case Step::Kind::torch_off: torch_off_and_retract(/*resume=*/false); break;
+    case Step::Kind::torch_off: torch_off_and_retract(/*resume=*/false, st.height_mm); break;
     case Step::Kind::dwell: phase = Phase::dwell; break;
   }
 }
 
-void Session::Impl::torch_off_and_retract(bool resume) noexcept {
-  torch.start_off(out);
+void Session::Impl::torch_off_and_retract(bool resume, double height_mm) noexcept {
+  torch.start_off(out, height_mm);
   resume_after_torch_off = resume;
   phase = Phase::torch;
 }
@@ -809,6 +811,7 @@ ExecutionResult Session::Impl::finish() {
                                 "cannot give)",
                                 f.value, ms.contour_error_limit_mm);
         break;
+      case FK::operator_stop: f.message = "stopped by the operator"; break;
       case FK::stop_requested:
         f.message = parts.termination && parts.termination->ended() &&
                             parts.termination->reason() != Termination::Reason::stop_requested

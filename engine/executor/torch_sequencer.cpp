@@ -1,5 +1,6 @@
 #include "engine/executor/torch_sequencer.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace machplan::executor {
@@ -23,8 +24,10 @@ void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bo
   }
 }
 
-void TorchSequencer::start_off(hardware::Outputs& out) noexcept {
+void TorchSequencer::start_off(hardware::Outputs& out, double height_mm) noexcept {
   kill(out);
+  retract_mm_ = std::max(t_.retract_height_mm, height_mm);
+  out.torch_height_target_mm = retract_mm_;
   enter(Phase::off_retract);
 }
 
@@ -91,7 +94,7 @@ TorchSequencer::Status TorchSequencer::tick(const hardware::Inputs& in, hardware
       if (pt_ > t_.height_timeout_s) return fail(Failure::torch_height_timeout, t_.height_timeout_s);
       return Status::busy;
     case Phase::off_retract:
-      if (!t_.height_axis || at(in, t_.retract_height_mm)) {
+      if (!t_.height_axis || at(in, retract_mm_)) {
         phase_ = Phase::idle;
         return Status::done;
       }

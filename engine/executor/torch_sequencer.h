@@ -9,7 +9,7 @@
 //       -> [height to cut height]
 //   a dwell step right after the torch_on IS the pierce delay (G4): the sequence then ends at
 //       the pierce, and lower_to_cut_height() follows the dwell
-//   torch off:  stop firing, height to retract height
+//   torch off:  stop firing, height to retract height (or the step's higher travel height)
 //
 // Every wait on the height axis fails after height_timeout_s (torch_height_timeout); a missing
 // arc OK fails the start (arc_start_failed). kill() turns the torch off and retracts in the
@@ -39,7 +39,9 @@ class TorchSequencer {
   // oxy-fuel torch whose preheat flame kept burning (a re-pierce after a hold) goes straight
   // to the cutting oxygen.
   void start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated = false) noexcept;
-  void start_off(hardware::Outputs& out) noexcept;
+  // A torch_off step: the torch retracts to the retract height, or to `height_mm` when that
+  // is higher (a rapid over parts already cut follows).
+  void start_off(hardware::Outputs& out, double height_mm = 0.0) noexcept;
   void lower_to_cut_height(hardware::Outputs& out) noexcept;
   // Torch off and retract now (faults, stops); the sequence in progress is abandoned.
   void kill(hardware::Outputs& out) noexcept;
@@ -75,6 +77,7 @@ class TorchSequencer {
   Phase phase_ = Phase::idle;
   double pt_ = 0.0;  // time in the phase
   bool programmed_ = false, lit_ = false, preheated_ = false;
+  double retract_mm_ = 0.0;  // the height of the retract in progress
   Failure failure_ = Failure::none;
   double failure_value_ = 0.0;
 };

@@ -318,49 +318,49 @@ bool SpanIndex::left_of(const Vector2d& p, const Nearest& n) const noexcept {
   return rel > 0.0 && rel < sector;
 }
 
-int SpanIndex::winding(const Vector2d& p) const noexcept {
-  if (nodes_.empty()) return 0;
+int SpanIndex::crossing(std::uint32_t i, const Vector2d& p) const noexcept {
+  const auto& bb = item_boxes_[i];
+  if (bb.max().x() < p.x() || bb.min().y() > p.y() || bb.max().y() < p.y()) return 0;
+  const Item& it = items_[i];
+  if (!it.is_arc()) return ray_crossing(it.a, it.b, p);
+  // An arc is its chord plus the closed loop (arc, chord back), which winds once round the
+  // points between chord and arc; the chord crossing and the segment test must judge p on
+  // the same side of the chord.
+  const Vector2d chord = it.b - it.a;
+  const double m = cross(chord, it.arc_mid - it.a);
+  double side = cross(chord, p - it.a);
+  // p on the chord's line: the half-open rule above counts an end at p's height as below
+  // the ray, as if p sat a little higher; take the side of the chord that p + (0, e)
+  // would be on (for a chord that is not horizontal, any side gives the same count).
+  if (side == 0.0) side = chord.x() != 0.0 ? chord.x() : -chord.y();
   int w = 0;
-  std::array<std::uint32_t, kMaxDepth> stack;
-  std::size_t top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const std::uint32_t idx = stack[--top];
-    const Node& nd = nodes_[idx];
-    const Box& nb = node_boxes_[idx];
-    if (nb.hi.x() < p.x() || nb.lo.y() > p.y() || nb.hi.y() < p.y()) continue;
-    if (nd.count == 0) {
-      stack[top++] = nd.first;
-      stack[top++] = idx + 1;
-      continue;
-    }
-    for (std::uint32_t i = nd.first; i < nd.first + nd.count; ++i) {
-      const auto& bb = item_boxes_[i];
-      if (bb.max().x() < p.x() || bb.min().y() > p.y() || bb.max().y() < p.y()) continue;
-      const Item& it = items_[i];
-      if (!it.is_arc()) {
-        w += ray_crossing(it.a, it.b, p);
-        continue;
-      }
-      // An arc is its chord plus the closed loop (arc, chord back), which winds once round the
-      // points between chord and arc; the chord crossing and the segment test must judge p on
-      // the same side of the chord.
-      const Vector2d chord = it.b - it.a;
-      const double m = cross(chord, it.arc_mid - it.a);
-      double side = cross(chord, p - it.a);
-      // p on the chord's line: the half-open rule above counts an end at p's height as below
-      // the ray, as if p sat a little higher; take the side of the chord that p + (0, e)
-      // would be on (for a chord that is not horizontal, any side gives the same count).
-      if (side == 0.0) side = chord.x() != 0.0 ? chord.x() : -chord.y();
-      if (it.a.y() <= p.y()) {
-        if (it.b.y() > p.y() && side > 0.0) ++w;
-      } else if (it.b.y() <= p.y() && side < 0.0) {
-        --w;
-      }
-      if (side * m > 0.0 && (p - it.center).squaredNorm() < it.radius * it.radius) w += it.sweep > 0 ? 1 : -1;
-    }
+  if (it.a.y() <= p.y()) {
+    if (it.b.y() > p.y() && side > 0.0) ++w;
+  } else if (it.b.y() <= p.y() && side < 0.0) {
+    --w;
   }
+  if (side * m > 0.0 && (p - it.center).squaredNorm() < it.radius * it.radius) w += it.sweep > 0 ? 1 : -1;
   return w;
+}
+
+int SpanIndex::winding(const Vector2d& p) const noexcept {
+  int w = 0;
+  for_each_on_ray(p, [&](std::uint32_t i) { w += crossing(i, p); });
+  return w;
+}
+
+void SpanIndex::windings(const Vector2d& p, std::vector<std::pair<std::uint32_t, int>>& out) const {
+  out.clear();
+  for_each_on_ray(p, [&](std::uint32_t i) {
+    const int w = crossing(i, p);
+    if (w == 0) return;
+    const std::uint32_t c = items_[i].contour;
+    const auto it = std::find_if(out.begin(), out.end(), [&](const auto& e) { return e.first == c; });
+    if (it == out.end()) out.emplace_back(c, w);
+    else it->second += w;
+  });
+  out.erase(std::remove_if(out.begin(), out.end(), [](const auto& e) { return e.second == 0; }), out.end());
+  std::sort(out.begin(), out.end());
 }
 
 }  // namespace machplan

@@ -28,6 +28,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -89,6 +90,11 @@ class SpanIndex {
   // meets the ray.
   int winding(const Eigen::Vector2d& p) const noexcept;
 
+  // The winding number of each contour about p, as (contour, winding) pairs sorted by contour,
+  // those with winding 0 left out (out is cleared first). Same rules and work as winding();
+  // it allocates only when `out` must grow. For "which of these contours hold p".
+  void windings(const Eigen::Vector2d& p, std::vector<std::pair<std::uint32_t, int>>& out) const;
+
   // Calls f(i) for every item whose bounding box meets `box`.
   template <class F>
   void for_each_in_box(const Eigen::AlignedBox2d& box, F&& f) const {
@@ -119,6 +125,9 @@ class SpanIndex {
 
   // Closest point of one item to p, with the end flags (a helper for the queries above).
   Nearest closest_on(std::uint32_t i, const Eigen::Vector2d& p) const noexcept;
+
+  // The axis-aligned box of item i.
+  const Eigen::AlignedBox2d& item_box(std::size_t i) const { return item_boxes_[i]; }
 
  private:
   static constexpr std::size_t kLeafSize = 4;
@@ -156,6 +165,14 @@ class SpanIndex {
     const double ds = s < nd.s0 ? nd.s0 - s : (s > nd.s1 ? s - nd.s1 : 0.0);
     return dt * dt + ds * ds;
   }
+  // Calls f(i) for every item whose box meets the ray from p towards +x.
+  template <class F>
+  void for_each_on_ray(const Eigen::Vector2d& p, F&& f) const {
+    const Eigen::AlignedBox2d ray(p, Eigen::Vector2d(std::numeric_limits<double>::infinity(), p.y()));
+    for_each_in_box(ray, [&](std::size_t i) { f(static_cast<std::uint32_t>(i)); });
+  }
+  // Signed crossing of item i with the ray from p towards +x (0 when its box misses the ray).
+  int crossing(std::uint32_t i, const Eigen::Vector2d& p) const noexcept;
   // Squared distance from p to item i (no flags; nearest() keeps the best index only).
   double distance2_to(std::uint32_t i, const Eigen::Vector2d& p) const noexcept;
 

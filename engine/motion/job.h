@@ -81,6 +81,9 @@ struct Step {
   int source_line = 0;
   std::size_t stretch = 0;  // move: index into Job::stretches
   double seconds = 0.0;     // dwell
+  // torch_off: the height the torch retracts to, mm, when above the machine's retract height
+  // (a rapid over parts already cut follows: solvers/motion/rapids.h); 0: the retract height.
+  double height_mm = 0.0;
 };
 
 struct Job {

@@ -70,19 +70,10 @@ class Builder {
                               to_string(m.kind), m.feed_mm_per_min));
       feed = m.feed_mm_per_min / 60.0;
     }
-    const Eigen::Vector2d a = position_.head<2>(), b = m.end.head<2>();
+    const Eigen::Vector2d a = position_.head<2>();
     position_ = m.end;
 
-    std::vector<Segment> pieces;
-    if (m.kind == Move::Kind::arc) {
-      arc_pieces(m, a, b, pieces);
-    } else if ((b - a).norm() > options_.zero_length_mm) {
-      Segment s;
-      s.kind = Segment::Kind::line;
-      s.start = a;
-      s.end = b;
-      pieces.push_back(s);
-    }
+    const std::vector<Segment> pieces = move_segments(m, a, options_.zero_length_mm);
     if (pieces.empty()) return;  // zero-length move: nothing to do
 
     if (open_ && current_.rapid != rapid) close();
@@ -96,47 +87,6 @@ class Builder {
       current_.segments.push_back(s);
       current_.feed_mm_per_s.push_back(feed);
       current_.source_lines.push_back(m.line);
-    }
-  }
-
-  // The arc from a to b about m.center split into Segments of |sweep| <= pi.
-  void arc_pieces(const Move& m, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
-                  std::vector<Segment>& out) const {
-    const Eigen::Vector2d c = m.center;
-    const double r = (a - c).norm();
-    if (!(r > options_.zero_length_mm)) return;  // degenerate: no motion along a circle
-    const double a0 = std::atan2(a.y() - c.y(), a.x() - c.x());
-    const double a1 = std::atan2(b.y() - c.y(), b.x() - c.x());
-    // Counter-clockwise angle from start to end in (0, 2 pi]; start = end means a full turn,
-    // as in RS274NGC.
-    double ccw = std::fmod(a1 - a0, kTwoPi);
-    if (ccw < 0) ccw += kTwoPi;
-    const bool closed = (b - a).norm() <= options_.zero_length_mm;
-    double base;
-    if (m.clockwise) {
-      base = closed ? kTwoPi : kTwoPi - ccw;
-      if (!closed && base >= kTwoPi) base = kTwoPi;  // rounding: almost closed
-    } else {
-      base = closed ? kTwoPi : ccw;
-      if (!closed && base <= 0.0) base = kTwoPi;
-    }
-    const double total = base + kTwoPi * std::max(0, m.turns);
-    const int parts = std::max(1, static_cast<int>(std::ceil(total / kPi - 1e-9)));
-    const double step = total / parts * (m.clockwise ? -1.0 : 1.0);
-    Eigen::Vector2d from = a;
-    for (int k = 0; k < parts; ++k) {
-      Segment s;
-      s.kind = Segment::Kind::arc;
-      s.center = c;
-      s.radius = r;
-      s.start_angle = a0 + k * step;
-      s.sweep = step;
-      s.start = from;
-      s.end = (k + 1 == parts) ? b
-                               : Eigen::Vector2d(c + r * Eigen::Vector2d(std::cos(s.end_angle()),
-                                                                         std::sin(s.end_angle())));
-      from = s.end;
-      out.push_back(s);
     }
   }
 
@@ -172,6 +122,58 @@ class Builder {
 };
 
 }  // namespace
+
+std::vector<Segment> move_segments(const Move& m, const Eigen::Vector2d& a, double zero_length_mm) {
+  std::vector<Segment> out;
+  const Eigen::Vector2d b = m.end.head<2>();
+  if (m.kind != Move::Kind::arc) {
+    if ((b - a).norm() > zero_length_mm) {
+      Segment s;
+      s.kind = Segment::Kind::line;
+      s.start = a;
+      s.end = b;
+      out.push_back(s);
+    }
+    return out;
+  }
+  // The arc from a to b about m.center split into Segments of |sweep| <= pi.
+  const Eigen::Vector2d c = m.center;
+  const double r = (a - c).norm();
+  if (!(r > zero_length_mm)) return out;  // degenerate: no motion along a circle
+  const double a0 = std::atan2(a.y() - c.y(), a.x() - c.x());
+  const double a1 = std::atan2(b.y() - c.y(), b.x() - c.x());
+  // Counter-clockwise angle from start to end in (0, 2 pi]; start = end means a full turn,
+  // as in RS274NGC.
+  double ccw = std::fmod(a1 - a0, kTwoPi);
+  if (ccw < 0) ccw += kTwoPi;
+  const bool closed = (b - a).norm() <= zero_length_mm;
+  double base;
+  if (m.clockwise) {
+    base = closed ? kTwoPi : kTwoPi - ccw;
+    if (!closed && base >= kTwoPi) base = kTwoPi;  // rounding: almost closed
+  } else {
+    base = closed ? kTwoPi : ccw;
+    if (!closed && base <= 0.0) base = kTwoPi;
+  }
+  const double total = base + kTwoPi * std::max(0, m.turns);
+  const int parts = std::max(1, static_cast<int>(std::ceil(total / kPi - 1e-9)));
+  const double step = total / parts * (m.clockwise ? -1.0 : 1.0);
+  Eigen::Vector2d from = a;
+  for (int k = 0; k < parts; ++k) {
+    Segment s;
+    s.kind = Segment::Kind::arc;
+    s.center = c;
+    s.radius = r;
+    s.start_angle = a0 + k * step;
+    s.sweep = step;
+    s.start = from;
+    s.end = (k + 1 == parts) ? b
+                             : Eigen::Vector2d(c + r * Eigen::Vector2d(std::cos(s.end_angle()), std::sin(s.end_angle())));
+    from = s.end;
+    out.push_back(s);
+  }
+  return out;
+}
 
 void JobOptions::validate() const {
   require(std::isfinite(rapid_feed_mm_per_s) && rapid_feed_mm_per_s > 0.0, "rapid_feed_mm_per_s",

@@ -31,11 +31,12 @@
 //     for (const Step& s : job.steps) ...
 #pragma once
 
-#include "engine/motion/job.h"
+#include <vector>
 
-namespace machplan {
-struct Program;
-}
+#include <Eigen/Core>
+
+#include "engine/motion/job.h"
+#include "engine/programs/program.h"
 
 namespace machplan::motion {
 
@@ -51,6 +52,11 @@ struct JobOptions {
   // Throws std::invalid_argument naming the field, its value and the rule.
   void validate() const;
 };
+
+// The Segments of one line or arc move starting at `from` (XY; an arc about m.center, with
+// its extra turns), arcs cut into pieces of at most half a turn; none for a move of XY length
+// at most zero_length_mm (or an arc of smaller radius). The geometry make_job gives a move.
+std::vector<Segment> move_segments(const Move& m, const Eigen::Vector2d& from, double zero_length_mm = 1e-9);
 
 // See the file comment. Throws InputError(program.source, line, ...) on refused input and
 // std::invalid_argument when `options` is invalid.

@@ -12,15 +12,26 @@
 // its trace buffer) takes the timeouts it would wait at most.
 #pragma once
 
+#include <optional>
+
 #include "engine/motion/job.h"
 
 namespace machplan::motion {
 
 struct TorchTimes {
-  double torch_on_s = 0.0;   // a torch_on step's height moves (sense, down to pierce height, to cut height)
+  // A torch height axis: each torch_on senses the plate, goes down from where the torch waits
+  // to the pierce height and, after the pierce, to the cut height; each torch_off goes up to
+  // the retract height, or to its own step's height when that is higher (a rapid over cut
+  // parts follows), where the torch then waits. Moves within `tolerance_mm` of their target
+  // cost nothing.
+  struct Height {
+    double sense_s = 0.0, retract_mm = 0.0, pierce_mm = 0.0, cut_mm = 0.0, speed_mm_per_s = 1.0, tolerance_mm = 0.0;
+  };
+  std::optional<Height> height;
+  double torch_on_s = 0.0;   // a torch_on step's own time without a height axis (the executor: timeouts)
   double start_s = 0.0;      // then the arc start (plasma) or the preheat (oxy-fuel)
   double pierce_s = 0.0;     // the pierce delay when no dwell follows the torch_on
-  double torch_off_s = 0.0;  // a torch_off step
+  double torch_off_s = 0.0;  // a torch_off step without a height axis
 };
 
 double process_time_s(const Job& job, const TorchTimes& times);

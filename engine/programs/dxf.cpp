@@ -820,13 +820,17 @@ class Assembler {
     if (!tilt_ok(k, std::atan2(n.head<2>().norm(), std::abs(n.z())))) return;
     const Vector3d c(real_of(source_, P, 10), real_of(source_, P, 20), real_of(source_, P, 30));
     const Vector3d major(real_of(source_, P, 11), real_of(source_, P, 21), real_of(source_, P, 31));
+    // The ratio is minor over major; some writers give the longer axis as the "minor" one (a
+    // ratio above 1). The curve c + cos t major + sin t minor is the same ellipse either way.
     const double ratio = real_of(source_, P, 40, 1.0);
-    if (!(ratio > 0) || ratio > 1 + 1e-9 || !(major.norm() > 0)) {
+    if (!(ratio > 0) || !(ratio <= 1e6) || !(major.norm() > 0)) {
       problem(ProfileProblem::Severity::warning, "zero_length", {k},
               fmt::format("{} has axis ratio {:g} and major axis {:g}; dropped", where(k), ratio, major.norm()));
       return;
     }
     const Vector3d minor = ratio * n.cross(major);
+    for (const Vector2d& q : {Vector2d(c.head<2>() + minor.head<2>()), Vector2d(c.head<2>() - minor.head<2>())})
+      map_point(world, q, k);
     double t0 = real_of(source_, P, 41, 0.0), t1 = real_of(source_, P, 42, 2 * kPi);
     double sweep = std::fmod(t1 - t0, 2 * kPi);
     if (sweep < 0) sweep += 2 * kPi;
@@ -950,6 +954,138 @@ class Assembler {
     pieces_ = std::move(kept);
   }
 
+  // Overlapping collinear lines and concentric arcs (single spans, open): a span lying within
+  // another is dropped, a line overlapping another line's end is cut back to the part the other
+  // does not cover. Pairs are found by their boxes (sweep and prune), in file order.
+  void merge_collinear_overlaps() {
+    const auto single = [&](const Piece& p) { return !p.closed && p.v.size() == 2; };
+    std::vector<Eigen::AlignedBox2d> boxes(pieces_.size());
+    for (std::size_t i = 0; i < pieces_.size(); ++i)
+      if (single(pieces_[i])) {
+        boxes[i] = bounding_box(make_segment(pieces_[i].v[0], pieces_[i].v[1], pieces_[i].b[0]));
+        boxes[i].min().array() -= tol_;
+        boxes[i].max().array() += tol_;
+      }
+    std::vector<std::pair<std::size_t, std::size_t>> pairs;
+    for_each_intersecting_pair(boxes, [&](std::size_t a, std::size_t b) { pairs.emplace_back(std::min(a, b), std::max(a, b)); });
+    std::sort(pairs.begin(), pairs.end());
+    std::vector<bool> gone(pieces_.size(), false);
+    for (const auto& [a, b] : pairs) {
+      if (gone[a] || gone[b]) continue;
+      const bool arcs = pieces_[a].b[0] != 0.0 && pieces_[b].b[0] != 0.0;
+      if (arcs) merge_arcs(a, b, gone);
+      else if (pieces_[a].b[0] == 0.0 && pieces_[b].b[0] == 0.0) merge_lines(a, b, gone);
+    }
+    std::vector<Piece> kept;
+    for (std::size_t i = 0; i < pieces_.size(); ++i)
+      if (!gone[i]) kept.push_back(std::move(pieces_[i]));
+    pieces_ = std::move(kept);
+  }
+
+  void note_merged(std::size_t dropped, std::size_t other, const std::string& what) {
+    problem(ProfileProblem::Severity::warning, "merged_overlap", {pieces_[other].entities[0], pieces_[dropped].entities[0]},
+            fmt::format("{} lies along {} over its whole length{}; it is dropped", where(pieces_[dropped].entities[0]),
+                        where(pieces_[other].entities[0]), what),
+            pieces_[dropped].v[0]);
+  }
+
+  // Two lines, the earlier `a`: see merge_collinear_overlaps.
+  void merge_lines(std::size_t a, std::size_t b, std::vector<bool>& gone) {
+    const Piece& keep = pieces_[a];
+    Piece& later = pieces_[b];
+    const Vector2d p0 = keep.v[0], d = keep.v[1] - keep.v[0];
+    const double len = d.norm();
+    if (!(len > tol_)) return;
+    const Vector2d u = d / len;
+    // Both ends of the later line on the earlier one's line, within the tolerance.
+    const auto off = [&](const Vector2d& q) { return std::abs(cross(u, q - p0)); };
+    if (off(later.v[0]) > tol_ || off(later.v[1]) > tol_) return;
+    const double t0 = u.dot(later.v[0] - p0), t1 = u.dot(later.v[1] - p0);
+    const double lo = std::min(t0, t1), hi = std::max(t0, t1);
+    if (hi - tol_ <= 0.0 || lo + tol_ >= len) return;  // they meet at most at an end
+    if (lo >= -tol_ && hi <= len + tol_) {
+      gone[b] = true;
+      note_merged(b, a, "");
+      return;
+    }
+    if (lo < -tol_ && hi > len + tol_) {  // the earlier lies within the later
+      gone[a] = true;
+      note_merged(a, b, "");
+      return;
+    }
+    // Cut the later line back to the part beyond the earlier one's end it overlaps.
+    const bool beyond_end = hi > len + tol_;
+    const Vector2d cut = beyond_end ? keep.v[1] : keep.v[0];
+    const bool first_inside = beyond_end ? (t0 < t1) : (t0 > t1);  // the later line's start lies on the earlier
+    (first_inside ? later.v[0] : later.v[1]) = cut;
+    problem(ProfileProblem::Severity::warning, "merged_overlap", {keep.entities[0], later.entities[0]},
+            fmt::format("{} overlaps {} by {:.4f} mm; the later line is cut back to {}", where(later.entities[0]),
+                        where(keep.entities[0]), beyond_end ? len - lo : hi, fmt_pt(cut)),
+            cut);
+  }
+
+  // Two arcs, the earlier `a`: one lying on the other's circle within its range is dropped.
+  void merge_arcs(std::size_t a, std::size_t b, std::vector<bool>& gone) {
+    const Segment sa = make_segment(pieces_[a].v[0], pieces_[a].v[1], pieces_[a].b[0]);
+    const Segment sb = make_segment(pieces_[b].v[0], pieces_[b].v[1], pieces_[b].b[0]);
+    if (!sa.is_arc() || !sb.is_arc() || (sa.center - sb.center).norm() > tol_ || std::abs(sa.radius - sb.radius) > tol_) return;
+    const auto within = [&](const Segment& inner, const Segment& outer) {
+      for (double t : {0.0, 0.5, 1.0}) {
+        const Vector2d q = point_at(inner, t);
+        if ((closest_point(outer, q) - q).norm() > tol_) return false;
+      }
+      return true;
+    };
+    if (within(sb, sa)) {
+      gone[b] = true;
+      note_merged(b, a, " (the same circle)");
+    } else if (within(sa, sb)) {
+      gone[a] = true;
+      note_merged(a, b, " (the same circle)");
+    }
+  }
+
+  // Closed chains that trace the same outline (every vertex and span middle of each within
+  // the tolerance of the other, whatever their split into spans): the later is dropped.
+  void drop_coincident_closed() {
+    std::vector<Eigen::AlignedBox2d> boxes;
+    std::vector<std::optional<Contour>> cs;
+    for (const Piece& pc : closed_) {
+      std::optional<Contour> c;
+      try {
+        c = Contour(pc.v, pc.b);
+      } catch (const std::invalid_argument&) {
+      }
+      boxes.push_back(c ? bounding_box(*c) : Eigen::AlignedBox2d());
+      cs.push_back(std::move(c));
+    }
+    const auto on = [&](const Contour& a, const Contour& b) {
+      for (std::size_t i = 0; i < a.size(); ++i)
+        if (distance(b, a.vertices()[i]) > tol_ || distance(b, point_at(a.span(i), 0.5)) > tol_) return false;
+      return true;
+    };
+    std::vector<bool> gone(closed_.size(), false);
+    std::vector<std::pair<std::size_t, std::size_t>> pairs;
+    for_each_intersecting_pair(boxes, [&](std::size_t a, std::size_t b) { pairs.emplace_back(std::min(a, b), std::max(a, b)); });
+    std::sort(pairs.begin(), pairs.end());
+    for (const auto& [a, b] : pairs) {
+      if (gone[a] || gone[b] || !cs[a] || !cs[b]) continue;
+      if ((boxes[a].min() - boxes[b].min()).cwiseAbs().maxCoeff() > tol_ ||
+          (boxes[a].max() - boxes[b].max()).cwiseAbs().maxCoeff() > tol_)
+        continue;
+      if (!on(*cs[a], *cs[b]) || !on(*cs[b], *cs[a])) continue;
+      gone[b] = true;
+      problem(ProfileProblem::Severity::warning, "duplicate", {closed_[a].entities.front(), closed_[b].entities.front()},
+              fmt::format("the outline of {} ({} entities) repeats the one of {}: drawn twice; the copy is dropped",
+                          where(closed_[b].entities.front()), closed_[b].entities.size(), where(closed_[a].entities.front())),
+              closed_[b].v.front());
+    }
+    std::vector<Piece> kept;
+    for (std::size_t i = 0; i < closed_.size(); ++i)
+      if (!gone[i]) kept.push_back(std::move(closed_[i]));
+    closed_ = std::move(kept);
+  }
+
   // Joins `next` onto the end of `chain` (next.front() is at chain.back()).
   static void append(Piece& chain, const Piece& next) {
     chain.v.insert(chain.v.end(), next.v.begin() + 1, next.v.end());
@@ -1007,14 +1143,27 @@ class Assembler {
     std::unordered_map<std::uint64_t, std::vector<std::size_t>> cells_;
   };
 
-  void chain() {
-    std::vector<bool> used(pieces_.size(), false);
-    const EndGrid grid(pieces_, tol_);
+  // A join the healing pass made: the two entities it joined and the gap it closed.
+  struct Join {
+    std::size_t from = 0, to = 0;  // instances: the end of one chain, the start of the next
+    double gap = 0.0;
+    Vector2d at = Vector2d::Zero();
+  };
+
+  // One chaining pass over `pieces` at tolerance `tol` (see the header): closed chains go to
+  // closed_, open ones are returned. When `joins` is given, every gap wider than the chain
+  // tolerance that the pass closes is recorded.
+  std::vector<Piece> chain_pass(const std::vector<Piece>& pieces, double tol, std::vector<Join>* joins) {
+    std::vector<bool> used(pieces.size(), false);
+    const EndGrid grid(pieces, tol);
     std::vector<Piece> open;
-    for (std::size_t i = 0; i < pieces_.size(); ++i) {
+    const auto note = [&](const Piece& c, const Piece& n, double gap) {
+      if (joins && gap > tol_) joins->push_back({c.entities.back(), n.entities.front(), gap, c.back()});
+    };
+    for (std::size_t i = 0; i < pieces.size(); ++i) {
       if (used[i]) continue;
       used[i] = true;
-      Piece c = pieces_[i];
+      Piece c = pieces[i];
       if (c.closed) {
         closed_.push_back(std::move(c));
         continue;
@@ -1023,16 +1172,18 @@ class Assembler {
       for (int pass = 0; pass < 2 && !closed; ++pass) {  // forward from the end, then from the start
         while (true) {
           const double to_start = (c.back() - c.front()).norm();
-          auto [j, at_end, d] = grid.nearest(c.back(), tol_, used);
-          if (to_start <= tol_ && to_start <= d && c.b.size() >= 2) {  // one span cannot close
+          auto [j, at_end, d] = grid.nearest(c.back(), tol, used);
+          if (to_start <= tol && to_start <= d && c.b.size() >= 2) {  // one span cannot close
             closed = true;
+            note(c, c, to_start);
             if (pass == 1) c.reverse();  // back to the first entity's direction
             break;
           }
-          if (j == pieces_.size()) break;
+          if (j == pieces.size()) break;
           used[j] = true;
-          Piece n = pieces_[j];
+          Piece n = pieces[j];
           if (at_end) n.reverse();
+          note(c, n, d);
           append(c, n);
         }
         if (!closed && pass == 0) c.reverse();
@@ -1045,6 +1196,25 @@ class Assembler {
       }
       c.reverse();  // back to the drawn direction of the first entity where possible
       open.push_back(std::move(c));
+    }
+    return open;
+  }
+
+  // Chaining at the chain tolerance, then healing: the chains still open are chained again at
+  // the join tolerance, and each join it makes is reported. What stays open is reported.
+  void chain() {
+    std::vector<Piece> open = chain_pass(pieces_, tol_, nullptr);
+    if (!open.empty() && opt_.join_tolerance_mm > tol_) {
+      std::vector<Join> joins;
+      open = chain_pass(open, opt_.join_tolerance_mm, &joins);
+      for (const Join& j : joins)
+        problem(ProfileProblem::Severity::warning, "joined", {j.from, j.to},
+                fmt::format("{} joined to {} across a gap of {:.4f} mm at {} (join tolerance {:g} mm)", where(j.from),
+                            j.from == j.to ? std::string("itself") : where(j.to), j.gap, fmt_pt(j.at),
+                            opt_.join_tolerance_mm),
+                j.at);
+      for (std::size_t k = 0; k < joins.size(); ++k)
+        out_.problems[out_.problems.size() - joins.size() + k].gap_mm = joins[k].gap;
     }
     report_open(open);
   }
@@ -1068,6 +1238,7 @@ class Assembler {
       for (std::size_t b = a; b-- > 0 && ends[a].x - ends[b].x < best;) try_end(b);
       nearest[ends[a].chain] = best;
     }
+    const bool heal = opt_.join_tolerance_mm > tol_;
     for (std::size_t i = 0; i < open.size(); ++i) {
       const Piece& c = open[i];
       const double gap = (c.back() - c.front()).norm();
@@ -1075,9 +1246,10 @@ class Assembler {
           std::isfinite(nearest[i]) ? fmt::format("; nearest end of another open chain is {:.4f} mm away", nearest[i]) : "";
       problem(ProfileProblem::Severity::error, "open_chain", c.entities,
               fmt::format("open chain of {} entit{} starting at {}: its ends {} and {} are {:.4f} mm apart, more than "
-                          "the tolerance {:g} mm{}",
+                          "the {} {:g} mm{}",
                           c.entities.size(), c.entities.size() == 1 ? "y" : "ies", where(c.entities.front()),
-                          fmt_pt(c.front()), fmt_pt(c.back()), gap, tol_, near),
+                          fmt_pt(c.front()), fmt_pt(c.back()), gap, heal ? "join tolerance" : "tolerance",
+                          heal ? opt_.join_tolerance_mm : tol_, near),
               c.back());
       out_.problems.back().gap_mm = gap;
     }
@@ -1183,6 +1355,8 @@ void DxfOptions::validate() const {
   if (!std::isfinite(chain_tolerance_mm) || !(chain_tolerance_mm > 0.0) || chain_tolerance_mm > 10.0)
     throw InputError("chain_tolerance_mm", 0,
                      fmt::format("is {}, must be finite, > 0 and <= 10 mm", chain_tolerance_mm));
+  if (!std::isfinite(join_tolerance_mm) || join_tolerance_mm < 0.0 || join_tolerance_mm > 10.0)
+    throw InputError("join_tolerance_mm", 0, fmt::format("is {}, must be finite, >= 0 and <= 10 mm", join_tolerance_mm));
   if (!std::isfinite(assumed_mm_per_unit) || assumed_mm_per_unit < 0.0 || assumed_mm_per_unit > 1e4)
     throw InputError("assumed_mm_per_unit", 0,
                      fmt::format("is {}, must be 0 (not given) or a positive scale up to 1e4 mm", assumed_mm_per_unit));
@@ -1215,6 +1389,7 @@ bool ProfileReadResult::has_errors() const {
 std::string ProfileReadResult::report() const {
   std::string s = fmt::format("{}: {} contour(s), units mm", source, contours.size());
   if (mm_per_unit != 1.0) s += fmt::format(" (drawing units scaled by {:g})", mm_per_unit);
+  s += fmt::format("; ends joined within {:g} mm, gaps healed up to {:g} mm", chain_tolerance_mm, join_tolerance_mm);
   s += "\n";
   for (std::size_t i = 0; i < contours.size(); ++i) {
     const auto& c = contours[i];
@@ -1244,6 +1419,8 @@ ProfileReadResult read_dxf_profile_text(std::string_view text, const std::string
   const Scan sc = scan(text, source);
   ProfileReadResult out;
   out.source = source;
+  out.chain_tolerance_mm = options.chain_tolerance_mm;
+  out.join_tolerance_mm = options.join_tolerance_mm;
   out.has_insunits = sc.mm_per_unit > 0;
   out.mm_per_unit = out.has_insunits ? sc.mm_per_unit : options.assumed_mm_per_unit > 0 ? options.assumed_mm_per_unit : 1.0;
   Assembler as(source, sc, options, out);
@@ -1258,7 +1435,9 @@ ProfileReadResult read_dxf_profile_text(std::string_view text, const std::string
                             std::nullopt, std::nullopt});
   as.expand(out.mm_per_unit);
   as.drop_duplicates();
+  as.merge_collinear_overlaps();
   as.chain();
+  as.drop_coincident_closed();
   as.finish();
   return out;
 }

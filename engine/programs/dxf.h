@@ -38,6 +38,20 @@
 // bounding boxes meet (sweep and prune), so a drawing of many separate parts costs
 // O(n log n) and memory O(n).
 //
+// Healing. Drawings as exported are not always clean, and three kinds of fault are mended,
+// each with a warning naming the entities:
+//   * gaps: the chains still open are chained a second time in the same way with
+//     `join_tolerance_mm`, so ends closer than it are joined (the earlier point kept, the
+//     later end moved onto it); each join is a `joined` warning with both entities, the gap
+//     (gap_mm) and the place. What still cannot close is an open_chain error, as before.
+//   * overlapping collinear lines and concentric arcs (a LINE or ARC drawn over part of
+//     another, or twice): a span lying within another is dropped, a line overlapping another
+//     line's end is cut back to the part the other does not cover (`merged_overlap`), so the
+//     shared piece is cut once.
+//   * an outline drawn twice, the copy split differently (a polyline and the same shape as
+//     separate lines): a closed contour every vertex and span middle of which lies within the
+//     chain tolerance of an earlier one, and the other way round, is dropped (`duplicate`).
+//
 // What is reported. Each ProfileProblem names the entities by handle (group code 5 as written
 // in the file, or "TYPE#n" for the n-th entity of a type when the file has no handles) and,
 // where it has one, a location in mm:
@@ -49,7 +63,9 @@
 //                     from the profile), missing_block (an INSERT of a block the file lacks),
 //                     not_planar (an entity off the XY plane beyond the flatten tolerance),
 //                     no_contours.
-//   severity warning: duplicate (same geometry drawn twice; the later copy is dropped),
+//   severity warning: duplicate (same geometry drawn twice, entity or closed contour; the later
+//                     copy is dropped), joined (a gap closed by healing: gap_mm, at),
+//                     merged_overlap (a span over part of another, cut back or dropped),
 //                     zero_length (an entity or polyline span shorter than the tolerance;
 //                     dropped), annotation_ignored (TEXT, MTEXT, DIMENSION, HATCH, POINT, SOLID,
 //                     XLINE, ...), paper_space (an entity on a layout, not in model space;
@@ -92,6 +108,11 @@ struct DxfOptions {
   // count as duplicates. Drawings exported by CAD are exact to 1e-6 mm or so; hand-made ones
   // often need 0.01-0.1 mm. Must be finite, > 0 and <= 10.
   double chain_tolerance_mm = 0.01;
+  // Healing (see the file comment): chains still open after chaining are joined across gaps up
+  // to this, mm, each join reported. 0.5 mm is a third of a plasma kerf and below what a
+  // hand-drawn or re-exported outline is usually off by; gaps up to chain_tolerance_mm are
+  // never reported. 0 turns healing off. Finite, in [0, 10].
+  double join_tolerance_mm = 0.5;
   // Scale of a drawing that does not state its units ($INSUNITS missing or 0), mm per
   // drawing unit (25.4 for inches; see mm_per_drawing_unit()); 0 reads such drawings as mm.
   // Ignored when the drawing states its units. 0 or in (0, 1e4].
@@ -134,6 +155,8 @@ struct ProfileContour {
 struct ProfileReadResult {
   std::string source;                   // file name, for messages
   double mm_per_unit = 1.0;             // the scale applied ($INSUNITS, else the assumed one)
+  double chain_tolerance_mm = 0.0;      // the tolerances the drawing was read with
+  double join_tolerance_mm = 0.0;
   bool has_insunits = false;            // the drawing states its units
   std::vector<ProfileContour> contours;
   std::vector<ProfileProblem> problems;

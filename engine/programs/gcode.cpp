@@ -133,6 +133,9 @@ struct SourceLine {
   int endif = -1;           // if / elseif / else: the endif
   bool closes_do = false;   // a "while" that ends a do-loop
   std::string o_error;      // a structure error, reported when the line runs
+  // GRBL dialect: a system command line ($H, $X, $J=...), kept as written (trimmed).
+  bool system_command = false;
+  std::string text;
 };
 
 // One line split into words.
@@ -146,6 +149,19 @@ struct Block {
   std::optional<double>& w(char c) { return words[static_cast<std::size_t>(c - 'a')]; }
   const std::optional<double>& w(char c) const { return words[static_cast<std::size_t>(c - 'a')]; }
 };
+
+// The G and M codes of a block by modal group, and what the block does with them.
+struct Codes {
+  std::array<int, 16> g;  // G code x 10 per modal group (LinuxCNC's numbering), -1 when none
+  std::array<int, 16> m;  // M code per modal group, -1 when none
+  bool has_axis = false;      // X, Y or Z given
+  bool g0_uses_axes = false;  // a non-modal code that takes the axis words (G10, G28, G30, G52, G92)
+  int motion = -1;            // the motion the line performs (G code x 10), -1 for none
+  bool is_arc = false, cycle = false;
+  Move::Plane plane = Move::Plane::xy;  // the plane for this line
+};
+
+constexpr char kAxes[3] = {'x', 'y', 'z'};
 
 // A subroutine call in progress.
 struct Frame {
@@ -181,7 +197,13 @@ class Reader : public gcode_expr::Parameters {
       given_[key] = v;
     }
     frames_.emplace_back();
+    program_.dialect = options.dialect == GcodeDialect::grbl ? GcodeDialect::grbl : GcodeDialect::linuxcnc;
+    // GRBL has one path mode, G61 (exact path, with its junction deviation at corners).
+    if (program_.dialect == GcodeDialect::grbl) path_mode_ = Move::PathMode::exact_path;
   }
+
+  // Whether the program ended with M2, M30 or a closing '%' (after run()).
+  bool ended() const { return ended_; }
 
   Program run(const std::string& text);
 
@@ -195,15 +217,57 @@ class Reader : public gcode_expr::Parameters {
     throw InputError(program_.source, line_, message);
   }
 
+  bool read_lines(const std::string& text);
   std::string clean(const std::string& raw, std::string& error) const;
   void scan_o_word(SourceLine& l) const;
   void match_structure();
   Block split(const std::string& code);
   double value_at(const std::string& code, std::size_t& pos);
+  // An O-word line being run: the value after its keyword, and the lines it names.
+  class OWord {
+   public:
+    OWord(Reader& r, const SourceLine& l) : r_(r), l_(l), pos_(l.rest) {}
+    const SourceLine& line() const { return l_; }
+    // The [condition] or [value] after the keyword (or the next call argument).
+    std::optional<double> value(bool required, const char* what);
+    void nothing_after() const;
+    // Line i of the file; i < 0 (the construct has no end line) is an error.
+    const SourceLine& line_of(int i) const;
+    // The end line of an O-word construct, which must exist when the flow jumps to it.
+    int end_of(int partner) const;
+    bool more() const { return pos_ < l_.code.size(); }
+    bool at_bracket() const { return more() && l_.code[pos_] == '['; }
+    std::size_t pos() const { return pos_; }
+
+   private:
+    Reader& r_;
+    const SourceLine& l_;
+    std::size_t pos_;
+  };
+
   // Runs an O-word line; returns the next line index.
   int control(int pc);
+  int subroutine(OWord& o, int pc);
+  int loop(OWord& o, int pc);
+  int conditional(OWord& o, int pc);
+  // A GRBL system command line: kept as an event.
+  void system_command(const SourceLine& l);
   // Returns false when the program ended on this line.
   bool execute(const Block& b);
+  Codes modal_groups(const Block& b);
+  void check_words(const Block& b, Codes& c);
+  void check_arc_words(const Block& b, const Codes& c);
+  int integer_word(const Block& b, char c, const char* what) const;
+  void feed_speed_tool(const Block& b, const Codes& c);
+  void inputs_outputs(const Block& b, const Codes& c);
+  void tool_and_spindle(const Block& b, const Codes& c);
+  void other_m_codes(const Block& b, const Codes& c);
+  void modes(const Block& b, const Codes& c);
+  void set_coordinate_system(const Block& b);
+  void offsets(const Block& b, const Codes& c);
+  void g92_off_or_restore(int g0);
+  void motion(const Block& b, const Codes& c);
+  bool program_stop(const Codes& c);
   void set_parameters(const Block& b);
   void arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_prog_mm);
   void cycle(const Block& b, int g10, int previous_motion);
@@ -269,6 +333,9 @@ class Reader : public gcode_expr::Parameters {
   std::map<std::string, int> subs_;  // label -> line index of "sub"
   int line_ = 0;
   std::size_t executed_ = 0;
+  bool ended_ = false;
+  std::size_t system_commands_ = 0;  // GRBL '$' lines met
+  int first_system_line_ = 0;
 
   // Parameters. Offsets (#5211.., #5221..) are kept in mm.
   std::vector<double> params_;
@@ -597,11 +664,12 @@ Block Reader::split(const std::string& code) {
 // ---------------------------------------------------------------------------------------------
 // The program loop and O-words
 
-Program Reader::run(const std::string& text) {
-  options_.validate();
+// Reads the file into lines (cleaned, O-words recognised); returns whether a closing '%'
+// ended it.
+bool Reader::read_lines(const std::string& text) {
+  const bool grbl = program_.dialect == GcodeDialect::grbl;
   std::size_t start = 0;
   bool percent_mode = false;
-  bool closing_percent = false;
   int number = 0;
   while (start < text.size()) {
     std::size_t end = text.find('\n', start);
@@ -617,19 +685,40 @@ Program Reader::run(const std::string& text) {
       lines_.push_back(std::move(l));
       continue;
     }
-    // '%' lines open and close the program.
     const auto first = raw.find_first_not_of(" \t");
     if (first != std::string::npos && raw[first] == '%') {
+      if (grbl) continue;  // GRBL: '%' lines are ignored wherever they stand
+      // LinuxCNC: '%' lines open and close the program.
       if (number == 1) { percent_mode = true; continue; }
-      if (percent_mode) { closing_percent = true; break; }
+      if (percent_mode) return true;
+    }
+    if (grbl && first != std::string::npos && raw[first] == '$') {
+      l.system_command = true;
+      const auto last = raw.find_last_not_of(" \t");
+      l.text = raw.substr(first, last - first + 1);
+      lines_.push_back(std::move(l));
+      continue;
     }
     l.code = clean(raw, l.error);
     if (l.error.empty()) scan_o_word(l);
     lines_.push_back(std::move(l));
   }
+  return false;
+}
+
+void Reader::system_command(const SourceLine& l) {
+  ProgramEvent e;
+  e.kind = ProgramEvent::Kind::controller_command;
+  e.text = l.text.substr(0, 80);
+  event(e);
+  if (system_commands_++ == 0) first_system_line_ = l.number;
+}
+
+Program Reader::run(const std::string& text) {
+  options_.validate();
+  const bool closing_percent = read_lines(text);
   match_structure();
 
-  bool ended = false;
   int pc = 0;
   while (pc < static_cast<int>(lines_.size())) {
     const SourceLine& l = lines_[static_cast<std::size_t>(pc)];
@@ -637,6 +726,11 @@ Program Reader::run(const std::string& text) {
     if (++executed_ > options_.max_executed_lines)
       fail(fmt::format("more than {} lines executed: an endless loop?", options_.max_executed_lines));
     if (!l.error.empty()) fail(l.error);
+    if (l.system_command) {
+      system_command(l);
+      ++pc;
+      continue;
+    }
     if (l.o != OKind::none) {
       pc = control(pc);
       continue;
@@ -644,15 +738,21 @@ Program Reader::run(const std::string& text) {
     const Block b = split(l.code);
     set_parameters(b);
     if (!execute(b)) {
-      ended = true;
+      ended_ = true;
       program_.ends_with_program_end = true;
       break;
     }
     ++pc;
   }
-  if (!ended && closing_percent) ended = true;
-  if (!ended && frames_.size() > 1) fail("file ended inside a subroutine call");
-  if (!ended) {
+  if (!ended_ && closing_percent) ended_ = true;
+  if (!ended_ && frames_.size() > 1) fail("file ended inside a subroutine call");
+  const bool grbl = program_.dialect == GcodeDialect::grbl;
+  if (system_commands_ > 0)
+    program_.warnings.push_back(fmt::format("{}:{}: {} GRBL system command line{} ($...) kept as events and otherwise "
+                                            "ignored",
+                                            program_.source, first_system_line_, system_commands_,
+                                            system_commands_ == 1 ? "" : "s"));
+  if (!ended_ && !grbl) {
     if (options_.require_program_end) fail("file ended with no percent sign or program end (M2 or M30)");
     program_.warnings.push_back(fmt::format(
         "{}: the program has no end (M2, M30 or a closing %): read to the end of the file", program_.source));
@@ -660,148 +760,183 @@ Program Reader::run(const std::string& text) {
   return std::move(program_);
 }
 
+std::optional<double> Reader::OWord::value(bool required, const char* what) {
+  const std::string& s = l_.code;
+  if (pos_ >= s.size()) {
+    if (required) r_.fail(fmt::format("o{} {}: '[' and a value expected", l_.label, what));
+    return std::nullopt;
+  }
+  if (s[pos_] != '[') r_.fail(fmt::format("o{} {}: '[' expected after the keyword", l_.label, what));
+  try {
+    return gcode_expr::read_expression(s, pos_, r_);
+  } catch (const gcode_expr::SyntaxError& e) {
+    r_.fail(e.what());
+  }
+}
+
+void Reader::OWord::nothing_after() const {
+  if (pos_ < l_.code.size()) r_.fail(fmt::format("unexpected '{}' after the O-word", l_.code.substr(pos_, 12)));
+}
+
+const SourceLine& Reader::OWord::line_of(int i) const {
+  if (i < 0) r_.fail(fmt::format("o{} is never closed (no matching end line)", l_.label));
+  return r_.lines_[static_cast<std::size_t>(i)];
+}
+
+int Reader::OWord::end_of(int partner) const {
+  if (partner < 0) r_.fail(fmt::format("o{} is never closed (no matching end line)", l_.label));
+  return partner;
+}
+
+// Runs an O-word line: its keyword's family does the work.
 int Reader::control(int pc) {
   const SourceLine& l = lines_[static_cast<std::size_t>(pc)];
   if (!l.o_error.empty()) fail(l.o_error);
-  const std::string& s = l.code;
-  std::size_t pos = l.rest;
-  // The [condition] or [value] after the keyword, when there is one.
-  const auto value = [&](bool required, const char* what) -> std::optional<double> {
-    if (pos >= s.size()) {
-      if (required) fail(fmt::format("o{} {}: '[' and a value expected", l.label, what));
-      return std::nullopt;
-    }
-    if (s[pos] != '[') fail(fmt::format("o{} {}: '[' expected after the keyword", l.label, what));
-    try {
-      return gcode_expr::read_expression(s, pos, *this);
-    } catch (const gcode_expr::SyntaxError& e) {
-      fail(e.what());
-    }
-  };
-  const auto nothing_after = [&] {
-    if (pos < s.size()) fail(fmt::format("unexpected '{}' after the O-word", s.substr(pos, 12)));
-  };
-  const auto line_of = [&](int i) -> const SourceLine& {
-    if (i < 0) fail(fmt::format("o{} is never closed (no matching end line)", l.label));
-    return lines_[static_cast<std::size_t>(i)];
-  };
-  // The end line of an O-word construct, which must exist when the flow jumps to it.
-  const auto end_of = [&](int partner) {
-    if (partner < 0) fail(fmt::format("o{} is never closed (no matching end line)", l.label));
-    return partner;
-  };
-  Frame& frame = frames_.back();
+  OWord o(*this, l);
   switch (l.o) {
-    case OKind::sub:
-      nothing_after();
-      return end_of(l.partner) + 1;  // definitions are skipped when met; a call jumps in
-    case OKind::endsub: case OKind::return_: {
-      const std::optional<double> v = value(false, l.o == OKind::return_ ? "return" : "endsub");
-      nothing_after();
-      if (frames_.size() < 2)
-        fail(fmt::format("{} o{} reached outside a subroutine call", l.o == OKind::return_ ? "return" : "endsub",
-                         l.label));
-      const Frame done = std::move(frames_.back());
-      frames_.pop_back();
-      for (int i = 0; i < 30; ++i) params_[static_cast<std::size_t>(i + 1)] = done.saved[static_cast<std::size_t>(i)];
-      globals_["_value"] = v.value_or(0.0);
-      globals_["_value_returned"] = v ? 1.0 : 0.0;
-      return done.return_pc;
-    }
-    case OKind::call: {
-      std::vector<double> args;
-      while (pos < s.size()) {
-        if (s[pos] != '[')
-          fail(fmt::format("o{} call: arguments are [values], found '{}'", l.label, s.substr(pos, 12)));
-        try {
-          args.push_back(gcode_expr::read_expression(s, pos, *this));
-        } catch (const gcode_expr::SyntaxError& e) {
-          fail(e.what());
-        }
-      }
-      if (args.size() > 30) fail(fmt::format("o{} call: more than 30 arguments", l.label));
-      const auto it = subs_.find(l.label);
-      if (it == subs_.end())
-        fail(fmt::format("subroutine o{} is not defined in this file (subroutines from other files are not supported)",
-                         l.label));
-      if (static_cast<int>(frames_.size()) > kMaxCallDepth)
-        fail(fmt::format("subroutine calls nested deeper than {}", kMaxCallDepth));
-      Frame f;
-      f.return_pc = pc + 1;
-      for (int i = 0; i < 30; ++i) {
-        f.saved[static_cast<std::size_t>(i)] = params_[static_cast<std::size_t>(i + 1)];
-        params_[static_cast<std::size_t>(i + 1)] =
-            i < static_cast<int>(args.size()) ? args[static_cast<std::size_t>(i)] : 0.0;
-      }
-      frames_.push_back(std::move(f));
-      return it->second + 1;
-    }
-    case OKind::do_: nothing_after(); return pc + 1;
+    case OKind::sub: case OKind::endsub: case OKind::return_: case OKind::call: return subroutine(o, pc);
+    case OKind::do_: case OKind::while_: case OKind::endwhile: case OKind::repeat: case OKind::endrepeat:
+    case OKind::break_: case OKind::continue_:
+      return loop(o, pc);
+    case OKind::if_: case OKind::elseif: case OKind::else_: case OKind::endif: return conditional(o, pc);
+    case OKind::none: break;
+  }
+  return pc + 1;
+}
+
+// sub (skipped where it stands), call (arguments into #1..#30, a new frame), endsub and
+// return (the caller's #1..#30 back, #<_value>).
+int Reader::subroutine(OWord& o, int pc) {
+  const SourceLine& l = o.line();
+  if (l.o == OKind::sub) {
+    o.nothing_after();
+    return o.end_of(l.partner) + 1;  // definitions are skipped when met; a call jumps in
+  }
+  if (l.o == OKind::endsub || l.o == OKind::return_) {
+    const std::optional<double> v = o.value(false, l.o == OKind::return_ ? "return" : "endsub");
+    o.nothing_after();
+    if (frames_.size() < 2)
+      fail(fmt::format("{} o{} reached outside a subroutine call", l.o == OKind::return_ ? "return" : "endsub", l.label));
+    const Frame done = std::move(frames_.back());
+    frames_.pop_back();
+    for (int i = 0; i < 30; ++i) params_[static_cast<std::size_t>(i + 1)] = done.saved[static_cast<std::size_t>(i)];
+    globals_["_value"] = v.value_or(0.0);
+    globals_["_value_returned"] = v ? 1.0 : 0.0;
+    return done.return_pc;
+  }
+  std::vector<double> args;
+  while (o.more()) {
+    if (!o.at_bracket())
+      fail(fmt::format("o{} call: arguments are [values], found '{}'", l.label, l.code.substr(o.pos(), 12)));
+    args.push_back(*o.value(true, "call"));
+  }
+  if (args.size() > 30) fail(fmt::format("o{} call: more than 30 arguments", l.label));
+  const auto it = subs_.find(l.label);
+  if (it == subs_.end())
+    fail(fmt::format("subroutine o{} is not defined in this file (subroutines from other files are not supported)",
+                     l.label));
+  if (static_cast<int>(frames_.size()) > kMaxCallDepth)
+    fail(fmt::format("subroutine calls nested deeper than {}", kMaxCallDepth));
+  Frame f;
+  f.return_pc = pc + 1;
+  for (int i = 0; i < 30; ++i) {
+    f.saved[static_cast<std::size_t>(i)] = params_[static_cast<std::size_t>(i + 1)];
+    params_[static_cast<std::size_t>(i + 1)] = i < static_cast<int>(args.size()) ? args[static_cast<std::size_t>(i)] : 0.0;
+  }
+  frames_.push_back(std::move(f));
+  return it->second + 1;
+}
+
+// do / while / endwhile, repeat / endrepeat, break, continue.
+int Reader::loop(OWord& o, int pc) {
+  const SourceLine& l = o.line();
+  switch (l.o) {
+    case OKind::do_: o.nothing_after(); return pc + 1;
     case OKind::while_: {
-      const bool go_on = *value(true, "while") != 0.0;
-      nothing_after();
+      const bool go_on = *o.value(true, "while") != 0.0;
+      o.nothing_after();
       if (l.closes_do) return go_on ? l.partner + 1 : pc + 1;
-      return go_on ? pc + 1 : end_of(l.partner) + 1;
+      return go_on ? pc + 1 : o.end_of(l.partner) + 1;
     }
-    case OKind::endwhile: nothing_after(); return l.partner;
-    case OKind::if_: {
-      bool taken = *value(true, "if") != 0.0;
-      nothing_after();
-      int at = pc;
-      while (!taken) {
-        at = line_of(at).partner;
-        const SourceLine& c = line_of(at);
-        if (c.o != OKind::elseif) return at + 1;  // else: its body; endif: after it
-        line_ = c.number;
-        std::size_t p = c.rest;
-        if (p >= c.code.size() || c.code[p] != '[')
-          fail(fmt::format("o{} elseif: '[' expected after the keyword", c.label));
-        try {
-          taken = gcode_expr::read_expression(c.code, p, *this) != 0.0;
-        } catch (const gcode_expr::SyntaxError& e) {
-          fail(e.what());
-        }
-      }
-      return at + 1;
-    }
-    case OKind::elseif: case OKind::else_: return end_of(l.endif) + 1;  // the branch before it ran
-    case OKind::endif: nothing_after(); return pc + 1;
+    case OKind::endwhile: o.nothing_after(); return l.partner;
     case OKind::repeat: {
-      const double n = *value(true, "repeat");
-      nothing_after();
+      const double n = *o.value(true, "repeat");
+      o.nothing_after();
       const long long count = static_cast<long long>(std::llround(std::clamp(n, -1.0, 1e12)));
-      if (count <= 0) return end_of(l.partner) + 1;
-      frame.repeats[pc] = count - 1;
+      if (count <= 0) return o.end_of(l.partner) + 1;
+      frames_.back().repeats[pc] = count - 1;
       return pc + 1;
     }
     case OKind::endrepeat: {
-      nothing_after();
-      long long& left = frame.repeats[l.partner];
+      o.nothing_after();
+      long long& left = frames_.back().repeats[l.partner];
       if (left > 0) {
         --left;
         return l.partner + 1;
       }
       return pc + 1;
     }
-    case OKind::break_: case OKind::continue_: {
-      nothing_after();
-      const SourceLine& loop = line_of(l.partner);
-      if (l.o == OKind::break_) return end_of(loop.partner) + 1;
-      if (loop.o == OKind::while_) return l.partner;  // test again
-      return end_of(loop.partner);                   // do: its closing while; repeat: endrepeat
-    }
-    case OKind::none: break;
+    default: break;
   }
-  return pc + 1;
+  // break / continue
+  o.nothing_after();
+  const SourceLine& loop_line = o.line_of(l.partner);
+  if (l.o == OKind::break_) return o.end_of(loop_line.partner) + 1;
+  if (loop_line.o == OKind::while_) return l.partner;  // test again
+  return o.end_of(loop_line.partner);                  // do: its closing while; repeat: endrepeat
+}
+
+// if / elseif / else / endif: the first clause whose condition holds runs; a clause reached
+// from the one before it (that ran) jumps past the endif.
+int Reader::conditional(OWord& o, int pc) {
+  const SourceLine& l = o.line();
+  if (l.o == OKind::elseif || l.o == OKind::else_) return o.end_of(l.endif) + 1;  // the branch before it ran
+  if (l.o == OKind::endif) {
+    o.nothing_after();
+    return pc + 1;
+  }
+  bool taken = *o.value(true, "if") != 0.0;
+  o.nothing_after();
+  int at = pc;
+  while (!taken) {
+    at = o.line_of(at).partner;
+    const SourceLine& c = o.line_of(at);
+    if (c.o != OKind::elseif) return at + 1;  // else: its body; endif: after it
+    line_ = c.number;
+    std::size_t p = c.rest;
+    if (p >= c.code.size() || c.code[p] != '[') fail(fmt::format("o{} elseif: '[' expected after the keyword", c.label));
+    try {
+      taken = gcode_expr::read_expression(c.code, p, *this) != 0.0;
+    } catch (const gcode_expr::SyntaxError& e) {
+      fail(e.what());
+    }
+  }
+  return at + 1;
 }
 
 // ---------------------------------------------------------------------------------------------
-// One block, in LinuxCNC's order of execution
+// One block, in LinuxCNC's order of execution. execute() reads the block's codes by modal
+// group (modal_groups), checks that every word has a code to use it (check_words), then runs
+// the groups in LinuxCNC's order, one function each.
 
 bool Reader::execute(const Block& b) {
-  // --- Modal group checks ---------------------------------------------------------------
-  std::array<int, 16> g_seen;
-  g_seen.fill(-1);
+  Codes c = modal_groups(b);
+  check_words(b, c);
+  feed_speed_tool(b, c);
+  inputs_outputs(b, c);
+  tool_and_spindle(b, c);
+  other_m_codes(b, c);
+  modes(b, c);
+  offsets(b, c);
+  motion(b, c);
+  return program_stop(c);
+}
+
+// Modal group checks: the G and M codes of the block by group.
+Codes Reader::modal_groups(const Block& b) {
+  Codes c;
+  c.g.fill(-1);
+  c.m.fill(-1);
   for (int g : b.g10) {
     int group = g_group(g);
     if (group < 0) {
@@ -810,7 +945,7 @@ bool Reader::execute(const Block& b) {
       if (it != refused.end()) fail(fmt::format("{} ({}) is not supported", g_name(g), it->second));
       fail(fmt::format("unknown G code {}", g_name(g)));
     }
-    int& seen = g_seen[static_cast<std::size_t>(group)];
+    int& seen = c.g[static_cast<std::size_t>(group)];
     // G80 beside another motion code gives way to it, as in LinuxCNC.
     if (group == 1 && (g == 800 || seen == 800)) {
       if (seen < 0 || seen == 800) seen = g;
@@ -820,43 +955,41 @@ bool Reader::execute(const Block& b) {
       fail(fmt::format("two G codes from the same modal group on one line: {} and {}", g_name(seen), g_name(g)));
     seen = g;
   }
-  std::array<int, 16> m_seen;
-  m_seen.fill(-1);
   for (int m : b.m) {
     const int group = m_group(m);
     if (group < 0) {
       if (const char* name = refused_m_code(m)) fail(fmt::format("M{} ({}) is not supported", m, name));
       fail(fmt::format("unknown M code M{}", m));
     }
-    if (m_seen[static_cast<std::size_t>(group)] >= 0)
+    if (c.m[static_cast<std::size_t>(group)] >= 0)
       fail(fmt::format("two M codes from the same modal group on one line: M{} and M{}",
-                       m_seen[static_cast<std::size_t>(group)], m));
-    m_seen[static_cast<std::size_t>(group)] = m;
+                       c.m[static_cast<std::size_t>(group)], m));
+    c.m[static_cast<std::size_t>(group)] = m;
   }
+  return c;
+}
 
-  // --- Words without a code that uses them -----------------------------------------------
-  const bool has_axis = b.w('x') || b.w('y') || b.w('z');
-  const int g0 = g_seen[0];
-  const bool g0_uses_axes = g0 == 100 || g0 == 280 || g0 == 300 || g0 == 520 || g0 == 920;
-  const int g_motion = g_seen[1];
-  if (g_motion == 800 && has_axis && !g0_uses_axes) fail("axis words (X, Y, Z) with G80");
-  if (g0_uses_axes && g_motion >= 0 && g_motion != 800)
+// Words without a code that uses them; the motion the line performs.
+void Reader::check_words(const Block& b, Codes& c) {
+  c.has_axis = b.w('x') || b.w('y') || b.w('z');
+  const int g0 = c.g[0];
+  c.g0_uses_axes = g0 == 100 || g0 == 280 || g0 == 300 || g0 == 520 || g0 == 920;
+  const int g_motion = c.g[1];
+  if (g_motion == 800 && c.has_axis && !c.g0_uses_axes) fail("axis words (X, Y, Z) with G80");
+  if (c.g0_uses_axes && g_motion >= 0 && g_motion != 800)
     fail(fmt::format("cannot use two G codes that both use axis values: {} and {}", g_name(g0), g_name(g_motion)));
-  int motion_to_be = -1;  // the motion this line performs
-  if (g_motion >= 0 && g_motion != 800) motion_to_be = g_motion;
-  else if (g_motion < 0 && has_axis && !g0_uses_axes) {
+  if (g_motion >= 0 && g_motion != 800) c.motion = g_motion;
+  else if (g_motion < 0 && c.has_axis && !c.g0_uses_axes) {
     if (motion_g10_ == 800) fail("axis words (X, Y, Z) without a motion code G0..G3 to use them (motion mode is G80)");
-    motion_to_be = motion_g10_;
+    c.motion = motion_g10_;
   }
-  const bool is_arc = motion_to_be == 20 || motion_to_be == 30;
-  const bool cycle_line = motion_to_be >= 0 && is_cycle(motion_to_be);
-  const int m5 = m_seen[5], m9 = m_seen[9], m10 = m_seen[10];
-  const bool dwell = g0 == 40;
-  const Move::Plane plane = g_seen[2] == 180 ? Move::Plane::xz : g_seen[2] == 190 ? Move::Plane::yz
-                          : g_seen[2] == 170 ? Move::Plane::xy : plane_;
-  if (is_arc) {
-    const char missing = plane == Move::Plane::xy ? 'k' : plane == Move::Plane::xz ? 'j' : 'i';
-    const char* pname = plane == Move::Plane::xy ? "XY" : plane == Move::Plane::xz ? "XZ" : "YZ";
+  c.is_arc = c.motion == 20 || c.motion == 30;
+  c.cycle = c.motion >= 0 && is_cycle(c.motion);
+  c.plane = c.g[2] == 180 ? Move::Plane::xz : c.g[2] == 190 ? Move::Plane::yz : c.g[2] == 170 ? Move::Plane::xy : plane_;
+  const int m5 = c.m[5], m9 = c.m[9], m10 = c.m[10];
+  if (c.is_arc) {
+    const char missing = c.plane == Move::Plane::xy ? 'k' : c.plane == Move::Plane::xz ? 'j' : 'i';
+    const char* pname = c.plane == Move::Plane::xy ? "XY" : c.plane == Move::Plane::xz ? "XZ" : "YZ";
     if (b.w(missing))
       fail(fmt::format("{} word given for an arc in the {} plane", static_cast<char>(std::toupper(missing)), pname));
   } else {
@@ -864,50 +997,55 @@ bool Reader::execute(const Block& b) {
     if (b.w('j')) fail("J word with no G2 or G3 to use it");
     if (b.w('k')) fail("K word with no G2 or G3 to use it");
   }
-  if (b.w('r') && !is_arc && !cycle_line && g0 != 100) fail("R word with no G2, G3, G10 or canned cycle to use it");
-  const bool p_used = is_arc || dwell || g0 == 100 || g_seen[13] == 640 || motion_to_be == 820 || motion_to_be == 890 ||
+  if (b.w('r') && !c.is_arc && !c.cycle && g0 != 100) fail("R word with no G2, G3, G10 or canned cycle to use it");
+  const bool p_used = c.is_arc || g0 == 40 || g0 == 100 || c.g[13] == 640 || c.motion == 820 || c.motion == 890 ||
                       (m5 >= 62 && m5 <= 66) || m9 >= 0 || m10 >= 0;
   if (b.w('p') && !p_used)
     fail("P word with no code that uses it (G2/G3, G4, G10, G64, G82, G89, M50-M53, M62-M66, M100-M199)");
-  if (b.w('q') && !(g_seen[13] == 640 || motion_to_be == 730 || motion_to_be == 830 || m5 == 66 || m5 == 67 ||
-                    m5 == 68 || m_seen[6] == 61 || m10 >= 0))
+  if (b.w('q') && !(c.g[13] == 640 || c.motion == 730 || c.motion == 830 || m5 == 66 || m5 == 67 || m5 == 68 ||
+                    c.m[6] == 61 || m10 >= 0))
     fail("Q word with no code that uses it (G64, G73, G83, M61, M66-M68, M100-M199)");
-  if (b.w('l') && !(g0 == 100 || cycle_line || m5 == 66)) fail("L word with no G10, canned cycle or M66 to use it");
+  if (b.w('l') && !(g0 == 100 || c.cycle || m5 == 66)) fail("L word with no G10, canned cycle or M66 to use it");
   if (b.w('e') && !(m5 == 66 || m5 == 67 || m5 == 68))
     fail("E word with no M66, M67 or M68 to use it (and 'E' is a word letter, not an exponent: write 1000, not 1e3)");
-  if (b.w('h') && g_seen[8] != 430) fail("H word with no G43 to use it");
+  if (b.w('h') && c.g[8] != 430) fail("H word with no G43 to use it");
   if (b.w('d')) fail("D words (cutter compensation) are not supported");
-  if (is_arc) {
-    const char first = plane == Move::Plane::xy ? 'i' : plane == Move::Plane::xz ? 'k' : 'j';
-    const char second = plane == Move::Plane::xy ? 'j' : plane == Move::Plane::xz ? 'i' : 'k';
-    if (b.w('r') && (b.w(first) || b.w(second))) fail("mixed radius (R) and centre (I, J, K) format for an arc");
-    if (!b.w('r') && !b.w(first) && !b.w(second)) fail("R, I, J and K words all missing for an arc");
-    if (b.w('p')) {
-      const double p = *b.w('p');
-      if (std::abs(p - std::round(p)) > 1e-4) fail(fmt::format("P word on G2/G3 is not an integer: P{:g}", p));
-      if (std::round(p) < 1) fail(fmt::format("P word on G2/G3 must be 1 or greater (number of turns), got P{:g}", p));
-      if (std::round(p) > options_.max_arc_turns)
-        fail(fmt::format("P{:g} asks for more than {} turns on one arc", p, options_.max_arc_turns));
-    }
-  }
+  if (c.is_arc) check_arc_words(b, c);
   if (b.spindle) {
     const int n = *b.spindle;
-    const bool all = n == -1 && m_seen[7] == 5;
+    const bool all = n == -1 && c.m[7] == 5;
     if (!all && (n < 0 || n >= options_.spindle_count))
       fail(fmt::format("invalid spindle ($) number ${}: this machine has {} spindle{} ($0{})", n,
                        options_.spindle_count, options_.spindle_count == 1 ? "" : "s",
                        options_.spindle_count == 1 ? "" : fmt::format("..${}", options_.spindle_count - 1)));
   }
-  const auto integer_word = [&](char c, const char* what) {
-    const double v = *b.w(c);
-    if (std::abs(v - std::round(v)) > 1e-4 || v < 0)
-      fail(fmt::format("{} word {}{:g} must be a whole number >= 0 ({})", static_cast<char>(std::toupper(c)),
-                       static_cast<char>(std::toupper(c)), v, what));
-    return static_cast<int>(std::round(std::min(v, 1e9)));
-  };
+}
 
-  // --- Execution, in LinuxCNC's order -------------------------------------------------------
-  if (g_seen[5] == 940) feed_mm_per_min_ = 0.0;  // G94 resets the feed, as LinuxCNC does
+// The centre or radius words and the P word (turns) of an arc.
+void Reader::check_arc_words(const Block& b, const Codes& c) {
+  const char first = c.plane == Move::Plane::xy ? 'i' : c.plane == Move::Plane::xz ? 'k' : 'j';
+  const char second = c.plane == Move::Plane::xy ? 'j' : c.plane == Move::Plane::xz ? 'i' : 'k';
+  if (b.w('r') && (b.w(first) || b.w(second))) fail("mixed radius (R) and centre (I, J, K) format for an arc");
+  if (!b.w('r') && !b.w(first) && !b.w(second)) fail("R, I, J and K words all missing for an arc");
+  if (!b.w('p')) return;
+  const double p = *b.w('p');
+  if (std::abs(p - std::round(p)) > 1e-4) fail(fmt::format("P word on G2/G3 is not an integer: P{:g}", p));
+  if (std::round(p) < 1) fail(fmt::format("P word on G2/G3 must be 1 or greater (number of turns), got P{:g}", p));
+  if (std::round(p) > options_.max_arc_turns)
+    fail(fmt::format("P{:g} asks for more than {} turns on one arc", p, options_.max_arc_turns));
+}
+
+int Reader::integer_word(const Block& b, char c, const char* what) const {
+  const double v = *b.w(c);
+  if (std::abs(v - std::round(v)) > 1e-4 || v < 0)
+    fail(fmt::format("{} word {}{:g} must be a whole number >= 0 ({})", static_cast<char>(std::toupper(c)),
+                     static_cast<char>(std::toupper(c)), v, what));
+  return static_cast<int>(std::round(std::min(v, 1e9)));
+}
+
+// G94 (which resets the feed), F, S, T.
+void Reader::feed_speed_tool(const Block& b, const Codes& c) {
+  if (c.g[5] == 940) feed_mm_per_min_ = 0.0;  // G94 resets the feed, as LinuxCNC does
   if (b.w('f')) {
     if (*b.w('f') < 0) fail("negative F word (feed rate)");
     feed_mm_per_min_ = *b.w('f') * scale();
@@ -917,18 +1055,22 @@ bool Reader::execute(const Block& b) {
     spindle_speed_ = *b.w('s');
   }
   if (b.w('t')) {
-    tool_selected_ = integer_word('t', "tool number");
+    tool_selected_ = integer_word(b, 't', "tool number");
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::tool_select;
     e.number = tool_selected_;
     event(e);
   }
-  // M62..M68: outputs and inputs.
+}
+
+// M62..M68: outputs and inputs.
+void Reader::inputs_outputs(const Block& b, const Codes& c) {
+  const int m5 = c.m[5];
   if (m5 >= 62 && m5 <= 65) {
     if (!b.w('p')) fail(fmt::format("M{} needs a P word (output number)", m5));
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::digital_output;
-    e.number = integer_word('p', "output number");
+    e.number = integer_word(b, 'p', "output number");
     e.value = (m5 == 62 || m5 == 64) ? 1.0 : 0.0;
     e.synchronized = m5 == 62 || m5 == 63;
     event(e);
@@ -937,8 +1079,8 @@ bool Reader::execute(const Block& b) {
     if (b.w('p') && b.w('e')) fail("M66 takes a P or an E word, not both");
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::wait_input;
-    e.number = b.w('p') ? integer_word('p', "input number") : integer_word('e', "input number");
-    e.mode = b.w('l') ? integer_word('l', "wait mode 0..4") : 0;
+    e.number = b.w('p') ? integer_word(b, 'p', "input number") : integer_word(b, 'e', "input number");
+    e.mode = b.w('l') ? integer_word(b, 'l', "wait mode 0..4") : 0;
     if (e.mode > 4) fail(fmt::format("M66 wait mode L{} must be 0..4", e.mode));
     e.value = b.w('q').value_or(0.0);
     if (e.value < 0) fail("M66 timeout Q must be >= 0 seconds");
@@ -947,12 +1089,16 @@ bool Reader::execute(const Block& b) {
     if (!b.w('e') || !b.w('q')) fail(fmt::format("M{} needs an E word (output number) and a Q word (value)", m5));
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::analog_output;
-    e.number = integer_word('e', "output number");
+    e.number = integer_word(b, 'e', "output number");
     e.value = *b.w('q');
     e.synchronized = m5 == 67;
     event(e);
   }
-  if (m_seen[6] == 6) {
+}
+
+// M6 / M61 (tool change), then M3 / M4 / M5 (torch or spindle).
+void Reader::tool_and_spindle(const Block& b, const Codes& c) {
+  if (c.m[6] == 6) {
     // LinuxCNC stops the spindle for the change.
     Move m;
     m.kind = Move::Kind::torch_off;
@@ -962,73 +1108,82 @@ bool Reader::execute(const Block& b) {
     e.kind = ProgramEvent::Kind::tool_change;
     e.number = tool_in_spindle_;
     event(e);
-  } else if (m_seen[6] == 61) {
+  } else if (c.m[6] == 61) {
     if (!b.w('q')) fail("M61 needs a Q word (tool number)");
-    tool_in_spindle_ = tool_selected_ = integer_word('q', "tool number");
+    tool_in_spindle_ = tool_selected_ = integer_word(b, 'q', "tool number");
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::tool_change;
     e.number = tool_in_spindle_;
     event(e);
   }
-  if (m_seen[7] == 3 || m_seen[7] == 4) {
+  if (c.m[7] == 3 || c.m[7] == 4) {
     Move m;
     m.kind = Move::Kind::torch_on;
     m.spindle_speed = spindle_speed_;
     m.spindle = b.spindle.value_or(0);
     push(m);
-  } else if (m_seen[7] == 5) {
+  } else if (c.m[7] == 5) {
     Move m;
     m.kind = Move::Kind::torch_off;
     m.spindle = b.spindle.value_or(0);
     push(m);
   }
-  if (m_seen[8] >= 0) {
+}
+
+// M7-M9 (coolant), M48-M53 (overrides), M100-M199 (user M codes), then G4 (dwell).
+void Reader::other_m_codes(const Block& b, const Codes& c) {
+  if (c.m[8] >= 0) {
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::coolant;
-    e.number = m_seen[8];
+    e.number = c.m[8];
     event(e);
   }
-  if (m9 >= 0) {
+  if (c.m[9] >= 0) {
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::feed_override;
-    e.number = m9;
+    e.number = c.m[9];
     e.value = b.w('p').value_or(1.0);
     event(e);
   }
-  if (m10 >= 0) {
+  if (c.m[10] >= 0) {
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::user_m_code;
-    e.number = m10;
+    e.number = c.m[10];
     e.value = b.w('p').value_or(0.0);
     e.value2 = b.w('q').value_or(0.0);
     event(e);
   }
-  if (dwell) {
+  if (c.g[0] == 40) {
     if (!b.w('p') || *b.w('p') < 0) fail("dwell time missing with G4 (P seconds, 0 or more)");
     Move m;
     m.kind = Move::Kind::dwell;
     m.seconds = *b.w('p');
     push(m);
   }
-  if (g_seen[2] >= 0) plane_ = plane;
-  if (g_seen[6] == 200) inches_ = true;
-  if (g_seen[6] == 210) inches_ = false;
-  if (g_seen[8] >= 0) {
+}
+
+// Plane, units, tool length offset, coordinate system, path control, distance modes and the
+// canned cycles' retract mode.
+void Reader::modes(const Block& b, const Codes& c) {
+  if (c.g[2] >= 0) plane_ = c.plane;
+  if (c.g[6] == 200) inches_ = true;
+  if (c.g[6] == 210) inches_ = false;
+  if (c.g[8] >= 0) {
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::tool_length_offset;
-    e.number = g_seen[8] == 490 ? -1 : b.w('h') ? integer_word('h', "tool number") : tool_in_spindle_;
+    e.number = c.g[8] == 490 ? -1 : b.w('h') ? integer_word(b, 'h', "tool number") : tool_in_spindle_;
     event(e);
   }
-  if (g_seen[12] >= 0) {
-    const int g = g_seen[12];
+  if (c.g[12] >= 0) {
+    const int g = c.g[12];
     const int system = g <= 590 ? (g - 540) / 10 + 1 : 6 + (g - 590);
     change_offsets([&] {
       params_[kCoordSystemParam] = system;
       load_g5x();
     });
   }
-  if (g_seen[13] >= 0) {
-    const int g = g_seen[13];
+  if (c.g[13] >= 0) {
+    const int g = c.g[13];
     path_mode_ = g == 610 ? Move::PathMode::exact_path : g == 611 ? Move::PathMode::exact_stop : Move::PathMode::blend;
     if (g == 640) {
       if (b.w('p') && *b.w('p') < 0) fail("G64 P (path tolerance) must be >= 0");
@@ -1038,55 +1193,63 @@ bool Reader::execute(const Block& b) {
       path_tolerance_mm_ = 0.0;
     }
   }
-  if (g_seen[3] == 900) incremental_ = false;
-  if (g_seen[3] == 910) incremental_ = true;
-  if (g_seen[4] == 901) ij_absolute_ = true;
-  if (g_seen[4] == 911) ij_absolute_ = false;
-  if (g_seen[10] >= 0) retract_r_plane_ = g_seen[10] == 990;
+  if (c.g[3] == 900) incremental_ = false;
+  if (c.g[3] == 910) incremental_ = true;
+  if (c.g[4] == 901) ij_absolute_ = true;
+  if (c.g[4] == 911) ij_absolute_ = false;
+  if (c.g[10] >= 0) retract_r_plane_ = c.g[10] == 990;
+}
 
-  // --- Non-modal codes that set offsets -----------------------------------------------------
-  const char axes[3] = {'x', 'y', 'z'};
+// G10 L2 / L20: a coordinate system's offsets.
+void Reader::set_coordinate_system(const Block& b) {
+  if (!b.w('l')) fail("G10 needs an L word (L2 or L20 set a coordinate system)");
+  const int l = integer_word(b, 'l', "G10 L");
+  if (l == 1 || l == 10 || l == 11) fail(fmt::format("G10 L{} (setting tool table data) is not supported", l));
+  if (l != 2 && l != 20) fail(fmt::format("G10 L{} is not a G10 code LinuxCNC knows (L1, L2, L10, L11, L20)", l));
+  if (!b.w('p')) fail(fmt::format("G10 L{} needs a P word (coordinate system 0..9)", l));
+  int p = integer_word(b, 'p', "coordinate system");
+  if (p > 9) fail(fmt::format("G10 L{} P{}: the coordinate system must be 0..9", l, p));
+  if (b.w('r') && *b.w('r') != 0.0) fail("G10 L2 R (rotation of a coordinate system) is not supported");
+  const int current = static_cast<int>(params_[kCoordSystemParam]);
+  if (p == 0) p = current;
+  for (int a = 0; a < 3; ++a) {
+    const auto& v = b.w(kAxes[a]);
+    if (!v) continue;
+    double off = *v * scale();
+    if (l == 20) off = machine_position()[a] - (g92_on_ ? g92_mm_[a] : 0.0) - off;
+    params_[static_cast<std::size_t>(g5x_param(p, a))] = off;
+  }
+  if (p == current) change_offsets([&] { load_g5x(); });
+}
+
+// The non-modal codes that set offsets or go through stored positions: G10, G28 / G30,
+// G28.1 / G30.1, G92, G52, G92.1 / G92.2 / G92.3.
+void Reader::offsets(const Block& b, const Codes& c) {
+  const int g0 = c.g[0];
   if (g0 == 100) {
-    if (!b.w('l')) fail("G10 needs an L word (L2 or L20 set a coordinate system)");
-    const int l = integer_word('l', "G10 L");
-    if (l == 1 || l == 10 || l == 11) fail(fmt::format("G10 L{} (setting tool table data) is not supported", l));
-    if (l != 2 && l != 20) fail(fmt::format("G10 L{} is not a G10 code LinuxCNC knows (L1, L2, L10, L11, L20)", l));
-    if (!b.w('p')) fail(fmt::format("G10 L{} needs a P word (coordinate system 0..9)", l));
-    int p = integer_word('p', "coordinate system");
-    if (p > 9) fail(fmt::format("G10 L{} P{}: the coordinate system must be 0..9", l, p));
-    if (b.w('r') && *b.w('r') != 0.0) fail("G10 L2 R (rotation of a coordinate system) is not supported");
-    const int current = static_cast<int>(params_[kCoordSystemParam]);
-    if (p == 0) p = current;
-    for (int a = 0; a < 3; ++a) {
-      const auto& v = b.w(axes[a]);
-      if (!v) continue;
-      double off = *v * scale();
-      if (l == 20) off = machine_position()[a] - (g92_on_ ? g92_mm_[a] : 0.0) - off;
-      params_[static_cast<std::size_t>(g5x_param(p, a))] = off;
-    }
-    if (p == current) change_offsets([&] { load_g5x(); });
+    set_coordinate_system(b);
   } else if (g0 == 280 || g0 == 300) {
     // Through the point the axis words give (if any) to the stored position (#5161.. for G28,
     // #5181.. for G30, machine coordinates), moving only the named axes, or all without any.
     const int base = g0 == 280 ? kFirstG28Param : kFirstG30Param;
     Eigen::Vector3d via = pos_mm_;
     for (int a = 0; a < 3; ++a)
-      if (const auto& v = b.w(axes[a])) via[a] = incremental_ ? pos_mm_[a] + *v * scale() : *v * scale();
+      if (const auto& v = b.w(kAxes[a])) via[a] = incremental_ ? pos_mm_[a] + *v * scale() : *v * scale();
     straight(Move::Kind::rapid, via);
     Eigen::Vector3d home = via;
     for (int a = 0; a < 3; ++a)
-      if (!has_axis || b.w(axes[a])) home[a] = params_[static_cast<std::size_t>(base + a)] - offset()[a];
+      if (!c.has_axis || b.w(kAxes[a])) home[a] = params_[static_cast<std::size_t>(base + a)] - offset()[a];
     straight(Move::Kind::rapid, home);
   } else if (g0 == 281 || g0 == 301) {
     const int base = g0 == 281 ? kFirstG28Param : kFirstG30Param;
     const Eigen::Vector3d machine = machine_position();
     for (int a = 0; a < 3; ++a) params_[static_cast<std::size_t>(base + a)] = machine[a];
   } else if (g0 == 920) {
-    if (!has_axis) fail("G92 needs at least one axis word");
+    if (!c.has_axis) fail("G92 needs at least one axis word");
     change_offsets([&] {
       const Eigen::Vector3d machine = machine_position();
       for (int a = 0; a < 3; ++a) {
-        if (const auto& v = b.w(axes[a])) g92_mm_[a] = machine[a] - g5x_mm_[a] - *v * scale();
+        if (const auto& v = b.w(kAxes[a])) g92_mm_[a] = machine[a] - g5x_mm_[a] - *v * scale();
         else if (!g92_on_) g92_mm_[a] = 0.0;
         params_[static_cast<std::size_t>(kFirstG92Param + a)] = g92_mm_[a];
       }
@@ -1098,68 +1261,78 @@ bool Reader::execute(const Block& b) {
     change_offsets([&] {
       if (!g92_on_) g92_mm_.setZero();
       for (int a = 0; a < 3; ++a) {
-        if (const auto& v = b.w(axes[a])) g92_mm_[a] = *v * scale();
+        if (const auto& v = b.w(kAxes[a])) g92_mm_[a] = *v * scale();
         params_[static_cast<std::size_t>(kFirstG92Param + a)] = g92_mm_[a];
       }
       g92_on_ = true;
       params_[5210] = 1;
     });
-  } else if (g0 == 921 || g0 == 922) {
-    change_offsets([&] {
-      g92_on_ = false;
-      params_[5210] = 0;
-      if (g0 == 921) {
-        g92_mm_.setZero();
-        for (int a = 0; a < 9; ++a) params_[static_cast<std::size_t>(kFirstG92Param + a)] = 0.0;
-      }
-    });
-  } else if (g0 == 923) {
-    change_offsets([&] {
+  } else if (g0 == 921 || g0 == 922 || g0 == 923) {
+    g92_off_or_restore(g0);
+  }
+}
+
+// G92.1 (offsets off and cleared), G92.2 (off, kept), G92.3 (restored from the parameters).
+void Reader::g92_off_or_restore(int g0) {
+  change_offsets([&] {
+    if (g0 == 923) {
       for (int a = 0; a < 3; ++a) g92_mm_[a] = params_[static_cast<std::size_t>(kFirstG92Param + a)];
       g92_on_ = true;
       params_[5210] = 1;
-    });
-  }
+      return;
+    }
+    g92_on_ = false;
+    params_[5210] = 0;
+    if (g0 == 921) {
+      g92_mm_.setZero();
+      for (int a = 0; a < 9; ++a) params_[static_cast<std::size_t>(kFirstG92Param + a)] = 0.0;
+    }
+  });
+}
 
-  // --- Motion --------------------------------------------------------------------------------
+// G0 / G1 / G2 / G3 / the canned cycles, with G53 for the line.
+void Reader::motion(const Block& b, const Codes& c) {
   const int previous_motion = motion_g10_;
-  if (g_motion >= 0) motion_g10_ = g_motion;
-  if ((motion_to_be >= 0 && !is_cycle(motion_to_be)) || g_motion == 800) cycle_series_ = false;
-  if (motion_to_be >= 0) {
-    if (g0 == 530) {
-      if (motion_to_be != 0 && motion_to_be != 10) fail("G53 is allowed only with G0 or G1");
-      if (incremental_) fail("G53 cannot be used in incremental distance mode (G91)");
-    }
-    Eigen::Vector3d end = pos_mm_;
-    if (!cycle_line) {
-      for (int a = 0; a < 3; ++a) {
-        const auto& v = b.w(axes[a]);
-        if (!v) continue;
-        if (g0 == 530) end[a] = *v * scale() - offset()[a];
-        else end[a] = incremental_ ? pos_mm_[a] + *v * scale() : *v * scale();
-      }
-    }
-    if (motion_to_be == 0) {
-      straight(Move::Kind::rapid, end);
-    } else if (motion_to_be == 10) {
-      straight(Move::Kind::line, end);
-    } else if (is_arc) {
-      if (feed_mm_per_min_ <= 0) fail(fmt::format("cannot make an arc (G{}) with zero feed rate", motion_to_be / 10));
-      arc(b, motion_to_be == 20, end);
-      pos_mm_ = end;
-    } else {
-      cycle(b, motion_to_be, previous_motion);
+  if (c.g[1] >= 0) motion_g10_ = c.g[1];
+  if ((c.motion >= 0 && !is_cycle(c.motion)) || c.g[1] == 800) cycle_series_ = false;
+  if (c.motion < 0) return;
+  const int g0 = c.g[0];
+  if (g0 == 530) {
+    if (c.motion != 0 && c.motion != 10) fail("G53 is allowed only with G0 or G1");
+    if (incremental_) fail("G53 cannot be used in incremental distance mode (G91)");
+  }
+  Eigen::Vector3d end = pos_mm_;
+  if (!c.cycle) {
+    for (int a = 0; a < 3; ++a) {
+      const auto& v = b.w(kAxes[a]);
+      if (!v) continue;
+      if (g0 == 530) end[a] = *v * scale() - offset()[a];
+      else end[a] = incremental_ ? pos_mm_[a] + *v * scale() : *v * scale();
     }
   }
+  if (c.motion == 0) {
+    straight(Move::Kind::rapid, end);
+  } else if (c.motion == 10) {
+    straight(Move::Kind::line, end);
+  } else if (c.is_arc) {
+    if (feed_mm_per_min_ <= 0) fail(fmt::format("cannot make an arc (G{}) with zero feed rate", c.motion / 10));
+    arc(b, c.motion == 20, end);
+    pos_mm_ = end;
+  } else {
+    cycle(b, c.motion, previous_motion);
+  }
+}
 
-  if (m_seen[4] == 0 || m_seen[4] == 1) {
+// M0 / M1 are kept; M2 / M30 end the program (returns false).
+bool Reader::program_stop(const Codes& c) {
+  const int m4 = c.m[4];
+  if (m4 == 0 || m4 == 1) {
     ProgramEvent e;
     e.kind = ProgramEvent::Kind::program_stop;
-    e.number = m_seen[4];
+    e.number = m4;
     event(e);
   }
-  // M2 / M30 end the program.
-  return !(m_seen[4] == 2 || m_seen[4] == 30);
+  return !(m4 == 2 || m4 == 30);
 }
 
 // Drilling cycles G73, G81, G82, G83, G85, G89 in the XY plane, expanded as LinuxCNC does
@@ -1327,7 +1500,56 @@ void Reader::arc(const Block& b, bool clockwise, const Eigen::Vector3d& end_mm) 
   push(m);
 }
 
+// A sign that a program is written for GRBL: the first line that is a GRBL system command
+// ('$' alone or followed by a letter, '$' or '#': $H, $X, $$, $#, $J=...; or by digits and
+// '=': $100=250; LinuxCNC's spindle words $0 M3, $-1 M5 are not), or a '%' line where LinuxCNC
+// allows none (not the first line, when the first line is not '%'). 0 for none.
+struct GrblSign {
+  int line = 0;
+  const char* what = "";
+};
+
+GrblSign grbl_sign(const std::string& text) {
+  int number = 0;
+  bool percent_first = false;
+  for (std::size_t start = 0; start < text.size();) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    ++number;
+    std::size_t p = text.find_first_not_of(" \t", start);
+    const char c = p < end ? text[p] : '\0';
+    start = end + 1;
+    if (c == '%') {
+      if (number == 1) percent_first = true;
+      else if (!percent_first) return {number, "a '%' line inside the program"};
+      continue;
+    }
+    if (c != '$') continue;
+    ++p;
+    if (p >= end || text[p] == '\r' || std::isalpha(static_cast<unsigned char>(text[p])) || text[p] == '$' ||
+        text[p] == '#')
+      return {number, "a GRBL system command line"};
+    while (p < end && std::isdigit(static_cast<unsigned char>(text[p]))) ++p;
+    if (p < end && text[p] == '=' && text[p - 1] != '$') return {number, "a GRBL setting line"};
+  }
+  return {};
+}
+
+Program read_as(const std::string& text, const std::string& source_name, const GcodeOptions& options, bool& ended) {
+  Reader reader(source_name, options);
+  Program p = reader.run(text);
+  ended = reader.ended();
+  return p;
+}
+
 }  // namespace
+
+std::optional<GcodeDialect> gcode_dialect_from(std::string_view name) {
+  if (name == "linuxcnc") return GcodeDialect::linuxcnc;
+  if (name == "grbl") return GcodeDialect::grbl;
+  if (name == "auto") return GcodeDialect::automatic;
+  return std::nullopt;
+}
 
 void GcodeOptions::validate() const {
   if (max_line_chars < 1 || max_line_chars > (1u << 20))
@@ -1341,8 +1563,30 @@ void GcodeOptions::validate() const {
 }
 
 Program read_gcode(const std::string& text, const std::string& source_name, const GcodeOptions& options) {
-  Reader reader(source_name, options);
-  return reader.run(text);
+  bool ended = false;
+  if (options.dialect != GcodeDialect::automatic) return read_as(text, source_name, options, ended);
+  GcodeOptions o = options;
+  o.dialect = GcodeDialect::grbl;
+  if (const GrblSign sign = grbl_sign(text); sign.line > 0) {
+    Program p = read_as(text, source_name, o, ended);
+    p.warnings.insert(p.warnings.begin(),
+                      fmt::format("{}:{}: read as a GRBL program (auto-detected: {}; --dialect linuxcnc reads it "
+                                  "as LinuxCNC does)",
+                                  source_name, sign.line, sign.what));
+    return p;
+  }
+  o.dialect = GcodeDialect::linuxcnc;
+  if (!options.require_program_end) return read_as(text, source_name, o, ended);
+  o.require_program_end = false;
+  Program p = read_as(text, source_name, o, ended);
+  if (ended) return p;
+  o.dialect = GcodeDialect::grbl;
+  Program g = read_as(text, source_name, o, ended);
+  g.warnings.insert(g.warnings.begin(),
+                    fmt::format("{}: read as a GRBL program (auto-detected: no program end, M2, M30 or a closing %; "
+                                "--dialect linuxcnc reads it as LinuxCNC does)",
+                                source_name));
+  return g;
 }
 
 Program read_gcode_file(const std::string& path, const GcodeOptions& options) {

@@ -111,12 +111,29 @@
 //     on one arc, max_line_chars characters on a line, max_executed_lines lines executed
 //     (loops), 50 nested calls.
 //
+// Dialects (GcodeOptions::dialect)
+// --------------------------------
+//   * linuxcnc (the default): everything above, as rs274 reads it.
+//   * grbl: GRBL's reading, for programs written for GRBL controllers (Estlcam, laser plug-ins,
+//     GRBL posts): a line starting with '$' is a controller command ($H homing, $X unlock, $I,
+//     $$, $J=... jog, $100=... settings), kept as a controller_command event with its text and
+//     otherwise ignored, with one warning for the program; a program may end without M2, M30
+//     or '%'; '%' lines are ignored wherever they stand; GRBL's modal defaults (G0 G54 G17 G21
+//     G90 G94 G91.1 M5 M9 T0 F0 S0 as LinuxCNC's, and G61 exact path, GRBL's only path mode);
+//     every other line is read as in linuxcnc.
+//   * automatic: grbl when the text shows a GRBL program (a '$' system command or setting
+//     line, or a '%' line where LinuxCNC allows none) or, when require_program_end is set, when
+//     it has no program end; linuxcnc otherwise. Program::warnings opens with a note naming
+//     the reason and the line when grbl is chosen; Program::dialect says which was read.
+//
 // Thread safety: read_gcode is a pure function of its arguments and may run concurrently.
 #pragma once
 
 #include <cstddef>
 #include <map>
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include "engine/programs/program.h"
 
@@ -143,10 +160,15 @@ struct GcodeOptions {
   // Lines executed (loops and subroutine calls count every pass): a bound so that an endless
   // loop is an error, not a hang.
   std::size_t max_executed_lines = 20'000'000;
+  // Whose reading of G-code; see "Dialects" above.
+  GcodeDialect dialect = GcodeDialect::linuxcnc;
 
   // Throws InputError naming the field when a value is out of range.
   void validate() const;
 };
+
+// "linuxcnc", "grbl", "auto" (automatic), and back; nothing for another name.
+std::optional<GcodeDialect> gcode_dialect_from(std::string_view name);
 
 // Interprets `text`. `source_name` is used in messages and stored in Program::source.
 // Throws InputError("source_name", line, message) on the first error.

@@ -30,8 +30,18 @@ const char* to_string(ProgramEvent::Kind kind) {
     case K::wait_input: return "wait_input";
     case K::user_m_code: return "user_m_code";
     case K::program_stop: return "program_stop";
+    case K::controller_command: return "controller_command";
   }
   return "unknown";
+}
+
+const char* to_string(GcodeDialect d) {
+  switch (d) {
+    case GcodeDialect::linuxcnc: return "linuxcnc";
+    case GcodeDialect::grbl: return "grbl";
+    case GcodeDialect::automatic: return "auto";
+  }
+  return "?";
 }
 
 const char* to_string(Move::PathMode mode) {

@@ -65,6 +65,7 @@ struct ProgramEvent {
     wait_input,         // M66: `number` = P or E (input), `value` = Q (timeout, s), `mode` = L
     user_m_code,        // M100-M199: `number` = M code, `value` = P, `value2` = Q
     program_stop,       // M0 (number 0) / M1 (number 1)
+    controller_command, // GRBL dialect: a '$' system command line ($H, $X, $J=...): `text`
   };
   Kind kind = Kind::tool_select;
   int line = 0;
@@ -74,6 +75,7 @@ struct ProgramEvent {
   double value2 = 0.0;
   int mode = 0;
   bool synchronized = false;
+  std::string text;  // controller_command: the line as written (at most 80 characters)
 };
 
 const char* to_string(ProgramEvent::Kind kind);
@@ -81,8 +83,14 @@ const char* to_string(Move::PathMode mode);
 
 const char* to_string(Move::Kind kind);
 
+// Whose reading of G-code (engine/programs/gcode.h): LinuxCNC's RS274NGC, GRBL's, or the one
+// the text points to (a reader's option only; a Program is read as one of the first two).
+enum class GcodeDialect { linuxcnc, grbl, automatic };
+const char* to_string(GcodeDialect d);
+
 struct Program {
   std::string source;                 // file name, for messages
+  GcodeDialect dialect = GcodeDialect::linuxcnc;  // as which it was read
   Eigen::Vector3d start = Eigen::Vector3d::Zero();  // position before the first move, mm
   std::vector<Move> moves;
   bool ends_with_program_end = false;  // M2 or M30 seen

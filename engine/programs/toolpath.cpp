@@ -392,7 +392,8 @@ class AptReader : public Reader {
   // CYCLE/type, FEDTO, d, ...: each GOTO until CYCLE/OFF becomes a plunge. Cycles list more
   // options than Fields holds, so the statement is split again in full here.
   void cycle(const Fields& args, int line) {
-    if (args.count == 1 && (iequals(args.at[0], "OFF") || iequals(args.at[0], "INIT") || iequals(args.at[0], "ON"))) {
+    if (args.count == 1 && (iequals(args.at[0], "OFF") || iequals(args.at[0], "INIT") || iequals(args.at[0], "CLEAR") ||
+                            iequals(args.at[0], "ON"))) {
       if (iequals(args.at[0], "OFF")) cycle_ = false;
       return;
     }

@@ -52,7 +52,9 @@
 //                                or IPM value, else the current feed) to P - d, rapid back to
 //                                P + RTRCTO. Peck and chip-breaking cycles are expanded as one
 //                                plunge: the tool sweeps the same volume. RAPTO and RTRCTO
-//                                default to 0. CYCLE/INIT and CYCLE/ON carry nothing.
+//                                default to 0. CYCLE/INIT, CYCLE/CLEAR (which the APT
+//                                convention reads as INIT: the cycle state starts afresh) and
+//                                CYCLE/ON carry nothing.
 //   FINI                         end of the path; only comments and blanks may follow
 //   $$ text                      comment (anywhere on a line; the rest of the line is ignored)
 //   ... $                        a '$' ending a line continues the statement on the next line

@@ -98,13 +98,17 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 
 MachineConfig machine_from_yaml(const Yaml& root) {
   root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height",
-                           "slug_tip_size_mm", "origin_mm", "gcode"});
+                           "slug_tip_size_mm", "origin_mm", "gcode", "cut_order"});
   MachineConfig m;
   m.source = root.file();
   m.name = root.string("name");
   m.description = root.string_or("description", "");
   m.servo_period_s = root.number_or("servo_period_s", 0.001, {.min = 1e-5, .max = 0.1});
   m.slug_tip_size_mm = root.number_or("slug_tip_size_mm", m.slug_tip_size_mm, {.min = 0.0, .max = 1e6});
+  if (const auto c = root.get("cut_order")) {
+    m.cut_order = c->string();  // the name is checked where it is read (motion::cut_order_of)
+    m.cut_order_line = c->line();
+  }
   if (const auto o = root.get("origin_mm")) {
     const std::vector<double> xy = o->numbers(2, {.min = -1e6, .max = 1e6});
     m.origin_mm = std::array<double, 2>{xy[0], xy[1]};
@@ -177,7 +181,7 @@ MachineConfig machine_from_yaml(const Yaml& root) {
   }
   if (const auto h = root.get("torch_height")) {
     h->reject_unknown_keys({"initial_height_sense_s", "pierce_height_mm", "cut_height_mm", "retract_height_mm",
-                            "speed_mm_per_s", "timeout_s"});
+                            "speed_mm_per_s", "timeout_s", "travel_height_over_cut_mm"});
     TorchHeightConfig& th = m.torch_height;
     th.fitted = true;
     th.initial_height_sense_s = h->number("initial_height_sense_s", kNonNegative);
@@ -191,6 +195,15 @@ MachineConfig machine_from_yaml(const Yaml& root) {
     const double worst = th.initial_height_sense_s + th.retract_height_mm / th.speed_mm_per_s;
     if (th.timeout_s <= worst)
       h->at("timeout_s").fail(fmt::format("must exceed the sense time plus a full stroke ({:.3f} s)", worst));
+    th.travel_height_over_cut_mm = h->number_or("travel_height_over_cut_mm", 0.0, {.min = 0.0, .max = 1000.0});
+    if (th.travel_height_over_cut_mm > 0.0) {
+      if (th.travel_height_over_cut_mm < th.retract_height_mm)
+        h->at("travel_height_over_cut_mm").fail("must be at least retract_height_mm (or 0: the retract height)");
+      const double stroke = th.initial_height_sense_s + th.travel_height_over_cut_mm / th.speed_mm_per_s;
+      if (th.timeout_s <= stroke)
+        h->at("travel_height_over_cut_mm")
+            .fail(fmt::format("is a stroke of {:.3f} s, beyond the height axis' timeout_s {:g} s", stroke, th.timeout_s));
+    }
   }
   return m;
 }

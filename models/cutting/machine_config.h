@@ -73,6 +73,12 @@ struct TorchHeightConfig {
   double retract_height_mm = 15.0;
   double speed_mm_per_s = 50.0;
   double timeout_s = 3.0;
+  // The torch height over the table while a rapid crosses a part already cut (its target lies
+  // inside the part: a hole cut after its outline), mm: high enough that a part that has
+  // tipped up in the skeleton cannot catch the torch. `travel_height_over_cut_mm` in the
+  // torch_height block; 0 (absent): the retract height, nothing raised. At least the retract
+  // height, and a stroke from cut height the timeout allows.
+  double travel_height_over_cut_mm = 0.0;
 };
 
 struct MachineConfig {
@@ -83,6 +89,11 @@ struct MachineConfig {
   // Outer contours (parts) are always kept clear of. Default: 50 mm, about the pitch of a
   // cutting table's support slats.
   double slug_tip_size_mm = 50.0;
+  // The order `machplan run` cuts a program in when --order is not given (`cut_order:` in the
+  // file: program, nearest or optimise; solvers/motion/cut_order.h reads the name). Empty:
+  // the program's own order.
+  std::string cut_order;
+  int cut_order_line = 0;  // where the file gives it
   Limits limits;
   std::array<AxisConfig, 2> axes;
   TorchConfig torch;

@@ -1,8 +1,6 @@
 #include "solvers/motion/rapid_planner.h"
 
 #include <algorithm>
-#include <atomic>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -22,6 +20,8 @@
 #include <ompl/geometric/PathSimplifier.h>
 #include <ompl/geometric/planners/rrt/RRTConnect.h>
 #include <ompl/util/Console.h>
+
+#include "engine/common/error.h"
 
 namespace machplan::motion {
 namespace {
@@ -53,100 +53,37 @@ std::uint32_t derive_seed(std::uint32_t seed, int attempt, int role) {
 }
 
 // ---------------------------------------------------------------------------------------
-// Exact clearance geometry.
+// Step 1b: the straight move leaves the cut part it starts at (or reaches the one it ends at)
+// directly. See the file comment of rapid_planner.h.
 
-// The zones with their spans and bounding boxes, and the exact point and segment tests.
-class Zones {
- public:
-  Zones(const std::vector<Contour>& zones, double clearance) : clearance_(clearance) {
-    for (const Contour& c : zones) {
-      Zone z;
-      z.contour = &c;
-      z.spans = c.segments();
-      for (const Segment& s : z.spans) z.span_boxes.push_back(bounding_box(s));
-      z.box = bounding_box(c);
-      zones_.push_back(std::move(z));
-    }
-  }
-
-  std::size_t size() const { return zones_.size(); }
-  double clearance() const { return clearance_; }
-
-  // Distance from p to the region of zone j (0 inside).
-  double point_distance(const Vector2d& p, std::size_t j) const {
-    const Zone& z = zones_[j];
-    if (z.spans.empty()) return kInf;
-    if (contains(*z.contour, p)) return 0.0;
-    return distance(*z.contour, p);
-  }
-
-  // Distance from segment a -> b to the region of zone j, exact, but only as far as `cap`:
-  // any value >= cap may be reported as cap (bounding boxes prune spans that cannot be
-  // nearer).
-  double segment_distance(const Vector2d& a, const Vector2d& b, std::size_t j, double cap = kInf) const {
-    const Zone& z = zones_[j];
-    if (z.spans.empty()) return kInf;
-    Eigen::AlignedBox2d sb(a);
-    sb.extend(b);
-    double best = cap;
-    if (sb.exteriorDistance(z.box) >= best) return best;
-    for (std::size_t i = 0; i < z.spans.size(); ++i) {
-      if (sb.exteriorDistance(z.span_boxes[i]) >= best) continue;
-      best = std::min(best, segment_distance_mm(a, b, z.spans[i]));
-      if (best == 0.0) return 0.0;
-    }
-    // Apart from the boundary: the segment is wholly inside or wholly outside.
-    if (contains(*z.contour, a)) return 0.0;
-    return best;
-  }
-
-  // `skip[j]` true: zone j is ignored (relaxed). Empty skip: none is.
-  bool point_clear(const Vector2d& p, const std::vector<char>& skip = {}) const {
-    for (std::size_t j = 0; j < zones_.size(); ++j) {
-      if (!skip.empty() && skip[j]) continue;
-      if (zones_[j].box.exteriorDistance(p) >= clearance_) continue;
-      if (point_distance(p, j) < clearance_) return false;
-    }
-    return true;
-  }
-
-  bool segment_clear(const Vector2d& a, const Vector2d& b, const std::vector<char>& skip = {}) const {
-    for (std::size_t j = 0; j < zones_.size(); ++j) {
-      if (!skip.empty() && skip[j]) continue;
-      if (segment_distance(a, b, j, clearance_) < clearance_) return false;
-    }
-    return true;
-  }
-
-  bool polyline_clear(const Polyline& p) const {
-    if (p.size() == 1) return point_clear(p[0]);
-    for (std::size_t i = 1; i < p.size(); ++i)
-      if (!segment_clear(p[i - 1], p[i])) return false;
-    return true;
-  }
-
-  double polyline_distance(const Polyline& p) const {
-    double best = kInf;
-    for (std::size_t j = 0; j < zones_.size(); ++j) {
-      if (p.size() == 1) best = std::min(best, point_distance(p[0], j));
-      for (std::size_t i = 1; i < p.size(); ++i) best = std::min(best, segment_distance(p[i - 1], p[i], j, best));
-    }
-    return best;
-  }
-
-  const Contour& contour(std::size_t j) const { return *zones_[j].contour; }
-  const std::vector<Segment>& spans(std::size_t j) const { return zones_[j].spans; }
-
- private:
-  struct Zone {
-    const Contour* contour = nullptr;
-    std::vector<Segment> spans;
-    std::vector<Eigen::AlignedBox2d> span_boxes;
-    Eigen::AlignedBox2d box;
-  };
-  std::vector<Zone> zones_;
-  double clearance_;
-};
+bool leaves_directly(const Vector2d& from, const Vector2d& to, const ZoneSet& zones, std::size_t first_part) {
+  const double c = zones.clearance();
+  const double len = (to - from).norm();
+  if (!(len > 0.0)) return false;
+  const Vector2d u = (to - from) / len;
+  const std::vector<std::size_t> at_start = zones.near(from, c), at_end = zones.near(to, c);
+  if (at_start.empty() && at_end.empty()) return false;
+  for (const auto* ends : {&at_start, &at_end})
+    for (std::size_t j : *ends)
+      if (j < first_part) return false;  // a declared zone: never relaxed
+  const auto in = [](const std::vector<std::size_t>& v, std::size_t j) { return std::binary_search(v.begin(), v.end(), j); };
+  const double near = std::min(2.0 * c, 0.5 * len);
+  const double eps = 1e-6 * std::max(1.0, len);
+  const Vector2d p1 = from + near * u, p2 = to - near * u;
+  // The middle keeps the full clearance from every zone.
+  if (len > 2.0 * near && !zones.segment_clear(p1, p2)) return false;
+  // Each end leg keeps it from the zones not at its end, and does not enter those at its end.
+  ZoneSet::Skip skip_start(zones.size(), 0), skip_end(zones.size(), 0);
+  for (std::size_t j : at_start) skip_start[j] = 1;
+  for (std::size_t j : at_end) skip_end[j] = 1;
+  if (!zones.segment_clear(from + eps * u, p1, skip_start) || !zones.segment_clear(p2, to - eps * u, skip_end)) return false;
+  for (std::size_t j : at_start)
+    if (!(zones.segment_distance(from + eps * u, p1, j, c) > 0.0)) return false;
+  for (std::size_t j : at_end)
+    if (!(zones.segment_distance(p2, to - eps * u, j, c) > 0.0)) return false;
+  (void)in;
+  return true;
+}
 
 // ---------------------------------------------------------------------------------------
 // Step 2: leaving the clearance band of the zones that hold an end point.
@@ -158,17 +95,34 @@ struct Escape {
   std::string why;
 };
 
-Escape escape_from(const Vector2d& p, const Zones& zones, const Eigen::AlignedBox2d& bounds) {
+// The outward normal of zone j at its boundary point nearest to q (q inside: towards the
+// boundary, through the zone). False when no side is outside.
+bool outward(const ZoneSet& zones, std::size_t j, const Vector2d& q, ContourPoint& cp, Vector2d& n) {
+  const Contour& zone = zones.contour(j);
+  cp = closest_point(zone, q);
+  const bool inside = contains(zone, q);
+  if (cp.distance > 1e-9) {
+    n = (q - cp.point) / cp.distance;
+    if (inside) n = -n;
+    return true;
+  }
+  // On the boundary: the normal of the span, on the side that is not inside.
+  const Vector2d t = tangent_at(zones.spans(j)[cp.span], cp.point);
+  n = Vector2d(t.y(), -t.x());
+  const double c = zones.clearance();
+  const bool plus_in = contains(zone, cp.point + c * n), minus_in = contains(zone, cp.point - c * n);
+  if (plus_in && !minus_in) n = -n;
+  return !(plus_in && minus_in);
+}
+
+Escape escape_from(const Vector2d& p, const ZoneSet& zones, const Eigen::AlignedBox2d& bounds) {
   Escape e;
   e.point = p;
   const double c = zones.clearance();
-  std::vector<char> relaxed(zones.size(), 0);
-  for (std::size_t j = 0; j < zones.size(); ++j)
-    if (zones.point_distance(p, j) < c) {
-      relaxed[j] = 1;
-      e.relaxed.push_back(j);
-    }
+  e.relaxed = zones.near(p, c);
   if (e.relaxed.empty()) return e;
+  ZoneSet::Skip relaxed(zones.size(), 0);
+  for (std::size_t j : e.relaxed) relaxed[j] = 1;
 
   // Push out of the most violated band, a few times at most.
   Vector2d q = p;
@@ -176,29 +130,17 @@ Escape escape_from(const Vector2d& p, const Zones& zones, const Eigen::AlignedBo
   for (int push = 0; push < kMaxPushes; ++push) {
     std::size_t worst = zones.size();
     double worst_d = c;
-    for (std::size_t j = 0; j < zones.size(); ++j) {
+    for (std::size_t j : zones.near(q, c)) {
       const double d = zones.point_distance(q, j);
       if (d < worst_d) worst = j, worst_d = d;
     }
     if (worst == zones.size()) break;
-    const ContourPoint cp = closest_point(zones.contour(worst), q);
-    const bool inside = contains(zones.contour(worst), q);
+    ContourPoint cp;
     Vector2d n;
-    if (cp.distance > 1e-9) {
-      n = (q - cp.point) / cp.distance;
-      if (inside) n = -n;
-    } else {
-      // On the boundary: the normal of the span, on the side that is not inside.
-      const Vector2d t = tangent_at(zones.spans(worst)[cp.span], cp.point);
-      n = Vector2d(t.y(), -t.x());
-      const bool plus_in = contains(zones.contour(worst), cp.point + c * n);
-      const bool minus_in = contains(zones.contour(worst), cp.point - c * n);
-      if (plus_in && !minus_in) n = -n;
-      else if (plus_in == minus_in && plus_in) {
-        e.ok = false;
-        e.why = fmt::format("no outward direction from zone {} at ({:.3f}, {:.3f})", worst, q.x(), q.y());
-        return e;
-      }
+    if (!outward(zones, worst, q, cp, n)) {
+      e.ok = false;
+      e.why = fmt::format("no outward direction from zone {} at ({:.3f}, {:.3f})", worst, q.x(), q.y());
+      return e;
     }
     // A hair beyond the band so that rounding cannot leave the point a nanometre inside it.
     q = cp.point + n * (c * (1.0 + 1e-9) + 1e-6);
@@ -219,7 +161,8 @@ Escape escape_from(const Vector2d& p, const Zones& zones, const Eigen::AlignedBo
 }
 
 // ---------------------------------------------------------------------------------------
-// OMPL glue: exact validity, seeded sampling, seeded planner and simplifier.
+// OMPL glue: exact validity, seeded sampling charged to the termination, seeded planner and
+// simplifier.
 
 Vector2d to_vec(const ob::State* s) {
   const auto* r = s->as<ob::RealVectorStateSpace::StateType>();
@@ -228,20 +171,18 @@ Vector2d to_vec(const ob::State* s) {
 
 class ZoneValidityChecker : public ob::StateValidityChecker {
  public:
-  ZoneValidityChecker(const ob::SpaceInformationPtr& si, const Zones& zones)
+  ZoneValidityChecker(const ob::SpaceInformationPtr& si, const ZoneSet& zones)
       : ob::StateValidityChecker(si), zones_(zones) {}
-  bool isValid(const ob::State* s) const override {
-    return si_->satisfiesBounds(s) && zones_.point_clear(to_vec(s));
-  }
+  bool isValid(const ob::State* s) const override { return si_->satisfiesBounds(s) && zones_.point_clear(to_vec(s)); }
 
  private:
-  const Zones& zones_;
+  const ZoneSet& zones_;
 };
 
 // Exact motion check: the whole segment, not samples of it.
 class ExactMotionValidator : public ob::MotionValidator {
  public:
-  ExactMotionValidator(const ob::SpaceInformationPtr& si, const Zones& zones)
+  ExactMotionValidator(const ob::SpaceInformationPtr& si, const ZoneSet& zones)
       : ob::MotionValidator(si), zones_(zones) {}
 
   bool checkMotion(const ob::State* s1, const ob::State* s2) const override {
@@ -266,23 +207,23 @@ class ExactMotionValidator : public ob::MotionValidator {
   }
 
  private:
-  const Zones& zones_;
+  const ZoneSet& zones_;
 };
 
-// The uniform sampler with a local seed; counts every sample for the budget.
+// The uniform sampler with a local seed; charges every sample to the rapid's termination.
 class SeededSampler : public ob::RealVectorStateSampler {
  public:
-  SeededSampler(const ob::StateSpace* space, std::uint32_t seed, std::atomic<int>* counter)
-      : ob::RealVectorStateSampler(space), counter_(counter) {
+  SeededSampler(const ob::StateSpace* space, std::uint32_t seed, Termination* work)
+      : ob::RealVectorStateSampler(space), work_(work) {
     rng_.setLocalSeed(seed);
   }
   void sampleUniform(ob::State* s) override {
-    ++*counter_;
+    work_->charge(1, kSampleWorkS);
     ob::RealVectorStateSampler::sampleUniform(s);
   }
 
  private:
-  std::atomic<int>* counter_;
+  Termination* work_;
 };
 
 class SeededRRTConnect : public og::RRTConnect {
@@ -309,7 +250,7 @@ Polyline to_polyline(const og::PathGeometric& path) {
 // Step 4, our part: deterministic tightening with the exact checks.
 
 // Greedy string pulling: from each kept vertex jump to the farthest later vertex in sight.
-Polyline pull_string(const Polyline& p, const Zones& zones) {
+Polyline pull_string(const Polyline& p, const ZoneSet& zones) {
   if (p.size() <= 2) return p;
   Polyline out{p.front()};
   std::size_t i = 0;
@@ -325,7 +266,7 @@ Polyline pull_string(const Polyline& p, const Zones& zones) {
 // Moves each interior vertex towards the foot of its perpendicular on the chord of its
 // neighbours, as far as bisection finds both adjacent segments clear. Returns the length
 // gained.
-double tighten_vertices(Polyline& p, const Zones& zones) {
+double tighten_vertices(Polyline& p, const ZoneSet& zones) {
   const double before = path_length(p);
   for (std::size_t i = 1; i + 1 < p.size(); ++i) {
     const Vector2d a = p[i - 1], v = p[i], b = p[i + 1];
@@ -350,7 +291,7 @@ double tighten_vertices(Polyline& p, const Zones& zones) {
 
 // Drops vertices that lie within tol_mm of the chord of their neighbours when the chord is
 // clear.
-Polyline drop_collinear(const Polyline& p, const Zones& zones, double tol_mm) {
+Polyline drop_collinear(const Polyline& p, const ZoneSet& zones, double tol_mm) {
   if (p.size() <= 2) return p;
   Polyline out{p.front()};
   for (std::size_t i = 1; i + 1 < p.size(); ++i) {
@@ -362,7 +303,7 @@ Polyline drop_collinear(const Polyline& p, const Zones& zones, double tol_mm) {
   return out;
 }
 
-Polyline shorten(const Zones& zones, og::PathSimplifier& simplifier, og::PathGeometric& path) {
+Polyline shorten(const ZoneSet& zones, og::PathSimplifier& simplifier, og::PathGeometric& path) {
   simplifier.reduceVertices(path);
   simplifier.shortcutPath(path, 200, 50);
   Polyline p = pull_string(to_polyline(path), zones);
@@ -380,69 +321,113 @@ void set_quiet_ompl() {
   std::call_once(once, [] { ompl::msg::setLogLevel(ompl::msg::LOG_ERROR); });
 }
 
+// ---------------------------------------------------------------------------------------
+// Steps 3 to 5 on OMPL.
+
+// The space, its validity checks and the seeded sampler charging `work`.
+struct Space {
+  std::shared_ptr<ob::RealVectorStateSpace> space;
+  ob::SpaceInformationPtr si;
+  int attempt = 0;  // the attempt whose seed the next sampler takes
+};
+
+Space make_space(const ZoneSet& zones, const Eigen::AlignedBox2d& bounds, std::uint32_t seed, Termination& work) {
+  set_quiet_ompl();
+  Space s;
+  s.space = std::make_shared<ob::RealVectorStateSpace>(2);
+  ob::RealVectorBounds rb(2);
+  rb.setLow(0, bounds.min().x());
+  rb.setLow(1, bounds.min().y());
+  rb.setHigh(0, bounds.max().x());
+  rb.setHigh(1, bounds.max().y());
+  s.space->setBounds(rb);
+  int* attempt = &s.attempt;
+  s.space->setStateSamplerAllocator([seed, attempt, &work](const ob::StateSpace* sp) -> ob::StateSamplerPtr {
+    return std::make_shared<SeededSampler>(sp, derive_seed(seed, *attempt, 1), &work);
+  });
+  s.si = std::make_shared<ob::SpaceInformation>(s.space);
+  s.si->setStateValidityChecker(std::make_shared<ZoneValidityChecker>(s.si, zones));
+  s.si->setMotionValidator(std::make_shared<ExactMotionValidator>(s.si, zones));
+  s.si->setup();
+  return s;
+}
+
+struct Search {
+  Polyline best;  // empty: none found
+  int found = 0;  // attempts that found a path
+};
+
+// Step 3 and 4: the attempts, each shortened; the shortest wins.
+Search search(const Vector2d& a, const Vector2d& b, const ZoneSet& zones, Space& sp, const RapidOptions& options,
+              Termination& work) {
+  const ob::PlannerTerminationCondition ptc([&work] { return work.should_end(); });
+  Search out;
+  double best_len = kInf;
+  for (int attempt = 0; attempt < options.attempts && !ptc(); ++attempt) {
+    sp.attempt = attempt;
+    auto pdef = std::make_shared<ob::ProblemDefinition>(sp.si);
+    ob::ScopedState<ob::RealVectorStateSpace> s0(sp.space), s1(sp.space);
+    s0[0] = a.x(), s0[1] = a.y(), s1[0] = b.x(), s1[1] = b.y();
+    pdef->setStartAndGoalStates(s0, s1);
+    auto planner = std::make_shared<SeededRRTConnect>(sp.si, derive_seed(options.seed, attempt, 2));
+    planner->setProblemDefinition(pdef);
+    planner->setNearestNeighbors<ompl::NearestNeighborsLinear>();
+    if (planner->solve(ptc) != ob::PlannerStatus::EXACT_SOLUTION) continue;
+    auto* path = pdef->getSolutionPath()->as<og::PathGeometric>();
+    Polyline raw = to_polyline(*path);
+    raw.front() = a, raw.back() = b;  // the planner copies them; keep them bit-exact
+    Polyline p = raw;
+    if (options.simplify) {
+      SeededSimplifier simplifier(sp.si, derive_seed(options.seed, attempt, 3));
+      p = shorten(zones, simplifier, *path);
+      p.front() = a, p.back() = b;
+    }
+    if (!zones.polyline_clear(p)) p = raw;  // cannot happen; never return an unchecked path
+    if (!zones.polyline_clear(p)) continue;
+    ++out.found;
+    const double len = path_length(p);
+    if (len < best_len) out.best = std::move(p), best_len = len;
+  }
+  return out;
+}
+
+// Step 5: OMPL's B-spline smoothing, checked again; "" or a note when it had to be undone.
+std::string smooth(Polyline& best, const ZoneSet& zones, Space& sp, const RapidOptions& options, bool& changed) {
+  changed = false;
+  if (!options.smooth || best.size() <= 2) return "";
+  og::PathGeometric path(sp.si);
+  for (const Vector2d& q : best) {
+    ob::ScopedState<ob::RealVectorStateSpace> s(sp.space);
+    s[0] = q.x(), s[1] = q.y();
+    path.append(s.get());
+  }
+  SeededSimplifier simplifier(sp.si, derive_seed(options.seed, 0, 4));
+  simplifier.smoothBSpline(path, 3);
+  Polyline smoothed = drop_collinear(to_polyline(path), zones, 0.01);
+  smoothed.front() = best.front(), smoothed.back() = best.back();
+  if (!zones.polyline_clear(smoothed)) return "; smoothing broke the clearance, unsmoothed path kept";
+  changed = smoothed != best;
+  best = std::move(smoothed);
+  return "";
+}
+
+// The travel box: the options' or one round the end points and the zones.
+Eigen::AlignedBox2d travel_bounds(const Vector2d& from, const Vector2d& to, const ZoneSet& zones,
+                                  const RapidOptions& options) {
+  Eigen::AlignedBox2d bounds = options.bounds;
+  if (!bounds.isEmpty()) return bounds;
+  bounds.extend(from);
+  bounds.extend(to);
+  for (std::size_t j = 0; j < zones.size(); ++j)
+    if (zones.active(j) && !zones.box(j).isEmpty()) bounds.extend(zones.box(j));
+  bounds.min().array() -= options.auto_margin_mm + options.clearance_mm;
+  bounds.max().array() += options.auto_margin_mm + options.clearance_mm;
+  return bounds;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
-// Public geometry.
-
-// Completeness of the candidates for a line L = [a, b] and an arc A (centre c, radius r):
-// d(q, A) for a point q is the least of |q - A.start|, |q - A.end| and, when the direction
-// of q - c lies in A's angular range, ||q - c| - r|. Minimising the first two over L gives the
-// distances of A's end points to L. For the third, the part of L inside the angular wedge is
-// a union of intervals; on each, ||q - c| - r| is either 0 where L crosses the circle (a
-// crossing candidate), or convex with its minimum at the foot of c on L (the foot
-// candidate), or concave with its minimum at an interval end. Interval ends are end points
-// of L (candidates) or points on the wedge's boundary rays, where the value equals the
-// distance to an end point of A (covered). Every candidate is d(q, A) for an actual q on L,
-// so none is too small.
-double segment_distance_mm(const Vector2d& a, const Vector2d& b, const Segment& span) {
-  if (!span.is_arc()) {
-    const Vector2d &c = span.start, &d = span.end;
-    const double o1 = cross(b - a, c - a), o2 = cross(b - a, d - a);
-    const double o3 = cross(d - c, a - c), o4 = cross(d - c, b - c);
-    if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0))) return 0.0;
-    return std::min({point_segment_distance(c, a, b), point_segment_distance(d, a, b), point_segment_distance(a, c, d),
-                     point_segment_distance(b, c, d)});
-  }
-  const auto to_arc = [&](const Vector2d& q) { return (closest_point(span, q) - q).norm(); };
-  double best = std::min({to_arc(a), to_arc(b), point_segment_distance(span.start, a, b),
-                          point_segment_distance(span.end, a, b)});
-  const Vector2d d = b - a;
-  const double l2 = d.squaredNorm();
-  if (l2 > 0.0) {
-    const Vector2d f = a - span.center;
-    const double t_foot = std::clamp(-f.dot(d) / l2, 0.0, 1.0);
-    best = std::min(best, to_arc(a + t_foot * d));
-    // |a + t d - c|^2 = r^2  ->  l2 t^2 + 2 B t + C = 0
-    const double B = f.dot(d), C = f.squaredNorm() - span.radius * span.radius;
-    const double disc = B * B - l2 * C;
-    if (disc >= 0.0) {
-      const double root = std::sqrt(disc);
-      for (double t : {(-B - root) / l2, (-B + root) / l2})
-        if (t >= 0.0 && t <= 1.0) best = std::min(best, to_arc(a + t * d));
-    }
-  }
-  return best;
-}
-
-double region_distance_mm(const Vector2d& a, const Vector2d& b, const Contour& zone) {
-  if (zone.empty()) return kInf;
-  double best = kInf;
-  for (const Segment& s : zone.segments()) best = std::min(best, segment_distance_mm(a, b, s));
-  if (best > 0.0 && contains(zone, a)) return 0.0;
-  return best;
-}
-
-double polyline_clearance_mm(const Polyline& polyline, const std::vector<Contour>& zones) {
-  double best = kInf;
-  for (const Contour& z : zones) {
-    if (z.empty()) continue;
-    if (polyline.size() == 1) best = std::min(best, contains(z, polyline[0]) ? 0.0 : distance(z, polyline[0]));
-    for (std::size_t i = 1; i < polyline.size(); ++i)
-      best = std::min(best, region_distance_mm(polyline[i - 1], polyline[i], z));
-  }
-  return best;
-}
 
 const char* to_string(RapidStatus s) {
   switch (s) {
@@ -458,146 +443,72 @@ const char* to_string(RapidStatus s) {
 
 void RapidOptions::validate() const {
   const auto bad = [](const char* field, double v, const char* rule) {
-    throw std::invalid_argument(fmt::format("RapidOptions::{} = {}: {}", field, v, rule));
+    throw InputError::field(field, fmt::format("is {}, {}", v, rule));
   };
   if (!(clearance_mm > 0.0) || !std::isfinite(clearance_mm)) bad("clearance_mm", clearance_mm, "must be finite and > 0");
   if (!(auto_margin_mm >= 0.0) || !std::isfinite(auto_margin_mm))
     bad("auto_margin_mm", auto_margin_mm, "must be finite and >= 0");
-  if (max_samples < 1) bad("max_samples", max_samples, "must be >= 1");
-  if (!(max_time_s > 0.0) || !std::isfinite(max_time_s)) bad("max_time_s", max_time_s, "must be finite and > 0");
-  if (attempts < 1) bad("attempts", attempts, "must be >= 1");
+  if (max_samples < 1 || max_samples > 10'000'000) bad("max_samples", max_samples, "must lie in 1 .. 10 000 000");
+  if (attempts < 1 || attempts > 100) bad("attempts", attempts, "must lie in 1 .. 100");
   if (!(slug_tip_size_mm >= 0.0) || !std::isfinite(slug_tip_size_mm))
     bad("slug_tip_size_mm", slug_tip_size_mm, "must be finite and >= 0");
+  if (!(travel_height_over_cut_mm >= 0.0) || !(travel_height_over_cut_mm <= 1000.0))
+    bad("travel_height_over_cut_mm", travel_height_over_cut_mm, "must lie in 0 .. 1000 mm");
   if (!bounds.isEmpty()) {
     if (!bounds.min().allFinite() || !bounds.max().allFinite())
-      throw std::invalid_argument("RapidOptions::bounds: corners must be finite");
+      throw InputError::field("bounds", "the corners of the travel box must be finite");
     if (!(bounds.sizes().minCoeff() > 0.0))
-      bad("bounds (smallest side)", bounds.sizes().minCoeff(), "the box must have a positive size in x and y");
+      bad("bounds", bounds.sizes().minCoeff(), "the travel box must have a positive size in x and y");
   }
-}
-
-// Step 1b: the straight move leaves the cut part it starts at (or reaches the one it ends at)
-// directly. See the file comment of rapid_planner.h.
-bool leaves_directly(const Vector2d& from, const Vector2d& to, const Zones& zones, std::size_t first_part) {
-  const double c = zones.clearance();
-  const double len = (to - from).norm();
-  if (!(len > 0.0)) return false;
-  const Vector2d u = (to - from) / len;
-  std::vector<char> at_start(zones.size(), 0), at_end(zones.size(), 0);
-  bool any = false;
-  for (std::size_t j = 0; j < zones.size(); ++j) {
-    at_start[j] = zones.point_distance(from, j) < c;
-    at_end[j] = zones.point_distance(to, j) < c;
-    if ((at_start[j] || at_end[j]) && j < first_part) return false;  // a declared zone: never relaxed
-    any = any || at_start[j] || at_end[j];
-  }
-  if (!any) return false;
-  const double near = std::min(2.0 * c, 0.5 * len);
-  const double eps = 1e-6 * std::max(1.0, len);
-  const Vector2d p1 = from + near * u, p2 = to - near * u;
-  for (std::size_t j = 0; j < zones.size(); ++j) {
-    // The middle keeps the full clearance from every zone.
-    if (len > 2.0 * near && zones.segment_distance(p1, p2, j, c) < c) return false;
-    // Each end leg keeps it from the zones not at its end, and does not enter those at its end.
-    const double d_start = zones.segment_distance(from + eps * u, p1, j, c);
-    if (at_start[j] ? !(d_start > 0.0) : d_start < c) return false;
-    const double d_end = zones.segment_distance(p2, to - eps * u, j, c);
-    if (at_end[j] ? !(d_end > 0.0) : d_end < c) return false;
-  }
-  return true;
-}
-
-// The box the rapid may use: the options' bounds, or the box round its ends and the zones
-// grown by the automatic margin and the clearance.
-Eigen::AlignedBox2d travel_box(const Vector2d& from, const Vector2d& to, const std::vector<Contour>& no_go,
-                               const RapidOptions& options) {
-  Eigen::AlignedBox2d bounds = options.bounds;
-  if (bounds.isEmpty()) {
-    bounds.extend(from);
-    bounds.extend(to);
-    for (const Contour& z : no_go)
-      if (!z.empty()) bounds.extend(bounding_box(z));
-    bounds.min().array() -= options.auto_margin_mm + options.clearance_mm;
-    bounds.max().array() += options.auto_margin_mm + options.clearance_mm;
-  }
-  return bounds;
-}
-
-// Step 5: the path smoothed by B-splines (OMPL's simplifier), its collinear points dropped,
-// kept only if it stays clear; its ends stay bit-exact. Returns the report's note ("" or why
-// the unsmoothed path was kept).
-std::string smooth_path(Polyline& best, bool& smoothed, const ob::SpaceInformationPtr& si, const Zones& zones,
-                        std::uint32_t seed) {
-  if (best.size() <= 2) return "";
-  const Vector2d a = best.front(), b = best.back();
-  og::PathGeometric path(si);
-  for (const Vector2d& q : best) {
-    ob::ScopedState<ob::RealVectorStateSpace> s(si->getStateSpace());
-    s[0] = q.x(), s[1] = q.y();
-    path.append(s.get());
-  }
-  SeededSimplifier simplifier(si, derive_seed(seed, 0, 4));
-  simplifier.smoothBSpline(path, 3);
-  Polyline smooth = drop_collinear(to_polyline(path), zones, 0.01);
-  smooth.front() = a, smooth.back() = b;
-  if (!zones.polyline_clear(smooth)) return "; smoothing broke the clearance, unsmoothed path kept";
-  smoothed = smooth != best;
-  best = std::move(smooth);
-  return "";
 }
 
 RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector<Contour>& no_go,
-                     const RapidOptions& options, std::size_t first_part_zone) {
+                     const RapidOptions& options, Termination& termination, std::size_t first_part_zone) {
   options.validate();
+  return plan_rapid(from, to, ZoneSet(no_go, options.clearance_mm), options, termination, first_part_zone);
+}
+
+RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const ZoneSet& zones, const RapidOptions& options,
+                     Termination& termination, std::size_t first_part_zone) {
+  options.validate();
+  MACHPLAN_ASSERT(zones.clearance() == options.clearance_mm, "zone set clearance {} but options {}", zones.clearance(),
+                  options.clearance_mm);
   if (!from.allFinite() || !to.allFinite()) throw std::invalid_argument("plan_rapid: from and to must be finite");
   RapidPlan plan;
   plan.straight_length_mm = (to - from).norm();
-  const Zones zones(no_go, options.clearance_mm);
-  const Eigen::AlignedBox2d bounds = travel_box(from, to, no_go, options);
+  const Eigen::AlignedBox2d bounds = travel_bounds(from, to, zones, options);
   if (!bounds.contains(from) || !bounds.contains(to)) {
     plan.status = RapidStatus::out_of_bounds;
     plan.message = fmt::format("({:.3f}, {:.3f}) or ({:.3f}, {:.3f}) lies outside the travel box", from.x(),
                                from.y(), to.x(), to.y());
     return plan;
   }
-
-  // A rapid that goes nowhere moves nothing, wherever it is.
-  plan.straight_blocked = from != to && !zones.segment_clear(from, to);
-  const auto finish = [&](RapidStatus status, Polyline inner, const Escape& s, const Escape& e, std::string msg) {
+  // The answer: `inner` between the escape points, with the escape legs added.
+  const auto finish = [&](RapidStatus status, Polyline inner, std::string msg) {
     plan.status = status;
     plan.min_clearance_mm = zones.polyline_distance(inner);
-    if (s.point != from) inner.insert(inner.begin(), from);
-    if (e.point != to) inner.push_back(to);
+    if (inner.front() != from) inner.insert(inner.begin(), from);
+    if (inner.back() != to) inner.push_back(to);
     plan.polyline = std::move(inner);
     plan.length_mm = path_length(plan.polyline);
     plan.message = std::move(msg);
     return plan;
   };
-  if (!plan.straight_blocked) {
-    Escape none;
-    none.point = from;
-    Escape none_end;
-    none_end.point = to;
-    return finish(RapidStatus::straight, {from, to}, none, none_end, "the straight move is clear");
-  }
+
+  // Step 1 and 1b. A rapid that goes nowhere moves nothing, wherever it is.
+  plan.straight_blocked = from != to && !zones.segment_clear(from, to);
+  if (!plan.straight_blocked) return finish(RapidStatus::straight, {from, to}, "the straight move is clear");
   if (leaves_directly(from, to, zones, first_part_zone)) {
-    Escape none;
-    none.point = from;
-    Escape none_end;
-    none_end.point = to;
     plan.straight_blocked = false;
-    return finish(RapidStatus::straight, {from, to}, none, none_end,
-                  "straight: leaves or reaches the cut part at its end directly");
+    return finish(RapidStatus::straight, {from, to}, "straight: leaves or reaches the cut part at its end directly");
   }
 
   // Step 2.
-  const Escape start = escape_from(from, zones, bounds);
-  const Escape end = escape_from(to, zones, bounds);
+  const Escape start = escape_from(from, zones, bounds), end = escape_from(to, zones, bounds);
   plan.start_zones = start.relaxed;
   plan.end_zones = end.relaxed;
   if (!start.ok || !end.ok) {
     plan.status = RapidStatus::endpoint_blocked;
-    plan.min_clearance_mm = 0.0;
     plan.message = !start.ok ? "start: " + start.why : "end: " + end.why;
     return plan;
   }
@@ -606,90 +517,30 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector
       (end.relaxed.empty() ? std::string() : fmt::format("; enters zone(s) {} at the end", fmt::join(end.relaxed, ", ")));
   const Vector2d a = start.point, b = end.point;
   if (zones.segment_clear(a, b))
-    return finish(RapidStatus::planned, {a, b}, start, end, "straight between the escape legs" + escape_note);
+    return finish(RapidStatus::planned, {a, b}, "straight between the escape legs" + escape_note);
 
-  // Step 3.
-  set_quiet_ompl();
-  auto space = std::make_shared<ob::RealVectorStateSpace>(2);
-  ob::RealVectorBounds rb(2);
-  rb.setLow(0, bounds.min().x());
-  rb.setLow(1, bounds.min().y());
-  rb.setHigh(0, bounds.max().x());
-  rb.setHigh(1, bounds.max().y());
-  space->setBounds(rb);
-  std::atomic<int> samples{0};
-  int attempt_now = 0;
-  space->setStateSamplerAllocator([&](const ob::StateSpace* s) -> ob::StateSamplerPtr {
-    return std::make_shared<SeededSampler>(s, derive_seed(options.seed, attempt_now, 1), &samples);
-  });
-  auto si = std::make_shared<ob::SpaceInformation>(space);
-  si->setStateValidityChecker(std::make_shared<ZoneValidityChecker>(si, zones));
-  si->setMotionValidator(std::make_shared<ExactMotionValidator>(si, zones));
-  si->setup();
-
-  const auto t0 = std::chrono::steady_clock::now();
-  bool timed_out = false;
-  bool cancelled = false;
-  const ob::PlannerTerminationCondition ptc([&] {
-    if (samples.load() >= options.max_samples) return true;
-    if (options.stop.stop_requested()) return cancelled = true;
-    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > options.max_time_s)
-      return timed_out = true;
-    return false;
-  });
-
-  Polyline best;
-  double best_len = kInf;
-  int found = 0;
-  for (int attempt = 0; attempt < options.attempts && !ptc(); ++attempt) {
-    attempt_now = attempt;
-    auto pdef = std::make_shared<ob::ProblemDefinition>(si);
-    ob::ScopedState<ob::RealVectorStateSpace> s0(space), s1(space);
-    s0[0] = a.x(), s0[1] = a.y(), s1[0] = b.x(), s1[1] = b.y();
-    pdef->setStartAndGoalStates(s0, s1);
-    auto planner = std::make_shared<SeededRRTConnect>(si, derive_seed(options.seed, attempt, 2));
-    planner->setProblemDefinition(pdef);
-    planner->setNearestNeighbors<ompl::NearestNeighborsLinear>();
-    const ob::PlannerStatus st = planner->solve(ptc);
-    if (st != ob::PlannerStatus::EXACT_SOLUTION) continue;
-    auto* path = pdef->getSolutionPath()->as<og::PathGeometric>();
-    Polyline raw = to_polyline(*path);
-    raw.front() = a, raw.back() = b;  // the planner copies them; keep them bit-exact
-    Polyline p = raw;
-    if (options.simplify) {
-      SeededSimplifier simplifier(si, derive_seed(options.seed, attempt, 3));
-      p = shorten(zones, simplifier, *path);
-      p.front() = a, p.back() = b;
-    }
-    if (!zones.polyline_clear(p)) p = raw;  // cannot happen; never return an unchecked path
-    if (!zones.polyline_clear(p)) continue;
-    ++found;
-    const double len = path_length(p);
-    if (len < best_len) best = std::move(p), best_len = len;
-  }
-  plan.samples = samples.load();
-  if (cancelled) {
+  // Steps 3 and 4, within the rapid's own budget of samples.
+  Termination work(&termination);
+  work.set_budget(options.max_samples, "samples");
+  Space sp = make_space(zones, bounds, options.seed, work);
+  Search found = search(a, b, zones, sp, options, work);
+  plan.samples = static_cast<int>(work.units_spent());
+  if (termination.ended()) {
     plan.status = RapidStatus::cancelled;
-    plan.polyline.clear();
-    plan.min_clearance_mm = 0.0;
-    plan.message = fmt::format("stopped on request after {} samples", plan.samples);
+    plan.message = fmt::format("ended after {} samples: {}", plan.samples, termination.describe());
     return plan;
   }
-  if (best.empty()) {
+  if (found.best.empty()) {
     plan.status = RapidStatus::no_path;
-    plan.min_clearance_mm = 0.0;
-    plan.message = fmt::format("no clear path found in {} samples{}{}", plan.samples,
-                               timed_out ? fmt::format(" (stopped by the {:.3g} s time limit)", options.max_time_s) : "",
-                               escape_note);
+    plan.message = fmt::format("no clear path found in {} samples{}", plan.samples, escape_note);
     return plan;
   }
 
   // Step 5.
-  const std::string smooth_note = options.smooth ? smooth_path(best, plan.smoothed, si, zones, options.seed) : "";
-  return finish(RapidStatus::planned, std::move(best), start, end,
-                fmt::format("planned round the zones ({} of {} attempts found a path, {} samples{}){}{}", found,
-                            options.attempts, plan.samples, timed_out ? ", time limit reached" : "", escape_note,
-                            smooth_note));
+  const std::string smooth_note = smooth(found.best, zones, sp, options, plan.smoothed);
+  return finish(RapidStatus::planned, std::move(found.best),
+                fmt::format("planned round the zones ({} of {} attempts found a path, {} samples){}{}", found.found,
+                            options.attempts, plan.samples, escape_note, smooth_note));
 }
 
 }  // namespace machplan::motion

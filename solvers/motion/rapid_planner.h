@@ -67,12 +67,14 @@
 //     On a path that is already taut around a zone the corners that touch the clearance band
 //     cannot be rounded without entering it, so smoothing mostly rounds the other corners.
 //
-// Termination. The search stops after RapidOptions::max_samples sampled states in total
-// (all attempts), or after max_time_s of wall-clock time, whichever comes first, or as soon
-// as RapidOptions::stop is set (status cancelled). When the
-// goal is walled in, no_path is returned once the budget is spent. The sample budget is the
-// deterministic limit; the time limit is a backstop for pathological inputs and, if it is
-// what stops the search, the result may differ from run to run (the message says so).
+// Termination. plan_rapid takes the caller's Termination (engine/common/termination.h) and
+// gives the search a child of it with a budget of RapidOptions::max_samples sampled states
+// over all attempts; every sample is charged to it (one unit, and kSampleWorkS seconds of
+// work for a caller's deadline). When the rapid's own budget is spent without a path the
+// status is no_path; when the caller's Termination ends first (a stop request, its deadline
+// or its budget) the status is `cancelled` and the message says which. Every limit counts
+// work, never the wall clock, so the same inputs give the same plan on any machine, however
+// loaded.
 //
 // Determinism. OMPL's RNG::setSeed() only seeds the process-wide generator that hands out
 // seeds to RNG instances, and it has an effect only before the first RNG is created in the
@@ -81,34 +83,35 @@
 // and the path simplifier each get a local seed (RNG::setLocalSeed) derived from
 // RapidOptions::seed and the attempt number, the trees use the linear nearest-neighbour
 // structure (OMPL's default GNAT picks pivots with its own unseeded RNG), and the budget is
-// counted in samples, not seconds. Same inputs + seed -> same polyline, in any process and
+// counted in samples. Same inputs + seed -> same polyline, in any process and
 // in any order of calls. plan_rapid is thread-safe (it shares nothing but OMPL's
 // mutex-protected seed generator).
 //
 // Units: mm. Nothing here throws on geometry; RapidOptions::validate() throws
-// std::invalid_argument naming field, value and rule, and plan_rapid calls it.
+// InputError::field naming the field, its value and the rule, and plan_rapid calls it.
 //
 // Example:
 //
 //     std::vector<Contour> clamps = {Contour({{-50, -20}, {50, -20}, {50, 20}, {-50, 20}},
 //                                            {0, 0, 0, 0})};
 //     RapidOptions o;                  // 5 mm clearance, seed 1
-//     RapidPlan p = plan_rapid({-150, 0}, {150, 0}, clamps, o);
+//     Termination never;               // no stop, deadline or budget of the caller's
+//     RapidPlan p = plan_rapid({-150, 0}, {150, 0}, clamps, o, never);
 //     // p.status == RapidStatus::planned, p.straight_blocked, p.length_mm about 306.2 (the shortest
 //     // clear curve is 306.17),
 //     // p.min_clearance_mm >= 5
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "engine/common/stop.h"
+#include "engine/common/termination.h"
 #include "engine/geometry/contour.h"
+#include "solvers/motion/rapid_zones.h"
 
 namespace machplan::motion {
 
@@ -122,12 +125,10 @@ struct RapidOptions {
   // Margin of the automatic box, mm (>= 0). It must leave room to pass round the outermost
   // zones: at least 2 * clearance_mm is sensible.
   double auto_margin_mm = 50.0;
-  // Total number of sampled states over all attempts before giving up with no_path (>= 1).
-  // A rapid round a few zones needs tens to a few hundred.
+  // Total number of sampled states over all attempts before giving up with no_path (>= 1,
+  // <= 10 000 000). A rapid round a few zones needs tens to a few hundred.
   int max_samples = 20000;
-  // Wall-clock backstop for the whole search, s (> 0). See "Termination" above.
-  double max_time_s = 5.0;
-  // Independent RRT-Connect runs (derived seeds); the shortest shortened path wins (>= 1).
+  // Independent RRT-Connect runs (derived seeds); the shortest shortened path wins (1 .. 100).
   int attempts = 3;
   // Seed of all random choices. Same inputs and seed give the same path.
   std::uint32_t seed = 1;
@@ -138,17 +139,20 @@ struct RapidOptions {
   // plan_rapids only (rapids.h): holes whose slug is larger than this in x or y are kept
   // clear of like parts; smaller ones are crossed, mm (>= 0).
   double slug_tip_size_mm = 50.0;
-  // A stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it). The
-  // search polls it with its budget; once set, plan_rapid returns `cancelled` and plan_rapids
-  // plans no further rapid.
-  StopToken stop;
-  // plan_rapids only: called with the fraction of rapids planned so far, in [0, 1] (for a
-  // progress bar). May be empty.
-  std::function<void(double)> progress;
+  // plan_rapids only: the torch height over the table while a rapid crosses a part already
+  // cut (the machine file's travel_height_over_cut_mm), mm. 0: the machine's usual retract
+  // height (nothing is raised); otherwise the torch_off step before such a rapid retracts to
+  // this height (Step::height_mm), whichever is higher. In [0, 1000].
+  double travel_height_over_cut_mm = 0.0;
 
-  // Throws std::invalid_argument naming the field, its value and the rule it breaks.
+  // Throws InputError::field naming the field, its value and the rule it breaks.
   void validate() const;
 };
+
+// Work charged per sampled state, s: a nominal figure (about what a sample costs round a few
+// zones), so that a caller's deadline in seconds of work bounds rapid planning in the same
+// units as everything else, and decides the same way on any machine.
+inline constexpr double kSampleWorkS = 50e-6;
 
 enum class RapidStatus {
   straight,          // the straight move is clear; polyline = {from, to}
@@ -156,7 +160,7 @@ enum class RapidStatus {
   no_path,           // budget spent without a path (goal or start walled in)
   endpoint_blocked,  // an end point cannot leave its zones' clearance band (see step 2)
   out_of_bounds,     // from or to lies outside RapidOptions::bounds
-  cancelled,         // RapidOptions::stop was set before a path was found
+  cancelled,         // the caller's Termination ended the search (stop request, deadline, budget)
 };
 const char* to_string(RapidStatus s);
 
@@ -182,26 +186,18 @@ struct RapidPlan {
   bool ok() const { return status == RapidStatus::straight || status == RapidStatus::planned; }
 };
 
-// Plans one rapid; see the file comment. Throws std::invalid_argument when the options are
-// invalid or from/to are not finite; every other outcome is a status.
+// Plans one rapid; see the file comment. Throws InputError when the options are invalid and
+// std::invalid_argument when from/to are not finite; every other outcome is a status.
 // Zones at index >= first_part_zone are cut parts, which step 1b may leave directly; the
-// default makes every zone a declared one.
+// default makes every zone a declared one. `termination` is the caller's (see Termination).
 RapidPlan plan_rapid(const Eigen::Vector2d& from, const Eigen::Vector2d& to,
-                     const std::vector<Contour>& no_go, const RapidOptions& options,
+                     const std::vector<Contour>& no_go, const RapidOptions& options, Termination& termination,
                      std::size_t first_part_zone = static_cast<std::size_t>(-1));
 
-// Exact distance between the straight segment a -> b and a span (line or arc), mm: 0 when
-// they meet. Computed from the candidates where the minimum can lie (end points, the foot of
-// the arc centre on the line, the line's crossings of the circle), each an actual distance
-// between two points of the curves, so the value is never too small and, by the argument in
-// rapid_planner.cpp, never too large.
-double segment_distance_mm(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Segment& span);
-
-// Distance from the segment a -> b to the region of a zone (0 when it enters or touches it).
-double region_distance_mm(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Contour& zone);
-
-// Smallest region distance of a polyline to any zone, mm (+infinity with no zones; for a
-// single point, the point's distance).
-double polyline_clearance_mm(const std::vector<Eigen::Vector2d>& polyline, const std::vector<Contour>& zones);
+// The same among the active zones of a ZoneSet built once for many rapids (plan_rapids).
+// The ZoneSet's clearance is the one used; options.clearance_mm must equal it.
+RapidPlan plan_rapid(const Eigen::Vector2d& from, const Eigen::Vector2d& to, const ZoneSet& zones,
+                     const RapidOptions& options, Termination& termination,
+                     std::size_t first_part_zone = static_cast<std::size_t>(-1));
 
 }  // namespace machplan::motion

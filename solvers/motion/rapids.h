@@ -21,6 +21,16 @@
 // turn being split in two. A stretch that never closes (a slit, an overcut that stops mid-span)
 // or whose loop encloses no area gives no zone; it is counted in open_cuts.
 //
+// Crossing a cut part. A rapid whose target lies inside a part (or slug) already cut, or that
+// starts inside one, must cross it: that zone is left out of the rapid's plan, the rapid
+// crosses it (straight when nothing else is in the way) and the torch is raised over it:
+// when RapidOptions::travel_height_over_cut_mm is above the machine's retract height, the
+// torch_off step before the rapid retracts to that height (Step::height_mm). Every other
+// zone stays one to go round: declared zones always, and the other cut parts and slugs when
+// the rapid can avoid them without entering the part it is heading into. When it cannot (no
+// clear route round them), the rapid is planned again among the declared zones only and
+// crosses the cut parts in its way, raised as well. The report names the parts crossed.
+//
 // Each rapid is planned with the cut parts marked as such, so that a straight move that
 // only departs from the part just cut, or arrives beside one, is taken as it is (step 1b of
 // rapid_planner.h); declared zones are always kept clear of. A re-routed rapid reports its
@@ -33,8 +43,16 @@
 // segment. When the plan fails (no_path, endpoint_blocked, out_of_bounds) the stretch is left
 // as programmed and the failure is reported; the caller decides whether to run the job.
 //
-// Complexity: one plan per rapid; zones from cuts grow with the job, so a job of n closed
-// cuts checks O(n) zones per rapid (bounding boxes prune the far ones).
+// Termination and progress. Every rapid is planned under the caller's Termination (each with
+// its own budget of samples, see rapid_planner.h); once that ends (a stop request, its
+// deadline or budget) the rapids from the one that saw it on are left as programmed and not
+// reported, and the summary's status says what ended the work. `progress` (may be null)
+// receives the share of the rapids planned.
+//
+// Complexity: the job's zones (declared ones and every closed cut that may become one) are
+// indexed once (solvers/motion/rapid_zones.h) and switched on as they are cut; the nesting of
+// the closed cuts (which are holes) is one ray query per cut (engine/geometry/nesting.h).
+// A query of a rapid looks only at the spans near it.
 #pragma once
 
 #include <cstddef>
@@ -42,6 +60,9 @@
 #include <string>
 #include <vector>
 
+#include "engine/common/progress.h"
+#include "engine/common/summary.h"
+#include "engine/common/termination.h"
 #include "engine/geometry/contour.h"
 #include "engine/motion/job.h"
 #include "solvers/motion/rapid_planner.h"
@@ -65,7 +86,16 @@ struct RapidReport {
   // For a detour (re-routed round zones): the zones the straight move came too near, e.g.
   // "part cut at line 40; declared zone 1". Empty otherwise.
   std::string reason;
+  // The cut parts and slugs the rapid crosses (its start or target lies inside them, or no
+  // route goes round them), e.g. "part cut at line 12"; and the torch height over them, mm
+  // (0: the machine's retract height, nothing raised).
+  std::vector<std::string> crossed;
+  double travel_height_mm = 0.0;
   std::string message;
+
+  // Why the rapid is what it is, one phrase: "straight", "straight over part cut at line 12
+  // (torch at 40 mm)", "round part cut at line 40 (+25.3 mm)", "as programmed", or the failure.
+  std::string why() const;
 };
 
 struct RapidsReport {
@@ -77,24 +107,37 @@ struct RapidsReport {
   std::size_t open_cuts = 0;  // cutting stretches that gave no zone
   std::size_t small_slugs = 0;  // closed holes no larger than slug_tip_size_mm: no zone
   std::size_t detours = 0;      // rapids re-routed round zones
+  std::size_t crossings = 0;    // rapids that cross cut parts (RapidReport::crossed)
   double detour_extra_mm = 0.0; // their length beyond the straight moves, mm
   double straight_length_mm = 0.0;    // sum over rapids
   double programmed_length_mm = 0.0;  // sum over rapids
   double length_mm = 0.0;             // sum over rapids, after this pass
-  // RapidOptions::stop was set: the rapids from the one that saw it on are left as
-  // programmed and not reported.
-  bool cancelled = false;
+  // done; infeasible when some rapid has no clear route (failed > 0: left as programmed, the
+  // caller decides); cancelled, deadline or budget when the caller's Termination ended the
+  // planning. brief: one line; full: a table of the rapids, why each left the straight line,
+  // and the totals.
+  Summary summary;
 
-  bool ok() const { return failed == 0 && !cancelled; }
-  // A human-readable table: one row per rapid, then the totals.
-  std::string summary() const;
+  // The caller's Termination ended the planning before every rapid was planned.
+  bool ended_early() const {
+    return summary.status == Status::cancelled || summary.status == Status::deadline || summary.status == Status::budget;
+  }
+  bool ok() const { return failed == 0 && !ended_early(); }
 };
 
-// Plans every rapid of `job` in place (see the file comment). Throws std::invalid_argument
-// when the options are invalid; a rapid that cannot be planned is a report entry, not an
-// exception.
+// Plans every rapid of `job` in place (see the file comment). Throws InputError when the
+// options are invalid; a rapid that cannot be planned is a report entry, not an exception.
 RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, const RapidOptions& options,
-                         bool zones_from_cuts);
+                         bool zones_from_cuts, Termination& termination, Progress* progress = nullptr);
+
+// The closed loop of a cut path (see the file comment): segments first .. last (inclusive)
+// return to the start of `first`, as a Contour. Nothing when the path never closes or its
+// loop encloses no area.
+struct Loop {
+  std::size_t first = 0, last = 0;
+  Contour contour;
+};
+std::optional<Loop> find_loop(const std::vector<Segment>& segments, double tolerance_mm = 1e-3);
 
 // The closed loop of a cutting stretch as a Contour (see the file comment), or nothing.
 // tolerance_mm: how near a segment's end must come to an earlier start to close the loop.

@@ -70,10 +70,6 @@ void check_cuts_clear_of(const Job& job, const std::vector<NoGoZone>& zones, con
   }
 }
 
-double height_move_s(double from_mm, double to_mm, double tolerance_mm, double speed_mm_per_s) {
-  return std::max(0.0, std::abs(from_mm - to_mm) - tolerance_mm) / speed_mm_per_s;
-}
-
 // Seconds as people read them: "3.2 h (11520 s)".
 std::string duration_text(double s) {
   if (s >= 1e9) return fmt::format("{:.3g} h ({:.3g} s)", s / 3600, s);
@@ -125,6 +121,15 @@ void RunOptions::validate() const {
   }
 }
 
+CutOrder cut_order_of(const cutting::MachineConfig& m) {
+  if (m.cut_order.empty()) return CutOrder::program;
+  const std::optional<CutOrder> o = cut_order_from(m.cut_order);
+  if (!o)
+    throw InputError(m.source, m.cut_order_line,
+                     fmt::format("key 'cut_order' must be program, nearest or optimise, got '{}'", m.cut_order.substr(0, 40)));
+  return *o;
+}
+
 PlannerOptions planner_options_for(const cutting::MachineConfig& m) {
   PlannerOptions p;
   p.max_velocity_mm_per_s = Eigen::Vector2d::Constant(m.limits.velocity_mm_per_s);
@@ -139,11 +144,9 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
   const bool plasma = m.torch.kind == executor::TorchSetup::Kind::plasma;
   const bool oxy = m.torch.kind == executor::TorchSetup::Kind::oxy_fuel;
   TorchTimes times;
-  if (th.fitted) {
-    times.torch_on_s = th.initial_height_sense_s + height_move_s(th.retract_height_mm, th.pierce_height_mm, tol, th.speed_mm_per_s) +
-                       height_move_s(th.pierce_height_mm, th.cut_height_mm, tol, th.speed_mm_per_s);
-    times.torch_off_s = height_move_s(th.cut_height_mm, th.retract_height_mm, tol, th.speed_mm_per_s);
-  }
+  if (th.fitted)
+    times.height = TorchTimes::Height{th.initial_height_sense_s, th.retract_height_mm, th.pierce_height_mm, th.cut_height_mm,
+                                      th.speed_mm_per_s, tol};
   if (plasma) times.start_s = m.torch.plasma.arc_start_delay_s;
   if (oxy) times.start_s = m.torch.oxy_fuel.preheat_s;
   times.pierce_s = oxy ? m.torch.oxy_fuel.pierce_delay_s : m.torch.plasma.pierce_delay_s;
@@ -227,11 +230,11 @@ void plan_the_rapids(PlannedRun& o, const RunOptions& options, const RunControl&
   RapidOptions ro = options.rapids;
   ro.bounds = travel_box(o.machine);
   ro.slug_tip_size_mm = o.machine.slug_tip_size_mm;
-  if (control.termination) ro.stop = control.termination->stop_token();
-  if (control.planning) ro.progress = [p = control.planning](double f) { p->report(f); };
-  o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts);
-  if (o.rapids.cancelled)
-    throw Cancelled(fmt::format("{}: stopped on request while planning the rapids; nothing was run", o.job.source));
+  ro.travel_height_over_cut_mm = o.machine.torch_height.fitted ? o.machine.torch_height.travel_height_over_cut_mm : 0.0;
+  Termination rapids_end(control.termination);
+  o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts, rapids_end, control.planning);
+  if (o.rapids.ended_early())
+    throw Cancelled(fmt::format("{}: {} while planning the rapids; nothing was run", o.job.source, rapids_end.describe()));
   for (const Stretch& s : o.job.stretches)
     if (s.cutting && !s.rapid)
       if (auto loop = closed_loop(s)) o.cut_zones.push_back(std::move(*loop));
@@ -297,6 +300,12 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
   std::vector<std::string> warnings;
   Program program = read_program_for(program_path, options.gcode, machine, options.strict_z, warnings);
   std::vector<std::string> notes = ignored_words(program, machine.name);
+  // The order of the cuts: the option, else the machine file's, else the program's own.
+  CutOrderOptions order;
+  order.order = options.order.value_or(cut_order_of(machine));
+  OrderedProgram ordered = order_cuts(program, order);
+  program = std::move(ordered.program);
+  warnings.insert(warnings.end(), ordered.report.warnings.begin(), ordered.report.warnings.end());
   Eigen::Vector2d origin = Eigen::Vector2d::Zero();
   std::string from = "none";
   if (options.origin_mm) {
@@ -314,6 +323,7 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
   o.origin_from = from;
   o.warnings = std::move(warnings);
   o.notes = std::move(notes);
+  o.cut_order = std::move(ordered.report);
   return o;
 }
 
@@ -349,7 +359,8 @@ std::string full_report(const RunOutcome& o, const session::MachineSession& sess
   const executor::ExecutionResult& r = o.result;
   std::string s;
   if (o.kerf) s += fmt::format("kerf compensation\n{}\n", o.kerf->brief(o.job.source));
-  s += fmt::format("rapids (straight G0 against planned, mm)\n{}\n", o.rapids.summary());
+  if (o.cut_order.reordered) s += fmt::format("{}\n", o.cut_order.summary.full_report());
+  s += fmt::format("rapids (straight G0 against planned, mm)\n{}\n", o.rapids.summary.full_report());
   if (o.paper_x1_decoding)
     s += fmt::format("paper mode: encoders counted x1 as in the paper ({:.4f} mm per count), BLU {:g} mm, calibration {:g}\n\n",
                      o.machine.axes[0].plant.mm_per_count(), session.executor_options().blu_mm,

@@ -3,7 +3,8 @@
 // thing. Two halves, so that a job can be planned once and run when the operator says:
 //
 //   plan_program (or plan_job):
-//     program (.ngc) --read_gcode_file--> Program --make_job--> Job
+//     program (.ngc) --read_gcode_file--> Program --order_cuts (RunOptions::order)--> Program
+//       --make_job--> Job
 //       --apply_kerf (when kerf_mm > 0)--> closed cuts moved by half the kerf
 //       --plan_rapids--> rapids routed round the declared no-go zones and the parts cut so far
 //       --plan_stretch, one per move step--> Trajectories (planned mode)   = PlannedRun
@@ -67,6 +68,8 @@
 #include "engine/programs/gcode.h"
 #include "engine/programs/zones.h"
 #include "models/cutting/machine_config.h"
+#include "solvers/motion/cut_order.h"
+#include "solvers/motion/cut_order.h"
 #include "solvers/motion/rapid_planner.h"
 #include "solvers/motion/rapids.h"
 #include "solvers/session/machine_session.h"
@@ -107,6 +110,9 @@ struct RunOptions {
   std::optional<Eigen::Vector2d> origin_mm;
   // Refuse a program whose Z moves (true) instead of dropping its Z words with a warning.
   bool strict_z = false;
+  // The order of the cuts (solvers/motion/cut_order.h), applied to the program once its Z
+  // words are dropped; unset: the machine file's cut_order, else the program's own order.
+  std::optional<CutOrder> order;
   // The longest run accepted, s of machine time (> 0, at most one year). A run is refused
   // before it starts, with Infeasible (exit 3) giving the estimate, when its time estimate
   // exceeds this: first the time no motion can beat (each move at its feed capped by the
@@ -146,6 +152,7 @@ struct PlannedRun {
   std::string origin_from = "none";                     // "--origin", "machine file" or "none"
   std::vector<std::string> warnings;                    // from reading and placing the program
   std::vector<std::string> notes;                       // program words the machine ignores (M8, M52, ...)
+  CutOrderReport cut_order;                             // the order the cuts were made in
   bool paper_x1_decoding = false;    // the encoders are counted x1 (paper modes)
 
   double planned_motion_s = 0.0;     // sum of trajectory durations
@@ -204,6 +211,14 @@ RunOutcome run_job(Job programmed, const RunOptions& options, const RunControl& 
 // The process time of the file comment for `job` on `machine`, s: the torch sequence at the
 // machine file's delays and speeds, and the dwells (engine/motion/process_time.h).
 double process_time_s(const Job& job, const cutting::MachineConfig& machine, double height_tolerance_mm);
+
+// The machine file's cut_order (program when it has none); InputError naming the file for a
+// name that is not an order.
+CutOrder cut_order_of(const cutting::MachineConfig& machine);
+
+// The machine file's cut_order (program when it has none); InputError naming the file for a
+// name that is not an order.
+CutOrder cut_order_of(const cutting::MachineConfig& machine);
 
 // The feed planner's limits for a machine: its limits block and servo period.
 PlannerOptions planner_options_for(const cutting::MachineConfig& machine);

@@ -44,6 +44,8 @@ TEST(MachineConfig, GantryCarriesThePaperNumbers) {
   EXPECT_EQ(m.torch.kind, executor::TorchSetup::Kind::plasma);
   EXPECT_TRUE(m.torch.has_oxy_fuel);
   EXPECT_TRUE(m.torch_height.fitted);
+  EXPECT_EQ(m.torch_height.travel_height_over_cut_mm, 40.0);
+  EXPECT_GE(m.torch_height.travel_height_over_cut_mm, m.torch_height.retract_height_mm);
   const executor::MachineSetup s = m.setup();
   EXPECT_NO_THROW(s.validate());
   EXPECT_NEAR(s.signals[0].dac_full_scale_mm_per_s, 9000.0 / 60 / 120 * 98.175, 1e-9);
@@ -110,6 +112,12 @@ TEST(MachineConfig, RefusesBadValuesNamingTheKey) {
   const std::string huge = error_after("      kp_per_s: 90\n", "      kp_per_s: 1e9\n");
   EXPECT_NE(huge.find("axes.x.servo.kp_per_s"), std::string::npos) << huge;
   EXPECT_NE(huge.find("<= 100000"), std::string::npos) << huge;
+  EXPECT_NE(error_after("  travel_height_over_cut_mm: 40.0", "  travel_height_over_cut_mm: 10")
+                .find("key 'torch_height.travel_height_over_cut_mm' must be at least retract_height_mm"),
+            std::string::npos);
+  EXPECT_NE(error_after("  travel_height_over_cut_mm: 40.0", "  travel_height_over_cut_mm: 200")
+                .find("beyond the height axis' timeout_s 3 s"),
+            std::string::npos);
   const std::string missing = error_after("      kp_per_s: 90\n", "");
   EXPECT_NE(missing.find("missing required key 'axes.x.servo.kp_per_s'"), std::string::npos) << missing;
 }

@@ -46,7 +46,7 @@ void expect_planned_run_meets_the_issue(const RunOutcome& r, const std::string& 
   ASSERT_EQ(r.result.status, ExecutionResult::Status::completed) << r.summary.full_report();
   EXPECT_TRUE(r.result.faults.empty());
   EXPECT_TRUE(r.result.torch_off_at_end);
-  EXPECT_TRUE(r.rapids.ok()) << r.rapids.summary();
+  EXPECT_TRUE(r.rapids.ok()) << r.rapids.summary.full_report();
   // The programs really cut at 80 mm/s (F4800).
   for (const Stretch& s : r.job.stretches) {
     if (!s.cutting) continue;

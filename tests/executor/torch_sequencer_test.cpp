@@ -156,5 +156,32 @@ TEST(TorchSequencer, OffRetractsAndKillWorksFromAnyPhase) {
   EXPECT_FALSE(seq.busy());
 }
 
+TEST(TorchSequencer, OffRetractsToAHigherTravelHeightWhenAsked) {
+  // A rapid over parts already cut follows: the torch goes up to 40 mm, not 15, and the next
+  // pierce comes down from there.
+  TorchSequencer seq;
+  TorchSetup t = plasma_with_height();
+  t.height_timeout_s = 2.0;
+  seq.configure(t, 0.001);
+  hardware::Outputs out;
+  Plant p;
+  seq.start_on(false, out);
+  run(seq, p, out);
+  seq.start_off(out, 40.0);
+  EXPECT_FALSE(out.torch_fire);
+  EXPECT_DOUBLE_EQ(out.torch_height_target_mm, 40.0);
+  const auto [s, up] = run(seq, p, out);
+  EXPECT_EQ(s, S::done);
+  EXPECT_NEAR(p.height, 40.0, 0.05);
+  EXPECT_NEAR(up, (40.0 - 1.5) / 50, 0.01);  // from cut height at 50 mm/s
+  // A height below the retract height changes nothing.
+  seq.start_on(false, out);
+  run(seq, p, out);
+  seq.start_off(out, 5.0);
+  EXPECT_DOUBLE_EQ(out.torch_height_target_mm, 15.0);
+  run(seq, p, out);
+  EXPECT_NEAR(p.height, 15.0, 0.05);
+}
+
 }  // namespace
 }  // namespace machplan::executor

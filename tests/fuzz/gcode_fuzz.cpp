@@ -23,5 +23,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     } catch (const machplan::InputError&) {
     }
   }
+  // The other dialects: GRBL, and the detection between the two.
+  options.require_program_end = true;
+  for (machplan::GcodeDialect d : {machplan::GcodeDialect::grbl, machplan::GcodeDialect::automatic}) {
+    options.dialect = d;
+    try {
+      (void)machplan::read_gcode(text, "fuzz.ngc", options);
+    } catch (const machplan::InputError&) {
+    }
+  }
   return 0;
 }

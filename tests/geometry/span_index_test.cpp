@@ -63,6 +63,13 @@ TEST(SpanIndex, NearestWindingSideAndBoxesMatchBruteForce) {
       ASSERT_NEAR((closest_point(cs[it.contour].span(it.span), p) - n.point).norm(), 0.0, 1e-9);
       if (best < 1e-6) continue;
       ASSERT_EQ(index.winding(p), w) << trial << " at (" << p.x() << ", " << p.y() << ")";
+      // Per contour: the non-zero windings, by contour.
+      std::vector<std::pair<std::uint32_t, int>> each;
+      index.windings(p, each);
+      std::vector<std::pair<std::uint32_t, int>> want;
+      for (std::uint32_t k = 0; k < cs.size(); ++k)
+        if (const int wk = winding_number(cs[k], p)) want.emplace_back(k, wk);
+      ASSERT_EQ(each, want) << trial << " at (" << p.x() << ", " << p.y() << ")";
       // Left of the nearest contour: inside the outer star and outside the hole (together:
       // their winding is positive); for the separate star, inside when it runs ccw, outside
       // when it runs cw.

@@ -11,6 +11,10 @@
 
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
+#include "engine/common/progress.h"
+#include "engine/common/summary.h"
+#include "engine/common/termination.h"
 #include "engine/programs/zones.h"
 #include "solvers/motion/rapid_planner.h"
 #include "solvers/motion/rapids.h"
@@ -94,6 +98,17 @@ double optimum_over_box(const Vector2d& P, const Box& box, double r) {
   const double angle_t = std::atan2(v.y(), v.x()) + (v.y() < 0 ? 2 * kPi : 0.0) - beta;
   const double arc = r * (angle_t - kPi / 2);
   return 2 * (tangent + arc) + (box.x1 - box.x0);
+}
+
+// The planners under a Termination that never ends (the tests' own limits are the options').
+RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector<Contour>& zones, const RapidOptions& o,
+                     std::size_t first_part = static_cast<std::size_t>(-1)) {
+  Termination never;
+  return motion::plan_rapid(from, to, zones, o, never, first_part);
+}
+RapidsReport plan_rapids(Job& job, const std::vector<Contour>& zones, const RapidOptions& o, bool from_cuts) {
+  Termination never;
+  return motion::plan_rapids(job, zones, o, from_cuts, never);
 }
 
 // --- plan_rapid -----------------------------------------------------------------------------
@@ -315,15 +330,19 @@ TEST(RapidPlanner, OptionsAreValidated) {
   try {
     o.validate();
     FAIL() << "clearance 0 accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("clearance_mm = 0"), std::string::npos) << e.what();
+  } catch (const InputError& e) {
+    EXPECT_TRUE(e.is_field());
+    EXPECT_EQ(std::string(e.what()), "clearance_mm: is 0, must be finite and > 0");
   }
   o = RapidOptions{};
   o.max_samples = 0;
-  EXPECT_THROW(plan_rapid({0, 0}, {1, 1}, {}, o), std::invalid_argument);
+  EXPECT_THROW(plan_rapid({0, 0}, {1, 1}, {}, o), InputError);
   o = RapidOptions{};
   o.attempts = 0;
-  EXPECT_THROW(o.validate(), std::invalid_argument);
+  EXPECT_THROW(o.validate(), InputError);
+  o = RapidOptions{};
+  o.travel_height_over_cut_mm = -1;
+  EXPECT_THROW(o.validate(), InputError);
 }
 
 TEST(RapidPlanner, SegmentDistanceMatchesDenseSampling) {
@@ -418,7 +437,7 @@ TEST(Rapids, ZonesFromCutsReRouteRoundTheCutPart) {
   EXPECT_EQ(r.replaced, 1u);
   EXPECT_EQ(r.blocked, 1u);
   EXPECT_TRUE(r.ok());
-  EXPECT_NE(r.summary().find("re-routed"), std::string::npos);
+  EXPECT_NE(r.summary.full_report().find("re-routed"), std::string::npos);
 }
 
 TEST(Rapids, WithoutZonesFromCutsNothingChanges) {
@@ -447,24 +466,56 @@ TEST(Rapids, AStopRequestCancelsPlanningAndProgressIsReported) {
   // Not stopped: the progress reaches 1 over the job's two rapids.
   Job job = two_parts();
   RapidOptions o;
-  std::vector<double> seen;
-  o.progress = [&](double f) { seen.push_back(f); };
-  const RapidsReport done = plan_rapids(job, contours({Box{40, 15, 50, 35}}), o, false);
-  EXPECT_FALSE(done.cancelled);
-  EXPECT_EQ(seen, (std::vector<double>{0.5, 1.0}));
+  Termination never;
+  Progress progress;
+  const RapidsReport done = motion::plan_rapids(job, contours({Box{40, 15, 50, 35}}), o, false, never, &progress);
+  EXPECT_EQ(done.summary.status, Status::done) << done.summary.full_report();
+  EXPECT_FALSE(done.ended_early());
+  EXPECT_EQ(progress.share(), 1.0);
+  EXPECT_NE(done.summary.brief_report().find("2 rapids"), std::string::npos) << done.summary.brief_report();
   // Stopped: a blocked rapid ends as cancelled, and plan_rapids plans nothing further.
   StopSource source;
   source.request_stop();
-  o.stop = source.token();
-  const RapidPlan p = plan_rapid({-150, 0}, {150, 0}, contours({kClamp}), o);
+  Termination stopped_work(source.token());
+  const RapidPlan p = motion::plan_rapid({-150, 0}, {150, 0}, contours({kClamp}), o, stopped_work);
   EXPECT_EQ(p.status, RapidStatus::cancelled);
   EXPECT_FALSE(p.ok());
   EXPECT_TRUE(p.polyline.empty());
+  EXPECT_NE(p.message.find("stopped on request"), std::string::npos) << p.message;
   Job again = two_parts();
-  const RapidsReport stopped = plan_rapids(again, contours({Box{40, 15, 50, 35}}), o, false);
-  EXPECT_TRUE(stopped.cancelled);
+  Termination stopped_plan(source.token());
+  const RapidsReport stopped = motion::plan_rapids(again, contours({Box{40, 15, 50, 35}}), o, false, stopped_plan);
+  EXPECT_EQ(stopped.summary.status, Status::cancelled);
+  EXPECT_TRUE(stopped.ended_early());
   EXPECT_FALSE(stopped.ok());
   EXPECT_TRUE(stopped.rapids.empty());
+}
+
+TEST(Rapids, TheCallersBudgetEndsPlanningTheSameWayEveryTime) {
+  // A budget of 2 samples for the whole planning (the blocked first rapid needs 4 over its
+  // three attempts): it is spent on the first rapid. The
+  // answer depends on the work done, not on time, so two runs end identically.
+  std::vector<std::int64_t> spent;
+  for (int run = 0; run < 2; ++run) {
+    Job job = two_parts();
+    Termination work;
+    work.set_budget(2, "samples");
+    const RapidsReport r = motion::plan_rapids(job, contours({Box{40, 15, 50, 35}}), RapidOptions{}, false, work);
+    EXPECT_EQ(r.summary.status, Status::budget) << r.summary.full_report();
+    EXPECT_TRUE(r.rapids.empty());
+    EXPECT_GE(work.units_spent(), 2);
+    EXPECT_LE(work.units_spent(), 4);
+    spent.push_back(work.units_spent());
+    EXPECT_NE(r.summary.message.find("the budget of 2 samples was spent"), std::string::npos) << r.summary.message;
+  }
+  EXPECT_EQ(spent[0], spent[1]);
+  // A deadline in seconds of work: each sample is charged kSampleWorkS.
+  Termination deadline;
+  deadline.set_deadline(20 * kSampleWorkS, "planning work");
+  const RapidPlan p = motion::plan_rapid({-150, 0}, {150, 0}, contours({kClamp}), RapidOptions{}, deadline);
+  EXPECT_EQ(p.status, RapidStatus::cancelled);
+  EXPECT_LE(p.samples, 22);
+  EXPECT_EQ(deadline.reason(), Termination::Reason::deadline);
 }
 
 TEST(Rapids, ProgrammedDetourThatIsClearIsKept) {
@@ -524,9 +575,10 @@ TEST(Rapids, OpenCutsAreCounted) {
 }
 
 // A 200 x 100 plate at [100, 300] x [0, 100] with three round holes: each hole is pierced at
-// its centre, reached by a 10 mm lead-in and cut counter-clockwise; then the outline is cut
-// from a pierce 6 mm to its left. `hole_d` is the holes' diameter.
-Job plate_with_holes(double hole_d) {
+// its centre, reached by a 10 mm lead-in and cut counter-clockwise; the outline is cut from a
+// pierce 6 mm to its left, after the holes (or, `outline_first`, before them, as a naive
+// program does). `hole_d` is the holes' diameter.
+Job plate_with_holes(double hole_d, bool outline_first = false) {
   Job job;
   job.source = "plate.ngc";
   job.start_mm = {0, 0};
@@ -548,6 +600,11 @@ Job plate_with_holes(double hole_d) {
     at = job.stretches.back().segments.back().end;
     line += 10;
   };
+  const auto outline = [&] {
+    rapid_to({94, 50});
+    cut(test::polyline_segments({{94, 50}, {100, 50}, {100, 100}, {300, 100}, {300, 0}, {100, 0}, {100, 50}}, false));
+  };
+  if (outline_first) outline();
   for (const Vector2d& c : centres) {
     rapid_to(c);
     const double r = hole_d / 2;
@@ -555,8 +612,7 @@ Job plate_with_holes(double hole_d) {
     for (const Segment& g : Contour::circle(c, r).segments()) segs.push_back(g);  // starts at angle 0
     cut(segs);
   }
-  rapid_to({94, 50});
-  cut(test::polyline_segments({{94, 50}, {100, 50}, {100, 100}, {300, 100}, {300, 0}, {100, 0}, {100, 50}}, false));
+  if (!outline_first) outline();
   rapid_to({0, 0});
   return job;
 }
@@ -602,7 +658,7 @@ TEST(Rapids, LargeSlugsAndPartsAreDetouredWithAReason) {
   for (const RapidReport& rr : r.rapids)
     if (!rr.reason.empty()) extra += rr.extra_length_mm;
   EXPECT_NEAR(r.detour_extra_mm, extra, 1e-9);
-  EXPECT_NE(r.summary().find("round slug of the hole"), std::string::npos);
+  EXPECT_NE(r.summary.full_report().find("round slug of the hole"), std::string::npos);
 
   // A part is always a zone: a rapid straight across the plate after its outline is cut is
   // re-routed and names the part.
@@ -613,6 +669,68 @@ TEST(Rapids, LargeSlugsAndPartsAreDetouredWithAReason) {
   const RapidsReport a = plan_rapids(across, {}, RapidOptions{}, true);
   ASSERT_TRUE(a.rapids.back().replaced) << a.rapids.back().message;
   EXPECT_NE(a.rapids.back().reason.find("part cut at line"), std::string::npos) << a.rapids.back().reason;
+}
+
+TEST(Rapids, RapidsIntoAPartAlreadyCutCrossItRaised) {
+  // Outline first: each rapid to a hole's pierce point lies inside the plate just cut. It
+  // crosses the plate straight instead of leaving it, going round and coming back in, and the
+  // torch is raised to the travel height over cut parts before it.
+  Job job = plate_with_holes(20.0, true);
+  RapidOptions o;
+  o.travel_height_over_cut_mm = 40.0;
+  const RapidsReport r = plan_rapids(job, {}, o, true);
+  ASSERT_EQ(r.rapids.size(), 5u);
+  EXPECT_EQ(r.detours, 0u);
+  EXPECT_NEAR(r.length_mm, r.straight_length_mm, 1e-9);
+  // The rapid to the outline crosses nothing; the three into the plate and the one out of it
+  // (from the last hole, inside the plate) cross it.
+  EXPECT_TRUE(r.rapids[0].crossed.empty());
+  for (std::size_t k = 1; k < 5; ++k) {
+    const RapidReport& rr = r.rapids[k];
+    EXPECT_EQ(rr.status, RapidStatus::straight) << rr.source_line << ": " << rr.message;
+    ASSERT_EQ(rr.crossed.size(), 1u) << rr.source_line;
+    EXPECT_EQ(rr.crossed[0], "part cut at line 20");
+    EXPECT_EQ(rr.travel_height_mm, 40.0);
+    EXPECT_NE(rr.why().find("straight over part cut at line 20 (torch at 40 mm)"), std::string::npos) << rr.why();
+  }
+  EXPECT_EQ(r.crossings, 4u);
+  // The torch_off before each crossing rapid retracts to 40 mm; the first cut's too (the
+  // rapid after it enters the plate), so every torch_off step carries it.
+  int raised = 0;
+  for (const Step& st : job.steps)
+    if (st.kind == Step::Kind::torch_off) raised += st.height_mm == 40.0;
+  EXPECT_EQ(raised, 4);
+  EXPECT_EQ(r.summary.status, Status::done);
+  EXPECT_NE(r.summary.full_report().find("over part cut at line 20"), std::string::npos);
+
+  // Without a travel height (0): the same route, nothing raised.
+  Job flat = plate_with_holes(20.0, true);
+  const RapidsReport f = plan_rapids(flat, {}, RapidOptions{}, true);
+  EXPECT_EQ(f.crossings, 4u);
+  for (const Step& st : flat.steps) EXPECT_EQ(st.height_mm, 0.0);
+}
+
+TEST(Rapids, InsideAPartOtherZonesAreStillAvoided) {
+  // Holes of 60 mm (slugs that may tip, above the 50 mm tip size): the rapid from the first
+  // hole to the second crosses the plate (it is inside it) but goes round the first hole's
+  // slug; and a declared clamp on the plate is avoided whatever is crossed.
+  Job job = plate_with_holes(36.0, true);
+  RapidOptions o;
+  o.slug_tip_size_mm = 30.0;
+  const Box clamp{225, 40, 240, 60};  // between the second hole (200, 30) and the third (260, 70)
+  const RapidsReport r = plan_rapids(job, contours({clamp}), o, true);
+  ASSERT_EQ(r.rapids.size(), 5u);
+  // Hole 1 -> hole 2: straight from hole 1's edge (leaving its slug directly), over the plate.
+  EXPECT_EQ(r.rapids[2].crossed, (std::vector<std::string>{"part cut at line 20"}));
+  // Hole 2 -> hole 3: round the clamp, still over the plate.
+  const RapidReport& round = r.rapids[3];
+  EXPECT_TRUE(round.replaced) << round.message;
+  EXPECT_NE(round.reason.find("declared zone 1"), std::string::npos) << round.reason;
+  EXPECT_EQ(round.reason.find("part cut at line 20"), std::string::npos) << round.reason;
+  EXPECT_EQ(round.crossed, (std::vector<std::string>{"part cut at line 20"}));
+  Polyline route{job.stretches[round.stretch].segments.front().start};
+  for (const Segment& g : job.stretches[round.stretch].segments) route.push_back(g.end);
+  EXPECT_GE(polyline_box_distance(route, {clamp}), o.clearance_mm - 1e-9);
 }
 
 TEST(Rapids, APartNestedInAHoleIsAPart) {

@@ -3,6 +3,7 @@
 #include "engine/programs/dxf.h"
 
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -101,6 +102,11 @@ TEST(Dxf, GapsWithinToleranceJoinOthersDoNot) {
   EXPECT_EQ(read(w).contours.size(), 1u);
   DxfOptions tight;
   tight.chain_tolerance_mm = 0.001;
+  // With healing (0.5 mm by default) the 0.005 mm gap is joined, and said so.
+  const auto healed = read(w, tight);
+  EXPECT_EQ(healed.contours.size(), 1u);
+  EXPECT_EQ(count(healed, "joined"), 1);
+  tight.join_tolerance_mm = 0;  // healing off
   const auto r = read(w, tight);
   EXPECT_TRUE(r.contours.empty());
   const ProfileProblem* p = find(r, "open_chain");
@@ -350,6 +356,136 @@ TEST(DxfCurves, EllipsesFullAndPartial) {
   const auto box = bounding_box(r.contours[0].contour);
   EXPECT_NEAR(box.max().y(), 20, 0.005);
   EXPECT_NEAR(box.max().x(), 8, 0.005);
+}
+
+TEST(DxfCurves, AnEllipseWhoseRatioIsAboveOneKeepsItsOutline) {
+  // Some writers give the longer axis as the "minor" one: major vector (10, 0) with ratio 2.5
+  // is the ellipse of semi-axes 10 along x and 25 along y, the same as major (0, 25) with 0.4.
+  Writer w;
+  w.pair(0, "ELLIPSE"); w.pair(5, "E1"); w.pair(10, 0.0); w.pair(20, 0.0); w.pair(30, 0.0);
+  w.pair(11, 10.0); w.pair(21, 0.0); w.pair(31, 0.0); w.pair(40, 2.5); w.pair(41, 0.0); w.pair(42, 2 * kPi);
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  EXPECT_TRUE(r.problems.empty()) << r.report();
+  EXPECT_NEAR(std::abs(r.contours[0].area_mm2), kPi * 10 * 25, 0.005 * r.contours[0].perimeter_mm);
+  const auto box = bounding_box(r.contours[0].contour);
+  EXPECT_NEAR(box.max().x(), 10, 0.005);
+  EXPECT_NEAR(box.max().y(), 25, 0.005);
+  EXPECT_NEAR(box.min().y(), -25, 0.005);
+}
+
+// A 100 x 60 rectangle of four lines whose corners miss by the given gaps.
+Writer gappy_rectangle(double g1, double g2) {
+  Writer w;
+  w.line("L1", {0, 0}, {100, 0});
+  w.line("L2", {100 + g1, 0}, {100, 60});
+  w.line("L3", {100, 60}, {0, 60});
+  w.line("L4", {0, 60}, {0, g2});
+  return w;
+}
+
+TEST(DxfHealing, SmallGapsAreJoinedAndEachJoinIsReported) {
+  const auto r = read(gappy_rectangle(0.2, 0.35));
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  EXPECT_NEAR(std::abs(r.contours[0].area_mm2), 6000, 60 * 0.35);
+  ASSERT_EQ(count(r, "joined"), 2) << r.report();
+  std::vector<double> gaps;
+  for (const auto& p : r.problems) {
+    if (p.kind != "joined") continue;
+    EXPECT_EQ(p.severity, ProfileProblem::Severity::warning);
+    ASSERT_TRUE(p.gap_mm.has_value());
+    gaps.push_back(*p.gap_mm);
+    ASSERT_EQ(p.handles.size(), 2u);
+    ASSERT_TRUE(p.at.has_value());
+    EXPECT_NE(p.message.find("join tolerance 0.5 mm"), std::string::npos) << p.message;
+  }
+  std::sort(gaps.begin(), gaps.end());
+  EXPECT_NEAR(gaps[0], 0.2, 1e-9);
+  EXPECT_NEAR(gaps[1], 0.35, 1e-9);
+  // The join at (100, 0) names the lines on both sides of it.
+  const ProfileProblem* j = nullptr;
+  for (const auto& p : r.problems)
+    if (p.kind == "joined" && std::abs(*p.gap_mm - 0.2) < 1e-9) j = &p;
+  ASSERT_NE(j, nullptr);
+  std::vector<std::string> h = j->handles;
+  std::sort(h.begin(), h.end());
+  EXPECT_EQ(h, (std::vector<std::string>{"L1", "L2"}));
+  EXPECT_NEAR((*j->at - Vector2d(100, 0)).norm(), 0.0, 0.2 + 1e-9);
+  EXPECT_NE(r.report().find("gaps healed up to 0.5 mm"), std::string::npos);
+}
+
+TEST(DxfHealing, GapsBeyondTheJoinToleranceStayOpenAndHealingCanBeTurnedOff) {
+  const auto wide = read(gappy_rectangle(0.2, 0.8));
+  EXPECT_TRUE(wide.has_errors());
+  EXPECT_EQ(count(wide, "open_chain"), 1) << wide.report();
+  EXPECT_EQ(count(wide, "joined"), 1) << wide.report();  // the 0.2 mm gap, still joined
+  DxfOptions off;
+  off.join_tolerance_mm = 0;
+  const auto none = read(gappy_rectangle(0.2, 0.35), off);
+  EXPECT_EQ(count(none, "joined"), 0);
+  EXPECT_TRUE(none.has_errors());
+  DxfOptions wider;
+  wider.join_tolerance_mm = 1.0;
+  EXPECT_FALSE(read(gappy_rectangle(0.2, 0.8), wider).has_errors());
+  DxfOptions bad;
+  bad.join_tolerance_mm = 11;
+  EXPECT_THROW(bad.validate(), InputError);
+}
+
+TEST(DxfHealing, OverlappingCollinearLinesAreMerged) {
+  // The bottom edge drawn as two lines that overlap by 30 mm, and the top edge drawn twice, once
+  // whole and once as a piece lying within it.
+  Writer w;
+  w.line("B1", {0, 0}, {60, 0});
+  w.line("B2", {30, 0}, {100, 0});
+  w.line("R", {100, 0}, {100, 60});
+  w.line("T", {100, 60}, {0, 60});
+  w.line("T2", {70, 60}, {20, 60});
+  w.line("L", {0, 60}, {0, 0});
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  EXPECT_NEAR(std::abs(r.contours[0].area_mm2), 6000, 1e-6);
+  EXPECT_NEAR(r.contours[0].perimeter_mm, 320, 1e-6);
+  EXPECT_EQ(count(r, "merged_overlap"), 2) << r.report();
+  for (const auto& p : r.problems) EXPECT_EQ(p.severity, ProfileProblem::Severity::warning) << p.message;
+}
+
+TEST(DxfHealing, AnArcDrawnTwiceOrWithinAnotherIsKeptOnce) {
+  // A 40 x 20 slot with round ends; its right end drawn again as a smaller arc of the same
+  // circle (within it, after it), and its left end drawn first as a piece and then whole.
+  Writer w;
+  w.line("B", {0, 0}, {40, 0});
+  w.arc("R", {40, 10}, 10, 270, 90);
+  w.arc("R2", {40, 10}, 10, 300, 60);
+  w.line("T", {40, 20}, {0, 20});
+  w.arc("L2", {0, 10}, 10, 120, 240);
+  w.arc("L", {0, 10}, 10, 90, 270);
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  EXPECT_NEAR(std::abs(r.contours[0].area_mm2), 40 * 20 + kPi * 100, 1e-6);
+  EXPECT_EQ(count(r, "merged_overlap"), 2) << r.report();
+}
+
+TEST(DxfHealing, AnOutlineDrawnTwiceIsKeptOnce) {
+  // The same plate as one closed polyline and again as four lines, plus its hole once.
+  Writer w;
+  w.lwpolyline("P", {{0, 0}, {100, 0}, {100, 60}, {0, 60}}, {0, 0, 0, 0}, true);
+  w.line("A", {0, 0}, {50, 0});
+  w.line("B", {50, 0}, {100, 0});
+  w.line("C", {100, 0}, {100, 60});
+  w.line("D", {100, 60}, {0, 60});
+  w.line("E", {0, 60}, {0, 0});
+  w.circle("H", {30, 30}, 10);
+  const auto r = read(w);
+  ASSERT_EQ(r.contours.size(), 2u) << r.report();
+  EXPECT_FALSE(r.has_errors()) << r.report();
+  EXPECT_EQ(r.contours[0].handles, std::vector<std::string>{"P"});
+  EXPECT_EQ(r.contours[1].parent, 0);
+  ASSERT_EQ(count(r, "duplicate"), 1) << r.report();
+  EXPECT_NE(find(r, "duplicate")->message.find("drawn twice"), std::string::npos) << find(r, "duplicate")->message;
 }
 
 // A block "PLATE": 20 x 10 rectangle with a hole of radius 2 at (5, 5), base point (0, 0).

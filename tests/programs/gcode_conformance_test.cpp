@@ -269,8 +269,13 @@ TEST_P(GcodeConformance, MatchesRs274) {
   const RunResult ref = run("cd " + quote(dir.string()) + " && flock " + quote(lock) +
                                 " timeout 60 /usr/bin/rs274 -g -t tool.tbl " + quote(file.string()),
                             dir);
-  const machplan::test::CliResult mine = machplan::test::Cli().run({"program", file.string(), "--json"});
+  // The reference reading is LinuxCNC's dialect; the default (auto) must read every program
+  // rs274 reads exactly as it (checked below), and may read as GRBL's what rs274 refuses.
+  const machplan::test::CliResult mine =
+      machplan::test::Cli().run({"program", file.string(), "--json", "--dialect", "linuxcnc"});
   const RunResult ours{mine.code, mine.out, mine.err};
+  const machplan::test::CliResult mine_auto = machplan::test::Cli().run({"program", file.string(), "--json"});
+  const RunResult ours_auto{mine_auto.code, mine_auto.out, mine_auto.err};
   fs::remove_all(dir);
 
   const bool ref_ok = ref.exit_code == 0;
@@ -314,7 +319,9 @@ TEST_P(GcodeConformance, MatchesRs274) {
     return;
   }
 
-  // Both accept: compare the moves.
+  // Both accept: compare the moves. The default dialect reads it identically.
+  EXPECT_EQ(ours_auto.exit_code, ours.exit_code);
+  EXPECT_EQ(ours_auto.out, ours.out) << "the automatic dialect must read a program rs274 reads as LinuxCNC does";
   const Rs274Program expected = parse_rs274(ref.out);
   EXPECT_TRUE(expected.unmodelled.empty()) << "rs274 issues calls machplan does not model, yet machplan accepted: "
                                           << expected.unmodelled.front();

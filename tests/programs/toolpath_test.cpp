@@ -131,6 +131,37 @@ double off_arc(const ToolArc& arc, const Eigen::Vector3d& p) {
   return std::abs(radial.norm() - arc.radius_mm);
 }
 
+TEST(Apt, CycleClearStartsTheCycleStateAfreshLikeCycleInit) {
+  // Two drilled holes between CYCLE/CLEAR lines, as some post-processors write them: read as
+  // with CYCLE/INIT, never refused for its missing FEDTO.
+  const auto program = [](const std::string& reset) {
+    return "UNIT/MM\n"
+           "FEDRAT/300.,MMPM\n"
+           "RAPID/\n"
+           "GOTO/0,0,20.\n"
+           "CYCLE/" + reset + "\n"
+           "CYCLE/DRILL,FEDTO,5.,RTRCTO,2.\n"
+           "GOTO/10.,10.,0\n"
+           "GOTO/20.,10.,0\n"
+           "CYCLE/OFF\n"
+           "CYCLE/" + reset + "\n"
+           "GOTO/0,0,20.\n"
+           "FINI\n";
+  };
+  const ToolPath clear = read_apt(program("CLEAR"), "clear.apt");
+  const ToolPath init = read_apt(program("INIT"), "init.apt");
+  EXPECT_TRUE(clear.warnings.empty());
+  ASSERT_EQ(clear.poses.size(), init.poses.size());
+  for (std::size_t i = 0; i < clear.poses.size(); ++i) {
+    EXPECT_EQ(clear.poses[i].tip_mm, init.poses[i].tip_mm) << i;
+    EXPECT_EQ(clear.poses[i].rapid, init.poses[i].rapid) << i;
+  }
+  // Each hole: rapid to 2 mm above, feed to 5 mm deep, rapid back up.
+  std::size_t deep = 0;
+  for (const ToolPose& q : clear.poses) deep += q.tip_mm.z() == -5.0 && !q.rapid;
+  EXPECT_EQ(deep, 2u);
+}
+
 TEST(Apt, CamStyleFileWithUnitCirclesAndCycles) {
   const std::string text =
       "PARTNO/1\n"                                // 1

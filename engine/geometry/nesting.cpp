@@ -1,0 +1,44 @@
+#include "engine/geometry/nesting.h"
+
+#include <cmath>
+#include <cstdint>
+#include <utility>
+
+#include "engine/geometry/span_index.h"
+
+namespace machplan {
+
+Nesting nest_contours(const std::vector<Contour>& contours) {
+  const std::size_t n = contours.size();
+  Nesting out;
+  out.parent.assign(n, -1);
+  out.depth.assign(n, 0);
+  out.children.resize(n);
+  std::vector<Contour> indexed;
+  std::vector<std::size_t> source;  // indexed contour -> position in `contours`
+  std::vector<double> area(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (contours[i].empty()) continue;
+    area[i] = std::abs(signed_area(contours[i]));
+    indexed.push_back(contours[i]);
+    source.push_back(i);
+  }
+  if (indexed.empty()) return out;
+  const SpanIndex index(indexed);
+  std::vector<std::pair<std::uint32_t, int>> held;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (contours[i].empty()) continue;
+    index.windings(contours[i].vertices().front(), held);
+    for (const auto& [k, w] : held) {
+      const std::size_t j = source[k];
+      if (j == i || !(area[j] > area[i])) continue;
+      ++out.depth[i];
+      if (out.parent[i] < 0 || area[j] < area[static_cast<std::size_t>(out.parent[i])]) out.parent[i] = static_cast<int>(j);
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (out.parent[i] >= 0) out.children[static_cast<std::size_t>(out.parent[i])].push_back(static_cast<int>(i));
+  return out;
+}
+
+}  // namespace machplan
