@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "cli/interrupt.h"
 #include "cli/output.h"
 #include "cli/gcode_flags.h"
@@ -30,25 +31,22 @@ namespace {
 // A number given to `flag`; the message names the flag and the text.
 double number_of(const std::string& flag, const std::string& text) {
   const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(text)));
   return *v;
 }
 
+// run's modes: every executor mode but jog (the guard's).
 executor::Mode mode_of(const std::string& text) {
-  if (text == "planned") return executor::Mode::planned;
-  if (text == "paper-open") return executor::Mode::paper_open;
-  if (text == "paper-closed") return executor::Mode::paper_closed;
-  throw InputError("--mode", 0, fmt::format("unknown mode '{}' (known: planned, paper-open, paper-closed)", text));
+  const executor::Mode m = accept(executor::parse_mode(text), "--mode");
+  if (m == executor::Mode::jog)
+    throw InputError("--mode", 0, "jog is the guard's mode (machplan guard); run takes planned, paper-open or paper-closed");
+  return m;
 }
 
 // `KIND@SECONDS[:AXIS]`, e.g. jam@3.5:x; the kinds are the simulator's (models/sim).
 sim::FaultInjection injection_of(const std::string& text) {
-  using K = sim::FaultInjection::Kind;
   const auto bad = [&](const std::string& why) {
-    return InputError("--inject", 0,
-                      fmt::format("'{}': {} (form KIND@SECONDS[:x|y]; kinds: jam, encoder-glitch, counter-misread, "
-                                  "estop, lost-backend, arc-loss, arc-start-failure, watchdog)",
-                                  text, why));
+    return InputError("--inject", 0, fmt::format("'{}': {} (form KIND@SECONDS[:x|y])", excerpt(text), why));
   };
   const std::size_t at = text.find('@');
   if (at == std::string::npos) throw bad("no '@'");
@@ -59,19 +57,43 @@ sim::FaultInjection injection_of(const std::string& text) {
     rest = rest.substr(0, c);
   }
   sim::FaultInjection f;
-  bool found = false;
-  for (K k : {K::stuck_axis, K::encoder_glitch, K::counter_wrap_misread, K::estop, K::lost_backend, K::arc_loss,
-              K::arc_start_failure, K::watchdog})
-    if (kind == sim::to_string(k)) f.kind = k, found = true;
-  if (!found) throw bad(fmt::format("unknown kind '{}'", kind));
+  try {
+    f.kind = accept(sim::parse_fault_kind(kind), "--inject");
+  } catch (const InputError& e) {
+    throw bad(e.message());  // "unknown fault kind 'melt' (known: ...)"
+  }
   const std::optional<double> at_s = parse_finite(rest);
   if (!at_s || *at_s < 0) throw bad("the time is not a number >= 0");
   f.at_s = *at_s;
   if (axis == "x" || axis.empty()) f.axis = 0;
   else if (axis == "y") f.axis = 1;
-  else throw bad(fmt::format("unknown axis '{}'", axis));
+  else throw bad(fmt::format("unknown axis '{}'", excerpt(axis)));
   return f;
 }
+
+// Which flag sets which field of RunOptions (and of what run_cmd calls itself), for the
+// error path (cli/field_flags.h).
+const FieldFlag kRunFields[] = {
+    {"machine", "--machine"},
+    {"mode", "--mode"},
+    {"kerf_mm", "--kerf"},
+    {"feed_override_mm_per_s", "--feed"},
+    {"feed_mm_per_s", "--feed"},
+    {"executor.blu_mm", "--blu"},
+    {"executor.calibration_factor", "--calibration"},
+    {"calibration", "--calibration"},
+    {"db_path", "--db"},
+    {"origin_mm", "--origin"},
+    {"controller", "--controller"},
+    {"controller_gains", "--gain"},
+    {"gains", "--gain"},
+    {"backend.name", "--backend"},
+    {"backend.sim.faults", "--inject"},
+    {"gcode.spindle_count", "--spindles"},
+    {"max_machine_time_s", "--max-machine-time"},
+    {"magnify", "--magnify"},
+    {"plot", "--plot"},
+};
 
 void add_run(CLI::App& app) {
   struct Args {
@@ -129,6 +151,7 @@ void add_run(CLI::App& app) {
   cmd->add_option("--inject", a->inject,
                   "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "
                   "lost-backend, arc-loss, arc-start-failure, watchdog); may be repeated");
+  field_flags(cmd, kRunFields);
   cmd->callback([a] {
     motion::RunOptions o;
     o.machine = a->machine;
@@ -181,8 +204,9 @@ void add_run(CLI::App& app) {
     for (const std::string& text : a->inject) o.backend.sim.faults.push_back(injection_of(text));
     if (!o.backend.sim.faults.empty() && a->backend != "sim")
       throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
-    o.controller = a->controller;
-    for (const std::string& g : a->gains) control::parse_gain(g, o.controller_gains);
+    if (!a->controller.empty() && a->controller != "tuned")
+      o.controller = accept(control::parse_controller_kind(a->controller), "--controller");
+    for (const std::string& g : a->gains) control::parse_gain(g, o.controller_gains, "controller_gains");
     if (a->controller == "tuned") {
       // The machine's active tuning (machplan tune --store); a --gain overrides a stored gain.
       const auto m = cutting::load_machine(cutting::find_machine(a->machine));

@@ -93,16 +93,16 @@ std::vector<Yaml> Yaml::items() const {
 
 double Yaml::number(const NumberRule& rule) const {
   if (!node_.IsScalar()) fail("must be a number, got " + kind_name());
-  double v = 0;
   const std::string& s = node_.Scalar();
+  std::size_t used = 0;
+  double v = 0;
   try {
-    std::size_t used = 0;
     v = std::stod(s, &used);
-    if (used != s.size()) throw std::invalid_argument(s);
   } catch (const std::exception&) {
-    fail("must be a number, got '" + s + "'");
+    used = 0;  // no number at all, or one beyond double's range
   }
-  if (!std::isfinite(v)) fail("must be a finite number, got '" + s + "'");
+  if (used == 0 || used != s.size()) fail("must be a number, got '" + excerpt(s) + "'");
+  if (!std::isfinite(v)) fail("must be a finite number, got '" + excerpt(s) + "'");
   if (v < rule.min || (rule.min_exclusive && v == rule.min))
     fail(fmt::format("must be {} {}, got {}", rule.min_exclusive ? ">" : ">=", rule.min, v));
   if (v > rule.max) fail(fmt::format("must be <= {}, got {}", rule.max, v));

@@ -4,16 +4,16 @@
 #include <cmath>
 #include <limits>
 #include <random>
-#include <stdexcept>
+#include <string>
 
 #include <fmt/format.h>
+
+#include "engine/common/error.h"
 
 namespace machplan::control {
 namespace {
 
-void require(bool ok, const char* field, double v, const char* rule) {
-  if (!ok) throw std::invalid_argument(fmt::format("{} = {} is invalid: {}", field, v, rule));
-}
+void require(bool ok, const std::string& field, double v, const char* rule) { require_field(ok, field, v, rule); }
 
 // A portable standard normal draw (Box-Muller on the engine's raw bits), so that the same seed
 // gives the same run with every standard library.
@@ -85,10 +85,10 @@ std::vector<AccSample> simulate_acc(const TurningProcess& p, const AccOptions& o
   require(std::isfinite(duration_s) && duration_s > 0 && duration_s <= 3600, "duration_s", duration_s,
           "must be in (0, 3600]");
   for (std::size_t i = 0; i < depths.size(); ++i) {
-    require(std::isfinite(depths[i].depth_mm) && depths[i].depth_mm >= 0 && depths[i].depth_mm <= 100, "depth_mm",
-            depths[i].depth_mm, "must be in [0, 100]");
-    require(std::isfinite(depths[i].from_s) && (i == 0 || depths[i].from_s >= depths[i - 1].from_s), "from_s",
-            depths[i].from_s, "must be finite and not before the previous change");
+    require(std::isfinite(depths[i].depth_mm) && depths[i].depth_mm >= 0 && depths[i].depth_mm <= 100,
+            fmt::format("depths[{}].depth_mm", i), depths[i].depth_mm, "must be in [0, 100]");
+    require(std::isfinite(depths[i].from_s) && (i == 0 || depths[i].from_s >= depths[i - 1].from_s),
+            fmt::format("depths[{}].from_s", i), depths[i].from_s, "must be finite and not before the previous change");
   }
   std::mt19937_64 rng(seed);
   AccController ctl(o, p.beta);

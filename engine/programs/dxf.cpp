@@ -455,10 +455,10 @@ class Assembler {
   std::size_t new_instance(const Entity& e, std::string handle, std::string layer) {
     if (instances_.size() >= opt_.max_entities)
       throw InputError(source_, e.line,
-                       fmt::format("the drawing holds more than {} entities (INSERT copies counted); the limit is "
-                                   "DxfOptions::max_entities (profile --max-entities) and bounds the time and memory a "
-                                   "read takes, about 1 s per 100 000",
-                                   opt_.max_entities));
+                       fmt::format("the drawing holds more than {} entities (INSERT copies counted); the limit "
+                                   "bounds the time and memory a read takes, about 1 s per 100 000: raise it",
+                                   opt_.max_entities))
+          .with_option("max_entities");
     instances_.push_back({&e, std::move(handle), std::move(layer)});
     return instances_.size() - 1;
   }
@@ -491,7 +491,7 @@ class Assembler {
     if (deg > opt_.flatten_tolerance_deg) {
       problem(ProfileProblem::Severity::error, "not_planar", {k},
               fmt::format("{} lies {:.4g} degrees off the XY plane (flatten tolerance {:g} degrees; see "
-                          "--flatten-tolerance)",
+                          "DxfOptions::flatten_tolerance_deg)",
                           where(k), deg, opt_.flatten_tolerance_deg));
       return false;
     }
@@ -521,7 +521,7 @@ class Assembler {
     }
     problem(ProfileProblem::Severity::error, "not_planar", {k},
             fmt::format("{} spans z {:g} to {:g} ({:.4g} degrees over its extent; flatten tolerance {:g} degrees, see "
-                        "--flatten-tolerance)",
+                        "DxfOptions::flatten_tolerance_deg)",
                         where(k), zmin, zmax, deg, opt_.flatten_tolerance_deg));
     return false;
   }
@@ -720,8 +720,10 @@ class Assembler {
       return;
     }
     if (cols < 1 || rows < 1 || static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows) > opt_.max_entities)
-      throw InputError(source_, e.line, fmt::format("{}: array of {} x {} copies is not between 1 and {} (--max-entities)",
-                                                    where(k), cols, rows, opt_.max_entities));
+      throw InputError(source_, e.line,
+                       fmt::format("{}: array of {} x {} copies is not between 1 and {}, the limit on entities: raise it",
+                                   where(k), cols, rows, opt_.max_entities))
+          .with_option("max_entities");
     Affine o;
     if (!ocs(k, P, real_of(source_, P, 30), o)) return;
     const Vector2d ins(real_of(source_, P, 10), real_of(source_, P, 20));
@@ -772,7 +774,7 @@ class Assembler {
       for (const auto& q : ctrl) nurbs.control.push_back(map_point(world, q.head<2>(), k));
       try {
         nurbs.validate();
-      } catch (const std::invalid_argument& ex) {
+      } catch (const InputError& ex) {
         throw InputError(source_, e.line, fmt::format("{}: {}", where(k), ex.what()));
       }
       const std::vector<double> br = nurbs.breaks();
@@ -799,7 +801,7 @@ class Assembler {
       CubicInterpolant ci;
       try {
         ci = interpolate_cubic(pts, tangent(12), tangent(13));
-      } catch (const std::invalid_argument& ex) {
+      } catch (const InputError& ex) {
         throw InputError(source_, e.line, fmt::format("{}: {}", where(k), ex.what()));
       }
       pc.v.push_back(pts.front());
@@ -1089,7 +1091,7 @@ class Assembler {
       ProfileContour pcn;
       try {
         pcn.contour = Contour(pc.v, pc.b);
-      } catch (const std::invalid_argument& e) {
+      } catch (const InputError& e) {
         throw InputError(source_, line_of(pc.entities.front()), fmt::format("{}: {}", where(pc.entities.front()), e.what()));
       }
       pcn.area_mm2 = signed_area(pcn.contour);
@@ -1253,8 +1255,8 @@ ProfileReadResult read_dxf_profile_text(std::string_view text, const std::string
                                 ? fmt::format("the drawing does not state its units ($INSUNITS); read as {:g} mm per "
                                               "unit as asked",
                                               out.mm_per_unit)
-                                : "the drawing does not state its units ($INSUNITS); read as mm (say --units inch, "
-                                  "cm, ... if it is not)",
+                                : "the drawing does not state its units ($INSUNITS); read as mm (give the unit, "
+                                  "DxfOptions::assumed_mm_per_unit, if it is not)",
                             std::nullopt, std::nullopt});
   as.expand(out.mm_per_unit);
   as.drop_duplicates();

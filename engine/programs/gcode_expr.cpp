@@ -6,6 +6,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "engine/common/error.h"
+
 namespace machplan::gcode_expr {
 namespace {
 

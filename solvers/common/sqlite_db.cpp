@@ -15,7 +15,7 @@ SqliteDb::SqliteDb(const std::string& path, const char* schema) : path_(path) {
     const std::string why = h_ ? sqlite3_errmsg(h_) : "out of memory";
     sqlite3_close(h_);
     h_ = nullptr;
-    throw InputError("--db", 0, fmt::format("cannot open '{}': {} (its folder must exist)", path, why));
+    throw InputError::field("db_path", fmt::format("cannot open '{}': {} (its folder must exist)", path, why));
   }
   sqlite3_busy_timeout(h_, 5000);
   try {
@@ -24,7 +24,7 @@ SqliteDb::SqliteDb(const std::string& path, const char* schema) : path_(path) {
   } catch (const InputError& e) {
     sqlite3_close(h_);
     h_ = nullptr;
-    throw InputError("--db", 0, fmt::format("'{}' is not a machplan store: {}", path, e.message()));
+    throw InputError::field("db_path", fmt::format("'{}' is not a machplan store: {}", path, e.message()));
   }
 }
 
@@ -35,7 +35,7 @@ void SqliteDb::exec(const char* sql) const {
   if (sqlite3_exec(h_, sql, nullptr, nullptr, &err) != SQLITE_OK) {
     const std::string msg = err ? err : "unknown error";
     sqlite3_free(err);
-    throw InputError("--db", 0, fmt::format("{}: {}", path_, msg));
+    throw InputError::field("db_path", fmt::format("{}: {}", path_, msg));
   }
 }
 
@@ -45,7 +45,7 @@ void SqliteDb::rollback() const noexcept { sqlite3_exec(h_, "ROLLBACK;", nullptr
 
 Statement::Statement(const SqliteDb& db, const char* sql) : db_(db) {
   if (sqlite3_prepare_v2(db.handle(), sql, -1, &s_, nullptr) != SQLITE_OK)
-    throw InputError("--db", 0, fmt::format("'{}' is not a machplan store: {}", db.path(), sqlite3_errmsg(db.handle())));
+    throw InputError::field("db_path", fmt::format("'{}' is not a machplan store: {}", db.path(), sqlite3_errmsg(db.handle())));
 }
 
 Statement::~Statement() { sqlite3_finalize(s_); }
@@ -57,7 +57,7 @@ bool Statement::step() {
   const int rc = sqlite3_step(s_);
   if (rc == SQLITE_ROW) return true;
   if (rc == SQLITE_DONE) return false;
-  throw InputError("--db", 0, fmt::format("{}: {}", db_.path(), sqlite3_errmsg(db_.handle())));
+  throw InputError::field("db_path", fmt::format("{}: {}", db_.path(), sqlite3_errmsg(db_.handle())));
 }
 
 std::string Statement::text(int column) const {

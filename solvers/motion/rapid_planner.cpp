@@ -457,9 +457,7 @@ const char* to_string(RapidStatus s) {
 }
 
 void RapidOptions::validate() const {
-  const auto bad = [](const char* field, double v, const char* rule) {
-    throw std::invalid_argument(fmt::format("RapidOptions::{} = {}: {}", field, v, rule));
-  };
+  const auto bad = [](const char* field, double v, const char* rule) { require_field(false, field, v, rule); };
   if (!(clearance_mm > 0.0) || !std::isfinite(clearance_mm)) bad("clearance_mm", clearance_mm, "must be finite and > 0");
   if (!(auto_margin_mm >= 0.0) || !std::isfinite(auto_margin_mm))
     bad("auto_margin_mm", auto_margin_mm, "must be finite and >= 0");
@@ -470,9 +468,9 @@ void RapidOptions::validate() const {
     bad("slug_tip_size_mm", slug_tip_size_mm, "must be finite and >= 0");
   if (!bounds.isEmpty()) {
     if (!bounds.min().allFinite() || !bounds.max().allFinite())
-      throw std::invalid_argument("RapidOptions::bounds: corners must be finite");
+      throw InputError::field("bounds", "corners must be finite");
     if (!(bounds.sizes().minCoeff() > 0.0))
-      bad("bounds (smallest side)", bounds.sizes().minCoeff(), "the box must have a positive size in x and y");
+      bad("bounds", bounds.sizes().minCoeff(), "is the smallest side: the box must have a positive size in x and y");
   }
 }
 
@@ -510,7 +508,7 @@ bool leaves_directly(const Vector2d& from, const Vector2d& to, const Zones& zone
 RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const std::vector<Contour>& no_go,
                      const RapidOptions& options, std::size_t first_part_zone) {
   options.validate();
-  if (!from.allFinite() || !to.allFinite()) throw std::invalid_argument("plan_rapid: from and to must be finite");
+  MACHPLAN_ASSERT(from.allFinite() && to.allFinite(), "plan_rapid: from and to must be finite");
   RapidPlan plan;
   plan.straight_length_mm = (to - from).norm();
   const Zones zones(no_go, options.clearance_mm);

@@ -85,8 +85,8 @@
 // in any order of calls. plan_rapid is thread-safe (it shares nothing but OMPL's
 // mutex-protected seed generator).
 //
-// Units: mm. Nothing here throws on geometry; RapidOptions::validate() throws
-// std::invalid_argument naming field, value and rule, and plan_rapid calls it.
+// Units: mm. Nothing here throws on geometry; RapidOptions::validate() throws InputError
+// naming field, value and rule, and plan_rapid calls it.
 //
 // Example:
 //
@@ -146,7 +146,7 @@ struct RapidOptions {
   // progress bar). May be empty.
   std::function<void(double)> progress;
 
-  // Throws std::invalid_argument naming the field, its value and the rule it breaks.
+  // Throws InputError naming the field, its value and the rule it breaks.
   void validate() const;
 };
 
@@ -182,8 +182,9 @@ struct RapidPlan {
   bool ok() const { return status == RapidStatus::straight || status == RapidStatus::planned; }
 };
 
-// Plans one rapid; see the file comment. Throws std::invalid_argument when the options are
-// invalid or from/to are not finite; every other outcome is a status.
+// Plans one rapid; see the file comment. Throws InputError when the options are invalid and
+// InternalError when from/to are not finite (the job's positions are); every other outcome
+// is a status.
 // Zones at index >= first_part_zone are cut parts, which step 1b may leave directly; the
 // default makes every zone a declared one.
 RapidPlan plan_rapid(const Eigen::Vector2d& from, const Eigen::Vector2d& to,

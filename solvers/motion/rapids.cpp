@@ -53,7 +53,7 @@ std::optional<Contour> closed_loop(const Stretch& stretch, double tolerance_mm) 
         Contour c(std::move(v), std::move(b));
         if (orientation(c, 1e-6) == Orientation::degenerate) return std::nullopt;
         return c;
-      } catch (const std::invalid_argument&) {
+      } catch (const InputError&) {
         return std::nullopt;  // non-finite or absurd coordinates: no zone
       }
     }

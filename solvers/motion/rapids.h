@@ -90,8 +90,8 @@ struct RapidsReport {
   std::string summary() const;
 };
 
-// Plans every rapid of `job` in place (see the file comment). Throws std::invalid_argument
-// when the options are invalid; a rapid that cannot be planned is a report entry, not an
+// Plans every rapid of `job` in place (see the file comment). Throws InputError when the
+// options are invalid; a rapid that cannot be planned is a report entry, not an
 // exception.
 RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, const RapidOptions& options,
                          bool zones_from_cuts);

@@ -19,11 +19,11 @@ namespace {
 
 using executor::Mode;
 
-void check_range(const char* flag, double v, double lo, double hi, bool lo_open, const char* unit) {
+void check_range(const char* field, double v, double lo, double hi, bool lo_open, const char* unit) {
   const bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
   if (!ok)
-    throw InputError(flag, 0, fmt::format("{} is out of range: must be {} {} and <= {}{}", v, lo_open ? ">" : ">=", lo, hi,
-                                          unit));
+    throw InputError::field(field, fmt::format("{} is out of range: must be {} {} and <= {}{}", v, lo_open ? ">" : ">=", lo,
+                                               hi, unit));
 }
 
 // The machine's travel box, mm (axes run from 0 to their travel).
@@ -99,46 +99,35 @@ double motion_floor_s(const Job& job, double max_speed_mm_per_s) {
 
 void refuse_long_run(const Job& job, double estimate_s, double limit_s, const char* what) {
   if (!(estimate_s > limit_s)) return;
-  throw Infeasible(fmt::format(
-      "{}: the run would take {} of machine time ({}), more than the limit of {} (--max-machine-time); nothing was "
-      "run. Check the feeds and the machine's limits, or raise the limit with --max-machine-time SECONDS",
-      job.source, duration_text(estimate_s), what, duration_text(limit_s)));
+  throw Infeasible(fmt::format("{}: the run would take {} of machine time ({}), more than the limit of {}; nothing "
+                               "was run. Check the feeds and the machine's limits, or raise the limit",
+                               job.source, duration_text(estimate_s), what, duration_text(limit_s)),
+                   "max_machine_time_s");
 }
 
 }  // namespace
 
 void RunOptions::validate() const {
-  if (machine.empty()) throw InputError("--machine", 0, "names no machine");
-  check_range("--kerf", kerf_mm, 0.0, 100.0, false, " mm");
+  if (machine.empty()) throw InputError::field("machine", "names no machine");
+  check_range("kerf_mm", kerf_mm, 0.0, 100.0, false, " mm");
   // Below a micrometre a kerf is lost in the offset's own tolerance (engine/geometry/offset.h).
   if (kerf_mm > 0 && kerf_mm < 0.001)
-    throw InputError("--kerf", 0, fmt::format("{} mm is below 0.001 mm, the smallest kerf compensated; give 0 for none", kerf_mm));
-  check_range("--blu", executor.blu_mm, 0.01, 1000.0, false, " mm");
-  check_range("--calibration", executor.calibration_factor, 0.1, 10.0, true, "");
-  if (feed_override_mm_per_s != 0.0) check_range("--feed", feed_override_mm_per_s, 0.0, 10000.0, true, " mm/s");
-  executor.validate();
-  backend.sim.validate();
+    throw InputError::field("kerf_mm",
+                            fmt::format("{} mm is below 0.001 mm, the smallest kerf compensated; give 0 for none", kerf_mm));
+  if (feed_override_mm_per_s != 0.0)
+    check_range("feed_override_mm_per_s", feed_override_mm_per_s, 0.0, 10000.0, true, " mm/s");
+  validate_member("executor", executor);
+  validate_member("backend", backend);
   if (origin_mm) {
-    check_range("--origin", origin_mm->x(), -1e6, 1e6, false, " mm");
-    check_range("--origin", origin_mm->y(), -1e6, 1e6, false, " mm");
+    check_range("origin_mm", origin_mm->x(), -1e6, 1e6, false, " mm");
+    check_range("origin_mm", origin_mm->y(), -1e6, 1e6, false, " mm");
   }
-  gcode.validate();
+  validate_member("gcode", gcode);
   if (controller.empty() && !controller_gains.empty())
-    throw InputError("--gain", 0, "gains need a controller (--controller KIND)");
-  if (!controller.empty()) {
-    const std::vector<std::string> kinds = control::controller_kinds();
-    if (std::find(kinds.begin(), kinds.end(), controller) == kinds.end()) {
-      std::string all;
-      for (const std::string& k : kinds) all += (all.empty() ? "" : ", ") + k;
-      throw InputError("--controller", 0, fmt::format("unknown controller '{}' (kinds: {})", controller, all));
-    }
-  }
-  check_range("--max-machine-time", max_machine_time_s, 0.0, 365 * 24 * 3600.0, true, " s");
-  try {
-    rapids.validate();
-  } catch (const std::invalid_argument& e) {
-    throw InputError("", 0, e.what());
-  }
+    throw InputError::field("controller_gains", "gains need a controller kind");
+  if (!controller.empty()) control::parse_controller_kind(controller);
+  check_range("max_machine_time_s", max_machine_time_s, 0.0, 365 * 24 * 3600.0, true, " s");
+  validate_member("rapids", rapids);
 }
 
 PlannerOptions planner_options_for(const cutting::MachineConfig& m) {
@@ -208,7 +197,7 @@ RunOutcome run_program(const std::string& program_path, const RunOptions& option
       if (!motion || m.plane != Move::Plane::xy) continue;
       if (std::abs(m.end.z() - z) > 1e-9) {
         warnings.push_back(fmt::format("{}:{}: Z words dropped from here on (Z {:.6g} -> {:.6g} mm): machine '{}' sets "
-                                       "the torch height itself (--strict-z refuses them instead)",
+                                       "the torch height itself (strict_z refuses them instead)",
                                        program.source, m.line, z, m.end.z(), machine.name));
         break;
       }
@@ -221,7 +210,7 @@ RunOutcome run_program(const std::string& program_path, const RunOptions& option
   std::string from = "none";
   if (options.origin_mm) {
     origin = *options.origin_mm;
-    from = "--origin";
+    from = "given";
   } else if (machine.origin_mm) {
     origin = Eigen::Vector2d((*machine.origin_mm)[0], (*machine.origin_mm)[1]);
     from = "machine file";

@@ -133,7 +133,7 @@ struct RunOptions {
   // acceleration or a helix of enormous length would otherwise simulate for days.
   double max_machine_time_s = 4 * 3600.0;
 
-  // Throws InputError naming the CLI flag of the offending field (--kerf, --blu, ...).
+  // Throws InputError::field naming the offending field ("kerf_mm", "executor.blu_mm", ...).
   void validate() const;
 };
 
@@ -151,7 +151,7 @@ struct RunOutcome {
   executor::ExecutionResult result;
   std::string controller;            // the servo controller's kind
   Eigen::Vector2d origin_mm = Eigen::Vector2d::Zero();  // where the program's zero sat
-  std::string origin_from = "none";                     // "--origin", "machine file" or "none"
+  std::string origin_from = "none";                     // "given" (RunOptions), "machine file" or "none"
   std::vector<std::string> warnings;                    // from reading and placing the program
   std::vector<std::string> notes;                       // program words the machine ignores (M8, M52, ...)
 

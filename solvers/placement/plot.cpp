@@ -137,7 +137,7 @@ void draw(cairo_t* cr, double W, double H, const Scene& scene, const PlacementRe
 
 void write_placement_plot(const std::string& path, const Scene& scene, const PlacementResult& result) {
   const double W = 1400, H = 760;
-  write_picture(path, "--plot", W, H, [&](cairo_t* cr) { draw(cr, W, H, scene, result); });
+  write_picture(path, "plot", W, H, [&](cairo_t* cr) { draw(cr, W, H, scene, result); });
 }
 
 }  // namespace machplan::placement

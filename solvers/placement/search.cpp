@@ -239,19 +239,30 @@ Eigen::AlignedBox2d placement_region(const Scene& scene, double rotation_deg) {
   return Eigen::AlignedBox2d(-half - fp.min(), half - fp.max());
 }
 
+namespace {
+constexpr Spelling kStrategyNames[] = {{"paper"}, {"optimal"}};
+}  // namespace
+
+const char* to_string(PlacementOptions::Strategy s) { return kStrategyNames[static_cast<std::size_t>(s)].name.data(); }
+
+Parsed<PlacementOptions::Strategy> parse_placement_strategy(std::string_view text) {
+  const Parsed<std::size_t> p = parse_name(kStrategyNames, text, "strategy", "strategy");
+  return {static_cast<PlacementOptions::Strategy>(p.value), p.note};
+}
+
 void PlacementOptions::validate() const {
-  if (rotations_deg.empty()) throw InputError("--rotations", 0, "needs at least one rotation");
+  if (rotations_deg.empty()) throw InputError::field("rotations_deg", "needs at least one rotation");
   if (rotations_deg.size() > kMaxRotations)
-    throw InputError("--rotations", 0,
-                     fmt::format("{} rotations; at most {} are searched (each is a whole placement search)",
-                                 rotations_deg.size(), kMaxRotations));
+    throw InputError::field("rotations_deg",
+                            fmt::format("{} rotations; at most {} are searched (each is a whole placement search)",
+                                        rotations_deg.size(), kMaxRotations));
   for (std::size_t i = 0; i < rotations_deg.size(); ++i) {
-    validate_rotation_deg(rotations_deg[i], "--rotations");
+    validate_rotation_deg(rotations_deg[i], "rotations_deg");
     for (std::size_t k = 0; k < i; ++k)
       if (std::abs(std::remainder(rotations_deg[i] - rotations_deg[k], 360.0)) < 1e-9)
-        throw InputError("--rotations", 0,
-                         fmt::format("rotation {} deg repeats {} deg; each angle is searched once", rotations_deg[i],
-                                     rotations_deg[k]));
+        throw InputError::field("rotations_deg",
+                                fmt::format("rotation {} deg repeats {} deg; each angle is searched once",
+                                            rotations_deg[i], rotations_deg[k]));
   }
 }
 

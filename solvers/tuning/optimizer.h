@@ -97,7 +97,7 @@ struct OptimizerResult {
   nlohmann::json to_json() const;
 };
 
-// Throws std::invalid_argument when the problem is malformed (empty, lo >= hi, start outside,
+// Throws InternalError (MACHPLAN_ASSERT) when the problem is malformed (empty, lo >= hi, start outside,
 // non-positive bound of a log-scale parameter) and InputError when options do not validate.
 OptimizerResult optimize(const Problem& problem, const OptimizerOptions& options, StopToken stop = {});
 

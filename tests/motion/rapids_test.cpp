@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
 #include "engine/programs/zones.h"
 #include "solvers/motion/rapid_planner.h"
 #include "solvers/motion/rapids.h"
@@ -315,15 +316,15 @@ TEST(RapidPlanner, OptionsAreValidated) {
   try {
     o.validate();
     FAIL() << "clearance 0 accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("clearance_mm = 0"), std::string::npos) << e.what();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("clearance_mm: 0"), std::string::npos) << e.what();
   }
   o = RapidOptions{};
   o.max_samples = 0;
-  EXPECT_THROW(plan_rapid({0, 0}, {1, 1}, {}, o), std::invalid_argument);
+  EXPECT_THROW(plan_rapid({0, 0}, {1, 1}, {}, o), InputError);
   o = RapidOptions{};
   o.attempts = 0;
-  EXPECT_THROW(o.validate(), std::invalid_argument);
+  EXPECT_THROW(o.validate(), InputError);
 }
 
 TEST(RapidPlanner, SegmentDistanceMatchesDenseSampling) {
