@@ -31,7 +31,7 @@ namespace {
 
 double number_of(const char* flag, const std::string& text) {
   const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(text)));
   return *v;
 }
 

@@ -77,10 +77,11 @@ std::vector<double> parse_list(const std::string& text, const std::string& flag,
   std::string item;
   while (std::getline(ss, item, ',')) {
     const std::optional<double> v = parse_finite(item);
-    if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", item));
+    if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(item)));
     out.push_back(*v);
   }
-  if (count && out.size() != count) throw InputError(flag, 0, fmt::format("expects {} comma-separated numbers, got '{}'", count, text));
+  if (count && out.size() != count)
+    throw InputError(flag, 0, fmt::format("expects {} comma-separated numbers, got '{}'", count, excerpt(text)));
   if (out.empty()) throw InputError(flag, 0, "expects a comma-separated list of numbers");
   return out;
 }

@@ -36,13 +36,14 @@ long whole_number(const std::string& flag, const std::string& text, long lo, lon
     used = 0;
   }
   if (used == 0 || used != text.size() || v < lo || v > hi)
-    throw InputError(flag, 0, fmt::format("'{}' is not a whole number in [{}, {}]", text, lo, hi));
+    throw InputError(flag, 0, fmt::format("'{}' is not a whole number in [{}, {}]", excerpt(text), lo, hi));
   return static_cast<long>(v);
 }
 
 double number(const std::string& flag, const std::string& text, double lo, double hi) {
   const std::optional<double> v = parse_finite(text);
-  if (!v || *v < lo || *v > hi) throw InputError(flag, 0, fmt::format("'{}' is not a number in [{}, {}]", text, lo, hi));
+  if (!v || *v < lo || *v > hi)
+    throw InputError(flag, 0, fmt::format("'{}' is not a number in [{}, {}]", excerpt(text), lo, hi));
   return *v;
 }
 

@@ -59,7 +59,7 @@ std::string Yaml::kind_name() const {
   switch (node_.Type()) {
     case YAML::NodeType::Map: return "a map";
     case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Scalar: return "'" + node_.Scalar() + "'";
+    case YAML::NodeType::Scalar: return "'" + excerpt(node_.Scalar()) + "'";
     case YAML::NodeType::Null: return "nothing";
     default: return "an undefined value";
   }
@@ -121,7 +121,7 @@ bool Yaml::boolean() const {
   const std::string& s = node_.Scalar();
   if (s == "true" || s == "yes" || s == "on") return true;
   if (s == "false" || s == "no" || s == "off") return false;
-  fail("must be true or false, got '" + s + "'");
+  fail("must be true or false, got '" + excerpt(s) + "'");
 }
 
 std::string Yaml::string() const {
@@ -172,7 +172,7 @@ void Yaml::reject_unknown_keys(std::initializer_list<const char*> known) const {
       const YAML::Mark m = it->first.Mark();
       const std::string path = key_path_.empty() ? key : key_path_ + "." + key;
       throw InputError(file_, m.is_null() ? line() : m.line + 1,
-                       "unknown key '" + path + "' (known keys here: " + list + ")");
+                       "unknown key '" + excerpt(path) + "' (known keys here: " + list + ")");
     }
   }
 }

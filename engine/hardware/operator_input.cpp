@@ -45,7 +45,7 @@ std::vector<std::string_view> split(std::string_view s) {
 double number(std::string_view f, const std::string& source, int line, const char* what) {
   const std::string text(f);
   const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(source, line, fmt::format("{} '{}' is not a finite number", what, text));
+  if (!v) throw InputError(source, line, fmt::format("{} '{}' is not a finite number", what, excerpt(text)));
   return *v;
 }
 

@@ -84,10 +84,10 @@ double parse_real(const std::string& source, const Pair& p) {
   double x = 0.0;
   const auto [ptr, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
   if (v.empty() || ec != std::errc() || ptr != v.data() + v.size())
-    throw InputError(source, p.line + 1, fmt::format("group code {}: '{}' is not a number", p.code, v));
+    throw InputError(source, p.line + 1, fmt::format("group code {}: '{}' is not a number", p.code, excerpt(v)));
   if (!std::isfinite(x) || std::abs(x) > kMaxCoordinateMm)
     throw InputError(source, p.line + 1,
-                     fmt::format("group code {}: {} is not finite or beyond {:g}", p.code, v, kMaxCoordinateMm));
+                     fmt::format("group code {}: {} is not finite or beyond {:g}", p.code, excerpt(v), kMaxCoordinateMm));
   return x;
 }
 
@@ -96,7 +96,7 @@ long parse_int(const std::string& source, const Pair& p) {
   long x = 0;
   const auto [ptr, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
   if (v.empty() || ec != std::errc() || ptr != v.data() + v.size() || x < -2147483648L || x > 2147483647L)
-    throw InputError(source, p.line + 1, fmt::format("group code {}: '{}' is not an integer", p.code, v));
+    throw InputError(source, p.line + 1, fmt::format("group code {}: '{}' is not an integer", p.code, excerpt(v)));
   return x;
 }
 
@@ -144,7 +144,7 @@ std::vector<Pair> split_pairs(std::string_view text, const std::string& source) 
     if (code_text.empty() || ec != std::errc() || ptr != code_text.data() + code_text.size() || code < -5 || code > 1071)
       throw InputError(source, line,
                        fmt::format("expected a DXF group code (an integer 0..1071), found '{}'",
-                                   code_text.substr(0, 40)));
+                                   excerpt(code_text, 40)));
     if (k + 1 >= lines.size())
       throw InputError(source, line, fmt::format("group code {} has no value: the file is truncated", code));
     std::string_view value = lines[k + 1];
@@ -411,7 +411,8 @@ class Assembler {
   std::string label(std::size_t inst) const { return instances_[inst].handle; }
   std::string where(std::size_t inst) const {
     const auto& in = instances_[inst];
-    return fmt::format("{} {} (layer {}, line {})", in.entity->type, in.handle, in.layer, in.entity->line);
+    return fmt::format("{} {} (layer {}, line {})", excerpt(in.entity->type), excerpt(in.handle), excerpt(in.layer),
+                       in.entity->line);
   }
   int line_of(std::size_t inst) const { return instances_[inst].entity->line; }
 
@@ -698,17 +699,17 @@ class Assembler {
     const auto it = scan_.blocks.find(upper(name));
     if (it == scan_.blocks.end()) {
       problem(ProfileProblem::Severity::error, "missing_block", {k},
-              fmt::format("{} places block '{}', which the drawing does not define", where(k), name));
+              fmt::format("{} places block '{}', which the drawing does not define", where(k), excerpt(name)));
       return;
     }
     const Block& blk = it->second;
     if (blk.external) {
       problem(ProfileProblem::Severity::error, "unsupported_entity", {k},
-              fmt::format("{} places block '{}', an external reference to another drawing", where(k), name));
+              fmt::format("{} places block '{}', an external reference to another drawing", where(k), excerpt(name)));
       return;
     }
     if (std::find(open_blocks.begin(), open_blocks.end(), it->first) != open_blocks.end())
-      throw InputError(source_, e.line, fmt::format("{}: block '{}' contains itself", where(k), name));
+      throw InputError(source_, e.line, fmt::format("{}: block '{}' contains itself", where(k), excerpt(name)));
     if (depth >= kMaxInsertDepth)
       throw InputError(source_, e.line, fmt::format("{}: blocks nested deeper than {}", where(k), kMaxInsertDepth));
     const double sx = real_of(source_, P, 41, 1.0), sy = real_of(source_, P, 42, 1.0);

@@ -412,7 +412,7 @@ void Reader::scan_o_word(SourceLine& l) const {
   if (l.o == OKind::none) {
     l.o = OKind::call;
     l.o_error = word.empty() ? fmt::format("O-word o{} without a keyword (sub, call, while, if, ...)", l.label)
-                             : fmt::format("unknown O-word keyword '{}'", word);
+                             : fmt::format("unknown O-word keyword '{}'", excerpt(word));
   }
 }
 

@@ -173,7 +173,7 @@ MachineConfig machine_from_yaml(const Yaml& root) {
       if (!m.torch.has_oxy_fuel) t->at("kind").fail("is 'oxy_fuel' but there is no 'torch.oxy_fuel' section");
       m.torch.kind = executor::TorchSetup::Kind::oxy_fuel;
     } else {
-      t->at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + kind + "'");
+      t->at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + excerpt(kind) + "'");
     }
   }
   if (const auto h = root.get("torch_height")) {
