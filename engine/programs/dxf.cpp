@@ -396,8 +396,8 @@ struct Instance {
   std::string layer;
 };
 
-// Most arcs all curves of a drawing may be fitted with, and the halvings per curve piece.
-constexpr std::size_t kMaxFittedSpans = 250'000;
+// Halvings per curve piece when fitting arcs (the arcs of all curves together are bounded by
+// DxfOptions::max_fitted_spans).
 constexpr int kFitDepth = 18;
 // Deepest nesting of INSERT within blocks.
 constexpr int kMaxInsertDepth = 32;
@@ -644,18 +644,21 @@ class Assembler {
 
   // Spans the next fit may still append (one more than the limit leaves, so that an exhausted
   // fit is told apart from one that just fits).
-  std::size_t fit_budget() const { return kMaxFittedSpans - std::min(fitted_spans_, kMaxFittedSpans) + 1; }
+  std::size_t fit_budget() const {
+    return opt_.max_fitted_spans - std::min(fitted_spans_, opt_.max_fitted_spans) + 1;
+  }
 
-  // Keeps the worst deviation, and bounds the work: fitted spans beyond kMaxFittedSpans mean a
+  // Keeps the worst deviation, and bounds the work: fitted spans beyond max_fitted_spans mean a
   // drawing whose curves are far too detailed for the tolerance (or absurd).
   void note_fit(const ArcFitResult& r, std::size_t k) {
     max_fit_deviation_ = std::max(max_fit_deviation_, r.max_deviation_mm);
     fitted_spans_ += r.spans;
-    if (r.exhausted || fitted_spans_ > kMaxFittedSpans)
+    if (r.exhausted || fitted_spans_ > opt_.max_fitted_spans)
       throw InputError(source_, line_of(k),
-                       fmt::format("{}: the drawing's curves need more than {} arcs at {:g} mm; machplan's limit "
-                                   "(a coarser --tolerance needs fewer)",
-                                   where(k), kMaxFittedSpans, fit_tol_));
+                       fmt::format("{}: the drawing's curves need more than {} arcs at {:g} mm, machplan's limit; "
+                                   "a coarser chain tolerance needs fewer: give one",
+                                   where(k), opt_.max_fitted_spans, fit_tol_))
+          .with_option("chain_tolerance_mm");
   }
 
   // A local piece (vertices, one bulge per vertex, open or closed) seen through m. Straight
@@ -1184,16 +1187,17 @@ class Assembler {
 
 void DxfOptions::validate() const {
   if (!std::isfinite(chain_tolerance_mm) || !(chain_tolerance_mm > 0.0) || chain_tolerance_mm > 10.0)
-    throw InputError("chain_tolerance_mm", 0,
-                     fmt::format("is {}, must be finite, > 0 and <= 10 mm", chain_tolerance_mm));
+    throw InputError::field("chain_tolerance_mm", fmt::format("is {}, must be finite, > 0 and <= 10 mm", chain_tolerance_mm));
   if (!std::isfinite(assumed_mm_per_unit) || assumed_mm_per_unit < 0.0 || assumed_mm_per_unit > 1e4)
-    throw InputError("assumed_mm_per_unit", 0,
-                     fmt::format("is {}, must be 0 (not given) or a positive scale up to 1e4 mm", assumed_mm_per_unit));
+    throw InputError::field("assumed_mm_per_unit",
+                            fmt::format("is {}, must be 0 (not given) or a positive scale up to 1e4 mm", assumed_mm_per_unit));
   if (max_entities < 1 || max_entities > 10'000'000)
-    throw InputError("max_entities", 0, fmt::format("is {}, must lie in 1 .. 10 000 000", max_entities));
+    throw InputError::field("max_entities", fmt::format("is {}, must lie in 1 .. 10 000 000", max_entities));
+  if (max_fitted_spans < 1 || max_fitted_spans > 10'000'000)
+    throw InputError::field("max_fitted_spans", fmt::format("is {}, must lie in 1 .. 10 000 000", max_fitted_spans));
   if (!std::isfinite(flatten_tolerance_deg) || flatten_tolerance_deg < 0.0 || flatten_tolerance_deg > 5.0)
-    throw InputError("flatten_tolerance_deg", 0,
-                     fmt::format("is {}, must be finite, >= 0 and <= 5 degrees", flatten_tolerance_deg));
+    throw InputError::field("flatten_tolerance_deg",
+                            fmt::format("is {}, must be finite, >= 0 and <= 5 degrees", flatten_tolerance_deg));
 }
 
 double mm_per_drawing_unit(std::string_view name) {
