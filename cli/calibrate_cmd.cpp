@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "cli/interrupt.h"
 #include "cli/output.h"
 #include "engine/calibration/session_log.h"
@@ -30,7 +31,7 @@ namespace {
 
 double number_of(const char* flag, const std::string& text) {
   const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(text)));
   return *v;
 }
 
@@ -43,11 +44,9 @@ int repeats_of(const std::string& text) {
     used = 0;
   }
   if (used == 0 || used != text.size() || r < 1 || r > 1000)
-    throw InputError("--repeats", 0, fmt::format("'{}' is not a whole number in 1 .. 1000", text));
+    throw InputError("--repeats", 0, fmt::format("'{}' is not a whole number in 1 .. 1000", excerpt(text)));
   return r;
 }
-
-const FieldFlag kRecordFlags[] = {{"backend", "--backend"}, {"speed_fractions", "--speeds"}, {"stroke_hold_s", "--hold"}};
 
 void add_calibrate(CLI::App& app) {
   auto* cal = app.add_subcommand("calibrate", "Calibration sessions: record a session log, fit the axis factors");
@@ -69,6 +68,12 @@ void add_calibrate(CLI::App& app) {
   rec->add_option("--sim-truth", r->truth,
                   "sim only: a machine YAML file with the simulated machine's true factors (default: the nominal "
                   "machine)");
+  field_flags(rec, {{"machine", "--machine"},
+                    {"name", "--backend"},
+                    {"backend.name", "--backend"},
+                    {"backend", "--backend"},
+                    {"speed_fractions", "--speeds"},
+                    {"stroke_hold_s", "--hold"}});
   rec->callback([r] {
     const auto nominal = cutting::load_machine(cutting::find_machine(r->machine));
     const auto truth = r->truth.empty() ? nominal : cutting::load_machine(r->truth);
@@ -92,19 +97,14 @@ void add_calibrate(CLI::App& app) {
       }
     }
     if (!r->hold.empty()) o.stroke_hold_s = number_of("--hold", r->hold);
-    try {
-      o.validate();
-    } catch (const InputError& e) {
-      const std::string flag = e.where() == "speed_fractions" ? "--speeds" : e.where() == "stroke_hold_s" ? "--hold" : e.where();
-      throw InputError(flag, 0, e.message());
-    }
+    o.validate();
     // SIGINT, SIGTERM and SIGHUP stop the axes and end the session (Cancelled: exit 3).
     const StopOnSignals signals;
     Termination stop(StopOnSignals::stop_token());
     Progress progress;
     auto log = [&] {
       const ProgressWatch watch("recording", !r->out.empty(), progress);
-      return with_flag_names(kRecordFlags, [&] { return calibration::record_session(session.backend(), nominal, o, &stop, &progress); });
+      return calibration::record_session(session.backend(), nominal, o, &stop, &progress);
     }();
     if (!r->truth.empty()) log.comments.push_back(fmt::format("sim truth: {}", r->truth));
     if (r->out.empty()) {
@@ -129,6 +129,7 @@ void add_calibrate(CLI::App& app) {
   fit->add_option("log", f->log, "session log (CSV: t_s,axis,dac,counter,dir,ref_mm)")->required();
   fit->add_option("--machine", f->machine, "thermal_gantry, or a machine YAML file (the nominal machine)")->required();
   fit->add_flag("--json", f->json, "machine-readable output");
+  field_flags(fit, {{"machine", "--machine"}});
   fit->callback([f] {
     const auto machine = cutting::load_machine(cutting::find_machine(f->machine));
     const auto log = calibration::read_session_log(f->log);
@@ -162,6 +163,7 @@ void add_store_commands(CLI::App& app) {
   apply->add_option("--machine", a->machine, "thermal_gantry, or a machine YAML file (the nominal machine)")->required();
   apply->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
   apply->add_option("--who", a->who, "who ran the session (default $USER)");
+  field_flags(apply, {{"machine", "--machine"}, {"db_path", "--db"}});
   apply->callback([a, db_path] {
     const auto machine = cutting::load_machine(cutting::find_machine(a->machine));
     const std::string bytes = read_text_file(a->log);
@@ -182,6 +184,7 @@ void add_store_commands(CLI::App& app) {
   history->add_option("--machine", a->machine, "only this machine (its name in the machine file)");
   history->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
   history->add_flag("--json", a->json, "machine-readable output");
+  field_flags(history, {{"db_path", "--db"}});
   history->callback([a, db_path] {
     calibration::CalibrationStore store(db_path());
     const auto rows = store.history(a->machine);
@@ -201,6 +204,7 @@ void add_store_commands(CLI::App& app) {
   show->add_option("--machine", a->machine, "the machine's name (as in its machine file)")->required();
   show->add_option("--db", a->db, "calibration store (default $XDG_DATA_HOME/machplan/calibration.db)");
   show->add_option("--feed", a->feed, "feed, mm/s: print the open-loop factor for `run --mode paper-open --calibration`");
+  field_flags(show, {{"db_path", "--db"}, {"feed_mm_per_s", "--feed"}, {"calibration", "--db"}});
   show->callback([a, db_path] {
     const double feed = a->feed.empty() ? 0.0 : number_of("--feed", a->feed);  // a bad flag first: exit 2
     calibration::CalibrationStore store(db_path());

@@ -19,9 +19,6 @@
 #include <cstdint>
 #include <functional>
 #include <string>
-#include <utility>
-
-#include "engine/common/error.h"
 
 #include <CLI/CLI.hpp>
 
@@ -45,22 +42,5 @@ inline const CLI::Validator kFiniteNonNegative = finite_number(0.0, false);
 
 // The value of --seed: a whole number >= 0; InputError("--seed", ...) otherwise.
 std::uint64_t seed_of(const std::string& text);
-
-// Fields of the library's options structs and the flags that set them.
-using FieldFlag = std::pair<const char*, const char*>;
-
-// Runs `work`; a field error it throws (InputError::field) naming one of `flags`' fields comes
-// out named by the flag instead, so a user reads "--kerf: ..." for "kerf_mm: ...".
-template <std::size_t N, class Work>
-auto with_flag_names(const FieldFlag (&flags)[N], Work&& work) -> decltype(work()) {
-  try {
-    return work();
-  } catch (const InputError& e) {
-    if (!e.is_field()) throw;
-    for (const auto& [field, flag] : flags)
-      if (e.where() == field) throw e.renamed(flag);
-    throw;
-  }
-}
 
 }  // namespace machplan::cli

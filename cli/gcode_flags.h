@@ -53,13 +53,13 @@ inline GcodeOptions gcode_options(const GcodeFlags& f) {
   for (const std::string& p : f.params) {
     const auto eq = p.rfind('=');
     if (eq == std::string::npos || eq == 0 || eq + 1 == p.size())
-      throw InputError("--param", 0, fmt::format("'{}' is not NAME=VALUE", p));
+      throw InputError("--param", 0, fmt::format("'{}' is not NAME=VALUE", excerpt(p)));
     std::string name = p.substr(0, eq);
     if (name.size() > 2 && name[0] == '#' && name[1] == '<' && name.back() == '>')
       name = name.substr(2, name.size() - 3);
     const std::string text = p.substr(eq + 1);
     const std::optional<double> v = parse_finite(text);
-    if (!v) throw InputError("--param", 0, fmt::format("'{}': the value '{}' is not a number", p, text));
+    if (!v) throw InputError("--param", 0, fmt::format("'{}': the value '{}' is not a number", excerpt(p), excerpt(text)));
     o.params[name] = *v;
   }
   return o;

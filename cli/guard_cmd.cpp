@@ -13,6 +13,7 @@
 #include "cli/command.h"
 #include "cli/interrupt.h"
 #include "cli/json/guard.h"
+#include "cli/field_flags.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
 #include "engine/common/parse.h"
@@ -24,7 +25,7 @@ namespace {
 
 double number_in(const std::string& flag, const std::string& text) {
   const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(text)));
   return *v;
 }
 
@@ -57,14 +58,27 @@ void add_guard(CLI::App& app) {
   cmd->add_option("--seed", a->seed, "seed of the random operator and the simulator (default 1)");
   cmd->add_option("--machine", a->machine, "machine name or YAML file (default xy_table)");
   cmd->add_flag("--json", a->json, "machine-readable output");
+  field_flags(cmd, {{"side", "--side"},
+                    {"method", "--offset"},
+                    {"strategy", "--strategy"},
+                    {"region.tool_radius_mm", "--tool-radius"},
+                    {"guard.tolerance_mm", "--tolerance"},
+                    {"guard.latency_s", "--latency-ms"},
+                    {"feed_mm_per_s", "--feed"},
+                    {"finish_feed_mm_per_s", "--finish-feed"},
+                    {"finish_allowance_mm", "--finish-allowance"},
+                    {"op", "--operator"},
+                    {"operator", "--operator"},
+                    {"machine", "--machine"},
+                    {"plot", "--plot"}});
   cmd->callback([a] {
     guard::GuardRunOptions o;
     o.machine = a->machine;
-    o.region.side = machining_side_from_string(a->side);
-    o.region.method = offset_method_from_string(a->offset);
+    o.region.side = accept(parse_machining_side(a->side), "--side");
+    o.region.method = accept(parse_offset_method(a->offset), "--offset");
     o.region.tool_radius_mm = number_in("--tool-radius", a->tool_radius);
     o.guard.tolerance_mm = number_in("--tolerance", a->tolerance);
-    o.guard.strategy = executor::guard_strategy_from_string(a->strategy);
+    o.guard.strategy = accept(executor::parse_guard_strategy(a->strategy), "--strategy");
     if (!a->latency_ms.empty()) o.guard.latency_s = number_in("--latency-ms", a->latency_ms) / 1000.0;
     if (!a->feed.empty()) o.feed_mm_per_s = number_in("--feed", a->feed);
     o.op = guard::operator_from_string(a->op);

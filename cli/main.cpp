@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "engine/common/error.h"
 
 namespace machplan::cli {
@@ -85,10 +86,11 @@ int run(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
   } catch (const InputError& e) {
-    std::fprintf(stderr, "%s\n", e.what());  // FILE:LINE: message
+    // FILE:LINE: message, or --flag: message (a field error renamed to the flag that set it)
+    std::fprintf(stderr, "%s\n", cli::for_user(e, app).what());
     return 2;
   } catch (const Infeasible& e) {
-    std::fprintf(stderr, "machplan: %s\n", e.what());
+    std::fprintf(stderr, "machplan: %s\n", cli::for_user(e, app).what());
     return 3;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "machplan: internal error: %s\n", e.what());

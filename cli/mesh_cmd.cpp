@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "cli/output.h"
 #include "engine/programs/mesh.h"
 
@@ -28,6 +29,7 @@ void add_mesh(CLI::App& app) {
                   "merge vertices closer than this, mm (0: identical only)")
       ->check(machplan::cli::kFiniteNonNegative & CLI::Range(0.0, machplan::StlReadOptions::kMaxWeldToleranceMm))
       ->capture_default_str();
+  machplan::cli::field_flags(cmd, {{"scale_to_mm", "--scale"}, {"weld_tolerance_mm", "--weld-tolerance"}});
   cmd->callback([args] {
     machplan::MeshReport r;
     machplan::read_stl(args->file, &r, args->options);

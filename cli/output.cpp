@@ -78,7 +78,7 @@ std::uint64_t seed_of(const std::string& text) {
     used = 0;
   }
   if (used == 0 || used != text.size() || text[0] == '-')
-    throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", text));
+    throw InputError("--seed", 0, fmt::format("'{}' is not a whole number >= 0", excerpt(text)));
   return s;
 }
 

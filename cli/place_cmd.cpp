@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "cli/interrupt.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
@@ -76,10 +77,11 @@ std::vector<double> parse_list(const std::string& text, const std::string& flag,
   std::string item;
   while (std::getline(ss, item, ',')) {
     const std::optional<double> v = parse_finite(item);
-    if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", item));
+    if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(item)));
     out.push_back(*v);
   }
-  if (count && out.size() != count) throw InputError(flag, 0, fmt::format("expects {} comma-separated numbers, got '{}'", count, text));
+  if (count && out.size() != count)
+    throw InputError(flag, 0, fmt::format("expects {} comma-separated numbers, got '{}'", count, excerpt(text)));
   if (out.empty()) throw InputError(flag, 0, "expects a comma-separated list of numbers");
   return out;
 }
@@ -93,8 +95,7 @@ void add_place(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   cmd->add_option("SCENE", o->scene, "scene YAML (machine, workpiece, tool path, peripherals)")->required();
   cmd->add_option("--strategy", o->strategy, "paper: the published evasion search; optimal: lowest pad then nearest "
-                                             "the centre, certified")
-      ->check(CLI::IsMember({"paper", "optimal"}));
+                                             "the centre, certified");
   cmd->add_option("--rotations", o->rotations, "workpiece rotations about z to try (optimal), e.g. 0,90,180,270");
   cmd->add_option("--plot", o->plot, "write a top and side view (.png or .svg)");
   cmd->add_flag("--json", o->json, "machine-readable output");
@@ -105,9 +106,10 @@ void add_place(CLI::App& app) {
        std::fputs("machplan place: warning: --dense-check is now --dense\n", stderr);
      })
       ->group("");
+  field_flags(cmd, {{"rotations_deg", "--rotations"}, {"strategy", "--strategy"}, {"plot", "--plot"}});
   cmd->callback([o] {
     PlacementOptions po;
-    po.strategy = o->strategy == "paper" ? PlacementOptions::Strategy::paper : PlacementOptions::Strategy::optimal;
+    po.strategy = accept(parse_placement_strategy(o->strategy), "--strategy");
     po.rotations_deg = parse_list(o->rotations, "--rotations", 0);
     po.validate();
     check_output_folder("--plot", o->plot);
@@ -191,13 +193,14 @@ void add_check(CLI::App& app) {
   cmd->add_option("--rotation", o->rotation, "workpiece rotation about z, degrees")->check(kFinite);
   cmd->add_flag("--json", o->json, "machine-readable output");
   cmd->add_flag("--dense", o->dense, "brute-force re-check at every pose and every 0.5 mm (slow)");
+  field_flags(cmd, {{"rotation_deg", "--rotation"}});
   cmd->callback([o] {
     const auto v = parse_list(o->at, "--at", 3);
     if (v[2] < 0) throw InputError("--at", 0, fmt::format("pad height must not be negative, got {}", v[2]));
     for (const double c : v)
       if (std::abs(c) > kMaxPlacementMm)
         throw InputError("--at", 0, fmt::format("{} mm is beyond the {} mm any table or pad can reach", c, kMaxPlacementMm));
-    validate_rotation_deg(o->rotation, "--rotation");
+    validate_rotation_deg(o->rotation, "rotation_deg");
     const Scene scene = load_scene(o->scene);
     // SIGINT, SIGTERM and SIGHUP end a long check with exit 3 (Cancelled), not the process.
     const StopOnSignals signals;

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
 #include "engine/programs/dxf.h"
@@ -83,6 +84,11 @@ void add_profile(CLI::App& app) {
   cmd->add_option("--max-entities", *max_entities,
                   "Most entities a drawing may hold, INSERT copies counted (about 1 s per 100 000)")
       ->capture_default_str();
+  machplan::cli::field_flags(cmd, {{"chain_tolerance_mm", "--tolerance"},
+                                   {"flatten_tolerance_deg", "--flatten-tolerance"},
+                                   {"max_entities", "--max-entities"},
+                                   {"assumed_mm_per_unit", "--units"},
+                                   {"join_tolerance_mm", "--join-tolerance"}});
   cmd->callback([=] {
     machplan::DxfOptions options;
     options.max_entities = *max_entities;
@@ -95,17 +101,9 @@ void add_profile(CLI::App& app) {
         throw machplan::InputError("--units", 0,
                                    fmt::format("'{}' is not a unit machplan knows (mm, cm, dm, m, inch, foot, yard, "
                                                "mil, micron, microinch)",
-                                               *units));
+                                               machplan::excerpt(*units)));
     }
-    try {
-      options.validate();
-    } catch (const machplan::InputError& e) {
-      const std::string flag = e.where() == "flatten_tolerance_deg" ? "--flatten-tolerance"
-                               : e.where() == "max_entities"        ? "--max-entities"
-                               : e.where() == "join_tolerance_mm"   ? "--join-tolerance"
-                                                                    : "--tolerance";
-      throw machplan::InputError(flag, 0, e.message());
-    }
+    options.validate();
     const auto result = machplan::read_dxf_profile(*file, options);
     if (*json_out)
       machplan::cli::print_json(to_json(result));

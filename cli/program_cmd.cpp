@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "cli/gcode_flags.h"
 #include "cli/output.h"
 #include "engine/programs/gcode.h"
@@ -127,6 +128,7 @@ void add_program(CLI::App& app) {
   cmd->add_option("--rapid-mm-per-min", args->rapid_mm_per_min, "Rapid rate for the time estimate")
       ->check(machplan::cli::kFinitePositive);
   add_gcode_options(*cmd, args->gcode);
+  machplan::cli::field_flags(cmd, {{"spindle_count", "--spindles"}});
   cmd->callback([args] {
     const machplan::Program program =
         machplan::read_gcode_file(args->file, gcode_options(args->gcode));

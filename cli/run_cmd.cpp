@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "cli/interrupt.h"
 #include "cli/json/cut_order_json.h"
 #include "cli/json/run.h"
@@ -35,25 +36,22 @@ namespace {
 // A number given to `flag`; the message names the flag and the text.
 double number_of(const std::string& flag, const std::string& text) {
   const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", text));
+  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(text)));
   return *v;
 }
 
+// run's modes: every executor mode but jog (the guard's).
 executor::Mode mode_of(const std::string& text) {
-  if (text == "planned") return executor::Mode::planned;
-  if (text == "paper-open") return executor::Mode::paper_open;
-  if (text == "paper-closed") return executor::Mode::paper_closed;
-  throw InputError("--mode", 0, fmt::format("unknown mode '{}' (known: planned, paper-open, paper-closed)", text));
+  const executor::Mode m = accept(executor::parse_mode(text), "--mode");
+  if (m == executor::Mode::jog)
+    throw InputError("--mode", 0, "jog is the guard's mode (machplan guard); run takes planned, paper-open or paper-closed");
+  return m;
 }
 
 // `KIND@SECONDS[:AXIS]`, e.g. jam@3.5:x; the kinds are the simulator's (models/sim).
 sim::FaultInjection injection_of(const std::string& text) {
-  using K = sim::FaultInjection::Kind;
   const auto bad = [&](const std::string& why) {
-    return InputError("--inject", 0,
-                      fmt::format("'{}': {} (form KIND@SECONDS[:x|y]; kinds: jam, encoder-glitch, counter-misread, "
-                                  "estop, lost-backend, arc-loss, arc-start-failure, watchdog)",
-                                  text, why));
+    return InputError("--inject", 0, fmt::format("'{}': {} (form KIND@SECONDS[:x|y])", excerpt(text), why));
   };
   const std::size_t at = text.find('@');
   if (at == std::string::npos) throw bad("no '@'");
@@ -64,17 +62,17 @@ sim::FaultInjection injection_of(const std::string& text) {
     rest = rest.substr(0, c);
   }
   sim::FaultInjection f;
-  bool found = false;
-  for (K k : {K::stuck_axis, K::encoder_glitch, K::counter_wrap_misread, K::estop, K::lost_backend, K::arc_loss,
-              K::arc_start_failure, K::watchdog})
-    if (kind == sim::to_string(k)) f.kind = k, found = true;
-  if (!found) throw bad(fmt::format("unknown kind '{}'", kind));
+  try {
+    f.kind = accept(sim::parse_fault_kind(kind), "--inject");
+  } catch (const InputError& e) {
+    throw bad(e.message());  // "unknown fault kind 'melt' (known: ...)"
+  }
   const std::optional<double> at_s = parse_finite(rest);
   if (!at_s || *at_s < 0) throw bad("the time is not a number >= 0");
   f.at_s = *at_s;
   if (axis == "x" || axis.empty()) f.axis = 0;
   else if (axis == "y") f.axis = 1;
-  else throw bad(fmt::format("unknown axis '{}'", axis));
+  else throw bad(fmt::format("unknown axis '{}'", excerpt(axis)));
   return f;
 }
 
@@ -93,13 +91,29 @@ struct RunArgs {
   std::string operator_events;
 };
 
-// Options struct fields and the flags that set them, for field errors (InputError::field).
-const FieldFlag kRunFlags[] = {
-    {"machine", "--machine"},         {"kerf_mm", "--kerf"},          {"feed_override_mm_per_s", "--feed"},
-    {"origin_mm", "--origin"},        {"max_machine_time_s", "--max-machine-time"},
-    {"blu_mm", "--blu"},              {"calibration_factor", "--calibration"},
-    {"controller", "--controller"},   {"gains", "--gain"},            {"active_calibration", "--calibration"},
-    {"paper_feed_mm_per_s", "--feed"}, {"seed", "--seed"},            {"faults", "--inject"}};
+// Which flag sets which field of RunOptions and of its machine session, for the error path
+// (cli/field_flags.h).
+const FieldFlag kRunFields[] = {
+    {"machine", "--machine"},
+    {"mode", "--mode"},
+    {"kerf_mm", "--kerf"},
+    {"feed_override_mm_per_s", "--feed"},
+    {"paper_feed_mm_per_s", "--feed"},
+    {"executor.blu_mm", "--blu"},
+    {"executor.calibration_factor", "--calibration"},
+    {"calibration", "--calibration"},
+    {"active_calibration", "--calibration"},
+    {"db_path", "--db"},
+    {"origin_mm", "--origin"},
+    {"controller", "--controller"},
+    {"gains", "--gain"},
+    {"backend.name", "--backend"},
+    {"backend.sim.faults", "--inject"},
+    {"gcode.spindle_count", "--spindles"},
+    {"max_machine_time_s", "--max-machine-time"},
+    {"magnify", "--magnify"},
+    {"plot", "--plot"},
+};
 
 motion::RunOptions run_options(const RunArgs& a) {
   motion::RunOptions o;
@@ -143,7 +157,9 @@ motion::RunOptions run_options(const RunArgs& a) {
   }
   if (!so.backend.sim.faults.empty() && a.backend != "sim")
     throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
-  so.controller = a.controller;
+  so.controller = a.controller.empty() || a.controller == "tuned"
+                      ? a.controller
+                      : accept(control::parse_controller_kind(a.controller), "--controller");
   for (const std::string& g : a.gains) control::parse_gain(g, so.gains);
   o.no_go_path = a.no_go;
   o.gcode = gcode_options(a.gcode);
@@ -178,7 +194,7 @@ void run_command(const RunArgs& a) {
   const StopOnSignals signals;
   Termination stop(StopOnSignals::stop_token());
   Progress planning, running;
-  const motion::RunOutcome run = with_flag_names(kRunFlags, [&] {
+  const motion::RunOutcome run = [&] {
     const motion::RunOptions o = run_options(a);
     // Rapid planning can take seconds on a long job, and the run itself long: a bar for each
     // on a terminal, drawn by a thread of the watch (the real-time loop draws nothing).
@@ -187,7 +203,7 @@ void run_command(const RunArgs& a) {
     motion::PlannedRun plan = motion::plan_program(a.program, o, session.machine(), {&stop, &planning, nullptr});
     watch.emplace("running", !a.json, running);
     return motion::execute(session, std::move(plan), o, {&stop, nullptr, &running});
-  });
+  }();
   if (!a.plot.empty()) motion::write_run_plot(a.plot, run, magnify);
 
   if (a.json) {
@@ -257,6 +273,7 @@ void add_run(CLI::App& app) {
   cmd->add_option("--inject", a->inject,
                   "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "
                   "lost-backend, arc-loss, arc-start-failure, watchdog); may be repeated");
+  field_flags(cmd, kRunFields);
   cmd->callback([a] { run_command(*a); });
 }
 

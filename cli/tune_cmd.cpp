@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "cli/interrupt.h"
 #include "cli/json/tuning.h"
 #include "cli/output.h"
@@ -36,13 +37,14 @@ long whole_number(const std::string& flag, const std::string& text, long lo, lon
     used = 0;
   }
   if (used == 0 || used != text.size() || v < lo || v > hi)
-    throw InputError(flag, 0, fmt::format("'{}' is not a whole number in [{}, {}]", text, lo, hi));
+    throw InputError(flag, 0, fmt::format("'{}' is not a whole number in [{}, {}]", excerpt(text), lo, hi));
   return static_cast<long>(v);
 }
 
 double number(const std::string& flag, const std::string& text, double lo, double hi) {
   const std::optional<double> v = parse_finite(text);
-  if (!v || *v < lo || *v > hi) throw InputError(flag, 0, fmt::format("'{}' is not a number in [{}, {}]", text, lo, hi));
+  if (!v || *v < lo || *v > hi)
+    throw InputError(flag, 0, fmt::format("'{}' is not a number in [{}, {}]", excerpt(text), lo, hi));
   return *v;
 }
 
@@ -58,7 +60,7 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
   if (!evaluations.empty()) base.optimizer.max_evaluations = static_cast<int>(whole_number("--evaluations", evaluations, 1, 1000000));
   if (!time_s.empty()) base.max_work_s = number("--time", time_s, 0.01, 86400);
   if (law != "fixed" && law != "variable" && law != "both")
-    throw InputError("--acc-law", 0, fmt::format("'{}' is not a law (fixed, variable, both)", law));
+    throw InputError("--acc-law", 0, fmt::format("'{}' is not a law (fixed, variable, both)", excerpt(law)));
   const auto steps = turning::koren_depth_steps();
   const double duration = 10.0;
   const auto koren = turning::simulate_acc(base.process, base.acc, steps, duration);
@@ -111,7 +113,7 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
     tuning::Series d{"depth", 0.3, 0.3, 0.3, {}, {}};
     for (const auto& s : koren) d.t_s.push_back(s.t_s), d.y.push_back(s.depth_mm);
     depth.series.push_back(d);
-    tuning::write_time_plot(plot, "--plot", "Adaptive control constraint: depth-of-cut steps of 2 mm", {force, feed, depth});
+    tuning::write_time_plot(plot, "plot", "Adaptive control constraint: depth-of-cut steps of 2 mm", {force, feed, depth});
   }
   if (json) {
     nlohmann::json j;
@@ -135,6 +137,27 @@ void run_acc(const std::string& plot, bool json, const std::string& evaluations,
   if (!plot.empty()) std::printf("picture: %s\n", plot.c_str());
 }
 
+// Which flag sets which field of TuneOptions and AccTuningOptions, and of the Evaluator (built
+// here from TuneOptions::evaluation) under its own names, for the error path
+// (cli/field_flags.h).
+const FieldFlag kTuneFields[] = {
+    {"machine", "--machine"},
+    {"evaluation.machine", "--machine"},
+    {"noise_runs", "--noise-runs"},
+    {"evaluation.noise_runs", "--noise-runs"},
+    {"contours", "--contour"},
+    {"kind", "--controller"},
+    {"controller", "--controller"},
+    {"objective", "--objective"},
+    {"start", "--gain"},
+    {"gains", "--gain"},
+    {"fixed", "--fix"},
+    {"optimizer.max_evaluations", "--evaluations"},
+    {"optimizer.max_time_s", "--time"},
+    {"db_path", "--db"},
+    {"plot", "--plot"},
+};
+
 void add_tune(CLI::App& app) {
   struct Args {
     std::string machine, controller, objective = "max", plot, db, evaluations, time, seed, noise_runs, acc_law = "both";
@@ -144,7 +167,7 @@ void add_tune(CLI::App& app) {
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("tune", "Tune servo and contour controller gains, or the adaptive control constraint, with NLopt");
   cmd->add_option("--machine", a->machine, "xy_table, thermal_gantry, or a machine YAML file");
-  cmd->add_option("--controller", a->controller, "p, pid, pid-ff, zpetc, ccc, flc");
+  cmd->add_option("--controller", a->controller, "p, pid, pid_ff, zpetc, ccc, flc");
   cmd->add_option("--contour", a->contours,
                   "test contour: line:ANGLE_DEG:FEED_MM_MIN, circle:RADIUS_MM:FEED_MM_MIN, corner:TURN_DEG:FEED_MM_MIN or "
                   "program:FILE.ngc; may be "
@@ -166,6 +189,7 @@ void add_tune(CLI::App& app) {
   cmd->add_option("--db", a->db, "the store (default $XDG_DATA_HOME/machplan/calibration.db)");
   cmd->add_flag("--acc", a->acc, "tune the adaptive control constraint (turning, Koren's force loop) instead");
   cmd->add_option("--acc-law", a->acc_law, "with --acc: fixed, variable or both (default)");
+  field_flags(cmd, kTuneFields);
   cmd->callback([a] {
     if (!a->plot.empty()) {
       if (!is_picture_path(a->plot)) throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", a->plot));
@@ -181,14 +205,14 @@ void add_tune(CLI::App& app) {
       return;
     }
     if (a->machine.empty()) throw InputError("--machine", 0, "is required (xy_table, thermal_gantry or a machine file)");
-    if (a->controller.empty()) throw InputError("--controller", 0, "is required (p, pid, pid-ff, zpetc, ccc, flc)");
+    if (a->controller.empty()) throw InputError("--controller", 0, "is required (p, pid, pid_ff, zpetc, ccc, flc)");
     if (a->contours.empty()) throw InputError("--contour", 0, "at least one test contour is required");
     tuning::TuneOptions o;
     o.evaluation.machine = a->machine;
-    o.kind = tuning::controller_kind(a->controller);
-    o.objective = tuning::objective_from_string(a->objective);
-    for (const std::string& g : a->gains) control::parse_gain(g, o.start);
-    for (const std::string& g : a->fixed) control::parse_gain(g, o.fixed, "--fix");
+    o.kind = accept(control::parse_controller_kind(a->controller), "--controller");
+    o.objective = accept(tuning::parse_objective(a->objective), "--objective");
+    for (const std::string& g : a->gains) control::parse_gain(g, o.start, "start");
+    for (const std::string& g : a->fixed) control::parse_gain(g, o.fixed, "fixed");
     if (!a->evaluations.empty()) o.optimizer.max_evaluations = static_cast<int>(whole_number("--evaluations", a->evaluations, 1, 1000000));
     if (!a->time.empty()) o.max_work_s = number("--time", a->time, 0.01, 86400);
     if (!a->seed.empty()) o.evaluation.seed = static_cast<std::uint64_t>(whole_number("--seed", a->seed, 0, 2147483647));
@@ -220,7 +244,7 @@ void add_tune(CLI::App& app) {
         for (double& e : s->error_mm) e *= 1000.0;
       p.series.push_back({"baseline: axial P", 0.8, 0.2, 0.1, base.t_s, base.error_mm});
       p.series.push_back({fmt::format("tuned {}", r.kind), 0.1, 0.3, 0.8, tuned.t_s, tuned.error_mm});
-      tuning::write_time_plot(a->plot, "--plot", fmt::format("machplan tune: {} on {}", r.kind, r.machine), {p});
+      tuning::write_time_plot(a->plot, "plot", fmt::format("machplan tune: {} on {}", r.kind, r.machine), {p});
     }
     if (a->json) {
       nlohmann::json j = to_json(r);

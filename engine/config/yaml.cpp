@@ -69,7 +69,7 @@ std::string Yaml::kind_name() const {
   switch (node_->yaml.Type()) {
     case YAML::NodeType::Map: return "a map";
     case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Scalar: return "'" + node_->yaml.Scalar() + "'";
+    case YAML::NodeType::Scalar: return "'" + excerpt(node_->yaml.Scalar()) + "'";
     case YAML::NodeType::Null: return "nothing";
     default: return "an undefined value";
   }
@@ -105,16 +105,16 @@ std::vector<Yaml> Yaml::items() const {
 
 double Yaml::number(const NumberRule& rule) const {
   if (!node_->yaml.IsScalar()) fail("must be a number, got " + kind_name());
-  double v = 0;
   const std::string& s = node_->yaml.Scalar();
+  std::size_t used = 0;
+  double v = 0;
   try {
-    std::size_t used = 0;
     v = std::stod(s, &used);
-    if (used != s.size()) throw std::invalid_argument(s);
   } catch (const std::exception&) {
-    fail("must be a number, got '" + s + "'");
+    used = 0;  // no number at all, or one beyond double's range
   }
-  if (!std::isfinite(v)) fail("must be a finite number, got '" + s + "'");
+  if (used == 0 || used != s.size()) fail("must be a number, got '" + excerpt(s) + "'");
+  if (!std::isfinite(v)) fail("must be a finite number, got '" + excerpt(s) + "'");
   if (v < rule.min || (rule.min_exclusive && v == rule.min))
     fail(fmt::format("must be {} {}, got {}", rule.min_exclusive ? ">" : ">=", rule.min, v));
   if (v > rule.max) fail(fmt::format("must be <= {}, got {}", rule.max, v));
@@ -133,7 +133,7 @@ bool Yaml::boolean() const {
   const std::string& s = node_->yaml.Scalar();
   if (s == "true" || s == "yes" || s == "on") return true;
   if (s == "false" || s == "no" || s == "off") return false;
-  fail("must be true or false, got '" + s + "'");
+  fail("must be true or false, got '" + excerpt(s) + "'");
 }
 
 std::string Yaml::string() const {
@@ -184,7 +184,7 @@ void Yaml::reject_unknown_keys(std::initializer_list<const char*> known) const {
       const YAML::Mark m = it->first.Mark();
       const std::string path = key_path_.empty() ? key : key_path_ + "." + key;
       throw InputError(file_, m.is_null() ? line() : m.line + 1,
-                       "unknown key '" + path + "' (known keys here: " + list + ")");
+                       "unknown key '" + excerpt(path) + "' (known keys here: " + list + ")");
     }
   }
 }

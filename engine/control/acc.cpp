@@ -6,12 +6,12 @@
 
 #include <fmt/format.h>
 
+#include "engine/common/error.h"
+
 namespace machplan::control {
 namespace {
 
-void require(bool ok, const char* field, double v, const char* rule) {
-  if (!ok) throw std::invalid_argument(fmt::format("{} = {} is invalid: {}", field, v, rule));
-}
+void require(bool ok, const std::string& field, double v, const char* rule) { require_field(ok, field, v, rule); }
 
 }  // namespace
 

@@ -38,7 +38,7 @@ struct AccOptions {
   double max_feed_mm_per_rev = 0.5;    // programmed feed (Koren: 0.5 mm/rev before engagement)
   double min_feed_mm_per_rev = 0.01;
   double min_force_for_estimate_n = 100.0;
-  // Throws std::invalid_argument naming the field, its value and the rule.
+  // Throws InputError naming the field, its value and the rule.
   void validate() const;
 };
 

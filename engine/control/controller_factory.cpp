@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -22,7 +21,7 @@ using AxisGains = std::array<Gains, kAxes>;  // every gain of a kind resolved, p
 
 // One kind: its gains on axis `axis` of a plant (defaults may differ per axis), and its maker.
 struct Kind {
-  const char* name;
+  Spelling name;  // canonical, and an old spelling still accepted
   std::vector<GainSpec> (*specs)(const ControllerPlant&, int axis);
   std::unique_ptr<Controller> (*make)(const AxisGains&, const ControllerPlant&);
 };
@@ -171,9 +170,8 @@ std::unique_ptr<Controller> make_zpetc(const AxisGains& g, const ControllerPlant
     o[i].kp_per_s = g[i].at("kp_per_s");
     o[i].model_time_constant_s = g[i].at("model_time_constant_s");
     if (!(o[i].model_time_constant_s > 0))
-      throw InputError("--gain", 0,
-                       "controller 'zpetc' needs the drive's time constant: the machine model gives none, so set "
-                       "model_time_constant_s");
+      throw InputError::field("gains", "controller 'zpetc' needs the drive's time constant: the machine model gives "
+                                       "none, so set model_time_constant_s");
     o[i].model_gain = g[i].at("model_gain");
     o[i].cancel_radius = g[i].at("zero_cancel_radius");
     o[i].latency_ticks = pl.command_latency_ticks[i] + pl.reading_latency_ticks[i];
@@ -220,49 +218,58 @@ std::unique_ptr<Controller> make_flc(const AxisGains& g, const ControllerPlant& 
 // ---- the table -------------------------------------------------------------------------------
 
 const Kind kKinds[] = {
-    {"p", p_specs, make_pid<kP>},
-    {"pid", pid_specs, make_pid<kPid>},
-    {"pid_ff", pid_ff_specs, make_pid_ff},
-    {"zpetc", zpetc_specs, make_zpetc},
-    {"ccc", ccc_specs, make_ccc},
-    {"flc", flc_specs, make_flc},
+    {{"p"}, p_specs, make_pid<kP>},
+    {{"pid"}, pid_specs, make_pid<kPid>},
+    {{"pid_ff", "pid-ff"}, pid_ff_specs, make_pid_ff},
+    {{"zpetc"}, zpetc_specs, make_zpetc},
+    {{"ccc"}, ccc_specs, make_ccc},
+    {{"flc"}, flc_specs, make_flc},
 };
 
-const Kind& find_kind(const std::string& name) {
-  for (const Kind& k : kKinds)
-    if (name == k.name) return k;
-  std::string all;
-  for (const Kind& k : kKinds) all += (all.empty() ? "" : ", ") + std::string(k.name);
-  throw InputError("--controller", 0, fmt::format("unknown controller '{}' (kinds: {})", name, all));
+constexpr std::size_t kKindCount = std::size(kKinds);
+
+std::array<Spelling, kKindCount> kind_names() {
+  std::array<Spelling, kKindCount> names;
+  for (std::size_t i = 0; i < kKindCount; ++i) names[i] = kKinds[i].name;
+  return names;
+}
+
+// A library caller's old spelling is accepted without the note.
+const Kind& find_kind(std::string_view name) {
+  return kKinds[parse_name(kind_names(), name, "controller", "controller").value];
 }
 
 }  // namespace
 
 void ControllerPlant::validate() const {
-  const auto fail = [](const std::string& what) { throw InputError("controller plant", 0, what); };
-  if (!(std::isfinite(period_s) && period_s > 0)) fail(fmt::format("period_s = {}: must be > 0", period_s));
+  require_field(std::isfinite(period_s) && period_s > 0, "period_s", period_s, "must be > 0");
   for (int i = 0; i < kAxes; ++i) {
-    if (!(std::isfinite(output_limit_mm_per_s[i]) && output_limit_mm_per_s[i] > 0))
-      fail(fmt::format("output_limit_mm_per_s[{}] = {}: must be > 0", i, output_limit_mm_per_s[i]));
-    if (!(std::isfinite(drive_time_constant_s[i]) && drive_time_constant_s[i] >= 0))
-      fail(fmt::format("drive_time_constant_s[{}] = {}: must be >= 0 (0: unknown)", i, drive_time_constant_s[i]));
-    if (!(std::isfinite(gain_factor[i]) && gain_factor[i] > 0))
-      fail(fmt::format("gain_factor[{}] = {}: must be > 0", i, gain_factor[i]));
-    if (command_latency_ticks[i] < 0 || reading_latency_ticks[i] < 0)
-      fail(fmt::format("latencies of axis {} must be >= 0", i));
-    if (!(std::isfinite(position_quantum_mm[i]) && position_quantum_mm[i] >= 0))
-      fail(fmt::format("position_quantum_mm[{}] = {}: must be >= 0 (0: unknown)", i, position_quantum_mm[i]));
-    if (!(std::isfinite(backlash_mm[i]) && backlash_mm[i] >= 0))
-      fail(fmt::format("backlash_mm[{}] = {}: must be >= 0 (0: none or unknown)", i, backlash_mm[i]));
-    if (!(std::isfinite(coulomb_friction_mm_per_s[i]) && coulomb_friction_mm_per_s[i] >= 0))
-      fail(fmt::format("coulomb_friction_mm_per_s[{}] = {}: must be >= 0 (0: unknown)", i, coulomb_friction_mm_per_s[i]));
+    const auto at = [i](const char* field) { return fmt::format("{}[{}]", field, i); };
+    require_field(std::isfinite(output_limit_mm_per_s[i]) && output_limit_mm_per_s[i] > 0, at("output_limit_mm_per_s"),
+                  output_limit_mm_per_s[i], "must be > 0");
+    require_field(std::isfinite(drive_time_constant_s[i]) && drive_time_constant_s[i] >= 0, at("drive_time_constant_s"),
+                  drive_time_constant_s[i], "must be >= 0 (0: unknown)");
+    require_field(std::isfinite(gain_factor[i]) && gain_factor[i] > 0, at("gain_factor"), gain_factor[i], "must be > 0");
+    require_field(command_latency_ticks[i] >= 0, at("command_latency_ticks"), command_latency_ticks[i], "must be >= 0");
+    require_field(reading_latency_ticks[i] >= 0, at("reading_latency_ticks"), reading_latency_ticks[i], "must be >= 0");
+    require_field(std::isfinite(position_quantum_mm[i]) && position_quantum_mm[i] >= 0, at("position_quantum_mm"),
+                  position_quantum_mm[i], "must be >= 0 (0: unknown)");
+    require_field(std::isfinite(backlash_mm[i]) && backlash_mm[i] >= 0, at("backlash_mm"), backlash_mm[i],
+                  "must be >= 0 (0: none or unknown)");
+    require_field(std::isfinite(coulomb_friction_mm_per_s[i]) && coulomb_friction_mm_per_s[i] >= 0,
+                  at("coulomb_friction_mm_per_s"), coulomb_friction_mm_per_s[i], "must be >= 0 (0: unknown)");
   }
 }
 
 std::vector<std::string> controller_kinds() {
   std::vector<std::string> v;
-  for (const Kind& k : kKinds) v.emplace_back(k.name);
+  for (const Kind& k : kKinds) v.emplace_back(k.name.name);
   return v;
+}
+
+Parsed<std::string> parse_controller_kind(std::string_view text, const char* field) {
+  const Parsed<std::size_t> p = parse_name(kind_names(), text, field, "controller");
+  return {std::string(kKinds[p.value].name.name), p.note};
 }
 
 std::vector<GainSpec> gain_specs(const std::string& kind, const ControllerPlant& plant) {
@@ -283,12 +290,12 @@ std::unique_ptr<Controller> make_controller(const std::string& kind, const Gains
       if (s == specs.end()) {
         std::string all;
         for (const GainSpec& x : specs) all += (all.empty() ? "" : ", ") + x.name;
-        throw InputError("--gain", 0, fmt::format("controller '{}' has no gain '{}' (its gains: {})", kind, name, all));
+        throw InputError::field("gains", fmt::format("controller '{}' has no gain '{}' (its gains: {})", kind,
+                                                     excerpt(name), all));
       }
       if (!(std::isfinite(value) && value >= s->min_value && value <= s->max_value))
-        throw InputError("--gain", 0,
-                         fmt::format("{} = {} is outside [{}, {}] for controller '{}'", name, value, s->min_value,
-                                     s->max_value, kind));
+        throw InputError::field("gains", fmt::format("{} = {} is outside [{}, {}] for controller '{}'", name, value,
+                                                     s->min_value, s->max_value, kind));
       resolved[i][name] = value;
     }
   }
@@ -296,20 +303,21 @@ std::unique_ptr<Controller> make_controller(const std::string& kind, const Gains
     std::unique_ptr<Controller> c = k.make(resolved, plant);
     c->reset();
     return c;
-  } catch (const std::invalid_argument& e) {
+  } catch (const InputError& e) {
     // A combination of gains that the controller's own validation refuses.
-    throw InputError("--gain", 0, fmt::format("controller '{}': {}", kind, e.what()));
+    if (!e.is_field()) throw;
+    throw InputError::field("gains", fmt::format("controller '{}': {}", kind, e.what()));
   }
 }
 
-void parse_gain(const std::string& text, Gains& gains, const char* flag) {
+void parse_gain(const std::string& text, Gains& gains, const std::string& field) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0 || eq + 1 == text.size())
-    throw InputError(flag, 0, fmt::format("'{}': expected NAME=VALUE", text));
+    throw InputError::field(field, fmt::format("'{}': expected NAME=VALUE", excerpt(text)));
   const std::string name = text.substr(0, eq), num = text.substr(eq + 1);
   const std::optional<double> v = parse_finite(num);
-  if (!v) throw InputError(flag, 0, fmt::format("'{}': '{}' is not a finite number", text, num));
-  if (!gains.emplace(name, *v).second) throw InputError(flag, 0, fmt::format("gain '{}' given twice", name));
+  if (!v) throw InputError::field(field, fmt::format("'{}': '{}' is not a finite number", excerpt(text), excerpt(num)));
+  if (!gains.emplace(name, *v).second) throw InputError::field(field, fmt::format("gain '{}' given twice", excerpt(name)));
 }
 
 }  // namespace machplan::control

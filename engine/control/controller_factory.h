@@ -21,8 +21,8 @@
 // default, which is the machine's servo section where the kind has that gain (per axis: the
 // axes keep their own values), else the spec's default. GainSpec::default_value shows axis 0's.
 // Gains outside their spec's box, non-finite values and names the kind does not have are
-// refused with InputError("--gain", 0, ...) naming the gain; an unknown kind with
-// InputError("--controller", 0, ...) listing the kinds.
+// refused with InputError::field("gains", ...) naming the gain; an unknown kind with
+// InputError::field("controller", ...) listing the kinds.
 //
 // Ownership: make_controller returns a configured, reset controller that owns all its state;
 // it refers to nothing of the caller's. Building (configure) allocates; update() never does.
@@ -34,6 +34,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/common/names.h"
 #include "engine/control/controller.h"
 #include "engine/control/servo.h"
 
@@ -63,22 +64,28 @@ struct ControllerPlant {
   std::array<double, kAxes> coulomb_friction_mm_per_s{};  // drive's Coulomb friction as speed; 0: unknown
   std::array<double, kAxes> backlash_mm{};             // gap between motor and table; 0: none or unknown
   double period_s = 0.001;
-  // Throws InputError("controller plant", 0, ...) naming the field.
+  // Throws InputError naming the field.
   void validate() const;
 };
 
-// The kinds make_controller builds, in a stable order.
+// The kinds make_controller builds, in a stable order, canonically spelled.
 std::vector<std::string> controller_kinds();
 
-// The tunable gains of `kind` on `plant`. InputError("--controller", ...) for an unknown kind.
+// A kind as a user writes it: the canonical name (the kinds above), or an old spelling
+// ("pid-ff" for "pid_ff") with a note. InputError::field(field, ...) listing the kinds
+// otherwise. The factory's functions accept an old spelling too (without the note).
+Parsed<std::string> parse_controller_kind(std::string_view text, const char* field = "controller");
+
+// The tunable gains of `kind` on `plant`. InputError::field("controller", ...) for an unknown kind.
 std::vector<GainSpec> gain_specs(const std::string& kind, const ControllerPlant& plant);
 
-// Builds, configures and resets a controller. InputError("--controller") for an unknown kind,
-// InputError("--gain") for a gain the kind does not have or outside its box.
+// Builds, configures and resets a controller. InputError::field("controller") for an unknown
+// kind, InputError::field("gains") for a gain the kind does not have, outside its box, or a
+// combination the controller refuses.
 std::unique_ptr<Controller> make_controller(const std::string& kind, const Gains& gains, const ControllerPlant& plant);
 
-// Parses "NAME=VALUE" (the CLI's --gain, or `flag`) into `gains`; InputError(flag) when
-// malformed or repeated.
-void parse_gain(const std::string& text, Gains& gains, const char* flag = "--gain");
+// Parses "NAME=VALUE" into `gains`; InputError::field(field) when malformed or repeated (the
+// field of the caller's options that holds the gains: "controller_gains", "start", ...).
+void parse_gain(const std::string& text, Gains& gains, const std::string& field = "gains");
 
 }  // namespace machplan::control

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -19,7 +18,7 @@ constexpr double kRestSpeedMmPerS = 1e-6;
 
 void ContourGains::validate() const {
   const auto check = [](double v, const char* field) {
-    require_setting(finite_nonneg(v), "ContourGains", field, v, "must be finite and >= 0");
+    require_field(finite_nonneg(v), field, v, "must be finite and >= 0");
   };
   check(kp_per_s, "kp_per_s");
   check(ki_per_s2, "ki_per_s2");

@@ -51,7 +51,7 @@ struct ContourGains {
   double kp_per_s = 150.0;    // Wp: mm/s of correction per mm of contour error
   double ki_per_s2 = 0.0;     // Wi
   double kd = 0.0;            // Wd: mm/s per mm/s of contour error rate
-  // Throws std::invalid_argument naming field, value and rule.
+  // Throws InputError naming field, value and rule.
   void validate() const;
 };
 

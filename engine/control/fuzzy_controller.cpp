@@ -1,9 +1,10 @@
 #include "engine/control/fuzzy_controller.h"
 
 #include <algorithm>
-#include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "engine/common/error.h"
 
 namespace machplan::control {
 
@@ -38,9 +39,7 @@ double fuzzy_surface(double x1, double x2) noexcept {
 }
 
 void FuzzyGains::validate() const {
-  const auto require = [](bool ok, const char* field, double v, const char* rule) {
-    if (!ok) throw std::invalid_argument(fmt::format("FuzzyGains::{} = {}: {}", field, v, rule));
-  };
+  const auto require = [](bool ok, const char* field, double v, const char* rule) { require_field(ok, field, v, rule); };
   require(std::isfinite(ke_per_mm) && ke_per_mm > 0, "ke_per_mm", ke_per_mm, "must be > 0");
   require(std::isfinite(kde_s_per_mm) && kde_s_per_mm >= 0, "kde_s_per_mm", kde_s_per_mm, "must be >= 0");
   require(std::isfinite(ku_mm_per_s) && ku_mm_per_s > 0, "ku_mm_per_s", ku_mm_per_s, "must be > 0");
@@ -55,12 +54,11 @@ void FuzzyGains::validate() const {
 
 void FuzzyController::configure(const std::array<FuzzyGains, kAxes>& gains,
                                 const std::array<double, kAxes>& output_limit_mm_per_s, double period_s) {
-  if (!(period_s > 0 && std::isfinite(period_s)))
-    throw std::invalid_argument(fmt::format("FuzzyController: period {} s must be > 0", period_s));
+  require_field(period_s > 0 && std::isfinite(period_s), "period_s", period_s, "must be > 0 s");
   for (int i = 0; i < kAxes; ++i) {
     gains[i].validate();
-    if (!(output_limit_mm_per_s[i] > 0 && std::isfinite(output_limit_mm_per_s[i])))
-      throw std::invalid_argument(fmt::format("FuzzyController: output limit {} mm/s must be > 0", output_limit_mm_per_s[i]));
+    require_field(output_limit_mm_per_s[i] > 0 && std::isfinite(output_limit_mm_per_s[i]),
+                  fmt::format("output_limit_mm_per_s[{}]", i), output_limit_mm_per_s[i], "must be > 0 mm/s");
     ax_[i].g = gains[i];
     ax_[i].u_max = output_limit_mm_per_s[i];
   }

@@ -48,7 +48,7 @@ struct FuzzyGains {
   double acceleration_ff_s = 0.0;  // Ta, s
   double ki_per_s = 0.0;           // Ki: integral of the fuzzy output, 1/s
   double following_error_limit_mm = 2.0;
-  // Throws std::invalid_argument naming field, value and rule.
+  // Throws InputError naming field, value and rule.
   void validate() const;
 };
 

@@ -1,7 +1,5 @@
 #include "engine/control/pid_controller.h"
 
-#include <stdexcept>
-
 #include <fmt/format.h>
 
 #include "engine/control/setting_check.h"
@@ -9,13 +7,11 @@
 namespace machplan::control {
 
 namespace {
-void require(bool ok, const char* field, double value, const char* rule) {
-  require_setting(ok, "PidGains", field, value, rule);
-}
+void require(bool ok, const char* field, double value, const char* rule) { require_field(ok, field, value, rule); }
 }  // namespace
 
 void PidGains::validate() const {
-  require_pid_core("PidGains", kp_per_s, ki_per_s2, kd, velocity_ff, acceleration_ff_s, following_error_limit_mm);
+  require_pid_core(kp_per_s, ki_per_s2, kd, velocity_ff, acceleration_ff_s, following_error_limit_mm);
   require(finite_nonneg(friction_ff_mm_per_s) && friction_ff_mm_per_s <= 100, "friction_ff_mm_per_s", friction_ff_mm_per_s,
           "must be in [0, 100] mm/s");
   require(std::isfinite(friction_ff_band_mm_per_s) && friction_ff_band_mm_per_s > 0, "friction_ff_band_mm_per_s",
@@ -31,10 +27,9 @@ void PidGains::validate() const {
 
 void AxialPid::configure(const PidGains& g, double output_limit_mm_per_s, double period_s, ObserverModel observer) {
   g.validate();
-  if (!(std::isfinite(output_limit_mm_per_s) && output_limit_mm_per_s > 0))
-    throw std::invalid_argument(fmt::format("AxialPid: output limit {} mm/s must be > 0", output_limit_mm_per_s));
-  if (!(std::isfinite(period_s) && period_s > 0))
-    throw std::invalid_argument(fmt::format("AxialPid: period {} s must be > 0", period_s));
+  require_field(std::isfinite(output_limit_mm_per_s) && output_limit_mm_per_s > 0, "output_limit_mm_per_s",
+                output_limit_mm_per_s, "must be > 0 mm/s");
+  require_field(std::isfinite(period_s) && period_s > 0, "period_s", period_s, "must be > 0 s");
   g_ = g;
   u_max_ = output_limit_mm_per_s;
   T_ = period_s;

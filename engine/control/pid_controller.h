@@ -69,7 +69,7 @@ struct PidGains {
   double derivative_filter_s = 0.001;  // Tf, s (> 0)
   double observer_per_s = 0.0;       // bandwidth of the position observer, rad/s; 0: off
   double following_error_limit_mm = 2.0;
-  // Throws std::invalid_argument naming field, value and rule.
+  // Throws InputError naming field, value and rule.
   void validate() const;
 };
 

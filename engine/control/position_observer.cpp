@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -16,9 +15,7 @@ double sgn(double v) { return v > 0 ? 1.0 : (v < 0 ? -1.0 : 0.0); }
 }  // namespace
 
 void ObserverModel::validate() const {
-  const auto check = [](bool ok, const char* field, double v, const char* rule) {
-    require_setting(ok, "ObserverModel", field, v, rule);
-  };
+  const auto check = [](bool ok, const char* field, double v, const char* rule) { require_field(ok, field, v, rule); };
   check(std::isfinite(period_s) && period_s > 0, "period_s", period_s, "must be > 0");
   check(std::isfinite(gain) && gain > 0, "gain", gain, "must be > 0");
   check(std::isfinite(tau_s) && tau_s >= 0, "tau_s", tau_s, "must be >= 0 (0: unknown)");
@@ -32,8 +29,8 @@ void ObserverModel::validate() const {
 
 void PositionObserver::configure(const ObserverModel& model, double bandwidth_per_s) {
   model.validate();
-  if (!(std::isfinite(bandwidth_per_s) && bandwidth_per_s >= 0))
-    throw std::invalid_argument(fmt::format("observer bandwidth {} rad/s: must be finite and >= 0 (0: off)", bandwidth_per_s));
+  require_field(std::isfinite(bandwidth_per_s) && bandwidth_per_s >= 0, "bandwidth_per_s", bandwidth_per_s,
+                "rad/s must be finite and >= 0 (0: off)");
   m_ = model;
   on_ = bandwidth_per_s > 0;
   a_ = m_.tau_s > 0 ? std::exp(-m_.period_s / m_.tau_s) : 0.0;

@@ -67,13 +67,13 @@ struct ObserverModel {
   double speed_limit_mm_per_s = 0.0;  // the drive's range: bounds |d| (0: unbounded)
   int delay_ticks = 0;            // D = command latency + reading latency
   static constexpr int kMaxDelayTicks = 31;
-  // Throws std::invalid_argument naming the field.
+  // Throws InputError naming the field.
   void validate() const;
 };
 
 class PositionObserver {
  public:
-  // `bandwidth_per_s` = w_o (0: off). Throws std::invalid_argument for a bad model or w_o.
+  // `bandwidth_per_s` = w_o (0: off). Throws InputError for a bad model or w_o.
   void configure(const ObserverModel& model, double bandwidth_per_s);
   void reset() noexcept;
   bool enabled() const noexcept { return on_; }

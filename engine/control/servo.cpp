@@ -7,13 +7,11 @@
 namespace machplan::control {
 
 namespace {
-void require(bool ok, const char* field, double value, const char* rule) {
-  require_setting(ok, "ServoGains", field, value, rule);
-}
+void require(bool ok, const char* field, double value, const char* rule) { require_field(ok, field, value, rule); }
 }  // namespace
 
 void ServoGains::validate() const {
-  require_pid_core("ServoGains", kp_per_s, ki_per_s2, kd, velocity_ff, acceleration_ff_s, following_error_limit_mm);
+  require_pid_core(kp_per_s, ki_per_s2, kd, velocity_ff, acceleration_ff_s, following_error_limit_mm);
   require(finite_nonneg(ff_adaptation_per_s2) && ff_adaptation_per_s2 <= 1e5, "ff_adaptation_per_s2", ff_adaptation_per_s2,
           "must be in [0, 1e5]");
   require(std::isfinite(ff_adaptation_min_speed_mm_per_s) && ff_adaptation_min_speed_mm_per_s > 0,

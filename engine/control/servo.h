@@ -61,7 +61,7 @@ struct ServoGains {
   double following_error_limit_mm = 2.0;
   double backlash_compensation_mm = 0.0;
   double backlash_compensation_time_s = 0.004;
-  // Throws std::invalid_argument naming field, value and rule.
+  // Throws InputError naming field, value and rule.
   void validate() const;
 };
 

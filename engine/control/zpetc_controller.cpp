@@ -2,10 +2,11 @@
 
 #include <algorithm>
 #include <complex>
-#include <stdexcept>
 
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
+
+#include "engine/common/error.h"
 
 namespace machplan::control {
 
@@ -47,15 +48,26 @@ std::vector<std::complex<double>> zeros_of(const Poly& b) {
 
 }  // namespace
 
+void ZpetcAxisOptions::validate() const {
+  require_field(std::isfinite(kp_per_s) && kp_per_s > 0, "kp_per_s", kp_per_s, "must be > 0");
+  require_field(std::isfinite(model_time_constant_s) && model_time_constant_s > 0, "model_time_constant_s",
+                model_time_constant_s, "must be > 0 s");
+  require_field(std::isfinite(model_gain) && model_gain > 0, "model_gain", model_gain, "must be > 0");
+  require_field(latency_ticks >= 0 && latency_ticks <= 100, "latency_ticks", latency_ticks, "must be 0 .. 100");
+  require_field(cancel_radius >= 0 && cancel_radius <= 1, "cancel_radius", cancel_radius, "must be in [0, 1]");
+  require_field(std::isfinite(following_error_limit_mm) && following_error_limit_mm > 0, "following_error_limit_mm",
+                following_error_limit_mm, "must be > 0 mm");
+}
+
 ZpetcDesign design_zpetc(const Poly& b_in, const Poly& a, int d, double cancel_radius) {
   Poly b = b_in;
   while (b.size() > 1 && b.back() == 0.0) b.pop_back();
-  if (b.empty() || a.empty()) throw std::invalid_argument("design_zpetc: empty polynomial");
-  if (!(b[0] != 0.0 && std::isfinite(b[0]))) throw std::invalid_argument("design_zpetc: B's first coefficient must be non-zero");
-  if (a[0] == 0.0) throw std::invalid_argument("design_zpetc: A's first coefficient must be non-zero");
-  if (d < 0) throw std::invalid_argument(fmt::format("design_zpetc: delay {} must be >= 0", d));
-  if (!(cancel_radius >= 0 && cancel_radius <= 1))
-    throw std::invalid_argument(fmt::format("design_zpetc: cancel radius {} must be in [0, 1]", cancel_radius));
+  if (b.empty()) throw InputError::field("b", "the polynomial is empty");
+  if (a.empty()) throw InputError::field("a", "the polynomial is empty");
+  require_field(b[0] != 0.0 && std::isfinite(b[0]), "b", b[0], "is B's first coefficient: must be finite and non-zero");
+  require_field(a[0] != 0.0, "a", a[0], "is A's first coefficient: must be non-zero");
+  require_field(d >= 0, "d", d, "is the delay: must be >= 0");
+  require_field(cancel_radius >= 0 && cancel_radius <= 1, "cancel_radius", cancel_radius, "must be in [0, 1]");
   CPoly ba{b[0]}, bu{1.0};
   ZpetcDesign z;
   for (const std::complex<double>& zi : zeros_of(b)) {
@@ -71,7 +83,7 @@ ZpetcDesign design_zpetc(const Poly& b_in, const Poly& a, int d, double cancel_r
   const Poly bu_r = real_part(bu);
   double bu1 = 0;
   for (double c : bu_r) bu1 += c;
-  if (!(std::abs(bu1) > 1e-12)) throw std::invalid_argument("design_zpetc: B has a zero at z = 1 (no DC gain to normalise)");
+  if (!(std::abs(bu1) > 1e-12)) throw InputError::field("b", "B has a zero at z = 1 (no DC gain to normalise)");
   Poly bu_star(bu_r.rbegin(), bu_r.rend());
   z.numerator = multiply(a, bu_star);
   for (double& c : z.numerator) c /= bu1 * bu1;
@@ -81,10 +93,11 @@ ZpetcDesign design_zpetc(const Poly& b_in, const Poly& a, int d, double cancel_r
 }
 
 DiscreteModel proportional_loop_model(double kp, double tau, double g, double T, int latency) {
-  if (!(kp > 0 && tau > 0 && g > 0 && T > 0 && std::isfinite(kp + tau + g + T)) || latency < 0)
-    throw std::invalid_argument(fmt::format("proportional_loop_model: kp {} tau {} gain {} period {} latency {}: "
-                                            "need positive values and latency >= 0",
-                                            kp, tau, g, T, latency));
+  require_field(kp > 0 && std::isfinite(kp), "kp_per_s", kp, "must be > 0");
+  require_field(tau > 0 && std::isfinite(tau), "tau_s", tau, "must be > 0");
+  require_field(g > 0 && std::isfinite(g), "gain", g, "must be > 0");
+  require_field(T > 0 && std::isfinite(T), "period_s", T, "must be > 0");
+  require_field(latency >= 0, "latency_ticks", latency, "must be >= 0");
   const double a = std::exp(-T / tau);
   const double b1 = T - tau * (1 - a), b2 = tau * (1 - a) - a * T;
   DiscreteModel m;
@@ -100,24 +113,20 @@ DiscreteModel proportional_loop_model(double kp, double tau, double g, double T,
 
 void ZpetcController::configure(const std::array<ZpetcAxisOptions, kAxes>& axes,
                                 const std::array<double, kAxes>& output_limit_mm_per_s, double period_s) {
-  if (!(period_s > 0 && std::isfinite(period_s)))
-    throw std::invalid_argument(fmt::format("ZpetcController: period {} s must be > 0", period_s));
+  require_field(period_s > 0 && std::isfinite(period_s), "period_s", period_s, "must be > 0 s");
   for (int i = 0; i < kAxes; ++i) {
     const ZpetcAxisOptions& o = axes[i];
-    if (!(o.following_error_limit_mm > 0))
-      throw std::invalid_argument(fmt::format("ZpetcController: following error limit {} mm must be > 0",
-                                              o.following_error_limit_mm));
-    if (!(output_limit_mm_per_s[i] > 0 && std::isfinite(output_limit_mm_per_s[i])))
-      throw std::invalid_argument(fmt::format("ZpetcController: output limit {} mm/s must be > 0", output_limit_mm_per_s[i]));
+    o.validate();
+    require_field(output_limit_mm_per_s[i] > 0 && std::isfinite(output_limit_mm_per_s[i]),
+                  fmt::format("output_limit_mm_per_s[{}]", i), output_limit_mm_per_s[i], "must be > 0 mm/s");
     const DiscreteModel m = proportional_loop_model(o.kp_per_s, o.model_time_constant_s, o.model_gain, period_s,
                                                     o.latency_ticks);
     ZpetcDesign z = design_zpetc(m.b, m.a, m.d, o.cancel_radius);
     const int history = static_cast<int>(z.numerator.size()) - z.lead;
     if (static_cast<int>(z.numerator.size()) > kMaxTaps || static_cast<int>(z.denominator.size()) > kMaxTaps ||
         history > kMaxTaps)
-      throw std::invalid_argument(fmt::format("ZpetcController: the filter of axis {} needs {} taps (at most {}): "
-                                              "latency {} is too long",
-                                              i, z.numerator.size(), kMaxTaps, o.latency_ticks));
+      throw InputError::field("latency_ticks", fmt::format("{} is too long: the filter of axis {} needs {} taps (at most {})",
+                                                           o.latency_ticks, i, z.numerator.size(), kMaxTaps));
     Axis& a = ax_[i];
     a.opt = o;
     a.u_max = output_limit_mm_per_s[i];

@@ -64,8 +64,8 @@ struct ZpetcDesign {
   int cancelled_zeros = 0, uncancelled_zeros = 0;
 };
 
-// Throws std::invalid_argument when B or A is empty, B's leading coefficient is 0, d < 0, or
-// cancel_radius is not in [0, 1].
+// Throws InputError (naming the argument) when B or A is empty, B's leading coefficient is 0,
+// d < 0, cancel_radius is not in [0, 1], or B has a zero at z = 1.
 ZpetcDesign design_zpetc(const std::vector<double>& b, const std::vector<double>& a, int d, double cancel_radius);
 
 // The closed loop of the file comment: {B, A, d}.
@@ -73,7 +73,8 @@ struct DiscreteModel {
   std::vector<double> b, a;
   int d = 0;
 };
-// Throws std::invalid_argument for non-positive kp, tau, gain or period, or latency < 0.
+// Throws InputError (naming the argument) for non-positive kp, tau, gain or period, or
+// latency < 0.
 DiscreteModel proportional_loop_model(double kp_per_s, double tau_s, double gain, double period_s, int latency_ticks);
 
 struct ZpetcAxisOptions {
@@ -81,15 +82,17 @@ struct ZpetcAxisOptions {
   double model_time_constant_s = 0.004; // tau of the drive model
   double model_gain = 1.0;              // g of the drive model
   int latency_ticks = 2;                // command + reading latency
-  double cancel_radius = 0.9;           // zeros at least this far from 0 are not cancelled
+  double cancel_radius = 0.9;           // zeros at least this far from 0 are not cancelled: [0, 1]
   double following_error_limit_mm = 2.0;
+  // Throws InputError naming the field, its value and the rule.
+  void validate() const;
 };
 
 class ZpetcController final : public Controller {
  public:
   static constexpr int kMaxTaps = 24;
-  // Designs each axis' filter. Throws std::invalid_argument (bad options, or a filter longer
-  // than kMaxTaps).
+  // Designs each axis' filter. Throws InputError (bad options, or a filter longer than
+  // kMaxTaps).
   void configure(const std::array<ZpetcAxisOptions, kAxes>& axes, const std::array<double, kAxes>& output_limit_mm_per_s,
                  double period_s);
   const char* name() const override { return "zpetc"; }

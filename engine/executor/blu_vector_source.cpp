@@ -4,7 +4,20 @@
 #include <cmath>
 #include <limits>
 
+#include "engine/common/error.h"
+
 namespace machplan::executor {
+
+void BluVectorOptions::validate() const {
+  require_field(std::isfinite(blu_mm) && blu_mm >= 0.01 && blu_mm <= 1000, "blu_mm", blu_mm,
+                "is out of range: must be in [0.01, 1000] mm");
+  require_field(std::isfinite(calibration_factor) && calibration_factor > 0.1 && calibration_factor <= 10,
+                "calibration_factor", calibration_factor, "is out of range: must be in (0.1, 10]");
+  require_field(std::isfinite(compute_s) && compute_s >= 0 && compute_s <= 10, "compute_s", compute_s,
+                "is out of range: must be in [0, 10] s");
+  require_field(std::isfinite(settle_s) && settle_s >= 0 && settle_s <= 60, "settle_s", settle_s,
+                "is out of range: must be in [0, 60] s");
+}
 
 void BluVectorSource::prepare(const SourceContext& ctx, const Eigen::Vector2d& start_mm) {
   const motion::Job& job = *ctx.job;

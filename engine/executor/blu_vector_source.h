@@ -20,17 +20,20 @@ namespace machplan::executor {
 
 struct BluVectorOptions {
   bool closed_loop = false;
-  double blu_mm = 3.0;
-  double calibration_factor = 1.0;
-  double compute_s = 0.2;
+  double blu_mm = 3.0;              // vector length, mm: [0.01, 1000]
+  double calibration_factor = 1.0;  // commanded / programmed speed: (0.1, 10]
+  double compute_s = 0.2;           // closed loop: [0, 10] s
   bool zero_first = true;
-  double settle_s = 0.1;
+  double settle_s = 0.1;            // [0, 60] s
+  // Throws InputError naming the field, its value and the rule.
+  void validate() const;
 };
 
 class BluVectorSource final : public SetpointSource {
  public:
-  explicit BluVectorSource(const BluVectorOptions& o) : o_(o) {}
-  const char* name() const override { return o_.closed_loop ? "paper_closed" : "paper_open"; }
+  // Throws InputError when the options do not validate.
+  explicit BluVectorSource(const BluVectorOptions& o) : o_(o) { o_.validate(); }
+  const char* name() const override { return o_.closed_loop ? "paper-closed" : "paper-open"; }
   void prepare(const SourceContext& ctx, const Eigen::Vector2d& start_mm) override;
   double estimate_s() const override { return estimate_s_; }
   void begin_move(std::size_t step, const Eigen::Vector2d& measured_mm) noexcept override;

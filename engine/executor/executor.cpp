@@ -17,54 +17,29 @@ namespace machplan::executor {
 using motion::Step;
 using FK = FaultKind;
 
-const char* to_string(Mode m) {
-  switch (m) {
-    case Mode::planned: return "planned";
-    case Mode::paper_open: return "paper_open";
-    case Mode::paper_closed: return "paper_closed";
-    case Mode::jog: return "jog";
-  }
-  return "?";
-}
+namespace {
+constexpr Spelling kModeNames[] = {{"planned"}, {"paper-open", "paper_open"}, {"paper-closed", "paper_closed"}, {"jog"}};
+}  // namespace
 
-Mode mode_from_string(const std::string& s) {
-  if (s == "planned") return Mode::planned;
-  if (s == "paper_open") return Mode::paper_open;
-  if (s == "paper_closed") return Mode::paper_closed;
-  if (s == "jog") return Mode::jog;
-  throw InputError("--mode", 0, fmt::format("unknown mode '{}' (known: planned, paper_open, paper_closed, jog)", s));
+const char* to_string(Mode m) { return kModeNames[static_cast<std::size_t>(m)].name.data(); }
+
+Parsed<Mode> parse_mode(std::string_view text) {
+  const Parsed<std::size_t> p = parse_name(kModeNames, text, "mode", "mode");
+  return {static_cast<Mode>(p.value), p.note};
 }
 
 void ExecutorOptions::validate() const {
-  auto fail = [](const char* field, double v, const char* rule) {
-    throw InputError("", 0, fmt::format("ExecutorOptions::{} = {}: {}", field, v, rule));
-  };
-  if (!(std::isfinite(blu_mm) && blu_mm >= 0.01 && blu_mm <= 1000))
-    throw InputError::field("blu_mm", fmt::format("{} is out of range: must be >= 0.01 and <= 1000 mm", blu_mm));
-  if (!(std::isfinite(calibration_factor) && calibration_factor > 0.1 && calibration_factor <= 10))
-    throw InputError::field("calibration_factor",
-                            fmt::format("{} is out of range: must be > 0.1 and <= 10", calibration_factor));
-  if (!(std::isfinite(paper_compute_s) && paper_compute_s >= 0 && paper_compute_s <= 10))
-    fail("paper_compute_s", paper_compute_s, "must be in [0, 10] s");
-  if (!(std::isfinite(paper_settle_s) && paper_settle_s >= 0 && paper_settle_s <= 60))
-    fail("paper_settle_s", paper_settle_s, "must be in [0, 60] s");
-  const SupervisorOptions& s = supervisor;
-  if (!(std::isfinite(s.rest_window_s) && s.rest_window_s > 0 && s.rest_window_s <= 10))
-    fail("supervisor.rest_window_s", s.rest_window_s, "must be in (0, 10] s");
-  if (!(std::isfinite(s.stop_settle_s) && s.stop_settle_s > 0 && s.stop_settle_s <= 60))
-    fail("supervisor.stop_settle_s", s.stop_settle_s, "must be in (0, 60] s");
-  if (!(std::isfinite(s.stall_min_speed_mm_per_s) && s.stall_min_speed_mm_per_s > 0 && s.stall_min_speed_mm_per_s <= 1000))
-    fail("supervisor.stall_min_speed_mm_per_s", s.stall_min_speed_mm_per_s, "must be in (0, 1000] mm/s");
-  if (!(std::isfinite(s.stall_check_travel_mm) && s.stall_check_travel_mm > 0 && s.stall_check_travel_mm <= 1000))
-    fail("supervisor.stall_check_travel_mm", s.stall_check_travel_mm, "must be in (0, 1000] mm");
-  if (!(std::isfinite(s.stall_min_fraction) && s.stall_min_fraction >= 0 && s.stall_min_fraction < 1))
-    fail("supervisor.stall_min_fraction", s.stall_min_fraction, "must be in [0, 1)");
-  if (!(std::isfinite(s.saturation_window_s) && s.saturation_window_s > 0 && s.saturation_window_s <= 60))
-    fail("supervisor.saturation_window_s", s.saturation_window_s, "must be in (0, 60] s");
-  if (!(std::isfinite(s.saturation_share) && s.saturation_share > 0 && s.saturation_share <= 1))
-    fail("supervisor.saturation_share", s.saturation_share, "must be in (0, 1]");
-  if (trace_every_ticks < 1) fail("trace_every_ticks", trace_every_ticks, "must be >= 1");
-  jog.validate();
+  require_field(std::isfinite(blu_mm) && blu_mm >= 0.01 && blu_mm <= 1000, "blu_mm", blu_mm,
+                "is out of range: must be in [0.01, 1000] mm");
+  require_field(std::isfinite(calibration_factor) && calibration_factor > 0.1 && calibration_factor <= 10,
+                "calibration_factor", calibration_factor, "is out of range: must be in (0.1, 10]");
+  require_field(std::isfinite(paper_compute_s) && paper_compute_s >= 0 && paper_compute_s <= 10, "paper_compute_s",
+                paper_compute_s, "is out of range: must be in [0, 10] s");
+  require_field(std::isfinite(paper_settle_s) && paper_settle_s >= 0 && paper_settle_s <= 60, "paper_settle_s",
+                paper_settle_s, "is out of range: must be in [0, 60] s");
+  require_field(trace_every_ticks >= 1, "trace_every_ticks", trace_every_ticks, "must be >= 1");
+  validate_member("supervisor", supervisor);
+  validate_member("jog", jog);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -19,8 +19,8 @@
 //
 // Modes (ExecutorOptions::mode) choose the setpoint source when the caller gives none:
 //   planned       ours: the feed planner's Trajectory sampled every period, PID + feed-forward
-//   paper_open    the thermal-cutting paper's open-loop time control over vectors of `blu_mm`
-//   paper_closed  the same vectors re-aimed from the encoders after `paper_compute_s`
+//   paper-open    the thermal-cutting paper's open-loop time control over vectors of `blu_mm`
+//   paper-closed  the same vectors re-aimed from the encoders after `paper_compute_s`
 //   jog           an operator's joystick through the backend's operator inputs (JogSource);
 //                 runs no job: the session lasts until the operator presses cycle start
 //
@@ -57,6 +57,8 @@
 #include "engine/common/latest.h"
 #include "engine/common/progress.h"
 #include "engine/common/termination.h"
+#include "engine/common/names.h"
+#include "engine/common/stop.h"
 #include "engine/control/controller.h"
 #include "engine/control/pid_ff_controller.h"
 #include "engine/executor/blu_vector_source.h"
@@ -76,9 +78,11 @@
 namespace machplan::executor {
 
 enum class Mode { planned, paper_open, paper_closed, jog };
+// "planned", "paper-open", "paper-closed", "jog" (the README's spelling).
 const char* to_string(Mode m);
-// Parses "planned", "paper_open", "paper_closed", "jog"; throws InputError("--mode", ...) otherwise.
-Mode mode_from_string(const std::string& s);
+// The inverse of to_string; the old spellings "paper_open" and "paper_closed" are accepted with
+// a note. InputError::field("mode", ...) listing the modes otherwise.
+Parsed<Mode> parse_mode(std::string_view text);
 
 struct ExecutorOptions {
   Mode mode = Mode::planned;
@@ -240,7 +244,7 @@ class Session {
 
 class Executor {
  public:
-  // Throws std::invalid_argument / InputError when setup or options do not validate.
+  // Throws InputError when setup or options do not validate.
   Executor(MachineSetup setup, ExecutorOptions options);
 
   // Runs the job to its end or to the first fault. `trajectories[i]` is the planned motion of

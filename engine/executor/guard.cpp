@@ -9,42 +9,36 @@
 
 namespace machplan::executor {
 
-const char* to_string(GuardStrategy s) {
-  switch (s) {
-    case GuardStrategy::paper: return "paper";
-    case GuardStrategy::predictive: return "predictive";
-  }
-  return "?";
-}
+namespace {
+constexpr Spelling kStrategyNames[] = {{"paper"}, {"predictive"}};
+}  // namespace
 
-GuardStrategy guard_strategy_from_string(const std::string& s) {
-  if (s == "paper") return GuardStrategy::paper;
-  if (s == "predictive") return GuardStrategy::predictive;
-  throw InputError("--strategy", 0, fmt::format("unknown strategy '{}' (known: paper, predictive)", s));
+const char* to_string(GuardStrategy s) { return kStrategyNames[static_cast<std::size_t>(s)].name.data(); }
+
+Parsed<GuardStrategy> parse_guard_strategy(std::string_view text) {
+  const Parsed<std::size_t> p = parse_name(kStrategyNames, text, "strategy", "strategy");
+  return {static_cast<GuardStrategy>(p.value), p.note};
 }
 
 void GuardOptions::validate() const {
-  auto check = [](bool ok, const char* field, double v, const char* rule) {
-    if (!ok) throw InputError(fmt::format("GuardOptions::{}", field), 0, fmt::format("{} {}", v, rule));
-  };
-  check(std::isfinite(tolerance_mm) && tolerance_mm >= 0 && tolerance_mm <= 100, "tolerance_mm", tolerance_mm,
-        "must be in [0, 100] mm");
-  check(std::isfinite(latency_s) && latency_s >= 0 && latency_s <= 1, "latency_s", latency_s, "must be in [0, 1] s");
-  check(std::isfinite(standoff_mm) && standoff_mm >= 0 && standoff_mm <= 10, "standoff_mm", standoff_mm,
-        "must be in [0, 10] mm");
-  check(std::isfinite(braking_fraction) && braking_fraction > 0 && braking_fraction <= 1, "braking_fraction",
-        braking_fraction, "must be in (0, 1]");
-  check(std::isfinite(tracking_limit_mm) && tracking_limit_mm > 0 && tracking_limit_mm <= 100, "tracking_limit_mm",
-        tracking_limit_mm, "must be in (0, 100] mm");
-  check(std::isfinite(acceleration_mm_per_s2) && acceleration_mm_per_s2 >= 0 && acceleration_mm_per_s2 <= 1e6,
-        "acceleration_mm_per_s2", acceleration_mm_per_s2, "must be in [0, 1e6] mm/s^2 (0: the machine's)");
+  require_field(std::isfinite(tolerance_mm) && tolerance_mm >= 0 && tolerance_mm <= 100, "tolerance_mm", tolerance_mm,
+                "must be in [0, 100] mm");
+  require_field(std::isfinite(latency_s) && latency_s >= 0 && latency_s <= 1, "latency_s", latency_s, "must be in [0, 1] s");
+  require_field(std::isfinite(standoff_mm) && standoff_mm >= 0 && standoff_mm <= 10, "standoff_mm", standoff_mm,
+                "must be in [0, 10] mm");
+  require_field(std::isfinite(braking_fraction) && braking_fraction > 0 && braking_fraction <= 1, "braking_fraction",
+                braking_fraction, "must be in (0, 1]");
+  require_field(std::isfinite(tracking_limit_mm) && tracking_limit_mm > 0 && tracking_limit_mm <= 100, "tracking_limit_mm",
+                tracking_limit_mm, "must be in (0, 100] mm");
+  require_field(std::isfinite(acceleration_mm_per_s2) && acceleration_mm_per_s2 >= 0 && acceleration_mm_per_s2 <= 1e6,
+                "acceleration_mm_per_s2", acceleration_mm_per_s2, "must be in [0, 1e6] mm/s^2 (0: the machine's)");
 }
 
 Guard::Guard(const ProhibitedRegion& region, const GuardOptions& options, const MachineSetup& machine, double period_s)
     : region_(region), o_(options) {
   o_.validate();
   if (!(std::isfinite(period_s) && period_s > 0 && period_s <= 0.1))
-    throw InputError("Guard", 0, fmt::format("servo period {} s must be in (0, 0.1]", period_s));
+    throw InputError::field("period_s", fmt::format("{} s must be in (0, 0.1]: the guard's servo period", period_s));
   dt_ = period_s;
   A_ = o_.acceleration_mm_per_s2 > 0 ? o_.acceleration_mm_per_s2 : machine.max_acceleration_mm_per_s2;
   Ab_ = A_ * o_.braking_fraction;

@@ -53,6 +53,7 @@
 
 #include <Eigen/Core>
 
+#include "engine/common/names.h"
 #include "engine/executor/machine_setup.h"
 #include "engine/executor/setpoint_source.h"
 #include "engine/geometry/region.h"
@@ -61,8 +62,8 @@ namespace machplan::executor {
 
 enum class GuardStrategy { paper, predictive };
 const char* to_string(GuardStrategy s);
-// "paper" | "predictive"; throws InputError("--strategy", ...) otherwise.
-GuardStrategy guard_strategy_from_string(const std::string& s);
+// "paper" | "predictive"; InputError::field("strategy", ...) listing them otherwise.
+Parsed<GuardStrategy> parse_guard_strategy(std::string_view text);
 
 // The round trip that reproduces the paper's Tables 2 and 3 with the paper strategy on our
 // simulated XY table best (bench/guard_paper.sh; bench/results/guard_paper.md): 0.15 s, a plausible

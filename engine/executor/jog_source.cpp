@@ -10,16 +10,13 @@
 namespace machplan::executor {
 
 void JogOptions::validate() const {
-  auto check = [](bool ok, const char* field, double v, const char* rule) {
-    if (!ok) throw InputError(fmt::format("JogOptions::{}", field), 0, fmt::format("{} {}", v, rule));
-  };
-  check(std::isfinite(speed_mm_per_s) && speed_mm_per_s > 0 && speed_mm_per_s <= 1e4, "speed_mm_per_s", speed_mm_per_s,
-        "must be in (0, 1e4] mm/s");
-  check(std::isfinite(acceleration_mm_per_s2) && acceleration_mm_per_s2 >= 0 && acceleration_mm_per_s2 <= 1e6,
-        "acceleration_mm_per_s2", acceleration_mm_per_s2, "must be in [0, 1e6] mm/s^2 (0: the machine's)");
-  check(std::isfinite(jerk_mm_per_s3) && jerk_mm_per_s3 >= 0 && jerk_mm_per_s3 <= 1e9, "jerk_mm_per_s3", jerk_mm_per_s3,
-        "must be in [0, 1e9] mm/s^3 (0: the machine's)");
-  check(std::isfinite(deadband) && deadband >= 0 && deadband < 1, "deadband", deadband, "must be in [0, 1)");
+  require_field(std::isfinite(speed_mm_per_s) && speed_mm_per_s > 0 && speed_mm_per_s <= 1e4, "speed_mm_per_s", speed_mm_per_s,
+                "must be in (0, 1e4] mm/s");
+  require_field(std::isfinite(acceleration_mm_per_s2) && acceleration_mm_per_s2 >= 0 && acceleration_mm_per_s2 <= 1e6,
+                "acceleration_mm_per_s2", acceleration_mm_per_s2, "must be in [0, 1e6] mm/s^2 (0: the machine's)");
+  require_field(std::isfinite(jerk_mm_per_s3) && jerk_mm_per_s3 >= 0 && jerk_mm_per_s3 <= 1e9, "jerk_mm_per_s3", jerk_mm_per_s3,
+                "must be in [0, 1e9] mm/s^3 (0: the machine's)");
+  require_field(std::isfinite(deadband) && deadband >= 0 && deadband < 1, "deadband", deadband, "must be in [0, 1)");
 }
 
 void JogSource::prepare(const SourceContext& ctx, const Eigen::Vector2d& start_mm) {

@@ -1,24 +1,29 @@
 #include "engine/executor/machine_setup.h"
 
 #include <cmath>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
 #include "engine/control/controller_factory.h"
+#include "engine/common/error.h"
 
 namespace machplan::executor {
 
 namespace {
-void require(bool ok, const std::string& field, double value, const char* rule) {
-  if (!ok) throw std::invalid_argument(fmt::format("MachineSetup::{} = {}: {}", field, value, rule));
-}
+void require(bool ok, const std::string& field, double value, const char* rule) { require_field(ok, field, value, rule); }
 }  // namespace
+
+void TorchSetup::validate() const {
+  require(std::isfinite(arc_ok_timeout_s) && arc_ok_timeout_s > 0, "arc_ok_timeout_s", arc_ok_timeout_s, "must be > 0");
+  require(std::isfinite(pierce_delay_s) && pierce_delay_s >= 0, "pierce_delay_s", pierce_delay_s, "must be >= 0");
+  require(std::isfinite(preheat_s) && preheat_s >= 0, "preheat_s", preheat_s, "must be >= 0");
+  require(std::isfinite(height_timeout_s) && height_timeout_s > 0, "height_timeout_s", height_timeout_s, "must be > 0");
+}
 
 void MachineSetup::validate() const {
   for (int i = 0; i < hardware::kAxes; ++i) {
     const auto& s = signals[i];
-    const std::string ax = fmt::format("axis[{}].", i);
+    const std::string ax = fmt::format("signals[{}].", i);
     require(std::isfinite(s.mm_per_count) && s.mm_per_count > 0, ax + "mm_per_count", s.mm_per_count, "must be > 0");
     require(s.counter_bits >= 8 && s.counter_bits <= 32, ax + "counter_bits", s.counter_bits, "must be 8 .. 32");
     require(s.dac_bits >= 8 && s.dac_bits <= 24, ax + "dac_bits", s.dac_bits, "must be 8 .. 24");
@@ -28,12 +33,13 @@ void MachineSetup::validate() const {
             s.command_latency_ticks, "must be 0 .. 100");
     require(s.reading_latency_ticks >= 0 && s.reading_latency_ticks <= 100, ax + "reading_latency_ticks",
             s.reading_latency_ticks, "must be 0 .. 100");
-    require(std::isfinite(max_speed_mm_per_s[i]) && max_speed_mm_per_s[i] > 0, ax + "max_speed_mm_per_s",
+    require(std::isfinite(max_speed_mm_per_s[i]) && max_speed_mm_per_s[i] > 0, fmt::format("max_speed_mm_per_s[{}]", i),
             max_speed_mm_per_s[i], "must be > 0");
     const double cal = calibrated_mm_per_count[i];
     require(std::isfinite(cal) && (cal == 0 || std::abs(cal / s.mm_per_count - 1) <= 0.1),
-            ax + "calibrated_mm_per_count", cal, "must be 0 (not calibrated) or within 10 % of mm_per_count");
-    servo[i].validate();
+            fmt::format("calibrated_mm_per_count[{}]", i), cal,
+            "must be 0 (not calibrated) or within 10 % of mm_per_count");
+    validate_member(fmt::format("servo[{}]", i), servo[i]);
   }
   require(std::isfinite(max_acceleration_mm_per_s2) && max_acceleration_mm_per_s2 > 0, "max_acceleration_mm_per_s2",
           max_acceleration_mm_per_s2, "must be > 0");
@@ -42,10 +48,7 @@ void MachineSetup::validate() const {
   require(std::isfinite(contour_error_limit_mm) && contour_error_limit_mm > 0, "contour_error_limit_mm",
           contour_error_limit_mm, "must be > 0");
   require(std::isfinite(rapid_mm_per_s) && rapid_mm_per_s > 0, "rapid_mm_per_s", rapid_mm_per_s, "must be > 0");
-  require(torch.arc_ok_timeout_s > 0, "torch.arc_ok_timeout_s", torch.arc_ok_timeout_s, "must be > 0");
-  require(torch.pierce_delay_s >= 0, "torch.pierce_delay_s", torch.pierce_delay_s, "must be >= 0");
-  require(torch.preheat_s >= 0, "torch.preheat_s", torch.preheat_s, "must be >= 0");
-  require(torch.height_timeout_s > 0, "torch.height_timeout_s", torch.height_timeout_s, "must be > 0");
+  validate_member("torch", torch);
 }
 
 control::ControllerPlant plant_from_setup(const executor::MachineSetup& setup) {

@@ -27,6 +27,7 @@ struct TorchSetup {
   double retract_height_mm = 15.0;
   double height_tolerance_mm = 0.05;
   double height_timeout_s = 3.0;       // the height axis must reach its target within this
+  void validate() const;  // throws InputError naming field, value and rule
 };
 
 struct MachineSetup {
@@ -44,7 +45,7 @@ struct MachineSetup {
   double contour_error_limit_mm = 0.5;        // supervisor: saturated drive off the contour
   double rapid_mm_per_s = 80.0;
   TorchSetup torch;
-  void validate() const;  // throws std::invalid_argument naming field, value and rule
+  void validate() const;  // throws InputError naming field, value and rule
 };
 
 // What a controller may know of this setup (engine/control/controller_factory.h): servo gains,

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "engine/common/error.h"
+
 namespace machplan::executor {
 
 const char* to_string(FaultKind k) {
@@ -24,8 +26,26 @@ const char* to_string(FaultKind k) {
   return "?";
 }
 
+void SupervisorOptions::validate() const {
+  require_field(std::isfinite(rest_window_s) && rest_window_s > 0 && rest_window_s <= 10, "rest_window_s", rest_window_s,
+                "must be in (0, 10] s");
+  require_field(std::isfinite(stop_settle_s) && stop_settle_s > 0 && stop_settle_s <= 60, "stop_settle_s", stop_settle_s,
+                "must be in (0, 60] s");
+  require_field(std::isfinite(stall_min_speed_mm_per_s) && stall_min_speed_mm_per_s > 0 && stall_min_speed_mm_per_s <= 1000,
+                "stall_min_speed_mm_per_s", stall_min_speed_mm_per_s, "must be in (0, 1000] mm/s");
+  require_field(std::isfinite(stall_check_travel_mm) && stall_check_travel_mm > 0 && stall_check_travel_mm <= 1000,
+                "stall_check_travel_mm", stall_check_travel_mm, "must be in (0, 1000] mm");
+  require_field(std::isfinite(stall_min_fraction) && stall_min_fraction >= 0 && stall_min_fraction < 1,
+                "stall_min_fraction", stall_min_fraction, "must be in [0, 1)");
+  require_field(std::isfinite(saturation_window_s) && saturation_window_s > 0 && saturation_window_s <= 60,
+                "saturation_window_s", saturation_window_s, "must be in (0, 60] s");
+  require_field(std::isfinite(saturation_share) && saturation_share > 0 && saturation_share <= 1, "saturation_share",
+                saturation_share, "must be in (0, 1]");
+}
+
 void Supervisor::configure(const MachineSetup& m, const SupervisorOptions& o, double period_s,
                            const std::array<double, hardware::kAxes>& quantum_mm) {
+  o.validate();
   m_ = m;
   o_ = o;
   dt_ = period_s;

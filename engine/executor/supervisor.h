@@ -64,6 +64,8 @@ struct SupervisorOptions {
   double stall_min_fraction = 0.25;
   double saturation_window_s = 0.25;
   double saturation_share = 0.5;
+  // Throws InputError naming the field, its value and the rule.
+  void validate() const;
 };
 
 class Supervisor {

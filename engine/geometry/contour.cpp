@@ -4,9 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "engine/common/error.h"
 
 namespace machplan {
 namespace {
@@ -260,23 +261,22 @@ Intersection intersect(const Segment& a, const Segment& b, double tolerance_mm) 
 
 Contour::Contour(std::vector<Vector2d> vertices, std::vector<double> bulges)
     : vertices_(std::move(vertices)), bulges_(std::move(bulges)) {
-  if (vertices_.empty()) throw std::invalid_argument("contour: no vertices");
+  if (vertices_.empty()) throw InputError::field("vertices", "a contour needs at least one vertex");
   if (vertices_.size() != bulges_.size())
-    throw std::invalid_argument(fmt::format("contour: {} vertices but {} bulges", vertices_.size(), bulges_.size()));
+    throw InputError::field("bulges", fmt::format("{} vertices but {} bulges", vertices_.size(), bulges_.size()));
   for (std::size_t i = 0; i < vertices_.size(); ++i) {
     const auto& v = vertices_[i];
     if (!std::isfinite(v.x()) || !std::isfinite(v.y()) || std::abs(v.x()) > kMaxCoordinateMm ||
         std::abs(v.y()) > kMaxCoordinateMm)
-      throw std::invalid_argument(fmt::format("contour: vertex {} = ({}, {}) is not finite or beyond {} mm", i,
-                                              v.x(), v.y(), kMaxCoordinateMm));
+      throw InputError::field("vertices", fmt::format("vertex {} = ({}, {}) is not finite or beyond {} mm", i, v.x(),
+                                                      v.y(), kMaxCoordinateMm));
     if (!std::isfinite(bulges_[i]) || std::abs(bulges_[i]) > kMaxBulge)
-      throw std::invalid_argument(
-          fmt::format("contour: bulge {} = {} is not finite or beyond {}", i, bulges_[i], kMaxBulge));
+      throw InputError::field("bulges", fmt::format("bulge {} = {} is not finite or beyond {}", i, bulges_[i], kMaxBulge));
   }
 }
 
 Contour Contour::circle(const Vector2d& center, double r, bool ccw) {
-  if (!(r > 0.0) || !std::isfinite(r)) throw std::invalid_argument(fmt::format("circle: radius {} is not positive", r));
+  require_field(r > 0.0 && std::isfinite(r), "r", r, "is not a positive radius");
   const double b = ccw ? 1.0 : -1.0;
   return Contour({center + Vector2d(r, 0), center - Vector2d(r, 0)}, {b, b});
 }

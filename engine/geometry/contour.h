@@ -134,12 +134,12 @@ Intersection intersect(const Segment& a, const Segment& b, double tolerance_mm =
 class Contour {
  public:
   Contour() = default;
-  // Throws std::invalid_argument naming the offending index when the sizes differ, the
+  // Throws InputError::field naming the offending index when the sizes differ, the
   // contour is empty, or a coordinate or bulge is non-finite or beyond the limits above.
   Contour(std::vector<Eigen::Vector2d> vertices, std::vector<double> bulges);
 
   // A circle of radius r > 0 as two half circles, counter-clockwise (ccw = true) or
-  // clockwise, starting at center + (r, 0). Throws std::invalid_argument like the constructor
+  // clockwise, starting at center + (r, 0). Throws InputError like the constructor
   // and when r is not positive.
   static Contour circle(const Eigen::Vector2d& center, double r, bool ccw = true);
 

@@ -2,10 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 #include <string>
 
 #include <fmt/format.h>
+
+#include "engine/common/error.h"
 
 #include "engine/geometry/contour.h"
 
@@ -134,26 +135,26 @@ ArcFitResult fit_arcs(const std::function<Vector2d(double)>& curve, double t0, d
 
 void Nurbs::validate() const {
   const std::size_t n = control.size();
-  if (degree < 1 || degree > 30) throw std::invalid_argument(fmt::format("degree {} is outside 1..30", degree));
+  if (degree < 1 || degree > 30) throw InputError::field("degree", fmt::format("degree {} is outside 1..30", degree));
   const auto p = static_cast<std::size_t>(degree);
   if (n < p + 1)
-    throw std::invalid_argument(fmt::format("{} control points are too few for degree {}", n, degree));
+    throw InputError::field("control", fmt::format("{} control points are too few for degree {}", n, degree));
   if (knots.size() != n + p + 1)
-    throw std::invalid_argument(fmt::format("{} knots for {} control points of degree {}; expected {}", knots.size(),
-                                            n, degree, n + p + 1));
+    throw InputError::field("knots", fmt::format("{} knots for {} control points of degree {}; expected {}", knots.size(),
+                                                 n, degree, n + p + 1));
   for (std::size_t i = 0; i < knots.size(); ++i) {
-    if (!std::isfinite(knots[i])) throw std::invalid_argument(fmt::format("knot {} is not finite", i));
+    if (!std::isfinite(knots[i])) throw InputError::field("knots", fmt::format("knot {} is not finite", i));
     if (i > 0 && knots[i] < knots[i - 1])
-      throw std::invalid_argument(fmt::format("knot {} ({:g}) is smaller than the one before ({:g})", i, knots[i],
-                                              knots[i - 1]));
+      throw InputError::field("knots", fmt::format("knot {} ({:g}) is smaller than the one before ({:g})", i, knots[i],
+                                                   knots[i - 1]));
   }
-  if (!(knots[n] > knots[p])) throw std::invalid_argument("the knot vector leaves an empty domain");
+  if (!(knots[n] > knots[p])) throw InputError::field("knots", "the knot vector leaves an empty domain");
   if (!weights.empty()) {
     if (weights.size() != n)
-      throw std::invalid_argument(fmt::format("{} weights for {} control points", weights.size(), n));
+      throw InputError::field("weights", fmt::format("{} weights for {} control points", weights.size(), n));
     for (std::size_t i = 0; i < n; ++i)
       if (!std::isfinite(weights[i]) || !(weights[i] > 0))
-        throw std::invalid_argument(fmt::format("weight {} ({:g}) must be finite and positive", i, weights[i]));
+        throw InputError::field("weights", fmt::format("weight {} ({:g}) must be finite and positive", i, weights[i]));
   }
 }
 
@@ -205,7 +206,7 @@ Vector2d CubicInterpolant::point(double t, std::size_t i) const {
 CubicInterpolant interpolate_cubic(const std::vector<Vector2d>& pts, const Vector2d& start_tangent,
                                    const Vector2d& end_tangent) {
   const std::size_t n = pts.size();
-  if (n < 2) throw std::invalid_argument(fmt::format("{} point(s): a curve through points needs at least 2", n));
+  if (n < 2) throw InputError::field("points", fmt::format("{} point(s): a curve through points needs at least 2", n));
   CubicInterpolant out;
   out.points = pts;
   out.params.assign(n, 0.0);
@@ -213,7 +214,7 @@ CubicInterpolant interpolate_cubic(const std::vector<Vector2d>& pts, const Vecto
   for (std::size_t i = 0; i + 1 < n; ++i) {
     h[i] = (pts[i + 1] - pts[i]).norm();
     if (!(h[i] > 0) || !std::isfinite(h[i]))
-      throw std::invalid_argument(fmt::format("points {} and {} coincide", i, i + 1));
+      throw InputError::field("points", fmt::format("points {} and {} coincide", i, i + 1));
     out.params[i + 1] = out.params[i] + h[i];
   }
   // Tridiagonal system a m(i-1) + b m(i) + c m(i+1) = r(i) for the derivatives (C2 cubic).

@@ -22,8 +22,8 @@
 // piece can escape it; the pieces of smooth CAD curves are far smoother than that.
 //
 // Everything is in mm and pure; nothing throws except Nurbs::validate() and
-// interpolate_cubic() on bad input (std::invalid_argument with the reason, for the reader to
-// turn into an InputError with its file and line).
+// interpolate_cubic() on bad input (InputError naming the field with the reason, for the
+// reader to turn into an InputError with its file and line).
 #pragma once
 
 #include <cstddef>
@@ -67,7 +67,7 @@ struct Nurbs {
   std::vector<double> weights;  // empty: all 1
   std::vector<double> knots;
 
-  // Throws std::invalid_argument unless 1 <= degree <= 30, n >= degree + 1, the knot count
+  // Throws InputError unless 1 <= degree <= 30, n >= degree + 1, the knot count
   // is n + degree + 1, knots are finite and non-decreasing with a non-empty domain, and
   // weights (if any) are n finite positive numbers.
   void validate() const;
@@ -86,7 +86,7 @@ struct Nurbs {
 // when non-zero; otherwise the ends are natural (zero second derivative). Returns the
 // Hermite derivative at each point with respect to the chord-length parameter; piece i runs
 // over [s(i), s(i+1)], s the cumulative chord lengths. Needs >= 2 points with positive
-// distances between consecutive ones (throws std::invalid_argument otherwise).
+// distances between consecutive ones (throws InputError::field("points", ...) otherwise).
 struct CubicInterpolant {
   std::vector<Eigen::Vector2d> points;
   std::vector<Eigen::Vector2d> derivatives;

@@ -27,7 +27,7 @@ PolygonBoundary::PolygonBoundary(const ProhibitedRegion& region) {
 
 PointMatrixCheck::PointMatrixCheck(const ProhibitedRegion& region, double spacing_mm) {
   if (!std::isfinite(spacing_mm) || !(spacing_mm > 0.0))
-    throw InputError("spacing_mm", 0, fmt::format("is {}, must be finite and > 0", spacing_mm));
+    throw InputError::field("spacing_mm", fmt::format("is {}, must be finite and > 0", spacing_mm));
   const PolygonBoundary poly(region);
   prohibited_left_ = poly.prohibited_left();
   const auto& e = poly.edges();

@@ -96,7 +96,7 @@ Eigen::AlignedBox2d grown_box(const Segment& s, double by) {
 
 void OffsetOptions::validate() const {
   if (!std::isfinite(tolerance_mm) || !(tolerance_mm > 0.0) || tolerance_mm > 0.1)
-    throw InputError("tolerance_mm", 0, fmt::format("is {}, must be finite, > 0 and <= 0.1 mm", tolerance_mm));
+    throw InputError::field("tolerance_mm", fmt::format("is {}, must be finite, > 0 and <= 0.1 mm", tolerance_mm));
 }
 
 const char* to_string(OffsetProblem::Kind k) {
@@ -501,7 +501,7 @@ void report_offset_problems(const std::vector<Segment>& spans, const std::vector
 OffsetResult offset_contour(const Contour& contour, double d, const OffsetOptions& options) {
   options.validate();
   if (!std::isfinite(d) || std::abs(d) > kMaxCoordinateMm)
-    throw InputError("distance_mm", 0, fmt::format("is {}, must be finite and within {} mm", d, kMaxCoordinateMm));
+    throw InputError::field("distance_mm", fmt::format("is {}, must be finite and within {} mm", d, kMaxCoordinateMm));
   const double tol = options.tolerance_mm;
   if (const auto crossings = self_intersections(contour, tol); !crossings.empty()) {
     const auto& x = crossings.front();

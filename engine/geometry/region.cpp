@@ -12,42 +12,33 @@ namespace machplan {
 
 using Eigen::Vector2d;
 
-const char* to_string(MachiningSide s) {
-  switch (s) {
-    case MachiningSide::outside: return "outside";
-    case MachiningSide::inside: return "inside";
-  }
-  return "?";
+namespace {
+constexpr Spelling kSideNames[] = {{"outside"}, {"inside"}};
+constexpr Spelling kOffsetNames[] = {{"paper"}, {"robust"}};
+}  // namespace
+
+const char* to_string(MachiningSide s) { return kSideNames[static_cast<std::size_t>(s)].name.data(); }
+
+Parsed<MachiningSide> parse_machining_side(std::string_view text) {
+  const Parsed<std::size_t> p = parse_name(kSideNames, text, "side", "machining side");
+  return {static_cast<MachiningSide>(p.value), p.note};
 }
 
-MachiningSide machining_side_from_string(const std::string& s) {
-  if (s == "outside") return MachiningSide::outside;
-  if (s == "inside") return MachiningSide::inside;
-  throw InputError("--side", 0, fmt::format("'{}' is not a machining side; use outside or inside", s));
-}
+const char* to_string(OffsetMethod m) { return kOffsetNames[static_cast<std::size_t>(m)].name.data(); }
 
-const char* to_string(OffsetMethod m) {
-  switch (m) {
-    case OffsetMethod::paper: return "paper";
-    case OffsetMethod::robust: return "robust";
-  }
-  return "?";
-}
-
-OffsetMethod offset_method_from_string(const std::string& s) {
-  if (s == "paper") return OffsetMethod::paper;
-  if (s == "robust") return OffsetMethod::robust;
-  throw InputError("--offset", 0, fmt::format("'{}' is not an offset method; use paper or robust", s));
+Parsed<OffsetMethod> parse_offset_method(std::string_view text) {
+  const Parsed<std::size_t> p = parse_name(kOffsetNames, text, "method", "offset method");
+  return {static_cast<OffsetMethod>(p.value), p.note};
 }
 
 void RegionOptions::validate() const {
   if (!std::isfinite(tool_radius_mm) || tool_radius_mm < 0.0 || tool_radius_mm > 1e6)
-    throw InputError("tool_radius_mm", 0, fmt::format("is {}, must be finite, >= 0 and <= 1e6 mm", tool_radius_mm));
+    throw InputError::field("tool_radius_mm", fmt::format("is {}, must be finite, >= 0 and <= 1e6 mm", tool_radius_mm));
   if (!std::isfinite(tolerance_mm) || !(tolerance_mm > 0.0) || tolerance_mm > 0.1)
-    throw InputError("tolerance_mm", 0, fmt::format("is {}, must be finite, > 0 and <= 0.1 mm", tolerance_mm));
+    throw InputError::field("tolerance_mm", fmt::format("is {}, must be finite, > 0 and <= 0.1 mm", tolerance_mm));
   if (!std::isfinite(paper_chord_tolerance_mm) || !(paper_chord_tolerance_mm > 0.0) || paper_chord_tolerance_mm > 10.0)
-    throw InputError("paper_chord_tolerance_mm", 0,
-                     fmt::format("is {}, must be finite, > 0 and <= 10 mm", paper_chord_tolerance_mm));
+    throw InputError::field("paper_chord_tolerance_mm",
+                            fmt::format("is {}, must be finite, > 0 and <= 10 mm", paper_chord_tolerance_mm));
 }
 
 ProhibitedRegion ProhibitedRegion::build(const std::vector<Contour>& profile, const RegionOptions& options,

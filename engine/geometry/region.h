@@ -67,6 +67,7 @@
 
 #include <Eigen/Core>
 
+#include "engine/common/names.h"
 #include "engine/geometry/contour.h"
 #include "engine/geometry/offset.h"
 #include "engine/geometry/span_index.h"
@@ -77,15 +78,15 @@ namespace machplan {
 // inside: internal machining, keep the tool inside a pocket.
 enum class MachiningSide { outside, inside };
 const char* to_string(MachiningSide s);
-// "outside" | "inside"; anything else throws InputError("--side", ...).
-MachiningSide machining_side_from_string(const std::string& s);
+// "outside" | "inside"; anything else throws InputError::field("side", ...).
+Parsed<MachiningSide> parse_machining_side(std::string_view text);
 
 // paper: drop "very close" points, shift each segment by R (paper_offset.h);
 // robust: offset_contour() of engine/geometry/offset.h.
 enum class OffsetMethod { paper, robust };
 const char* to_string(OffsetMethod m);
-// "paper" | "robust"; anything else throws InputError("--offset", ...).
-OffsetMethod offset_method_from_string(const std::string& s);
+// "paper" | "robust"; anything else throws InputError::field("method", ...).
+Parsed<OffsetMethod> parse_offset_method(std::string_view text);
 
 struct RegionOptions {
   MachiningSide side = MachiningSide::outside;

@@ -45,7 +45,7 @@ std::vector<std::string_view> split(std::string_view s) {
 double number(std::string_view f, const std::string& source, int line, const char* what) {
   const std::string text(f);
   const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(source, line, fmt::format("{} '{}' is not a finite number", what, text));
+  if (!v) throw InputError(source, line, fmt::format("{} '{}' is not a finite number", what, excerpt(text)));
   return *v;
 }
 
@@ -191,9 +191,11 @@ void on_signal(int sig) {
 }  // namespace
 
 RawTerminal::RawTerminal(int fd) {
-  if (!isatty(fd)) throw InputError("--operator keys", 0, "standard input is not a terminal (keys need an interactive terminal)");
-  if (g_raw_fd >= 0) throw InputError("--operator keys", 0, "the terminal is already in raw mode");
-  if (tcgetattr(fd, &g_saved) != 0) throw InputError("--operator keys", 0, fmt::format("cannot read the terminal mode: {}", std::strerror(errno)));
+  if (!isatty(fd))
+    throw InputError::field("operator", "keys: standard input is not a terminal (keys need an interactive terminal)");
+  if (g_raw_fd >= 0) throw InputError::field("operator", "keys: the terminal is already in raw mode");
+  if (tcgetattr(fd, &g_saved) != 0)
+    throw InputError::field("operator", fmt::format("keys: cannot read the terminal mode: {}", std::strerror(errno)));
   struct termios raw = g_saved;
   raw.c_lflag &= ~static_cast<tcflag_t>(ICANON | ECHO | ISIG | IEXTEN);
   raw.c_iflag &= ~static_cast<tcflag_t>(IXON | ICRNL);
@@ -213,7 +215,7 @@ RawTerminal::RawTerminal(int fd) {
   g_raw_fd = fd;
   if (tcsetattr(fd, TCSANOW, &raw) != 0) {
     restore_terminal();
-    throw InputError("--operator keys", 0, fmt::format("cannot set raw mode: {}", std::strerror(errno)));
+    throw InputError::field("operator", fmt::format("keys: cannot set raw mode: {}", std::strerror(errno)));
   }
 }
 
@@ -246,20 +248,22 @@ StickState LiveOperator::unpack(std::uint64_t w) noexcept {
 }
 
 LiveOperator::LiveOperator(Kind kind, const std::string& device, double max_speed_mm_per_s) {
-  const std::string flag = kind == Kind::joystick ? "--operator joystick" : "--operator keys";
+  // Errors name the operator option ("operator") and the kind.
+  const char* what = kind == Kind::joystick ? "joystick" : "keys";
   if (kind == Kind::joystick) {
     const std::string path = device.empty() ? "/dev/input/js0" : device;
     fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd_ < 0)
-      throw InputError(flag, 0, fmt::format("cannot open the joystick {}: {} (is one plugged in? name another with --operator joystick:/dev/input/jsN)",
-                                            path, std::strerror(errno)));
+      throw InputError::field("operator", fmt::format("joystick: cannot open {}: {} (is one plugged in? name another device: "
+                                                "joystick:/dev/input/jsN)",
+                                                excerpt(path), std::strerror(errno)));
   } else {
     fd_ = STDIN_FILENO;
     raw_ = std::make_unique<RawTerminal>(fd_);
   }
   if (::pipe(wake_) != 0) {
     if (kind == Kind::joystick) ::close(fd_);
-    throw InputError(flag, 0, fmt::format("cannot create a pipe: {}", std::strerror(errno)));
+    throw InputError::field("operator", fmt::format("{}: cannot create a pipe: {}", what, std::strerror(errno)));
   }
   word_.store(pack(StickState{0, 0, max_speed_mm_per_s, false}));
   thread_ = std::thread([this, kind, max_speed_mm_per_s] { loop(kind, max_speed_mm_per_s); });

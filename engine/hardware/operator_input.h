@@ -109,7 +109,7 @@ class KeyDecoder {
 // Raw mode on a terminal file descriptor (no echo, no line buffering, no signals from keys:
 // Ctrl-C arrives as a byte the KeyDecoder turns into quit); the previous mode comes back in
 // the destructor, and from the SIGINT/SIGTERM/SIGHUP handlers and atexit hook installed while
-// one is alive. Throws InputError("--operator keys", ...) when fd is not a terminal.
+// one is alive. Throws InputError::field("operator", "keys: ...") when fd is not a terminal.
 class RawTerminal {
  public:
   explicit RawTerminal(int fd);

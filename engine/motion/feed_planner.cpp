@@ -4,10 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
+#include "engine/common/error.h"
 #include "engine/motion/interpolator.h"
 
 namespace machplan::motion {
@@ -24,30 +24,24 @@ constexpr int kDeviationSamples = 64;
 
 Vector2d left_normal(const Vector2d& t) { return Vector2d(-t.y(), t.x()); }
 
-void require(bool ok, const char* field, double value, const char* rule) {
-  if (!ok) throw std::invalid_argument(fmt::format("PlannerOptions::{} = {}: {}", field, value, rule));
-}
+void require(bool ok, const char* field, double value, const char* rule) { require_field(ok, field, value, rule); }
 
 }  // namespace
 
 void validate_stretch(const Stretch& st) {
-  if (st.segments.empty()) throw std::invalid_argument("plan_stretch: the stretch has no segments");
-  if (st.feed_mm_per_s.size() != st.segments.size() || st.source_lines.size() != st.segments.size())
-    throw std::invalid_argument(fmt::format(
-        "plan_stretch: {} segments but {} feeds and {} source lines", st.segments.size(),
-        st.feed_mm_per_s.size(), st.source_lines.size()));
+  MACHPLAN_ASSERT(!st.segments.empty(), "plan_stretch: the stretch has no segments");
+  MACHPLAN_ASSERT(st.feed_mm_per_s.size() == st.segments.size() && st.source_lines.size() == st.segments.size(),
+                  "plan_stretch: {} segments but {} feeds and {} source lines", st.segments.size(),
+                  st.feed_mm_per_s.size(), st.source_lines.size());
   for (std::size_t i = 0; i < st.segments.size(); ++i) {
     const double f = st.feed_mm_per_s[i];
-    if (!(std::isfinite(f) && f > 0.0))
-      throw std::invalid_argument(fmt::format("plan_stretch: segment {} has feed {} mm/s (must be > 0)", i, f));
+    MACHPLAN_ASSERT(std::isfinite(f) && f > 0.0, "plan_stretch: segment {} has feed {} mm/s (must be > 0)", i, f);
     const Segment& s = st.segments[i];
-    if (s.is_arc() && !(std::isfinite(s.radius) && s.radius > 0.0 && std::isfinite(s.sweep)))
-      throw std::invalid_argument(fmt::format("plan_stretch: arc segment {} has radius {} and sweep {}", i,
-                                              s.radius, s.sweep));
-    if (i > 0 && (s.start - st.segments[i - 1].end).norm() > 1e-6)
-      throw std::invalid_argument(fmt::format(
-          "plan_stretch: segment {} starts {} mm away from the end of segment {}", i,
-          (s.start - st.segments[i - 1].end).norm(), i - 1));
+    MACHPLAN_ASSERT(!s.is_arc() || (std::isfinite(s.radius) && s.radius > 0.0 && std::isfinite(s.sweep)),
+                    "plan_stretch: arc segment {} has radius {} and sweep {}", i, s.radius, s.sweep);
+    MACHPLAN_ASSERT(i == 0 || (s.start - st.segments[i - 1].end).norm() <= 1e-6,
+                    "plan_stretch: segment {} starts {} mm away from the end of segment {}", i,
+                    (s.start - st.segments[std::max<std::size_t>(i, 1) - 1].end).norm(), i - 1);
   }
 }
 

@@ -135,7 +135,7 @@ struct PlannerOptions {
   static PlannerOptions thermal_gantry();
   static PlannerOptions xy_table();
 
-  // Throws std::invalid_argument naming the field, its value and the rule.
+  // Throws InputError naming the field, its value and the rule.
   void validate() const;
 };
 
@@ -184,14 +184,15 @@ class PlannedTrajectory final : public Trajectory {
   int blended_ = 0, stops_ = 0;
 };
 
-// Plans the stretch (see the file comment). Throws std::invalid_argument when `options` is
-// invalid or the stretch is malformed (no segments, vector sizes differ, a non-positive or
-// non-finite feed, segments not contiguous within 1e-6 mm). Thread safe, deterministic.
+// Plans the stretch (see the file comment). Throws InputError when `options` is invalid, and
+// InternalError (MACHPLAN_ASSERT: the caller built it wrong) when the stretch is malformed (no
+// segments, vector sizes differ, a non-positive or non-finite feed, segments not contiguous
+// within 1e-6 mm). Thread safe, deterministic.
 std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
                                                          const PlannerOptions& options);
 std::unique_ptr<Trajectory> plan_stretch(const Stretch& stretch, const PlannerOptions& options);
 
-// Throws std::invalid_argument when the stretch is malformed (see plan_stretch_detailed).
+// Throws InternalError when the stretch is malformed (see plan_stretch_detailed).
 void validate_stretch(const Stretch& stretch);
 
 // The lower bound of the file comment, s, for motion along exactly `stretch`'s segments.

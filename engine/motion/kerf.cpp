@@ -50,7 +50,7 @@ std::optional<LoopContour> to_contour(const std::vector<Segment>& segs, std::siz
   }
   try {
     return LoopContour{a, b, Contour(std::move(v), std::move(bl)), std::move(map)};
-  } catch (const std::invalid_argument&) {
+  } catch (const InputError&) {
     return std::nullopt;  // coordinates beyond the geometry's limits: not a loop we can offset
   }
 }
@@ -368,9 +368,9 @@ KerfLoop compensate_loop(const Found& f, int depth, double half, const std::vect
 
 void KerfOptions::validate() const {
   if (!std::isfinite(closure_tolerance_mm) || !(closure_tolerance_mm > 0.0) || closure_tolerance_mm > 1.0)
-    throw InputError("closure_tolerance_mm", 0,
-                     fmt::format("is {}, must be finite, > 0 and <= 1 mm", closure_tolerance_mm));
-  offset.validate();
+    throw InputError::field("closure_tolerance_mm",
+                            fmt::format("is {}, must be finite, > 0 and <= 1 mm", closure_tolerance_mm));
+  validate_member("offset", offset);
 }
 
 const char* to_string(KerfIssue::Kind k) {
@@ -409,7 +409,7 @@ std::string KerfReport::brief(const std::string& source) const {
 KerfReport apply_kerf(Job& job, double kerf_width_mm, const KerfOptions& options) {
   options.validate();
   if (!std::isfinite(kerf_width_mm) || kerf_width_mm < 0.0 || kerf_width_mm > 100.0)
-    throw InputError("kerf_width_mm", 0, fmt::format("is {}, must be finite, >= 0 and <= 100 mm", kerf_width_mm));
+    throw InputError::field("kerf_width_mm", fmt::format("is {}, must be finite, >= 0 and <= 100 mm", kerf_width_mm));
   KerfReport report;
   report.kerf_width_mm = kerf_width_mm;
   if (kerf_width_mm == 0.0) return report;

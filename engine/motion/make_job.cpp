@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <numbers>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -15,9 +14,7 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
-void require(bool ok, const char* field, double value, const char* rule) {
-  if (!ok) throw std::invalid_argument(fmt::format("JobOptions::{} = {}: {}", field, value, rule));
-}
+void require(bool ok, const char* field, double value, const char* rule) { require_field(ok, field, value, rule); }
 
 // Builds the job while walking the moves.
 class Builder {

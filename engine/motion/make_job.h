@@ -49,7 +49,7 @@ struct JobOptions {
   // Largest change of Z accepted as "no change" (rounding in the program), mm.
   double z_tolerance_mm = 1e-9;
 
-  // Throws std::invalid_argument naming the field, its value and the rule.
+  // Throws InputError naming the field, its value and the rule.
   void validate() const;
 };
 
@@ -59,7 +59,7 @@ struct JobOptions {
 std::vector<Segment> move_segments(const Move& m, const Eigen::Vector2d& from, double zero_length_mm = 1e-9);
 
 // See the file comment. Throws InputError(program.source, line, ...) on refused input and
-// std::invalid_argument when `options` is invalid.
+// InputError naming the field when `options` is invalid.
 Job make_job(const Program& program, const JobOptions& options = {});
 
 }  // namespace machplan::motion

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
+#include "engine/common/error.h"
 #include "engine/motion/interpolator.h"
 
 namespace machplan::motion {
@@ -100,10 +100,8 @@ struct GridStep {
 }  // namespace
 
 void TimeOptimalOptions::validate() const {
-  if (!(std::isfinite(max_step_mm) && max_step_mm > 0))
-    throw std::invalid_argument(fmt::format("TimeOptimalOptions::max_step_mm = {}: must be finite and > 0", max_step_mm));
-  if (!(std::isfinite(max_step_rad) && max_step_rad > 0))
-    throw std::invalid_argument(fmt::format("TimeOptimalOptions::max_step_rad = {}: must be finite and > 0", max_step_rad));
+  require_field(std::isfinite(max_step_mm) && max_step_mm > 0, "max_step_mm", max_step_mm, "must be finite and > 0");
+  require_field(std::isfinite(max_step_rad) && max_step_rad > 0, "max_step_rad", max_step_rad, "must be finite and > 0");
 }
 
 TimeOptimalProfile time_optimal_profile(const Stretch& path, const PlannerOptions& o, const TimeOptimalOptions& opt) {

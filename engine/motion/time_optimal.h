@@ -54,7 +54,7 @@ struct TimeOptimalOptions {
   // Largest grid step along an arc, rad of turning (> 0): small arcs get enough points.
   double max_step_rad = 0.005;
 
-  // Throws std::invalid_argument naming the field, its value and the rule.
+  // Throws InputError naming the field, its value and the rule.
   void validate() const;
 };
 
@@ -69,8 +69,8 @@ struct TimeOptimalProfile {
 };
 
 // The profile and time of the file comment for `path` under `limits`' per-axis speed and
-// acceleration (and the segments' feeds). Throws std::invalid_argument when the options are
-// invalid or the stretch is malformed (the preconditions of plan_stretch). Deterministic,
+// acceleration (and the segments' feeds). Throws InputError when the options are invalid and
+// InternalError when the stretch is malformed (the preconditions of plan_stretch). Deterministic,
 // thread safe. O(number of grid points).
 TimeOptimalProfile time_optimal_profile(const Stretch& path, const PlannerOptions& limits,
                                         const TimeOptimalOptions& options = {});

@@ -84,10 +84,10 @@ double parse_real(const std::string& source, const Pair& p) {
   double x = 0.0;
   const auto [ptr, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
   if (v.empty() || ec != std::errc() || ptr != v.data() + v.size())
-    throw InputError(source, p.line + 1, fmt::format("group code {}: '{}' is not a number", p.code, v));
+    throw InputError(source, p.line + 1, fmt::format("group code {}: '{}' is not a number", p.code, excerpt(v)));
   if (!std::isfinite(x) || std::abs(x) > kMaxCoordinateMm)
     throw InputError(source, p.line + 1,
-                     fmt::format("group code {}: {} is not finite or beyond {:g}", p.code, v, kMaxCoordinateMm));
+                     fmt::format("group code {}: {} is not finite or beyond {:g}", p.code, excerpt(v), kMaxCoordinateMm));
   return x;
 }
 
@@ -96,7 +96,7 @@ long parse_int(const std::string& source, const Pair& p) {
   long x = 0;
   const auto [ptr, ec] = std::from_chars(v.data(), v.data() + v.size(), x);
   if (v.empty() || ec != std::errc() || ptr != v.data() + v.size() || x < -2147483648L || x > 2147483647L)
-    throw InputError(source, p.line + 1, fmt::format("group code {}: '{}' is not an integer", p.code, v));
+    throw InputError(source, p.line + 1, fmt::format("group code {}: '{}' is not an integer", p.code, excerpt(v)));
   return x;
 }
 
@@ -144,7 +144,7 @@ std::vector<Pair> split_pairs(std::string_view text, const std::string& source) 
     if (code_text.empty() || ec != std::errc() || ptr != code_text.data() + code_text.size() || code < -5 || code > 1071)
       throw InputError(source, line,
                        fmt::format("expected a DXF group code (an integer 0..1071), found '{}'",
-                                   code_text.substr(0, 40)));
+                                   excerpt(code_text, 40)));
     if (k + 1 >= lines.size())
       throw InputError(source, line, fmt::format("group code {} has no value: the file is truncated", code));
     std::string_view value = lines[k + 1];
@@ -396,8 +396,8 @@ struct Instance {
   std::string layer;
 };
 
-// Most arcs all curves of a drawing may be fitted with, and the halvings per curve piece.
-constexpr std::size_t kMaxFittedSpans = 250'000;
+// Halvings per curve piece when fitting arcs (the arcs of all curves together are bounded by
+// DxfOptions::max_fitted_spans).
 constexpr int kFitDepth = 18;
 // Deepest nesting of INSERT within blocks.
 constexpr int kMaxInsertDepth = 32;
@@ -411,7 +411,8 @@ class Assembler {
   std::string label(std::size_t inst) const { return instances_[inst].handle; }
   std::string where(std::size_t inst) const {
     const auto& in = instances_[inst];
-    return fmt::format("{} {} (layer {}, line {})", in.entity->type, in.handle, in.layer, in.entity->line);
+    return fmt::format("{} {} (layer {}, line {})", excerpt(in.entity->type), excerpt(in.handle), excerpt(in.layer),
+                       in.entity->line);
   }
   int line_of(std::size_t inst) const { return instances_[inst].entity->line; }
 
@@ -455,10 +456,10 @@ class Assembler {
   std::size_t new_instance(const Entity& e, std::string handle, std::string layer) {
     if (instances_.size() >= opt_.max_entities)
       throw InputError(source_, e.line,
-                       fmt::format("the drawing holds more than {} entities (INSERT copies counted); the limit is "
-                                   "DxfOptions::max_entities (profile --max-entities) and bounds the time and memory a "
-                                   "read takes, about 1 s per 100 000",
-                                   opt_.max_entities));
+                       fmt::format("the drawing holds more than {} entities (INSERT copies counted); the limit "
+                                   "bounds the time and memory a read takes, about 1 s per 100 000: raise it",
+                                   opt_.max_entities))
+          .with_option("max_entities");
     instances_.push_back({&e, std::move(handle), std::move(layer)});
     return instances_.size() - 1;
   }
@@ -491,7 +492,7 @@ class Assembler {
     if (deg > opt_.flatten_tolerance_deg) {
       problem(ProfileProblem::Severity::error, "not_planar", {k},
               fmt::format("{} lies {:.4g} degrees off the XY plane (flatten tolerance {:g} degrees; see "
-                          "--flatten-tolerance)",
+                          "DxfOptions::flatten_tolerance_deg)",
                           where(k), deg, opt_.flatten_tolerance_deg));
       return false;
     }
@@ -521,7 +522,7 @@ class Assembler {
     }
     problem(ProfileProblem::Severity::error, "not_planar", {k},
             fmt::format("{} spans z {:g} to {:g} ({:.4g} degrees over its extent; flatten tolerance {:g} degrees, see "
-                        "--flatten-tolerance)",
+                        "DxfOptions::flatten_tolerance_deg)",
                         where(k), zmin, zmax, deg, opt_.flatten_tolerance_deg));
     return false;
   }
@@ -643,18 +644,21 @@ class Assembler {
 
   // Spans the next fit may still append (one more than the limit leaves, so that an exhausted
   // fit is told apart from one that just fits).
-  std::size_t fit_budget() const { return kMaxFittedSpans - std::min(fitted_spans_, kMaxFittedSpans) + 1; }
+  std::size_t fit_budget() const {
+    return opt_.max_fitted_spans - std::min(fitted_spans_, opt_.max_fitted_spans) + 1;
+  }
 
-  // Keeps the worst deviation, and bounds the work: fitted spans beyond kMaxFittedSpans mean a
+  // Keeps the worst deviation, and bounds the work: fitted spans beyond max_fitted_spans mean a
   // drawing whose curves are far too detailed for the tolerance (or absurd).
   void note_fit(const ArcFitResult& r, std::size_t k) {
     max_fit_deviation_ = std::max(max_fit_deviation_, r.max_deviation_mm);
     fitted_spans_ += r.spans;
-    if (r.exhausted || fitted_spans_ > kMaxFittedSpans)
+    if (r.exhausted || fitted_spans_ > opt_.max_fitted_spans)
       throw InputError(source_, line_of(k),
-                       fmt::format("{}: the drawing's curves need more than {} arcs at {:g} mm; machplan's limit "
-                                   "(a coarser --tolerance needs fewer)",
-                                   where(k), kMaxFittedSpans, fit_tol_));
+                       fmt::format("{}: the drawing's curves need more than {} arcs at {:g} mm, machplan's limit; "
+                                   "a coarser chain tolerance needs fewer: give one",
+                                   where(k), opt_.max_fitted_spans, fit_tol_))
+          .with_option("chain_tolerance_mm");
   }
 
   // A local piece (vertices, one bulge per vertex, open or closed) seen through m. Straight
@@ -698,17 +702,17 @@ class Assembler {
     const auto it = scan_.blocks.find(upper(name));
     if (it == scan_.blocks.end()) {
       problem(ProfileProblem::Severity::error, "missing_block", {k},
-              fmt::format("{} places block '{}', which the drawing does not define", where(k), name));
+              fmt::format("{} places block '{}', which the drawing does not define", where(k), excerpt(name)));
       return;
     }
     const Block& blk = it->second;
     if (blk.external) {
       problem(ProfileProblem::Severity::error, "unsupported_entity", {k},
-              fmt::format("{} places block '{}', an external reference to another drawing", where(k), name));
+              fmt::format("{} places block '{}', an external reference to another drawing", where(k), excerpt(name)));
       return;
     }
     if (std::find(open_blocks.begin(), open_blocks.end(), it->first) != open_blocks.end())
-      throw InputError(source_, e.line, fmt::format("{}: block '{}' contains itself", where(k), name));
+      throw InputError(source_, e.line, fmt::format("{}: block '{}' contains itself", where(k), excerpt(name)));
     if (depth >= kMaxInsertDepth)
       throw InputError(source_, e.line, fmt::format("{}: blocks nested deeper than {}", where(k), kMaxInsertDepth));
     const double sx = real_of(source_, P, 41, 1.0), sy = real_of(source_, P, 42, 1.0);
@@ -720,8 +724,10 @@ class Assembler {
       return;
     }
     if (cols < 1 || rows < 1 || static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows) > opt_.max_entities)
-      throw InputError(source_, e.line, fmt::format("{}: array of {} x {} copies is not between 1 and {} (--max-entities)",
-                                                    where(k), cols, rows, opt_.max_entities));
+      throw InputError(source_, e.line,
+                       fmt::format("{}: array of {} x {} copies is not between 1 and {}, the limit on entities: raise it",
+                                   where(k), cols, rows, opt_.max_entities))
+          .with_option("max_entities");
     Affine o;
     if (!ocs(k, P, real_of(source_, P, 30), o)) return;
     const Vector2d ins(real_of(source_, P, 10), real_of(source_, P, 20));
@@ -772,7 +778,7 @@ class Assembler {
       for (const auto& q : ctrl) nurbs.control.push_back(map_point(world, q.head<2>(), k));
       try {
         nurbs.validate();
-      } catch (const std::invalid_argument& ex) {
+      } catch (const InputError& ex) {
         throw InputError(source_, e.line, fmt::format("{}: {}", where(k), ex.what()));
       }
       const std::vector<double> br = nurbs.breaks();
@@ -799,7 +805,7 @@ class Assembler {
       CubicInterpolant ci;
       try {
         ci = interpolate_cubic(pts, tangent(12), tangent(13));
-      } catch (const std::invalid_argument& ex) {
+      } catch (const InputError& ex) {
         throw InputError(source_, e.line, fmt::format("{}: {}", where(k), ex.what()));
       }
       pc.v.push_back(pts.front());
@@ -1261,7 +1267,7 @@ class Assembler {
       ProfileContour pcn;
       try {
         pcn.contour = Contour(pc.v, pc.b);
-      } catch (const std::invalid_argument& e) {
+      } catch (const InputError& e) {
         throw InputError(source_, line_of(pc.entities.front()), fmt::format("{}: {}", where(pc.entities.front()), e.what()));
       }
       pcn.area_mm2 = signed_area(pcn.contour);
@@ -1353,18 +1359,19 @@ class Assembler {
 
 void DxfOptions::validate() const {
   if (!std::isfinite(chain_tolerance_mm) || !(chain_tolerance_mm > 0.0) || chain_tolerance_mm > 10.0)
-    throw InputError("chain_tolerance_mm", 0,
-                     fmt::format("is {}, must be finite, > 0 and <= 10 mm", chain_tolerance_mm));
+    throw InputError::field("chain_tolerance_mm", fmt::format("is {}, must be finite, > 0 and <= 10 mm", chain_tolerance_mm));
   if (!std::isfinite(join_tolerance_mm) || join_tolerance_mm < 0.0 || join_tolerance_mm > 10.0)
-    throw InputError("join_tolerance_mm", 0, fmt::format("is {}, must be finite, >= 0 and <= 10 mm", join_tolerance_mm));
+    throw InputError::field("join_tolerance_mm", fmt::format("is {}, must be finite, >= 0 and <= 10 mm", join_tolerance_mm));
   if (!std::isfinite(assumed_mm_per_unit) || assumed_mm_per_unit < 0.0 || assumed_mm_per_unit > 1e4)
-    throw InputError("assumed_mm_per_unit", 0,
-                     fmt::format("is {}, must be 0 (not given) or a positive scale up to 1e4 mm", assumed_mm_per_unit));
+    throw InputError::field("assumed_mm_per_unit",
+                            fmt::format("is {}, must be 0 (not given) or a positive scale up to 1e4 mm", assumed_mm_per_unit));
   if (max_entities < 1 || max_entities > 10'000'000)
-    throw InputError("max_entities", 0, fmt::format("is {}, must lie in 1 .. 10 000 000", max_entities));
+    throw InputError::field("max_entities", fmt::format("is {}, must lie in 1 .. 10 000 000", max_entities));
+  if (max_fitted_spans < 1 || max_fitted_spans > 10'000'000)
+    throw InputError::field("max_fitted_spans", fmt::format("is {}, must lie in 1 .. 10 000 000", max_fitted_spans));
   if (!std::isfinite(flatten_tolerance_deg) || flatten_tolerance_deg < 0.0 || flatten_tolerance_deg > 5.0)
-    throw InputError("flatten_tolerance_deg", 0,
-                     fmt::format("is {}, must be finite, >= 0 and <= 5 degrees", flatten_tolerance_deg));
+    throw InputError::field("flatten_tolerance_deg",
+                            fmt::format("is {}, must be finite, >= 0 and <= 5 degrees", flatten_tolerance_deg));
 }
 
 double mm_per_drawing_unit(std::string_view name) {
@@ -1430,8 +1437,8 @@ ProfileReadResult read_dxf_profile_text(std::string_view text, const std::string
                                 ? fmt::format("the drawing does not state its units ($INSUNITS); read as {:g} mm per "
                                               "unit as asked",
                                               out.mm_per_unit)
-                                : "the drawing does not state its units ($INSUNITS); read as mm (say --units inch, "
-                                  "cm, ... if it is not)",
+                                : "the drawing does not state its units ($INSUNITS); read as mm (give the unit, "
+                                  "DxfOptions::assumed_mm_per_unit, if it is not)",
                             std::nullopt, std::nullopt});
   as.expand(out.mm_per_unit);
   as.drop_duplicates();

@@ -125,8 +125,14 @@ struct DxfOptions {
   // multiply). Reading takes about 1 s and 150 MB per 100 000 entities; a drawing beyond the
   // limit is refused (InputError naming it) instead of running for minutes. In 1 .. 1e7.
   std::size_t max_entities = 250'000;
+  // Most arcs the drawing's curves (ellipses, splines, bulged polylines) may be fitted with,
+  // all together. A curve far too detailed for the chain tolerance, or too large for the
+  // tolerance to be met in double precision (a 1e9 mm ellipse at 0.01 mm), splits until it
+  // reaches the limit: the read is refused then (InputError naming it), after about 1 s per
+  // 250 000 arcs. In 1 .. 1e7.
+  std::size_t max_fitted_spans = 250'000;
 
-  // Throws InputError naming the field ("--tolerance" style names are up to the caller).
+  // Throws InputError::field naming the field (the CLI renames it to its flag).
   void validate() const;
 };
 

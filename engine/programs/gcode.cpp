@@ -398,12 +398,13 @@ double Reader::named(const std::string& name) const {
     if (name == "_value" || name == "_value_returned") return 0.0;
     if (name.rfind("_hal[", 0) == 0 || name.rfind("_ini[", 0) == 0)
       throw gcode_expr::SyntaxError(fmt::format(
-          "parameter #<{}> has no value: LinuxCNC reads it from the machine's {}; give it with --param {}=VALUE", name,
-          name[1] == 'h' ? "HAL pins" : "INI file", name));
-    throw gcode_expr::SyntaxError(fmt::format("named parameter #<{}> not defined", name));
+          "parameter #<{}> has no value: LinuxCNC reads it from the machine's {}; give it a value "
+          "(GcodeOptions::params)",
+          excerpt(name), name[1] == 'h' ? "HAL pins" : "INI file"));
+    throw gcode_expr::SyntaxError(fmt::format("named parameter #<{}> not defined", excerpt(name)));
   }
   if (auto it = frames_.back().locals.find(name); it != frames_.back().locals.end()) return it->second;
-  throw gcode_expr::SyntaxError(fmt::format("named parameter #<{}> not defined", name));
+  throw gcode_expr::SyntaxError(fmt::format("named parameter #<{}> not defined", excerpt(name)));
 }
 
 void Reader::set_parameters(const Block& b) {
@@ -478,7 +479,7 @@ void Reader::scan_o_word(SourceLine& l) const {
   if (l.o == OKind::none) {
     l.o = OKind::call;
     l.o_error = word.empty() ? fmt::format("O-word o{} without a keyword (sub, call, while, if, ...)", l.label)
-                             : fmt::format("unknown O-word keyword '{}'", word);
+                             : fmt::format("unknown O-word keyword '{}'", excerpt(word));
   }
 }
 
@@ -1553,13 +1554,13 @@ std::optional<GcodeDialect> gcode_dialect_from(std::string_view name) {
 
 void GcodeOptions::validate() const {
   if (max_line_chars < 1 || max_line_chars > (1u << 20))
-    throw InputError("GcodeOptions", 0, fmt::format("max_line_chars = {} must be in 1..{}", max_line_chars, 1u << 20));
-  if (max_moves < 1) throw InputError("GcodeOptions", 0, "max_moves = 0 must be at least 1");
+    throw InputError::field("max_line_chars", fmt::format("{} must be in 1..{}", max_line_chars, 1u << 20));
+  if (max_moves < 1) throw InputError::field("max_moves", "0 must be at least 1");
   if (max_arc_turns < 1 || max_arc_turns > 1'000'000)
-    throw InputError("GcodeOptions", 0, fmt::format("max_arc_turns = {} must be in 1..1000000", max_arc_turns));
+    throw InputError::field("max_arc_turns", fmt::format("{} must be in 1..1000000", max_arc_turns));
   if (spindle_count < 1 || spindle_count > 100)
-    throw InputError("GcodeOptions", 0, fmt::format("spindle_count = {} must be in 1..100", spindle_count));
-  if (max_executed_lines < 1) throw InputError("GcodeOptions", 0, "max_executed_lines = 0 must be at least 1");
+    throw InputError::field("spindle_count", fmt::format("{} must be in 1..100", spindle_count));
+  if (max_executed_lines < 1) throw InputError::field("max_executed_lines", "0 must be at least 1");
 }
 
 Program read_gcode(const std::string& text, const std::string& source_name, const GcodeOptions& options) {

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "engine/common/error.h"
+
 namespace machplan::gcode_expr {
 namespace {
 
@@ -153,7 +155,7 @@ double unary(const std::string& s, std::size_t& pos, const Parameters& params) {
   const std::string name = s.substr(pos, end - pos);
   pos = end;
   if (pos >= s.size() || s[pos] != '[')
-    fail(fmt::format("'{}' is not a function (a function name must be followed by '[')", name));
+    fail(fmt::format("'{}' is not a function (a function name must be followed by '[')", excerpt(name)));
   if (name == "exists") {
     ++pos;
     if (pos >= s.size() || s[pos] != '#') fail("EXISTS takes a named parameter: EXISTS[#<name>]");
@@ -194,7 +196,7 @@ double unary(const std::string& s, std::size_t& pos, const Parameters& params) {
     if (v < 0.0) fail(fmt::format("negative argument to SQRT: {:g}", v));
     return std::sqrt(v);
   }
-  fail(fmt::format("unknown function '{}'", name));
+  fail(fmt::format("unknown function '{}'", excerpt(name)));
 }
 
 // Operand and operator stacks as in LinuxCNC's read_real_expression; at most 5 levels deep.

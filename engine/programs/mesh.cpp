@@ -344,11 +344,11 @@ std::string MeshReport::brief() const {
 
 void StlReadOptions::validate() const {
   if (!(std::isfinite(scale_to_mm) && scale_to_mm > 0.0))
-    throw InputError("StlReadOptions::scale_to_mm", 0, fmt::format("is {}; it must be finite and positive", scale_to_mm));
+    throw InputError::field("scale_to_mm", fmt::format("is {}; it must be finite and positive", scale_to_mm));
   if (!(std::isfinite(weld_tolerance_mm) && weld_tolerance_mm >= 0.0 && weld_tolerance_mm <= kMaxWeldToleranceMm))
-    throw InputError("StlReadOptions::weld_tolerance_mm", 0,
-                     fmt::format("is {}; it must be within 0 .. {} mm", weld_tolerance_mm, kMaxWeldToleranceMm));
-  if (max_triangles == 0) throw InputError("StlReadOptions::max_triangles", 0, "is 0; it must be positive");
+    throw InputError::field("weld_tolerance_mm",
+                            fmt::format("is {}; it must be within 0 .. {} mm", weld_tolerance_mm, kMaxWeldToleranceMm));
+  if (max_triangles == 0) throw InputError::field("max_triangles", "is 0; it must be positive");
 }
 
 Mesh read_stl_bytes(std::string_view bytes, const std::string& source, MeshReport* report,

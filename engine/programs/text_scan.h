@@ -7,6 +7,8 @@
 #include <string>
 #include <string_view>
 
+#include "engine/common/error.h"
+
 namespace machplan::text_scan {
 
 inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
@@ -25,24 +27,9 @@ inline bool iequals(std::string_view a, std::string_view b) {
   return true;
 }
 
-// A piece of user text made safe to quote in a message: at most `max` characters, control
-// and non-ASCII bytes written as \xNN.
-inline std::string printable(std::string_view s, std::size_t max = 32) {
-  std::string out;
-  for (std::size_t k = 0; k < s.size() && k < max; ++k) {
-    const auto c = static_cast<unsigned char>(s[k]);
-    if (c >= 0x20 && c < 0x7f) {
-      out.push_back(static_cast<char>(c));
-    } else {
-      static constexpr char hex[] = "0123456789abcdef";
-      out += "\\x";
-      out.push_back(hex[c >> 4]);
-      out.push_back(hex[c & 15]);
-    }
-  }
-  if (s.size() > max) out += "...";
-  return out;
-}
+// excerpt() (engine/common/error.h: at most `max` characters, control and non-UTF-8 bytes as
+// \xNN) with the readers' shorter default, for tokens quoted inside a line's message.
+inline std::string printable(std::string_view s, std::size_t max = 32) { return excerpt(s, max); }
 
 // Splits text into lines at '\n' (a '\r' before it stays in the line; trim() removes it).
 // line_number() is the 1-based number of the line last returned.

@@ -637,13 +637,13 @@ void ToolPathReadOptions::validate() const {
                                                         {"max_statement_bytes", max_statement_bytes},
                                                         {"max_file_bytes", max_file_bytes}};
   for (const auto& [name, value] : limits)
-    if (value == 0) throw InputError(fmt::format("ToolPathReadOptions::{}", name), 0, "is 0; it must be positive");
+    if (value == 0) throw InputError::field(name, "is 0; it must be positive");
   if (!std::isfinite(arc_step_rad) || !(arc_step_rad > 0) || arc_step_rad > kPi / 2)
-    throw InputError("arc_step_rad", 0, fmt::format("is {}, must lie in (0, pi/2]", arc_step_rad));
+    throw InputError::field("arc_step_rad", fmt::format("is {}, must lie in (0, pi/2]", arc_step_rad));
   if (!std::isfinite(arc_tolerance_mm) || !(arc_tolerance_mm > 0) || arc_tolerance_mm > 100)
-    throw InputError("arc_tolerance_mm", 0, fmt::format("is {}, must lie in (0, 100] mm", arc_tolerance_mm));
+    throw InputError::field("arc_tolerance_mm", fmt::format("is {}, must lie in (0, 100] mm", arc_tolerance_mm));
   if (!std::isfinite(arc_end_tolerance_mm) || !(arc_end_tolerance_mm > 0) || arc_end_tolerance_mm > 100)
-    throw InputError("arc_end_tolerance_mm", 0, fmt::format("is {}, must lie in (0, 100] mm", arc_end_tolerance_mm));
+    throw InputError::field("arc_end_tolerance_mm", fmt::format("is {}, must lie in (0, 100] mm", arc_end_tolerance_mm));
 }
 
 ToolPath read_apt(std::string_view text, const std::string& source, const ToolPathReadOptions& options) {

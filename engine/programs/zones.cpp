@@ -19,7 +19,7 @@ std::vector<NoGoZone> zones_from_yaml(const Yaml& root) {
     const Yaml name = item.at("name");
     zone.name = name.string();
     if (zone.name.empty()) name.fail("must not be empty");
-    if (!names.insert(zone.name).second) name.fail("'" + zone.name + "' names another zone already");
+    if (!names.insert(zone.name).second) name.fail("'" + excerpt(zone.name) + "' names another zone already");
 
     const Yaml poly = item.at("polygon");
     const std::vector<Yaml> points = poly.items();
@@ -39,14 +39,14 @@ std::vector<NoGoZone> zones_from_yaml(const Yaml& root) {
     zone.contour = Contour(std::move(vertices), std::vector<double>(n, 0.0));
     const auto crossings = self_intersections(zone.contour);
     if (!crossings.empty())
-      poly.fail(fmt::format("of zone '{}' crosses itself at ({:.6g}, {:.6g}) (edges {} and {})", zone.name,
+      poly.fail(fmt::format("of zone '{}' crosses itself at ({:.6g}, {:.6g}) (edges {} and {})", excerpt(zone.name),
                             crossings.front().point.x(), crossings.front().point.y(), crossings.front().span_a,
                             crossings.front().span_b));
     const double area = std::abs(signed_area(zone.contour));
     const Eigen::AlignedBox2d box = bounding_box(zone.contour);
     // Zero area relative to the polygon's size (a flat polygon's shoelace sum is rounding).
     if (!(area > 1e-9 * std::max(1.0, box.sizes().squaredNorm())))
-      poly.fail(fmt::format("of zone '{}' encloses no area", zone.name));
+      poly.fail(fmt::format("of zone '{}' encloses no area", excerpt(zone.name)));
     out.push_back(std::move(zone));
   }
   return out;

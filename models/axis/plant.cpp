@@ -2,15 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "engine/common/error.h"
 
 namespace machplan::axis {
 
 namespace {
 void require(bool ok, const char* field, double value, const char* rule) {
-  if (!ok) throw std::invalid_argument(fmt::format("AxisPlantParams::{} = {}: {}", field, value, rule));
+  require_field(ok, field, value, rule);
 }
 int sgn(double x) { return (x > 0) - (x < 0); }
 }  // namespace

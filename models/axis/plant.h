@@ -76,7 +76,7 @@ struct AxisPlantParams {
   double dac_full_scale_mm_per_s() const { return dac_full_scale_rpm / 60.0 / gear_ratio * mm_per_rev; }
   double mm_per_count() const { return encoder_mm_per_rev / (encoder_lines_per_rev * decoding); }
   int dac_max_code() const { return (1 << (dac_bits - 1)) - 1; }  // codes are -2^(b-1) .. this
-  // Throws std::invalid_argument naming the field, its value and the rule.
+  // Throws InputError naming the field, its value and the rule.
   void validate() const;
 };
 

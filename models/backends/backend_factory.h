@@ -15,12 +15,15 @@
 namespace machplan::backends {
 
 struct BackendOptions {
-  std::string name = "sim";
-  sim::SimOptions sim;  // for "sim"
+  std::string name = "sim";  // one of backend_names()
+  sim::SimOptions sim;       // for "sim"
+  // Throws InputError naming the field: an unknown name (listing the known backends), or a
+  // field of the simulator's options ("sim.faults").
+  void validate() const;
 };
 
 std::vector<std::string> backend_names();
-// Throws InputError("--backend", ...) naming the known backends when `o.name` is unknown.
+// Throws InputError::field("name", ...) naming the known backends when `o.name` is unknown.
 std::unique_ptr<hardware::Backend> make_backend(const cutting::MachineConfig& machine, const BackendOptions& o);
 
 }  // namespace machplan::backends

@@ -88,7 +88,8 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
   try {
     p.validate();
     g.validate();
-  } catch (const std::invalid_argument& ex) {
+  } catch (const InputError& ex) {
+    if (!ex.is_field()) throw;
     a.fail(ex.what());
   }
   return ax;
@@ -176,7 +177,7 @@ MachineConfig machine_from_yaml(const Yaml& root) {
       if (!m.torch.has_oxy_fuel) t->at("kind").fail("is 'oxy_fuel' but there is no 'torch.oxy_fuel' section");
       m.torch.kind = executor::TorchSetup::Kind::oxy_fuel;
     } else {
-      t->at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + kind + "'");
+      t->at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + excerpt(kind) + "'");
     }
   }
   if (const auto h = root.get("torch_height")) {
@@ -304,7 +305,7 @@ std::string find_machine(const std::string& name_or_path) {
                                !name_or_path.empty();
   if (!looks_like_name) {
     if (fs::is_regular_file(name_or_path, ec)) return name_or_path;
-    throw InputError("--machine", 0, fmt::format("no such machine file '{}'", name_or_path));
+    throw InputError::field("machine", fmt::format("no such machine file '{}'", excerpt(name_or_path)));
   }
   const std::vector<MachineFolder> folders = machine_folders();
   for (const MachineFolder& f : folders) {
@@ -313,10 +314,11 @@ std::string find_machine(const std::string& name_or_path) {
   }
   std::string searched;
   for (const auto& f : folders) searched += fmt::format("{}{} ({})", searched.empty() ? "" : ", ", f.path, f.kind);
-  throw InputError("--machine", 0,
-                   fmt::format("no machine named '{}' (looked for {}.yaml in {}; `machplan machines` lists the "
-                               "machines found; a file in the current folder is used only as a path, ./{}.yaml)",
-                               name_or_path, name_or_path, searched.empty() ? "no folder" : searched, name_or_path));
+  throw InputError::field("machine", fmt::format("no machine named '{}' (looked for {}.yaml in {}; `machplan machines` "
+                                                 "lists the machines found; a file in the current folder is used only "
+                                                 "as a path, ./{}.yaml)",
+                                                 name_or_path, name_or_path, searched.empty() ? "no folder" : searched,
+                                                 name_or_path));
 }
 
 std::vector<MachineEntry> list_machines() {

@@ -134,8 +134,9 @@ struct MachineFolder {
 std::vector<MachineFolder> machine_folders();
 
 // `name_or_path` is a path to a machine file (it contains '/' or '.', or names an existing
-// file), or a machine name looked up as NAME.yaml in machine_folders(). Throws InputError
-// "--machine: ..." naming the value and the folders searched when nothing matches.
+// file), or a machine name looked up as NAME.yaml in machine_folders(). Throws
+// InputError::field("machine", ...) naming the value and the folders searched when nothing
+// matches.
 std::string find_machine(const std::string& name_or_path);
 
 // Every NAME.yaml in machine_folders(), in search order; `shadowed` marks a name that an

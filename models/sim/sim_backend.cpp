@@ -10,35 +10,33 @@
 
 namespace machplan::sim {
 
-const char* to_string(FaultInjection::Kind k) {
-  using K = FaultInjection::Kind;
-  switch (k) {
-    case K::encoder_glitch: return "encoder-glitch";
-    case K::counter_wrap_misread: return "counter-misread";
-    case K::estop: return "estop";
-    case K::lost_backend: return "lost-backend";
-    case K::stuck_axis: return "jam";
-    case K::arc_loss: return "arc-loss";
-    case K::arc_start_failure: return "arc-start-failure";
-    case K::watchdog: return "watchdog";
-  }
-  return "?";
+namespace {
+// In FaultInjection::Kind's order.
+constexpr Spelling kFaultNames[] = {{"encoder-glitch"}, {"counter-misread"}, {"estop"},             {"lost-backend"},
+                                    {"jam"},            {"arc-loss"},        {"arc-start-failure"}, {"watchdog"}};
+}  // namespace
+
+const char* to_string(FaultInjection::Kind k) { return kFaultNames[static_cast<std::size_t>(k)].name.data(); }
+
+Parsed<FaultInjection::Kind> parse_fault_kind(std::string_view text) {
+  const Parsed<std::size_t> p = parse_name(kFaultNames, text, "faults", "fault kind");
+  return {static_cast<FaultInjection::Kind>(p.value), p.note};
 }
 
 void SimOptions::validate() const {
   if (watchdog_periods < 1 || watchdog_periods > 100000)
-    throw InputError("SimOptions::watchdog_periods", 0, fmt::format("{} must be 1 .. 100000", watchdog_periods));
-  if (!start_mm.allFinite()) throw InputError("SimOptions::start_mm", 0, "must be finite");
+    throw InputError::field("watchdog_periods", fmt::format("{} must be 1 .. 100000", watchdog_periods));
+  if (!start_mm.allFinite()) throw InputError::field("start_mm", "must be finite");
   for (const FaultInjection& f : faults) {
     if (!(std::isfinite(f.at_s) && f.at_s >= 0 && f.at_s <= 1e7))
-      throw InputError("--inject", 0, fmt::format("{}@{}: the time must be in [0, 1e7] s", to_string(f.kind), f.at_s));
+      throw InputError::field("faults", fmt::format("{}@{}: the time must be in [0, 1e7] s", to_string(f.kind), f.at_s));
     if (f.axis < 0 || f.axis >= hardware::kAxes)
-      throw InputError("--inject", 0, fmt::format("{}: axis {} does not exist", to_string(f.kind), f.axis));
+      throw InputError::field("faults", fmt::format("{}: axis {} does not exist", to_string(f.kind), f.axis));
   }
   double last = 0;
   for (const OperatorEvent& e : operator_events) {
     if (!(std::isfinite(e.at_s) && e.at_s >= last))
-      throw InputError("SimOptions::operator_events", 0, "times must be finite and in increasing order");
+      throw InputError::field("operator_events", "times must be finite and in increasing order");
     last = e.at_s;
   }
 }

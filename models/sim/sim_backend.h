@@ -43,6 +43,7 @@
 #include <random>
 #include <vector>
 
+#include "engine/common/names.h"
 #include "engine/hardware/backend.h"
 #include "engine/hardware/operator_events.h"
 #include "models/axis/plant.h"
@@ -57,7 +58,11 @@ struct FaultInjection {
   int axis = 0;
   std::int32_t counts = 100;  // encoder_glitch only
 };
+// "jam", "encoder-glitch", "counter-misread", "estop", "lost-backend", "arc-loss",
+// "arc-start-failure", "watchdog" (what `machplan run --inject` takes).
 const char* to_string(FaultInjection::Kind k);
+// The inverse of to_string; InputError::field("faults", ...) listing the kinds otherwise.
+Parsed<FaultInjection::Kind> parse_fault_kind(std::string_view text);
 
 using hardware::OperatorEvent;
 

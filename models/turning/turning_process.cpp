@@ -4,15 +4,16 @@
 #include <cmath>
 #include <limits>
 #include <random>
-#include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "engine/common/error.h"
 
 namespace machplan::turning {
 namespace {
 
-void require(bool ok, const char* field, double v, const char* rule) {
-  if (!ok) throw std::invalid_argument(fmt::format("{} = {} is invalid: {}", field, v, rule));
+void require(bool ok, const std::string& field, double v, const char* rule) {
+  require_field(ok, field, v, rule);
 }
 
 // A portable standard normal draw (Box-Muller on the engine's raw bits), so that the same seed

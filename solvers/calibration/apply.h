@@ -16,9 +16,9 @@
 
 namespace machplan::calibration {
 
-// Returns `setup` with the calibration applied. Throws InputError("--db", ...) when the stored
-// fit lacks a factor or holds one no drive could have (feed factor outside (0.05, 20), an
-// encoder scale more than 10 % from the machine file's).
+// Returns `setup` with the calibration applied. Throws InputError::field("calibration", ...)
+// when the stored fit lacks a factor or holds one no drive could have (feed factor outside
+// (0.05, 20), an encoder scale more than 10 % from the machine file's).
 executor::MachineSetup apply_calibration(executor::MachineSetup setup, const StoredFit& calibration);
 
 }  // namespace machplan::calibration

@@ -548,7 +548,7 @@ AxisFit fit_axis(const AxisData& d, int axis, const cutting::MachineConfig& mach
 
 void FitOptions::validate() const {
   auto bad = [](const char* field, double v, const char* rule) {
-    throw InputError(field, 0, fmt::format("{} {}", v, rule));
+    throw InputError::field(field, fmt::format("{} {}", v, rule));
   };
   if (!(huber_mm > 0 && huber_mm < 100)) bad("huber_mm", huber_mm, "is not in (0, 100) mm");
   if (!(ruler_cauchy_mm > 0 && ruler_cauchy_mm < 100)) bad("ruler_cauchy_mm", ruler_cauchy_mm, "is not in (0, 100) mm");

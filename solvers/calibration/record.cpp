@@ -46,7 +46,7 @@ std::vector<Step> program(const RecordOptions& o, double period_s) {
 }  // namespace
 
 void RecordOptions::validate() const {
-  auto bad = [](const char* field, const std::string& what) { throw InputError(field, 0, what); };
+  auto bad = [](const char* field, const std::string& what) { throw InputError::field(field, what); };
   if (speed_fractions.empty()) bad("speed_fractions", "needs at least one speed");
   for (double f : speed_fractions)
     if (!(f > 0 && f <= 1)) bad("speed_fractions", fmt::format("{} is not in (0, 1]", f));
@@ -69,10 +69,9 @@ SessionLog record_session(hardware::Backend& backend, const cutting::MachineConf
                           Termination* termination, Progress* progress) {
   o.validate();
   if (backend.command_kind() != hardware::CommandKind::speed_dac)
-    throw InputError::field("backend",
-                     fmt::format("backend '{}' takes position commands; calibration needs a speed_dac backend "
-                                 "(raw DAC codes and counters)",
-                                 backend.name()));
+    throw InputError::field("backend", fmt::format("backend '{}' takes position commands; calibration needs a speed_dac "
+                                                   "backend (raw DAC codes and counters)",
+                                                   backend.name()));
   const double dt = backend.period_s();
   const auto steps = program(o, dt);
   std::mt19937_64 rng(o.seed);

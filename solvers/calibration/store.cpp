@@ -64,14 +64,15 @@ std::string default_store_path() {
     base = xdg;
   } else {
     const char* home = std::getenv("HOME");
-    if (!home || !*home) throw InputError("--db", 0, "neither XDG_DATA_HOME nor HOME is set: give --db FILE");
+    if (!home || !*home) throw InputError::field("db_path", "neither XDG_DATA_HOME nor HOME is set: give the store's path");
     base = std::filesystem::path(home) / ".local" / "share";
   }
   // The default location is the one folder machplan creates for a store (sqlite_db.h).
   const std::filesystem::path dir = base / "machplan";
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) throw InputError("--db", 0, fmt::format("cannot create '{}': {} (give --db FILE)", dir.string(), ec.message()));
+  if (ec)
+    throw InputError::field("db_path", fmt::format("cannot create '{}': {} (give the store's path)", dir.string(), ec.message()));
   return (dir / "calibration.db").string();
 }
 
@@ -155,10 +156,10 @@ std::optional<StoredFit> CalibrationStore::active(const std::string& machine) co
 }
 
 double open_loop_factor(const StoredFit& c, double feed_mm_per_s) {
-  if (!(feed_mm_per_s > 0)) throw InputError("--feed", 0, fmt::format("{} must be > 0 mm/s", feed_mm_per_s));
+  if (!(feed_mm_per_s > 0)) throw InputError::field("feed_mm_per_s", fmt::format("{} must be > 0 mm/s", feed_mm_per_s));
   double sum = 0;
   for (int a = 0; a < 2; ++a) {
-    if (!(c.feed_factor[a] > 0)) throw InputError("--db", 0, fmt::format("stored fit {} has no feed factor", c.fit_id));
+    if (!(c.feed_factor[a] > 0)) throw InputError::field("calibration", fmt::format("stored fit {} has no feed factor", c.fit_id));
     sum += (feed_mm_per_s + c.dead_band_mm_per_s[a]) / (c.feed_factor[a] * feed_mm_per_s);
   }
   return sum / 2;

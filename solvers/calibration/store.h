@@ -45,7 +45,7 @@ std::string log_hash(const std::string& bytes);
 class CalibrationStore {
  public:
   // Opens (creating file and schema when needed, never its folder: solvers/common/sqlite_db.h).
-  // Throws InputError("--db", ...) when the file cannot be opened or is not a calibration store.
+  // Throws InputError::field("db_path", ...) when the file cannot be opened or is not a calibration store.
   explicit CalibrationStore(const std::string& path);
   ~CalibrationStore();
   CalibrationStore(const CalibrationStore&) = delete;

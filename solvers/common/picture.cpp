@@ -67,11 +67,11 @@ double Canvas::text_advance(const std::string& s) {
 
 bool is_picture_path(const std::string& path) { return ends_with(path, ".png") || ends_with(path, ".svg"); }
 
-void write_picture(const std::string& path, const std::string& flag, double width, double height,
+void write_picture(const std::string& path, const std::string& field, double width, double height,
                    const std::function<void(Canvas&)>& draw) {
   const bool svg = ends_with(path, ".svg");
   const bool png = ends_with(path, ".png");
-  if (!svg && !png) throw InputError(flag, 0, fmt::format("'{}' must end in .png or .svg", path));
+  if (!svg && !png) throw InputError::field(field, fmt::format("'{}' must end in .png or .svg", excerpt(path)));
   cairo_surface_t* surface = svg ? cairo_svg_surface_create(path.c_str(), width, height)
                                  : cairo_image_surface_create(CAIRO_FORMAT_ARGB32, static_cast<int>(width),
                                                               static_cast<int>(height));

@@ -63,10 +63,11 @@ class Canvas {
 };
 
 // Creates a `width` x `height` surface (pixels for PNG, points for SVG), calls `draw` on it and
-// writes `path`. Throws InputError naming `flag` when the extension is neither .png nor .svg,
-// and naming the file when it cannot be created or written. Exceptions from `draw` propagate
+// writes `path`. Throws InputError::field(field, ...) when the extension is neither .png nor
+// .svg (`field`: the caller's name for the option that gave the path, "plot"), and InputError
+// naming the file when it cannot be created or written. Exceptions from `draw` propagate
 // after the surface is released.
-void write_picture(const std::string& path, const std::string& flag, double width, double height,
+void write_picture(const std::string& path, const std::string& field, double width, double height,
                    const std::function<void(Canvas&)>& draw);
 
 // True when `path` ends in .png or .svg (what write_picture accepts).

@@ -27,7 +27,7 @@ SqliteDb::SqliteDb(const std::string& path, const char* schema)
     const std::string why = h ? sqlite3_errmsg(h) : "out of memory";
     sqlite3_close(h);
     h = nullptr;
-    throw InputError("--db", 0, fmt::format("cannot open '{}': {} (its folder must exist)", path, why));
+    throw InputError::field("db_path", fmt::format("cannot open '{}': {} (its folder must exist)", path, why));
   }
   sqlite3_busy_timeout(h, 5000);
   try {
@@ -36,7 +36,7 @@ SqliteDb::SqliteDb(const std::string& path, const char* schema)
   } catch (const InputError& e) {
     sqlite3_close(h);
     h = nullptr;
-    throw InputError("--db", 0, fmt::format("'{}' is not a machplan store: {}", path, e.message()));
+    throw InputError::field("db_path", fmt::format("'{}' is not a machplan store: {}", path, e.message()));
   }
 }
 
@@ -47,7 +47,7 @@ void SqliteDb::exec(const char* sql) const {
   if (sqlite3_exec(connection_->h, sql, nullptr, nullptr, &err) != SQLITE_OK) {
     const std::string msg = err ? err : "unknown error";
     sqlite3_free(err);
-    throw InputError("--db", 0, fmt::format("{}: {}", path_, msg));
+    throw InputError::field("db_path", fmt::format("{}: {}", path_, msg));
   }
 }
 
@@ -57,8 +57,8 @@ void SqliteDb::rollback() const noexcept { sqlite3_exec(connection_->h, "ROLLBAC
 
 Statement::Statement(const SqliteDb& db, const char* sql) : db_(db), prepared_(std::make_unique<Prepared>()) {
   if (sqlite3_prepare_v2(db.connection_->h, sql, -1, &prepared_->s, nullptr) != SQLITE_OK)
-    throw InputError("--db", 0,
-                     fmt::format("'{}' is not a machplan store: {}", db.path(), sqlite3_errmsg(db.connection_->h)));
+    throw InputError::field("db_path",
+                            fmt::format("'{}' is not a machplan store: {}", db.path(), sqlite3_errmsg(db.connection_->h)));
 }
 
 Statement::~Statement() = default;
@@ -70,7 +70,7 @@ bool Statement::step() {
   const int rc = sqlite3_step(prepared_->s);
   if (rc == SQLITE_ROW) return true;
   if (rc == SQLITE_DONE) return false;
-  throw InputError("--db", 0, fmt::format("{}: {}", db_.path(), sqlite3_errmsg(db_.connection_->h)));
+  throw InputError::field("db_path", fmt::format("{}: {}", db_.path(), sqlite3_errmsg(db_.connection_->h)));
 }
 
 std::string Statement::text(int column) const {

@@ -118,8 +118,8 @@ void draw(Canvas& cr, double W, double H, const GuardRunResult& r) {
 
 }  // namespace
 
-void write_guard_plot(const GuardRunResult& r, const std::string& path, const std::string& flag) {
-  write_picture(path, flag, 1000, 800, [&](Canvas& cr) { draw(cr, 1000, 800, r); });
+void write_guard_plot(const GuardRunResult& r, const std::string& path, const std::string& field) {
+  write_picture(path, field, 1000, 800, [&](Canvas& cr) { draw(cr, 1000, 800, r); });
 }
 
 }  // namespace machplan::guard

@@ -32,7 +32,8 @@ const char* to_string(OperatorSpec::Kind k) {
 OperatorSpec operator_from_string(const std::string& text) {
   OperatorSpec s;
   const auto bad = [&](const std::string& why) {
-    return InputError("--operator", 0, fmt::format("'{}': {} (give script.csv, random:N, joystick[:DEVICE] or keys)", text, why));
+    return InputError::field("op", fmt::format("'{}': {} (give script.csv, random:N, joystick[:DEVICE] or keys)",
+                                               excerpt(text), why));
   };
   if (text.empty()) throw bad("empty");
   if (text == "keys") {
@@ -61,25 +62,23 @@ OperatorSpec operator_from_string(const std::string& text) {
 }
 
 void GuardRunOptions::validate() const {
-  const auto check = [](bool ok, const char* flag, const std::string& what) {
-    if (!ok) throw InputError(flag, 0, what);
-  };
-  check(std::isfinite(region.tool_radius_mm) && region.tool_radius_mm >= 0 && region.tool_radius_mm <= 1000, "--tool-radius",
-        fmt::format("{} mm must be in [0, 1000]", region.tool_radius_mm));
-  check(std::isfinite(guard.tolerance_mm) && guard.tolerance_mm >= 0 && guard.tolerance_mm <= 100, "--tolerance",
-        fmt::format("{} mm must be in [0, 100]", guard.tolerance_mm));
-  check(std::isfinite(guard.latency_s) && guard.latency_s >= 0 && guard.latency_s <= 1, "--latency-ms",
-        fmt::format("{} ms must be in [0, 1000]", guard.latency_s * 1000));
-  check(std::isfinite(feed_mm_per_s) && feed_mm_per_s > 0 && feed_mm_per_s <= 1000, "--feed",
-        fmt::format("{} mm/s must be in (0, 1000]", feed_mm_per_s));
-  check(std::isfinite(finish_feed_mm_per_s) && finish_feed_mm_per_s >= 0 && finish_feed_mm_per_s <= 1000, "--finish-feed",
-        fmt::format("{} mm/s must be in [0, 1000] (0: the feed)", finish_feed_mm_per_s));
-  check(std::isfinite(finish_allowance_mm) && finish_allowance_mm >= 0 && finish_allowance_mm <= 10, "--finish-allowance",
-        fmt::format("{} mm must be in [0, 10]", finish_allowance_mm));
-  check(std::isfinite(max_session_s) && max_session_s > 0 && max_session_s <= 86400, "max_session_s",
-        fmt::format("{} s must be in (0, 86400]", max_session_s));
-  region.validate();
-  guard.validate();
+  require_field(std::isfinite(region.tool_radius_mm) && region.tool_radius_mm >= 0 && region.tool_radius_mm <= 1000,
+                "region.tool_radius_mm", region.tool_radius_mm, "mm must be in [0, 1000]");
+  require_field(std::isfinite(guard.tolerance_mm) && guard.tolerance_mm >= 0 && guard.tolerance_mm <= 100,
+                "guard.tolerance_mm", guard.tolerance_mm, "mm must be in [0, 100]");
+  // Named in ms, as people give a PC link's round trip.
+  require_field(std::isfinite(guard.latency_s) && guard.latency_s >= 0 && guard.latency_s <= 1, "guard.latency_s",
+                guard.latency_s * 1000, "ms must be in [0, 1000]");
+  require_field(std::isfinite(feed_mm_per_s) && feed_mm_per_s > 0 && feed_mm_per_s <= 1000, "feed_mm_per_s",
+                feed_mm_per_s, "mm/s must be in (0, 1000]");
+  require_field(std::isfinite(finish_feed_mm_per_s) && finish_feed_mm_per_s >= 0 && finish_feed_mm_per_s <= 1000,
+                "finish_feed_mm_per_s", finish_feed_mm_per_s, "mm/s must be in [0, 1000] (0: the feed)");
+  require_field(std::isfinite(finish_allowance_mm) && finish_allowance_mm >= 0 && finish_allowance_mm <= 10,
+                "finish_allowance_mm", finish_allowance_mm, "mm must be in [0, 10]");
+  require_field(std::isfinite(max_session_s) && max_session_s > 0 && max_session_s <= 86400, "max_session_s",
+                max_session_s, "s must be in (0, 86400]");
+  validate_member("region", region);
+  validate_member("guard", guard);
 }
 
 namespace {
@@ -224,8 +223,9 @@ Eigen::Vector2d random_start(const ProhibitedRegion& region, std::mt19937_64& rn
     const double d = region.query(p).signed_distance_mm;
     if (d >= lo && d <= hi) return p;
   }
-  throw InputError("--operator", 0,
-                   fmt::format("no place {:.1f} .. {:.1f} mm from the prohibited region to start a stroke from", lo, hi));
+  throw InputError::field("op", fmt::format("no place {:.1f} .. {:.1f} mm from the prohibited region to start a stroke "
+                                           "from",
+                                           lo, hi));
 }
 
 // A point uniformly along the boundary's length.

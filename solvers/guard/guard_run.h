@@ -57,7 +57,7 @@ struct OperatorSpec {
 };
 const char* to_string(OperatorSpec::Kind k);
 // "FILE.csv" | "random:N" (1 <= N <= 100000) | "joystick[:DEVICE]" | "keys";
-// throws InputError("--operator", ...).
+// throws InputError::field("op", ...).
 OperatorSpec operator_from_string(const std::string& text);
 
 struct GuardRunOptions {
@@ -71,7 +71,7 @@ struct GuardRunOptions {
   double finish_allowance_mm = 0.0;     // > 0: first pass this far off the profile, then the final one
   std::uint64_t seed = 1;
   double max_session_s = 3600.0;        // a live or scripted session ends after this
-  void validate() const;                // InputError naming the CLI flag
+  void validate() const;                // InputError::field naming the field ("guard.tolerance_mm")
 };
 
 struct Attempt {
@@ -134,6 +134,7 @@ GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions
                               Progress* progress = nullptr);
 
 // The picture of the paper's Figure 8: profile, offset region, roughing strokes, finishing path.
-void write_guard_plot(const GuardRunResult& r, const std::string& path, const std::string& flag = "--plot");
+// `field` names the option that gave `path` in a message about its extension.
+void write_guard_plot(const GuardRunResult& r, const std::string& path, const std::string& field = "plot");
 
 }  // namespace machplan::guard

@@ -473,7 +473,7 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const ZoneSet& zo
   options.validate();
   MACHPLAN_ASSERT(zones.clearance() == options.clearance_mm, "zone set clearance {} but options {}", zones.clearance(),
                   options.clearance_mm);
-  if (!from.allFinite() || !to.allFinite()) throw std::invalid_argument("plan_rapid: from and to must be finite");
+  MACHPLAN_ASSERT(from.allFinite() && to.allFinite(), "plan_rapid: from and to must be finite");
   RapidPlan plan;
   plan.straight_length_mm = (to - from).norm();
   const Eigen::AlignedBox2d bounds = travel_bounds(from, to, zones, options);

@@ -187,7 +187,8 @@ struct RapidPlan {
 };
 
 // Plans one rapid; see the file comment. Throws InputError when the options are invalid and
-// std::invalid_argument when from/to are not finite; every other outcome is a status.
+// InternalError when from/to are not finite (the job's positions are); every other outcome
+// is a status.
 // Zones at index >= first_part_zone are cut parts, which step 1b may leave directly; the
 // default makes every zone a declared one. `termination` is the caller's (see Termination).
 RapidPlan plan_rapid(const Eigen::Vector2d& from, const Eigen::Vector2d& to,

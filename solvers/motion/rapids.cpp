@@ -299,7 +299,7 @@ std::optional<Loop> find_loop(const std::vector<Segment>& segs, double tolerance
         Contour c(std::move(v), std::move(b));
         if (orientation(c, 1e-6) == Orientation::degenerate) return std::nullopt;
         return Loop{i, j, std::move(c)};
-      } catch (const std::invalid_argument&) {
+      } catch (const InputError&) {
         return std::nullopt;  // non-finite or absurd coordinates: no zone
       }
     }

@@ -20,8 +20,8 @@ using executor::Mode;
 void check_range(const char* field, double v, double lo, double hi, bool lo_open, const char* unit) {
   const bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
   if (!ok)
-    throw InputError::field(field, fmt::format("{} is out of range: must be {} {} and <= {}{}", v, lo_open ? ">" : ">=", lo, hi,
-                                          unit));
+    throw InputError::field(field, fmt::format("{} is out of range: must be {} {} and <= {}{}", v, lo_open ? ">" : ">=", lo,
+                                               hi, unit));
 }
 
 // The machine's travel box, mm (axes run from 0 to their travel).
@@ -93,10 +93,10 @@ double motion_floor_s(const Job& job, double max_speed_mm_per_s) {
 
 void refuse_long_run(const Job& job, double estimate_s, double limit_s, const char* what) {
   if (!(estimate_s > limit_s)) return;
-  throw Infeasible(fmt::format(
-      "{}: the run would take {} of machine time ({}), more than the limit of {} (--max-machine-time); nothing was "
-      "run. Check the feeds and the machine's limits, or raise the limit with --max-machine-time SECONDS",
-      job.source, duration_text(estimate_s), what, duration_text(limit_s)));
+  throw Infeasible(fmt::format("{}: the run would take {} of machine time ({}), more than the limit of {}; nothing "
+                               "was run. Check the feeds and the machine's limits, or raise the limit",
+                               job.source, duration_text(estimate_s), what, duration_text(limit_s)),
+                   "max_machine_time_s");
 }
 
 }  // namespace
@@ -112,13 +112,9 @@ void RunOptions::validate() const {
     check_range("origin_mm", origin_mm->x(), -1e6, 1e6, false, " mm");
     check_range("origin_mm", origin_mm->y(), -1e6, 1e6, false, " mm");
   }
-  gcode.validate();
+  validate_member("gcode", gcode);
   check_range("max_machine_time_s", max_machine_time_s, 0.0, 365 * 24 * 3600.0, true, " s");
-  try {
-    rapids.validate();
-  } catch (const std::invalid_argument& e) {
-    throw InputError::field("rapids", e.what());
-  }
+  validate_member("rapids", rapids);
 }
 
 CutOrder cut_order_of(const cutting::MachineConfig& m) {
@@ -180,7 +176,7 @@ void flatten_z(Program& program, const std::string& machine, std::vector<std::st
     if (!motion || m.plane != Move::Plane::xy) continue;
     if (std::abs(m.end.z() - z) > 1e-9) {
       warnings.push_back(fmt::format("{}:{}: Z words dropped from here on (Z {:.6g} -> {:.6g} mm): machine '{}' sets "
-                                     "the torch height itself (strict Z refuses them instead)",
+                                     "the torch height itself (strict_z refuses them instead)",
                                      program.source, m.line, z, m.end.z(), machine));
       break;
     }
@@ -310,7 +306,7 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
   std::string from = "none";
   if (options.origin_mm) {
     origin = *options.origin_mm;
-    from = "--origin";
+    from = "given";
   } else if (machine.origin_mm) {
     origin = Eigen::Vector2d((*machine.origin_mm)[0], (*machine.origin_mm)[1]);
     from = "machine file";

@@ -125,7 +125,7 @@ struct RunOptions {
   // enormous length would otherwise simulate for days.
   double max_machine_time_s = 4 * 3600.0;
 
-  // Throws InputError naming the field, its value and the rule.
+  // Throws InputError::field naming the offending field ("kerf_mm", "executor.blu_mm", ...).
   void validate() const;
 };
 
@@ -149,7 +149,7 @@ struct PlannedRun {
   std::vector<Contour> cut_zones;    // the closed cuts, as plan_rapids saw them
   executor::Trajectories trajectories;  // one per step (null for non-moves)
   Eigen::Vector2d origin_mm = Eigen::Vector2d::Zero();  // where the program's zero sat
-  std::string origin_from = "none";                     // "--origin", "machine file" or "none"
+  std::string origin_from = "none";                     // "given" (RunOptions), "machine file" or "none"
   std::vector<std::string> warnings;                    // from reading and placing the program
   std::vector<std::string> notes;                       // program words the machine ignores (M8, M52, ...)
   CutOrderReport cut_order;                             // the order the cuts were made in

@@ -223,12 +223,12 @@ void draw(Canvas& cr, double W, double H, const RunOutcome& run, double K) {
 
 void write_run_plot(const std::string& path, const RunOutcome& run, double magnify) {
   if (!(std::isfinite(magnify) && magnify > 0 && magnify <= 1e6))
-    throw InputError("--magnify", 0, fmt::format("{} must be a number > 0 and <= 1e6", magnify));
+    throw InputError::field("magnify", fmt::format("{} must be a number > 0 and <= 1e6", magnify));
   // Canvas shaped like the job (within limits), so a long sheet does not shrink to a strip.
   const Eigen::AlignedBox2d box = job_extent(run);
   const double aspect = std::clamp(box.sizes().y() / std::max(box.sizes().x(), 1.0), 0.45, 1.2);
   const double W = 1400, H = std::round(134 + (W - 80) * aspect);
-  write_picture(path, "--plot", W, H, [&](Canvas& cr) { draw(cr, W, H, run, magnify); });
+  write_picture(path, "plot", W, H, [&](Canvas& cr) { draw(cr, W, H, run, magnify); });
 }
 
 }  // namespace machplan::motion

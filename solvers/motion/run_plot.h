@@ -16,8 +16,8 @@
 // bottom.
 //
 // PNG or SVG by the file's extension. Throws InputError naming the file when it cannot be
-// written or the extension is neither .png nor .svg, and naming --magnify when magnify is not
-// finite and > 0.
+// written or the extension is neither .png nor .svg (the field "plot"), and naming the field
+// "magnify" when magnify is not finite and > 0.
 #pragma once
 
 #include <string>

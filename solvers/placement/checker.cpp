@@ -105,9 +105,9 @@ struct Checker::ScanSettings {
   unsigned all_mask = 0;
 };
 
-void validate_rotation_deg(double rotation_deg, const char* flag) {
+void validate_rotation_deg(double rotation_deg, const char* field) {
   if (!std::isfinite(rotation_deg) || std::abs(rotation_deg) > 360.0)
-    throw InputError(flag, 0, fmt::format("rotation {} deg: must be a finite angle within -360 .. 360", rotation_deg));
+    throw InputError::field(field, fmt::format("rotation {} deg: must be a finite angle within -360 .. 360", rotation_deg));
 }
 
 Checker::Checker(const Scene& scene, double rotation_deg, StopToken stop)
@@ -116,7 +116,7 @@ Checker::Checker(const Scene& scene, double rotation_deg, StopToken stop)
       rotation_deg_(rotation_deg),
       workpiece_shape_(interference::Shape::sphere(1.0)),
       workpiece_box_shape_(interference::Shape::sphere(1.0)) {
-  validate_rotation_deg(rotation_deg, "--rotation");  // NaN would reach Eigen's solvers
+  validate_rotation_deg(rotation_deg, "rotation_deg");  // NaN would reach Eigen's solvers
   const QueryBudget budget(*this);                     // class 1 is checked over the path here
   const hexam::Machine& m = scene.machine;
   const Eigen::Matrix3d Rz = Eigen::AngleAxisd(rotation_deg * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();

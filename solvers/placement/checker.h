@@ -91,8 +91,8 @@ struct CheckReport {
 
 enum class Decision { feasible, infeasible, unknown };
 
-// A workpiece rotation about z: finite and within +-360 deg, else InputError naming `flag`.
-void validate_rotation_deg(double rotation_deg, const char* flag);
+// A workpiece rotation about z: finite and within +-360 deg, else InputError::field(field, ...).
+void validate_rotation_deg(double rotation_deg, const char* field);
 
 class Checker {
  public:

@@ -141,7 +141,7 @@ void draw(Canvas& cr, double W, double H, const Scene& scene, const PlacementRes
 
 void write_placement_plot(const std::string& path, const Scene& scene, const PlacementResult& result) {
   const double W = 1400, H = 760;
-  write_picture(path, "--plot", W, H, [&](Canvas& cr) { draw(cr, W, H, scene, result); });
+  write_picture(path, "plot", W, H, [&](Canvas& cr) { draw(cr, W, H, scene, result); });
 }
 
 }  // namespace machplan::placement

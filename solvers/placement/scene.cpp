@@ -13,6 +13,20 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 Scene read_scene(const Yaml& root, const std::string& path);
 
+// Reads the file `key` names (a machine, a mesh, a tool path). Its errors name the scene,
+// the key's line and the key before the file's own message, so that a user learns which
+// entry of which scene points to the bad file:
+//   scene.yaml:12: key 'workpiece.mesh': parts/x.stl: cannot read ...
+template <class Read>
+auto read_named_file(const Yaml& key, Read&& read) {
+  const std::string file = key.resolve_path(key.string());  // a key that is no text fails on its own
+  try {
+    return read(file);
+  } catch (const InputError& e) {
+    throw InputError(key.file(), key.line(), fmt::format("key '{}': {}", key.key_path(), e.what()));
+  }
+}
+
 Peripheral read_peripheral(const Yaml& y) {
   y.reject_unknown_keys({"name", "box", "mesh", "pose"});
   Peripheral p{.name = y.string("name"), .shape = interference::Shape::sphere(1.0), .T_table_peripheral = Eigen::Isometry3d::Identity(), .bounds = {},
@@ -42,8 +56,7 @@ Peripheral read_peripheral(const Yaml& y) {
       p.outline.push_back((p.T_table_peripheral * corner).head<2>());
     }
   } else {
-    const std::string file = y.resolve_path(y.string("mesh"));
-    const Mesh mesh = read_stl(file);
+    const Mesh mesh = read_named_file(y.at("mesh"), [](const std::string& file) { return read_stl(file); });
     if (const auto pose = y.get("pose")) {
       pose->reject_unknown_keys({"xyz", "yaw_deg"});
       p.T_table_peripheral.translation() = pose->vec3("xyz");
@@ -75,8 +88,7 @@ Scene read_scene(const Yaml& root, const std::string& path) {
                             "search", "reconstructed"});
   Scene s;
   s.source = path;
-  const Yaml machine_key = root.at("machine");
-  s.machine = hexam::load_machine(root.resolve_path(machine_key.string()));
+  s.machine = read_named_file(root.at("machine"), [](const std::string& file) { return hexam::load_machine(file); });
   s.safe_distance_mm = root.number_or("safe_distance_mm", 5.0, {.min = 0, .max = 1000});
 
   const Yaml t = root.at("tooling");
@@ -103,7 +115,7 @@ Scene read_scene(const Yaml& root, const std::string& path) {
     const std::string file = root.resolve_path(m->string());
     s.workpiece_file = file;
     MeshReport report;
-    mesh = read_stl(file, &report);
+    mesh = read_named_file(*m, [&report](const std::string& f) { return read_stl(f, &report); });
     if (!report.closed)
       m->fail(fmt::format("names {}, which is not a closed solid ({} boundary and {} non-manifold edges)", file,
                           report.boundary_edges, report.non_manifold_edges));
@@ -124,7 +136,7 @@ Scene read_scene(const Yaml& root, const std::string& path) {
                        s.workpiece_bounds.min().z()));
 
   s.toolpath_file = root.resolve_path(root.string("toolpath"));
-  ToolPath tp = read_toolpath_file(s.toolpath_file);
+  ToolPath tp = read_named_file(root.at("toolpath"), [](const std::string& f) { return read_toolpath_file(f); });
   if (tp.poses.empty()) root.at("toolpath").fail("names a tool path with no poses");
   s.tips_mm.reserve(tp.poses.size());
   s.axes.reserve(tp.poses.size());
@@ -150,7 +162,8 @@ Scene read_scene(const Yaml& root, const std::string& path) {
     s.search.paper_step_mm = se->number_or("paper_step_mm", s.search.paper_step_mm, pos);
     s.search.paper_pad_step_mm = se->number_or("paper_pad_step_mm", s.search.paper_pad_step_mm, pos);
     s.search.reversal_deg = se->number_or("reversal_deg", s.search.reversal_deg, {.min = 0, .max = 180});
-    s.search.resolution_mm = se->number_or("resolution_mm", s.search.resolution_mm, {.min = 0.01, .max = 100});
+    s.search.resolution_mm = se->number_or("resolution_mm", s.search.resolution_mm,
+                                           {.min = kMinResolutionMm, .max = kMaxResolutionMm});
     if (se->has("paper_max_steps")) s.search.paper_max_steps = se->at("paper_max_steps").integer(1, 1000000);
     if (se->has("max_pose_queries"))
       s.search.max_pose_queries = se->at("max_pose_queries").integer(1, 1'000'000'000);

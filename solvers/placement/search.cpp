@@ -69,7 +69,7 @@ PlacementResult paper_search(const Scene& scene, const PlacementOptions& o) {
       have_prev = false;
       if (p.pad_mm > ss.pad_max_mm + 1e-9) {
         res.status = PlacementStatus::no_placement;
-        res.message = fmt::format("cannot be machined on this machine: the search reached the highest pad ({:.0f} mm) "
+        res.message = fmt::format("the search reached the highest pad ({:.0f} mm) "
                                   "without a free placement; last interference: {}",
                                   ss.pad_max_mm, w.what);
         p.pad_mm -= ss.paper_pad_step_mm;
@@ -125,7 +125,7 @@ PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, co
   const long p1 = static_cast<long>(std::floor(scene.search.pad_max_mm / g + 1e-9));
   if (x0 > x1 || y0 > y1) {
     res.status = PlacementStatus::no_placement;
-    res.message = "cannot be machined on this machine: the workpiece does not fit on the table";
+    res.message = "the workpiece does not fit on the table";
     return res;
   }
   std::priority_queue<Box, std::vector<Box>, std::greater<>> open;
@@ -205,7 +205,7 @@ PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, co
   }
   if (res.status != PlacementStatus::found && res.status != PlacementStatus::cancelled) {
     res.status = PlacementStatus::no_placement;
-    res.message = fmt::format("cannot be machined on this machine: no placement on the table with a pad up to {:.0f} mm is "
+    res.message = fmt::format("no placement on the table with a pad up to {:.0f} mm is "
                               "free of interference{}",
                               scene.search.pad_max_mm, last.what.empty() ? "" : fmt::format(" (e.g. {})", last.what));
   }
@@ -239,19 +239,30 @@ Eigen::AlignedBox2d placement_region(const Scene& scene, double rotation_deg) {
   return Eigen::AlignedBox2d(-half - fp.min(), half - fp.max());
 }
 
+namespace {
+constexpr Spelling kStrategyNames[] = {{"paper"}, {"optimal"}};
+}  // namespace
+
+const char* to_string(PlacementOptions::Strategy s) { return kStrategyNames[static_cast<std::size_t>(s)].name.data(); }
+
+Parsed<PlacementOptions::Strategy> parse_placement_strategy(std::string_view text) {
+  const Parsed<std::size_t> p = parse_name(kStrategyNames, text, "strategy", "strategy");
+  return {static_cast<PlacementOptions::Strategy>(p.value), p.note};
+}
+
 void PlacementOptions::validate() const {
-  if (rotations_deg.empty()) throw InputError("--rotations", 0, "needs at least one rotation");
+  if (rotations_deg.empty()) throw InputError::field("rotations_deg", "needs at least one rotation");
   if (rotations_deg.size() > kMaxRotations)
-    throw InputError("--rotations", 0,
-                     fmt::format("{} rotations; at most {} are searched (each is a whole placement search)",
-                                 rotations_deg.size(), kMaxRotations));
+    throw InputError::field("rotations_deg",
+                            fmt::format("{} rotations; at most {} are searched (each is a whole placement search)",
+                                        rotations_deg.size(), kMaxRotations));
   for (std::size_t i = 0; i < rotations_deg.size(); ++i) {
-    validate_rotation_deg(rotations_deg[i], "--rotations");
+    validate_rotation_deg(rotations_deg[i], "rotations_deg");
     for (std::size_t k = 0; k < i; ++k)
       if (std::abs(std::remainder(rotations_deg[i] - rotations_deg[k], 360.0)) < 1e-9)
-        throw InputError("--rotations", 0,
-                         fmt::format("rotation {} deg repeats {} deg; each angle is searched once", rotations_deg[i],
-                                     rotations_deg[k]));
+        throw InputError::field("rotations_deg",
+                                fmt::format("rotation {} deg repeats {} deg; each angle is searched once",
+                                            rotations_deg[i], rotations_deg[k]));
   }
 }
 

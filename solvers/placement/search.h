@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/common/names.h"
 #include "solvers/placement/checker.h"
 
 namespace machplan::placement {
@@ -48,9 +49,12 @@ struct PlacementOptions {
   // two the same angle (modulo 360).
   static constexpr std::size_t kMaxRotations = 72;
 
-  // Throws InputError naming the flag (--rotations) and the rule broken.
+  // Throws InputError::field naming the field (rotations_deg) and the rule broken.
   void validate() const;
 };
+// "paper" | "optimal"; InputError::field("strategy", ...) listing them otherwise.
+const char* to_string(PlacementOptions::Strategy s);
+Parsed<PlacementOptions::Strategy> parse_placement_strategy(std::string_view text);
 
 enum class PlacementStatus {
   found,         // a free placement, certified over the whole path

@@ -16,22 +16,15 @@ void MachineSessionOptions::validate() const {
   if (!machine_config && machine.empty()) throw InputError::field("machine", "names no machine");
   if (controller.empty() && !gains.empty())
     throw InputError::field("gains", "gains need a controller kind");
-  if (!controller.empty() && controller != "tuned") {
-    const std::vector<std::string> kinds = control::controller_kinds();
-    if (std::find(kinds.begin(), kinds.end(), controller) == kinds.end()) {
-      std::string all;
-      for (const std::string& k : kinds) all += (all.empty() ? "" : ", ") + k;
-      throw InputError::field("controller", fmt::format("unknown controller '{}' (kinds: {}; or tuned: the stored tuning)", controller, all));
-    }
-  }
+  if (!controller.empty() && controller != "tuned") control::parse_controller_kind(controller);
   if (calibration && active_calibration)
     throw InputError::field("calibration", "a calibration is given and the active one is asked for: choose one");
   const bool paper = executor.mode == executor::Mode::paper_open || executor.mode == executor::Mode::paper_closed;
   if (paper && (calibration || active_calibration) && !(std::isfinite(paper_feed_mm_per_s) && paper_feed_mm_per_s > 0))
     throw InputError::field("paper_feed_mm_per_s",
                             "a calibration in the paper modes needs the feed: the open-loop factor depends on it");
-  executor.validate();
-  backend.sim.validate();
+  validate_member("executor", executor);
+  validate_member("backend", backend);
 }
 
 struct MachineSession::Impl {
@@ -107,7 +100,7 @@ MachineSession::MachineSession(MachineSessionOptions options) : impl_(std::make_
     for (const auto& [name, value] : m.o.gains) gains[name] = value;
   }
   if (!kind.empty()) {
-    m.controller = control::make_controller(kind, gains, m.plant);
+    m.controller = control::make_controller(control::parse_controller_kind(kind).value, gains, m.plant);
     m.controller_name = m.controller->name();
   }
   m.executor.emplace(m.setup, eo);

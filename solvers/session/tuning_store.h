@@ -31,7 +31,7 @@ struct StoredTuning {
 
 class TuningStore {
  public:
-  // Opens (creating the file and the tables when needed). InputError("--db", ...) when the
+  // Opens (creating the file and the tables when needed). InputError::field("db_path", ...) when the
   // file cannot be opened or is not a machplan store.
   explicit TuningStore(const std::string& path);
   ~TuningStore();

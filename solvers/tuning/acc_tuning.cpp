@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -11,25 +10,21 @@
 namespace machplan::tuning {
 
 void AccTuningOptions::validate() const {
-  try {
-    process.validate();
-    acc.validate();
-  } catch (const std::invalid_argument& e) {
-    throw InputError("--acc", 0, e.what());
-  }
-  if (base_depths_mm.empty()) throw InputError("base_depths_mm", 0, "is empty");
+  validate_member("process", process);
+  validate_member("acc", acc);
+  if (base_depths_mm.empty()) throw InputError::field("base_depths_mm", "is empty");
   for (double d : base_depths_mm)
-    if (!(d > 0 && d <= 50)) throw InputError("base_depths_mm", 0, fmt::format("{} mm is out of range (0, 50]", d));
+    if (!(d > 0 && d <= 50)) throw InputError::field("base_depths_mm", fmt::format("{} mm is out of range (0, 50]", d));
   if (!(depth_step_mm > 0 && depth_step_mm <= 50))
-    throw InputError("depth_step_mm", 0, fmt::format("{} mm is out of range (0, 50]", depth_step_mm));
+    throw InputError::field("depth_step_mm", fmt::format("{} mm is out of range (0, 50]", depth_step_mm));
   if (!(settle_before_step_s > 0 && window_s > 0 && settle_before_step_s + window_s <= 600))
-    throw InputError("window_s", 0, "settling and window times must be > 0 and together <= 600 s");
-  if (!(band > 0 && band < 0.5)) throw InputError("band", 0, fmt::format("{} must be in (0, 0.5)", band));
+    throw InputError::field("window_s", "settling and window times must be > 0 and together <= 600 s");
+  if (!(band > 0 && band < 0.5)) throw InputError::field("band", fmt::format("{} must be in (0, 0.5)", band));
   if (!(max_overshoot >= 0 && max_overshoot < 1))
-    throw InputError("max_overshoot", 0, fmt::format("{} must be in [0, 1)", max_overshoot));
+    throw InputError::field("max_overshoot", fmt::format("{} must be in [0, 1)", max_overshoot));
   if (!(gain_min > 0 && gain_min < gain_max && gain_max <= 10))
-    throw InputError("gain_min", 0, fmt::format("[{}, {}] must satisfy 0 < min < max <= 10", gain_min, gain_max));
-  optimizer.validate();
+    throw InputError::field("gain_min", fmt::format("[{}, {}] must satisfy 0 < min < max <= 10", gain_min, gain_max));
+  validate_member("optimizer", optimizer);
 }
 
 AccScore score_acc_gain(const AccTuningOptions& o, double gain) {

@@ -19,7 +19,8 @@ namespace {
 
 double parse_number(const std::string& text, const std::string& spec, const char* what) {
   const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError("--contour", 0, fmt::format("'{}': {} '{}' is not a number", spec, what, text));
+  if (!v)
+    throw InputError::field("contours", fmt::format("'{}': {} '{}' is not a number", excerpt(spec), what, excerpt(text)));
   return *v;
 }
 
@@ -117,78 +118,77 @@ struct Evaluator::Prepared {
 TestContour parse_contour(const std::string& spec) {
   TestContour c;
   c.spec = spec;
+  const std::string quoted = excerpt(spec);  // for messages
   const auto colon = spec.find(':');
   const std::string kind = spec.substr(0, colon);
   const std::string rest = colon == std::string::npos ? "" : spec.substr(colon + 1);
   if (kind == "program") {
-    if (rest.empty()) throw InputError("--contour", 0, fmt::format("'{}': program:FILE.ngc names no file", spec));
+    if (rest.empty()) throw InputError::field("contours", fmt::format("'{}': program:FILE.ngc names no file", quoted));
     c.kind = TestContour::Kind::program;
     c.path = rest;
     return c;
   }
   if (kind != "line" && kind != "circle" && kind != "corner" && kind != "square")
-    throw InputError("--contour", 0,
-                     fmt::format("'{}': unknown contour kind '{}' (line:ANGLE_DEG:FEED_MM_MIN, circle:RADIUS_MM:FEED_MM_MIN, "
-                                 "corner:TURN_DEG:FEED_MM_MIN, square:SIDE_MM:FEED_MM_MIN or program:FILE.ngc)",
-                                 spec, kind));
+    throw InputError::field("contours", fmt::format("'{}': unknown contour kind '{}' (line:ANGLE_DEG:FEED_MM_MIN, "
+                                                    "circle:RADIUS_MM:FEED_MM_MIN, corner:TURN_DEG:FEED_MM_MIN, "
+                                                    "square:SIDE_MM:FEED_MM_MIN or program:FILE.ngc)",
+                                                    quoted, excerpt(kind)));
   const auto colon2 = rest.find(':');
   if (colon == std::string::npos || colon2 == std::string::npos)
-    throw InputError("--contour", 0,
-                     fmt::format("'{}': expected {}:{}:FEED_MM_MIN", spec, kind,
-                                 kind == "circle" ? "RADIUS_MM" : kind == "square" ? "SIDE_MM" : kind == "line" ? "ANGLE_DEG" : "TURN_DEG"));
+    throw InputError::field("contours", fmt::format("'{}': expected {}:{}:FEED_MM_MIN", quoted, kind,
+                                                    kind == "circle"   ? "RADIUS_MM"
+                                                    : kind == "square" ? "SIDE_MM"
+                                                    : kind == "line"   ? "ANGLE_DEG"
+                                                                       : "TURN_DEG"));
   const double a = parse_number(rest.substr(0, colon2), spec,
                                 kind == "circle" ? "the radius" : kind == "square" ? "the side" : "the angle");
   const double f = parse_number(rest.substr(colon2 + 1), spec, "the feed");
   if (!(f > 0 && f <= 600000))
-    throw InputError("--contour", 0, fmt::format("'{}': feed {} mm/min is out of range (0, 600000]", spec, f));
+    throw InputError::field("contours", fmt::format("'{}': feed {} mm/min is out of range (0, 600000]", quoted, f));
   c.feed_mm_per_min = f;
   if (kind == "corner") {
     if (!(a > -180 && a < 180 && std::abs(a) >= 1))
-      throw InputError("--contour", 0, fmt::format("'{}': turn {} deg is out of range (-180, 180), at least 1 deg", spec, a));
+      throw InputError::field("contours",
+                              fmt::format("'{}': turn {} deg is out of range (-180, 180), at least 1 deg", quoted, a));
     c.kind = TestContour::Kind::corner;
     c.angle_deg = a;
   } else if (kind == "line") {
     if (!(a >= -360 && a <= 360))
-      throw InputError("--contour", 0, fmt::format("'{}': angle {} deg is out of range [-360, 360]", spec, a));
+      throw InputError::field("contours", fmt::format("'{}': angle {} deg is out of range [-360, 360]", quoted, a));
     c.kind = TestContour::Kind::line;
     c.angle_deg = a;
   } else if (kind == "square") {
     if (!(a >= 0.5 && a <= 10000))
-      throw InputError("--contour", 0, fmt::format("'{}': side {} mm is out of range [0.5, 10000]", spec, a));
+      throw InputError::field("contours", fmt::format("'{}': side {} mm is out of range [0.5, 10000]", quoted, a));
     c.kind = TestContour::Kind::square;
     c.length_mm = a;
   } else {
     if (!(a >= 0.5 && a <= 10000))
-      throw InputError("--contour", 0, fmt::format("'{}': radius {} mm is out of range [0.5, 10000]", spec, a));
+      throw InputError::field("contours", fmt::format("'{}': radius {} mm is out of range [0.5, 10000]", quoted, a));
     c.kind = TestContour::Kind::circle;
     c.radius_mm = a;
   }
   return c;
 }
 
-const char* to_string(Objective o) {
-  switch (o) {
-    case Objective::max: return "max";
-    case Objective::rms: return "rms";
-    case Objective::itae: return "itae";
-  }
-  return "?";
-}
+namespace {
+constexpr Spelling kObjectiveNames[] = {{"max"}, {"rms"}, {"itae"}};
+}  // namespace
 
-Objective objective_from_string(const std::string& s) {
-  if (s == "max") return Objective::max;
-  if (s == "rms") return Objective::rms;
-  if (s == "itae") return Objective::itae;
-  throw InputError("--objective", 0, fmt::format("'{}' is not an objective (max, rms, itae)", s));
+const char* to_string(Objective o) { return kObjectiveNames[static_cast<std::size_t>(o)].name.data(); }
+
+Parsed<Objective> parse_objective(std::string_view text) {
+  const Parsed<std::size_t> p = parse_name(kObjectiveNames, text, "objective", "objective");
+  return {static_cast<Objective>(p.value), p.note};
 }
 
 void EvaluationOptions::validate() const {
   auto check = [](bool ok, const char* field, double v, const char* rule) {
-    if (!ok) throw InputError(field, 0, fmt::format("{} is out of range: {}", v, rule));
+    if (!ok) throw InputError::field(field, fmt::format("{} is out of range: {}", v, rule));
   };
-  if (machine.empty()) throw InputError("--machine", 0, "names no machine");
+  if (machine.empty()) throw InputError::field("machine", "names no machine");
   if (noise_runs < 1 || noise_runs > 100)
-    throw InputError("--noise-runs", 0, fmt::format("{} is out of range: must be in [1, 100]", noise_runs));
+    throw InputError::field("noise_runs", fmt::format("{} is out of range: must be in [1, 100]", noise_runs));
   check(std::isfinite(step_mm) && step_mm > 0 && step_mm <= 20, "step_mm", step_mm, "must be in (0, 20] mm");
   check(std::isfinite(step_window_s) && step_window_s >= 0.05 && step_window_s <= 10, "step_window_s", step_window_s,
         "must be in [0.05, 10] s");
@@ -214,7 +214,7 @@ double Evaluation::value(Objective o) const {
 Evaluator::Evaluator(const EvaluationOptions& options, const std::vector<TestContour>& contours)
     : options_(options), contours_(contours) {
   options_.validate();
-  if (contours_.empty()) throw InputError("--contour", 0, "no test contour given");
+  if (contours_.empty()) throw InputError::field("contours", "no test contour given");
   machine_ = cutting::load_machine(cutting::find_machine(options_.machine));
   margin_machine_ = machine_;
   for (auto& a : margin_machine_.axes) a.plant.gain_factor *= options_.margin_gain_factor;

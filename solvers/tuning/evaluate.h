@@ -59,13 +59,13 @@ struct TestContour {
   std::string path;               // program
   std::string spec;               // as written
 };
-// Throws InputError("--contour", ...) naming what is wrong.
+// Throws InputError::field("contours", ...) naming what is wrong.
 TestContour parse_contour(const std::string& spec);
 
 enum class Objective { max, rms, itae };
 const char* to_string(Objective o);
-// "max", "rms", "itae"; InputError("--objective", ...) otherwise.
-Objective objective_from_string(const std::string& s);
+// "max", "rms", "itae"; InputError::field("objective", ...) otherwise.
+Parsed<Objective> parse_objective(std::string_view text);
 
 struct EvaluationOptions {
   std::string machine = "xy_table";   // bundled name or machine YAML path

@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -192,25 +191,26 @@ const char* to_string(OptimizerOptions::Local l) {
 
 void OptimizerOptions::validate() const {
   if (max_evaluations < 1 || max_evaluations > 10'000'000)
-    throw InputError("--evaluations", 0, fmt::format("{} is out of range: must be in [1, 10000000]", max_evaluations));
+    throw InputError::field("max_evaluations", fmt::format("{} is out of range: must be in [1, 10000000]", max_evaluations));
   if (!(global_share > 0.0 && global_share <= 1.0))
-    throw InputError("global_share", 0, fmt::format("{} is out of range: must be in (0, 1]", global_share));
-  if (!(xtol_rel > 0.0 && xtol_rel < 1.0)) throw InputError("xtol_rel", 0, fmt::format("{} must be in (0, 1)", xtol_rel));
-  if (!(std::isfinite(penalty) && penalty > 0.0)) throw InputError("penalty", 0, fmt::format("{} must be > 0", penalty));
+    throw InputError::field("global_share", fmt::format("{} is out of range: must be in (0, 1]", global_share));
+  if (!(xtol_rel > 0.0 && xtol_rel < 1.0)) throw InputError::field("xtol_rel", fmt::format("{} must be in (0, 1)", xtol_rel));
+  if (!(std::isfinite(penalty) && penalty > 0.0)) throw InputError::field("penalty", fmt::format("{} must be > 0", penalty));
 }
 
 OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, Termination* termination) {
   o.validate();
-  if (p.parameters.empty()) throw std::invalid_argument("optimize: no parameters");
-  if (!p.evaluate) throw std::invalid_argument("optimize: no evaluate function");
-  if (p.constraint_count < 0) throw std::invalid_argument("optimize: negative constraint count");
+  // The problem is the caller's construction (tune() builds it from the gain specs), not the
+  // user's input: a malformed one is a bug.
+  MACHPLAN_ASSERT(!p.parameters.empty(), "optimize: no parameters");
+  MACHPLAN_ASSERT(static_cast<bool>(p.evaluate), "optimize: no evaluate function");
+  MACHPLAN_ASSERT(p.constraint_count >= 0, "optimize: negative constraint count {}", p.constraint_count);
   for (const Parameter& q : p.parameters) {
-    if (!(std::isfinite(q.lo) && std::isfinite(q.hi) && q.lo < q.hi))
-      throw std::invalid_argument(fmt::format("optimize: parameter {}: bounds [{}, {}] are not an interval", q.name, q.lo, q.hi));
-    if (q.log_scale && q.lo <= 0)
-      throw std::invalid_argument(fmt::format("optimize: parameter {}: log scale needs lo > 0, got {}", q.name, q.lo));
-    if (!(q.start >= q.lo && q.start <= q.hi))
-      throw std::invalid_argument(fmt::format("optimize: parameter {}: start {} outside [{}, {}]", q.name, q.start, q.lo, q.hi));
+    MACHPLAN_ASSERT(std::isfinite(q.lo) && std::isfinite(q.hi) && q.lo < q.hi,
+                    "optimize: parameter {}: bounds [{}, {}] are not an interval", q.name, q.lo, q.hi);
+    MACHPLAN_ASSERT(!q.log_scale || q.lo > 0, "optimize: parameter {}: log scale needs lo > 0, got {}", q.name, q.lo);
+    MACHPLAN_ASSERT(q.start >= q.lo && q.start <= q.hi, "optimize: parameter {}: start {} outside [{}, {}]", q.name,
+                    q.start, q.lo, q.hi);
   }
   Run r(p, o, termination);
   r.t0 = Clock::now();

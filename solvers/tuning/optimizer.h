@@ -96,7 +96,7 @@ struct OptimizerResult {
   std::string report() const;  // a few lines for people
 };
 
-// Throws std::invalid_argument when the problem is malformed (empty, lo >= hi, start outside,
+// Throws InternalError (MACHPLAN_ASSERT) when the problem is malformed (empty, lo >= hi, start outside,
 // non-positive bound of a log-scale parameter) and InputError when options do not validate.
 OptimizerResult optimize(const Problem& problem, const OptimizerOptions& options, Termination* termination = nullptr);
 

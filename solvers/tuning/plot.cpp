@@ -10,7 +10,7 @@
 
 namespace machplan::tuning {
 
-void write_time_plot(const std::string& path, const std::string& flag, const std::string& title,
+void write_time_plot(const std::string& path, const std::string& field, const std::string& title,
                      const std::vector<Panel>& panels) {
   const double W = 1000, ph = 280, top = 64, left = 80, right = 20, gap = 50;
   const double H = top + panels.size() * (ph + gap) + 10;
@@ -19,7 +19,7 @@ void write_time_plot(const std::string& path, const std::string& flag, const std
     for (const Series& s : p.series)
       for (double t : s.t_s) t0 = std::min(t0, t), t1 = std::max(t1, t);
   if (!(t1 > t0)) t0 = 0, t1 = 1;
-  write_picture(path, flag, W, H, [&](Canvas& cr) {
+  write_picture(path, field, W, H, [&](Canvas& cr) {
     cr.set_source_rgb(1, 1, 1);
     cr.paint();
     cr.set_source_rgb(0, 0, 0);

@@ -19,9 +19,9 @@ struct Panel {
   std::vector<Series> series;
 };
 
-// One panel per entry, stacked, sharing the time axis. Throws InputError naming `flag` for a
+// One panel per entry, stacked, sharing the time axis. Throws InputError naming `field` for a
 // bad extension or an unwritable file.
-void write_time_plot(const std::string& path, const std::string& flag, const std::string& title,
+void write_time_plot(const std::string& path, const std::string& field, const std::string& title,
                      const std::vector<Panel>& panels);
 
 }  // namespace machplan::tuning

@@ -9,26 +9,12 @@
 
 namespace machplan::tuning {
 
-std::string controller_kind(const std::string& name) {
-  std::string k = name;
-  std::replace(k.begin(), k.end(), '-', '_');
-  const auto kinds = control::controller_kinds();
-  if (std::find(kinds.begin(), kinds.end(), k) == kinds.end()) {
-    std::string list;
-    for (const std::string& s : kinds) {
-      std::string c = s;
-      std::replace(c.begin(), c.end(), '_', '-');
-      list += (list.empty() ? "" : ", ") + c;
-    }
-    throw InputError("--controller", 0, fmt::format("unknown controller '{}' (known: {})", name, list));
-  }
-  return k;
-}
-
 void TuneOptions::validate() const {
-  evaluation.validate();
-  optimizer.validate();
-  if (kind.empty()) throw InputError("--controller", 0, "names no controller");
+  validate_member("evaluation", evaluation);
+  validate_member("optimizer", optimizer);
+  if (kind.empty()) throw InputError::field("kind", "names no controller");
+  control::parse_controller_kind(kind, "kind");
+  control::parse_controller_kind(baseline_kind, "baseline_kind");
 }
 
 std::vector<double> constraint_values(const Evaluation& e, const EvaluationOptions& o, double following_limit_mm) {
@@ -104,13 +90,14 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, Termination* terminat
   for (const auto& s : r.specs) r.start_gains[s.name] = s.default_value;
   for (const auto& [name, value] : o.start) {
     if (!r.start_gains.count(name))
-      throw InputError("--gain", 0, fmt::format("controller '{}' has no gain '{}'", o.kind, name));
+      throw InputError::field("start", fmt::format("controller '{}' has no gain '{}'", o.kind, excerpt(name)));
     r.start_gains[name] = value;
   }
   for (const auto& [name, value] : o.fixed) {
     if (!r.start_gains.count(name))
-      throw InputError("--fix", 0, fmt::format("controller '{}' has no gain '{}'", o.kind, name));
-    if (o.start.count(name)) throw InputError("--fix", 0, fmt::format("gain '{}' is both fixed and given a start", name));
+      throw InputError::field("fixed", fmt::format("controller '{}' has no gain '{}'", o.kind, excerpt(name)));
+    if (o.start.count(name))
+      throw InputError::field("fixed", fmt::format("gain '{}' is both fixed and given a start", excerpt(name)));
     r.start_gains[name] = value;
   }
   r.fixed = o.fixed;

@@ -28,13 +28,9 @@
 
 namespace machplan::tuning {
 
-// The CLI's names (p, pid, pid-ff, zpetc, ccc, flc) to the factory's kinds (pid-ff -> pid_ff).
-// InputError("--controller", ...) for an unknown name.
-std::string controller_kind(const std::string& cli_name);
-
 struct TuneOptions {
   EvaluationOptions evaluation;
-  std::string kind = "ccc";          // the factory's kind
+  std::string kind = "ccc";          // the factory's kind, canonically spelled (control::parse_controller_kind)
   Objective objective = Objective::max;
   OptimizerOptions optimizer;
   std::string baseline_kind = "p";   // hand-tuned axial P

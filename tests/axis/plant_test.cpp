@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
 #include "models/axis/plant.h"
 
 namespace machplan::axis {
@@ -184,8 +185,8 @@ TEST(AxisPlant, ValidateNamesTheField) {
   try {
     p.validate();
     FAIL();
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("AxisPlantParams::decoding = 3"), std::string::npos);
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("decoding: 3 must be 1, 2 or 4"), std::string::npos) << e.what();
   }
 }
 

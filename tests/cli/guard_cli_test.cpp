@@ -69,8 +69,8 @@ TEST(GuardCli, BadFlagsExit2NamingTheFlag) {
            Case{"--side outside --tool-radius 5 --tolerance 1 --operator random:3 --plot out.txt", "--plot"},
            Case{"--side outside --tool-radius 5 --tolerance 1 --operator random:3 --finish-allowance 0.2", "--finish-allowance"},
            Case{"--side outside --tool-radius 5 --tolerance 1 --operator joystick:/dev/input/js-absent-machplan",
-                "--operator joystick"},
-           Case{"--side outside --tool-radius 5 --tolerance 1 --operator keys", "--operator keys"},
+                "--operator: joystick: cannot open"},
+           Case{"--side outside --tool-radius 5 --tolerance 1 --operator keys", "--operator: keys: "},
        }) {
     const Outcome o = machplan(base + c.args);
     EXPECT_EQ(o.code, 2) << c.args << "\n" << o.err;

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
 #include "engine/control/acc.h"
 #include "models/turning/turning_process.h"
 
@@ -79,12 +80,12 @@ TEST(Acc, RejectsBadOptions) {
   TurningProcess p;
   AccOptions o;
   o.sample_s = 0.0;
-  EXPECT_THROW(simulate_acc(p, o, koren_depth_steps(), 1.0), std::invalid_argument);
+  EXPECT_THROW(simulate_acc(p, o, koren_depth_steps(), 1.0), InputError);
   o = AccOptions{};
-  EXPECT_THROW(simulate_acc(p, o, {{1.0, -2.0}}, 1.0), std::invalid_argument);
-  EXPECT_THROW(simulate_acc(p, o, {{2.0, 1.0}, {1.0, 2.0}}, 3.0), std::invalid_argument);
+  EXPECT_THROW(simulate_acc(p, o, {{1.0, -2.0}}, 1.0), InputError);
+  EXPECT_THROW(simulate_acc(p, o, {{2.0, 1.0}, {1.0, 2.0}}, 3.0), InputError);
   p.beta = 0;
-  EXPECT_THROW(simulate_acc(p, o, {}, 1.0), std::invalid_argument);
+  EXPECT_THROW(simulate_acc(p, o, {}, 1.0), InputError);
 }
 
 TEST(Acc, NoiseIsDeterministicPerSeed) {

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
 #include "engine/control/counter_decoder.h"
 #include "engine/control/servo.h"
 
@@ -136,8 +137,8 @@ TEST(ServoGains, ValidateNamesTheField) {
   try {
     g.validate();
     FAIL();
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("ServoGains::following_error_limit_mm = 0"), std::string::npos);
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("following_error_limit_mm: 0 must be > 0"), std::string::npos) << e.what();
   }
 }
 

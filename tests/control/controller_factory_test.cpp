@@ -97,15 +97,14 @@ TEST(ControllerFactory, PidFfWithDefaultsIsTheExecutorsServo) {
 }
 
 TEST(ControllerFactory, RefusesUnknownKindsGainsAndValuesOutsideTheBox) {
-  EXPECT_NE(input_error_where([] { make_controller("pd", {}, plant()); }).find("--controller: unknown controller 'pd'"),
+  EXPECT_NE(input_error_where([] { make_controller("pd", {}, plant()); }).find("controller: unknown controller 'pd'"),
             std::string::npos);
-  EXPECT_NE(input_error_where([] { gain_specs("nope", plant()); }).find("--controller"), std::string::npos);
+  EXPECT_EQ(input_error_where([] { gain_specs("nope", plant()); }).rfind("controller: ", 0), 0u);
   const std::string unknown = input_error_where([] { make_controller("p", {{"ki_per_s2", 5.0}}, plant()); });
-  EXPECT_NE(unknown.find("--gain: controller 'p' has no gain 'ki_per_s2'"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("gains: controller 'p' has no gain 'ki_per_s2'"), std::string::npos) << unknown;
   const std::string box = input_error_where([] { make_controller("pid", {{"kp_per_s", 1e7}}, plant()); });
   EXPECT_NE(box.find("kp_per_s = 10000000 is outside"), std::string::npos) << box;
-  EXPECT_NE(input_error_where([] { make_controller("pid", {{"kd", std::nan("")}}, plant()); }).find("--gain"),
-            std::string::npos);
+  EXPECT_EQ(input_error_where([] { make_controller("pid", {{"kd", std::nan("")}}, plant()); }).rfind("gains: ", 0), 0u);
   ControllerPlant bad = plant();
   bad.output_limit_mm_per_s[1] = 0;
   EXPECT_NE(input_error_where([&] { make_controller("p", {}, bad); }).find("output_limit_mm_per_s[1]"),
@@ -127,7 +126,7 @@ TEST(ControllerFactory, ParsesGainFlags) {
   EXPECT_DOUBLE_EQ(g.at("kp_per_s"), 120.0);
   EXPECT_DOUBLE_EQ(g.at("kd"), 0.01);
   for (const char* bad : {"kp_per_s", "=3", "kp=", "kp=abc", "kp=1x", "kp=inf"})
-    EXPECT_NE(input_error_where([&] { parse_gain(bad, g); }).find("--gain"), std::string::npos) << bad;
+    EXPECT_EQ(input_error_where([&] { parse_gain(bad, g); }).rfind("gains: ", 0), 0u) << bad;
   EXPECT_NE(input_error_where([&] { parse_gain("kd=3", g); }).find("given twice"), std::string::npos);
 }
 

@@ -1,6 +1,7 @@
 // The axial P / PID law (engine/control/pid_controller.h) on hand-computed cases.
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
 #include "engine/control/pid_controller.h"
 
 namespace machplan::control {
@@ -96,8 +97,10 @@ TEST(PidGains, ValidateNamesTheField) {
   try {
     g.validate();
     FAIL();
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("kd"), std::string::npos);
+  } catch (const InputError& e) {
+    EXPECT_TRUE(e.is_field());
+    EXPECT_EQ(e.where(), "kd");
+    EXPECT_NE(std::string(e.what()).find("kd: -1 must be finite and >= 0"), std::string::npos) << e.what();
   }
 }
 

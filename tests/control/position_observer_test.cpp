@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "engine/common/error.h"
 #include "engine/control/counter_decoder.h"
 #include "engine/control/position_observer.h"
 #include "models/axis/plant.h"
@@ -115,12 +116,12 @@ TEST(PositionObserver, RefusesABadModelOrBandwidth) {
   PositionObserver o;
   ObserverModel m;
   m.tau_s = -1;
-  EXPECT_THROW(o.configure(m, 10), std::invalid_argument);
+  EXPECT_THROW(o.configure(m, 10), InputError);
   m = ObserverModel{};
   m.delay_ticks = ObserverModel::kMaxDelayTicks + 1;
-  EXPECT_THROW(o.configure(m, 10), std::invalid_argument);
-  EXPECT_THROW(o.configure(ObserverModel{}, -1), std::invalid_argument);
-  EXPECT_THROW(o.configure(ObserverModel{}, std::nan("")), std::invalid_argument);
+  EXPECT_THROW(o.configure(m, 10), InputError);
+  EXPECT_THROW(o.configure(ObserverModel{}, -1), InputError);
+  EXPECT_THROW(o.configure(ObserverModel{}, std::nan("")), InputError);
 }
 
 TEST(PositionObserver, NoiselessDriveIsFollowedWellWithinACount) {
@@ -180,7 +181,7 @@ TEST(PositionObserver, AStuckAxisDoesNotWindThePredictionUp) {
   }
   EXPECT_EQ(d_min, -20.0) << "the bound was reached";
   m.speed_limit_mm_per_s = -1;
-  EXPECT_THROW(o.configure(m, 100.0), std::invalid_argument);
+  EXPECT_THROW(o.configure(m, 100.0), InputError);
 }
 
 TEST(PositionObserver, StaysInsideTheCountWhenTheModelIsWrong) {

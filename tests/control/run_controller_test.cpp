@@ -31,7 +31,7 @@ TEST(RunController, BadKindsAndGainsExitWithTwoAndNameTheFlag) {
   const struct {
     std::string args, expect;
   } cases[] = {
-      {"--controller pd", "--controller: unknown controller 'pd' (kinds: p, pid, pid_ff, zpetc, ccc, flc; or tuned: the stored tuning)"},
+      {"--controller pd", "--controller: unknown controller 'pd' (known: p, pid, pid_ff, zpetc, ccc, flc)"},
       {"--gain kp_per_s=100", "--gain: gains need a controller kind"},
       {"--controller p --gain kp_per_s", "--gain: 'kp_per_s': expected NAME=VALUE"},
       {"--controller p --gain kp_per_s=fast", "--gain: 'kp_per_s=fast': 'fast' is not a finite number"},

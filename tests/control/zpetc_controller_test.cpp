@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
 #include "engine/control/zpetc_controller.h"
 
 namespace machplan::control {
@@ -47,11 +48,11 @@ TEST(ZpetcDesign, ZeroWellInsideIsCancelledExactly) {
 }
 
 TEST(ZpetcDesign, RefusesWhatCannotBeInverted) {
-  EXPECT_THROW(design_zpetc({0, 1}, {1}, 1, 0.9), std::invalid_argument);
-  EXPECT_THROW(design_zpetc({1, -1}, {1}, 1, 0.9), std::invalid_argument);  // zero at 1: no DC gain
-  EXPECT_THROW(design_zpetc({1}, {1}, -1, 0.9), std::invalid_argument);
-  EXPECT_THROW(design_zpetc({1}, {1}, 1, 1.5), std::invalid_argument);
-  EXPECT_THROW(proportional_loop_model(0, 0.004, 1, 0.001, 2), std::invalid_argument);
+  EXPECT_THROW(design_zpetc({0, 1}, {1}, 1, 0.9), InputError);
+  EXPECT_THROW(design_zpetc({1, -1}, {1}, 1, 0.9), InputError);  // zero at 1: no DC gain
+  EXPECT_THROW(design_zpetc({1}, {1}, -1, 0.9), InputError);
+  EXPECT_THROW(design_zpetc({1}, {1}, 1, 1.5), InputError);
+  EXPECT_THROW(proportional_loop_model(0, 0.004, 1, 0.001, 2), InputError);
 }
 
 // The drive model of the XY table: its zero is near -1 and is left uncancelled; the cascade
@@ -158,7 +159,7 @@ TEST(ZpetcController, FilterOfTheDriveModelNeedsFourPeriodsOfPreview) {
   EXPECT_EQ(z.design(0).lead, 4);  // d = 2 latency + 1, one uncancelled zero
   EXPECT_LE(z.design(0).lead, ControllerInput::kMaxPreviewTicks);
   o.latency_ticks = 30;
-  EXPECT_THROW(z.configure({o, o}, {1000, 1000}, 0.001), std::invalid_argument);
+  EXPECT_THROW(z.configure({o, o}, {1000, 1000}, 0.001), InputError);
 }
 
 }  // namespace

@@ -68,7 +68,7 @@ TEST(MachineConfig, FindsBundledMachinesByName) {
   EXPECT_EQ(load_machine(p).name, "thermal_gantry");
   EXPECT_EQ(find_machine(bundled("xy_table")), bundled("xy_table"));
   const std::string msg = test::error_of([] { find_machine("no_such_machine"); });
-  EXPECT_NE(msg.find("--machine: no machine named 'no_such_machine'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("machine: no machine named 'no_such_machine'"), std::string::npos) << msg;
   EXPECT_NE(test::error_of([] { find_machine("missing/file.yaml"); }).find("no such machine file"), std::string::npos);
 }
 

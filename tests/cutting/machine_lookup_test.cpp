@@ -106,7 +106,7 @@ TEST(MachineLookup, TheCurrentFolderIsUsedOnlyThroughAPath) {
   fs::copy_file(fs::path(kSourceMachines) / "xy_table.yaml", here.path() / "bare");
   in_folder(here.path(), [] {
     const std::string msg = error_of([] { find_machine("stray"); });
-    EXPECT_THAT(msg, HasSubstr("--machine: no machine named 'stray'"));
+    EXPECT_THAT(msg, HasSubstr("machine: no machine named 'stray'"));
     EXPECT_THAT(msg, HasSubstr("(user)"));
     EXPECT_THAT(msg, HasSubstr("machplan machines"));
     EXPECT_THAT(error_of([] { find_machine("bare"); }), HasSubstr("no machine named 'bare'"));

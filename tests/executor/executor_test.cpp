@@ -247,8 +247,23 @@ TEST(Executor, ReportJsonAndCsv) {
   EXPECT_EQ(lines, r.trace.size());
   EXPECT_NE(test::error_of([&] { r.write_trace_csv("/nonexistent/dir/t.csv"); }).find("/nonexistent/dir/t.csv: cannot open"),
             std::string::npos);
-  EXPECT_EQ(mode_from_string("paper_closed"), Mode::paper_closed);
-  EXPECT_NE(test::error_of([] { mode_from_string("fast"); }).find("--mode: unknown mode 'fast'"), std::string::npos);
+  EXPECT_EQ(parse_mode("paper-closed").value, Mode::paper_closed);
+  EXPECT_EQ(parse_mode("paper-closed").note, "");
+  EXPECT_EQ(test::error_of([] { parse_mode("fast"); }),
+            "mode: unknown mode 'fast' (known: planned, paper-open, paper-closed, jog)");
+}
+
+// One spelling per mode, the README's; the old spellings are still read, with a note for the
+// caller to show, and to_string() gives back the canonical one.
+TEST(Executor, ModesHaveOneSpellingAndTheOldOnesAreAcceptedWithANote) {
+  for (const Mode m : {Mode::planned, Mode::paper_open, Mode::paper_closed, Mode::jog}) {
+    const Parsed<Mode> p = parse_mode(to_string(m));
+    EXPECT_EQ(p.value, m);
+    EXPECT_EQ(p.note, "");
+  }
+  const Parsed<Mode> old = parse_mode("paper_open");
+  EXPECT_EQ(old.value, Mode::paper_open);
+  EXPECT_EQ(old.note, "'paper_open' is the old spelling of 'paper-open'");
 }
 
 TEST(Executor, XyTableRunsAFastMoveToItsEnd) {
@@ -281,7 +296,17 @@ TEST(ExecutorOptions, ValidateNamesTheField) {
   } catch (const InputError& e) {
     EXPECT_TRUE(e.is_field());
     EXPECT_EQ(e.where(), "blu_mm");
-    EXPECT_EQ(std::string(e.what()), "blu_mm: 0 is out of range: must be >= 0.01 and <= 1000 mm");
+    EXPECT_NE(std::string(e.what()).find("blu_mm: 0 is out of range: must be in [0.01, 1000] mm"), std::string::npos)
+        << e.what();
+  }
+  // A member's field comes out under the owner's name, as the CLI's tables name it.
+  o = {};
+  o.supervisor.stop_settle_s = 0;
+  try {
+    o.validate();
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "supervisor.stop_settle_s");
   }
 }
 

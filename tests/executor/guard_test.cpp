@@ -251,12 +251,14 @@ TEST(Guard, AJogSessionUnderTheGuardAllocatesNothingPerTickAndStaysOut) {
 }
 
 TEST(Guard, OptionsAreValidatedByName) {
-  EXPECT_THROW(guard_strategy_from_string("fast"), InputError);
+  EXPECT_THROW(parse_guard_strategy("fast"), InputError);
   try {
-    guard_strategy_from_string("fast");
+    parse_guard_strategy("fast");
   } catch (const InputError& e) {
-    EXPECT_EQ(e.where(), "--strategy");
+    EXPECT_TRUE(e.is_field());
+    EXPECT_EQ(e.where(), "strategy");
   }
+  EXPECT_EQ(parse_guard_strategy("paper").value, GuardStrategy::paper);
   GuardOptions o;
   o.latency_s = -1;
   try {

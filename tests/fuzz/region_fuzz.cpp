@@ -42,7 +42,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       profile.emplace_back(v, bulge);
     }
-  } catch (const std::invalid_argument&) {
+  } catch (const machplan::InputError&) {
     return 0;  // cannot happen on this grid, but a Contour may refuse input
   }
   machplan::ProhibitedRegion region;

@@ -30,14 +30,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       if (c.kind == TestContour::Kind::square && !(c.length_mm >= 0.5 && c.length_mm <= 10000)) std::abort();
     }
   } catch (const machplan::InputError& e) {
-    if (e.where() != "--contour") std::abort();
+    if (e.where() != "contours") std::abort();
   }
   try {
     machplan::control::Gains g;
-    machplan::control::parse_gain(gain, g, "--fix");
+    machplan::control::parse_gain(gain, g, "fixed");
     if (g.size() != 1 || !std::isfinite(g.begin()->second) || g.begin()->first.empty()) std::abort();
   } catch (const machplan::InputError& e) {
-    if (e.where() != "--fix") std::abort();
+    if (e.where() != "fixed") std::abort();
   }
   return 0;
 }

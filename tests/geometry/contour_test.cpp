@@ -1,5 +1,6 @@
 // Contracts of engine/geometry/contour.h: exact areas against closed-form formulas,
 // orientation, lengths, distances, containment, intersections and degenerate input.
+#include "engine/common/error.h"
 #include "engine/geometry/contour.h"
 #include "engine/geometry/curve_fit.h"
 
@@ -247,18 +248,18 @@ TEST(Degenerate, ZeroLengthSpansAndHugeBulges) {
 TEST(Degenerate, NonFiniteInputIsRejected) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  EXPECT_THROW(Contour({{0, nan}}, {0}), std::invalid_argument);
-  EXPECT_THROW(Contour({{inf, 0}}, {0}), std::invalid_argument);
-  EXPECT_THROW(Contour({{0, 0}, {1, 0}}, {0, nan}), std::invalid_argument);
-  EXPECT_THROW(Contour({{0, 0}, {1, 0}}, {0, 2 * kMaxBulge}), std::invalid_argument);
-  EXPECT_THROW(Contour({{2 * kMaxCoordinateMm, 0}}, {0}), std::invalid_argument);
-  EXPECT_THROW(Contour({{0, 0}}, {}), std::invalid_argument);
-  EXPECT_THROW(Contour({}, {}), std::invalid_argument);
-  EXPECT_THROW(Contour::circle({0, 0}, 0), std::invalid_argument);
-  EXPECT_THROW(Contour::circle({0, 0}, nan), std::invalid_argument);
+  EXPECT_THROW(Contour({{0, nan}}, {0}), InputError);
+  EXPECT_THROW(Contour({{inf, 0}}, {0}), InputError);
+  EXPECT_THROW(Contour({{0, 0}, {1, 0}}, {0, nan}), InputError);
+  EXPECT_THROW(Contour({{0, 0}, {1, 0}}, {0, 2 * kMaxBulge}), InputError);
+  EXPECT_THROW(Contour({{2 * kMaxCoordinateMm, 0}}, {0}), InputError);
+  EXPECT_THROW(Contour({{0, 0}}, {}), InputError);
+  EXPECT_THROW(Contour({}, {}), InputError);
+  EXPECT_THROW(Contour::circle({0, 0}, 0), InputError);
+  EXPECT_THROW(Contour::circle({0, 0}, nan), InputError);
   try {
     Contour({{0, 0}, {1, nan}}, {0, 0});
-  } catch (const std::invalid_argument& e) {
+  } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("vertex 1"), std::string::npos) << e.what();
   }
 }
@@ -340,13 +341,13 @@ TEST(CurveFit, NurbsAndInterpolantsEvaluateAndValidate) {
   EXPECT_EQ(line.breaks(), (std::vector<double>{0, 1, 2}));
   Nurbs bad = line;
   bad.knots = {0, 0, 2, 1, 2};
-  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  EXPECT_THROW(bad.validate(), InputError);
   bad = line;
   bad.knots.pop_back();
-  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  EXPECT_THROW(bad.validate(), InputError);
   bad = line;
   bad.weights = {1, -1, 1};
-  EXPECT_THROW(bad.validate(), std::invalid_argument);
+  EXPECT_THROW(bad.validate(), InputError);
   // The cubic through points: passes through them, with the asked end direction.
   const std::vector<Vector2d> pts = {{0, 0}, {3, 4}, {6, 0}, {10, 1}};
   const CubicInterpolant ci = interpolate_cubic(pts, Vector2d(0, 2), Vector2d::Zero());
@@ -355,8 +356,8 @@ TEST(CurveFit, NurbsAndInterpolantsEvaluateAndValidate) {
     EXPECT_NEAR((ci.point(ci.params[i + 1], i) - pts[i + 1]).norm(), 0, 1e-12);
   }
   EXPECT_NEAR(ci.derivatives[0].x(), 0, 1e-12);
-  EXPECT_THROW(interpolate_cubic({{1, 1}, {1, 1}}), std::invalid_argument);
-  EXPECT_THROW(interpolate_cubic({{1, 1}}), std::invalid_argument);
+  EXPECT_THROW(interpolate_cubic({{1, 1}, {1, 1}}), InputError);
+  EXPECT_THROW(interpolate_cubic({{1, 1}}), InputError);
 }
 
 }  // namespace

@@ -386,7 +386,7 @@ Contour random_star(std::mt19937& rng, int n, double max_bulge) {
       for (const auto& s : c.segments()) short_span = short_span || length(s) < 0.05;
       if (short_span) continue;
       return c;
-    } catch (const std::invalid_argument&) {
+    } catch (const InputError&) {
     }
   }
 }

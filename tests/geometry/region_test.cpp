@@ -214,9 +214,9 @@ TEST(Region, BadProfilesNameTheContour) {
   RegionOptions bad;
   bad.tool_radius_mm = -1;
   EXPECT_THROW(bad.validate(), InputError);
-  EXPECT_THROW(machining_side_from_string("outsid"), InputError);
-  EXPECT_EQ(machining_side_from_string("inside"), MachiningSide::inside);
-  EXPECT_EQ(offset_method_from_string("paper"), OffsetMethod::paper);
+  EXPECT_THROW(parse_machining_side("outsid"), InputError);
+  EXPECT_EQ(parse_machining_side("inside").value, MachiningSide::inside);
+  EXPECT_EQ(parse_offset_method("paper").value, OffsetMethod::paper);
 }
 
 }  // namespace

@@ -184,7 +184,7 @@ TEST(GuardRun, SameSeedSameRun) {
   for (std::size_t i = 0; i < a.attempts.size(); ++i) EXPECT_EQ(a.attempts[i].closest_mm, b.attempts[i].closest_mm);
 }
 
-TEST(GuardRun, BadOptionsNameTheFlag) {
+TEST(GuardRun, BadOptionsNameTheField) {
   const auto where = [](auto&& f) {
     try {
       f();
@@ -193,23 +193,23 @@ TEST(GuardRun, BadOptionsNameTheFlag) {
     }
     return std::string("no error");
   };
-  EXPECT_EQ(where([] { operator_from_string("random:0"); }), "--operator");
-  EXPECT_EQ(where([] { operator_from_string("random:x"); }), "--operator");
-  EXPECT_EQ(where([] { operator_from_string(""); }), "--operator");
+  EXPECT_EQ(where([] { operator_from_string("random:0"); }), "op");
+  EXPECT_EQ(where([] { operator_from_string("random:x"); }), "op");
+  EXPECT_EQ(where([] { operator_from_string(""); }), "op");
   EXPECT_EQ(operator_from_string("joystick:/dev/input/js3").path, "/dev/input/js3");
   EXPECT_EQ(operator_from_string("random:12").strokes, 12);
   GuardRunOptions o;
   o.feed_mm_per_s = 0;
-  EXPECT_EQ(where([&] { o.validate(); }), "--feed");
+  EXPECT_EQ(where([&] { o.validate(); }), "feed_mm_per_s");
   o = {};
   o.guard.tolerance_mm = -1;
-  EXPECT_EQ(where([&] { o.validate(); }), "--tolerance");
+  EXPECT_EQ(where([&] { o.validate(); }), "guard.tolerance_mm");
   o = {};
   o.guard.latency_s = 2;
-  EXPECT_EQ(where([&] { o.validate(); }), "--latency-ms");
+  EXPECT_EQ(where([&] { o.validate(); }), "guard.latency_s");
   o = {};
   o.region.tool_radius_mm = std::nan("");
-  EXPECT_EQ(where([&] { o.validate(); }), "--tool-radius");
+  EXPECT_EQ(where([&] { o.validate(); }), "region.tool_radius_mm");
   // A script without a start row, naming the script.
   o = {};
   o.region.tool_radius_mm = 5;

@@ -209,7 +209,7 @@ TEST(BackendFactory, UnknownNameListsTheKnownOnes) {
     backends::make_backend(gantry(), o);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("--backend: unknown backend 'linuxcnc-typo' (known: sim)"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("name: unknown backend 'linuxcnc-typo' (known: sim)"), std::string::npos)
         << e.what();
   }
 }

@@ -8,6 +8,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
 #include "engine/geometry/contour.h"
 #include "engine/motion/feed_planner.h"
 #include "engine/motion/interpolator.h"
@@ -359,18 +360,19 @@ TEST(FeedPlanner, RejectsBadOptionsAndMalformedStretches) {
   try {
     o.validate();
     FAIL();
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("max_jerk_mm_per_s3 = 0"));
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("max_jerk_mm_per_s3: 0"));
   }
   const PlannerOptions good;
-  EXPECT_THROW(plan_stretch(Stretch{}, good), std::invalid_argument);
+  // A malformed stretch is the caller's construction, not the user's input: a bug.
+  EXPECT_THROW(plan_stretch(Stretch{}, good), InternalError);
   Stretch gap = polyline({{0, 0}, {1, 0}}, 10);
   gap.segments.push_back(line({2, 0}, {3, 0}));
   gap.feed_mm_per_s.push_back(10);
   gap.source_lines.push_back(2);
-  EXPECT_THROW(plan_stretch(gap, good), std::invalid_argument);
+  EXPECT_THROW(plan_stretch(gap, good), InternalError);
   Stretch nofeed = polyline({{0, 0}, {1, 0}}, 0);
-  EXPECT_THROW(time_lower_bound_s(nofeed, good), std::invalid_argument);
+  EXPECT_THROW(time_lower_bound_s(nofeed, good), InternalError);
 }
 
 }  // namespace

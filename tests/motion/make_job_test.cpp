@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
 #include "engine/geometry/contour.h"
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
@@ -139,7 +140,7 @@ TEST(MakeJob, OptionsValidateNamesTheField) {
   try {
     o.validate();
     FAIL() << "no throw";
-  } catch (const std::invalid_argument& e) {
+  } catch (const InputError& e) {
     EXPECT_THAT(e.what(), HasSubstr("rapid_feed_mm_per_s"));
     EXPECT_THAT(e.what(), HasSubstr("-1"));
   }

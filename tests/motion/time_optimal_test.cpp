@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "engine/common/error.h"
 #include "engine/geometry/contour.h"
 #include "engine/motion/feed_planner.h"
 #include "engine/motion/time_optimal.h"
@@ -139,12 +140,12 @@ TEST(TimeOptimal, BadInputIsRefused) {
   const Stretch st = stretch_of({make_segment({0, 0}, {10, 0}, 0)}, 80);
   TimeOptimalOptions bad;
   bad.max_step_mm = 0;
-  EXPECT_THROW(time_optimal_s(st, PlannerOptions{}, bad), std::invalid_argument);
+  EXPECT_THROW(time_optimal_s(st, PlannerOptions{}, bad), InputError);
   Stretch empty;
-  EXPECT_THROW(time_optimal_s(empty, PlannerOptions{}), std::invalid_argument);
+  EXPECT_THROW(time_optimal_s(empty, PlannerOptions{}), InternalError);  // a malformed stretch: a bug
   Stretch zero_feed = st;
   zero_feed.feed_mm_per_s[0] = 0;
-  EXPECT_THROW(time_optimal_s(zero_feed, PlannerOptions{}), std::invalid_argument);
+  EXPECT_THROW(time_optimal_s(zero_feed, PlannerOptions{}), InternalError);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // Absurd but well-formed placement input ends quickly with a message naming the limit: numbers
-// beyond the scene's bounds are refused as input errors, too many peripherals are refused by
+// beyond the scene's bounds (a grid finer than the search's bound among them) are refused as
+// input errors, too many peripherals are refused by
 // name, and a check that would run for minutes (a large safe distance) stops at its query
 // limit with exit 3 and says how to raise it.
 #include <csignal>
@@ -67,6 +68,39 @@ TEST(SceneLimits, HugeNumbersAreRefusedNamingTheKey) {
     EXPECT_THAT(msg, HasSubstr(path + ":")) << c.to;
     EXPECT_THAT(msg, HasSubstr(c.key)) << c.to << "\n" << msg;
   }
+}
+
+// The optimal search's grid is bounded like the other search limits: a grid finer than
+// kMinResolutionMm (searching for minutes) is refused naming the key and the bound.
+TEST(SceneLimits, AGridFinerThanTheBoundIsRefused) {
+  TempDir dir;
+  const std::string fine = write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 200\n  resolution_mm: 0.01"}});
+  EXPECT_THAT(error_of([&] { load_scene(fine); }),
+              HasSubstr(fmt::format("key 'search.resolution_mm' must be >= {}, got 0.01", kMinResolutionMm)));
+  const std::string bound = write_scene(dir, {{"pad_max_mm: 200", fmt::format("pad_max_mm: 200\n  resolution_mm: {}",
+                                                                              kMinResolutionMm)}});
+  EXPECT_EQ(load_scene(bound).search.resolution_mm, kMinResolutionMm);
+}
+
+// `place` on a scene no placement fits says so once: the verdict is the command's, the reason
+// the search's.
+TEST(SceneLimits, APadLimitOfZeroSaysCannotBeMachinedOnce) {
+  TempDir dir;
+  // The whole tool path: a few rows of it fit on the table at pad 0.
+  const std::string scene =
+      write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 0"}, {"toolpath: toolpath.csv", "toolpath: " + kData + "toolpath.csv"}});
+  const std::string err = (dir.path() / "err").string();
+  const int rc = std::system(fmt::format("'{}' place '{}' > /dev/null 2> '{}'", MACHPLAN_CLI, scene, err).c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  std::ifstream in(err);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string verdict = "cannot be machined on this machine: ";
+  const auto first = text.find(verdict);
+  ASSERT_NE(first, std::string::npos) << text;
+  EXPECT_EQ(text.find("cannot be machined", first + 1), std::string::npos) << text;
+  EXPECT_THAT(text, HasSubstr(verdict + "no placement on the table with a pad up to 0 mm is free of interference"))
+      << text;
 }
 
 TEST(SceneLimits, MorePeripheralsThanTheCheckerHandlesAreRefused) {

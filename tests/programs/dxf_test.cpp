@@ -488,6 +488,31 @@ TEST(DxfHealing, AnOutlineDrawnTwiceIsKeptOnce) {
   EXPECT_NE(find(r, "duplicate")->message.find("drawn twice"), std::string::npos) << find(r, "duplicate")->message;
 }
 
+// The arcs fitted to a drawing's curves are bounded (DxfOptions::max_fitted_spans): an ellipse
+// too detailed for the tolerance is refused once it reaches the limit, naming it.
+TEST(DxfCurves, FittedArcsAreBounded) {
+  Writer w;
+  w.pair(0, "ELLIPSE"); w.pair(5, "E1"); w.pair(10, 0.0); w.pair(20, 0.0); w.pair(30, 0.0);
+  w.pair(11, 0.0); w.pair(21, 20.0); w.pair(31, 0.0); w.pair(40, 0.4); w.pair(41, 0.0); w.pair(42, 2 * kPi);
+  DxfOptions o;
+  const std::size_t needs = [&] {
+    std::size_t arcs = 0;
+    for (const auto& c : read(w, o).contours) arcs += c.contour.size();
+    return arcs;
+  }();
+  ASSERT_GT(needs, 8u);
+  o.max_fitted_spans = needs / 2;
+  try {
+    read(w, o);
+    FAIL() << "the limit was not enforced";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(fmt::format("need more than {} arcs", needs / 2)), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("give one with chain_tolerance_mm"), std::string::npos) << e.what();
+  }
+  o.max_fitted_spans = 0;
+  EXPECT_THROW(o.validate(), InputError);
+}
+
 // A block "PLATE": 20 x 10 rectangle with a hole of radius 2 at (5, 5), base point (0, 0).
 void plate_block(Writer& w) {
   Writer b;
@@ -654,7 +679,7 @@ TEST(DxfBlocks, EntityLimitCountsInsertCopies) {
     FAIL() << "the limit was not enforced";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("more than 200 entities"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("--max-entities"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("raise it with max_entities"), std::string::npos) << e.what();
   }
   o.max_entities = 0;
   EXPECT_THROW(o.validate(), InputError);

@@ -43,7 +43,7 @@ TEST(GcodePlacement, OriginMovesTheProgramOntoTheMachine) {
   EXPECT_THROW(motion::run_program(f.path(), o), Infeasible) << "X -4 lies outside the travel without an origin";
   o.origin_mm = Eigen::Vector2d(100, 200);
   const motion::RunOutcome run = motion::run_program(f.path(), o);
-  EXPECT_EQ(run.origin_from, "--origin");
+  EXPECT_EQ(run.origin_from, "given");
   EXPECT_DOUBLE_EQ(run.origin_mm.x(), 100);
   EXPECT_NEAR(run.programmed.start_mm.x(), 100, 1e-12);
   EXPECT_NEAR(run.programmed.start_mm.y(), 200, 1e-12);
@@ -51,8 +51,9 @@ TEST(GcodePlacement, OriginMovesTheProgramOntoTheMachine) {
   const auto& first = run.programmed.stretches.front().segments.front();
   EXPECT_NEAR(first.end.x(), 96, 1e-9);
   EXPECT_NEAR(first.end.y(), 197, 1e-9);
-  EXPECT_NE(run.summary.full_report().find("X 100.000 Y 200.000 mm on the machine (--origin)"), std::string::npos) << run.summary.full_report();
-  EXPECT_EQ(cli::to_json(run).at("origin_from"), "--origin");
+  EXPECT_NE(run.summary.full_report().find("X 100.000 Y 200.000 mm on the machine (given)"), std::string::npos)
+      << run.summary.full_report();
+  EXPECT_EQ(cli::to_json(run).at("origin_from"), "given");
   EXPECT_FALSE(run.faulted());
 }
 
@@ -113,7 +114,7 @@ TEST(GcodePlacement, MachineFileGivesOriginParametersAndSpindles) {
   o.gcode.params["_hal[plasmac.cut-feed-rate]"] = 2400;                      // --param wins
   o.origin_mm = Eigen::Vector2d(600, 600);                                   // --origin wins
   const motion::RunOutcome again = motion::run_program(f.path(), o);
-  EXPECT_EQ(again.origin_from, "--origin");
+  EXPECT_EQ(again.origin_from, "given");
   EXPECT_NEAR(again.programmed.stretches[1].feed_mm_per_s.front(), 40, 1e-9);
 }
 

@@ -250,7 +250,7 @@ TEST(Stl, ScaleOption) {
   EXPECT_TRUE(r.bounds.max().isApprox(Eigen::Vector3d(25.4, 50.8, 76.2)));
   o.scale_to_mm = 0;
   EXPECT_THAT(error_of([&] { read_stl_bytes("solid", "x.stl", nullptr, o); }),
-              HasSubstr("StlReadOptions::scale_to_mm"));
+              HasSubstr("scale_to_mm: is 0; it must be finite and positive"));
 }
 
 TEST(Stl, OpenBoxAndNonManifoldFromFiles) {

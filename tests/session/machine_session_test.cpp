@@ -85,7 +85,8 @@ TEST(MachineSession, BadChoicesNameTheirField) {
   EXPECT_EQ(field_of(o), "gains: gains need a controller kind");
   o.gains.clear();
   o.controller = "pd";
-  EXPECT_NE(field_of(o).find("controller: unknown controller 'pd'"), std::string::npos);
+  EXPECT_NE(field_of(o).find("controller: unknown controller 'pd' (known: p, pid, pid_ff, zpetc, ccc, flc)"),
+            std::string::npos);
   o.controller = "tuned";
   EXPECT_NE(field_of(o).find("controller: no active tuning for 'xy_table' in " + store), std::string::npos);
   o.controller.clear();

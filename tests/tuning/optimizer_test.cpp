@@ -110,11 +110,11 @@ TEST(Optimizer, StopsOnRequest) {
 TEST(Optimizer, RejectsMalformedProblemsAndOptions) {
   Problem p;
   p.evaluate = [](const std::vector<double>&, std::vector<double>&) { return 0.0; };
-  EXPECT_THROW(optimize(p, {}), std::invalid_argument);
+  EXPECT_THROW(optimize(p, {}), InternalError);
   p.parameters = {{"k", 1, 1, 1, false}};
-  EXPECT_THROW(optimize(p, {}), std::invalid_argument);
+  EXPECT_THROW(optimize(p, {}), InternalError);
   p.parameters = {{"k", 0, 1, 0.5, true}};
-  EXPECT_THROW(optimize(p, {}), std::invalid_argument);
+  EXPECT_THROW(optimize(p, {}), InternalError);
   p.parameters = {{"k", 0, 1, 0.5, false}};
   OptimizerOptions o;
   o.max_evaluations = 0;

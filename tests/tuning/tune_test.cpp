@@ -47,11 +47,11 @@ TEST(TuningContour, ParsesTheCommandLineForms) {
       parse_contour(bad);
       ADD_FAILURE() << bad;
     } catch (const InputError& e) {
-      EXPECT_EQ(e.where(), "--contour") << bad;
+      EXPECT_EQ(e.where(), "contours") << bad;
     }
   }
-  EXPECT_THROW(objective_from_string("mean"), InputError);
-  EXPECT_EQ(objective_from_string("itae"), Objective::itae);
+  EXPECT_THROW(parse_objective("mean"), InputError);
+  EXPECT_EQ(parse_objective("itae").value, Objective::itae);
 }
 
 TEST(TuningEvaluate, IsDeterministicAndMeasuresTheWholeCircle) {
@@ -222,7 +222,7 @@ TEST(Tuning, FixedGainsAreHeldAndNotSearched) {
     tune(ev, o);
     ADD_FAILURE() << "an unknown gain was fixed";
   } catch (const InputError& e) {
-    EXPECT_EQ(e.where(), "--fix");
+    EXPECT_EQ(e.where(), "fixed");
   }
   o.fixed = {{"kp_per_s", 100.0}};
   o.start = {{"kp_per_s", 90.0}};
