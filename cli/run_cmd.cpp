@@ -89,6 +89,7 @@ struct RunArgs {
   std::string order;
   double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
   std::string operator_events;
+  int from_line = 0;
 };
 
 // Which flag sets which field of RunOptions and of its machine session, for the error path
@@ -113,6 +114,7 @@ const FieldFlag kRunFields[] = {
     {"max_machine_time_s", "--max-machine-time"},
     {"magnify", "--magnify"},
     {"plot", "--plot"},
+    {"from_line", "--from-line"},
 };
 
 motion::RunOptions run_options(const RunArgs& a) {
@@ -153,7 +155,15 @@ motion::RunOptions run_options(const RunArgs& a) {
   if (!a.operator_events.empty()) {
     if (a.backend != "sim")
       throw InputError("--operator-events", 0, "a timeline of operator events plays on the simulator only (--backend sim)");
-    so.backend.sim.operator_events = hardware::read_operator_events(a.operator_events).states;
+    const hardware::OperatorTimeline timeline = hardware::read_operator_events(a.operator_events);
+    // The paper modes' BLU vectors run at one speed: no hold, override or recovery there.
+    if (so.executor.mode != executor::Mode::planned)
+      for (const hardware::OperatorEventRow& r : timeline.rows)
+        if (r.kind != hardware::OperatorEventRow::Kind::stop && r.kind != hardware::OperatorEventRow::Kind::thc)
+          throw InputError(a.operator_events, r.line,
+                           fmt::format("'{}': the paper modes take no feed hold, override or recovery (only stop and thc)",
+                                       hardware::to_string(r.kind)));
+    so.backend.sim.operator_events = timeline.states;
   }
   if (!so.backend.sim.faults.empty() && a.backend != "sim")
     throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
@@ -176,6 +186,7 @@ motion::RunOptions run_options(const RunArgs& a) {
   so.executor.record_trace = !a.plot.empty();
   so.trace_csv_path = a.trace;  // streamed during the run
   o.max_machine_time_s = a.max_machine_time_s;
+  o.from_line = a.from_line;
   return o;
 }
 
@@ -266,6 +277,9 @@ void add_run(CLI::App& app) {
                   "refuse, before it starts, a run whose estimate exceeds this many seconds of machine time "
                   "(default 14400: 4 h)")
       ->check(kFinitePositive);
+  cmd->add_option("--from-line", a->from_line,
+                  "run from this program line, with the state the program had there, reached by a safe rapid (the "
+                  "torch is lit again where a cut resumes)");
   cmd->add_option("--operator-events", a->operator_events,
                   "simulator: the operator's inputs on a timeline, a CSV 't_s,event,value' (hold, start, stop, "
                   "feed_override, rapid_override, recover, thc)");

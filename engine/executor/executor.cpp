@@ -226,11 +226,13 @@ void Session::Impl::prepare(double machine_period_s) {
         break;
       }
       case Step::Kind::torch_on:
-        if (ts.kind == TorchSetup::Kind::none) fail(st.source_line, fmt::format("torch on, but machine '{}' has no torch", ms.name));
+        if (ts.kind == TorchSetup::Kind::none)
+          fail(st.source_line, fmt::format("torch or spindle on, but machine '{}' has neither", ms.name));
         torch_on = true;
         break;
       case Step::Kind::torch_off:
-        if (ts.kind == TorchSetup::Kind::none) fail(st.source_line, fmt::format("torch off, but machine '{}' has no torch", ms.name));
+        if (ts.kind == TorchSetup::Kind::none)
+          fail(st.source_line, fmt::format("torch or spindle off, but machine '{}' has neither", ms.name));
         torch_on = false;
         break;
       case Step::Kind::dwell:
@@ -361,11 +363,14 @@ void Session::Impl::operate() noexcept {
   if (held && (held_by_override ? feed_rate > 0.0 : start_edge)) resume_asked = true;
 }
 
+// How close to rest the torch goes off in a held cut, mm of travel left (follow_hold).
+constexpr double kTorchOffBeforeRestMm = 0.2;
+
 void Session::Impl::begin_hold(bool by_override) noexcept {
   held = true;
   held_by_override = by_override;
   resume_asked = false;
-  const bool cutting = out.torch_fire || torch.lit() || torch.lighting();
+  const bool cutting = ms.torch.kind != TorchSetup::Kind::spindle && (out.torch_fire || torch.lit() || torch.lighting());
   if (result.holds.size() < result.holds.capacity()) {
     HoldReport& h = result.holds.emplace_back();
     h.t_s = t;
@@ -377,9 +382,10 @@ void Session::Impl::begin_hold(bool by_override) noexcept {
     h.in_rapid = phase == Phase::move && move_is_rapid();
     h.in_cut = cutting;
     h.position_mm = sp_mm;
-    h.speed_mm_per_s = Eigen::Vector2d(demand.track.v_ff_mm_per_s[0], demand.track.v_ff_mm_per_s[1]).norm();
-    const Eigen::Vector2d v(demand.track.v_ff_mm_per_s[0], demand.track.v_ff_mm_per_s[1]);
-    const Eigen::Vector2d a(demand.track.a_ff_mm_per_s2[0], demand.track.a_ff_mm_per_s2[1]);
+    Eigen::Vector2d v, a;  // the commanded motion at the input
+    if (phase == Phase::move) source->motion_now(v, a);
+    else v.setZero(), a.setZero();
+    h.speed_mm_per_s = v.norm();
     // The stop's limits along the path: per axis, what the plan's own acceleration leaves.
     double at = std::numeric_limits<double>::infinity(), jt = at;
     for (int i = 0; i < hardware::kAxes; ++i) {
@@ -389,10 +395,18 @@ void Session::Impl::begin_hold(bool by_override) noexcept {
       at = std::min(at, std::max(0.0, ms.max_acceleration_mm_per_s2 - std::abs(a[i] - v[i] * a.dot(v) / (h.speed_mm_per_s * h.speed_mm_per_s))) / u);
       jt = std::min(jt, ms.max_jerk_mm_per_s3 / u);
     }
-    h.stop_acceleration_mm_per_s2 = at;
-    h.stop_jerk_mm_per_s3 = jt;
+    // No more than the axes' own limits: the path may turn during the stop, and along an
+    // axis the stop can use A and J and no more.
+    // On a curve the direction turns during the stop: what the normal acceleration a_n leaves
+    // is at least sqrt(A^2 - a_n^2) whatever the direction (the worst, at the angle where
+    // sin = a_n / A).
+    const double an = h.speed_mm_per_s > 0 ? (a - v * a.dot(v) / (h.speed_mm_per_s * h.speed_mm_per_s)).norm() : 0.0;
+    const double A = ms.max_acceleration_mm_per_s2;
+    h.stop_acceleration_mm_per_s2 = std::min({at, A, std::sqrt(std::max(0.0, A * A - an * an))});
+    h.stop_jerk_mm_per_s3 = std::min(jt, ms.max_jerk_mm_per_s3);
     h.acceleration_mm_per_s2 = h.speed_mm_per_s > 0 ? a.dot(v) / h.speed_mm_per_s : 0.0;
-    h.torch_off_before_rest = true;  // follow_hold turns a cutting torch off in this period
+    h.torch_off_before_rest = true;  // follow_hold turns a cutting torch off before rest (or at once, at rest)
+    h.torch_off = false;
     hold = &h;
   } else {
     ++result.holds_dropped;
@@ -402,7 +416,7 @@ void Session::Impl::begin_hold(bool by_override) noexcept {
   // In a move the torch goes off in this same period (follow_hold), while the axes brake
   // along the path. A pierce under way goes off now and its step runs again on resume;
   // dwells and torch-off sequences run on, and the next move starts held.
-  if (phase == Phase::torch && torch.lighting()) {
+  if (phase == Phase::torch && torch.lighting() && ms.torch.kind != TorchSetup::Kind::spindle) {
     torch.kill(out);
     restart_step = true;
     phase = Phase::held;
@@ -413,11 +427,23 @@ void Session::Impl::begin_hold(bool by_override) noexcept {
 // While a move is held: the torch-off beside the braking, the record of the stop, and the
 // resume (re-pierce first when a cut was held).
 void Session::Impl::follow_hold() noexcept {
-  if (held && !cut_off && !torch_off_running && (out.torch_fire || torch.lit())) {
-    torch.start_off(out);  // fire off now; the retract runs beside the braking
-    torch_off_running = true;
-    cut_off = true;
-    if (hold) hold->in_cut = true, hold->torch_off_before_rest = source->rate() > 0.0 || !hold->stopped;
+  // A spindle keeps turning through a hold. A torch cuts on while the axes brake along the
+  // path and goes off just before they stop, once what is left of the stop is under
+  // kTorchOffBeforeRestMm (so the re-pierce where they stop leaves no gap in the cut); it is
+  // off in the period the axes come to rest at the latest.
+  if (held && !cut_off && !torch_off_running && ms.torch.kind != TorchSetup::Kind::spindle &&
+      (out.torch_fire || torch.lit())) {
+    const double u = Eigen::Vector2d(demand.track.v_ff_mm_per_s[0], demand.track.v_ff_mm_per_s[1]).norm();
+    const double left_mm = u * u / (2.0 * ms.max_acceleration_mm_per_s2) + 0.5 * u * ms.max_acceleration_mm_per_s2 / ms.max_jerk_mm_per_s3;
+    if (left_mm < kTorchOffBeforeRestMm || source->rate() == 0.0) {
+      torch.start_off(out);
+      torch_off_running = true;
+      cut_off = true;
+      if (hold) {
+        hold->in_cut = hold->torch_off = true;
+        hold->torch_off_before_rest = source->rate() > 0.0 || hold->speed_mm_per_s == 0.0;
+      }
+    }
   }
   if (torch_off_running) {
     const TorchSequencer::Status st = torch.tick(in, out);

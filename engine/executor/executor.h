@@ -24,9 +24,26 @@
 //   jog           an operator's joystick through the backend's operator inputs (JogSource);
 //                 runs no job: the session lasts until the operator presses cycle start
 //
+// The operator (OperatorInputs, engine/hardware/backend.h), read at the start of every tick:
+//   feed hold (rising edge) the planned motion comes to rest along the path, the shortest stop
+//                          the acceleration and jerk limits allow (time_scale.h); in a cut
+//                          the torch burns on while the axes brake and goes off just before
+//                          they stop; a spindle keeps turning. A hold during a pierce puts the
+//                          torch out and the pierce starts over on resume; dwells run on, and
+//                          the next move starts held. Each hold is in ExecutionResult::holds.
+//   cycle start            resumes a hold once the axes are at rest: a held cut is pierced
+//                          again where the machine stands (an oxy-fuel preheat flame was
+//                          kept), then the move goes on from rest within the same limits
+//   feed override          0 .. 200 % of the plan on feed moves, reached within the limits
+//                          (above 100 % only while the plan cruises, within the axes'
+//                          speeds); 0 % holds like the button and lets go when it rises
+//   rapid override         1 .. 100 % on rapids
+//   stop (rising edge)     the job ends: operator_stop, torch off, controlled stop
+// The paper modes' vector sources run at their one speed and take no hold or override.
+//
 // Faults (FaultKind, supervisor.h): following error, encoder glitch, counter wrap misread,
 // E-stop, lost backend, watchdog, arc start failure, arc lost while cutting, torch height
-// timeout, axis stalled, drive saturated off the contour, stop requested (the run's
+// timeout, axis stalled, drive saturated off the contour, the operator's stop, stop requested (the run's
 // Termination ended: a stop request, its deadline in machine time or its budget of periods;
 // engine/common/termination.h). On any of them, in the same tick: torch off and retract;
 // then the controlled stop of the supervisor; the report keeps the last trusted position.
@@ -130,13 +147,15 @@ struct HoldReport {
   double t_s = 0.0;                 // the input, since the start of the run
   int step = -1;
   int source_line = 0;
-  bool in_cut = false;              // the torch was cutting: it went off at the hold
+  bool in_cut = false;              // the torch was cutting at the input
+  bool torch_off = false;           // the hold turned it off (just before rest) and the resume pierced again;
+                                    // false when the cut reached its end while the machine braked
   bool in_rapid = false;
   bool by_override = false;         // a 0 % feed override, not the button
   Eigen::Vector2d position_mm = Eigen::Vector2d::Zero();  // commanded point at the input
   double speed_mm_per_s = 0.0;      // commanded path speed at the input
-  // Limits of the stop along the path at the input (tangential, with the plan's own
-  // acceleration taken off), for the jerk-limited stopping distance.
+  // Limits of the stop along the path at the input (tangential: what the normal acceleration
+  // leaves, at most the axes' A and J), for the jerk-limited stopping distance.
   double stop_acceleration_mm_per_s2 = 0.0, stop_jerk_mm_per_s3 = 0.0, acceleration_mm_per_s2 = 0.0;
   bool stopped = false;             // the motion came to rest
   double stop_s = 0.0;              // from the input to rest

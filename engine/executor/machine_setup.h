@@ -15,11 +15,15 @@ struct ControllerPlant;
 namespace machplan::executor {
 
 struct TorchSetup {
-  enum class Kind { none, plasma, oxy_fuel };
+  // The machine's process: a plasma or oxy-fuel torch, or a spindle (a milling table: M3/M4
+  // start it, M5 stops it; it keeps turning through a feed hold).
+  enum class Kind { none, plasma, oxy_fuel, spindle };
   Kind kind = Kind::none;
   double arc_ok_timeout_s = 2.0;       // plasma: fire -> arc OK must come within this
   double pierce_delay_s = 0.5;         // material default when no G4 follows the torch-on
   double preheat_s = 0.0;              // oxy-fuel: heating before the cutting oxygen
+  double spin_up_s = 0.0;              // spindle: from start to cutting speed
+  double spin_down_s = 0.0;            // spindle: from stop to standstill
   double arc_loss_debounce_s = 0.02;   // arc OK may drop this long while cutting before it is a fault
   bool height_axis = false;            // a torch height axis is fitted
   double pierce_height_mm = 3.8;

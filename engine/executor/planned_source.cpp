@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -75,9 +76,27 @@ void PlannedSource::advance(const Eigen::Vector2d& measured_mm, const hardware::
   t_ += scale_.step(target_, *cur_, t_);
 }
 
+void PlannedSource::motion_now(Eigen::Vector2d& v, Eigen::Vector2d& a) const noexcept {
+  if (!cur_) {
+    v.setZero();
+    a.setZero();
+    return;
+  }
+  motion::Setpoint now;
+  cur_->sample(t_, now);
+  const double k = scale_.k(), kd = scale_.k_dot();
+  v = now.velocity_mm_per_s * k;
+  a = now.acceleration_mm_per_s2 * (k * k) + now.velocity_mm_per_s * kd;
+}
+
 double PlannedSource::path_distance_mm(const Eigen::Vector2d& p) const noexcept {
   if (!stretch_ || stretch_->segments.empty()) return 0.0;
-  return (closest_point(stretch_->segments[segment_], p) - p).norm();
+  // The segment under the cursor and its neighbours: at a joint the point may be on either.
+  const std::size_t n = stretch_->segments.size();
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t k = segment_ > 0 ? segment_ - 1 : 0; k < std::min(n, segment_ + 3); ++k)
+    best = std::min(best, (closest_point(stretch_->segments[k], p) - p).norm());
+  return best;
 }
 
 bool PlannedSource::move_done() const noexcept { return !cur_ || t_ >= cur_->duration_s(); }

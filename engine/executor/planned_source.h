@@ -35,6 +35,7 @@ class PlannedSource final : public SetpointSource {
   void set_rate(double target) noexcept override { target_ = target; }
   double rate() const noexcept override { return scale_.k(); }
   double path_distance_mm(const Eigen::Vector2d& p) const noexcept override;
+  void motion_now(Eigen::Vector2d& v_mm_per_s, Eigen::Vector2d& a_mm_per_s2) const noexcept override;
 
  private:
   SourceContext ctx_;

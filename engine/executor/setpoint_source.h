@@ -82,6 +82,12 @@ class SetpointSource {
   virtual void set_rate(double target) noexcept { (void)target; }
   // The rate now (1 when the source cannot change it) and whether the move is at rest.
   virtual double rate() const noexcept { return 1.0; }
+  // The commanded velocity and acceleration now (not the feed-forward's, which leads by the
+  // latencies); zero when not known.
+  virtual void motion_now(Eigen::Vector2d& v_mm_per_s, Eigen::Vector2d& a_mm_per_s2) const noexcept {
+    v_mm_per_s.setZero();
+    a_mm_per_s2.setZero();
+  }
   // Distance from `p` to the path the move follows, mm (0 when not known): a hold's
   // deviation from the path.
   virtual double path_distance_mm(const Eigen::Vector2d& p) const noexcept {

@@ -107,7 +107,7 @@ double TimeScale::change_step(double target, const motion::Setpoint& at, double 
   if (cruise_left_s > 0 && vp > kTiny) {
     double cv = kMaxScale;
     for (int i = 0; i < 2; ++i)
-      if (std::abs(v[i]) > kTiny) cv = std::min(cv, lim_.max_velocity_mm_per_s[i] / std::abs(v[i]));
+      if (std::abs(v[i]) > kTiny) cv = std::min(cv, lim_.margin * lim_.max_velocity_mm_per_s[i] / std::abs(v[i]));
     // On an arc the normal acceleration grows with k^2.
     const double an = a.norm();
     if (an > kTiny) cv = std::min(cv, std::sqrt(lim_.margin * lim_.max_acceleration_mm_per_s2.minCoeff() / an));

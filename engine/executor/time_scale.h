@@ -50,7 +50,8 @@ struct TimeScaleLimits {
   double max_jerk_mm_per_s3 = 20000.0;
   double period_s = 0.001;
   // Share of the limits a change of k may use on top of the plan (the rest is numerical
-  // margin: the plan's own jerk p''' is not known to the governor).
+  // margin: the plan's own jerk p''' is not known to the governor), and of the axes' speeds
+  // above 100 % (the drives need room to correct at their top speed).
   double margin = 0.95;
 };
 

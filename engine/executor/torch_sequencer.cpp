@@ -8,9 +8,12 @@ namespace machplan::executor {
 using Kind = TorchSetup::Kind;
 
 void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated) noexcept {
-  programmed_ = programmed_pierce;
+  programmed_ = programmed_pierce && t_.kind != Kind::spindle;  // a spindle spins up whatever follows
   preheated_ = preheated;
-  if (t_.height_axis) {
+  if (t_.kind == Kind::spindle) {
+    out.torch_fire = true;  // the spindle runs; the spin-up is its "pierce"
+    enter(Phase::pierce);
+  } else if (t_.height_axis) {
     out.torch_height_target_mm = t_.pierce_height_mm;
     enter(Phase::height_pierce);
   } else if (t_.kind == Kind::oxy_fuel && !preheated_) {
@@ -76,7 +79,7 @@ TorchSequencer::Status TorchSequencer::tick(const hardware::Inputs& in, hardware
       }
       return Status::busy;
     case Phase::pierce:
-      if (programmed_ || pt_ >= t_.pierce_delay_s) {
+      if (programmed_ || pt_ >= (t_.kind == Kind::spindle ? t_.spin_up_s : t_.pierce_delay_s)) {
         lit_ = true;
         if (t_.height_axis && !programmed_) {
           lower_to_cut_height(out);
@@ -94,6 +97,7 @@ TorchSequencer::Status TorchSequencer::tick(const hardware::Inputs& in, hardware
       if (pt_ > t_.height_timeout_s) return fail(Failure::torch_height_timeout, t_.height_timeout_s);
       return Status::busy;
     case Phase::off_retract:
+      if (t_.kind == Kind::spindle && pt_ < t_.spin_down_s) return Status::busy;  // running down
       if (!t_.height_axis || at(in, retract_mm_)) {
         phase_ = Phase::idle;
         return Status::done;

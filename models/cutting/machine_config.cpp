@@ -99,7 +99,7 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 
 MachineConfig machine_from_yaml(const Yaml& root) {
   root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height",
-                           "slug_tip_size_mm", "origin_mm", "gcode", "cut_order"});
+                           "slug_tip_size_mm", "origin_mm", "gcode", "cut_order", "spindle"});
   MachineConfig m;
   m.source = root.file();
   m.name = root.string("name");
@@ -180,6 +180,17 @@ MachineConfig machine_from_yaml(const Yaml& root) {
       t->at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + excerpt(kind) + "'");
     }
   }
+  if (const auto sp = root.get("spindle")) {
+    if (root.has("torch")) sp->fail("a machine has a torch or a spindle, not both");
+    if (root.has("torch_height")) sp->fail("a spindle machine has no torch height axis (torch_height)");
+    sp->reject_unknown_keys({"spin_up_s", "spin_down_s", "max_speed_rpm"});
+    SpindleConfig s;
+    s.spin_up_s = sp->number("spin_up_s", {.min = 0.0, .max = 600.0});
+    s.spin_down_s = sp->number("spin_down_s", {.min = 0.0, .max = 600.0});
+    s.max_speed_rpm = sp->number_or("max_speed_rpm", s.max_speed_rpm, {.min = 0.0, .max = 1e6, .min_exclusive = true});
+    m.spindle = s;
+    m.torch.kind = executor::TorchSetup::Kind::spindle;
+  }
   if (const auto h = root.get("torch_height")) {
     h->reject_unknown_keys({"initial_height_sense_s", "pierce_height_mm", "cut_height_mm", "retract_height_mm",
                             "speed_mm_per_s", "timeout_s", "travel_height_over_cut_mm"});
@@ -232,6 +243,11 @@ executor::MachineSetup MachineConfig::setup() const {
   s.torch.pierce_delay_s =
       torch.kind == executor::TorchSetup::Kind::oxy_fuel ? torch.oxy_fuel.pierce_delay_s : torch.plasma.pierce_delay_s;
   s.torch.preheat_s = torch.oxy_fuel.preheat_s;
+  if (spindle) {
+    s.torch.pierce_delay_s = 0.0;
+    s.torch.spin_up_s = spindle->spin_up_s;
+    s.torch.spin_down_s = spindle->spin_down_s;
+  }
   s.torch.height_axis = torch_height.fitted;
   s.torch.pierce_height_mm = torch_height.pierce_height_mm;
   s.torch.cut_height_mm = torch_height.cut_height_mm;

@@ -58,6 +58,14 @@ struct OxyFuelConfig {
   double pierce_delay_s = 2.0;
 };
 
+// A spindle (milling): S is its speed; the executor waits spin_up_s after M3/M4 and
+// spin_down_s after M5 with the axes at rest.
+struct SpindleConfig {
+  double spin_up_s = 0.5;
+  double spin_down_s = 0.3;
+  double max_speed_rpm = 24000.0;
+};
+
 struct TorchConfig {
   executor::TorchSetup::Kind kind = executor::TorchSetup::Kind::none;
   bool has_plasma = false, has_oxy_fuel = false;
@@ -97,6 +105,7 @@ struct MachineConfig {
   Limits limits;
   std::array<AxisConfig, 2> axes;
   TorchConfig torch;
+  std::optional<SpindleConfig> spindle;  // a milling machine: the `spindle` block instead of `torch`
   TorchHeightConfig torch_height;
   // Where programs' zero sits on this machine (X, Y mm), as an operator touching off the
   // sheet corner sets G54; `origin_mm: [x, y]` in the file. `machplan run --origin` overrides it.

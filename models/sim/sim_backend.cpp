@@ -78,7 +78,7 @@ hardware::Inputs SimBackend::sample() {
     in.counter[i] = v;
     in.counter_direction_negative[i] = r.direction_negative;
   }
-  in.arc_ok = m_.torch.kind == executor::TorchSetup::Kind::oxy_fuel ? fire_ : arc_burning_;
+  in.arc_ok = m_.torch.kind == executor::TorchSetup::Kind::plasma ? arc_burning_ : fire_;  // oxygen / spindle on
   in.estop = estop_;
   in.watchdog_tripped = watchdog_;
   in.op = op_;

@@ -114,6 +114,7 @@ void RunOptions::validate() const {
   }
   validate_member("gcode", gcode);
   check_range("max_machine_time_s", max_machine_time_s, 0.0, 365 * 24 * 3600.0, true, " s");
+  require_field(from_line >= 0 && from_line <= 100000000, "from_line", from_line, "must be a line number >= 1 (0: from the start)");
   validate_member("rapids", rapids);
 }
 
@@ -146,6 +147,11 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
   if (plasma) times.start_s = m.torch.plasma.arc_start_delay_s;
   if (oxy) times.start_s = m.torch.oxy_fuel.preheat_s;
   times.pierce_s = oxy ? m.torch.oxy_fuel.pierce_delay_s : m.torch.plasma.pierce_delay_s;
+  if (m.spindle) {  // a spindle: its spin-up after M3/M4, its run-down after M5
+    times.start_s = m.spindle->spin_up_s;
+    times.pierce_s = 0.0;
+    times.torch_off_s = m.spindle->spin_down_s;
+  }
   return motion::process_time_s(job, times);
 }
 
@@ -175,8 +181,8 @@ void flatten_z(Program& program, const std::string& machine, std::vector<std::st
     const bool motion = m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc;
     if (!motion || m.plane != Move::Plane::xy) continue;
     if (std::abs(m.end.z() - z) > 1e-9) {
-      warnings.push_back(fmt::format("{}:{}: Z words dropped from here on (Z {:.6g} -> {:.6g} mm): machine '{}' sets "
-                                     "the torch height itself (strict_z refuses them instead)",
+      warnings.push_back(fmt::format("{}:{}: Z words dropped from here on (Z {:.6g} -> {:.6g} mm): machine '{}' moves X "
+                                     "and Y only (strict_z refuses them instead)",
                                      program.source, m.line, z, m.end.z(), machine));
       break;
     }
@@ -335,6 +341,11 @@ PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::Ma
   o.job = o.programmed;
 
   if (options.kerf_mm > 0) o.kerf = apply_kerf(o.job, options.kerf_mm);
+  if (options.from_line > 0) {
+    LineStart start;
+    o.job = start_at_line(o.job, options.from_line, o.machine.limits.rapid_mm_per_s, start);
+    o.from_line = start;
+  }
   check_travel(o.job, o.machine);
 
   // Refused before any planning when even the fastest conceivable motion is too long.
@@ -343,6 +354,10 @@ PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::Ma
                              process_time_s(o.job, o.machine, height_tolerance_mm),
                   options.max_machine_time_s, "at least: every move at its feed, no time to accelerate");
   plan_the_rapids(o, options, control);
+  if (o.from_line) {  // the cuts before the line were there for the rapid planner only
+    drop_prefix(o.job, *o.from_line);
+    for (RapidReport& r : o.rapids.rapids) r.stretch -= o.from_line->prefix_stretches;
+  }
   plan_the_feeds(o, control);
   refuse_long_run(o.job, o.expected_s(), options.max_machine_time_s, "the planned motion plus the torch process and dwells");
   return o;
@@ -367,11 +382,14 @@ std::string full_report(const RunOutcome& o, const session::MachineSession& sess
   s += fmt::format("  program origin   X {:.3f} Y {:.3f} mm on the machine ({})\n", o.origin_mm.x(), o.origin_mm.y(),
                    o.origin_from == "none" ? "none given: program zero is machine zero" : o.origin_from);
   if (o.controller != "pid_ff") s += fmt::format("  servo controller {}\n", o.controller);
+  if (o.from_line)
+    s += fmt::format("  from line        {} at ({:.3f}, {:.3f}){}\n", o.from_line->line, o.from_line->at_mm.x(),
+                     o.from_line->at_mm.y(), o.from_line->relight ? ", lit again there" : "");
   for (const std::string& w : o.warnings) s += fmt::format("  warning: {}\n", w);
   for (const std::string& w : r.backend_notes) s += fmt::format("  warning: {}\n", w);
   for (const std::string& n : o.notes) s += fmt::format("  note: {}\n", n);
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
-  s += fmt::format("  torch on         {:9.3f} s\n", r.torch_on_s);
+  s += fmt::format("  {:<16} {:9.3f} s\n", o.machine.spindle ? "spindle on" : "torch on", r.torch_on_s);
   s += fmt::format("  rapid distance   {:9.1f} mm  (straight {:.1f} mm; {} detours, +{:.1f} mm)\n", r.rapid_distance_mm,
                    o.rapids.straight_length_mm, o.rapids.detours, o.rapids.detour_extra_mm);
   for (const RapidReport& d : o.rapids.rapids)
@@ -423,7 +441,9 @@ Summary summarize(const RunOutcome& o, const Termination& t) {
     return s;
   }
   const executor::FaultReport& f = r.faults.front();
-  s.status = f.kind == executor::FaultKind::stop_requested && t.ended() ? status_of(t.reason()) : Status::faulted;
+  s.status = f.kind == executor::FaultKind::operator_stop                   ? Status::cancelled
+             : f.kind == executor::FaultKind::stop_requested && t.ended() ? status_of(t.reason())
+                                                                         : Status::faulted;
   s.message = f.message;
   s.brief = fmt::format("{} on {}: {} at {:.3f} s (line {}): {}", r.source, r.machine,
                         s.status == Status::faulted ? "FAULTED" : to_string(s.status), f.time_s, f.source_line,

@@ -69,6 +69,7 @@
 #include "engine/programs/zones.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/motion/cut_order.h"
+#include "solvers/motion/from_line.h"
 #include "solvers/motion/cut_order.h"
 #include "solvers/motion/rapid_planner.h"
 #include "solvers/motion/rapids.h"
@@ -113,6 +114,9 @@ struct RunOptions {
   // The order of the cuts (solvers/motion/cut_order.h), applied to the program once its Z
   // words are dropped; unset: the machine file's cut_order, else the program's own order.
   std::optional<CutOrder> order;
+  // Run from line (solvers/motion/from_line.h): start at this program line, with the state the
+  // program had there, reached by a safe rapid (0: from the start).
+  int from_line = 0;
   // The longest run accepted, s of machine time (> 0, at most one year). A run is refused
   // before it starts, with Infeasible (exit 3) giving the estimate, when its time estimate
   // exceeds this: first the time no motion can beat (each move at its feed capped by the
@@ -153,6 +157,7 @@ struct PlannedRun {
   std::vector<std::string> warnings;                    // from reading and placing the program
   std::vector<std::string> notes;                       // program words the machine ignores (M8, M52, ...)
   CutOrderReport cut_order;                             // the order the cuts were made in
+  std::optional<LineStart> from_line;                   // when the run starts at a program line
   bool paper_x1_decoding = false;    // the encoders are counted x1 (paper modes)
 
   double planned_motion_s = 0.0;     // sum of trajectory durations

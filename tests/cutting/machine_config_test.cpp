@@ -59,7 +59,11 @@ TEST(MachineConfig, XyTableCarriesThePaperNumbers) {
   EXPECT_EQ(m.axes[0].plant.mm_per_rev, 20);
   EXPECT_EQ(m.limits.acceleration_mm_per_s2, 5000);
   EXPECT_EQ(m.limits.jerk_mm_per_s3, 200000);
-  EXPECT_EQ(m.torch.kind, executor::TorchSetup::Kind::none);
+  // The hybrid paper's milling table: a spindle, no torch.
+  EXPECT_EQ(m.torch.kind, executor::TorchSetup::Kind::spindle);
+  ASSERT_TRUE(m.spindle.has_value());
+  EXPECT_EQ(m.spindle->spin_up_s, 0.8);
+  EXPECT_EQ(m.setup().torch.spin_down_s, 0.5);
 }
 
 TEST(MachineConfig, FindsBundledMachinesByName) {
@@ -120,6 +124,12 @@ TEST(MachineConfig, RefusesBadValuesNamingTheKey) {
             std::string::npos);
   const std::string missing = error_after("      kp_per_s: 90\n", "");
   EXPECT_NE(missing.find("missing required key 'axes.x.servo.kp_per_s'"), std::string::npos) << missing;
+}
+
+TEST(MachineConfig, ASpindleMachineHasNoTorch) {
+  // The gantry's file with a spindle block besides its torch: one or the other.
+  const std::string both = error_after("name: thermal_gantry\n", "name: thermal_gantry\nspindle: {spin_up_s: 1, spin_down_s: 1}\n");
+  EXPECT_NE(both.find("a machine has a torch or a spindle, not both"), std::string::npos) << both;
 }
 
 }  // namespace

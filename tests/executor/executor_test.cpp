@@ -157,11 +157,13 @@ TEST(Executor, RefusesJobsThatDoNotFitTheirTrajectories) {
               std::string::npos);
   }
   {
-    const auto table = cutting::load_machine(cutting::find_machine("xy_table"));
+    auto table = cutting::load_machine(cutting::find_machine("xy_table"));
+    table.torch.kind = executor::TorchSetup::Kind::none;  // neither torch nor spindle
+    table.spindle.reset();
     Executor tx(table.setup(), {});
     sim::SimBackend ts(table, {});
     auto c = line_cut({100, 100}, {150, 100});
-    EXPECT_NE(test::error_of([&] { tx.run(c.job, c.trajectories, ts); }).find("test.ngc:5: torch on, but machine 'xy_table' has no torch"),
+    EXPECT_NE(test::error_of([&] { tx.run(c.job, c.trajectories, ts); }).find("test.ngc:5: torch or spindle on, but machine 'xy_table' has neither"),
               std::string::npos);
   }
   EXPECT_EQ(sim.time_s(), 0.0);  // nothing was run

@@ -17,6 +17,7 @@
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
 #include "solvers/motion/run.h"
+#include "engine/hardware/operator_events.h"
 #include "tests/support/allocation_counter.h"
 #include "tests/support/forwarding_backend.h"
 #include "tests/support/ideal_backend.h"
@@ -32,6 +33,7 @@ struct Case {
   const char* part;
   Mode mode;
   bool stream;
+  bool operator_inputs = false;  // holds, resumes and overrides during the run; the live state published
 };
 
 class TickAllocations : public ::testing::TestWithParam<Case> {};
@@ -50,11 +52,21 @@ TEST_P(TickAllocations, AreZero) {
   eo.record_trace = true;
   sim::SimOptions so;
   so.start_mm = prepared.job.start_mm;
+  Latest<LiveState> live;
+  RunParts parts;
+  if (c.operator_inputs) {
+    const auto tl = hardware::parse_operator_events("t_s,event,value\n"
+                                                    "2.0,hold,\n3.0,start,\n"
+                                                    "5.0,feed_override,50\n7.0,feed_override,150\n9.0,rapid_override,25\n"
+                                                    "11.0,hold,\n11.5,start,\n14.0,feed_override,0\n15.0,feed_override,100\n",
+                                                    "events.csv");
+    so.operator_events = tl.states;
+    parts.live = &live;
+  }
   sim::SimBackend be(prepared.machine, so);
   Executor ex(prepared.machine.setup(), eo);
   test::TempDir dir;
   std::unique_ptr<TraceStream> stream;
-  RunParts parts;
   if (c.stream) {
     stream = std::make_unique<TraceStream>((dir.path() / "trace.csv").string());
     parts.trace_stream = stream.get();
@@ -81,17 +93,22 @@ TEST_P(TickAllocations, AreZero) {
     EXPECT_EQ(static_cast<long>(r.trace_streamed), ticks);
     EXPECT_EQ(r.trace_stream_dropped, 0u);
   }
+  if (c.operator_inputs) {
+    EXPECT_GE(r.holds.size(), 3u);  // two by the button, one by the 0 % override
+    EXPECT_EQ(live.read().tick, static_cast<std::uint64_t>(ticks - 1));
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryMode, TickAllocations,
                          ::testing::Values(Case{"contour_lines_arcs.ngc", Mode::planned, false},
                                            Case{"contour_lines_arcs.ngc", Mode::planned, true},
                                            Case{"triangle_45.ngc", Mode::paper_open, false},
-                                           Case{"triangle_45.ngc", Mode::paper_closed, true}),
+                                           Case{"triangle_45.ngc", Mode::paper_closed, true},
+                                           Case{"contour_lines_arcs.ngc", Mode::planned, true, true}),
                          [](const auto& info) {
                            std::string name = to_string(info.param.mode);  // "paper-open": no '-' in a test name
                            std::replace(name.begin(), name.end(), '-', '_');
-                           return name + (info.param.stream ? "_streamed" : "");
+                           return name + (info.param.stream ? "_streamed" : "") + (info.param.operator_inputs ? "_operated" : "");
                          });
 
 TEST(TraceStream, WritesWhatTheRecorderKeeps) {
