@@ -13,13 +13,18 @@
 //                        and maximum, with the trace in memory (Trace), streamed to a CSV file
 //                        (TraceStream) or off (NoTrace). The pages of the trace buffer are
 //                        touched before the first tick, so that recording never faults a page
-//                        inside the loop.
+//                        inside the loop. Operated: the same with the operator at work (20
+//                        holds and resumes, feed and rapid override steps) and the live state
+//                        published each tick.
 #include <algorithm>
 #include <chrono>
 
 #include <benchmark/benchmark.h>
 
+#include <fmt/format.h>
+
 #include "engine/executor/executor.h"
+#include "engine/hardware/operator_events.h"
 #include "models/axis/plant.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
@@ -70,7 +75,25 @@ BENCHMARK(BM_ExecutorTickNoTrace)->Unit(benchmark::kMillisecond);
 
 enum class TraceKind { off, memory, stream };
 
-void tick_percentiles(benchmark::State& state, TraceKind kind) {
+// The operator at work: 20 holds (each released 0.6 s later), feed override steps 50 / 150 /
+// 100 %, rapid override 50 %, and the live state published every tick.
+std::vector<hardware::OperatorEvent> operator_at_work() {
+  std::vector<std::pair<double, std::string>> rows;
+  for (int i = 0; i < 20; ++i) {
+    rows.emplace_back(10.0 + 15.0 * i, "hold,");
+    rows.emplace_back(10.6 + 15.0 * i, "start,");
+  }
+  rows.emplace_back(50.2, "feed_override,50");
+  rows.emplace_back(80.2, "feed_override,150");
+  rows.emplace_back(110.2, "feed_override,100");
+  rows.emplace_back(140.2, "rapid_override,50");
+  std::sort(rows.begin(), rows.end());
+  std::string csv = "t_s,event,value\n";
+  for (const auto& [t, e] : rows) csv += fmt::format("{},{}\n", t, e);
+  return hardware::parse_operator_events(csv, "bench").states;
+}
+
+void tick_percentiles(benchmark::State& state, TraceKind kind, bool operated = false) {
   motion::RunOptions o;
   o.session.machine = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml";
   o.session.executor.record_trace = false;
@@ -85,6 +108,7 @@ void tick_percentiles(benchmark::State& state, TraceKind kind) {
     eo.record_trace = kind == TraceKind::memory;
     sim::SimOptions so;
     so.start_mm = prepared.job.start_mm;
+    if (operated) so.operator_events = operator_at_work();
     sim::SimBackend sim(prepared.machine, so);
     // Claims real time, as a machine would: the stream then never waits for its writer (a
     // sample is dropped instead), which is the cost a real-time loop pays.
@@ -95,6 +119,8 @@ void tick_percentiles(benchmark::State& state, TraceKind kind) {
     executor::Executor ex(prepared.machine.setup(), eo);
     std::unique_ptr<executor::TraceStream> stream;
     executor::RunParts parts;
+    Latest<executor::LiveState> live;
+    if (operated) parts.live = &live;
     if (kind == TraceKind::stream) {
       stream = std::make_unique<executor::TraceStream>("/tmp/machplan_bench_trace.csv");
       parts.trace_stream = stream.get();
@@ -122,9 +148,11 @@ void tick_percentiles(benchmark::State& state, TraceKind kind) {
 void BM_TickPercentilesTrace(benchmark::State& s) { tick_percentiles(s, TraceKind::memory); }
 void BM_TickPercentilesTraceStream(benchmark::State& s) { tick_percentiles(s, TraceKind::stream); }
 void BM_TickPercentilesNoTrace(benchmark::State& s) { tick_percentiles(s, TraceKind::off); }
+void BM_TickPercentilesOperated(benchmark::State& s) { tick_percentiles(s, TraceKind::memory, true); }
 BENCHMARK(BM_TickPercentilesTrace)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_TickPercentilesTraceStream)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_TickPercentilesNoTrace)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_TickPercentilesOperated)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 void BM_AxisPlantStep(benchmark::State& state) {
   const auto m = gantry();

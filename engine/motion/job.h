@@ -18,6 +18,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -72,6 +73,27 @@ struct Stretch {
   std::vector<Segment> segments;        // programmed path in the XY plane, mm
   std::vector<double> feed_mm_per_s;    // programmed feed per segment (rapid: rapid feed)
   std::vector<int> source_lines;        // 1-based program line per segment
+  // Per segment, when not empty: torch height control held off there (QtPlasmaC's M62/M64 P2;
+  // M63/M65 P2 let it act again). Empty: THC may act on the whole stretch.
+  std::vector<std::uint8_t> thc_off;
+};
+
+// A plasma material's cutting parameters (QtPlasmaC's material file, engine/programs/
+// materials.h), for the cuts made while it is in force. Feeds are applied when the job is
+// made; the executor takes the heights, delays and volts at each torch_on.
+struct CutParameters {
+  int number = 0;                    // the material file's [MATERIAL_NUMBER_n] (0: temporary)
+  std::string name;
+  double pierce_height_mm = 3.8;
+  double pierce_delay_s = 0.5;
+  double cut_height_mm = 1.5;
+  double cut_feed_mm_per_s = 0.0;    // CUT_SPEED
+  double kerf_mm = 0.0;              // KERF_WIDTH (0: not given)
+  bool thc = true;                   // THC (0: torch height control off for this material)
+  double puddle_jump_height_pct = 0.0;  // of the pierce height (0: no puddle jump)
+  double puddle_jump_delay_s = 0.0;
+  double cut_amps = 0.0, cut_volts = 0.0;  // cut_volts 0: THC samples its target
+  double pause_at_end_s = 0.0;       // at the end of each cut, torch on, before it goes off
 };
 
 // One thing the executor does, in order.
@@ -84,6 +106,9 @@ struct Step {
   // torch_off: the height the torch retracts to, mm, when above the machine's retract height
   // (a rapid over parts already cut follows: solvers/motion/rapids.h); 0: the retract height.
   double height_mm = 0.0;
+  // torch_on: the material of the cut it starts, an index into Job::materials (-1: the
+  // machine file's torch settings).
+  int material = -1;
 };
 
 struct Job {
@@ -91,6 +116,7 @@ struct Job {
   Eigen::Vector2d start_mm = Eigen::Vector2d::Zero();  // tool position before the first step
   std::vector<Stretch> stretches;
   std::vector<Step> steps;
+  std::vector<CutParameters> materials;             // those the job's cuts use (Step::material)
 };
 
 }  // namespace machplan::motion
