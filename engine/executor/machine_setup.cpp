@@ -18,6 +18,9 @@ void TorchSetup::validate() const {
   require(std::isfinite(pierce_delay_s) && pierce_delay_s >= 0, "pierce_delay_s", pierce_delay_s, "must be >= 0");
   require(std::isfinite(preheat_s) && preheat_s >= 0, "preheat_s", preheat_s, "must be >= 0");
   require(std::isfinite(spin_up_s) && spin_up_s >= 0 && spin_up_s <= 600, "spin_up_s", spin_up_s, "must be in [0, 600] s");
+  require(std::isfinite(volts_per_mm) && volts_per_mm > 0 && volts_per_mm <= 1000, "volts_per_mm", volts_per_mm,
+          "must be in (0, 1000] V/mm");
+  validate_member("thc", thc);
   require(std::isfinite(spin_down_s) && spin_down_s >= 0 && spin_down_s <= 600, "spin_down_s", spin_down_s,
           "must be in [0, 600] s");
   require(std::isfinite(height_timeout_s) && height_timeout_s > 0, "height_timeout_s", height_timeout_s, "must be > 0");

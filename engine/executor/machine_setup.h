@@ -6,6 +6,7 @@
 #include <string>
 
 #include "engine/control/servo.h"
+#include "engine/executor/thc.h"
 #include "engine/hardware/backend.h"
 
 namespace machplan::control {
@@ -31,6 +32,10 @@ struct TorchSetup {
   double retract_height_mm = 15.0;
   double height_tolerance_mm = 0.05;
   double height_timeout_s = 3.0;       // the height axis must reach its target within this
+  // Plasma: a lost arc holds the job for the operator's cut recovery instead of ending it.
+  bool recover_on_arc_loss = false;
+  double volts_per_mm = 10.0;          // the arc's voltage per mm of torch-to-plate distance
+  ThcSettings thc;                     // torch height control (height axis and plasma)
   void validate() const;  // throws InputError naming field, value and rule
 };
 

@@ -89,6 +89,7 @@ struct Inputs {
   bool estop = false;              // the E-stop chain is open
   bool watchdog_tripped = false;   // the backend stopped the machine: exchanges came too late
   double torch_height_mm = 0.0;    // torch height axis position
+  double arc_voltage_v = 0.0;      // plasma: the arc's voltage while it burns (0: not measured)
   OperatorInputs op;
 };
 
@@ -130,6 +131,13 @@ class Backend {
   // machine does not): the load position of each axis. Returns false when unknown.
   virtual bool true_position(Eigen::Vector2d& out_mm) const noexcept {
     (void)out_mm;
+    return false;
+  }
+
+  // Truth for THC figures, when the backend knows it: the torch's real distance to the plate
+  // now, mm. Returns false when unknown (a real machine).
+  virtual bool true_torch_gap(double& gap_mm) const noexcept {
+    (void)gap_mm;
     return false;
   }
 

@@ -64,6 +64,7 @@ class OperatorMerge final : public Backend {
   Health exchange(const Outputs& out, Inputs& in) noexcept override;
   bool true_position(Eigen::Vector2d& out_mm) const noexcept override { return inner_.true_position(out_mm); }
   std::vector<std::string> notes() const override { return inner_.notes(); }
+  bool true_torch_gap(double& gap_mm) const noexcept override { return inner_.true_torch_gap(gap_mm); }
   Backend& inner() { return inner_; }
 
  private:

@@ -99,7 +99,7 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 
 MachineConfig machine_from_yaml(const Yaml& root) {
   root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height",
-                           "slug_tip_size_mm", "origin_mm", "gcode", "cut_order", "spindle"});
+                           "slug_tip_size_mm", "origin_mm", "gcode", "cut_order", "spindle", "thc", "sheet"});
   MachineConfig m;
   m.source = root.file();
   m.name = root.string("name");
@@ -153,13 +153,24 @@ MachineConfig machine_from_yaml(const Yaml& root) {
   if (const auto t = root.get("torch")) {
     t->reject_unknown_keys({"kind", "plasma", "oxy_fuel"});
     if (const auto p = t->get("plasma")) {
-      p->reject_unknown_keys({"arc_start_delay_s", "arc_ok_timeout_s", "pierce_delay_s", "arc_start_failure_probability"});
+      p->reject_unknown_keys({"arc_start_delay_s", "arc_ok_timeout_s", "pierce_delay_s", "arc_start_failure_probability",
+                              "on_arc_loss", "arc_volts_base_v", "volts_per_mm", "arc_voltage_noise_v", "kerf_crossing_rise_v"});
       m.torch.has_plasma = true;
       m.torch.plasma.arc_start_delay_s = p->number("arc_start_delay_s", kNonNegative);
       m.torch.plasma.arc_ok_timeout_s = p->number("arc_ok_timeout_s", kPositive);
       m.torch.plasma.pierce_delay_s = p->number("pierce_delay_s", kNonNegative);
       m.torch.plasma.arc_start_failure_probability =
           p->number_or("arc_start_failure_probability", 0.0, {.min = 0, .max = 1});
+      if (const auto loss = p->get("on_arc_loss")) {
+        const std::string v = loss->string();
+        if (v != "stop" && v != "recover") loss->fail("must be 'stop' or 'recover', got '" + excerpt(v) + "'");
+        m.torch.plasma.recover_on_arc_loss = v == "recover";
+      }
+      PlasmaConfig& pc = m.torch.plasma;
+      pc.arc_volts_base_v = p->number_or("arc_volts_base_v", pc.arc_volts_base_v, {.min = 0.0, .max = 1000.0});
+      pc.volts_per_mm = p->number_or("volts_per_mm", pc.volts_per_mm, {.min = 0.0, .max = 1000.0, .min_exclusive = true});
+      pc.arc_voltage_noise_v = p->number_or("arc_voltage_noise_v", pc.arc_voltage_noise_v, {.min = 0.0, .max = 100.0});
+      pc.kerf_crossing_rise_v = p->number_or("kerf_crossing_rise_v", pc.kerf_crossing_rise_v, {.min = 0.0, .max = 1000.0});
       if (m.torch.plasma.arc_start_delay_s >= m.torch.plasma.arc_ok_timeout_s)
         p->at("arc_ok_timeout_s").fail("must be longer than arc_start_delay_s, or no arc could ever start in time");
     }
@@ -179,6 +190,24 @@ MachineConfig machine_from_yaml(const Yaml& root) {
     } else {
       t->at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + excerpt(kind) + "'");
     }
+  }
+  if (const auto th = root.get("thc")) {
+    th->reject_unknown_keys({"delay_s", "sample_s", "threshold_v", "speed_mm_per_s_per_v", "max_speed_mm_per_s",
+                             "velocity_anti_dive_pct", "void_anti_dive_v_per_s", "max_correction_mm"});
+    executor::ThcSettings& c = m.thc;
+    c.delay_s = th->number_or("delay_s", c.delay_s, {.min = 0.0, .max = 60.0});
+    c.sample_s = th->number_or("sample_s", c.sample_s, {.min = 0.0, .max = 10.0, .min_exclusive = true});
+    c.threshold_v = th->number_or("threshold_v", c.threshold_v, {.min = 0.0, .max = 50.0});
+    c.speed_mm_per_s_per_v = th->number_or("speed_mm_per_s_per_v", c.speed_mm_per_s_per_v, {.min = 0.0, .max = 100.0, .min_exclusive = true});
+    c.max_speed_mm_per_s = th->number_or("max_speed_mm_per_s", c.max_speed_mm_per_s, {.min = 0.0, .max = 1000.0, .min_exclusive = true});
+    c.velocity_anti_dive_pct = th->number_or("velocity_anti_dive_pct", c.velocity_anti_dive_pct, {.min = 0.0, .max = 100.0});
+    c.void_anti_dive_v_per_s = th->number_or("void_anti_dive_v_per_s", c.void_anti_dive_v_per_s, {.min = 0.0, .max = 1e6, .min_exclusive = true});
+    c.max_correction_mm = th->number_or("max_correction_mm", c.max_correction_mm, {.min = 0.0, .max = 50.0});
+  }
+  if (const auto sh = root.get("sheet")) {
+    sh->reject_unknown_keys({"warp_amplitude_mm", "warp_wavelength_mm"});
+    m.sheet_warp_amplitude_mm = sh->number_or("warp_amplitude_mm", 0.0, {.min = 0.0, .max = 50.0});
+    m.sheet_warp_wavelength_mm = sh->number_or("warp_wavelength_mm", 500.0, {.min = 1.0, .max = 1e5});
   }
   if (const auto sp = root.get("spindle")) {
     if (root.has("torch")) sp->fail("a machine has a torch or a spindle, not both");
@@ -253,6 +282,9 @@ executor::MachineSetup MachineConfig::setup() const {
   s.torch.cut_height_mm = torch_height.cut_height_mm;
   s.torch.retract_height_mm = torch_height.retract_height_mm;
   s.torch.height_timeout_s = torch_height.timeout_s;
+  s.torch.recover_on_arc_loss = torch.kind == executor::TorchSetup::Kind::plasma && torch.plasma.recover_on_arc_loss;
+  s.torch.volts_per_mm = torch.plasma.volts_per_mm;
+  s.torch.thc = thc;
   return s;
 }
 

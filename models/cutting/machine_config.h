@@ -21,6 +21,7 @@
 
 #include "engine/control/servo.h"
 #include "engine/executor/machine_setup.h"
+#include "engine/executor/thc.h"
 #include "models/axis/plant.h"
 
 namespace machplan {
@@ -51,7 +52,19 @@ struct PlasmaConfig {
   double arc_ok_timeout_s = 2.0;
   double pierce_delay_s = 0.5;
   double arc_start_failure_probability = 0.0;  // simulation only
+  // A lost arc: `stop` ends the job (a fault); `recover` holds it for the operator to move back
+  // along the path and pierce again (the executor's cut recovery).
+  bool recover_on_arc_loss = false;
+  // The arc's voltage: arc_volts_base_v + volts_per_mm x the torch's distance to the plate
+  // (about 0.1 mm per volt), with Gaussian noise; over a kerf cut earlier (or a void) the arc
+  // stretches and the voltage jumps by kerf_crossing_rise_v. Simulation only, but for
+  // volts_per_mm, which THC uses to turn volts into millimetres.
+  double arc_volts_base_v = 70.0;
+  double volts_per_mm = 10.0;
+  double arc_voltage_noise_v = 0.3;
+  double kerf_crossing_rise_v = 30.0;
 };
+
 
 struct OxyFuelConfig {
   double preheat_s = 20.0;
@@ -107,6 +120,10 @@ struct MachineConfig {
   TorchConfig torch;
   std::optional<SpindleConfig> spindle;  // a milling machine: the `spindle` block instead of `torch`
   TorchHeightConfig torch_height;
+  // Torch height control (engine/executor/thc.h): the `thc` block; its defaults without one.
+  executor::ThcSettings thc;
+  // The simulated sheet (models/sim): a warp of this amplitude and wavelength, mm (0: flat).
+  double sheet_warp_amplitude_mm = 0.0, sheet_warp_wavelength_mm = 500.0;
   // Where programs' zero sits on this machine (X, Y mm), as an operator touching off the
   // sheet corner sets G54; `origin_mm: [x, y]` in the file. `machplan run --origin` overrides it.
   std::optional<std::array<double, 2>> origin_mm;

@@ -27,6 +27,13 @@ void SimOptions::validate() const {
   if (watchdog_periods < 1 || watchdog_periods > 100000)
     throw InputError::field("watchdog_periods", fmt::format("{} must be 1 .. 100000", watchdog_periods));
   if (!start_mm.allFinite()) throw InputError::field("start_mm", "must be finite");
+  if (sheet_warp_mm) {
+    const auto [a, l] = *sheet_warp_mm;
+    if (!(std::isfinite(a) && a >= 0 && a <= 50))
+      throw InputError::field("sheet_warp_mm", fmt::format("amplitude {} mm must be in [0, 50]", a));
+    if (!(std::isfinite(l) && l >= 1 && l <= 1e5))
+      throw InputError::field("sheet_warp_mm", fmt::format("wavelength {} mm must be in [1, 100000]", l));
+  }
   for (const FaultInjection& f : faults) {
     if (!(std::isfinite(f.at_s) && f.at_s >= 0 && f.at_s <= 1e7))
       throw InputError::field("faults", fmt::format("{}@{}: the time must be in [0, 1e7] s", to_string(f.kind), f.at_s));
@@ -47,6 +54,17 @@ SimBackend::SimBackend(const cutting::MachineConfig& machine, const SimOptions& 
   for (int i = 0; i < 2; ++i)
     plants_[i] = std::make_unique<axis::AxisPlant>(m_.axes[i].plant, opt_.start_mm[i], opt_.counter_start[i]);
   height_mm_ = height_target_mm_ = m_.torch_height.fitted ? m_.torch_height.retract_height_mm : 0.0;
+  // The plasma process draws from a stream of its own, so that the axes' noise stays as it was.
+  process_rng_.seed(opt_.seed ^ 0x9e3779b97f4a7c15ull);
+  warp_amplitude_mm_ = opt_.sheet_warp_mm ? opt_.sheet_warp_mm->first : m_.sheet_warp_amplitude_mm;
+  warp_wavelength_mm_ = opt_.sheet_warp_mm ? opt_.sheet_warp_mm->second : m_.sheet_warp_wavelength_mm;
+  warp_phase_x_ = 2 * M_PI * axis::uniform01(process_rng_);
+  warp_phase_y_ = 2 * M_PI * axis::uniform01(process_rng_);
+  if (m_.torch.kind == executor::TorchSetup::Kind::plasma) {
+    kerf_nx_ = static_cast<long>(m_.axes[0].travel_mm / 2.0) + 3;
+    kerf_ny_ = static_cast<long>(m_.axes[1].travel_mm / 2.0) + 3;
+    kerf_cells_.assign(static_cast<std::size_t>(kerf_nx_ * kerf_ny_), 0);
+  }
   pending_.reserve(16 + opt_.faults.size());
   fired_.reserve(16 + opt_.faults.size());
   effective_.reserve(16 + opt_.faults.size());
@@ -83,6 +101,7 @@ hardware::Inputs SimBackend::sample() {
   in.watchdog_tripped = watchdog_;
   in.op = op_;
   in.torch_height_mm = height_mm_;
+  in.arc_voltage_v = arc_voltage_v_;
   return in;
 }
 
@@ -125,6 +144,10 @@ void SimBackend::advance(const hardware::Outputs& out) {
     else effective_[k] = 1;
   }
   if (starting) {
+    // A loss that has put an arc out is over: a new start may take. One that fired between
+    // cuts waits for the arc it meets.
+    if (arc_loss_took_) arc_lost_ = arc_loss_took_ = false;
+    cut_id_ = static_cast<std::uint16_t>(cut_id_ == 65535 ? 1 : cut_id_ + 1);
     ++arc_starts_;
     arc_timer_s_ = 0.0;
     arc_fails_ = arc_start_fails_ || uniform_fail();
@@ -135,6 +158,7 @@ void SimBackend::advance(const hardware::Outputs& out) {
   } else if (m_.torch.kind == executor::TorchSetup::Kind::plasma) {
     arc_timer_s_ += dt;
     arc_burning_ = !arc_fails_ && !arc_lost_ && arc_timer_s_ >= m_.torch.plasma.arc_start_delay_s;
+    if (arc_lost_ && !starting) arc_loss_took_ = true;
   } else {
     arc_burning_ = true;
   }
@@ -150,13 +174,53 @@ void SimBackend::advance(const hardware::Outputs& out) {
     height_target_mm_ = target;
     if (ihs_left_s_ > 0) {
       ihs_left_s_ -= dt;
+      if (ihs_left_s_ <= 0) {  // the sense touched the plate here: the axis' zero from now on
+        Eigen::Vector2d p;
+        true_position(p);
+        ihs_plate_z_mm_ = plate_z_mm(p.x(), p.y());
+      }
     } else {
       const double step = m_.torch_height.speed_mm_per_s * dt;
       height_mm_ += std::clamp(height_target_mm_ - height_mm_, -step, step);
     }
   }
+  burn_and_measure(dt);
   time_s_ += dt;
   ++ticks_;
+}
+
+double SimBackend::plate_z_mm(double x, double y) const noexcept {
+  if (warp_amplitude_mm_ == 0.0) return 0.0;
+  const double k = 2 * M_PI / warp_wavelength_mm_;
+  return warp_amplitude_mm_ * std::sin(k * x + warp_phase_x_) * std::sin(k * y + warp_phase_y_);
+}
+
+bool SimBackend::true_torch_gap(double& gap_mm) const noexcept {
+  if (!m_.torch_height.fitted) return false;
+  Eigen::Vector2d p;
+  true_position(p);
+  gap_mm = height_mm_ + ihs_plate_z_mm_ - plate_z_mm(p.x(), p.y());
+  return true;
+}
+
+// The arc marks the cells it burns; over a kerf another cut left, its voltage jumps.
+void SimBackend::burn_and_measure(double) noexcept {
+  arc_voltage_v_ = 0.0;
+  over_kerf_ = false;
+  if (!arc_burning_ || m_.torch.kind != executor::TorchSetup::Kind::plasma) return;
+  Eigen::Vector2d p;
+  true_position(p);
+  const long cx = std::lround(p.x() / 2.0) + 1, cy = std::lround(p.y() / 2.0) + 1;
+  if (cx >= 0 && cy >= 0 && cx < kerf_nx_ && cy < kerf_ny_) {
+    std::uint16_t& cell = kerf_cells_[static_cast<std::size_t>(cy * kerf_nx_ + cx)];
+    over_kerf_ = cell != 0 && cell != cut_id_;
+    cell = cut_id_;
+  }
+  double gap = m_.torch_height.cut_height_mm;
+  true_torch_gap(gap);
+  const auto& pc = m_.torch.plasma;
+  arc_voltage_v_ = pc.arc_volts_base_v + pc.volts_per_mm * std::max(0.0, gap) + pc.arc_voltage_noise_v * axis::gaussian(process_rng_) +
+                   (over_kerf_ ? pc.kerf_crossing_rise_v : 0.0);
 }
 
 void SimBackend::miss_exchanges(int n) {

@@ -40,6 +40,8 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
+#include <utility>
 #include <random>
 #include <vector>
 
@@ -76,6 +78,8 @@ struct SimOptions {
   int watchdog_periods = 50;              // 50 ms at 1 kHz
   std::vector<FaultInjection> faults;     // injected at their times
   std::vector<OperatorEvent> operator_events;
+  // The sheet's warp, amplitude and wavelength, mm; unset: the machine file's (sheet block).
+  std::optional<std::pair<double, double>> sheet_warp_mm;
   void validate() const;                  // throws InputError naming the field
 };
 
@@ -98,6 +102,9 @@ class SimBackend final : public hardware::Backend {
   hardware::Inputs initial_inputs() override;
   hardware::Health exchange(const hardware::Outputs& out, hardware::Inputs& in) noexcept override;
   bool true_position(Eigen::Vector2d& out_mm) const noexcept override;
+  bool true_torch_gap(double& gap_mm) const noexcept override;
+  // The simulated plate's height at (x, y), mm (0 on a flat sheet).
+  double plate_z_mm(double x_mm, double y_mm) const noexcept;
   // Injected faults that never fired (the run ended before their time) or never took effect
   // (an arc fault with no arc after it).
   std::vector<std::string> notes() const override;
@@ -134,7 +141,8 @@ class SimBackend final : public hardware::Backend {
   std::vector<char> effective_;  // a fired injection changed what the machine did
   double time_s_ = 0.0;
   long ticks_ = 0;
-  bool enabled_ = false, fire_ = false, arc_burning_ = false, arc_fails_ = false, arc_lost_ = false;
+  bool enabled_ = false, fire_ = false, arc_burning_ = false, arc_fails_ = false, arc_lost_ = false,
+       arc_loss_took_ = false;
   double arc_timer_s_ = 0.0;
   int arc_starts_ = 0;
   double height_mm_ = 0.0, height_target_mm_ = 0.0, ihs_left_s_ = 0.0;
@@ -145,6 +153,16 @@ class SimBackend final : public hardware::Backend {
   std::size_t next_op_ = 0;
   std::chrono::steady_clock::time_point last_return_;
   std::array<int, 2> misread_{{0, 0}};  // pending misread per axis: +-256 counts on the next read
+  // The plasma process: the warped plate, the arc's voltage, the kerfs cut so far.
+  std::mt19937_64 process_rng_;         // its own stream: the axes' noise draws stay as they were
+  double warp_amplitude_mm_ = 0.0, warp_wavelength_mm_ = 500.0, warp_phase_x_ = 0.0, warp_phase_y_ = 0.0;
+  double ihs_plate_z_mm_ = 0.0;         // the plate where the last height sense touched it
+  double arc_voltage_v_ = 0.0;
+  std::vector<std::uint16_t> kerf_cells_;  // the cut that burned each 2 mm cell (0: none)
+  long kerf_nx_ = 0, kerf_ny_ = 0;
+  std::uint16_t cut_id_ = 0;
+  bool over_kerf_ = false;
+  void burn_and_measure(double dt) noexcept;
   std::chrono::steady_clock::time_point t0_;
   bool started_ = false;
 };
