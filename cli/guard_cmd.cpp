@@ -30,7 +30,7 @@ double number_in(const std::string& flag, const std::string& text) {
 
 struct GuardArgs {
   std::string profile, side, tool_radius, tolerance, op, feed, latency_ms, strategy = "predictive", plot, seed, machine = "xy_table",
-                                                                  offset = "robust", finish_feed, finish_allowance;
+                                                                  offset = "robust", finish_feed, finish_allowance, backend = "sim";
   bool finish = false, json = false;
 };
 
@@ -56,10 +56,13 @@ void add_guard(CLI::App& app) {
   cmd->add_option("--plot", a->plot, "write the picture of the run (profile, region, strokes, finishing), .png or .svg");
   cmd->add_option("--seed", a->seed, "seed of the random operator and the simulator (default 1)");
   cmd->add_option("--machine", a->machine, "machine name or YAML file (default xy_table)");
+  cmd->add_option("--backend", a->backend,
+                  "the machine: sim (the simulated table; default) or hal (through LinuxCNC's HAL: docs/hal.md)");
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->callback([a] {
     guard::GuardRunOptions o;
     o.machine = a->machine;
+    o.backend = a->backend;
     o.region.side = machining_side_from_string(a->side);
     o.region.method = offset_method_from_string(a->offset);
     o.region.tool_radius_mm = number_in("--tool-radius", a->tool_radius);

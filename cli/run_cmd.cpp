@@ -232,7 +232,8 @@ void add_run(CLI::App& app) {
                   "refuse, before it starts, a run whose estimate exceeds this many seconds of machine time "
                   "(default 14400: 4 h)")
       ->check(kFinitePositive);
-  cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default)");
+  cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default) or hal (a machine through "
+                  "LinuxCNC's HAL, scripts/hal-sim for a simulated one: docs/hal.md)");
   cmd->add_option("--inject", a->inject,
                   "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "
                   "lost-backend, arc-loss, arc-start-failure, watchdog); may be repeated");

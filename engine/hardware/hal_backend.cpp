@@ -153,6 +153,8 @@ struct HalBackend::Impl {
   std::array<std::int32_t, kAxes> raw_base{};   // velocity mode: raw counts of the last sample used
   std::array<std::uint32_t, kAxes> down{};      // the emulated down counters
   std::array<bool, kAxes> dir_negative{};
+  bool ruler = false;               // velocity mode with pos-fb linked: an independent measurement
+  Eigen::Vector2d ruler_mm = Eigen::Vector2d::Zero();  // pos-fb of the last sample returned
   HalTiming timing;
   JitterHistogram jitter;
 
@@ -221,6 +223,7 @@ void HalBackend::Impl::fill(const machplan_sample& s, std::uint32_t newest_flags
       in.counter[i] = down[i];
       in.counter_direction_negative[i] = dir_negative[i];
       in.position_feedback_mm[i] = 0.0;
+      ruler_mm[i] = s.fb_mm[i];
     } else {
       in.position_feedback_mm[i] = s.fb_mm[i];
       in.counter[i] = 0;
@@ -392,6 +395,7 @@ void HalBackend::Impl::open() {
                        o.signals[0].command_latency_ticks, o.signals[i].command_latency_ticks));
   }
   check_pins();
+  ruler = velocity && pin_state("machplan.axis.0.pos-fb").linked && pin_state("machplan.axis.1.pos-fb").linked;
 
   // One session at a time.
   machplan_sample s{};
@@ -558,6 +562,12 @@ HalTiming HalBackend::timing() const {
   t.jitter_p999_s = impl_->jitter.quantile(0.999);
   t.jitter_max_s = impl_->jitter.max_s();
   return t;
+}
+
+bool HalBackend::true_position(Eigen::Vector2d& out_mm) const noexcept {
+  if (!impl_->ruler) return false;
+  out_mm = impl_->ruler_mm;
+  return true;
 }
 
 std::vector<std::string> HalBackend::notes() const { return {timing().summary()}; }

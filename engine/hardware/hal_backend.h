@@ -57,6 +57,9 @@
 // machine file's full-scale speed over the code's range; counts in, raw encoder counts
 // presented to the executor as the machine file's counter: `counter_bits` wide, counting down
 // with a direction bit, so that its decoder and plausibility checks apply unchanged).
+// In velocity mode pos-fb, when linked, is a second and independent measurement of each axis
+// (a linear scale, or the simulation's load position): true_position() returns it, so that a
+// calibration session has its ruler and a run its true contour error.
 // Position mode needs the axes to stand where the job starts (within `start_tolerance_mm`):
 // the machine is where it is, and the backend refuses to open a job elsewhere rather than jump.
 // Velocity mode has no absolute position: the machine is taken to stand at the job's start, as
@@ -144,6 +147,8 @@ class HalBackend final : public Backend {
   int watchdog_periods() const override;  // the component's watchdog-periods parameter
   Inputs initial_inputs() override;
   Health exchange(const Outputs& out, Inputs& in) noexcept override;
+  // Velocity mode with pos-fb linked: pos-fb of the last sample returned. False otherwise.
+  bool true_position(Eigen::Vector2d& out_mm) const noexcept override;
   std::vector<std::string> notes() const override;
 
   HalTiming timing() const;

@@ -78,6 +78,9 @@ void GuardRunOptions::validate() const {
         fmt::format("{} mm must be in [0, 10]", finish_allowance_mm));
   check(std::isfinite(max_session_s) && max_session_s > 0 && max_session_s <= 86400, "max_session_s",
         fmt::format("{} s must be in (0, 86400]", max_session_s));
+  check(backend != "hal" || op.kind != OperatorSpec::Kind::random, "--backend",
+        "the random operator starts every stroke somewhere else, which a real machine cannot: use a script, joystick "
+        "or keys with hal");
   region.validate();
   guard.validate();
 }
@@ -100,6 +103,7 @@ struct Rig {
   session::MachineSessionOptions session(executor::Mode mode, std::uint64_t seed, bool realtime) const {
     session::MachineSessionOptions so;
     so.machine_config = machine;
+    so.backend.name = o.backend;
     so.backend.sim.seed = seed;
     so.backend.sim.realtime = realtime;
     so.executor.mode = mode;
