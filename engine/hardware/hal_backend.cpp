@@ -13,6 +13,8 @@
 #include <cstdarg>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <mutex>
 
 #include <fmt/format.h>
@@ -269,6 +271,20 @@ bool param_value(const std::string& name, hal_data_u& out) {
 
 bool alive(int pid) { return pid > 0 && (kill(pid, 0) == 0 || errno == EPERM); }
 
+// HAL's real-time side runs in the rtapi_app process (LinuxCNC's own `realtime status` looks for
+// it the same way). Without it hal_init() would set up an empty HAL of its own.
+bool rtapi_app_running() {
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator("/proc", ec)) {
+    const std::string n = e.path().filename().string();
+    if (n.empty() || n.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream f(e.path() / "comm");
+    std::string comm;
+    if (std::getline(f, comm) && comm == "rtapi_app") return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 void HalBackend::Impl::check_pins() const {
@@ -336,6 +352,9 @@ void HalBackend::Impl::make_realtime() {
 
 void HalBackend::Impl::open() {
   o.validate();
+  if (!rtapi_app_running())
+    fail("HAL is not running (no rtapi_app): start the machine's HAL first (scripts/hal-sim up for the simulated "
+         "machine; halrun or linuxcnc for a real one)");
   rtapi_set_msg_handler(keep_message);
   take_messages();
   const std::string name = fmt::format("machplan-user-{}", getpid());

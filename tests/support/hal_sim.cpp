@@ -27,12 +27,13 @@ std::string slurp(const std::string& path) {
   return s.str();
 }
 
+// A pin's value, or a parameter's.
 hal_data_u* pin_data(const std::string& name, hal_type_t& type) {
   hal_data_u* data = nullptr;
   bool connected = false;
-  if (hal_get_pin_value_by_name(name.c_str(), &type, &data, &connected) != 0 || !data)
-    throw std::runtime_error("HAL has no pin " + name);
-  return data;
+  if (hal_get_pin_value_by_name(name.c_str(), &type, &data, &connected) == 0 && data) return data;
+  if (hal_get_param_value_by_name(name.c_str(), &type, &data) == 0 && data) return data;
+  throw std::runtime_error("HAL has no pin or parameter " + name);
 }
 
 }  // namespace

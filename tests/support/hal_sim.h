@@ -41,7 +41,7 @@ class HalPins {
   ~HalPins();
   HalPins(const HalPins&) = delete;
   HalPins& operator=(const HalPins&) = delete;
-  double number(const std::string& pin) const;  // float, s32 or u32 pin, as a double
+  double number(const std::string& pin) const;  // a float, s32, u32 or bit pin or parameter
   bool bit(const std::string& pin) const;
   void set_signal(const std::string& signal, double value);  // halcmd sets
   void set_pin(const std::string& pin, double value);        // halcmd setp (an unlinked pin)
