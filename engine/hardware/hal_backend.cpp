@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdarg>
@@ -72,6 +73,21 @@ std::string take_messages() {
     if (c == '\n') c = ' ';
   return m;
 }
+
+// AddressSanitizer maps terabytes of shadow memory: locking it all at once would fault it in.
+// Under ASan the pages are locked as they are touched instead.
+#if defined(__SANITIZE_ADDRESS__)
+#define MACHPLAN_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define MACHPLAN_ASAN 1
+#endif
+#endif
+#ifdef MACHPLAN_ASAN
+constexpr int kLockFlags = MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT;
+#else
+constexpr int kLockFlags = MCL_CURRENT | MCL_FUTURE;
+#endif
 
 template <class T>
 T load(const T& v) {
@@ -327,7 +343,7 @@ void HalBackend::Impl::make_realtime() {
     return;
   }
   std::string why;
-  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) why = fmt::format("mlockall: {}", std::strerror(errno));
+  if (mlockall(kLockFlags) != 0) why = fmt::format("mlockall: {}", std::strerror(errno));
   owner = pthread_self();
   if (why.empty()) {
     pthread_getschedparam(owner, &old_policy, &old_param);
@@ -346,7 +362,8 @@ void HalBackend::Impl::make_realtime() {
     timing.realtime_note = fmt::format("real time: SCHED_FIFO priority {}, memory locked", o.fifo_priority);
   } else {
     timing.realtime_note = fmt::format("real time not allowed ({}): ordinary scheduling, late exchanges counted", why);
-    std::fprintf(stderr, "machplan: hal: %s\n", timing.realtime_note.c_str());
+    static std::atomic<bool> told{false};  // once per process, however many sessions it opens
+    if (!told.exchange(true)) std::fprintf(stderr, "machplan: hal: %s\n", timing.realtime_note.c_str());
   }
 }
 

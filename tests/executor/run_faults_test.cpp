@@ -162,9 +162,9 @@ TEST(Inject, BadValuesExitTwoNamingTheFlag) {
     EXPECT_EQ(r.code, 2) << bad;
     EXPECT_THAT(r.err, HasSubstr("--inject")) << bad;
   }
-  const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", "thermal_gantry", "--backend", "hal"});
+  const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", "thermal_gantry", "--backend", "linuxcnc"});
   EXPECT_EQ(r.code, 2);
-  EXPECT_THAT(r.err, HasSubstr("--backend: unknown backend 'hal' (known: sim)"));
+  EXPECT_THAT(r.err, HasSubstr("--backend: unknown backend 'linuxcnc' (known: sim, hal)"));
 }
 
 TEST(Supervision, ALoopThatCannotHoldThePathIsAFault) {

@@ -36,11 +36,14 @@ Outcome run_triangle(const test::TempDir& dir) {
   return {code, slurp(err)};
 }
 
+// `scripts/hal-sim up` arguments for a HAL file of `text`, written into `dir`.
 std::string hal_file(const test::TempDir& dir, const std::string& text) {
   const std::string path = (dir.path() / "machine.hal").string();
   std::ofstream(path) << text;
-  return path;
+  return "--file '" + path + "'";
 }
+
+const char* kThread = "loadrt threads name1=servo-thread period1=1000000\n";
 
 void expect_refused(const Outcome& o, const std::string& words) {
   EXPECT_EQ(o.code, 2) << o.err;
@@ -55,43 +58,34 @@ TEST(HalSetup, HalNotRunning) {
 
 TEST(HalSetup, NoMachplanComponent) {
   test::TempDir dir;
-  test::HalSim sim("--file '" + hal_file(dir, "loadrt threads name1=servo-thread period1=1000000\nstart\n") + "'");
+  test::HalSim sim(hal_file(dir, std::string(kThread) + "start\n"));
   expect_refused(run_triangle(dir), "has no machplan component");
 }
 
 TEST(HalSetup, FunctionInNoThread) {
   test::TempDir dir;
-  test::HalSim sim("--file '" + hal_file(dir, "loadrt threads name1=servo-thread period1=1000000\nloadrt machplan\nstart\n") +
-                   "'");
+  test::HalSim sim(hal_file(dir, std::string(kThread) + "loadrt machplan\nstart\n"));
   expect_refused(run_triangle(dir), "addf machplan servo-thread");
 }
 
 TEST(HalSetup, ServoPeriodOtherThanTheMachineFiles) {
   test::TempDir dir;
-  test::HalSim sim("--file '" +
-                   hal_file(dir, "loadrt threads name1=servo-thread period1=2000000\nloadrt machplan\n"
-                                 "addf machplan servo-thread\nstart\n") +
-                   "'");
+  test::HalSim sim(hal_file(dir, "loadrt threads name1=servo-thread period1=2000000\nloadrt machplan\n"
+                                 "addf machplan servo-thread\nstart\n"));
   expect_refused(run_triangle(dir), "runs machplan every 2 ms, the machine file's servo_period_s is 1 ms");
 }
 
 TEST(HalSetup, EstopChainNotLinked) {
   test::TempDir dir;
-  test::HalSim sim("--file '" +
-                   hal_file(dir, "loadrt threads name1=servo-thread period1=1000000\nloadrt machplan\n"
-                                 "addf machplan servo-thread\nstart\n") +
-                   "'");
+  test::HalSim sim(hal_file(dir, std::string(kThread) + "loadrt machplan\naddf machplan servo-thread\nstart\n"));
   expect_refused(run_triangle(dir), "machplan.estop-ok is not linked");
 }
 
 TEST(HalSetup, PositionFeedbackNotLinked) {
   test::TempDir dir;
-  test::HalSim sim("--file '" +
-                   hal_file(dir,
-                            "loadrt threads name1=servo-thread period1=1000000\nloadrt machplan\n"
-                            "net estop-ok machplan.estop-ok\nnet on machplan.enable\n"
-                            "net x-cmd machplan.axis.0.pos-cmd\naddf machplan servo-thread\nstart\n") +
-                   "'");
+  test::HalSim sim(hal_file(dir, std::string(kThread) +
+                                     "loadrt machplan\nnet estop-ok machplan.estop-ok\nnet on machplan.enable\n"
+                                     "net x-cmd machplan.axis.0.pos-cmd\naddf machplan servo-thread\nstart\n"));
   expect_refused(run_triangle(dir), "machplan.axis.0.pos-fb is not linked: net it to the drive's position feedback");
 }
 
