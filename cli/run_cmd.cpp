@@ -95,7 +95,8 @@ const FieldFlag kRunFlags[] = {
     {"origin_mm", "--origin"},        {"max_machine_time_s", "--max-machine-time"},
     {"blu_mm", "--blu"},              {"calibration_factor", "--calibration"},
     {"controller", "--controller"},   {"gains", "--gain"},            {"active_calibration", "--calibration"},
-    {"paper_feed_mm_per_s", "--feed"}, {"seed", "--seed"},            {"faults", "--inject"}};
+    {"paper_feed_mm_per_s", "--feed"}, {"seed", "--seed"},            {"faults", "--inject"},
+    {"backend", "--backend"}};
 
 motion::RunOptions run_options(const RunArgs& a) {
   motion::RunOptions o;

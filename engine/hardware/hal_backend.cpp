@@ -37,9 +37,8 @@ namespace machplan::hardware {
 
 namespace {
 
-constexpr const char* kWhere = "--backend hal";
-
-[[noreturn]] void fail(const std::string& what) { throw InputError(kWhere, 0, what); }
+// Errors name the backend option (the command line's --backend).
+[[noreturn]] void fail(const std::string& what) { throw InputError::field("backend", "hal: " + what); }
 
 std::int64_t now_ns() {
   timespec ts;
@@ -277,11 +276,15 @@ PinState pin_state(const std::string& name) {
   return p;
 }
 
-bool param_value(const std::string& name, hal_data_u& out) {
+// A bit parameter. HAL keeps a value only as large and as aligned as its type: read it through
+// a copy of that size, not through the union.
+bool bit_param(const std::string& name, bool& out) {
   hal_type_t type;
   hal_data_u* data = nullptr;
-  if (hal_get_param_value_by_name(name.c_str(), &type, &data) != 0 || !data) return false;
-  out = *data;
+  if (hal_get_param_value_by_name(name.c_str(), &type, &data) != 0 || !data || type != HAL_BIT) return false;
+  bool b;
+  std::memcpy(&b, static_cast<const void*>(data), sizeof b);
+  out = b;
   return true;
 }
 
@@ -386,9 +389,7 @@ void HalBackend::Impl::open() {
   if (!pin_state("machplan.period-count").exists)
     fail("HAL runs but has no machplan component: `loadrt machplan` and `addf machplan servo-thread` in the machine's "
          "HAL file (docs/hal.md; scripts/setup installs the component)");
-  hal_data_u v;
-  if (!param_value("machplan.velocity-mode", v)) fail("cannot read the parameter machplan.velocity-mode");
-  velocity = v.b;
+  if (!bit_param("machplan.velocity-mode", velocity)) fail("cannot read the parameter machplan.velocity-mode");
 
   shmem_id = rtapi_shmem_new(MACHPLAN_EXCHANGE_KEY, comp_id, sizeof(machplan_exchange_block));
   void* ptr = nullptr;

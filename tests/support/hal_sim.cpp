@@ -4,7 +4,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -84,14 +86,28 @@ HalPins::~HalPins() {
   if (comp_id_ >= 0) hal_exit(comp_id_);
 }
 
+// HAL keeps a value only as large and as aligned as its type (a u32 parameter may sit 4 bytes
+// off an 8-byte boundary): read and write it through a copy of that size, never through the
+// union.
+template <class T>
+T get(const hal_data_u* d) {
+  T v;
+  std::memcpy(&v, static_cast<const void*>(d), sizeof v);
+  return v;
+}
+template <class T>
+void put(hal_data_u* d, T v) {
+  std::memcpy(static_cast<void*>(d), &v, sizeof v);
+}
+
 double HalPins::number(const std::string& pin) const {
   hal_type_t type;
   const hal_data_u* d = pin_data(pin, type);
   switch (type) {
-    case HAL_FLOAT: return d->f;
-    case HAL_S32: return d->s;
-    case HAL_U32: return d->u;
-    case HAL_BIT: return d->b ? 1.0 : 0.0;
+    case HAL_FLOAT: return get<double>(d);
+    case HAL_S32: return get<std::int32_t>(d);
+    case HAL_U32: return get<std::uint32_t>(d);
+    case HAL_BIT: return get<bool>(d) ? 1.0 : 0.0;
     default: throw std::runtime_error("pin " + pin + " has a type this helper does not read");
   }
 }
@@ -105,18 +121,18 @@ void HalPins::set_signal(const std::string& signal, double value) {
   if (hal_get_signal_value_by_name(signal.c_str(), &type, &d, &writers) != 0 || !d)
     throw std::runtime_error("HAL has no signal " + signal);
   if (writers) throw std::runtime_error("signal " + signal + " has a writer");
-  if (type == HAL_BIT) d->b = value != 0.0;
-  else if (type == HAL_FLOAT) d->f = value;
+  if (type == HAL_BIT) put<bool>(d, value != 0.0);
+  else if (type == HAL_FLOAT) put<double>(d, value);
   else throw std::runtime_error("signal " + signal + ": unsupported type");
 }
 
 void HalPins::set_pin(const std::string& pin, double value) {
   hal_type_t type;
   hal_data_u* d = pin_data(pin, type);
-  if (type == HAL_BIT) d->b = value != 0.0;
-  else if (type == HAL_FLOAT) d->f = value;
-  else if (type == HAL_S32) d->s = static_cast<int>(value);
-  else if (type == HAL_U32) d->u = static_cast<unsigned>(value);
+  if (type == HAL_BIT) put<bool>(d, value != 0.0);
+  else if (type == HAL_FLOAT) put<double>(d, value);
+  else if (type == HAL_S32) put<std::int32_t>(d, static_cast<std::int32_t>(value));
+  else if (type == HAL_U32) put<std::uint32_t>(d, static_cast<std::uint32_t>(value));
 }
 
 void HalPins::stop_threads() { hal_stop_threads(); }
