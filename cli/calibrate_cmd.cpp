@@ -58,7 +58,8 @@ void add_calibrate(CLI::App& app) {
   auto r = std::make_shared<RecordArgs>();
   auto* rec = cal->add_subcommand("record", "Run the calibration routine on a backend and write the session log");
   rec->add_option("--machine", r->machine, "thermal_gantry, or a machine YAML file (the nominal machine)")->required();
-  rec->add_option("--backend", r->backend, "the machine to calibrate: sim (the simulated machine; default)");
+  rec->add_option("--backend", r->backend, "the machine to calibrate: sim (the simulated machine; default) or hal (a machine with velocity-mode "
+                  "drives through LinuxCNC's HAL: docs/hal.md)");
   rec->add_option("--seed", r->seed, "seed of the simulated machine's noise and of the ruler's noise (default 1)");
   rec->add_option("--out", r->out, "session log to write (default: standard output)");
   rec->add_option("--repeats", r->repeats, "run the stroke program this many times (default 1, about 21 s)");

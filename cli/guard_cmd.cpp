@@ -31,7 +31,7 @@ double number_in(const std::string& flag, const std::string& text) {
 
 struct GuardArgs {
   std::string profile, side, tool_radius, tolerance, op, feed, latency_ms, strategy = "predictive", plot, seed, machine = "xy_table",
-                                                                  offset = "robust", finish_feed, finish_allowance;
+                                                                  offset = "robust", finish_feed, finish_allowance, backend = "sim";
   bool finish = false, json = false;
 };
 
@@ -57,6 +57,8 @@ void add_guard(CLI::App& app) {
   cmd->add_option("--plot", a->plot, "write the picture of the run (profile, region, strokes, finishing), .png or .svg");
   cmd->add_option("--seed", a->seed, "seed of the random operator and the simulator (default 1)");
   cmd->add_option("--machine", a->machine, "machine name or YAML file (default xy_table)");
+  cmd->add_option("--backend", a->backend,
+                  "the machine: sim (the simulated table; default) or hal (through LinuxCNC's HAL: docs/hal.md)");
   cmd->add_flag("--json", a->json, "machine-readable output");
   field_flags(cmd, {{"side", "--side"},
                     {"method", "--offset"},
@@ -70,10 +72,12 @@ void add_guard(CLI::App& app) {
                     {"op", "--operator"},
                     {"operator", "--operator"},
                     {"machine", "--machine"},
+                    {"backend", "--backend"},
                     {"plot", "--plot"}});
   cmd->callback([a] {
     guard::GuardRunOptions o;
     o.machine = a->machine;
+    o.backend = a->backend;
     o.region.side = accept(parse_machining_side(a->side), "--side");
     o.region.method = accept(parse_offset_method(a->offset), "--offset");
     o.region.tool_radius_mm = number_in("--tool-radius", a->tool_radius);

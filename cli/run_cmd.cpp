@@ -109,6 +109,7 @@ const FieldFlag kRunFields[] = {
     {"controller", "--controller"},
     {"gains", "--gain"},
     {"backend.name", "--backend"},
+    {"backend", "--backend"},
     {"backend.sim.faults", "--inject"},
     {"gcode.spindle_count", "--spindles"},
     {"max_machine_time_s", "--max-machine-time"},
@@ -283,7 +284,8 @@ void add_run(CLI::App& app) {
   cmd->add_option("--operator-events", a->operator_events,
                   "simulator: the operator's inputs on a timeline, a CSV 't_s,event,value' (hold, start, stop, "
                   "feed_override, rapid_override, recover, thc)");
-  cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default)");
+  cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default) or hal (a machine through "
+                  "LinuxCNC's HAL, scripts/hal-sim for a simulated one: docs/hal.md)");
   cmd->add_option("--inject", a->inject,
                   "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "
                   "lost-backend, arc-loss, arc-start-failure, watchdog); may be repeated");

@@ -51,3 +51,23 @@ endif()
 if(NOT MACHPLAN_FIND_AS_DEPENDENCY)
   machplan_find_package(nlohmann_json 3)
 endif()
+
+# LinuxCNC's HAL, for the HAL backend only (engine/hardware/hal_backend.cpp, behind HalBackend):
+# linuxcnc-uspace-dev ships hal.h and rtapi.h under include/linuxcnc and liblinuxcnchal, with no
+# pkg-config or CMake file. The headers are given to that one source file (engine/CMakeLists.txt);
+# the library is linked privately.
+if(NOT TARGET machplan::linuxcnc_hal)
+  find_path(MACHPLAN_LINUXCNC_INCLUDE_DIR hal.h PATH_SUFFIXES linuxcnc)
+  find_library(MACHPLAN_LINUXCNC_HAL_LIBRARY linuxcnchal)
+  if(NOT MACHPLAN_LINUXCNC_HAL_LIBRARY OR (NOT MACHPLAN_FIND_AS_DEPENDENCY AND NOT MACHPLAN_LINUXCNC_INCLUDE_DIR))
+    set(_machplan_hal_missing "LinuxCNC HAL (liblinuxcnchal and include/linuxcnc/hal.h) not found: install linuxcnc-uspace-dev (scripts/setup)")
+    if(MACHPLAN_FIND_AS_DEPENDENCY)
+      set(machplan_FOUND FALSE)
+      set(machplan_NOT_FOUND_MESSAGE "${_machplan_hal_missing}")
+      return()
+    endif()
+    message(FATAL_ERROR "${_machplan_hal_missing}")
+  endif()
+  add_library(machplan::linuxcnc_hal UNKNOWN IMPORTED)
+  set_target_properties(machplan::linuxcnc_hal PROPERTIES IMPORTED_LOCATION "${MACHPLAN_LINUXCNC_HAL_LIBRARY}")
+endif()

@@ -45,6 +45,8 @@ class ContourMonitor {
   // The last measured distance (0 outside cuts).
   double last_mm() const noexcept { return last_mm_; }
   void clear_last() noexcept { last_mm_ = 0.0; }
+  // The segment of the stretch the tool is on (the cursor).
+  std::size_t segment() const noexcept { return cursor_; }
   const std::vector<Acc>& accumulators() const { return acc_; }
 
  private:

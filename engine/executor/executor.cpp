@@ -108,6 +108,11 @@ struct Session::Impl {
   void operate() noexcept;
   void begin_hold(bool by_override) noexcept;
   void follow_hold() noexcept;
+  // The arc went out in a cut: a fault, or (the machine's on_arc_loss: recover) a hold the
+  // operator recovers from.
+  void arc_lost() noexcept;
+  // Torch height control in a cut, and its figures.
+  void thc_tick() noexcept;
   bool move_is_rapid() const noexcept {
     return step < job.steps.size() && job.steps[step].kind == Step::Kind::move && job.stretches[job.steps[step].stretch].rapid;
   }
@@ -136,6 +141,7 @@ struct Session::Impl {
   Supervisor sup;
   TorchSequencer torch;
   ContourMonitor contour;
+  ThcController thc;
   TraceRecorder recorder;
   std::vector<TraceSample>* trace_out = nullptr;
   ExecutionResult result;
@@ -175,7 +181,22 @@ struct Session::Impl {
   Eigen::Vector2d last_sp = Eigen::Vector2d::Zero();
   double progress_s = 0.0;        // the job's expected time done: path time in moves, else machine time
   bool be_realtime = true;
+  // The plasma process: the material of the cut under way, THC, cut recovery.
+  int material = -1;              // index into job.materials (-1: the machine's settings)
+  bool thc_fitted = false;        // plasma, a height axis and THC enabled
+  struct ThcAcc {
+    std::size_t n = 0, active = 0;
+    double max = 0.0, sum2 = 0.0, target_v = 0.0, velocity_change = 0.0, void_change = 0.0;
+    int material = -1;
+  };
+  std::vector<ThcAcc> thc_acc;    // per stretch
+  bool velocity_locked = false, void_locked = false;
+  double velocity_lock_h = 0.0, void_lock_h = 0.0;  // the height when the lock began
+  Eigen::Vector2d last_loss_mm = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
 };
+
+// A second arc loss closer than this to the last one ends the job: the recovery does not hold.
+constexpr double kRepeatedArcLossMm = 5.0;
 
 void Session::Impl::prepare(double machine_period_s) {
   check_backend(ms, machine_period_s, be);
@@ -228,6 +249,8 @@ void Session::Impl::prepare(double machine_period_s) {
       case Step::Kind::torch_on:
         if (ts.kind == TorchSetup::Kind::none)
           fail(st.source_line, fmt::format("torch or spindle on, but machine '{}' has neither", ms.name));
+        if (st.material < -1 || st.material >= static_cast<int>(job.materials.size()))
+          fail(st.source_line, fmt::format("torch on with material {} of {}", st.material, job.materials.size()));
         torch_on = true;
         break;
       case Step::Kind::torch_off:
@@ -256,6 +279,9 @@ void Session::Impl::prepare(double machine_period_s) {
 
   // Buffers, all touched now.
   contour.prepare(job);
+  thc_acc.assign(job.stretches.size(), ThcAcc{});
+  thc_fitted = ts.kind == TorchSetup::Kind::plasma && ts.height_axis && ts.thc.enabled;
+  thc.configure(ts.thc, dt);
   stretch_len.resize(job.stretches.size());
   for (std::size_t k = 0; k < job.stretches.size(); ++k) stretch_len[k] = stretch_length(job.stretches[k]);
   trace_out = &result.trace;
@@ -320,6 +346,7 @@ void Session::Impl::begin_step() noexcept {
       phase = Phase::move;
       if (!s.cutting) cut_off = false;  // a held cut that ended while braking needs no re-pierce
       contour.begin(st.stretch);
+      if (s.cutting) thc_acc[st.stretch].material = material;
       source->set_rate(move_rate());
       source->begin_move(step, adapter.position_mm());
       break;
@@ -327,6 +354,10 @@ void Session::Impl::begin_step() noexcept {
     case Step::Kind::torch_on: {
       // A dwell step right after torch_on is the programmed pierce delay (G4).
       const bool programmed = step + 1 < job.steps.size() && job.steps[step + 1].kind == Step::Kind::dwell;
+      material = st.material;
+      const motion::CutParameters* m = material >= 0 ? &job.materials[static_cast<std::size_t>(material)] : nullptr;
+      torch.use_material(m);
+      thc.reset(m ? m->cut_volts : 0.0);
       torch.start_on(programmed, out);
       phase = Phase::torch;
       break;
@@ -349,6 +380,7 @@ void Session::Impl::operate() noexcept {
   const bool hold_edge = op.feed_hold && !prev_op.feed_hold;
   const bool start_edge = op.cycle_start && !prev_op.cycle_start;
   const bool stop_edge = op.stop && !prev_op.stop;
+  const double recover_mm = op.recover_mm - prev_op.recover_mm;
   prev_op = op;
   if (stop_edge && phase != Phase::jog) {
     raise(FK::operator_stop, -1, 0.0);
@@ -361,6 +393,64 @@ void Session::Impl::operate() noexcept {
   const bool zero_feed = feed_rate == 0.0 && phase == Phase::move && !move_is_rapid();
   if (!held && (hold_edge || zero_feed)) begin_hold(!hold_edge);
   if (held && (held_by_override ? feed_rate > 0.0 : start_edge)) resume_asked = true;
+  // Cut recovery: along the path of a held cut whose torch is off.
+  if (held && cut_off && phase == Phase::move && std::isfinite(recover_mm) && recover_mm != 0.0) source->recover(recover_mm);
+}
+
+void Session::Impl::arc_lost() noexcept {
+  const bool repeated = (adapter.position_mm() - last_loss_mm).norm() < kRepeatedArcLossMm;
+  if (!ms.torch.recover_on_arc_loss || !source->supports_rate() || held || repeated) {
+    raise(FK::arc_lost, -1, sup.arc_low_s());
+    return;
+  }
+  last_loss_mm = adapter.position_mm();
+  begin_hold(false);
+  // The arc is out: the torch goes off now, not just before rest; the resume re-pierces.
+  torch.start_off(out);
+  torch_off_running = true;
+  cut_off = true;
+  if (hold) hold->by_arc_loss = hold->in_cut = hold->torch_off = hold->torch_off_before_rest = true;
+}
+
+void Session::Impl::thc_tick() noexcept {
+  const bool cutting = thc_fitted && !held && moving_cut() && torch.lit() && !torch.busy() && in.arc_ok;
+  if (!cutting) {
+    velocity_locked = void_locked = false;
+    return;
+  }
+  const std::size_t k = job.steps[step].stretch;
+  const motion::Stretch& s = job.stretches[k];
+  const std::size_t seg = std::min(contour.segment(), s.segments.size() - 1);
+  Eigen::Vector2d v, a;
+  source->motion_now(v, a);
+  const motion::CutParameters* m = material >= 0 ? &job.materials[static_cast<std::size_t>(material)] : nullptr;
+  ThcController::Input ti;
+  ti.voltage_v = in.arc_voltage_v;
+  ti.speed_mm_per_s = v.norm();
+  // The speed the cut should run at: its feed, as the override and the machine allow.
+  ti.feed_mm_per_s = std::min(s.feed_mm_per_s[seg] * std::min(feed_rate, 1.0), ms.max_velocity_mm_per_s);
+  ti.allowed = (!m || m->thc) && (s.thc_off.empty() || !s.thc_off[seg]) && in.op.thc_enabled;
+  out.torch_height_target_mm = torch.cut_height_mm() + thc.update(ti);
+
+  // Figures, from the backend's truth.
+  ThcAcc& acc = thc_acc[k];
+  const double h = in.torch_height_mm;
+  const bool vl = thc.holding() && thc.velocity_locked(), ol = thc.holding() && thc.void_locked();
+  if (vl && !velocity_locked) velocity_lock_h = h;
+  if (ol && !void_locked) void_lock_h = h;
+  if (vl) acc.velocity_change = std::max(acc.velocity_change, std::abs(h - velocity_lock_h));
+  if (ol) acc.void_change = std::max(acc.void_change, std::abs(h - void_lock_h));
+  velocity_locked = vl;
+  void_locked = ol;
+  double gap = 0.0;
+  if (thc.holding() && be.true_torch_gap(gap)) {
+    const double e = std::abs(gap - torch.cut_height_mm());
+    ++acc.n;
+    acc.max = std::max(acc.max, e);
+    acc.sum2 += e * e;
+    if (thc.active()) ++acc.active;
+    acc.target_v = thc.target_v();
+  }
 }
 
 // How close to rest the torch goes off in a held cut, mm of travel left (follow_hold).
@@ -460,12 +550,20 @@ void Session::Impl::follow_hold() noexcept {
       hold->stopped = true;
       hold->stop_s = t - hold->t_s;
       hold->stop_mm = sp_mm;
+      // After a lost arc the machine goes back along the path to where the arc went out (the
+      // braking, and the debounce before it was called lost); the operator may go further.
+      if (hold->by_arc_loss)
+        source->recover(-(hold->distance_to_stop_mm + hold->speed_mm_per_s * ms.torch.arc_loss_debounce_s));
     }
   }
   last_sp = sp_mm;
-  if (!resume_asked || !at_rest || torch_off_running) return;
+  if (!resume_asked || !at_rest || torch_off_running || source->recovering()) return;
   resume_asked = false;
-  if (hold) hold->resumed_at_s = t;
+  const double recovered = source->take_recovered_mm();
+  if (hold) {
+    hold->resumed_at_s = t;
+    hold->recovered_mm = recovered;
+  }
   if (cut_off) {
     // Re-pierce where the cut stopped (an oxy-fuel preheat flame kept burning).
     torch.start_on(false, out, ms.torch.kind == TorchSetup::Kind::oxy_fuel);
@@ -582,6 +680,10 @@ void Session::Impl::record_trace() noexcept {
   s.drives_enabled = out.drives_enabled;
   s.torch_fire = out.torch_fire;
   s.arc_ok = in.arc_ok;
+  s.torch_height_mm = in.torch_height_mm;
+  s.arc_voltage_v = in.arc_voltage_v;
+  double gap = 0.0;
+  if (be.true_torch_gap(gap)) s.torch_gap_mm = gap;
   if (opt.record_trace) recorder.record(s);
   if (parts.trace_stream) parts.trace_stream->push(s, !be_realtime);
 }
@@ -627,8 +729,7 @@ bool Session::Impl::tick() noexcept {
   if (in.estop) raise(FK::estop, -1, 0.0);
   if (in.watchdog_tripped) raise(FK::watchdog, -1, be.watchdog_periods());
   if (parts.termination && parts.termination->should_end()) raise(FK::stop_requested, -1, 0.0);
-  if (sup.arc_lost(moving_cut() && ms.torch.kind == TorchSetup::Kind::plasma, in.arc_ok))
-    raise(FK::arc_lost, -1, sup.arc_low_s());
+  if (sup.arc_lost(moving_cut() && ms.torch.kind == TorchSetup::Kind::plasma, in.arc_ok)) arc_lost();
 
   if (!sup.faulted() && !sup.stopping()) {
     if (moving_cut() && in.arc_ok)
@@ -636,6 +737,7 @@ bool Session::Impl::tick() noexcept {
     else
       contour.clear_last();
     sequence();
+    thc_tick();
   }
   if (sup.faulted() && !sup.stopping()) sup.begin_stop(u, torch, out);
 
@@ -757,6 +859,17 @@ ExecutionResult Session::Impl::finish() {
     if (acc[k].n_true > 0) {
       c.max_true_mm = acc[k].max_true;
       c.rms_true_mm = std::sqrt(acc[k].sum2_true / acc[k].n_true);
+    }
+    const ThcAcc& h = thc_acc[k];
+    c.material = h.material;
+    if (h.n > 0) {
+      c.thc.samples = h.n;
+      c.thc.max_mm = h.max;
+      c.thc.rms_mm = std::sqrt(h.sum2 / static_cast<double>(h.n));
+      c.thc.active_share = static_cast<double>(h.active) / static_cast<double>(h.n);
+      c.thc.target_v = h.target_v;
+      c.thc.velocity_lock_change_mm = h.velocity_change;
+      c.thc.void_lock_change_mm = h.void_change;
     }
     r.cuts.push_back(c);
   }

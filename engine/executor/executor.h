@@ -152,6 +152,10 @@ struct HoldReport {
                                     // false when the cut reached its end while the machine braked
   bool in_rapid = false;
   bool by_override = false;         // a 0 % feed override, not the button
+  bool by_arc_loss = false;         // the arc went out in a cut (machine's on_arc_loss: recover)
+  // Cut recovery: how far the operator moved the machine along the path while held, mm
+  // (negative: back along the cut), before the re-pierce.
+  double recovered_mm = 0.0;
   Eigen::Vector2d position_mm = Eigen::Vector2d::Zero();  // commanded point at the input
   double speed_mm_per_s = 0.0;      // commanded path speed at the input
   // Limits of the stop along the path at the input (tangential: what the normal acceleration
@@ -171,6 +175,22 @@ struct HoldReport {
   double jerk_limited_stop_mm() const;
 };
 
+// Torch height control over one cut, from the backend's truth (the torch's distance to the
+// plate; a simulator knows it). Measured over the periods THC held the height (engine/
+// executor/thc.h: armed, once the voltage first came within the threshold of its target),
+// whether THC was allowed to act or not: without THC these are the sheet's warp as the torch
+// saw it.
+struct ThcFigures {
+  std::size_t samples = 0;
+  double max_mm = std::numeric_limits<double>::quiet_NaN();  // largest |gap - cut height|
+  double rms_mm = std::numeric_limits<double>::quiet_NaN();
+  double active_share = 0.0;   // of those periods, THC acted (allowed, not locked)
+  double target_v = 0.0;       // the voltage it held (sampled, or the material's)
+  // Anti-dive: the largest change of the torch height over one velocity lock (corners, small
+  // holes) and over one void lock (kerf crossings), mm.
+  double velocity_lock_change_mm = 0.0, void_lock_change_mm = 0.0;
+};
+
 // Contour error of one cutting stretch: distance from the position to the stretch's
 // programmed XY path (its Segments), over the ticks in which the torch burns while that
 // stretch is executed.
@@ -182,6 +202,8 @@ struct CutError {
   double max_true_mm = std::numeric_limits<double>::quiet_NaN();  // from the backend's truth
   double rms_true_mm = std::numeric_limits<double>::quiet_NaN();
   bool complete = false;       // the stretch ran to its end
+  int material = -1;           // index into Job::materials (-1: the machine's torch settings)
+  ThcFigures thc;              // samples 0: no THC figures (no height axis, or never armed)
 };
 
 struct ExecutionResult {

@@ -63,17 +63,41 @@ void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d& measured
   stretch_ = followed ? followed : &ctx_.job->stretches[ctx_.job->steps[step].stretch];
   segment_ = 0;
   t_ = 0.0;
+  recover_left_mm_ = recover_v_ = recovered_mm_ = 0.0;
   scale_.reset(target_);  // the plan starts at rest: the rate takes its target at no cost
 }
 
 void PlannedSource::advance(const Eigen::Vector2d& measured_mm, const hardware::OperatorInputs&) noexcept {
   measured_mm_ = measured_mm;
   if (!cur_) return;
+  if (recovering() && target_ == 0.0 && scale_.k() == 0.0) {
+    step_recovery();
+    return;
+  }
   if (target_ == 1.0 && scale_.k() == 1.0 && scale_.k_dot() == 0.0) {
     t_ += ctx_.period_s;  // as planned
     return;
   }
   t_ += scale_.step(target_, *cur_, t_);
+}
+
+void PlannedSource::step_recovery() noexcept {
+  const double dt = ctx_.period_s;
+  const double left = std::abs(recover_left_mm_), dir = recover_left_mm_ > 0 ? 1.0 : -1.0;
+  const double a = kRecoverAcceleration;
+  recover_v_ = std::min({recover_v_ + a * dt, kRecoverSpeed, std::sqrt(2.0 * a * left)});
+  const double ds = std::min(recover_v_ * dt, left);
+  motion::Setpoint now, next;
+  cur_->sample(t_, now);
+  // Path time per mm: the plan's speed here (at least 1 mm/s: near the move's ends, where the
+  // plan is at rest, the recovery crawls there rather than jumping).
+  const double t_new = std::clamp(t_ + dir * ds / std::max(now.velocity_mm_per_s.norm(), 1.0), 0.0, cur_->duration_s());
+  cur_->sample(t_new, next);
+  recovered_mm_ += dir * (next.position_mm - now.position_mm).norm();
+  t_ = t_new;
+  recover_left_mm_ -= dir * ds;
+  // Done: the distance asked for, or the end of the move (the history kept is the move's).
+  if (left - ds <= 1e-9 || t_new == 0.0 || t_new == cur_->duration_s()) recover_left_mm_ = recover_v_ = 0.0;
 }
 
 void PlannedSource::motion_now(Eigen::Vector2d& v, Eigen::Vector2d& a) const noexcept {

@@ -36,6 +36,17 @@ class PlannedSource final : public SetpointSource {
   double rate() const noexcept override { return scale_.k(); }
   double path_distance_mm(const Eigen::Vector2d& p) const noexcept override;
   void motion_now(Eigen::Vector2d& v_mm_per_s, Eigen::Vector2d& a_mm_per_s2) const noexcept override;
+  // Cut recovery moves the path time back (or on) at kRecoverSpeed along the path, ramped at
+  // kRecoverAcceleration: the setpoints stay on the planned path.
+  void recover(double delta_mm) noexcept override { recover_left_mm_ += delta_mm; }
+  bool recovering() const noexcept override { return recover_left_mm_ != 0.0 || recover_v_ > 0.0; }
+  double take_recovered_mm() noexcept override {
+    const double r = recovered_mm_;
+    recovered_mm_ = 0.0;
+    return r;
+  }
+  static constexpr double kRecoverSpeed = 10.0;           // mm/s
+  static constexpr double kRecoverAcceleration = 200.0;   // mm/s^2
 
  private:
   SourceContext ctx_;
@@ -49,6 +60,8 @@ class PlannedSource final : public SetpointSource {
   TimeScale scale_;                            // how fast t_ runs (hold, overrides)
   double target_ = 1.0;
   double estimate_s_ = 0.0;
+  double recover_left_mm_ = 0.0, recover_v_ = 0.0, recovered_mm_ = 0.0;
+  void step_recovery() noexcept;
 };
 
 }  // namespace machplan::executor

@@ -94,6 +94,14 @@ class SetpointSource {
     (void)p;
     return 0.0;
   }
+  // Cut recovery, while a move is held at rest (rate 0): move `delta_mm` along the move's
+  // path (negative: back along what was cut), no further than the move's start or end; the
+  // requests add up. A source without it ignores them.
+  virtual void recover(double delta_mm) noexcept { (void)delta_mm; }
+  // A recovery motion is under way or asked for.
+  virtual bool recovering() const noexcept { return false; }
+  // How far along the path the recoveries moved since the last call, mm (signed).
+  virtual double take_recovered_mm() noexcept { return 0.0; }
 };
 
 // Sits between a source and the controller and may change the demand (the hybrid guard keeps

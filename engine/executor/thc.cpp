@@ -29,8 +29,10 @@ void ThcController::reset(double target_v) noexcept {
   given_v_ = target_v;
   target_v_ = 0.0;
   at_feed_s_ = sampled_s_ = sum_v_ = 0.0;
-  v_filtered_ = dv_filtered_ = void_lock_s_ = 0.0;
-  armed_ = active_ = velocity_lock_ = primed_ = false;
+  v_filtered_ = dv_filtered_ = void_lock_s_ = void_from_v_ = 0.0;
+  void_rising_ = false;
+  samples_ = 0;
+  armed_ = active_ = velocity_lock_ = primed_ = holding_ = false;
 }
 
 double ThcController::update(const Input& in) noexcept {
@@ -43,7 +45,13 @@ double ThcController::update(const Input& in) noexcept {
   const double v_prev = v_filtered_;
   v_filtered_ += a * (in.voltage_v - v_filtered_);
   dv_filtered_ += a * ((v_filtered_ - v_prev) / dt_ - dv_filtered_);
-  if (dv_filtered_ > s_.void_anti_dive_v_per_s) void_lock_s_ = 0.05;
+  if (dv_filtered_ > s_.void_anti_dive_v_per_s) {
+    if (!void_rising_) void_from_v_ = v_prev;
+    void_rising_ = true;
+  } else if (void_rising_ && v_filtered_ <= void_from_v_ + s_.threshold_v) {
+    void_rising_ = false;
+  }
+  if (void_rising_) void_lock_s_ = 0.05;
   else void_lock_s_ = std::max(0.0, void_lock_s_ - dt_);
 
   const bool at_feed = in.feed_mm_per_s > 0 && in.speed_mm_per_s >= 0.99 * in.feed_mm_per_s;
@@ -52,15 +60,17 @@ double ThcController::update(const Input& in) noexcept {
     at_feed_s_ = at_feed ? at_feed_s_ + dt_ : 0.0;
     armed_ = at_feed_s_ >= s_.delay_s;
   }
-  if (armed_ && target_v_ == 0.0) {
+  if (target_v_ == 0.0) {
     if (given_v_ > 0) {
       target_v_ = given_v_;
-    } else if (!velocity_lock_ && void_lock_s_ == 0.0) {  // sample on a steady arc only
+    } else if (void_lock_s_ == 0.0) {
       sum_v_ += in.voltage_v;
       sampled_s_ += dt_;
-      if (sampled_s_ >= s_.sample_s) target_v_ = sum_v_ / (sampled_s_ / dt_);
+      ++samples_;
+      if (sampled_s_ >= s_.sample_s) target_v_ = sum_v_ / static_cast<double>(samples_);
     }
   }
+  if (armed_ && target_v_ > 0.0 && std::abs(in.voltage_v - target_v_) <= s_.threshold_v) holding_ = true;
   active_ = armed_ && target_v_ > 0.0 && in.allowed && !velocity_lock_ && void_lock_s_ == 0.0;
   if (active_) {
     const double e = in.voltage_v - target_v_;

@@ -14,14 +14,19 @@
 //
 // and the height target is the cut height + z (a long arc, V high: down; a short one: up).
 //
-//   arming      the cut has run at (99 % of) its programmed feed for delay_s; the target V* is
-//               the material's cut volts, or the mean voltage over the next sample_s
+//   target      the material's cut volts, or the mean voltage over the first sample_s of the
+//               cut, where the height sense has just set the height (on a warped sheet a
+//               sample taken later would hold whatever height the warp had drifted to)
+//   arming      the cut has run at (99 % of) its programmed feed for delay_s
+//   holding     from the first period after arming with |e| <= threshold_v to the end of the
+//               cut: the height THC holds (the figures of a cut are taken over these periods)
 //   velocity    anti-dive: locked (z held) while the commanded speed is below
 //               velocity_anti_dive_pct of the segment's feed: corners and small holes slow
 //               the torch, the arc lengthens behind it and the voltage lies
-//   void        anti-dive: locked while the voltage rises faster than void_anti_dive_v_per_s
-//               (filtered over 10 ms), and 50 ms after: the arc over a kerf cut earlier or a
-//               hole stretches into it, and following it would dive into the plate
+//   void        anti-dive: locked when the voltage rises faster than void_anti_dive_v_per_s
+//               (filtered over 10 ms), until it is back within threshold_v of where it was
+//               before the rise, and 50 ms after: the arc over a kerf cut earlier or a hole
+//               stretches into it, and following it would dive into the plate
 //   allowed     the material's THC, the program's M62-M65 P2 (Stretch::thc_off) and the
 //               operator's switch (OperatorInputs::thc_enabled)
 //
@@ -31,10 +36,11 @@
 namespace machplan::executor {
 
 struct ThcSettings {
+  bool enabled = true;          // the machine's THC (plasma with a height axis); false: fixed cut height
   double delay_s = 0.5;
   double sample_s = 0.1;
   double threshold_v = 1.0;
-  double speed_mm_per_s_per_v = 3.0;
+  double speed_mm_per_s_per_v = 10.0;
   double max_speed_mm_per_s = 20.0;
   double velocity_anti_dive_pct = 90.0;
   double void_anti_dive_v_per_s = 200.0;
@@ -65,6 +71,7 @@ class ThcController {
   double correction_mm() const noexcept { return z_; }
   double target_v() const noexcept { return target_v_; }
   bool armed() const noexcept { return armed_; }
+  bool holding() const noexcept { return holding_; }
   // Acting this period: armed, the target known, allowed and not locked.
   bool active() const noexcept { return active_; }
   bool velocity_locked() const noexcept { return velocity_lock_; }
@@ -76,7 +83,10 @@ class ThcController {
   double z_ = 0.0, target_v_ = 0.0, given_v_ = 0.0;
   double at_feed_s_ = 0.0, sampled_s_ = 0.0, sum_v_ = 0.0;
   double v_filtered_ = 0.0, dv_filtered_ = 0.0, void_lock_s_ = 0.0;
-  bool armed_ = false, active_ = false, velocity_lock_ = false, primed_ = false;
+  double void_from_v_ = 0.0;  // the voltage before the rise that locked
+  bool void_rising_ = false;  // the rise has not come back yet
+  long samples_ = 0;
+  bool armed_ = false, active_ = false, velocity_lock_ = false, primed_ = false, holding_ = false;
 };
 
 }  // namespace machplan::executor

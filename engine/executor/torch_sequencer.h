@@ -20,6 +20,7 @@
 
 #include "engine/executor/machine_setup.h"
 #include "engine/hardware/backend.h"
+#include "engine/motion/job.h"
 
 namespace machplan::executor {
 
@@ -29,7 +30,7 @@ class TorchSequencer {
   enum class Failure { none, arc_start_failed, torch_height_timeout };
 
   void configure(const TorchSetup& t, double period_s) {
-    t_ = t;
+    t_ = base_ = t;
     dt_ = period_s;
     phase_ = Phase::idle;
     lit_ = false;
@@ -43,6 +44,16 @@ class TorchSequencer {
   // is higher (a rapid over parts already cut follows).
   void start_off(hardware::Outputs& out, double height_mm = 0.0) noexcept;
   void lower_to_cut_height(hardware::Outputs& out) noexcept;
+  // The cuts from the next start_on() on take their pierce height, pierce delay and cut height
+  // from `m` (a material of the job), or from the machine's setup when null. Real time.
+  void use_material(const motion::CutParameters* m) noexcept {
+    t_ = base_;
+    if (!m) return;
+    t_.pierce_height_mm = m->pierce_height_mm;
+    t_.pierce_delay_s = m->pierce_delay_s;
+    t_.cut_height_mm = m->cut_height_mm;
+  }
+  double cut_height_mm() const noexcept { return t_.cut_height_mm; }
   // Torch off and retract now (faults, stops); the sequence in progress is abandoned.
   void kill(hardware::Outputs& out) noexcept;
 
@@ -72,7 +83,7 @@ class TorchSequencer {
     return std::abs(in.torch_height_mm - h) <= t_.height_tolerance_mm;
   }
 
-  TorchSetup t_;
+  TorchSetup t_, base_;  // the cuts' settings now, and the machine's
   double dt_ = 0.001;
   Phase phase_ = Phase::idle;
   double pt_ = 0.0;  // time in the phase

@@ -10,10 +10,10 @@
 namespace machplan::executor {
 
 std::size_t format_trace_csv(const TraceSample& s, char* buf, std::size_t size) {
-  const auto r = fmt::format_to_n(buf, size, "{:.4f},{},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{},{},{:d},{:d},{:d}\n",
+  const auto r = fmt::format_to_n(buf, size, "{:.4f},{},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{},{},{:d},{:d},{:d},{:.4f},{:.4f},{:.2f}\n",
                                   s.t_s, s.step, s.commanded_mm.x(), s.commanded_mm.y(), s.measured_mm.x(),
                                   s.measured_mm.y(), s.true_mm.x(), s.true_mm.y(), s.dac_x, s.dac_y, s.drives_enabled,
-                                  s.torch_fire, s.arc_ok);
+                                  s.torch_fire, s.arc_ok, s.torch_height_mm, s.torch_gap_mm, s.arc_voltage_v);
   return std::min(r.size, size);
 }
 

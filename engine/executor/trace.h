@@ -11,7 +11,7 @@
 //                  full ring never blocks a real-time tick: the sample is dropped and counted
 //                  (a simulation faster than real time waits for the writer instead).
 // CSV columns (both): t_s,step,cmd_x_mm,cmd_y_mm,meas_x_mm,meas_y_mm,true_x_mm,true_y_mm,
-// dac_x,dac_y,enabled,torch_fire,arc_ok
+// dac_x,dac_y,enabled,torch_fire,arc_ok,torch_height_mm,torch_gap_mm (truth; nan: unknown),arc_v
 #pragma once
 
 #include <atomic>
@@ -37,10 +37,14 @@ struct TraceSample {
   bool drives_enabled = false;
   bool torch_fire = false;
   bool arc_ok = false;
+  double torch_height_mm = 0.0;  // the height axis' position (0 without one)
+  double torch_gap_mm = std::numeric_limits<double>::quiet_NaN();  // the backend's truth: torch to plate
+  double arc_voltage_v = 0.0;    // plasma: as measured (0: none)
 };
 
 inline constexpr const char* kTraceCsvHeader =
-    "t_s,step,cmd_x_mm,cmd_y_mm,meas_x_mm,meas_y_mm,true_x_mm,true_y_mm,dac_x,dac_y,enabled,torch_fire,arc_ok\n";
+    "t_s,step,cmd_x_mm,cmd_y_mm,meas_x_mm,meas_y_mm,true_x_mm,true_y_mm,dac_x,dac_y,enabled,torch_fire,arc_ok,"
+    "torch_height_mm,torch_gap_mm,arc_v\n";
 // One CSV line (with its newline) into `buf`; returns its length.
 std::size_t format_trace_csv(const TraceSample& s, char* buf, std::size_t size);
 

@@ -192,9 +192,10 @@ MachineConfig machine_from_yaml(const Yaml& root) {
     }
   }
   if (const auto th = root.get("thc")) {
-    th->reject_unknown_keys({"delay_s", "sample_s", "threshold_v", "speed_mm_per_s_per_v", "max_speed_mm_per_s",
+    th->reject_unknown_keys({"enabled", "delay_s", "sample_s", "threshold_v", "speed_mm_per_s_per_v", "max_speed_mm_per_s",
                              "velocity_anti_dive_pct", "void_anti_dive_v_per_s", "max_correction_mm"});
     executor::ThcSettings& c = m.thc;
+    c.enabled = th->boolean_or("enabled", c.enabled);
     c.delay_s = th->number_or("delay_s", c.delay_s, {.min = 0.0, .max = 60.0});
     c.sample_s = th->number_or("sample_s", c.sample_s, {.min = 0.0, .max = 10.0, .min_exclusive = true});
     c.threshold_v = th->number_or("threshold_v", c.threshold_v, {.min = 0.0, .max = 50.0});

@@ -120,7 +120,7 @@ void SimBackend::advance(const hardware::Outputs& out) {
       case FaultInjection::Kind::estop: estop_ = true; break;
       case FaultInjection::Kind::lost_backend: lost_ = true; break;
       case FaultInjection::Kind::stuck_axis: plants_[f.axis]->set_stuck(true); break;
-      case FaultInjection::Kind::arc_loss: arc_lost_ = true; break;
+      case FaultInjection::Kind::arc_loss: arc_loss_pending_ = true; break;
       case FaultInjection::Kind::arc_start_failure: arc_start_fails_ = true; break;
       case FaultInjection::Kind::watchdog: watchdog_ = true; break;
     }
@@ -144,9 +144,7 @@ void SimBackend::advance(const hardware::Outputs& out) {
     else effective_[k] = 1;
   }
   if (starting) {
-    // A loss that has put an arc out is over: a new start may take. One that fired between
-    // cuts waits for the arc it meets.
-    if (arc_loss_took_) arc_lost_ = arc_loss_took_ = false;
+    arc_lost_ = false;  // a lost arc stays out until the torch fires again
     cut_id_ = static_cast<std::uint16_t>(cut_id_ == 65535 ? 1 : cut_id_ + 1);
     ++arc_starts_;
     arc_timer_s_ = 0.0;
@@ -158,7 +156,13 @@ void SimBackend::advance(const hardware::Outputs& out) {
   } else if (m_.torch.kind == executor::TorchSetup::Kind::plasma) {
     arc_timer_s_ += dt;
     arc_burning_ = !arc_fails_ && !arc_lost_ && arc_timer_s_ >= m_.torch.plasma.arc_start_delay_s;
-    if (arc_lost_ && !starting) arc_loss_took_ = true;
+    // An injected loss puts out the first arc it meets that has pierced (one that fired
+    // between cuts waits for the next cut to start moving).
+    const double pierced_s = m_.torch.plasma.arc_start_delay_s + m_.torch.plasma.pierce_delay_s + 0.1;
+    if (arc_burning_ && arc_loss_pending_ && arc_timer_s_ >= pierced_s) {
+      arc_burning_ = arc_loss_pending_ = false;
+      arc_lost_ = true;
+    }
   } else {
     arc_burning_ = true;
   }
@@ -213,8 +217,8 @@ void SimBackend::burn_and_measure(double) noexcept {
   const long cx = std::lround(p.x() / 2.0) + 1, cy = std::lround(p.y() / 2.0) + 1;
   if (cx >= 0 && cy >= 0 && cx < kerf_nx_ && cy < kerf_ny_) {
     std::uint16_t& cell = kerf_cells_[static_cast<std::size_t>(cy * kerf_nx_ + cx)];
-    over_kerf_ = cell != 0 && cell != cut_id_;
-    cell = cut_id_;
+    if (cell == 0) cell = cut_id_;  // the first cut to burn it
+    over_kerf_ = cell != cut_id_;
   }
   double gap = m_.torch_height.cut_height_mm;
   true_torch_gap(gap);

@@ -142,7 +142,7 @@ class SimBackend final : public hardware::Backend {
   double time_s_ = 0.0;
   long ticks_ = 0;
   bool enabled_ = false, fire_ = false, arc_burning_ = false, arc_fails_ = false, arc_lost_ = false,
-       arc_loss_took_ = false;
+       arc_loss_pending_ = false;
   double arc_timer_s_ = 0.0;
   int arc_starts_ = 0;
   double height_mm_ = 0.0, height_target_mm_ = 0.0, ihs_left_s_ = 0.0;

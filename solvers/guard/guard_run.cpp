@@ -77,6 +77,9 @@ void GuardRunOptions::validate() const {
                 "finish_allowance_mm", finish_allowance_mm, "mm must be in [0, 10]");
   require_field(std::isfinite(max_session_s) && max_session_s > 0 && max_session_s <= 86400, "max_session_s",
                 max_session_s, "s must be in (0, 86400]");
+  require_field(backend != "hal" || op.kind != OperatorSpec::Kind::random, "backend", backend,
+                "cannot drive the random operator: its strokes each start somewhere else, which a real machine "
+                "cannot; use a script, joystick or keys");
   validate_member("region", region);
   validate_member("guard", guard);
 }
@@ -99,6 +102,7 @@ struct Rig {
   session::MachineSessionOptions session(executor::Mode mode, std::uint64_t seed, bool realtime) const {
     session::MachineSessionOptions so;
     so.machine_config = machine;
+    so.backend.name = o.backend;
     so.backend.sim.seed = seed;
     so.backend.sim.realtime = realtime;
     so.executor.mode = mode;

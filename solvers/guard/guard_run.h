@@ -71,6 +71,9 @@ struct GuardRunOptions {
   double finish_allowance_mm = 0.0;     // > 0: first pass this far off the profile, then the final one
   std::uint64_t seed = 1;
   double max_session_s = 3600.0;        // a live or scripted session ends after this
+  // The machine: "sim" (the simulated table) or "hal" (through LinuxCNC's HAL; not with the
+  // random operator, whose strokes each start somewhere else).
+  std::string backend = "sim";
   void validate() const;                // InputError::field naming the field ("guard.tolerance_mm")
 };
 

@@ -123,6 +123,7 @@ hardware::Backend& MachineSession::backend(const Eigen::Vector2d& start_mm) {
   if (!m.backend) {
     backends::BackendOptions bo = m.o.backend;
     bo.sim.start_mm = start_mm;
+    bo.hal.start_mm = start_mm;  // a position-mode machine must stand there
     m.backend = backends::make_backend(m.machine, bo);
     m.merged = std::make_unique<hardware::OperatorMerge>(*m.backend, m.channel);
   }

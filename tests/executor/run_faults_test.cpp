@@ -67,8 +67,8 @@ TEST_P(Signals, StopTheMachineWriteTheReportAndTraceAndExitThree) {
   std::size_t lines = 0;
   const auto row = last_trace_row(trace, lines);
   EXPECT_GT(lines, before);  // the controlled stop was streamed after what was there at the signal
-  // t_s,...,dac_y,enabled,torch_fire,arc_ok: the state after the last period
-  ASSERT_EQ(row.size(), 13u);
+  // t_s,...,dac_y,enabled,torch_fire,arc_ok,...: the state after the last period
+  ASSERT_EQ(row.size(), 16u);
   EXPECT_EQ(row[10], "0");  // drives disabled
   EXPECT_EQ(row[11], "0");  // torch off
 }
@@ -139,9 +139,9 @@ TEST(Inject, BadValuesExitTwoNamingTheFlag) {
     EXPECT_EQ(r.code, 2) << bad;
     EXPECT_THAT(r.err, HasSubstr("--inject")) << bad;
   }
-  const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", "thermal_gantry", "--backend", "hal"});
+  const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", "thermal_gantry", "--backend", "linuxcnc"});
   EXPECT_EQ(r.code, 2);
-  EXPECT_THAT(r.err, HasSubstr("--backend: unknown backend 'hal' (known: sim)"));
+  EXPECT_THAT(r.err, HasSubstr("--backend: unknown backend 'linuxcnc' (known: sim, hal)"));
 }
 
 TEST(Supervision, ALoopThatCannotHoldThePathIsAFault) {

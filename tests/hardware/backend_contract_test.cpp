@@ -5,18 +5,22 @@
 // contract is about (missed exchanges, an open E-stop chain, a lost link). A backend that
 // cannot be told to do something in a test (a real controller) provides the hook through its
 // simulator or test mode.
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
 
 #include "engine/hardware/backend.h"
+#include "engine/hardware/hal_backend.h"
 #include "models/backends/backend_factory.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
+#include "tests/support/hal_sim.h"
 #include "tests/support/ideal_backend.h"
 
 namespace machplan::hardware {
@@ -66,11 +70,40 @@ Harness ideal_harness(const cutting::MachineConfig& m) {
   return h;
 }
 
+// The HAL-simulated thermal gantry (scripts/hal-sim, position mode), brought up once for all
+// the tests (ctest's hal_sim_down stops it): before each, the threads run, the E-stop chain is
+// closed and the resting axes are homed at 500, 500. Missed exchanges are counted in the
+// component's own periods; the link is lost by stopping HAL's threads.
+Harness hal_harness(const cutting::MachineConfig& m) {
+  test::ensure_hal_sim();
+  auto pins = std::make_shared<test::HalPins>();
+  pins->start_threads();
+  pins->set_signal("estop-open", 0);
+  test::hal_sim("home 500 500");
+  backends::BackendOptions o;
+  o.name = "hal";
+  o.hal.start_mm = {500, 500};
+  auto b = backends::make_backend(m, o);
+  auto* hal = dynamic_cast<HalBackend*>(b.get());
+  Harness h;
+  h.miss_exchanges = [hal, pins](int n) {
+    const double until = static_cast<double>(hal->last_period()) + n;
+    const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (pins->number("machplan.period-count") < until && std::chrono::steady_clock::now() < limit)
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+  };
+  h.open_estop = [pins] { pins->set_signal("estop-open", 1); };
+  h.lose_link = [pins] { pins->stop_threads(); };
+  h.backend = std::move(b);
+  return h;
+}
+
 // ---- every backend: one line each ----
 const Entry kBackends[] = {
     {"sim", sim_harness},
     {"ideal_dac", ideal_harness<test::IdealDacBackend>},
     {"ideal_position", ideal_harness<test::IdealPositionBackend>},
+    {"hal", hal_harness},
 };
 
 class BackendContract : public ::testing::TestWithParam<Entry> {
@@ -209,7 +242,7 @@ TEST(BackendFactory, UnknownNameListsTheKnownOnes) {
     backends::make_backend(gantry(), o);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("name: unknown backend 'linuxcnc-typo' (known: sim)"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("name: unknown backend 'linuxcnc-typo' (known: sim, hal)"), std::string::npos)
         << e.what();
   }
 }

@@ -82,7 +82,7 @@ Cli::Cli() {
 
 CliProcess Cli::spawn(const std::vector<std::string>& words, const CliIo& io) const {
   std::vector<std::string> argv;
-  if (network_namespace()) argv = {"unshare", "-rn", "--"};
+  if (io.isolate && network_namespace()) argv = {"unshare", "-rn", "--"};
   argv.insert(argv.end(), words.begin(), words.end());
 
   std::vector<std::string> env;

@@ -39,6 +39,10 @@ struct CliIo {
   std::string stdin_path = "/dev/null";
   std::string stdout_path;    // empty: captured into CliResult::out
   std::filesystem::path cwd;  // empty: the source tree
+  // A network namespace of its own (no network) where the system allows one. Off for runs
+  // that drive a machine through HAL: in the namespace's user namespace the process may not
+  // lock its memory or take a real-time priority.
+  bool isolate = true;
 };
 
 class CliProcess;

@@ -1,0 +1,250 @@
+// The plasma process as a plasma table runs it: torch height control from the arc voltage on a
+// warped sheet, its anti-dive at corners and over kerfs cut earlier, and cut recovery after a
+// lost arc.
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include "engine/hardware/operator_events.h"
+#include "models/cutting/machine_config.h"
+#include "solvers/motion/run.h"
+#include "solvers/session/machine_session.h"
+#include "tests/support/temp_dir.h"
+
+namespace machplan::motion {
+namespace {
+
+using executor::CutError;
+using executor::TraceSample;
+
+std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+
+cutting::MachineConfig gantry() { return cutting::load_machine(cutting::find_machine("thermal_gantry")); }
+
+RunOutcome run_on(const std::string& path, const cutting::MachineConfig& m, const std::string& events = "",
+                  std::optional<std::pair<double, double>> warp = std::nullopt) {
+  RunOptions o;
+  o.session.machine_config = m;
+  o.session.backend.sim.sheet_warp_mm = warp;
+  if (!events.empty()) o.session.backend.sim.operator_events = hardware::parse_operator_events(events, "events.csv").states;
+  return run_program(path, o);
+}
+
+struct ThcWorst {
+  double max_mm = 0.0, velocity_change_mm = 0.0, void_change_mm = 0.0;
+  int cuts = 0;
+};
+ThcWorst worst_thc(const std::vector<CutError>& cuts) {
+  ThcWorst w;
+  for (const CutError& c : cuts) {
+    if (c.thc.samples == 0) continue;
+    ++w.cuts;
+    w.max_mm = std::max(w.max_mm, c.thc.max_mm);
+    w.velocity_change_mm = std::max(w.velocity_change_mm, c.thc.velocity_lock_change_mm);
+    w.void_change_mm = std::max(w.void_change_mm, c.thc.void_lock_change_mm);
+  }
+  return w;
+}
+
+TEST(Thc, HoldsTheCutHeightWithinAThirdOfAMillimetreOnASheetWarpedThreeMillimetres) {
+  const auto warp = std::make_pair(3.0, 1000.0);
+  const RunOutcome with = run_on(part("nested_sheet.ngc"), gantry(), "", warp);
+  ASSERT_TRUE(with.summary.done()) << with.summary.full_report();
+  const ThcWorst w = worst_thc(with.result.cuts);
+  ASSERT_GT(w.cuts, 5);
+  std::printf("THC on, +-3 mm warp: torch height within %.3f mm of the cut height; height change under velocity "
+              "anti-dive at most %.3f mm\n", w.max_mm, w.velocity_change_mm);
+  EXPECT_LT(w.max_mm, 0.3);
+  EXPECT_LT(w.velocity_change_mm, 0.2);  // no dive at corners and small holes
+
+  // The operator's THC switch off: the torch rides the warp.
+  const RunOutcome without = run_on(part("nested_sheet.ngc"), gantry(), "t_s,event,value\n0,thc,0\n", warp);
+  ASSERT_TRUE(without.summary.done()) << without.summary.full_report();
+  const ThcWorst o = worst_thc(without.result.cuts);
+  std::printf("THC off, +-3 mm warp: off by up to %.3f mm\n", o.max_mm);
+  EXPECT_GT(o.max_mm, 1.0);
+  EXPECT_GT(o.max_mm, 4 * w.max_mm);
+}
+
+// Two long cuts at right angles, the second crossing the first's kerf on a flat sheet.
+std::string crossing_program(const test::TempDir& dir) {
+  return dir.write("crossing.ngc", "G21 G90\n"
+                                   "G0 X20 Y150\nM3 S1\nG1 X280 Y150 F2000\nM5\n"
+                                   "G0 X150 Y20\nM3 S1\nG1 X150 Y280 F2000\nM5\nM2\n");
+}
+
+TEST(Thc, DoesNotDiveWhereACutCrossesAnEarlierKerf) {
+  test::TempDir dir;
+  const std::string path = crossing_program(dir);
+  const RunOutcome r = run_on(path, gantry());
+  ASSERT_TRUE(r.summary.done()) << r.summary.full_report();
+  ASSERT_EQ(r.result.cuts.size(), 2u);
+  const CutError& second = r.result.cuts[1];
+  ASSERT_GT(second.thc.samples, 1000u);
+  std::printf("kerf crossing: height change while void-locked %.3f mm, worst height error %.3f mm\n",
+              second.thc.void_lock_change_mm, second.thc.max_mm);
+  EXPECT_GT(second.thc.void_lock_change_mm + second.thc.max_mm, 0.0);  // measured
+  EXPECT_LT(second.thc.void_lock_change_mm, 0.2);
+  EXPECT_LT(second.thc.max_mm, 0.3);
+
+  // Without the void anti-dive (a threshold no rise reaches) the torch dives over the kerf.
+  cutting::MachineConfig m = gantry();
+  m.thc.void_anti_dive_v_per_s = 1e6;
+  const RunOutcome dives = run_on(path, m);
+  ASSERT_TRUE(dives.summary.done()) << dives.summary.full_report();
+  std::printf("kerf crossing without void anti-dive: worst height error %.3f mm\n", dives.result.cuts[1].thc.max_mm);
+  EXPECT_GT(dives.result.cuts[1].thc.max_mm, 0.3);
+}
+
+// The longest stretch of a cut's programmed path farther than `reach` from every point the
+// arc burned at (truth), mm.
+double longest_uncut_mm(const Job& job, const std::vector<TraceSample>& trace, double reach) {
+  const double cell = 2.0;
+  std::map<std::pair<long, long>, std::vector<Eigen::Vector2d>> burned;
+  const auto key = [&](const Eigen::Vector2d& p) {
+    return std::make_pair(static_cast<long>(std::floor(p.x() / cell)), static_cast<long>(std::floor(p.y() / cell)));
+  };
+  for (const TraceSample& s : trace)
+    if (s.arc_ok && s.torch_fire && s.true_mm.allFinite()) burned[key(s.true_mm)].push_back(s.true_mm);
+  const auto cut = [&](const Eigen::Vector2d& p) {
+    const auto [kx, ky] = key(p);
+    for (long dx = -1; dx <= 1; ++dx)
+      for (long dy = -1; dy <= 1; ++dy) {
+        const auto it = burned.find({kx + dx, ky + dy});
+        if (it == burned.end()) continue;
+        for (const Eigen::Vector2d& q : it->second)
+          if ((p - q).norm() <= reach) return true;
+      }
+    return false;
+  };
+  double worst = 0.0;
+  for (const Stretch& s : job.stretches) {
+    if (!s.cutting) continue;
+    double gap = 0.0;
+    for (const Segment& seg : s.segments) {
+      const double len = length(seg);
+      const int n = std::max(1, static_cast<int>(std::ceil(len / 0.1)));
+      for (int i = 0; i < n; ++i) {
+        gap = cut(point_at(seg, static_cast<double>(i) / n)) ? 0.0 : gap + len / n;
+        worst = std::max(worst, gap);
+      }
+    }
+  }
+  return worst;
+}
+
+TEST(CutRecovery, TenArcLossesAreRecoveredAndTheCutsLeaveNoGapLongerThanTheKerf) {
+  cutting::MachineConfig m = gantry();
+  m.torch.plasma.recover_on_arc_loss = true;
+  RunOptions o;
+  o.session.machine_config = m;
+  o.session.executor.record_trace = true;
+  const PlannedRun plan = plan_program(part("nested_sheet.ngc"), o, m);
+  double cut_time = 0.0;  // the job's machine time, roughly
+  for (const auto& tr : plan.trajectories)
+    if (tr) cut_time += tr->duration_s();
+  // Seeded random instants at least 6 s apart; each recovery holds the job about 4 s, so the
+  // later instants move on with it (a loss that came during a hold would meet the re-pierced
+  // arc where the last one was: a repeated loss, which ends the job by design).
+  std::mt19937_64 rng(22);
+  std::vector<double> at;
+  while (at.size() < 10) {
+    const double t = std::uniform_real_distribution<double>(2.0, 0.75 * cut_time)(rng);
+    if (std::all_of(at.begin(), at.end(), [t](double u) { return std::abs(t - u) >= 6.0; })) at.push_back(t);
+  }
+  std::sort(at.begin(), at.end());
+  for (std::size_t i = 0; i < at.size(); ++i) {
+    sim::FaultInjection f;
+    f.kind = sim::FaultInjection::Kind::arc_loss;
+    f.at_s = at[i] + 4.5 * static_cast<double>(i);
+    o.session.backend.sim.faults.push_back(f);
+  }
+  session::MachineSession s(o.session);
+  auto run = s.start(plan.job, plan.trajectories, {});
+  // The executor takes the machine back to where the arc went out; the operator, at each
+  // hold, 3 mm further back along the cut, then cycle start.
+  hardware::OperatorInputs op;
+  int holds_seen = 0;
+  long held_ticks = 0;
+  bool pressed = false;
+  while (run->tick()) {
+    const executor::LiveState live = s.live().read();
+    if (live.run != executor::LiveState::Run::held) {
+      held_ticks = 0;
+      continue;
+    }
+    if (++held_ticks == 1) {
+      ++holds_seen;
+      op.recover_mm -= 3.0;
+      s.operator_inputs().set(op);
+    } else if (held_ticks == 1500 && !pressed) {
+      op.cycle_start = pressed = true;
+      s.operator_inputs().set(op);
+    } else if (held_ticks == 1520 && pressed) {
+      op.cycle_start = pressed = false;
+      s.operator_inputs().set(op);
+    }
+    if (held_ticks > 5000) FAIL() << "the hold was never released";
+  }
+  const executor::ExecutionResult r = run->finish();
+  ASSERT_EQ(r.status, executor::ExecutionResult::Status::completed) << r.report();
+  int recoveries = 0;
+  for (const executor::HoldReport& h : r.holds) {
+    if (!h.by_arc_loss) continue;
+    ++recoveries;
+    EXPECT_TRUE(std::isfinite(h.resumed_at_s));
+    // Back over the braking and 3 mm more (less only where the cut began closer than that).
+    EXPECT_LT(h.recovered_mm, -h.distance_to_stop_mm) << "at " << h.t_s << " s";
+    EXPECT_GT(h.repierce_s, 0.0);
+  }
+  EXPECT_EQ(recoveries, 10) << r.report();
+  EXPECT_EQ(holds_seen, 10);
+  const double kerf = 1.5;
+  const double gap = longest_uncut_mm(plan.job, r.trace, kerf / 2);
+  std::printf("10 arc losses recovered; the longest uncut stretch of the cuts: %.3f mm\n", gap);
+  EXPECT_LT(gap, kerf);
+}
+
+TEST(CutRecovery, AnArcLostAgainWithinAFewMillimetresEndsTheJob) {
+  cutting::MachineConfig m = gantry();
+  m.torch.plasma.recover_on_arc_loss = true;
+  RunOptions o;
+  o.session.machine_config = m;
+  const PlannedRun plan = plan_program(part("triangle_45.ngc"), o, m);
+  // Mid-cut, from a run without losses.
+  double mid_cut_s = 0.0;
+  {
+    session::MachineSession plain(o.session);
+    const executor::ExecutionResult r = plain.run(plan.job, plan.trajectories);
+    std::vector<double> burning;
+    for (const TraceSample& t : r.trace)
+      if (t.arc_ok && t.torch_fire) burning.push_back(t.t_s);
+    ASSERT_FALSE(burning.empty());
+    mid_cut_s = burning[burning.size() / 2];
+  }
+  // Two losses: the second waits for the arc the re-pierce lights, right where the first was.
+  for (double at : {mid_cut_s, mid_cut_s + 0.001}) {
+    sim::FaultInjection f;
+    f.kind = sim::FaultInjection::Kind::arc_loss;
+    f.at_s = at;
+    o.session.backend.sim.faults.push_back(f);
+  }
+  o.session.backend.sim.operator_events =
+      hardware::parse_operator_events(fmt::format("t_s,event,value\n{},start,\n", mid_cut_s + 2.0), "events.csv").states;
+  session::MachineSession s(o.session);
+  const executor::ExecutionResult r = s.run(plan.job, plan.trajectories);
+  ASSERT_EQ(r.status, executor::ExecutionResult::Status::faulted) << r.report();
+  EXPECT_EQ(r.faults.front().kind, executor::FaultKind::arc_lost);
+  EXPECT_TRUE(r.torch_off_at_end);
+  ASSERT_FALSE(r.holds.empty());
+  EXPECT_TRUE(r.holds.front().by_arc_loss);
+}
+
+}  // namespace
+}  // namespace machplan::motion
