@@ -112,7 +112,7 @@ class Builder {
       current_.segments.push_back(s);
       current_.feed_mm_per_s.push_back(feed);
       current_.source_lines.push_back(m.line);
-      current_.thc_off.push_back(words_.thc_off() ? 1 : 0);
+      current_.thc_off.push_back(!rapid && words_.thc_off() ? 1 : 0);  // rapids: no THC
     }
     if (!rapid && torch_on_ && given_feed == 0.0)
       if (const double length = words_.overcut_mm(m, a); length > 0.0) overcut(m, a, length, feed);

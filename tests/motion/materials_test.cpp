@@ -11,6 +11,7 @@
 #include "engine/motion/make_job.h"
 #include "engine/motion/materials.h"
 #include "engine/motion/plasma_words.h"
+#include "engine/motion/process_time.h"
 #include "engine/programs/gcode.h"
 
 namespace machplan::motion {
@@ -361,6 +362,26 @@ TEST(PlasmaWords, TheReaderReportsOnlyWhenAsked) {
   EXPECT_EQ(p.events[1].kind, ProgramEvent::Kind::magic_comment);
   EXPECT_EQ(p.events[1].text, "o=0, ph=3, pd=0, ch=1, fr=100");
   EXPECT_TRUE(plasma_word(p.events[0]));
+}
+
+}  // namespace
+}  // namespace machplan::motion
+
+namespace machplan::motion {
+namespace {
+
+TEST(PlasmaWords, ProcessTimeTakesEachCutsMaterialWhenAsked) {
+  const MaterialTable t = read_materials(kFile, "mats.cfg");
+  const Job j = plasma_job("M190 P7\nG0 X10\nM3 $0 S1\nG1 X50 F1000\nM5 $0\nM190 P2\nG0 Y10\nM3 $0 S1\nG1 X10\nM5 $0\nM2\n", &t);
+  TorchTimes times;
+  times.height = TorchTimes::Height{0.0, 10.0, 4.0, 2.0, 10.0, 0.0};
+  times.pierce_s = 2.0;
+  // Machine settings: 10 -> 4 -> 2 mm (0.8 s), 2 s pierce, 2 -> 10 mm (0.8 s), twice.
+  EXPECT_NEAR(process_time_s(j, times), 2 * (0.8 + 2.0 + 0.8), 1e-12);
+  times.use_materials = true;
+  // Material 7: 10 -> 3.2 (0.68 s), pierce 0.25 s + jump delay 0.1 s, 3.2 -> 1.6 (jump 50 %) -> 1.2
+  // (0.2 s), pause at end 0.15 s, 1.2 -> 10 (0.88 s). Material 2: 10 -> 4 -> 2 (0.8 s), 1 s, 2 -> 10 (0.8 s).
+  EXPECT_NEAR(process_time_s(j, times), (0.68 + 0.35 + 0.2 + 0.15 + 0.88) + (0.8 + 1.0 + 0.8), 1e-12);
 }
 
 }  // namespace
