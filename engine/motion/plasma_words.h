@@ -13,7 +13,9 @@
 //     (a value no program writes), and every move whose F is the marker gets the CUT_SPEED of
 //     the material in force, or JobOptions::machine_cut_feed_mm_per_s when none is (an
 //     InputError naming the line when that is 0 too). A feed written as a number is kept:
-//     the material's CUT_SPEED replaces only the feeds that ask for it.
+//     the material's CUT_SPEED replaces only the feeds that ask for it. (A line or arc with no F
+//     at all is refused by the reader, as LinuxCNC refuses it: QtPlasmaC programs ask for the
+//     material's feed through the parameter.)
 //     M67 / M68 E3 Qp run the feed moves that follow at p % of their feed (p <= 0 or >= 100:
 //     100 %), QtPlasmaC's velocity reduction.
 //   * THC: M62 / M64 P2 hold torch height control off for the segments that follow,

@@ -335,6 +335,17 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
   // The order of the cuts: the option, else the machine file's, else the program's own.
   CutOrderOptions order;
   order.order = options.order.value_or(cut_order_of(machine));
+  // QtPlasmaC's words are modal (a material, a velocity, THC off, a hole rule holds until the
+  // next one): cuts moved past them would change material. Such a program keeps its order.
+  if (order.order != CutOrder::program)
+    for (const ProgramEvent& e : program.events)
+      if (plasma_word(e)) {
+        warnings.push_back(fmt::format("{}:{}: cuts left in program order: the program sets materials, THC, velocity or "
+                                       "hole rules ({}), which hold from where they stand",
+                                       program.source, e.line, to_string(e.kind)));
+        order.order = CutOrder::program;
+        break;
+      }
   OrderedProgram ordered = order_cuts(program, order);
   program = std::move(ordered.program);
   warnings.insert(warnings.end(), ordered.report.warnings.begin(), ordered.report.warnings.end());

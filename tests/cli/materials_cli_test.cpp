@@ -21,12 +21,16 @@ const char* kProgram = "G21 G64 P0.1\nM52 P1\n"
                        "G0 X20 Y40\nM3 $0 S1\nG1 X80\nM5 $0\n"
                        "M190 P-1\nG0 X20 Y60\nM3 $0 S1\nG1 X80\nM5 $0\nG0 X0 Y0\nM2\n";
 
-TEST(MaterialsCli, CutsRunWithTheirMaterials) {
-  test::Cli cli;
+// Runs our program with our material file and `flags`.
+test::CliResult run_parts(const test::Cli& cli, const std::string& flags) {
   const std::string mats = cli.write("mats.cfg", kMaterials);
   const std::string prog = cli.write("parts.ngc", kProgram);
-  const test::CliResult r = cli.run("run '" + prog + "' --machine thermal_gantry --materials '" + mats +
-                                    "' --material 1 --origin 100,100 --json");
+  return cli.run("run '" + prog + "' --machine thermal_gantry --materials '" + mats + "' --origin 100,100 " + flags);
+}
+
+TEST(MaterialsCli, CutsRunWithTheirMaterials) {
+  test::Cli cli;
+  const test::CliResult r = run_parts(cli, "--material 1 --json");
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   ASSERT_EQ(j["materials"].size(), 2u);
@@ -39,7 +43,7 @@ TEST(MaterialsCli, CutsRunWithTheirMaterials) {
   EXPECT_DOUBLE_EQ(j["materials"][0]["kerf_mm"].get<double>(), 2.0);
   EXPECT_DOUBLE_EQ(j["materials"][0]["cut_feed_mm_per_min"].get<double>(), 1500.0);
   // No note calls M190 or M66 ignored; the report lists the materials with their kerf.
-  const test::CliResult text = cli.run("run '" + prog + "' --machine thermal_gantry --materials '" + mats + "' --origin 100,100");
+  const test::CliResult text = run_parts(cli, "");
   ASSERT_EQ(text.code, 0) << text.err;
   EXPECT_THAT(text.out, ::testing::Not(HasSubstr("user_m_code")));
   EXPECT_THAT(text.out, ::testing::Not(HasSubstr("wait_input")));
@@ -65,6 +69,13 @@ TEST(MaterialsCli, BadFilesAndFlagsExitTwoNamingWhere) {
   const test::CliResult unknown = cli.run("run '" + prog + "' --machine thermal_gantry --materials '" + mats + "' --material 5");
   EXPECT_EQ(unknown.code, 2);
   EXPECT_THAT(unknown.err, HasSubstr("--material: material 5 is not in"));
+}
+
+TEST(MaterialsCli, ProgramsThatChangeMaterialKeepTheirOrder) {
+  test::Cli cli;
+  const test::CliResult r = run_parts(cli, "--material 1 --order nearest");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("parts.ngc:3: cuts left in program order"));
 }
 
 }  // namespace

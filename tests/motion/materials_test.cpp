@@ -364,12 +364,6 @@ TEST(PlasmaWords, TheReaderReportsOnlyWhenAsked) {
   EXPECT_TRUE(plasma_word(p.events[0]));
 }
 
-}  // namespace
-}  // namespace machplan::motion
-
-namespace machplan::motion {
-namespace {
-
 TEST(PlasmaWords, ProcessTimeTakesEachCutsMaterialWhenAsked) {
   const MaterialTable t = read_materials(kFile, "mats.cfg");
   const Job j = plasma_job("M190 P7\nG0 X10\nM3 $0 S1\nG1 X50 F1000\nM5 $0\nM190 P2\nG0 Y10\nM3 $0 S1\nG1 X10\nM5 $0\nM2\n", &t);
