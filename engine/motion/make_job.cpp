@@ -130,6 +130,7 @@ class Builder {
     st.seconds = kind == Step::Kind::dwell ? m.seconds : 0.0;
     job_.steps.push_back(st);
     if (kind == Step::Kind::torch_on) {
+      torch_disabled_ = skip_cuts_ = false;  // a new cut, even without an M5 before it
       job_.steps.back().material = words_.torch_on_material();
       torch_on_ = true;
       if (words_.pierce_only()) {  // pierce, and leave the cut out

@@ -47,7 +47,7 @@ void PlasmaWords::before_move(std::size_t index) {
 }
 
 const CutParameters* PlasmaWords::in_force() const {
-  if (current_ == kTemporary) return &job_.materials[static_cast<std::size_t>(temporary_)];
+  if (current_ == kTemporary) return &temporary_material_;
   if (current_ < 0) return nullptr;
   if (auto it = edited_.find(current_); it != edited_.end()) return &it->second;
   return options_.materials ? options_.materials->find(current_) : nullptr;
@@ -88,9 +88,9 @@ void PlasmaWords::event(const ProgramEvent& e) {
     case K::magic_comment: {
       const MaterialComment c =
           read_material_comment(e.text, program_.source, e.line, e.mode == 20 ? kMmPerInch : 1.0);
-      if (c.option == 0) {
-        job_.materials.push_back(c.material);
-        temporary_ = static_cast<int>(job_.materials.size() - 1);
+      if (c.option == 0) {  // joins Job::materials at its first cut
+        temporary_material_ = c.material;
+        temporary_ = -1;
         current_ = kTemporary;
         return;
       }
@@ -126,7 +126,13 @@ void PlasmaWords::event(const ProgramEvent& e) {
 }
 
 int PlasmaWords::torch_on_material() {
-  if (current_ == kTemporary) return temporary_;
+  if (current_ == kTemporary) {
+    if (temporary_ < 0) {
+      job_.materials.push_back(temporary_material_);
+      temporary_ = static_cast<int>(job_.materials.size() - 1);
+    }
+    return temporary_;
+  }
   const CutParameters* c = in_force();
   if (!c) return -1;
   if (auto it = used_.find(current_); it != used_.end()) return it->second;

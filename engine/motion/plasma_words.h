@@ -89,7 +89,8 @@ class PlasmaWords {
   std::map<int, CutParameters> edited_;   // o=1 / o=2 materials of this program
   std::map<int, int> used_;               // material number -> Job::materials index
   int current_ = -1;                      // material number in force (-1: the machine's)
-  int temporary_ = -1;                    // Job::materials index of the temporary material in force
+  CutParameters temporary_material_;      // the temporary material in force (current_ kTemporary)
+  int temporary_ = -1;                    // its Job::materials index once a cut used it
   bool thc_off_ = false;
   bool torch_disable_ = false;
   double velocity_pct_ = 100.0;

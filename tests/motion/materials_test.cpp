@@ -251,6 +251,18 @@ TEST(PlasmaWords, TemporaryMaterialsAndInchComments) {
   EXPECT_NEAR(j.materials[2].pierce_height_mm, 2.54, 1e-12);
 }
 
+TEST(PlasmaWords, OnlyTheMaterialsCutsUseJoinTheJob) {
+  const Job j = plasma_job("(o=0, na=unused, ph=3, pd=0.1, ch=1, fr=1800)\n(o=0, na=used, ph=3, pd=0.1, ch=1, fr=2400)\n"
+                           "G0 X10\nM3 $0 S1\nG1 X20 F100\nM62 P3\nG1 X25\nM3 $0 S1\nG1 X30\nM5 $0\nM2\n");
+  ASSERT_EQ(j.materials.size(), 1u);
+  EXPECT_EQ(j.materials[0].name, "used");
+  // The torch disabled by M62 P3 and lit again by an M3 without an M5 between: that M3's cut
+  // ends with its own M5.
+  EXPECT_EQ(steps_of(j, Step::Kind::torch_on).size(), 2u);
+  EXPECT_EQ(steps_of(j, Step::Kind::torch_off).size(), 2u);
+  EXPECT_EQ(j.steps.back().kind, Step::Kind::torch_off);
+}
+
 TEST(PlasmaWords, NumberedCommentsAddOrReplaceForThisProgram) {
   const MaterialTable t = read_materials(kFile, "mats.cfg");
   const Job j = plasma_job("(o=1, nu=7, ph=9, pd=9, ch=9, fr=100)\n(o=2, nu=2, ph=3, pd=0.1, ch=1, fr=3000)\n"
