@@ -32,11 +32,13 @@ double process_time_s(const Job& job, const TorchTimes& times) {
   double t = 0.0;
   double waiting_mm = times.height ? times.height->retract_mm : 0.0;  // where the torch waits between cuts
   const CutParameters* material = nullptr;                           // of the cut in progress
+  bool lit = false;  // a torch_off after another (a second M5) finds the torch up already
   for (std::size_t i = 0; i < job.steps.size(); ++i) {
     const Step& s = job.steps[i];
     switch (s.kind) {
       case Step::Kind::torch_on: {
         material = times.use_materials ? material_of(job, s) : nullptr;
+        lit = true;
         if (const auto& h = times.height) t += torch_on_heights_s(waiting_mm, *h, material);
         else t += times.torch_on_s;
         t += times.start_s;
@@ -48,12 +50,14 @@ double process_time_s(const Job& job, const TorchTimes& times) {
       case Step::Kind::torch_off:
         if (material) t += material->pause_at_end_s;
         if (const auto& h = times.height) {
+          const double from_mm = !lit ? waiting_mm : material ? material->cut_height_mm : h->cut_mm;
           waiting_mm = std::max(h->retract_mm, s.height_mm);
-          t += height_move_s(material ? material->cut_height_mm : h->cut_mm, waiting_mm, *h);
+          t += height_move_s(from_mm, waiting_mm, *h);
         } else {
           t += times.torch_off_s;
         }
         material = nullptr;
+        lit = false;
         break;
       case Step::Kind::dwell: t += s.seconds; break;
       case Step::Kind::move: break;

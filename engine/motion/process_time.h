@@ -25,8 +25,9 @@ struct TorchTimes {
   // A torch height axis: each torch_on senses the plate, goes down from where the torch waits
   // to the pierce height and, after the pierce, to the cut height; each torch_off goes up to
   // the retract height, or to its own step's height when that is higher (a rapid over cut
-  // parts follows), where the torch then waits. Moves within `tolerance_mm` of their target
-  // cost nothing.
+  // parts follows), where the torch then waits; a torch_off with no cut lit (a second M5, an
+  // M6 before the first cut) goes there from where the torch waits. Moves within
+  // `tolerance_mm` of their target cost nothing.
   struct Height {
     double sense_s = 0.0, retract_mm = 0.0, pierce_mm = 0.0, cut_mm = 0.0, speed_mm_per_s = 1.0, tolerance_mm = 0.0;
   };

@@ -388,6 +388,11 @@ TEST(PlasmaWords, ProcessTimeTakesEachCutsMaterialWhenAsked) {
   // Material 7: 10 -> 3.2 (0.68 s), pierce 0.25 s + jump delay 0.1 s, 3.2 -> 1.6 (jump 50 %) -> 1.2
   // (0.2 s), pause at end 0.15 s, 1.2 -> 10 (0.88 s). Material 2: 10 -> 4 -> 2 (0.8 s), 1 s, 2 -> 10 (0.8 s).
   EXPECT_NEAR(process_time_s(j, times), (0.68 + 0.35 + 0.2 + 0.15 + 0.88) + (0.8 + 1.0 + 0.8), 1e-12);
+  // A torch_off with no cut lit (an M6 before the first cut, a second M5) finds the torch up.
+  times.use_materials = false;
+  const Job twice = plasma_job("M6 T0\nG0 X10\nM3 $0 S1\nG1 X50 F1000\nM5 $0\nM5 $-1\nM2\n");
+  EXPECT_EQ(steps_of(twice, Step::Kind::torch_off).size(), 3u);
+  EXPECT_NEAR(process_time_s(twice, times), 0.8 + 2.0 + 0.8, 1e-12);
 }
 
 }  // namespace
