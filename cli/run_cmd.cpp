@@ -90,6 +90,8 @@ struct RunArgs {
   double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
   std::string operator_events;
   int from_line = 0;
+  std::string materials;
+  int material = -1;
 };
 
 // Which flag sets which field of RunOptions and of its machine session, for the error path
@@ -116,6 +118,7 @@ const FieldFlag kRunFields[] = {
     {"magnify", "--magnify"},
     {"plot", "--plot"},
     {"from_line", "--from-line"},
+    {"default_material", "--material"},
 };
 
 motion::RunOptions run_options(const RunArgs& a) {
@@ -145,6 +148,8 @@ motion::RunOptions run_options(const RunArgs& a) {
   }
   so.store_path = a.db;
   if (!a.kerf.empty()) o.kerf_mm = number_of("--kerf", a.kerf);
+  o.materials_path = a.materials;
+  o.default_material = a.material;
   if (!a.feed.empty()) {
     o.feed_override_mm_per_s = number_of("--feed", a.feed);
     if (!(o.feed_override_mm_per_s > 0)) throw InputError("--feed", 0, fmt::format("{} must be > 0 mm/s", a.feed));
@@ -254,6 +259,10 @@ void add_run(CLI::App& app) {
                   "$XDG_DATA_HOME/machplan/calibration.db)");
   cmd->add_option("--kerf", a->kerf, "kerf width, mm: closed cuts are offset by half of it (default 0: as programmed)");
   cmd->add_option("--feed", a->feed, "run every feed move at this speed, mm/s, instead of its F (the paper: 4)");
+  cmd->add_option("--materials", a->materials,
+                  "QtPlasmaC material file ([MATERIAL_NUMBER_n] sections, mm) the program's M190 Pn select from");
+  cmd->add_option("--material", a->material,
+                  "the material number in force when the program selects none (default: the machine's torch settings)");
   cmd->add_option("--no-go", a->no_go, "YAML file of no-go zones (clamps) the rapids must avoid");
   cmd->add_option("--trace", a->trace, "write the servo-period trace as CSV");
   cmd->add_option("--plot", a->plot, "write a top view, programmed against executed path (.png or .svg)");

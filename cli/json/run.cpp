@@ -1,6 +1,7 @@
 #include "cli/json/run.h"
 
 #include <cmath>
+#include <vector>
 
 #include "cli/json/executor.h"
 
@@ -44,6 +45,35 @@ nlohmann::json to_json(const motion::RunOutcome& run) {
     if (!r.reason.empty())
       detours.push_back({{"source_line", r.source_line}, {"extra_length_mm", r.extra_length_mm}, {"reason", r.reason}});
   j["rapids"]["detours"] = detours;
+  // The materials the cuts used (QtPlasmaC's material file or the program's material comments)
+  // and, per cut, the index of its material in that list (null: the machine's torch settings).
+  nlohmann::json materials = nlohmann::json::array();
+  for (const CutParameters& c : run.job.materials)
+    materials.push_back({{"number", c.number},
+                         {"name", c.name},
+                         {"cut_feed_mm_per_min", c.cut_feed_mm_per_s * 60.0},
+                         {"pierce_height_mm", c.pierce_height_mm},
+                         {"pierce_delay_s", c.pierce_delay_s},
+                         {"cut_height_mm", c.cut_height_mm},
+                         {"kerf_mm", c.kerf_mm},
+                         {"thc", c.thc},
+                         {"puddle_jump_height_pct", c.puddle_jump_height_pct},
+                         {"puddle_jump_delay_s", c.puddle_jump_delay_s},
+                         {"cut_amps", c.cut_amps},
+                         {"cut_volts", c.cut_volts},
+                         {"pause_at_end_s", c.pause_at_end_s}});
+  j["materials"] = materials;
+  std::vector<int> material_of(run.job.stretches.size(), -1);
+  int lit = -1;
+  for (const Step& st : run.job.steps) {
+    if (st.kind == Step::Kind::torch_on) lit = st.material;
+    if (st.kind == Step::Kind::move && st.stretch < material_of.size()) material_of[st.stretch] = lit;
+  }
+  for (auto& c : j["cuts"]) {
+    const std::size_t k = c["stretch"].get<std::size_t>();
+    const int m = k < material_of.size() ? material_of[k] : -1;
+    c["material"] = m >= 0 ? nlohmann::json(m) : nlohmann::json(nullptr);
+  }
   if (run.kerf) {
     nlohmann::json issues = nlohmann::json::array();
     for (const KerfIssue& i : run.kerf->issues)

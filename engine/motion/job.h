@@ -78,7 +78,7 @@ struct Stretch {
   std::vector<std::uint8_t> thc_off;
 };
 
-// A plasma material's cutting parameters (QtPlasmaC's material file, engine/programs/
+// A plasma material's cutting parameters (QtPlasmaC's material file, engine/motion/
 // materials.h), for the cuts made while it is in force. Feeds are applied when the job is
 // made; the executor takes the heights, delays and volts at each torch_on.
 struct CutParameters {

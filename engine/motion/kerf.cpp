@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <optional>
 
@@ -290,6 +291,16 @@ Stretch rebuild_stretch(const Stretch& st, const LoopContour& lc, const Contour&
   return ns;
 }
 
+// The THC switches (Stretch::thc_off) of `st` carried to its rebuilt `ns`, by program line: a
+// segment of ns holds THC off when the segments of its line in st did.
+void carry_thc_off(const Stretch& st, Stretch& ns) {
+  if (st.thc_off.empty()) return;
+  std::map<int, std::uint8_t> by_line;
+  for (std::size_t i = 0; i < st.segments.size(); ++i) by_line[line_of(st, i)] |= st.thc_off[i];
+  ns.thc_off.assign(ns.segments.size(), 0);
+  for (std::size_t i = 0; i < ns.segments.size(); ++i) ns.thc_off[i] = by_line[line_of(ns, i)];
+}
+
 // Step 5: the rebuilt stretch `ns` (replacing stretch si) kept continuous with the stretches
 // before and after: a rapid next to it is re-aimed, else a straight connector cut is added.
 void keep_continuous(Stretch& ns, std::size_t si, const std::vector<Stretch>& in, std::vector<Stretch>& out,
@@ -359,6 +370,7 @@ KerfLoop compensate_loop(const Found& f, int depth, double half, const std::vect
   const auto [loop, src] = start_near(r.contours[chosen], r.source_spans[chosen], target, options.offset.tolerance_mm);
   Stretch ns = rebuild_stretch(st, lc, loop, src, options);
   keep_continuous(ns, f.stretch, in, out, order, options, report);
+  carry_thc_off(st, ns);
   out[f.stretch] = std::move(ns);
   info.compensated = true;
   return info;

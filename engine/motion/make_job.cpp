@@ -1,11 +1,13 @@
 #include "engine/motion/make_job.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/motion/plasma_words.h"
 #include "engine/programs/program.h"
 
 namespace machplan::motion {
@@ -19,14 +21,18 @@ void require(bool ok, const char* field, double value, const char* rule) { requi
 // Builds the job while walking the moves.
 class Builder {
  public:
-  Builder(const Program& program, const JobOptions& options) : program_(program), options_(options) {
+  Builder(const Program& program, const JobOptions& options)
+      : program_(program), options_(options), words_(program, options, job_) {
     job_.source = program.source;
     job_.start_mm = program.start.head<2>();
     position_ = program.start;
   }
 
   Job run() {
-    for (const Move& m : program_.moves) {
+    for (std::size_t i = 0; i < program_.moves.size(); ++i) {
+      const Move& m = program_.moves[i];
+      words_.before_move(i);
+      if (words_.take_torch_disable() && torch_on_) disable_torch(m);
       switch (m.kind) {
         case Move::Kind::rapid: motion(m, /*rapid=*/true); break;
         case Move::Kind::line:
@@ -36,6 +42,7 @@ class Builder {
         case Move::Kind::torch_off: event(Step::Kind::torch_off, m); break;
       }
     }
+    words_.before_move(program_.moves.size());
     close();
     return std::move(job_);
   }
@@ -45,7 +52,28 @@ class Builder {
     throw InputError(program_.source, m.line, what);
   }
 
-  void motion(const Move& m, bool rapid) {
+  // The torch goes off here (M62 P3, an over cut, pierce only); the program's next M5 adds
+  // no second torch_off.
+  void disable_torch(const Move& m) {
+    event(Step::Kind::torch_off, m);
+    torch_disabled_ = true;
+  }
+
+  // Modes 2 and 4 of the hole rules: after hole `m` (from `from`), cut with the torch on, the
+  // torch goes off and the tool goes on along the circle for `length` mm at the hole's feed.
+  void overcut(const Move& m, const Eigen::Vector2d& from, double length, double feed) {
+    disable_torch(m);
+    const double r = (from - m.center).norm();
+    const Eigen::Vector2d e = m.end.head<2>();
+    const double a = std::atan2(e.y() - m.center.y(), e.x() - m.center.x()) + (m.clockwise ? -1.0 : 1.0) * length / r;
+    Move o = m;
+    o.turns = 0;
+    o.end.head<2>() = m.center + r * Eigen::Vector2d(std::cos(a), std::sin(a));
+    motion(o, /*rapid=*/false, feed);
+  }
+
+  void motion(const Move& m, bool rapid, double given_feed = 0.0) {
+    if (!rapid && skip_cuts_) return;  // pierce only: the tool stays at the pierce point
     if (m.kind == Move::Kind::arc && m.plane != Move::Plane::xy)
       refuse(m, fmt::format("arc in the {} plane ({}): these machines move in XY only",
                             m.plane == Move::Plane::xz ? "XZ" : "YZ", m.plane == Move::Plane::xz ? "G18" : "G19"));
@@ -65,9 +93,9 @@ class Builder {
       if (!(m.feed_mm_per_min > 0.0) || !std::isfinite(m.feed_mm_per_min))
         refuse(m, fmt::format("{} move with no feed (F = {}): program an F word before it",
                               to_string(m.kind), m.feed_mm_per_min));
-      feed = m.feed_mm_per_min / 60.0;
     }
     const Eigen::Vector2d a = position_.head<2>();
+    if (!rapid) feed = given_feed > 0.0 ? given_feed : words_.feed_mm_per_s(m, a);
     position_ = m.end;
 
     const std::vector<Segment> pieces = move_segments(m, a, options_.zero_length_mm);
@@ -84,22 +112,39 @@ class Builder {
       current_.segments.push_back(s);
       current_.feed_mm_per_s.push_back(feed);
       current_.source_lines.push_back(m.line);
+      current_.thc_off.push_back(!rapid && words_.thc_off() ? 1 : 0);  // rapids: no THC
     }
+    if (!rapid && torch_on_ && given_feed == 0.0)
+      if (const double length = words_.overcut_mm(m, a); length > 0.0) overcut(m, a, length, feed);
   }
 
   void event(Step::Kind kind, const Move& m) {
+    if (kind == Step::Kind::torch_off && torch_disabled_) {  // already off (see disable_torch)
+      torch_disabled_ = skip_cuts_ = false;
+      return;
+    }
     close();
     Step st;
     st.kind = kind;
     st.source_line = m.line;
     st.seconds = kind == Step::Kind::dwell ? m.seconds : 0.0;
     job_.steps.push_back(st);
-    if (kind == Step::Kind::torch_on) torch_on_ = true;
+    if (kind == Step::Kind::torch_on) {
+      torch_disabled_ = skip_cuts_ = false;  // a new cut, even without an M5 before it
+      job_.steps.back().material = words_.torch_on_material();
+      torch_on_ = true;
+      if (words_.pierce_only()) {  // pierce, and leave the cut out
+        disable_torch(m);
+        skip_cuts_ = true;
+      }
+    }
     if (kind == Step::Kind::torch_off) torch_on_ = false;
   }
 
   void close() {
     if (!open_) return;
+    if (std::none_of(current_.thc_off.begin(), current_.thc_off.end(), [](std::uint8_t f) { return f != 0; }))
+      current_.thc_off.clear();
     Step st;
     st.kind = Step::Kind::move;
     st.source_line = current_.source_lines.front();
@@ -112,10 +157,13 @@ class Builder {
   const Program& program_;
   const JobOptions& options_;
   Job job_;
+  PlasmaWords words_;
   Eigen::Vector3d position_;
   Stretch current_;
   bool open_ = false;
   bool torch_on_ = false;
+  bool torch_disabled_ = false;  // the torch went off before the program's M5
+  bool skip_cuts_ = false;       // pierce only: the cut of the current M3 is left out
 };
 
 }  // namespace

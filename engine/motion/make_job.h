@@ -24,6 +24,9 @@
 //   * an arc in the XZ or YZ plane (G18, G19), named as such;
 //   * a line or arc with no feed (F missing or zero).
 //
+// QtPlasmaC programs: material changes, temporary materials, THC and torch switches, velocity
+// reduction, hole rules and pierce only are applied as engine/motion/plasma_words.h describes.
+//
 // Thread safety: pure function. Example:
 //
 //     Program p = read_gcode("part.ngc");
@@ -36,6 +39,7 @@
 #include <Eigen/Core>
 
 #include "engine/motion/job.h"
+#include "engine/motion/materials.h"
 #include "engine/programs/program.h"
 
 namespace machplan::motion {
@@ -48,6 +52,18 @@ struct JobOptions {
   double zero_length_mm = 1e-9;
   // Largest change of Z accepted as "no change" (rounding in the program), mm.
   double z_tolerance_mm = 1e-9;
+
+  // QtPlasmaC's words (engine/motion/plasma_words.h). The material file the program's M190
+  // words select from (null: none; an M190 Pn, n >= 0, is then refused naming the line).
+  const MaterialTable* materials = nullptr;
+  // The material in force when the program selects none (and after M190 P-1): a number in
+  // `materials`; -1: the machine's own torch settings.
+  int default_material = -1;
+  // The value the run gives F#<_hal[plasmac.cut-feed-rate]> (mm/min as the reader stores it,
+  // or that x 25.4 under G20): moves with this feed take the material's CUT_SPEED. 0: none.
+  double material_feed_marker_mm_per_min = 0.0;
+  // The cut feed those moves take when no material is in force, mm/s (0: refused).
+  double machine_cut_feed_mm_per_s = 0.0;
 
   // Throws InputError naming the field, its value and the rule.
   void validate() const;

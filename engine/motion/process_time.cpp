@@ -9,31 +9,55 @@ namespace {
 double height_move_s(double from_mm, double to_mm, const TorchTimes::Height& h) {
   return std::max(0.0, std::abs(from_mm - to_mm) - h.tolerance_mm) / h.speed_mm_per_s;
 }
+
+const CutParameters* material_of(const Job& job, const Step& s) {
+  if (s.material < 0 || static_cast<std::size_t>(s.material) >= job.materials.size()) return nullptr;
+  return &job.materials[static_cast<std::size_t>(s.material)];
+}
+
+// The torch height moves of a torch_on from `waiting_mm`: down to pierce height, after the
+// pierce up or down to the puddle jump height (when the material has one) and to cut height.
+double torch_on_heights_s(double waiting_mm, TorchTimes::Height h, const CutParameters* m) {
+  if (m) h.pierce_mm = m->pierce_height_mm, h.cut_mm = m->cut_height_mm;
+  double t = h.sense_s + height_move_s(waiting_mm, h.pierce_mm, h);
+  if (m && m->puddle_jump_height_pct > 0.0) {
+    const double jump_mm = h.pierce_mm * m->puddle_jump_height_pct / 100.0;
+    return t + height_move_s(h.pierce_mm, jump_mm, h) + height_move_s(jump_mm, h.cut_mm, h);
+  }
+  return t + height_move_s(h.pierce_mm, h.cut_mm, h);
+}
 }  // namespace
 
 double process_time_s(const Job& job, const TorchTimes& times) {
   double t = 0.0;
   double waiting_mm = times.height ? times.height->retract_mm : 0.0;  // where the torch waits between cuts
+  const CutParameters* material = nullptr;                           // of the cut in progress
+  bool lit = false;  // a torch_off after another (a second M5) finds the torch up already
   for (std::size_t i = 0; i < job.steps.size(); ++i) {
     const Step& s = job.steps[i];
     switch (s.kind) {
       case Step::Kind::torch_on: {
-        if (const auto& h = times.height)
-          t += h->sense_s + height_move_s(waiting_mm, h->pierce_mm, *h) + height_move_s(h->pierce_mm, h->cut_mm, *h);
-        else
-          t += times.torch_on_s;
+        material = times.use_materials ? material_of(job, s) : nullptr;
+        lit = true;
+        if (const auto& h = times.height) t += torch_on_heights_s(waiting_mm, *h, material);
+        else t += times.torch_on_s;
         t += times.start_s;
         const bool programmed = i + 1 < job.steps.size() && job.steps[i + 1].kind == Step::Kind::dwell;
-        if (!programmed) t += times.pierce_s;  // a following G4 is counted as a dwell
+        // A following G4 is counted as a dwell.
+        if (!programmed) t += material ? material->pierce_delay_s + material->puddle_jump_delay_s : times.pierce_s;
         break;
       }
       case Step::Kind::torch_off:
+        if (material) t += material->pause_at_end_s;
         if (const auto& h = times.height) {
+          const double from_mm = !lit ? waiting_mm : material ? material->cut_height_mm : h->cut_mm;
           waiting_mm = std::max(h->retract_mm, s.height_mm);
-          t += height_move_s(h->cut_mm, waiting_mm, *h);
+          t += height_move_s(from_mm, waiting_mm, *h);
         } else {
           t += times.torch_off_s;
         }
+        material = nullptr;
+        lit = false;
         break;
       case Step::Kind::dwell: t += s.seconds; break;
       case Step::Kind::move: break;

@@ -5,7 +5,10 @@
 // torch_on step: `torch_on_s` (height sense, descent to pierce height, arc start or preheat,
 // move to cut height), the arc start or preheat `start_s` and the pierce delay `pierce_s`, unless a dwell follows (a programmed
 // G4 is the pierce delay; it is counted as a dwell); per torch_off step: `torch_off_s` (the
-// retract); each dwell: its seconds.
+// retract); each dwell: its seconds. With `use_materials`, a torch_on with a material
+// (Step::material) takes the material's pierce and cut heights, its pierce delay plus puddle
+// jump delay instead of `pierce_s` (and the puddle jump height move), and its cut's torch_off
+// first waits its pause at end.
 //
 // One function, two callers with their own numbers: the run's expected time takes the machine
 // file's nominal delays and speeds (solvers/motion/run.h), the executor's upper estimate (for
@@ -22,8 +25,9 @@ struct TorchTimes {
   // A torch height axis: each torch_on senses the plate, goes down from where the torch waits
   // to the pierce height and, after the pierce, to the cut height; each torch_off goes up to
   // the retract height, or to its own step's height when that is higher (a rapid over cut
-  // parts follows), where the torch then waits. Moves within `tolerance_mm` of their target
-  // cost nothing.
+  // parts follows), where the torch then waits; a torch_off with no cut lit (a second M5, an
+  // M6 before the first cut) goes there from where the torch waits. Moves within
+  // `tolerance_mm` of their target cost nothing.
   struct Height {
     double sense_s = 0.0, retract_mm = 0.0, pierce_mm = 0.0, cut_mm = 0.0, speed_mm_per_s = 1.0, tolerance_mm = 0.0;
   };
@@ -32,6 +36,9 @@ struct TorchTimes {
   double start_s = 0.0;      // then the arc start (plasma) or the preheat (oxy-fuel)
   double pierce_s = 0.0;     // the pierce delay when no dwell follows the torch_on
   double torch_off_s = 0.0;  // a torch_off step without a height axis
+  // Take each cut's material (Job::materials) for its heights and delays, as an executor that
+  // applies the materials at each torch_on does.
+  bool use_materials = false;
 };
 
 double process_time_s(const Job& job, const TorchTimes& times);

@@ -136,6 +136,8 @@ struct SourceLine {
   // GRBL dialect: a system command line ($H, $X, $J=...), kept as written (trimmed).
   bool system_command = false;
   std::string text;
+  // GcodeOptions::report_magic_comments: the text of a comment "(o=...)" on the line.
+  std::string magic;
 };
 
 // One line split into words.
@@ -414,11 +416,32 @@ void Reader::set_parameters(const Block& b) {
   for (const auto& [name, v] : b.set_named) {
     if (name[0] == '_') globals_[name] = v;
     else frames_.back().locals[name] = v;
+    const auto& reported = options_.reported_params;
+    if (std::find(reported.begin(), reported.end(), name) != reported.end()) {
+      ProgramEvent e;
+      e.kind = ProgramEvent::Kind::parameter;
+      e.text = name;
+      e.value = v;
+      e.mode = inches_ ? 20 : 21;
+      event(e);
+    }
   }
 }
 
 // ---------------------------------------------------------------------------------------------
 // Reading lines
+
+// The inside of the first comment "(o=...)" of a raw line (blanks before "o=" allowed), or "".
+std::string magic_comment(const std::string& raw) {
+  for (std::size_t open = raw.find('('); open != std::string::npos; open = raw.find('(', open + 1)) {
+    const std::size_t close = raw.find(')', open);
+    if (close == std::string::npos) return {};
+    std::size_t k = open + 1;
+    while (k < close && (raw[k] == ' ' || raw[k] == '\t')) ++k;
+    if (k + 1 < close && (raw[k] == 'o' || raw[k] == 'O') && raw[k + 1] == '=') return raw.substr(open + 1, close - open - 1);
+  }
+  return {};
+}
 
 // Removes comments, spaces and tabs; lower-cases. Nested and unclosed comments set `error`.
 std::string Reader::clean(const std::string& raw, std::string& error) const {
@@ -702,6 +725,7 @@ bool Reader::read_lines(const std::string& text) {
     }
     l.code = clean(raw, l.error);
     if (l.error.empty()) scan_o_word(l);
+    if (options_.report_magic_comments) l.magic = magic_comment(raw);
     lines_.push_back(std::move(l));
   }
   return false;
@@ -735,6 +759,13 @@ Program Reader::run(const std::string& text) {
     if (l.o != OKind::none) {
       pc = control(pc);
       continue;
+    }
+    if (!l.magic.empty()) {
+      ProgramEvent e;
+      e.kind = ProgramEvent::Kind::magic_comment;
+      e.text = l.magic;
+      e.mode = inches_ ? 20 : 21;
+      event(e);
     }
     const Block b = split(l.code);
     set_parameters(b);

@@ -84,7 +84,9 @@
 //     the spindle, a torch_off, as LinuxCNC does), M61 Q, G43 [H] / G49 (no Z effect: tool
 //     lengths are not modelled), M7 / M8 / M9, M48-M53, M62-M65 (digital outputs, M62/M63
 //     synchronised with the next move), M66 (wait for an input), M67 / M68 (analog outputs),
-//     M100-M199 (user M codes with their P and Q), M0 / M1.
+//     M100-M199 (user M codes with their P and Q), M0 / M1; on request, the settings of
+//     named parameters (GcodeOptions::reported_params) and "(o=...)" comments
+//     (GcodeOptions::report_magic_comments).
 //   * The state at the start is LinuxCNC's: position (0, 0, 0), mm, G17, G90, G91.1, G0 motion,
 //     G54 with zero offsets, G99 retract, feed 0, S 0.
 //
@@ -134,6 +136,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "engine/programs/program.h"
 
@@ -162,6 +165,12 @@ struct GcodeOptions {
   std::size_t max_executed_lines = 20'000'000;
   // Whose reading of G-code; see "Dialects" above.
   GcodeDialect dialect = GcodeDialect::linuxcnc;
+  // Named parameters whose settings are kept as ProgramEvent::Kind::parameter events, in
+  // program order (names as written between #< and >, lower case, no blanks): how a caller
+  // follows settings such as QtPlasmaC's #<holes> or #<pierce-only> through the program.
+  std::vector<std::string> reported_params;
+  // Keep each comment "(o=...)" (QtPlasmaC's material comments) as a magic_comment event.
+  bool report_magic_comments = false;
 
   // Throws InputError naming the field when a value is out of range.
   void validate() const;

@@ -144,6 +144,8 @@ class Writer {
       case K::user_m_code: line(fmt::format("M{} P{} Q{}", e.number, num(e.value), num(e.value2)), e.line); break;
       case K::program_stop: line(fmt::format("M{}", e.number), e.line); break;
       case K::controller_command: line(fmt::format("(controller command: {})", comment_text(e.text)), e.line); break;
+      case K::parameter: line(fmt::format("#<{}> = {}", e.text, num(e.value)), e.line); break;
+      case K::magic_comment: line(fmt::format("({})", comment_text(e.text)), e.line); break;
     }
   }
 

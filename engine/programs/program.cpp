@@ -31,6 +31,8 @@ const char* to_string(ProgramEvent::Kind kind) {
     case K::user_m_code: return "user_m_code";
     case K::program_stop: return "program_stop";
     case K::controller_command: return "controller_command";
+    case K::parameter: return "parameter";
+    case K::magic_comment: return "magic_comment";
   }
   return "unknown";
 }

@@ -66,6 +66,12 @@ struct ProgramEvent {
     user_m_code,        // M100-M199: `number` = M code, `value` = P, `value2` = Q
     program_stop,       // M0 (number 0) / M1 (number 1)
     controller_command, // GRBL dialect: a '$' system command line ($H, $X, $J=...): `text`
+    parameter,          // a named parameter listed in GcodeOptions::reported_params set: `text` its
+                        // name (lower case, no blanks), `value` the value, `mode` 20 under G20
+                        // (the value in inches, as written) else 21
+    magic_comment,      // GcodeOptions::report_magic_comments: a comment "(o=...)", `text` inside
+                        // the parentheses as written (QtPlasmaC's material comments), `mode`
+                        // 20 or 21 as for parameter
   };
   Kind kind = Kind::tool_select;
   int line = 0;
@@ -75,7 +81,8 @@ struct ProgramEvent {
   double value2 = 0.0;
   int mode = 0;
   bool synchronized = false;
-  std::string text;  // controller_command: the line as written (at most 80 characters)
+  std::string text;  // controller_command: the line as written (at most 80 characters); parameter,
+                    // magic_comment: see the kinds
 };
 
 const char* to_string(ProgramEvent::Kind kind);

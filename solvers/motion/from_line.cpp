@@ -30,6 +30,7 @@ Stretch part_of(const Stretch& k, std::size_t from, std::size_t to) {
   out.segments.assign(k.segments.begin() + from, k.segments.begin() + to);
   out.feed_mm_per_s.assign(k.feed_mm_per_s.begin() + from, k.feed_mm_per_s.begin() + to);
   out.source_lines.assign(k.source_lines.begin() + from, k.source_lines.begin() + to);
+  if (!k.thc_off.empty()) out.thc_off.assign(k.thc_off.begin() + from, k.thc_off.begin() + to);
   return out;
 }
 
@@ -54,10 +55,11 @@ Job start_at_line(const Job& job, int line, double rapid_feed_mm_per_s, LineStar
   }
   // The state at the start: the torch, and where the tool is.
   bool lit = false;
+  int material = -1;  // of the cut lit last
   Eigen::Vector2d at = job.start_mm;
   for (std::size_t s = 0; s < start.step; ++s) {
     const Step& st = job.steps[s];
-    if (st.kind == Step::Kind::torch_on) lit = true;
+    if (st.kind == Step::Kind::torch_on) lit = true, material = st.material;
     if (st.kind == Step::Kind::torch_off) lit = false;
     if (st.kind != Step::Kind::move) continue;
     const Stretch& k = job.stretches[st.stretch];
@@ -74,6 +76,7 @@ Job start_at_line(const Job& job, int line, double rapid_feed_mm_per_s, LineStar
   Job out;
   out.source = job.source;
   out.start_mm = job.start_mm;
+  out.materials = job.materials;
   // What was cut before the line: the rapid planner's parts cut so far.
   for (std::size_t s = 0; s < start.step; ++s) {
     const Step& st = job.steps[s];
@@ -97,6 +100,7 @@ Job start_at_line(const Job& job, int line, double rapid_feed_mm_per_s, LineStar
     Step on;
     on.kind = Step::Kind::torch_on;
     on.source_line = line;
+    on.material = material;
     out.steps.push_back(on);
   }
   // The rest, as in the full job.

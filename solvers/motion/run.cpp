@@ -9,6 +9,8 @@
 
 #include "engine/common/error.h"
 #include "engine/motion/make_job.h"
+#include "engine/motion/materials.h"
+#include "engine/motion/plasma_words.h"
 #include "engine/motion/process_time.h"
 #include "engine/programs/gcode.h"
 
@@ -16,6 +18,10 @@ namespace machplan::motion {
 namespace {
 
 using executor::Mode;
+
+// What F#<_hal[plasmac.cut-feed-rate]> reads while the program is read (mm/min): a value no
+// program writes, so that make_job knows the moves that ask for the material's feed.
+constexpr double kMaterialFeedMarker = 987654.321;
 
 void check_range(const char* field, double v, double lo, double hi, bool lo_open, const char* unit) {
   const bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
@@ -116,6 +122,10 @@ void RunOptions::validate() const {
   check_range("max_machine_time_s", max_machine_time_s, 0.0, 365 * 24 * 3600.0, true, " s");
   require_field(from_line >= 0 && from_line <= 100000000, "from_line", from_line, "must be a line number >= 1 (0: from the start)");
   validate_member("rapids", rapids);
+  require_field(default_material >= -1 && default_material <= 999999, "default_material", default_material,
+                "must be a material number in 0 .. 999999 (-1: none)");
+  if (default_material >= 0 && materials_path.empty())
+    throw InputError::field("default_material", fmt::format("material {} is chosen but no material file is given", default_material));
 }
 
 CutOrder cut_order_of(const cutting::MachineConfig& m) {
@@ -164,6 +174,7 @@ std::vector<std::string> ignored_words(const Program& program, const std::string
   std::vector<std::string> notes;
   std::map<ProgramEvent::Kind, std::pair<int, int>> seen;  // kind -> (first line, count)
   for (const ProgramEvent& e : program.events) {
+    if (plasma_word(e)) continue;  // make_job acts on these
     auto [it, fresh] = seen.try_emplace(e.kind, e.line, 0);
     ++it->second.second;
   }
@@ -300,11 +311,41 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
                         const RunControl& control) {
   options.validate();
   std::vector<std::string> warnings;
-  Program program = read_program_for(program_path, options.gcode, machine, options.strict_z, warnings);
+  // QtPlasmaC's words: the hole-rule parameters and material comments are reported, and
+  // F#<_hal[plasmac.cut-feed-rate]> reads a marker that make_job replaces by the material's
+  // CUT_SPEED (or the machine file's value), unless the caller gave that parameter a value.
+  GcodeOptions gcode = options.gcode;
+  gcode.report_magic_comments = true;
+  gcode.reported_params = plasma_reported_params();
+  const std::string feed_param = "_hal[plasmac.cut-feed-rate]";
+  JobOptions jo;
+  if (!gcode.params.count(feed_param)) {
+    jo.material_feed_marker_mm_per_min = kMaterialFeedMarker;
+    for (const auto& [name, value] : machine.gcode_params)
+      if (name == feed_param) jo.machine_cut_feed_mm_per_s = value / 60.0;
+    gcode.params[feed_param] = kMaterialFeedMarker;
+  }
+  std::optional<MaterialTable> materials;
+  if (!options.materials_path.empty()) materials = read_materials_file(options.materials_path);
+  jo.materials = materials ? &*materials : nullptr;
+  jo.default_material = options.default_material;
+  Program program = read_program_for(program_path, gcode, machine, options.strict_z, warnings);
+  if (materials) warnings.insert(warnings.end(), materials->warnings.begin(), materials->warnings.end());
   std::vector<std::string> notes = ignored_words(program, machine.name);
   // The order of the cuts: the option, else the machine file's, else the program's own.
   CutOrderOptions order;
   order.order = options.order.value_or(cut_order_of(machine));
+  // QtPlasmaC's words are modal (a material, a velocity, THC off, a hole rule holds until the
+  // next one): cuts moved past them would change material. Such a program keeps its order.
+  if (order.order != CutOrder::program)
+    for (const ProgramEvent& e : program.events)
+      if (plasma_word(e)) {
+        warnings.push_back(fmt::format("{}:{}: cuts left in program order: the program sets materials, THC, velocity or "
+                                       "hole rules ({}), which hold from where they stand",
+                                       program.source, e.line, to_string(e.kind)));
+        order.order = CutOrder::program;
+        break;
+      }
   OrderedProgram ordered = order_cuts(program, order);
   program = std::move(ordered.program);
   warnings.insert(warnings.end(), ordered.report.warnings.begin(), ordered.report.warnings.end());
@@ -318,13 +359,19 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
     from = "machine file";
   }
   place_program(program, origin);
-  JobOptions jo;
   jo.rapid_feed_mm_per_s = machine.limits.rapid_mm_per_s;
   PlannedRun o = plan_job(make_job(program, jo), options, machine, control);
   o.origin_mm = origin;
   o.origin_from = from;
   o.warnings = std::move(warnings);
   o.notes = std::move(notes);
+  for (const CutParameters& c : o.programmed.materials)
+    o.notes.push_back(fmt::format("material {}{}: cut feed {:.0f} mm/min, pierce {:.2f} mm for {:.2f} s, cut height {:.2f} mm, "
+                                  "kerf {:.2f} mm{}, THC {}",
+                                  c.number == 0 ? "(temporary)" : std::to_string(c.number),
+                                  c.name.empty() ? "" : fmt::format(" '{}'", excerpt(c.name, 40)), c.cut_feed_mm_per_s * 60.0,
+                                  c.pierce_height_mm, c.pierce_delay_s, c.cut_height_mm, c.kerf_mm,
+                                  options.kerf_mm > 0 ? "" : " (not compensated: kerf_mm is 0)", c.thc ? "on" : "off"));
   o.cut_order = std::move(ordered.report);
   return o;
 }

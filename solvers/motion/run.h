@@ -4,7 +4,9 @@
 //
 //   plan_program (or plan_job):
 //     program (.ngc) --read_gcode_file--> Program --order_cuts (RunOptions::order)--> Program
-//       --make_job--> Job
+//       --make_job--> Job (QtPlasmaC's words: materials, THC switches, velocity, hole rules,
+//                      pierce only: engine/motion/plasma_words.h; F#<_hal[plasmac.cut-feed-rate]>
+//                      is the material's CUT_SPEED, else the machine file's value of it)
 //       --apply_kerf (when kerf_mm > 0)--> closed cuts moved by half the kerf
 //       --plan_rapids--> rapids routed round the declared no-go zones and the parts cut so far
 //       --plan_stretch, one per move step--> Trajectories (planned mode)   = PlannedRun
@@ -111,6 +113,12 @@ struct RunOptions {
   std::optional<Eigen::Vector2d> origin_mm;
   // Refuse a program whose Z moves (true) instead of dropping its Z words with a warning.
   bool strict_z = false;
+  // QtPlasmaC material file (engine/motion/materials.h, in mm) the program's M190 words select
+  // from; empty for none. Material comments "(o=...)" in the program need no file.
+  std::string materials_path;
+  // The material in force when the program selects none: a number in materials_path's file;
+  // -1: the machine's own torch settings.
+  int default_material = -1;
   // The order of the cuts (solvers/motion/cut_order.h), applied to the program once its Z
   // words are dropped; unset: the machine file's cut_order, else the program's own order.
   std::optional<CutOrder> order;
