@@ -89,6 +89,7 @@ struct RunArgs {
   std::string order;
   double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
   std::string operator_events;
+  std::string sheet_warp;
   int from_line = 0;
   std::string materials;
   int material = -1;
@@ -113,6 +114,7 @@ const FieldFlag kRunFields[] = {
     {"backend.name", "--backend"},
     {"backend", "--backend"},
     {"backend.sim.faults", "--inject"},
+    {"backend.sim.sheet_warp_mm", "--sheet-warp"},
     {"gcode.spindle_count", "--spindles"},
     {"max_machine_time_s", "--max-machine-time"},
     {"magnify", "--magnify"},
@@ -170,6 +172,14 @@ motion::RunOptions run_options(const RunArgs& a) {
                            fmt::format("'{}': the paper modes take no feed hold, override or recovery (only stop and thc)",
                                        hardware::to_string(r.kind)));
     so.backend.sim.operator_events = timeline.states;
+  }
+  if (!a.sheet_warp.empty()) {
+    if (a.backend != "sim") throw InputError("--sheet-warp", 0, "the sheet's warp is simulated (--backend sim only)");
+    const auto comma = a.sheet_warp.find(',');
+    if (comma == std::string::npos)
+      throw InputError("--sheet-warp", 0, fmt::format("'{}' is not AMPLITUDE_MM,WAVELENGTH_MM", a.sheet_warp));
+    so.backend.sim.sheet_warp_mm = std::make_pair(number_of("--sheet-warp", a.sheet_warp.substr(0, comma)),
+                                                  number_of("--sheet-warp", a.sheet_warp.substr(comma + 1)));
   }
   if (!so.backend.sim.faults.empty() && a.backend != "sim")
     throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
@@ -290,6 +300,9 @@ void add_run(CLI::App& app) {
   cmd->add_option("--from-line", a->from_line,
                   "run from this program line, with the state the program had there, reached by a safe rapid (the "
                   "torch is lit again where a cut resumes)");
+  cmd->add_option("--sheet-warp", a->sheet_warp,
+                  "simulator: the sheet warped AMPLITUDE_MM,WAVELENGTH_MM (a seeded sine in x and y; default: the machine "
+                  "file's sheet block, else flat): what torch height control must follow");
   cmd->add_option("--operator-events", a->operator_events,
                   "simulator: the operator's inputs on a timeline, a CSV 't_s,event,value' (hold, start, stop, "
                   "feed_override, rapid_override, recover, thc)");

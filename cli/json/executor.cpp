@@ -22,15 +22,26 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
   j["backend_notes"] = r.backend_notes;
   auto num = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
   j["cuts"] = json::array();
-  for (const CutError& c : r.cuts)
-    j["cuts"].push_back({{"stretch", c.stretch},
-                         {"source_line", c.source_line},
-                         {"samples", c.samples},
-                         {"complete", c.complete},
-                         {"max_contour_error_mm", c.max_mm},
-                         {"rms_contour_error_mm", c.rms_mm},
-                         {"max_true_contour_error_mm", num(c.max_true_mm)},
-                         {"rms_true_contour_error_mm", num(c.rms_true_mm)}});
+  for (const CutError& c : r.cuts) {
+    json cut = {{"stretch", c.stretch},
+                {"source_line", c.source_line},
+                {"samples", c.samples},
+                {"complete", c.complete},
+                {"max_contour_error_mm", c.max_mm},
+                {"rms_contour_error_mm", c.rms_mm},
+                {"max_true_contour_error_mm", num(c.max_true_mm)},
+                {"rms_true_contour_error_mm", num(c.rms_true_mm)}};
+    // The torch height while THC held it (null: no height axis, or THC never took hold).
+    cut["thc"] = c.thc.samples == 0 ? json(nullptr)
+                                    : json{{"samples", c.thc.samples},
+                                           {"max_height_error_mm", num(c.thc.max_mm)},
+                                           {"rms_height_error_mm", num(c.thc.rms_mm)},
+                                           {"active_share", c.thc.active_share},
+                                           {"target_v", c.thc.target_v},
+                                           {"velocity_lock_height_change_mm", c.thc.velocity_lock_change_mm},
+                                           {"void_lock_height_change_mm", c.thc.void_lock_change_mm}};
+    j["cuts"].push_back(cut);
+  }
   j["faults"] = json::array();
   for (const FaultReport& f : r.faults)
     j["faults"].push_back({{"kind", to_string(f.kind)},
@@ -50,6 +61,8 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
                           {"torch_off", h.torch_off},
                           {"in_rapid", h.in_rapid},
                           {"by_override", h.by_override},
+                          {"by_arc_loss", h.by_arc_loss},
+                          {"recovered_mm", h.recovered_mm},
                           {"position_mm", {h.position_mm.x(), h.position_mm.y()}},
                           {"speed_mm_per_s", h.speed_mm_per_s},
                           {"stopped", h.stopped},
@@ -66,6 +79,18 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
                           {"resumed_at_s", num(h.resumed_at_s)},
                           {"repierce_s", h.repierce_s}});
   if (r.holds_dropped) j["holds_dropped"] = r.holds_dropped;
+  // Cut recoveries: the holds a lost arc made, or in which the operator moved along the path.
+  j["recoveries"] = json::array();
+  for (const executor::HoldReport& h : r.holds)
+    if (h.by_arc_loss || h.recovered_mm != 0.0)
+      j["recoveries"].push_back({{"t_s", h.t_s},
+                                 {"source_line", h.source_line},
+                                 {"arc_lost", h.by_arc_loss},
+                                 {"at_mm", {h.position_mm.x(), h.position_mm.y()}},
+                                 {"stopped_after_mm", h.distance_to_stop_mm},
+                                 {"moved_along_path_mm", h.recovered_mm},
+                                 {"resumed_at_s", num(h.resumed_at_s)},
+                                 {"repierce_s", h.repierce_s}});
   if (include_trace) {
     json t = json::array();
     for (const TraceSample& s : r.trace)

@@ -362,7 +362,11 @@ void Session::Impl::begin_step() noexcept {
       phase = Phase::torch;
       break;
     }
-    case Step::Kind::torch_off: torch_off_and_retract(/*resume=*/false, st.height_mm); break;
+    case Step::Kind::torch_off:
+      torch.end_cut(out, st.height_mm);
+      resume_after_torch_off = false;
+      phase = Phase::torch;
+      break;
     case Step::Kind::dwell: phase = Phase::dwell; break;
   }
 }

@@ -34,6 +34,15 @@ void TorchSequencer::start_off(hardware::Outputs& out, double height_mm) noexcep
   enter(Phase::off_retract);
 }
 
+void TorchSequencer::end_cut(hardware::Outputs& out, double height_mm) noexcept {
+  if (!lit_ || pause_end_s_ <= 0.0 || t_.kind == Kind::spindle) {
+    start_off(out, height_mm);
+    return;
+  }
+  retract_mm_ = std::max(t_.retract_height_mm, height_mm);
+  enter(Phase::pause_end);
+}
+
 void TorchSequencer::kill(hardware::Outputs& out) noexcept {
   out.torch_fire = false;
   out.torch_height_target_mm = t_.retract_height_mm;
@@ -81,12 +90,33 @@ TorchSequencer::Status TorchSequencer::tick(const hardware::Inputs& in, hardware
     case Phase::pierce:
       if (programmed_ || pt_ >= (t_.kind == Kind::spindle ? t_.spin_up_s : t_.pierce_delay_s)) {
         lit_ = true;
+        if (t_.height_axis && !programmed_ && puddle_mm_ > 0.0) {
+          out.torch_height_target_mm = puddle_mm_;
+          enter(Phase::puddle_jump);
+          return Status::busy;
+        }
         if (t_.height_axis && !programmed_) {
           lower_to_cut_height(out);
           return Status::busy;
         }
         phase_ = Phase::idle;
         return Status::done;
+      }
+      return Status::busy;
+    case Phase::puddle_jump:
+      if (at(in, puddle_mm_)) enter(Phase::puddle_wait);
+      else if (pt_ > t_.height_timeout_s) return fail(Failure::torch_height_timeout, t_.height_timeout_s);
+      return Status::busy;
+    case Phase::puddle_wait:
+      if (pt_ >= puddle_s_) lower_to_cut_height(out);
+      return Status::busy;
+    case Phase::pause_end:
+      if (pt_ >= pause_end_s_) {
+        const double h = retract_mm_;
+        kill(out);
+        retract_mm_ = h;
+        out.torch_height_target_mm = h;
+        enter(Phase::off_retract);
       }
       return Status::busy;
     case Phase::height_cut:

@@ -43,15 +43,26 @@ class TorchSequencer {
   // A torch_off step: the torch retracts to the retract height, or to `height_mm` when that
   // is higher (a rapid over parts already cut follows).
   void start_off(hardware::Outputs& out, double height_mm = 0.0) noexcept;
+  // The torch_off step that ends a cut: the material's pause at the end first.
+  void end_cut(hardware::Outputs& out, double height_mm) noexcept;
   void lower_to_cut_height(hardware::Outputs& out) noexcept;
   // The cuts from the next start_on() on take their pierce height, pierce delay and cut height
   // from `m` (a material of the job), or from the machine's setup when null. Real time.
+  // With a material also its puddle jump (after the pierce: up or down to a share of the
+  // pierce height, a wait there, then cut height; not after a programmed pierce dwell) and its
+  // pause at the end of each cut (the torch burns on at rest before a torch_off step).
   void use_material(const motion::CutParameters* m) noexcept {
     t_ = base_;
+    puddle_mm_ = puddle_s_ = pause_end_s_ = 0.0;
     if (!m) return;
     t_.pierce_height_mm = m->pierce_height_mm;
     t_.pierce_delay_s = m->pierce_delay_s;
     t_.cut_height_mm = m->cut_height_mm;
+    if (m->puddle_jump_height_pct > 0.0) {
+      puddle_mm_ = m->pierce_height_mm * m->puddle_jump_height_pct / 100.0;
+      puddle_s_ = m->puddle_jump_delay_s;
+    }
+    pause_end_s_ = m->pause_at_end_s;
   }
   double cut_height_mm() const noexcept { return t_.cut_height_mm; }
   // Torch off and retract now (faults, stops); the sequence in progress is abandoned.
@@ -68,7 +79,7 @@ class TorchSequencer {
   double failure_value() const noexcept { return failure_value_; }
 
  private:
-  enum class Phase { idle, height_pierce, preheat, wait_arc, pierce, height_cut, off_retract };
+  enum class Phase { idle, height_pierce, preheat, wait_arc, pierce, puddle_jump, puddle_wait, height_cut, pause_end, off_retract };
   void enter(Phase p) noexcept {
     phase_ = p;
     pt_ = 0.0;
@@ -84,6 +95,7 @@ class TorchSequencer {
   }
 
   TorchSetup t_, base_;  // the cuts' settings now, and the machine's
+  double puddle_mm_ = 0.0, puddle_s_ = 0.0, pause_end_s_ = 0.0;  // the material's (0: none)
   double dt_ = 0.001;
   Phase phase_ = Phase::idle;
   double pt_ = 0.0;  // time in the phase

@@ -157,6 +157,7 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
   if (plasma) times.start_s = m.torch.plasma.arc_start_delay_s;
   if (oxy) times.start_s = m.torch.oxy_fuel.preheat_s;
   times.pierce_s = oxy ? m.torch.oxy_fuel.pierce_delay_s : m.torch.plasma.pierce_delay_s;
+  times.use_materials = true;  // the executor takes each cut's material (torch_sequencer.h)
   if (m.spindle) {  // a spindle: its spin-up after M3/M4, its run-down after M5
     times.start_s = m.spindle->spin_up_s;
     times.pierce_s = 0.0;

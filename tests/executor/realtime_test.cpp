@@ -57,14 +57,20 @@ TEST_P(TickAllocations, AreZero) {
   if (c.operator_inputs) {
     const auto tl = hardware::parse_operator_events("t_s,event,value\n"
                                                     "2.0,hold,\n3.0,start,\n"
-                                                    "5.0,feed_override,50\n7.0,feed_override,150\n9.0,rapid_override,25\n"
+                                                    "5.0,feed_override,50\n7.0,feed_override,150\n8.5,recover,-2\n"
+                                                    "9.0,rapid_override,25\n9.2,start,\n"
                                                     "11.0,hold,\n11.5,start,\n14.0,feed_override,0\n15.0,feed_override,100\n",
                                                     "events.csv");
     so.operator_events = tl.states;
     parts.live = &live;
+    // A lost arc recovered (back along the cut, re-pierce), on a warped sheet THC follows.
+    so.faults.push_back({sim::FaultInjection::Kind::arc_loss, 7.5});
+    so.sheet_warp_mm = std::make_pair(3.0, 1000.0);
   }
-  sim::SimBackend be(prepared.machine, so);
-  Executor ex(prepared.machine.setup(), eo);
+  cutting::MachineConfig machine = prepared.machine;
+  machine.torch.plasma.recover_on_arc_loss = c.operator_inputs;
+  sim::SimBackend be(machine, so);
+  Executor ex(machine.setup(), eo);
   test::TempDir dir;
   std::unique_ptr<TraceStream> stream;
   if (c.stream) {
@@ -76,7 +82,7 @@ TEST_P(TickAllocations, AreZero) {
   long ticks = 0;
   g_allocations = 0;
   bool more = true;
-  while (more) {
+  while (more && ticks < 10'000'000) {
     g_counting = true;
     more = s.tick();
     g_counting = false;
@@ -95,6 +101,8 @@ TEST_P(TickAllocations, AreZero) {
   }
   if (c.operator_inputs) {
     EXPECT_GE(r.holds.size(), 3u);  // two by the button, one by the 0 % override
+    EXPECT_TRUE(std::any_of(r.holds.begin(), r.holds.end(), [](const HoldReport& h) { return h.by_arc_loss; }));
+    EXPECT_TRUE(std::any_of(r.cuts.begin(), r.cuts.end(), [](const CutError& e) { return e.thc.samples > 0; }));
     EXPECT_EQ(live.read().tick, static_cast<std::uint64_t>(ticks - 1));
   }
 }
