@@ -56,12 +56,25 @@ void ProgressBar::update(double fraction) {
   drawn_ = true;
 }
 
+namespace {
+const std::atomic<double> kNoShare{0.0};
+}
+
+ProgressWatch::ProgressWatch(std::string label, bool wanted, const Progress& progress)
+    : bar_(std::move(label), wanted), share_(kNoShare), progress_(&progress) {
+  start();
+}
+
 ProgressWatch::ProgressWatch(std::string label, bool wanted, const std::atomic<double>& share)
     : bar_(std::move(label), wanted), share_(share) {
+  start();
+}
+
+void ProgressWatch::start() {
   if (!bar_.drawing()) return;  // nothing to draw: no thread
   thread_ = std::thread([this] {
     while (!over_.load()) {
-      bar_.update(share_.load(std::memory_order_relaxed));
+      bar_.update(progress_ ? progress_->share() : share_.load(std::memory_order_relaxed));
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   });

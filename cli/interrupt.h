@@ -18,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "engine/common/progress.h"
 #include "engine/common/stop.h"
 
 namespace machplan::cli {
@@ -54,13 +55,17 @@ class ProgressWatch {
  public:
   // Watches `share` (0 .. 1) under `label`; draws nothing unless `wanted` (see ProgressBar).
   ProgressWatch(std::string label, bool wanted, const std::atomic<double>& share);
+  // Watches a Progress (engine/common/progress.h) the same way.
+  ProgressWatch(std::string label, bool wanted, const Progress& progress);
   ~ProgressWatch();
   ProgressWatch(const ProgressWatch&) = delete;
   ProgressWatch& operator=(const ProgressWatch&) = delete;
 
  private:
+  void start();
   ProgressBar bar_;
   const std::atomic<double>& share_;
+  const Progress* progress_ = nullptr;
   std::atomic<bool> over_{false};
   std::thread thread_;
 };

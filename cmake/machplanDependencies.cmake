@@ -22,8 +22,10 @@ machplan_find_package(Eigen3 3.3 NO_MODULE)
 machplan_find_package(fmt)
 machplan_find_package(nlohmann_json 3)
 machplan_find_package(yaml-cpp)
-# Linked privately: FCL (engine/interference), OMPL (solvers/motion), Cairo (solvers: pictures).
+# Linked privately: FCL (engine/interference), OMPL (solvers/motion), Cairo (solvers: pictures),
+# oneTBB (solvers/placement: the checker's and the searches' threads).
 machplan_find_package(fcl)
+machplan_find_package(TBB)
 machplan_find_package(ompl)
 if(NOT TARGET ompl::ompl)
   # OMPL 1.5 ships only variables; wrap them in a target so the rest of the build sees one name.

@@ -4,7 +4,9 @@
 // limit with exit 3 and says how to raise it.
 #include <sys/wait.h>
 
+#include <atomic>
 #include <cstdlib>
+#include <thread>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -23,6 +25,7 @@ namespace machplan::placement {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using test::error_of;
 using test::TempDir;
 
@@ -94,7 +97,8 @@ TEST(CheckLimits, ACheckStopsAtTheQueryLimitWithExitThreeAndSaysHowToRaiseIt) {
   const Scene ok = load_scene(write_scene(dir, {}));
   EXPECT_EQ(ok.search.max_pose_queries, SearchSettings{}.max_pose_queries);
   Checker checker(ok);
-  checker.report({-68, -22, 57, 0});
+  Termination term;
+  checker.report({-68, -22, 57, 0}, term);
   EXPECT_LT(checker.counts().exact_queries, ok.search.max_pose_queries);
   EXPECT_GT(checker.counts().exact_queries, 50);  // so the limit of 50 above was really reached
 }
@@ -103,16 +107,37 @@ TEST(CheckStop, AStopRequestEndsACheckAndASearchWithoutAnAnswer) {
   TempDir dir;
   const Scene scene = load_scene(write_scene(dir, {}));
   StopSource source;
-  Checker checker(scene, 0.0, source.token());
-  const CheckReport before = checker.report({-68, -22, 57, 0});  // not stopped: an answer
+  Termination term(source.token());
+  Checker checker(scene);
+  const CheckReport before = checker.report({-68, -22, 57, 0}, term);  // not stopped: an answer
   EXPECT_GT(before.counts.exact_queries + checker.counts().exact_queries, 0);
   source.request_stop();
-  EXPECT_THROW(checker.report({-60, -20, 57, 0}), Cancelled);
-  EXPECT_THROW(checker.dense_check({-60, -20, 57, 0}), Cancelled);
-  EXPECT_THROW(Checker(scene, 0.0, source.token()), Cancelled);  // construction checks class 1
-  PlacementOptions o;
-  o.stop = source.token();
-  EXPECT_EQ(place(scene, o).status, PlacementStatus::cancelled);
+  EXPECT_THROW(checker.report({-60, -20, 57, 0}, term), WorkEnded);
+  EXPECT_THROW(checker.dense_check({-60, -20, 57, 0}, 0.5, term), WorkEnded);
+  Termination fresh(source.token());
+  const PlacementResult r = place(scene, PlacementOptions{}, fresh);
+  EXPECT_EQ(r.status, PlacementStatus::cancelled);
+  EXPECT_EQ(r.summary.status, Status::cancelled);
+  EXPECT_EQ(r.summary.exit_code(), 3);
+  EXPECT_THAT(r.summary.full_report(), HasSubstr("stopped on request"));
+  const CheckResult c = check(scene, {-60, -20, 57, 0}, CheckOptions{}, fresh);
+  EXPECT_EQ(c.summary.status, Status::cancelled);
+}
+
+TEST(CheckStop, ABudgetEndsASearchWithStatusBudget) {
+  TempDir dir;
+  const Scene scene = load_scene(write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 200\n  max_pose_queries: 50"}}));
+  Termination term;
+  const PlacementResult r = place(scene, PlacementOptions{}, term);
+  EXPECT_EQ(r.status, PlacementStatus::ended);
+  EXPECT_EQ(r.summary.status, Status::budget);
+  EXPECT_THAT(r.summary.message, HasSubstr("limit of 50 exact pose queries"));
+  // A budget of the caller's own ends the search the same way, and says so.
+  Termination tight;
+  tight.set_budget(100, "exact pose queries");
+  const PlacementResult t = place(load_scene(write_scene(dir, {})), PlacementOptions{}, tight);
+  EXPECT_EQ(t.summary.status, Status::budget);
+  EXPECT_THAT(t.summary.message, HasSubstr("the budget of 100 exact pose queries was spent"));
 }
 
 TEST(CheckStop, SigintEndsADenseCheckOfTheWholePathWithExitThree) {
@@ -131,19 +156,33 @@ TEST(CheckStop, SigintEndsADenseCheckOfTheWholePathWithExitThree) {
   const std::string text((std::istreambuf_iterator<char>(e)), std::istreambuf_iterator<char>());
   const std::string printed((std::istreambuf_iterator<char>(o)), std::istreambuf_iterator<char>());
   EXPECT_THAT(text, HasSubstr("stopped on request"));
-  EXPECT_EQ(printed, "");
+  // No verdict: the report says only how the check ended.
+  EXPECT_THAT(printed, Not(HasSubstr("FREE")));
+  EXPECT_THAT(printed, Not(HasSubstr("INTERFERENCE")));
+  EXPECT_THAT(printed, HasSubstr("cancelled before a verdict"));
 }
 
 TEST(CheckStop, TheDenseCheckReportsItsProgress) {
   TempDir dir;
   const Scene scene = load_scene(write_scene(dir, {}));
   Checker checker(scene);
+  Termination term;
+  // A display reading the share from another thread sees it grow to 1.
+  Progress progress;
+  std::atomic<bool> over{false};
   std::vector<double> seen;
-  checker.dense_check({-68, -22, 57, 0}, 0.5, [&](double f) { seen.push_back(f); });
-  ASSERT_GE(seen.size(), 3u);  // 1053 poses, a report every 256
-  EXPECT_EQ(seen.front(), 0.0);
-  for (std::size_t k = 1; k < seen.size(); ++k) EXPECT_GT(seen[k], seen[k - 1]);
-  EXPECT_LE(seen.back(), 1.0);
+  std::thread watcher([&] {
+    while (!over.load()) {
+      seen.push_back(progress.share());
+      std::this_thread::yield();
+    }
+  });
+  checker.dense_check({-68, -22, 57, 0}, 0.5, term, &progress);
+  over = true;
+  watcher.join();
+  EXPECT_EQ(progress.share(), 1.0);
+  ASSERT_FALSE(seen.empty());
+  for (double s : seen) EXPECT_TRUE(s >= 0.0 && s <= 1.0);
 }
 
 TEST(CheckLimits, ALargeSafeDistanceCostsNoMoreThanAnOrdinaryCheck) {
@@ -154,20 +193,21 @@ TEST(CheckLimits, ALargeSafeDistanceCostsNoMoreThanAnOrdinaryCheck) {
   const Scene big = load_scene(write_scene(dir, {{"safe_distance_mm: 5", "safe_distance_mm: 1000"}}));
   ASSERT_EQ(big.safe_distance_mm, 1000.0);
   Checker checker(big);
-  EXPECT_TRUE(checker.class1().interferes);
+  Termination term;
+  EXPECT_TRUE(checker.class1(0.0, term).interferes);
   const long class1_queries = checker.counts().exact_queries;
   // Without the bound every pose was an exact query; now a small share of them.
   EXPECT_LT(class1_queries, static_cast<long>(big.tips_mm.size()) / 4) << "class 1 walked most of the path";
-  EXPECT_GE(checker.class1().pose, 0);
-  EXPECT_THAT(checker.class1().what, HasSubstr("/ workpiece"));
-  const CheckReport r = checker.report({-68, -22, 57, 0});
+  EXPECT_GE(checker.class1(0.0, term).pose, 0);
+  EXPECT_THAT(checker.class1(0.0, term).what, HasSubstr("/ workpiece"));
+  const CheckReport r = checker.report({-68, -22, 57, 0}, term);
   EXPECT_FALSE(r.free());
   EXPECT_TRUE(r.kinds[static_cast<int>(Kind::workpiece_class1)].interferes);
   EXPECT_TRUE(r.kinds[static_cast<int>(Kind::workpiece_class2)].interferes);
   // No more work than the same check at the ordinary 5 mm (before the bound: 40 times more).
   const Scene five = load_scene(write_scene(dir, {}));  // the Checker keeps a reference
   Checker ordinary(five);
-  ordinary.report({-68, -22, 57, 0});
+  ordinary.report({-68, -22, 57, 0}, term);
   EXPECT_LE(checker.counts().exact_queries, 2 * ordinary.counts().exact_queries + 50);
 }
 
@@ -180,10 +220,13 @@ TEST(CheckLimits, AHugeToolTouchingEverywhereEndsQuicklyAsUnavoidable) {
       write_scene(dir, {{"tool_diameter_mm: 10", "tool_diameter_mm: 2000"}, {"chuck_diameter_mm: 60", "chuck_diameter_mm: 3000"}}));
   ASSERT_EQ(scene.tooling.tool_diameter_mm, 2000.0);
   Checker checker(scene);
-  EXPECT_TRUE(checker.class1().interferes);
-  EXPECT_EQ(checker.class1().clearance_mm, 0.0);
+  Termination term;
+  EXPECT_TRUE(checker.class1(0.0, term).interferes);
+  EXPECT_EQ(checker.class1(0.0, term).clearance_mm, 0.0);
   EXPECT_LT(checker.counts().exact_queries, static_cast<long>(scene.tips_mm.size()) / 4);
-  EXPECT_EQ(place(scene, PlacementOptions{}).status, PlacementStatus::unavoidable);
+  const PlacementResult r = place(scene, PlacementOptions{}, term);
+  EXPECT_EQ(r.status, PlacementStatus::unavoidable);
+  EXPECT_EQ(r.summary.status, Status::infeasible);
 }
 
 }  // namespace
