@@ -132,8 +132,9 @@ double depth_into(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r, 
     const Eigen::Vector3d n = d / len;
     const Eigen::Vector3d u = (std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY()).cross(n).normalized();
     const Eigen::Vector3d v = n.cross(u), mid = (a + b) / 2;
-    for (int k = 0; k < 16; ++k) {
-      const double ang = 2 * M_PI * k / 16;
+    // 64 around the rim: between two of them the rim strays less than 0.12 % of its radius.
+    for (int k = 0; k < 64; ++k) {
+      const double ang = 2 * M_PI * k / 64;
       best = std::min(best, sdf(mid + (r - len / 2) * (std::cos(ang) * u + std::sin(ang) * v)) - len / 2);
     }
   }

@@ -124,12 +124,12 @@ struct Certifier::Scan {
 
   // Exact values v at pose i, t: a report records minima; a decision fails on a value deep
   // enough to condemn the ball.
-  bool check_exact(long i, double t, const double* v, Mask m, double tip_radius) {
+  bool check_exact(long i, double t, const double* v, Mask m, const PathPose& pose) {
     for (int k = 0; k < c.model_.count(); ++k) {
       if (!(m & bit(k))) continue;
       if (mode == Mode::report) {
         if (v[k] < best[k].value) best[k] = {v[k], i, t};
-      } else if (v[k] <= c.fail_threshold(k, v, tip_radius, ball)) {
+      } else if (v[k] <= c.fail_threshold(k, v, pose, ball)) {
         fail = {i, t, k, v[k], true};
         return false;
       }
@@ -183,7 +183,7 @@ struct Certifier::Scan {
     // Only what is still unsettled on this stretch.
     c.evaluate(pm, where, m, vm.data(), e, term, counts);
     ++counts.interpolated_poses;
-    if (!check_exact(i, tm, vm.data(), m, pm.tip.head<2>().norm())) return false;
+    if (!check_exact(i, tm, vm.data(), m, pm)) return false;
     return interval(i, t0, tm, v0, vm.data(), m, e, depth + 1) && interval(i, tm, t1, vm.data(), v1, m, e, depth + 1);
   }
 
@@ -197,15 +197,15 @@ struct Certifier::Scan {
       const long i = node.left;
       const double* v0 = values_at(i, a.data(), e);
       if (v0 != a.data()) std::copy(v0, v0 + c.model_.stride(), a.begin());
-      if (!check_exact(i, 0, a.data(), m, c.tree_.tip_radius_mm(i))) return false;
+      if (!check_exact(i, 0, a.data(), m, c.tree_.pose(i))) return false;
       const double* v1 = values_at(i + 1, b.data(), e);
       if (v1 != b.data()) std::copy(v1, v1 + c.model_.stride(), b.begin());
-      if (!check_exact(i + 1, 0, b.data(), m, c.tree_.tip_radius_mm(i + 1))) return false;
+      if (!check_exact(i + 1, 0, b.data(), m, c.tree_.pose(i + 1))) return false;
       if (poses_only) return true;
       return interval(i, 0.0, 1.0, a.data(), b.data(), m, e, 0);
     }
     const double* v = values_at(node.centre, a.data(), e);
-    if (!check_exact(node.centre, 0, v, m, c.tree_.tip_radius_mm(node.centre))) return false;
+    if (!check_exact(node.centre, 0, v, m, c.tree_.pose(node.centre))) return false;
     const Motion motion = c.tree_.node_motion(node);
     double key = kInf;
     for (int k = 0; k < c.model_.count(); ++k) {
@@ -243,7 +243,7 @@ struct Certifier::Scan {
   bool single(PoseEvaluator& e) {
     std::vector<double> a(c.model_.stride());
     const double* v = values_at(0, a.data(), e);
-    if (!check_exact(0, 0, v, mask, c.tree_.tip_radius_mm(0))) return false;
+    if (!check_exact(0, 0, v, mask, c.tree_.pose(0))) return false;
     for (int k = 0; k < c.model_.count(); ++k)
       if ((mask & bit(k)) && mode != Mode::report && v[k] < thr_ok[k]) {
         fail = {0, 0, k, v[k], false};
@@ -257,17 +257,23 @@ Certifier::Certifier(const MachineModel& model, const PoseTree& tree, double wor
     : model_(model), tree_(tree), wp_radius_(workpiece_radius_mm),
       cache_(std::make_shared<Cache>(tree.size(), model.stride())) {}
 
-Motion Certifier::ball_motion(const Ball& ball, double r) const {
+Motion Certifier::ball_motion(const Ball& ball, double r, double lean) const {
   const double h = ball.turn_deg * kDeg;
   const double pad = ball.pad_half_mm >= 0 ? std::min(ball.pad_half_mm, ball.radius_mm) : ball.radius_mm;
-  return {ball.radius_mm + r * h, h, h, ball.radius_mm + wp_radius_ * h, pad, false};
+  // A turn h about the vertical moves the tip r h and turns an axis leaning `lean` (its sine)
+  // from the vertical by at most h lean.
+  return {ball.radius_mm + r * h, h * std::min(1.0, lean), h, ball.radius_mm + wp_radius_ * h, pad, false};
 }
 
-double Certifier::fail_threshold(int c, const double* v, double r, const Ball& ball) const {
+Motion Certifier::ball_motion(const Ball& ball, const PathPose& pose) const {
+  return ball_motion(ball, pose.tip.head<2>().norm(), pose.axis.head<2>().norm());
+}
+
+double Certifier::fail_threshold(int c, const double* v, const PathPose& pose, const Ball& ball) const {
   const double limit = model_.constraints()[c].limit;
   // A single placement fails below its limit (a value exactly at it is still allowed).
   if (ball.point()) return std::nextafter(limit, -kInf);
-  return limit - model_.fall(c, v, ball_motion(ball, r));
+  return limit - model_.fall(c, v, ball_motion(ball, pose));
 }
 
 void Certifier::evaluate(const PathPose& pose, const Where& where, Mask mask, double* v, PoseEvaluator& e,

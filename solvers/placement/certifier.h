@@ -96,10 +96,12 @@ class Certifier {
                              WorkCounts& counts, Progress* progress,
                              const std::function<double(const PathPose&)>& extra = {});
 
-  // The value at which constraint c at a pose (values v, tip radius r) condemns the whole ball.
-  double fail_threshold(int c, const double* v, double tip_radius_mm, const Ball& ball) const;
-  // How far the ball moves things at a pose whose tip lies r from the workpiece's z axis.
-  Motion ball_motion(const Ball& ball, double tip_radius_mm) const;
+  // The value at which constraint c at a pose (values v) condemns the whole ball.
+  double fail_threshold(int c, const double* v, const PathPose& pose, const Ball& ball) const;
+  // How far the ball moves things at a pose whose tip lies r from the workpiece's z axis and
+  // whose axis leans `lean` (the sine of its angle) from the vertical (1: any pose).
+  Motion ball_motion(const Ball& ball, double tip_radius_mm, double lean = 1.0) const;
+  Motion ball_motion(const Ball& ball, const PathPose& pose) const;
   // One exact evaluation, counted.
   void evaluate(const PathPose& pose, const Where& where, Mask mask, double* v, PoseEvaluator& e, Termination& term,
                 WorkCounts& counts) const;

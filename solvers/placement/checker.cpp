@@ -314,7 +314,6 @@ Decision Checker::screen_spot(const Spot& s, const Placement& centre, const Ball
   Impl& m = *impl_;
   const PathPose pose = m.tree.at(s.pose, s.t);
   const Constraint& con = m.model->constraints()[s.constraint];
-  const double r = pose.tip.head<2>().norm();
   std::vector<double> v(m.model->stride());
   // A constraint that changes with the pad in one direction is looked at on the box's top (or
   // bottom) face, where it is largest; the rest of the ball lies in x, y and the turn.
@@ -327,13 +326,13 @@ Decision Checker::screen_spot(const Spot& s, const Placement& centre, const Ball
   }
   m.certifier.evaluate(pose, Where::of(at), bit(s.constraint), v.data(), m.evaluator(), term, m.counts);
   const double value = v[s.constraint], limit = con.limit;
-  const double fall = flat.point() ? 0.0 : m.model->fall(s.constraint, v.data(), m.certifier.ball_motion(flat, r));
+  const double fall = flat.point() ? 0.0 : m.model->fall(s.constraint, v.data(), m.certifier.ball_motion(flat, pose));
   const bool bad = ball.point() ? value < limit : value <= limit - fall;
   if (bad) return Decision::infeasible;
   if (&flat != &ball && flat.radius_mm != ball.radius_mm) {
     // Clear over the box: from the face looked at, across the box's height and width.
     const Ball whole{flat.radius_mm + 2 * ball.pad_half_mm, ball.turn_deg, 0.0};
-    return value < limit + m.model->fall(s.constraint, v.data(), m.certifier.ball_motion(whole, r)) ? Decision::unknown
+    return value < limit + m.model->fall(s.constraint, v.data(), m.certifier.ball_motion(whole, pose)) ? Decision::unknown
                                                                                                       : Decision::feasible;
   }
   return value < limit + fall ? Decision::unknown : Decision::feasible;

@@ -12,6 +12,7 @@ namespace {
 std::string clearance_text(double v) { return std::isfinite(v) ? fmt::format("{:8.2f} mm", v) : "   >= safe"; }
 
 std::string where_text(const Finding& f) {
+  if (f.what.empty() && !std::isfinite(f.clearance_mm)) return "nothing comes within the safe distance";
   std::string where = f.what;
   if (f.pose >= 0) {
     where += fmt::format(" (tool-path index {}{}", f.pose, f.t > 0 ? fmt::format(" +{:.2f}", f.t) : "");
