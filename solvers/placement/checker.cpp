@@ -311,20 +311,25 @@ Decision Checker::probe(const Placement& p, const Ball& ball, Termination& term,
 }
 
 Decision Checker::screen_spot(const Spot& s, const Placement& centre, const Ball& ball, Termination& term) {
+  return screen_spot(s, Where::of(centre), ball, term);
+}
+
+Decision Checker::screen_spot(const Spot& s, const Where& centre, const Ball& ball, Termination& term) {
   Impl& m = *impl_;
   const PathPose pose = m.tree.at(s.pose, s.t);
   const Constraint& con = m.model->constraints()[s.constraint];
-  std::vector<double> v(m.model->stride());
+  thread_local std::vector<double> v;
+  v.resize(m.model->stride());
   // A constraint that changes with the pad in one direction is looked at on the box's top (or
   // bottom) face, where it is largest; the rest of the ball lies in x, y and the turn.
-  Placement at = centre;
+  Where at = centre;
   Ball flat = ball;
   if (con.pad_trend != 0 && ball.pad_half_mm > 0) {
-    at.pad_mm += con.pad_trend * ball.pad_half_mm;
+    at.offset.z() += con.pad_trend * ball.pad_half_mm;
     flat.radius_mm = std::sqrt(std::max(0.0, ball.radius_mm * ball.radius_mm - ball.pad_half_mm * ball.pad_half_mm));
     flat.pad_half_mm = 0;
   }
-  m.certifier.evaluate(pose, Where::of(at), bit(s.constraint), v.data(), m.evaluator(), term, m.counts);
+  m.certifier.evaluate(pose, at, bit(s.constraint), v.data(), m.evaluator(), term, m.counts);
   const double value = v[s.constraint], limit = con.limit;
   const double fall = flat.point() ? 0.0 : m.model->fall(s.constraint, v.data(), m.certifier.ball_motion(flat, pose));
   const bool bad = ball.point() ? value < limit : value <= limit - fall;

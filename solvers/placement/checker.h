@@ -77,6 +77,7 @@ class Checker {
   // condemn every placement in the ball, feasible when the ball clears it everywhere, unknown
   // otherwise. One pose query. Thread-safe.
   Decision screen_spot(const Spot& spot, const Placement& centre, const Ball& ball, Termination& term);
+  Decision screen_spot(const Spot& spot, const Where& centre, const Ball& ball, Termination& term);
 
   // The placement-only checks over a ball: the workpiece with its pad on the table and clear
   // of the peripherals (no pose query).

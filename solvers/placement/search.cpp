@@ -302,10 +302,11 @@ Screened OptimalSearch::screen(const Box& b, const std::vector<Learned>& known) 
     if (b.r0 != b.r1 || class1_state_[b.r0] != 0) all_clear = false;
   }
   std::uint64_t settled = b.settled;
+  const Where where = Where::of(c);
   for (const Learned& w : known) {
     const std::uint64_t bit = w.id < 64 ? std::uint64_t{1} << w.id : 0;
     if (settled & bit) continue;
-    const Decision s = checker_.screen_spot(w.spot, c, ball, term_);
+    const Decision s = checker_.screen_spot(w.spot, where, ball, term_);
     if (s == Decision::infeasible) {
       out.decision = Decision::infeasible;
       out.killer = w.id;
