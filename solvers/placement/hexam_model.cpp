@@ -310,15 +310,12 @@ double HexapodEvaluator::assembly_to_peripheral(const Peripheral& per, const int
   std::sort(parts.begin(), parts.begin() + static_cast<long>(count), [](const Part& x, const Part& y) { return x.lower < y.lower; });
   double best = kInf;
   int best_name = 0;
-  for (std::size_t k = 0; k < count && parts[k].lower < best; ++k) {
-    const double dist = interference::distance(rigid_[parts[k].shape], parts[k].pose, shape, per.T_table_peripheral).distance_mm;
-    if (dist < best) best = dist, best_name = parts[k].name;
-  }
-  if (best <= 0.0 && per.is_box) {
-    // Overlapping: how deep, so that the overlap proves itself over a neighbourhood.
+  if (per.is_box && parts[0].lower <= 0.0) {
+    // Possibly overlapping: how deep (balls inside the parts, inside the box), so that an
+    // overlap proves itself over a neighbourhood; no exact distance is needed then.
     const Eigen::Isometry3d to_local = per.T_table_peripheral.inverse();
     const auto sdf = [&](const Eigen::Vector3d& q) { return box_sdf(to_local * q, per.box_half_mm); };
-    for (std::size_t k = 0; k < count; ++k) {
+    for (std::size_t k = 0; k < count && parts[k].lower <= 0.0; ++k) {
       const int nm = parts[k].name;
       double depth;
       if (nm >= 0) {
@@ -330,8 +327,12 @@ double HexapodEvaluator::assembly_to_peripheral(const Peripheral& per, const int
         const Eigen::Vector3d h = ik.struts[-2 - nm].plate_mm;
         depth = depth_into(h, h, m.hinge_radius_mm, true, sdf);
       }
-      if (depth < best) best = depth, best_name = nm;
+      if (depth < 0.0 && depth < best) best = depth, best_name = nm;
     }
+  }
+  for (std::size_t k = 0; k < count && parts[k].lower < best && best > 0.0; ++k) {
+    const double dist = interference::distance(rigid_[parts[k].shape], parts[k].pose, shape, per.T_table_peripheral).distance_mm;
+    if (dist < best) best = dist, best_name = parts[k].name;
   }
   if (part && std::isfinite(best))
     *part = best_name >= 0 ? m.tool_parts[best_name].name
@@ -349,22 +350,24 @@ double HexapodEvaluator::struts_to_peripheral(const Peripheral& per, const inter
   std::sort(order.begin(), order.end());
   double best = kInf;
   int best_strut = -1;
+  if (per.is_box && order[0].first <= 0.0) {
+    // Possibly overlapping: how deep, without an exact distance (see above).
+    const Eigen::Isometry3d to_local = per.T_table_peripheral.inverse();
+    const auto sdf = [&](const Eigen::Vector3d& q) { return box_sdf(to_local * q, per.box_half_mm); };
+    for (const auto& [lb, s] : order) {
+      if (lb > 0.0) break;
+      const double depth = depth_into(ik.struts[s].slider_mm, ik.struts[s].plate_mm, m.strut_radius_mm, true, sdf);
+      if (depth < 0.0 && depth < best) best = depth, best_strut = s;
+    }
+  }
   for (const auto& [lb, s] : order) {
-    if (lb >= best) break;
+    if (lb >= best || best <= 0.0) break;
     const auto& st = ik.struts[s];
     double dist = lb;
     if (lb < model_.safe() + kSlack_mm)
       dist = interference::distance(struts_[s], interference::segment_pose(st.slider_mm, st.plate_mm), shape,
                                     per.T_table_peripheral).distance_mm;
     if (dist < best) best = dist, best_strut = s;
-  }
-  if (best <= 0.0 && per.is_box) {
-    const Eigen::Isometry3d to_local = per.T_table_peripheral.inverse();
-    const auto sdf = [&](const Eigen::Vector3d& q) { return box_sdf(to_local * q, per.box_half_mm); };
-    for (int s = 0; s < 6; ++s) {
-      const double depth = depth_into(ik.struts[s].slider_mm, ik.struts[s].plate_mm, m.strut_radius_mm, true, sdf);
-      if (depth < best) best = depth, best_strut = s;
-    }
   }
   if (part && best_strut >= 0) *part = fmt::format("strut {}", best_strut + 1);
   return best;
