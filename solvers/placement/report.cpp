@@ -132,8 +132,9 @@ void write_place_summary(const Scene& scene, const PlacementOptions& o, bool rot
   const Placement& p = r.placement;
   std::string full = head + frame_lines(scene);
   if (r.status == PlacementStatus::found) {
-    s.brief = fmt::format("x {:.2f} mm, y {:.2f} mm, pad {:.1f} mm, rotation {:g} deg{}", p.x_mm, p.y_mm, p.pad_mm,
-                          p.rotation_deg, r.verified ? ", certified free" : "");
+    s.brief = fmt::format("x {:.2f} mm, y {:.2f} mm, {} {:.1f} mm, rotation {:g} deg{}", p.x_mm, p.y_mm,
+                          scene.machine.kind == "hexapod" ? "pad" : "fixture height", p.pad_mm, p.rotation_deg,
+                          r.verified ? ", certified free" : "");
     full += fmt::format("placement: x {:.2f} mm, y {:.2f} mm, {} {:.1f} mm, rotation {:g} deg  ({})\n", p.x_mm, p.y_mm,
                         scene.machine.kind == "hexapod" ? "pad" : "fixture height", p.pad_mm, p.rotation_deg, s.message);
     if (r.rotations > 1)

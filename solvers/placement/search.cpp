@@ -415,6 +415,8 @@ bool OptimalSearch::certify(Box& b, PlacementResult& res) {
     Spot spot;
     if (checker_.probe(best, {}, term_, &spot) == Decision::infeasible) {  // a quick look first
       learn(spot);
+      last_ = Finding{};
+      last_.what = scene_.model->constraints()[spot.constraint].name;
       open_.push(b);
       return false;
     }
