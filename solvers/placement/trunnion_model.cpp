@@ -58,6 +58,12 @@ class TrunnionEvaluator final : public PoseEvaluator {
     double a = 0, c = 0;
   };
   void run(const PathPose& pose, const Where& where, Mask mask, double* v, Detail* d);
+  // The parts of run(): axis margins and extras, the tool assembly's parts, the workpiece, the
+  // peripherals, each against the machine's solids.
+  void limits(const State& st, const Where& where, double* v, Detail* d) const;
+  void parts_to_machine(const State& st, Mask mask, double* v, Detail* d);
+  void workpiece_to_machine(const State& st, const Where& where, Mask mask, double* v, Detail* d);
+  void peripherals_to_machine(const State& st, Mask mask, double* v, Detail* d);
   Eigen::Isometry3d solid_pose(const MachineSolid& s, const State& st) const;
   // The tool assembly (from the tip along the spindle) against a solid; `part` names the closest.
   double assembly_to(const State& st, const interference::Shape& shape, const Eigen::Isometry3d& T,
@@ -375,17 +381,9 @@ double TrunnionEvaluator::assembly_to(const State& st, const interference::Shape
   return best;
 }
 
-void TrunnionEvaluator::run(const PathPose& pose, const Where& where, Mask mask, double* v, Detail* d) {
+void TrunnionEvaluator::limits(const State& st, const Where& where, double* v, Detail* d) const {
   const trunnion::Machine& m = model_.machine();
   const int n = model_.count();
-  const double enough = model_.safe() + kSlack_mm;
-  State st;
-  st.a = pose.a_rad;
-  st.c = pose.c_rad - where.rotation_rad;
-  st.p = where.R * pose.tip + where.offset;
-  st.T_table = m.table_pose(st.a, st.c);
-  st.T_tilt = m.tilt_pose(st.a);
-  st.tip = st.T_table * st.p;
   // Linear axes: the spindle nose at the tip plus the tool's gauge length.
   const Eigen::Vector3d q = m.axes_for_nose(st.tip + model_.gauge_mm() * m.spindle_direction);
   v[kLinear] = kInf;
@@ -415,6 +413,11 @@ void TrunnionEvaluator::run(const PathPose& pose, const Where& where, Mask mask,
     block = std::max(block, (where.R * corner + where.offset).norm());
   }
   v[n + 1] = block + m.axes_offset_mm;
+}
+
+void TrunnionEvaluator::parts_to_machine(const State& st, Mask mask, double* v, Detail* d) {
+  const trunnion::Machine& m = model_.machine();
+  const double enough = model_.safe() + kSlack_mm;
   const auto& solids = model_.solids();
   // Each part of the tool assembly against the machine's solids.
   const Eigen::Vector3d sdir = m.spindle_direction;
@@ -439,6 +442,11 @@ void TrunnionEvaluator::run(const PathPose& pose, const Where& where, Mask mask,
       }
     }
   }
+}
+
+void TrunnionEvaluator::workpiece_to_machine(const State& st, const Where& where, Mask mask, double* v, Detail* d) {
+  const double enough = model_.safe() + kSlack_mm;
+  const auto& solids = model_.solids();
   // The workpiece and its fixture against the cradle and the end supports.
   v[kWorkpiece] = kInf;
   const WorkpieceSolid& wp = model_.workpiece();
@@ -475,6 +483,11 @@ void TrunnionEvaluator::run(const PathPose& pose, const Where& where, Mask mask,
       }
     }
   }
+}
+
+void TrunnionEvaluator::peripherals_to_machine(const State& st, Mask mask, double* v, Detail* d) {
+  const double enough = model_.safe() + kSlack_mm;
+  const auto& solids = model_.solids();
   // Peripherals on the table: the tool assembly against each, each against the cradle.
   const auto& pers = model_.peripherals();
   for (std::size_t p = 0; p < pers.size(); ++p) {
@@ -501,6 +514,23 @@ void TrunnionEvaluator::run(const PathPose& pose, const Where& where, Mask mask,
         }
       }
   }
+}
+
+void TrunnionEvaluator::run(const PathPose& pose, const Where& where, Mask mask, double* v, Detail* d) {
+  const trunnion::Machine& m = model_.machine();
+  const double enough = model_.safe() + kSlack_mm;
+  State st;
+  st.a = pose.a_rad;
+  st.c = pose.c_rad - where.rotation_rad;
+  st.p = where.R * pose.tip + where.offset;
+  st.T_table = m.table_pose(st.a, st.c);
+  st.T_tilt = m.tilt_pose(st.a);
+  st.tip = st.T_table * st.p;
+  limits(st, where, v, d);
+  parts_to_machine(st, mask, v, d);
+  workpiece_to_machine(st, where, mask, v, d);
+  peripherals_to_machine(st, mask, v, d);
+  const WorkpieceSolid& wp = model_.workpiece();
   const int support = model_.support();
   int part = -1;
   v[support] = (mask & bit(support))
