@@ -22,8 +22,11 @@ namespace machplan::placement {
 namespace {
 constexpr double kDeg = M_PI / 180.0;
 // Boxes at least this large (radius, mm) that the known interferences leave undecided are
-// probed for a deep interference before they are split.
-constexpr double kProbeRadius_mm = 32.0;
+// probed for a deep interference at their centre before they are split.
+constexpr double kProbeRadius_mm = 8.0;
+// After a probe that found nothing, the next probe in the same box waits until the boxes are
+// this much smaller.
+constexpr double kProbeShrink = 0.5;
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -144,6 +147,7 @@ struct Box {
   int r0, r1;                   // rotation indices, inclusive
   Key key;
   std::uint64_t settled = 0;    // known interferences shown absent over the box
+  double probe_below = 1e300;   // probe only boxes smaller than this (an ancestor's probe failed)
   bool point() const { return x0 == x1 && y0 == y1 && p0 == p1 && r0 == r1; }
   double volume() const { return double(x1 - x0 + 1) * (y1 - y0 + 1) * (p1 - p0 + 1) * (r1 - r0 + 1); }
   bool operator>(const Box& o) const { return o.key < key; }
@@ -272,7 +276,7 @@ std::vector<Box> OptimalSearch::split(const Box& b, std::uint64_t settled) const
   } else if (sx >= sy) {
     const long m = b.x0 + (b.x1 - b.x0) / 2;
     out.push_back(make(b.x0, m, b.y0, b.y1, b.p0, b.p1, b.r0, b.r1, settled));
-    out.push_back(make(m + 1, b.x1, b.y0, b.y1, b.p0, b.p1, b.r0, b.r1, 0));
+    out.push_back(make(m + 1, b.x1, b.y0, b.y1, b.p0, b.p1, b.r0, b.r1, settled));
   } else {
     const long m = b.y0 + (b.y1 - b.y0) / 2;
     out.push_back(make(b.x0, b.x1, b.y0, m, b.p0, b.p1, b.r0, b.r1, settled));
@@ -319,7 +323,8 @@ Screened OptimalSearch::screen(const Box& b, const std::vector<Learned>& known) 
   }
   out.settled = settled;
   // A large box no known interference settles: look for a deep one at its centre.
-  if (!all_clear && ball.radius_mm >= kProbeRadius_mm) {
+  const bool probing = !all_clear && ball.radius_mm >= kProbeRadius_mm && ball.radius_mm < b.probe_below;
+  if (probing) {
     Spot spot;
     if (checker_.probe(c, ball, term_, &spot) == Decision::infeasible) {
       out.decision = Decision::infeasible;
@@ -331,7 +336,10 @@ Screened OptimalSearch::screen(const Box& b, const std::vector<Learned>& known) 
   // Undecided, or free of everything known but not a single placement on an objective whose
   // boxes have no best point: split now (the children's bounds are computed here, in
   // parallel).
-  if (out.decision == Decision::unknown || (!lexicographic() && !b.point())) out.children = split(b, settled);
+  if (out.decision == Decision::unknown || (!lexicographic() && !b.point())) {
+    out.children = split(b, settled);
+    for (Box& child : out.children) child.probe_below = probing ? ball.radius_mm * kProbeShrink : b.probe_below;
+  }
   return out;
 }
 
