@@ -77,7 +77,13 @@ void add_place(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "worker threads (0: every core)")->check(CLI::Range(0, 1024));
   cmd->add_option("--plot", o->plot, "write a top and side view (.png or .svg)");
   cmd->add_flag("--json", o->json, "machine-readable output");
-  cmd->add_flag("--dense-check", o->verify, "also re-check the answer at every pose and every 0.5 mm (slow)");
+  cmd->add_flag("--dense", o->verify, "also re-check the answer at every pose and every 0.5 mm (slow)");
+  // The former name (`check` has always said --dense): still accepted, with a warning.
+  cmd->add_flag_callback("--dense-check", [o] {
+       o->verify = true;
+       std::fputs("machplan place: warning: --dense-check is now --dense\n", stderr);
+     })
+      ->group("");
   cmd->callback([o] {
     const std::map<std::string, std::string> flags{
         {"rotations_deg", "--rotations"}, {"objective", "--objective"}, {"threads", "--threads"}, {"strategy", "--strategy"}};
