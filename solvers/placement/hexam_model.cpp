@@ -71,16 +71,8 @@ class HexapodEvaluator final : public PoseEvaluator {
 
 class HexapodModel final : public MachineModel {
  public:
-  HexapodModel(const hexam::Machine& m, const Scene& scene) : m_(m), c_(scene.safe_distance_mm) {
-    peripherals_ = scene.peripherals;
-    wp_.vertices = scene.workpiece_vertices;
-    wp_.triangles = scene.workpiece_triangles;
-    wp_.bounds = scene.workpiece_bounds;
-    wp_.spoilboard_mm = scene.spoilboard_mm;
-    for (int k = 0; k < 4; ++k)
-      wp_.radius_mm = std::max(wp_.radius_mm, Eigen::Vector2d(k & 1 ? wp_.bounds.max().x() : wp_.bounds.min().x(),
-                                                              k & 2 ? wp_.bounds.max().y() : wp_.bounds.min().y())
-                                                  .norm());
+  HexapodModel(const hexam::Machine& m, const Scene& scene)
+      : m_(m), c_(scene.safe_distance_mm), peripherals_(scene.peripherals), wp_(workpiece_solid(scene)) {
     rot_factor_ = hexam::plate_rotation_factor(m.max_tilt_rad);
     L_min_ = kInf;
     for (const auto& s : m.struts) L_min_ = std::min(L_min_, s.length_mm);

@@ -79,13 +79,8 @@ class TrunnionEvaluator final : public PoseEvaluator {
 
 class TrunnionModel final : public MachineModel {
  public:
-  TrunnionModel(const trunnion::Machine& m, const Scene& scene) : m_(m), c_(scene.safe_distance_mm) {
-    peripherals_ = scene.peripherals;
-    wp_.vertices = scene.workpiece_vertices;
-    wp_.triangles = scene.workpiece_triangles;
-    wp_.bounds = scene.workpiece_bounds;
-    wp_.spoilboard_mm = scene.spoilboard_mm;
-    for (const auto& v : wp_.vertices) wp_.radius_mm = std::max(wp_.radius_mm, v.head<2>().norm());
+  TrunnionModel(const trunnion::Machine& m, const Scene& scene)
+      : m_(m), c_(scene.safe_distance_mm), peripherals_(scene.peripherals), wp_(workpiece_solid(scene)) {
     gauge_mm_ = scene.tooling.stick_out_mm + scene.tooling.chuck_length_mm;
     tool_ = tool_stack(scene.tooling);
     assembly_ = tool_;

@@ -5,8 +5,23 @@
 #include <limits>
 
 #include "solvers/placement/bounds.h"
+#include "solvers/placement/scene.h"
 
 namespace machplan::placement {
+
+WorkpieceSolid workpiece_solid(const Scene& scene) {
+  WorkpieceSolid wp;
+  wp.vertices = scene.workpiece_vertices;
+  wp.triangles = scene.workpiece_triangles;
+  wp.bounds = scene.workpiece_bounds;
+  wp.spoilboard_mm = scene.spoilboard_mm;
+  // The block fills the footprint, so its farthest point from the z axis is a corner of it.
+  for (int k = 0; k < 4; ++k)
+    wp.radius_mm = std::max(wp.radius_mm, Eigen::Vector2d(k & 1 ? wp.bounds.max().x() : wp.bounds.min().x(),
+                                                          k & 2 ? wp.bounds.max().y() : wp.bounds.min().y())
+                                              .norm());
+  return wp;
+}
 
 Eigen::Vector3d WorkpieceSolid::block_half(double pad_mm) const {
   return {bounds.sizes().x() / 2, bounds.sizes().y() / 2, (bounds.max().z() + pad_mm) / 2};

@@ -21,6 +21,8 @@
 
 namespace machplan::placement {
 
+struct Scene;
+
 struct WorkpieceSolid {
   std::vector<Eigen::Vector3d> vertices;
   std::vector<Eigen::Vector3i> triangles;
@@ -37,6 +39,9 @@ struct WorkpieceSolid {
   // The footprint's corners in the table frame.
   std::array<Eigen::Vector2d, 4> footprint(const Where& where) const;
 };
+
+// The scene's workpiece (mesh, bounds, spoilboard), its radius that of the footprint's corners.
+WorkpieceSolid workpiece_solid(const Scene& scene);
 
 // The tool assembly against the support (see above) at one pose in the workpiece frame with
 // the pad `pad_mm`: the smallest distance over the parts, exact below `exact_below` (a lower
