@@ -709,6 +709,9 @@ void parse_rotations(std::string_view text, PlacementOptions& o) {
 
 void PlacementOptions::validate() const {
   if (threads < 0 || threads > 1024) throw InputError::field("threads", fmt::format("{}: must lie within 0 .. 1024", threads));
+  if (strategy == Strategy::paper && (any_rotation || rotations_deg != std::vector<double>{0.0}))
+    throw InputError::field("rotations_deg", "the paper strategy searches the workpiece as given (rotation 0); "
+                                             "other rotations need the optimal strategy");
   if (any_rotation) return;
   if (rotations_deg.empty()) throw InputError::field("rotations_deg", "needs at least one rotation");
   if (rotations_deg.size() > kMaxRotations)

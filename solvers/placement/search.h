@@ -69,7 +69,7 @@ struct PlacementOptions {
   // automatic: lowest on a hexapod, travel on a table-tilting machine.
   enum class Objective { automatic, lowest, travel, time } objective = Objective::automatic;
   // Workpiece rotations about the table's z the optimal strategy may choose (degrees, each
-  // within +-360, no two the same angle modulo 360) ...
+  // within +-360, no two the same angle modulo 360; the paper strategy takes only {0}) ...
   std::vector<double> rotations_deg = {0.0};
   // ... or every multiple of the scene's search.rotation_step_deg in (-180, 180].
   bool any_rotation = false;

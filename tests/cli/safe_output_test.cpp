@@ -149,6 +149,13 @@ TEST(BadOptions, NonFiniteAndAbsurdValuesExitTwoNamingTheFlag) {
   }
 }
 
+TEST(BadOptions, ThePaperStrategyRefusesRotations) {
+  const Outcome r = machplan(fmt::format("place '{}' --strategy paper --rotations 90", kScene));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--rotations: the paper strategy searches the workpiece as given"));
+  EXPECT_EQ(r.out, "");
+}
+
 TEST(BadOptions, TooManyRotationsAreRefusedWithTheLimit) {
   const Outcome r = machplan(fmt::format("place '{}' --rotations 0:360:0.05", kScene));
   EXPECT_EQ(r.code, 2);
