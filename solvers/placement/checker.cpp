@@ -335,8 +335,9 @@ Decision Checker::screen_spot(const Spot& s, const Where& centre, const Ball& ba
   const bool bad = ball.point() ? value < limit : value <= limit - fall;
   if (bad) return Decision::infeasible;
   if (&flat != &ball && flat.radius_mm != ball.radius_mm) {
-    // Clear over the box: from the face looked at, across the box's height and width.
-    const Ball whole{flat.radius_mm + 2 * ball.pad_half_mm, ball.turn_deg, 0.0};
+    // Clear over the box: from the face looked at, across the box's height (the pad changes by
+    // all of it) and width.
+    const Ball whole{flat.radius_mm + 2 * ball.pad_half_mm, ball.turn_deg, 2 * ball.pad_half_mm};
     return value < limit + m.model->fall(s.constraint, v.data(), m.certifier.ball_motion(whole, pose)) ? Decision::unknown
                                                                                                       : Decision::feasible;
   }

@@ -230,7 +230,7 @@ class OptimalSearch {
   std::vector<Learned> learned_;  // interferences met so far, most recently useful first
   std::vector<std::optional<AxisObjective>> objective_at_;  // per rotation (travel, time)
   std::vector<int> class1_state_;  // per rotation: -1 unknown, 0 clear, 1 interferes
-  std::set<std::tuple<long, long, long, int>> rejected_;  // points refused without an exact spot
+  std::set<std::tuple<long, long, long, int>> rejected_;  // points whose certification failed
   bool ring_clear_ = true;
   double radius_ = 0.0;  // farthest tip from the workpiece's z axis
   std::priority_queue<Box, std::vector<Box>, std::greater<>> open_;
@@ -407,7 +407,8 @@ bool OptimalSearch::prepare(PlacementResult& res) {
 bool OptimalSearch::certify(Box& b, PlacementResult& res) {
   // No interference met so far objects anywhere in the box, so its best point is the best
   // candidate left: certify it over the whole path. If that fails, the checker has found the
-  // interference, which is learned, and the box is screened again.
+  // interference, which is learned, and the box is screened again; the point is out for good
+  // (should the screening pass the box again, it is split, never certified at the same point).
   const Placement best = best_point(b);
   const int br = rot_.best(b.r0, b.r1);
   const auto point = std::make_tuple(nearest_to_zero(b.x0, b.x1), nearest_to_zero(b.y0, b.y1), b.p0, br);
@@ -423,6 +424,7 @@ bool OptimalSearch::certify(Box& b, PlacementResult& res) {
     Spot spot;
     if (checker_.probe(best, {}, term_, &spot) == Decision::infeasible) {  // a quick look first
       learn(spot);
+      rejected_.insert(point);
       last_ = Finding{};
       last_.what = scene_.model->constraints()[spot.constraint].name;
       open_.push(b);
@@ -439,6 +441,7 @@ bool OptimalSearch::certify(Box& b, PlacementResult& res) {
     last_ = w;
     if (spot.exact) {
       learn(spot);
+      rejected_.insert(point);
       open_.push(b);
       return false;
     }
