@@ -22,20 +22,6 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kDeg = M_PI / 180.0;
 
-WorkpieceSolid workpiece_of(const Scene& scene) {
-  WorkpieceSolid wp;
-  wp.vertices = scene.workpiece_vertices;
-  wp.triangles = scene.workpiece_triangles;
-  wp.bounds = scene.workpiece_bounds;
-  wp.spoilboard_mm = scene.spoilboard_mm;
-  for (const auto& v : scene.workpiece_vertices) wp.radius_mm = std::max(wp.radius_mm, v.head<2>().norm());
-  for (int k = 0; k < 4; ++k)
-    wp.radius_mm = std::max(wp.radius_mm, Eigen::Vector2d(k & 1 ? wp.bounds.max().x() : wp.bounds.min().x(),
-                                                          k & 2 ? wp.bounds.max().y() : wp.bounds.min().y())
-                                              .norm());
-  return wp;
-}
-
 std::vector<PathPose> poses_of(const Scene& scene) {
   std::vector<PathPose> poses(scene.tips_mm.size());
   for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {scene.tips_mm[i], scene.axes[i]};
@@ -60,7 +46,7 @@ struct Checker::Impl {
   std::optional<Finding> ring;          // class 1 for every rotation at once (once asked)
 
   explicit Impl(const Scene& s)
-      : scene(s), model(s.model), wp(workpiece_of(s)), tree(*model, poses_of(s)),
+      : scene(s), model(s.model), wp(workpiece_solid(s)), tree(*model, poses_of(s)),
         class1(*model, tree, wp, s.safe_distance_mm), certifier(*model, tree, wp.radius_mm) {}
 
   PoseEvaluator& evaluator() {
