@@ -39,19 +39,19 @@ std::string box_stl(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
 // A 40 x 30 x 20 mm part with the CAM zero on its top face at the corner (x 0 .. 40, y 0 .. 30,
 // z -20 .. 0), a facing pass over the top and a hole drilled through it 5 mm into what is below
 // (the mesh is the stock: the drill's flutes, 30 mm long, are in it by design).
-std::string write_job(const TempDir& dir, const std::string& workpiece_extra, double corner_radius_mm = 0) {
+std::string write_job(const TempDir& dir, const std::string& workpiece_extra) {
   dir.write("part.stl", box_stl({0, 0, -20}, {40, 30, 0}));
   std::string path = "x,y,z\n";
   for (int k = 0; k <= 8; ++k) path += fmt::format("{},15,0\n", 5 * k);
   path += "20,15,10\n20,15,-12\n20,15,-25\n20,15,10\n";
   dir.write("path.csv", path);
   return dir.write("scene.yaml", fmt::format("machine: {}\n"
-                                             "tooling: {{tool_diameter_mm: 6, corner_radius_mm: {}, stick_out_mm: 40, flute_length_mm: 30, "
+                                             "tooling: {{tool_diameter_mm: 6, corner_radius_mm: 0, stick_out_mm: 40, flute_length_mm: 30, "
                                              "chuck_diameter_mm: 40, chuck_length_mm: 45}}\n"
                                              "workpiece: {{mesh: part.stl{}}}\n"
                                              "toolpath: path.csv\n"
                                              "search: {{pad_max_mm: 150}}\n",
-                                             kMachine, corner_radius_mm, workpiece_extra));
+                                             kMachine, workpiece_extra));
 }
 
 TEST(SceneFrame, MeshAndToolPathMoveTogetherToTheBottomFaceCentre) {
@@ -83,25 +83,36 @@ TEST(SceneFrame, TheOriginCanBeGivenInCamCoordinates) {
   EXPECT_THAT(msg, HasSubstr("10.000 mm above the solid's lowest point"));
 }
 
-// A ball end mill plunging 5 mm below the part on a 12.5 mm spoilboard: on the thinnest pads the
-// table comes within the safe distance of the ball, which rules them out over the whole table
-// by the pad alone. (The screening once took the tool's clearance at the top of a box of pads
-// for the whole box, and certified the same lowest placement again and again.)
-TEST(SceneFrame, PadsTooThinForAPlungeAreRuledOutEverywhere) {
+// A profile pass beside the part, 5.5 mm below its bottom face: clear of the pad under the
+// footprint, but on a pad under 10.5 mm the table comes within the safe distance of the tool,
+// wherever the part goes. The thin pads are ruled out by the pad alone. (The screening once
+// took the tool's clearance at the top of a box of pads for the whole box, and certified the
+// same lowest placement again and again.)
+TEST(SceneFrame, PadsTooThinForAPassBelowThePartAreRuledOutEverywhere) {
   TempDir dir;
+  dir.write("part.stl", box_stl({0, 0, -20}, {40, 30, 0}));
+  std::string path = "x,y,z\n";
+  for (int k = 0; k <= 8; ++k) path += fmt::format("{},15,0\n", 5 * k);
+  path += "0,-9,10\n0,-9,-25.5\n40,-9,-25.5\n40,-9,10\n";  // 6 mm from the part's side
+  dir.write("path.csv", path);
+  const std::string file = dir.write(
+      "scene.yaml", fmt::format("machine: {}\n"
+                                "tooling: {{tool_diameter_mm: 6, corner_radius_mm: 0, stick_out_mm: 40, flute_length_mm: 30, "
+                                "chuck_diameter_mm: 40, chuck_length_mm: 45}}\n"
+                                "workpiece: {{mesh: part.stl}}\ntoolpath: path.csv\nsearch: {{pad_max_mm: 150}}\n",
+                                kMachine));
+  const Scene s = load_scene(file);
   Termination term;
   term.set_budget(5'000'000, "pose queries");  // ends a search that would not
-  const Scene s = load_scene(write_job(dir, ", spoilboard_mm: 12.5", 3.0));
   const PlacementResult r = place(s, PlacementOptions{}, term);
   ASSERT_EQ(r.status, PlacementStatus::found) << r.summary.full_report();
   EXPECT_TRUE(r.verified);
-  EXPECT_GT(r.placement.pad_mm, 12.0);
-  const Finding& support = r.report.kinds[static_cast<int>(Kind::tool_support)];
-  EXPECT_FALSE(support.interferes);
-  // One pad less is refused, anywhere on the table: the lowest pad is the answer's.
+  EXPECT_EQ(r.placement.pad_mm, 11.0);
+  EXPECT_NEAR(r.report.kinds[static_cast<int>(Kind::tool_support)].clearance_mm, 5.5, 0.25);
+  // One pad less is refused, at the answer and at the table centre.
   CheckOptions exact;
-  EXPECT_FALSE(check(s, {r.placement.x_mm, r.placement.y_mm, r.placement.pad_mm - 1, 0}, exact, term).report.free());
-  EXPECT_FALSE(check(s, {0, 0, r.placement.pad_mm - 1, 0}, exact, term).report.free());
+  EXPECT_FALSE(check(s, {r.placement.x_mm, r.placement.y_mm, 10, 0}, exact, term).report.free());
+  EXPECT_FALSE(check(s, {0, 0, 10, 0}, exact, term).report.free());
 }
 
 TEST(SceneFrame, ADrillThroughThePartNeedsASpoilboard) {
