@@ -77,7 +77,10 @@ double support_clearance(const std::vector<AxialPart>& parts, const std::vector<
                                   Eigen::Vector3d(wp.bounds.max().x(), wp.bounds.max().y(), top));
   for (std::size_t k = 0; k < parts.size(); ++k) {
     const AxialPart& part = parts[k];
-    const Eigen::Vector3d a = pose.tip + pose.axis * part.from_mm, b = pose.tip + pose.axis * part.to_mm;
+    // A ball-end part's capsule lies within from_mm .. to_mm (see axial_shapes()): its axis
+    // ends a radius inside, so that the tip is the lowest point of the ball.
+    const double inset = part.capsule ? std::min(part.radius_mm, (part.to_mm - part.from_mm) / 2) : 0.0;
+    const Eigen::Vector3d a = pose.tip + pose.axis * (part.from_mm + inset), b = pose.tip + pose.axis * (part.to_mm - inset);
     const double low = lowest_z(a, b, part.radius_mm, part.capsule);
     double d = std::numeric_limits<double>::infinity();
     if (table) d = std::max(0.0, low + pad_mm);
