@@ -1,24 +1,29 @@
-// Placement speed on the rebuilt HexaM scene (datasets/hexam-paper/scene.yaml, 123,201 poses).
-// Run: build/release/bench/placement_bench
+// Placement speed on the rebuilt HexaM scene (datasets/hexam-paper/scene.yaml, 123,201 poses)
+// and on the bundled trunnion scene (datasets/trunnion-5axis/scene.yaml).
+// Run: build/bench/bench/placement_bench   (a Release build with -DMACHPLAN_BENCH=ON)
 // Results are saved in bench/results/placement.txt with the machine they ran on.
 //
-//   BM_LoadScene        reading machine, tooling, STL and the tool path
-//   BM_Class1           building a Checker: the placement-independent class-1 walk
-//   BM_DecideAtAnswer   one certified decision over the whole path at the optimal answer
-//                       (counter poses_per_s: tool poses certified per second)
-//   BM_ReportAtAnswer   the full per-kind report at the answer (minima to 0.25 mm)
-//   BM_DenseRecheck     every pose plus 0.5 mm interpolation, exact, no bounds (reference)
-//   BM_Optimal          `machplan place --strategy optimal` end to end, scene already loaded
-//   BM_Paper            the paper's evasion search, scene already loaded
+//   BM_LoadScene          reading machine, tooling, STL and the tool path
+//   BM_Class1             the placement-independent class-1 walk (a fresh checker)
+//   BM_DecideAtAnswer     one certified decision over the whole path at the optimal answer
+//                         (counter poses_per_s: tool poses certified per second)
+//   BM_ReportAtAnswer     the full per-kind report at the answer (minima to 0.25 mm)
+//   BM_DenseRecheck       every pose plus 0.5 mm interpolation, exact, no bounds (reference)
+//   BM_Optimal/T          `machplan place --threads T` end to end, scene already loaded
+//   BM_Paper              the paper's evasion search, scene already loaded
+//   BM_AnyRotation/T      `machplan place --rotations any --threads T`
+//   BM_Trunnion/T         the trunnion scene's least-travel search
 #include <benchmark/benchmark.h>
 
 #include "solvers/placement/search.h"
 
 namespace {
 
+using namespace machplan;
 using namespace machplan::placement;
 
 const std::string kScene = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/hexam-paper/scene.yaml";
+const std::string kTrunnion = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/trunnion-5axis/scene.yaml";
 
 const Scene& scene() {
   static const Scene s = load_scene(kScene);
@@ -27,9 +32,8 @@ const Scene& scene() {
 
 const Placement& answer() {
   static const Placement p = [] {
-    PlacementOptions o;
-    o.strategy = PlacementOptions::Strategy::optimal;
-    return place(scene(), o).placement;
+    Termination term;
+    return place(scene(), PlacementOptions{}, term).placement;
   }();
   return p;
 }
@@ -40,72 +44,106 @@ void BM_LoadScene(benchmark::State& state) {
 BENCHMARK(BM_LoadScene)->Unit(benchmark::kMillisecond);
 
 void BM_Class1(benchmark::State& state) {
+  Termination term;
   for (auto _ : state) {
     Checker c(scene());
-    benchmark::DoNotOptimize(c.class1().clearance_mm);
+    benchmark::DoNotOptimize(c.class1(0.0, term).clearance_mm);
   }
 }
-BENCHMARK(BM_Class1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Class1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // The checker keeps exact values between scans at the same placement; a scan elsewhere (not
 // timed) makes every timed scan start cold.
-void forget(benchmark::State& state, Checker& c) {
+void forget(benchmark::State& state, Checker& c, Termination& term) {
   state.PauseTiming();
-  c.decide({0, 0, 0, 0}, 0.0);
+  c.decide({0, 0, 0, 0}, {}, term);
   state.ResumeTiming();
 }
 
 void BM_DecideAtAnswer(benchmark::State& state) {
   const Placement p = answer();
   Checker c(scene());
+  Termination term;
+  c.class1(0.0, term);
   long queries = 0;
   for (auto _ : state) {
-    forget(state, c);
+    forget(state, c, term);
     const long before = c.counts().exact_queries;
-    if (c.decide(p, 0.0) != Decision::feasible) state.SkipWithError("the answer is not free");
+    if (c.decide(p, {}, term) != Decision::feasible) state.SkipWithError("the answer is not free");
     queries += c.counts().exact_queries - before;
   }
   state.counters["poses_per_s"] =
       benchmark::Counter(static_cast<double>(c.pose_count()) * state.iterations(), benchmark::Counter::kIsRate);
   state.counters["exact_queries"] = static_cast<double>(queries) / state.iterations();
 }
-BENCHMARK(BM_DecideAtAnswer)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DecideAtAnswer)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_ReportAtAnswer(benchmark::State& state) {
   const Placement p = answer();
   Checker c(scene());
+  Termination term;
+  c.class1(0.0, term);
   for (auto _ : state) {
-    forget(state, c);
-    benchmark::DoNotOptimize(c.report(p).free());
+    forget(state, c, term);
+    benchmark::DoNotOptimize(c.report(p, term).free());
   }
 }
-BENCHMARK(BM_ReportAtAnswer)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ReportAtAnswer)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_DenseRecheck(benchmark::State& state) {
   const Placement p = answer();
   Checker c(scene());
-  long poses = 0;
-  for (auto _ : state) poses = c.dense_check(p).counts.exact_queries;
+  Termination term;
+  long before = 0, poses = 0;
+  for (auto _ : state) {
+    before = c.counts().exact_queries;
+    benchmark::DoNotOptimize(c.dense_check(p, 0.5, term).free());
+    poses = c.counts().exact_queries - before;
+  }
   state.counters["poses"] = static_cast<double>(poses);
   state.counters["poses_per_s"] = benchmark::Counter(static_cast<double>(poses) * state.iterations(), benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_DenseRecheck)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_DenseRecheck)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
 
-void run_search(benchmark::State& state, PlacementOptions::Strategy strategy) {
-  PlacementOptions o;
-  o.strategy = strategy;
+void run_search(benchmark::State& state, const Scene& s, PlacementOptions o) {
+  o.threads = static_cast<int>(state.range(0));
   PlacementResult r;
-  for (auto _ : state) r = place(scene(), o);
+  for (auto _ : state) {
+    Termination term;
+    r = place(s, o, term);
+  }
   state.counters["x_mm"] = r.placement.x_mm;
   state.counters["y_mm"] = r.placement.y_mm;
   state.counters["pad_mm"] = r.placement.pad_mm;
+  state.counters["rot_deg"] = r.placement.rotation_deg;
   state.counters["placements"] = static_cast<double>(r.placements_examined);
   state.counters["verified"] = r.verified ? 1 : 0;
+  if (r.travel && r.centre_travel)
+    state.counters["saving_pct"] = 100.0 * (1.0 - r.travel->linear_mm / r.centre_travel->linear_mm);
 }
-void BM_Optimal(benchmark::State& state) { run_search(state, PlacementOptions::Strategy::optimal); }
-BENCHMARK(BM_Optimal)->Unit(benchmark::kMillisecond)->UseRealTime();
-void BM_Paper(benchmark::State& state) { run_search(state, PlacementOptions::Strategy::paper); }
-BENCHMARK(BM_Paper)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_Optimal(benchmark::State& state) { run_search(state, scene(), PlacementOptions{}); }
+BENCHMARK(BM_Optimal)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_Paper(benchmark::State& state) {
+  PlacementOptions o;
+  o.strategy = PlacementOptions::Strategy::paper;
+  run_search(state, scene(), o);
+}
+BENCHMARK(BM_Paper)->Arg(0)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_AnyRotation(benchmark::State& state) {
+  PlacementOptions o;
+  o.any_rotation = true;
+  run_search(state, scene(), o);
+}
+BENCHMARK(BM_AnyRotation)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
+
+void BM_Trunnion(benchmark::State& state) {
+  static const Scene s = load_scene(kTrunnion);
+  run_search(state, s, PlacementOptions{});
+}
+BENCHMARK(BM_Trunnion)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 

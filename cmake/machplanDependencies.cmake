@@ -27,9 +27,10 @@ machplan_find_package(fmt)
 # (engine/interference/collision.cpp, behind Shape), OMPL (solvers/motion), Ceres
 # (solvers/calibration/fit.cpp), NLopt (solvers/tuning/optimizer.cpp), SQLite
 # (solvers/common/sqlite_db.cpp, behind SqliteDb), Cairo (solvers/common/picture.cpp, behind
-# Canvas).
+# Canvas), oneTBB (solvers/placement: the checker's and the searches' threads).
 machplan_find_package(yaml-cpp)
 machplan_find_package(fcl)
+machplan_find_package(TBB)
 machplan_find_package(ompl)
 if(NOT TARGET ompl::ompl)
   # OMPL 1.5 ships only variables; wrap them in a target so the rest of the build sees one name.

@@ -56,6 +56,21 @@ Shape Shape::mesh(const std::vector<Eigen::Vector3d>& v, const std::vector<Eigen
   return Shape(make(Kind::mesh, model, b));
 }
 
+Shape Shape::copy() const {
+  const fcl::CollisionGeometryd* g = impl_->geometry.get();
+  std::shared_ptr<fcl::CollisionGeometryd> c;
+  switch (impl_->kind) {
+    case Kind::box: c = std::make_shared<fcl::Boxd>(*static_cast<const fcl::Boxd*>(g)); break;
+    case Kind::cylinder: c = std::make_shared<fcl::Cylinderd>(*static_cast<const fcl::Cylinderd*>(g)); break;
+    case Kind::capsule: c = std::make_shared<fcl::Capsuled>(*static_cast<const fcl::Capsuled*>(g)); break;
+    case Kind::sphere: c = std::make_shared<fcl::Sphered>(*static_cast<const fcl::Sphered*>(g)); break;
+    case Kind::mesh:
+      c = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>(*static_cast<const fcl::BVHModel<fcl::OBBRSSd>*>(g));
+      break;
+  }
+  return Shape(make(impl_->kind, std::move(c), impl_->bounds));
+}
+
 Shape::Kind Shape::kind() const { return impl_->kind; }
 Eigen::AlignedBox3d Shape::local_bounds() const { return impl_->bounds; }
 

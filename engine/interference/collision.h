@@ -8,8 +8,9 @@
 //
 // distance_mm is the Euclidean distance between the two solids; 0 when they touch or overlap
 // (FCL's signed distance is not trusted, see DESIGN.md), so callers treat "0" as "deficit at
-// least the required clearance". Shapes are immutable and may be shared between threads;
-// each call builds no FCL collision objects, so concurrent calls on shared shapes are safe.
+// least the required clearance". Shapes are immutable; callers that query from several threads
+// give each thread its own copy() (the placement checker does), so no collision object is
+// shared between threads.
 #pragma once
 
 #include <memory>
@@ -33,6 +34,9 @@ class Shape {
   Kind kind() const;
   // Axis-aligned bounds in the shape's own frame.
   Eigen::AlignedBox3d local_bounds() const;
+  // A deep copy with collision objects of its own (a mesh's bounding-volume tree included), for
+  // a thread that must not share them.
+  Shape copy() const;
 
   struct Impl;
   const Impl& impl() const { return *impl_; }

@@ -160,8 +160,9 @@ void Machine::finalize(const Yaml* where) {
 }
 
 Machine machine_from_yaml(const Yaml& root) {
-  root.reject_unknown_keys({"name", "table_size_mm", "layout", "struts", "sliders", "spindle", "home_tip_mm",
+  root.reject_unknown_keys({"kind", "name", "table_size_mm", "layout", "struts", "sliders", "spindle", "home_tip_mm",
                             "max_tilt_deg", "reconstructed"});
+  if (root.has("kind") && root.string("kind") != "hexapod") root.at("kind").fail("must be 'hexapod' in a HexaM-type machine file");
   Machine m;
   m.source = root.file();
   m.name = root.string_or("name", "hexam");
@@ -232,12 +233,7 @@ void attach_tooling(Machine& m, const Tooling& t) {
   // The head entry (loaded from the machine file) is kept and moved up above the chuck.
   ToolPart head = m.tool_parts.back();
   const double head_len = head.to_mm - head.from_mm;
-  m.tool_parts.clear();
-  const double r = t.tool_diameter_mm / 2;
-  m.tool_parts.push_back({"tool flutes", 0.0, t.flute_length_mm, r, true, ToolPart::Class::cutting});
-  m.tool_parts.push_back({"tool shank", t.flute_length_mm, t.stick_out_mm, r, false, ToolPart::Class::class1});
-  m.tool_parts.push_back({"chuck", t.stick_out_mm, t.stick_out_mm + t.chuck_length_mm, t.chuck_diameter_mm / 2,
-                          false, ToolPart::Class::class1});
+  m.tool_parts = tool_stack(t);
   head.from_mm = t.stick_out_mm + t.chuck_length_mm;
   head.to_mm = head.from_mm + head_len;
   m.tool_parts.push_back(head);

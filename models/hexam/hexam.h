@@ -43,6 +43,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "models/common/tooling.h"
+
 namespace machplan {
 
 class Yaml;
@@ -56,16 +58,8 @@ struct Strut {
   double length_mm = 0.0;           // L_i
 };
 
-// A cylinder (or capsule) of the moving assembly, fixed to the tool: from `from_mm` to `to_mm`
-// along the tool axis measured from the tip, with a radius.
-struct ToolPart {
-  std::string name;
-  double from_mm = 0.0;
-  double to_mm = 0.0;
-  double radius_mm = 0.0;
-  bool capsule = false;  // rounded ends (the ball-end tool) instead of flat ones
-  enum class Class { cutting, class1 } cls = Class::class1;
-};
+// The tool assembly's parts (models/common/tooling.h): tool, chuck, then the spindle head.
+using ToolPart = ::machplan::ToolPart;
 
 struct Machine {
   std::string name;
@@ -153,14 +147,7 @@ std::optional<PlatePose> forward_kinematics(const Machine& m, const std::array<d
 
 namespace machplan::hexam {
 
-// The tool and its holder, which belong to the job rather than to the machine.
-struct Tooling {
-  double tool_diameter_mm = 10.0;
-  double stick_out_mm = 50.0;      // tool length out of the chuck
-  double flute_length_mm = 20.0;   // cutting part; it touches the workpiece by design
-  double chuck_diameter_mm = 60.0;
-  double chuck_length_mm = 45.0;   // chuck length out of the spindle head
-};
+using Tooling = ::machplan::Tooling;
 
 // Puts the tool and chuck under the spindle head, sets the gauge length and finalizes.
 void attach_tooling(Machine& m, const Tooling& t);

@@ -1,11 +1,13 @@
 #include "solvers/placement/scene.h"
 
 #include <cmath>
+#include <filesystem>
 
 #include "engine/common/error.h"
 #include "engine/config/yaml.h"
 #include "engine/programs/mesh.h"
 #include "engine/programs/toolpath.h"
+#include "models/cutting/machine_config.h"
 
 namespace machplan::placement {
 
@@ -13,9 +15,9 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 Scene read_scene(const Yaml& root, const std::string& path);
 
-// Reads the file `key` names (a machine, a mesh, a tool path). Its errors name the scene,
-// the key's line and the key before the file's own message, so that a user learns which
-// entry of which scene points to the bad file:
+// Reads the file `key` names (a mesh, a tool path). Its errors name the scene, the key's line
+// and the key before the file's own message, so that a user learns which entry of which scene
+// points to the bad file:
 //   scene.yaml:12: key 'workpiece.mesh': parts/x.stl: cannot read ...
 template <class Read>
 auto read_named_file(const Yaml& key, Read&& read) {
@@ -56,7 +58,7 @@ Peripheral read_peripheral(const Yaml& y) {
       p.outline.push_back((p.T_table_peripheral * corner).head<2>());
     }
   } else {
-    const Mesh mesh = read_named_file(y.at("mesh"), [](const std::string& file) { return read_stl(file); });
+    const Mesh mesh = read_named_file(y.at("mesh"), [](const std::string& f) { return read_stl(f); });
     if (const auto pose = y.get("pose")) {
       pose->reject_unknown_keys({"xyz", "yaw_deg"});
       p.T_table_peripheral.translation() = pose->vec3("xyz");
@@ -74,41 +76,46 @@ Peripheral read_peripheral(const Yaml& y) {
   }
   return p;
 }
-}  // namespace
 
-Scene load_scene(const std::string& path) { return read_scene(Yaml::load_file(path), path); }
-
-Scene load_scene_text(const std::string& text, const std::string& path) {
-  return read_scene(Yaml::load_string(text, path), path);
+// The machine file: a path relative to the scene, or the name of a bundled machine (no '/' and
+// no '.') found as NAME.yaml in the machine folders (`machplan machines` lists them).
+std::string machine_file(const Yaml& root) {
+  const Yaml key = root.at("machine");
+  const std::string value = key.string();
+  if (value.find('/') != std::string::npos || value.find('.') != std::string::npos || value.empty())
+    return root.resolve_path(value);
+  std::error_code ec;
+  for (const auto& f : cutting::machine_folders()) {
+    const std::filesystem::path candidate = std::filesystem::path(f.path) / (value + ".yaml");
+    if (std::filesystem::is_regular_file(candidate, ec)) return candidate.string();
+  }
+  key.fail(fmt::format("no machine named '{}' in the machine folders (`machplan machines` lists them); a file needs "
+                       "its .yaml",
+                       value.substr(0, 60)));
 }
 
-namespace {
-Scene read_scene(const Yaml& root, const std::string& path) {
-  root.reject_unknown_keys({"machine", "safe_distance_mm", "tooling", "workpiece", "toolpath", "peripherals",
-                            "search", "reconstructed"});
-  Scene s;
-  s.source = path;
-  s.machine = read_named_file(root.at("machine"), [](const std::string& file) { return hexam::load_machine(file); });
-  s.safe_distance_mm = root.number_or("safe_distance_mm", 5.0, {.min = 0, .max = 1000});
-
-  const Yaml t = root.at("tooling");
-  t.reject_unknown_keys({"tool_diameter_mm", "stick_out_mm", "flute_length_mm", "chuck_diameter_mm", "chuck_length_mm"});
-  const NumberRule pos{.min = 0, .min_exclusive = true};
+Tooling read_tooling(const Yaml& t) {
+  t.reject_unknown_keys({"tool_diameter_mm", "corner_radius_mm", "stick_out_mm", "flute_length_mm", "chuck_diameter_mm",
+                         "chuck_length_mm"});
   const NumberRule size{.min = 0, .max = kMaxSceneSizeMm, .min_exclusive = true};
-  s.tooling.tool_diameter_mm = t.number("tool_diameter_mm", size);
-  s.tooling.stick_out_mm = t.number("stick_out_mm", size);
-  s.tooling.flute_length_mm = t.number_or("flute_length_mm", s.tooling.stick_out_mm / 2, size);
-  s.tooling.chuck_diameter_mm = t.number("chuck_diameter_mm", size);
-  s.tooling.chuck_length_mm = t.number("chuck_length_mm", size);
-  if (s.tooling.flute_length_mm > s.tooling.stick_out_mm) t.at("flute_length_mm").fail("must not exceed stick_out_mm");
-  try {
-    hexam::attach_tooling(s.machine, s.tooling);
-  } catch (const InputError& e) {
-    throw InputError(path, t.line(), "tooling does not fit machine " + s.machine.source + ": " + e.message());
-  }
+  Tooling tooling;
+  tooling.tool_diameter_mm = t.number("tool_diameter_mm", size);
+  tooling.corner_radius_mm = t.number_or("corner_radius_mm", tooling.tool_diameter_mm / 2, {.min = 0, .max = kMaxSceneSizeMm});
+  if (tooling.corner_radius_mm > tooling.tool_diameter_mm / 2 + 1e-9)
+    t.at("corner_radius_mm").fail("must not exceed half the tool diameter");
+  tooling.stick_out_mm = t.number("stick_out_mm", size);
+  tooling.flute_length_mm = t.number_or("flute_length_mm", tooling.stick_out_mm / 2, size);
+  tooling.chuck_diameter_mm = t.number("chuck_diameter_mm", size);
+  tooling.chuck_length_mm = t.number("chuck_length_mm", size);
+  if (tooling.flute_length_mm > tooling.stick_out_mm) t.at("flute_length_mm").fail("must not exceed stick_out_mm");
+  return tooling;
+}
 
+// The workpiece solid, moved into its own frame (origin at the centre of the bottom face of
+// its bounds, or origin_in_cam_mm); records the move in the scene.
+void read_workpiece(const Yaml& root, Scene& s) {
   const Yaml w = root.at("workpiece");
-  w.reject_unknown_keys({"mesh", "box"});
+  w.reject_unknown_keys({"mesh", "box", "origin_in_cam_mm", "spoilboard_mm"});
   if (w.has("mesh") == w.has("box")) w.fail("needs exactly one of 'mesh' or 'box'");
   Mesh mesh;
   if (const auto m = w.get("mesh")) {
@@ -127,47 +134,109 @@ Scene read_scene(const Yaml& root, const std::string& path) {
     if ((size.array() > kMaxSceneSizeMm).any()) box.at("size").fail(fmt::format("sizes must not exceed {} mm", kMaxSceneSizeMm));
     mesh = make_box_mesh({-size.x() / 2, -size.y() / 2, 0}, {size.x() / 2, size.y() / 2, size.z()});
   }
-  s.workpiece_vertices = mesh.vertices;
+  Eigen::AlignedBox3d cam;
+  for (const auto& v : mesh.vertices) cam.extend(v);
+  if (const auto o = w.get("origin_in_cam_mm")) {
+    s.origin_in_cam_mm = o->vec3();
+    s.origin_from_mesh = false;
+    if ((s.origin_in_cam_mm.array().abs() > kMaxScenePositionMm).any())
+      o->fail(fmt::format("must lie within +-{} mm", kMaxScenePositionMm));
+  } else {
+    s.origin_in_cam_mm = {cam.center().x(), cam.center().y(), cam.min().z()};
+  }
+  for (const auto& v : mesh.vertices) s.workpiece_vertices.push_back(v - s.origin_in_cam_mm);
   s.workpiece_triangles = mesh.triangles;
-  for (const auto& v : mesh.vertices) s.workpiece_bounds.extend(v);
+  for (const auto& v : s.workpiece_vertices) s.workpiece_bounds.extend(v);
   if (s.workpiece_bounds.min().z() < -1e-6)
-    w.fail(fmt::format("solid reaches z = {:.3f} mm; the workpiece frame has its origin on the bottom face, so "
-                       "nothing may lie below z = 0",
-                       s.workpiece_bounds.min().z()));
+    w.at("origin_in_cam_mm")
+        .fail(fmt::format("puts the origin {:.3f} mm above the solid's lowest point; the workpiece frame has its origin on "
+                          "the bottom face, so nothing may lie below it",
+                          -s.workpiece_bounds.min().z()));
+  s.spoilboard_mm = w.number_or("spoilboard_mm", 0.0, {.min = 0, .max = kMaxSceneSizeMm});
+}
 
+void read_toolpath(const Yaml& root, Scene& s) {
   s.toolpath_file = root.resolve_path(root.string("toolpath"));
   ToolPath tp = read_named_file(root.at("toolpath"), [](const std::string& f) { return read_toolpath_file(f); });
   if (tp.poses.empty()) root.at("toolpath").fail("names a tool path with no poses");
   s.tips_mm.reserve(tp.poses.size());
   s.axes.reserve(tp.poses.size());
-  for (const auto& p : tp.poses) {
-    if (p.axis.z() <= std::cos(s.machine.max_tilt_rad) - 1e-12)
-      throw InputError(s.toolpath_file, p.line,
-                       fmt::format("tool axis tilts {:.1f} deg from +z; this machine accepts at most {:.1f} deg",
-                                   std::acos(std::clamp(p.axis.z(), -1.0, 1.0)) / kDeg, s.machine.max_tilt_rad / kDeg));
-    s.tips_mm.push_back(p.tip_mm);
+  for (std::size_t i = 0; i < tp.poses.size(); ++i) {
+    const ToolPose& p = tp.poses[i];
+    s.tips_mm.push_back(p.tip_mm - s.origin_in_cam_mm);
     s.axes.push_back(p.axis);
+    s.lines.push_back(p.line);
+    s.feeds_mm_per_min.push_back(p.rapid ? 0.0 : p.feed_mm_per_min);
+    const double below = -s.tips_mm.back().z();
+    if (below > 1e-6) {
+      ++s.below_bottom.poses;
+      if (below > s.below_bottom.deepest_mm)
+        s.below_bottom = {s.below_bottom.poses, below, static_cast<long>(i), p.line};
+    }
   }
+}
 
+void read_search(const Yaml& root, Scene& s) {
+  const auto se = root.get("search");
+  if (!se) return;
+  se->reject_unknown_keys({"pad_max_mm", "pad_min_mm", "paper_step_mm", "paper_pad_step_mm", "reversal_deg", "resolution_mm",
+                           "rotation_step_deg", "paper_max_steps", "max_pose_queries"});
+  const NumberRule pos{.min = 0, .min_exclusive = true};
+  s.search.pad_max_mm = se->number_or("pad_max_mm", s.search.pad_max_mm, {.min = 0, .max = kMaxSceneSizeMm});
+  s.search.pad_min_mm = se->number_or("pad_min_mm", s.search.pad_min_mm, {.min = 0, .max = kMaxSceneSizeMm});
+  if (s.search.pad_min_mm > s.search.pad_max_mm) se->at("pad_min_mm").fail("must not exceed pad_max_mm");
+  s.search.paper_step_mm = se->number_or("paper_step_mm", s.search.paper_step_mm, pos);
+  s.search.paper_pad_step_mm = se->number_or("paper_pad_step_mm", s.search.paper_pad_step_mm, pos);
+  s.search.reversal_deg = se->number_or("reversal_deg", s.search.reversal_deg, {.min = 0, .max = 180});
+  s.search.resolution_mm = se->number_or("resolution_mm", s.search.resolution_mm, {.min = 0.01, .max = 100});
+  s.search.rotation_step_deg = se->number_or("rotation_step_deg", s.search.rotation_step_deg, {.min = 0.01, .max = 90});
+  if (se->has("paper_max_steps")) s.search.paper_max_steps = se->at("paper_max_steps").integer(1, 1000000);
+  if (se->has("max_pose_queries")) s.search.max_pose_queries = se->at("max_pose_queries").integer(1, 1'000'000'000);
+}
+}  // namespace
+
+Scene load_scene(const std::string& path) { return read_scene(Yaml::load_file(path), path); }
+
+Scene load_scene_text(const std::string& text, const std::string& path) {
+  return read_scene(Yaml::load_string(text, path), path);
+}
+
+namespace {
+Scene read_scene(const Yaml& root, const std::string& path) {
+  root.reject_unknown_keys({"machine", "safe_distance_mm", "tooling", "workpiece", "toolpath", "peripherals",
+                            "search", "reconstructed"});
+  Scene s;
+  s.source = path;
+  s.machine.source = machine_file(root);
+  s.safe_distance_mm = root.number_or("safe_distance_mm", 5.0, {.min = 0, .max = 1000});
+  const Yaml t = root.at("tooling");
+  s.tooling = read_tooling(t);
+  read_workpiece(root, s);
+  read_toolpath(root, s);
   if (const auto per = root.get("peripherals")) {
     for (const Yaml& item : per->items()) s.peripherals.push_back(read_peripheral(item));
     if (s.peripherals.size() > kMaxPeripherals)
       per->fail(fmt::format("{} peripherals; at most {} are supported", s.peripherals.size(), kMaxPeripherals));
   }
-
-  if (const auto se = root.get("search")) {
-    se->reject_unknown_keys({"pad_max_mm", "paper_step_mm", "paper_pad_step_mm", "reversal_deg", "resolution_mm",
-                             "paper_max_steps", "max_pose_queries"});
-    s.search.pad_max_mm = se->number_or("pad_max_mm", s.search.pad_max_mm, {.min = 0, .max = kMaxSceneSizeMm});
-    s.search.paper_step_mm = se->number_or("paper_step_mm", s.search.paper_step_mm, pos);
-    s.search.paper_pad_step_mm = se->number_or("paper_pad_step_mm", s.search.paper_pad_step_mm, pos);
-    s.search.reversal_deg = se->number_or("reversal_deg", s.search.reversal_deg, {.min = 0, .max = 180});
-    s.search.resolution_mm = se->number_or("resolution_mm", s.search.resolution_mm,
-                                           {.min = kMinResolutionMm, .max = kMaxResolutionMm});
-    if (se->has("paper_max_steps")) s.search.paper_max_steps = se->at("paper_max_steps").integer(1, 1000000);
-    if (se->has("max_pose_queries"))
-      s.search.max_pose_queries = se->at("max_pose_queries").integer(1, 1'000'000'000);
+  read_search(root, s);
+  if (s.spoilboard_mm > s.search.pad_max_mm)
+    root.at("workpiece").at("spoilboard_mm").fail("is thicker than the highest pad (search.pad_max_mm)");
+  try {
+    s.model = make_machine_model(s, t.line());
+  } catch (const InputError& e) {
+    // The machine file's own errors (missing, unreadable, malformed) under the scene's key.
+    if (e.where() != s.machine.source) throw;
+    const Yaml key = root.at("machine");
+    throw InputError(key.file(), key.line(), fmt::format("key '{}': {}", key.key_path(), e.what()));
   }
+  s.machine.kind = s.model->kind();
+  const TableShape table = s.model->table();
+  s.machine.table_size_mm = 2 * table.half_mm;
+  s.machine.name = s.model->name();
+  // The path as the machine runs it: a pose it cannot take is refused at its line.
+  std::vector<PathPose> poses(s.tips_mm.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {s.tips_mm[i], s.axes[i]};
+  if (const auto refused = s.model->prepare(poses)) throw InputError(s.toolpath_file, s.lines[refused->first], refused->second);
   return s;
 }
 }  // namespace

@@ -1,65 +1,85 @@
 #include "solvers/placement/search.h"
 
+#include <algorithm>
 #include <chrono>
+#include <charconv>
 #include <cmath>
 #include <memory>
 #include <queue>
 #include <set>
 #include <tuple>
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 #include "engine/common/error.h"
+#include "engine/common/parse.h"
+#include "solvers/placement/objective.h"
+#include "solvers/placement/report.h"
 
 namespace machplan::placement {
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
 // Boxes at least this large (radius, mm) that the known interferences leave undecided are
-// probed for a deep interference before they are split.
-constexpr double kProbeRadius_mm = 32.0;
+// probed for a deep interference at their centre before they are split.
+constexpr double kProbeRadius_mm = 8.0;
+// After a probe that found nothing, the next probe in the same box waits until the boxes are
+// this much smaller.
+constexpr double kProbeShrink = 0.5;
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// An angle in (-180, 180].
+double normalized_deg(double a) {
+  double r = std::remainder(a, 360.0);
+  if (r <= -180.0) r += 360.0;
+  return r;
 }
 
 bool on_region(const Eigen::AlignedBox2d& r, double x, double y) {
   return x >= r.min().x() - 1e-9 && x <= r.max().x() + 1e-9 && y >= r.min().y() - 1e-9 && y <= r.max().y() + 1e-9;
 }
 
-PlacementResult paper_search(const Scene& scene, const PlacementOptions& o) {
+std::string unavoidable_message(const Finding& c1) {
+  return fmt::format("class-1 interference ({} at tool-path index {}, clearance {:.2f} mm) cannot be avoided by relocation",
+                     c1.what, c1.pose, c1.clearance_mm);
+}
+
+// ---------------------------------------------------------------- the paper's evasion search
+
+PlacementResult paper_search(const Scene& scene, Checker& checker, Termination& term) {
   PlacementResult res;
   const SearchSettings& ss = scene.search;
-  Checker checker(scene, 0.0, o.stop);
   res.region = placement_region(scene, 0.0);
-  if (checker.class1().interferes) {
+  const Finding& c1 = checker.class1(0.0, term);
+  if (c1.interferes) {
     res.status = PlacementStatus::unavoidable;
-    res.message = fmt::format("class-1 interference ({} at tool-path index {}, clearance {:.2f} mm) cannot be avoided by relocation",
-                              checker.class1().what, checker.class1().pose, checker.class1().clearance_mm);
-    res.report = checker.report({});
+    res.summary.message = unavoidable_message(c1);
+    res.report = checker.report({}, term);
     return res;
   }
   Placement p;
+  p.pad_mm = scene.pad_min_mm();
   Eigen::Vector2d prev = Eigen::Vector2d::Zero();
   bool have_prev = false;
   std::set<std::tuple<long, long, long>> seen;
+  Finding w;
   for (int step = 0; step < ss.paper_max_steps; ++step) {
-    if (o.stop.stop_requested()) {
-      res.status = PlacementStatus::cancelled;
-      res.message = "cancelled";
-      break;
-    }
+    if (term.should_end()) throw WorkEnded{term.reason()};
     res.trail.push_back(p);
     ++res.placements_examined;
-    Finding w;
-    const Decision d = checker.decide(p, 0.0, &w, /*peripherals_first=*/true);
-    if (d == Decision::feasible) {
+    if (checker.decide(p, {}, term, &w, nullptr, /*peripherals_first=*/true) == Decision::feasible) {
       res.status = PlacementStatus::found;
       res.placement = p;
-      res.message = fmt::format("free after {} steps", step);
+      res.summary.message = fmt::format("free after {} steps", step);
       break;
     }
     const Eigen::Vector2d dir = w.evasion;
-    const bool reverse = have_prev && dir.norm() > 0 &&
-                         std::acos(std::clamp(dir.dot(prev), -1.0, 1.0)) > ss.reversal_deg * kDeg;
+    const bool reverse =
+        have_prev && dir.norm() > 0 && std::acos(std::clamp(dir.dot(prev), -1.0, 1.0)) > ss.reversal_deg * kDeg;
     Placement next = p;
     next.x_mm += ss.paper_step_mm * dir.x();
     next.y_mm += ss.paper_step_mm * dir.y();
@@ -69,9 +89,9 @@ PlacementResult paper_search(const Scene& scene, const PlacementOptions& o) {
       have_prev = false;
       if (p.pad_mm > ss.pad_max_mm + 1e-9) {
         res.status = PlacementStatus::no_placement;
-        res.message = fmt::format("the search reached the highest pad ({:.0f} mm) "
-                                  "without a free placement; last interference: {}",
-                                  ss.pad_max_mm, w.what);
+        res.summary.message = fmt::format("the search reached the highest pad ({:.0f} mm) without a free placement; last "
+                                          "interference: {}",
+                                          ss.pad_max_mm, w.what);
         p.pad_mm -= ss.paper_pad_step_mm;
         break;
       }
@@ -83,140 +103,542 @@ PlacementResult paper_search(const Scene& scene, const PlacementOptions& o) {
     p = next;
     if (step + 1 == ss.paper_max_steps) {
       res.status = PlacementStatus::gave_up;
-      res.message = fmt::format("gave up after {} steps", ss.paper_max_steps);
+      res.summary.message = fmt::format("gave up after {} steps", ss.paper_max_steps);
     }
   }
-  if (res.status != PlacementStatus::cancelled) res.report = checker.report(res.status == PlacementStatus::found ? res.placement : p);
-  res.verified = res.status == PlacementStatus::found && res.report.free();
-  res.counts = checker.counts();
+  res.report = checker.report(res.status == PlacementStatus::found ? res.placement : p, term);
   return res;
 }
 
+// ---------------------------------------------------------------- the certified optimum
+
+// The rotations a search may choose from, sorted by angle in (-180, 180].
+struct Rotations {
+  std::vector<double> deg;    // normalized
+  std::vector<double> shown;  // as asked
+
+  // The member of [r0, r1] nearest 0 (ties: the positive one).
+  int best(int r0, int r1) const {
+    const auto it = std::lower_bound(deg.begin() + r0, deg.begin() + r1 + 1, 0.0);
+    int k = static_cast<int>(it - deg.begin());
+    if (k > r1) return r1;
+    if (k > r0 && -deg[k - 1] < deg[k]) return k - 1;
+    return k;
+  }
+};
+
+// The order of placements: objective first, then the lowest pad, then nearest the table
+// centre, then the smallest turn (positive before negative), then x, then y. Total, so the answer never depends on the
+// order work was done in.
+struct Key {
+  double primary = 0;  // the pad (lowest), or the travel or time objective's bound
+  long pad = 0;        // then the lowest pad (fixture) ...
+  double dist2 = 0, turn = 0;
+  int negative = 0;
+  long x = 0, y = 0;
+  bool operator<(const Key& o) const {
+    return std::tie(primary, pad, dist2, turn, negative, x, y) <
+           std::tie(o.primary, o.pad, o.dist2, o.turn, o.negative, o.x, o.y);
+  }
+};
+
 struct Box {
   long x0, x1, y0, y1, p0, p1;  // grid indices, inclusive
-  double dist2;                 // squared grid distance of the nearest xy point to the centre
-  std::uint64_t settled = 0;    // known interferences shown absent over the box (Checker::screen)
-  bool operator>(const Box& o) const {
-    return std::tie(p0, dist2, x0, y0) > std::tie(o.p0, o.dist2, o.x0, o.y0);
-  }
+  int r0, r1;                   // rotation indices, inclusive
+  Key key;
+  std::uint64_t settled = 0;    // known interferences shown absent over the box
+  double probe_below = 1e300;   // probe only boxes smaller than this (an ancestor's probe failed)
+  bool point() const { return x0 == x1 && y0 == y1 && p0 == p1 && r0 == r1; }
+  double volume() const { return double(x1 - x0 + 1) * (y1 - y0 + 1) * (p1 - p0 + 1) * (r1 - r0 + 1); }
+  bool operator>(const Box& o) const { return o.key < key; }
 };
 
 long nearest_to_zero(long a, long b) { return std::clamp(0L, a, b); }
 
-Box make_box(long x0, long x1, long y0, long y1, long p0, long p1, std::uint64_t settled = 0) {
-  const double nx = static_cast<double>(nearest_to_zero(x0, x1)), ny = static_cast<double>(nearest_to_zero(y0, y1));
-  return {x0, x1, y0, y1, p0, p1, nx * nx + ny * ny, settled};
+struct Learned {
+  Spot spot;
+  int id;
+};
+
+// What screening found for one box (computed in parallel, applied in order).
+struct Screened {
+  Decision decision = Decision::unknown;
+  std::uint64_t settled = 0;
+  int killer = -1;              // learned interference (by id) that condemned the box
+  std::optional<Spot> probed;   // a deep interference a probe found
+  std::vector<Box> children;    // the box split, when undecided
+};
+
+class OptimalSearch {
+ public:
+  OptimalSearch(const Scene& scene, Checker& checker, PlacementOptions::Objective objective, Rotations rotations,
+                int threads, Termination& term, Progress* progress)
+      : scene_(scene), checker_(checker), objective_(objective), rot_(std::move(rotations)), term_(term),
+        progress_(progress), g_(scene.search.resolution_mm), pad0_(scene.pad_min_mm()),
+        batch_(threads > 1 ? 8 * threads : 1) {
+    for (const auto& t : scene.tips_mm) radius_ = std::max(radius_, t.head<2>().norm());
+    // A turn moves the machine's parts about as far as the tips' distance from the axis plus the
+    // tool assembly's reach: that is how long a rotation side is, against x, y and pad.
+    radius_ += scene.model->assembly_reach_mm();
+  }
+
+  PlacementResult run();
+
+ private:
+  bool lexicographic() const { return objective_ == PlacementOptions::Objective::lowest; }
+  Placement at(long x, long y, long p, int r) const {
+    return {x * g_, y * g_, pad0_ + p * g_, rot_.shown[r]};
+  }
+  Placement best_point(const Box& b) const {
+    return at(nearest_to_zero(b.x0, b.x1), nearest_to_zero(b.y0, b.y1), b.p0, rot_.best(b.r0, b.r1));
+  }
+  Placement centre(const Box& b, Ball* ball) const {
+    const double mid = (rot_.deg[b.r0] + rot_.deg[b.r1]) / 2;
+    ball->radius_mm = 0.5 * g_ *
+                      std::sqrt(double((b.x1 - b.x0) * (b.x1 - b.x0) + (b.y1 - b.y0) * (b.y1 - b.y0) + (b.p1 - b.p0) * (b.p1 - b.p0)));
+    ball->turn_deg = (rot_.deg[b.r1] - rot_.deg[b.r0]) / 2;
+    ball->pad_half_mm = 0.5 * g_ * double(b.p1 - b.p0);
+    return {(b.x0 + b.x1) * 0.5 * g_, (b.y0 + b.y1) * 0.5 * g_, pad0_ + (b.p0 + b.p1) * 0.5 * g_,
+            b.r0 == b.r1 ? rot_.shown[b.r0] : mid};
+  }
+  Key key_of(const Box& b) const;
+  Box make(long x0, long x1, long y0, long y1, long p0, long p1, int r0, int r1, std::uint64_t settled = 0) const {
+    Box b{x0, x1, y0, y1, p0, p1, r0, r1, {}, settled};
+    b.key = key_of(b);
+    return b;
+  }
+  std::vector<Box> split(const Box& b, std::uint64_t settled) const;
+  Screened screen(const Box& b, const std::vector<Learned>& known);
+  // The grid, class 1 and the objective; false when that already settles the search.
+  bool prepare(PlacementResult& res);
+  // Applies a screened batch in pop order; true once a placement is certified.
+  bool merge(std::vector<Box>& batch, std::vector<Screened>& screened, PlacementResult& res);
+  // Certifies a box's best point; true when it is free.
+  bool certify(Box& b, PlacementResult& res);
+  void learn(const Spot& s);
+  bool class1_dead(int r);
+  void certify_rotation_interval(PlacementResult& res);
+
+  const Scene& scene_;
+  Checker& checker_;
+  PlacementOptions::Objective objective_;
+  Rotations rot_;
+  Termination& term_;
+  Progress* progress_;
+  double g_, pad0_;
+  std::size_t batch_;
+  std::vector<Learned> learned_;  // interferences met so far, most recently useful first
+  std::vector<std::optional<AxisObjective>> objective_at_;  // per rotation (travel, time)
+  std::vector<int> class1_state_;  // per rotation: -1 unknown, 0 clear, 1 interferes
+  std::set<std::tuple<long, long, long, int>> rejected_;  // points whose certification failed
+  bool ring_clear_ = true;
+  double radius_ = 0.0;  // farthest tip from the workpiece's z axis
+  std::priority_queue<Box, std::vector<Box>, std::greater<>> open_;
+  double total_volume_ = 1.0, done_volume_ = 0.0;
+  Finding last_;  // the last interference a certification met
+};
+
+Key OptimalSearch::key_of(const Box& b) const {
+  const long nx = nearest_to_zero(b.x0, b.x1), ny = nearest_to_zero(b.y0, b.y1);
+  const int r = rot_.best(b.r0, b.r1);
+  Key k;
+  k.dist2 = double(nx) * nx + double(ny) * ny;
+  k.turn = std::abs(rot_.deg[r]);
+  k.negative = rot_.deg[r] < 0 ? 1 : 0;
+  k.x = nx, k.y = ny;
+  k.pad = b.p0;
+  if (lexicographic()) {
+    k.primary = static_cast<double>(b.p0);
+  } else {
+    // Travel and time boxes never span rotations (the root boxes are one per rotation).
+    const AxisObjective& f = *objective_at_[b.r0];
+    const Eigen::Vector3d c((b.x0 + b.x1) * 0.5 * g_, (b.y0 + b.y1) * 0.5 * g_, pad0_ + (b.p0 + b.p1) * 0.5 * g_);
+    const Eigen::Vector3d h((b.x1 - b.x0) * 0.5 * g_, (b.y1 - b.y0) * 0.5 * g_, (b.p1 - b.p0) * 0.5 * g_);
+    k.primary = b.point() ? f.value(c) : f.lower_bound(c, h);
+  }
+  return k;
 }
 
-PlacementResult optimal_for_rotation(const Scene& scene, double rotation_deg, const PlacementOptions& o) {
-  PlacementResult res;
-  Checker checker(scene, rotation_deg, o.stop);
-  res.region = placement_region(scene, rotation_deg);
-  if (checker.class1().interferes) {
-    res.status = PlacementStatus::unavoidable;
-    res.message = fmt::format("class-1 interference ({} at tool-path index {}, clearance {:.2f} mm) cannot be avoided by relocation",
-                              checker.class1().what, checker.class1().pose, checker.class1().clearance_mm);
-    res.report = checker.report({0, 0, 0, rotation_deg});
-    return res;
+std::vector<Box> OptimalSearch::split(const Box& b, std::uint64_t settled) const {
+  // Split the longest side: grid steps, and for rotations the distance the farthest tip moves.
+  const double sx = b.x1 - b.x0, sy = b.y1 - b.y0, sp = b.p1 - b.p0;
+  const double turn_mm = (rot_.deg[b.r1] - rot_.deg[b.r0]) * kDeg * radius_ / g_;
+  std::vector<Box> out;
+  if (b.r1 > b.r0 && turn_mm >= std::max({sx, sy, sp})) {
+    const int m = b.r0 + (b.r1 - b.r0) / 2;
+    out.push_back(make(b.x0, b.x1, b.y0, b.y1, b.p0, b.p1, b.r0, m, settled));
+    out.push_back(make(b.x0, b.x1, b.y0, b.y1, b.p0, b.p1, m + 1, b.r1, settled));
+  } else if (sp >= sx && sp >= sy) {
+    MACHPLAN_ASSERT(sp > 0, "split of an undecided single placement");
+    const long m = b.p0 + (b.p1 - b.p0) / 2;
+    out.push_back(make(b.x0, b.x1, b.y0, b.y1, b.p0, m, b.r0, b.r1, settled));
+    out.push_back(make(b.x0, b.x1, b.y0, b.y1, m + 1, b.p1, b.r0, b.r1, settled));
+  } else if (sx >= sy) {
+    const long m = b.x0 + (b.x1 - b.x0) / 2;
+    out.push_back(make(b.x0, m, b.y0, b.y1, b.p0, b.p1, b.r0, b.r1, settled));
+    out.push_back(make(m + 1, b.x1, b.y0, b.y1, b.p0, b.p1, b.r0, b.r1, settled));
+  } else {
+    const long m = b.y0 + (b.y1 - b.y0) / 2;
+    out.push_back(make(b.x0, b.x1, b.y0, m, b.p0, b.p1, b.r0, b.r1, settled));
+    out.push_back(make(b.x0, b.x1, m + 1, b.y1, b.p0, b.p1, b.r0, b.r1, settled));
   }
-  const double g = scene.search.resolution_mm;
-  const long x0 = static_cast<long>(std::ceil(res.region.min().x() / g)), x1 = static_cast<long>(std::floor(res.region.max().x() / g));
-  const long y0 = static_cast<long>(std::ceil(res.region.min().y() / g)), y1 = static_cast<long>(std::floor(res.region.max().y() / g));
-  const long p1 = static_cast<long>(std::floor(scene.search.pad_max_mm / g + 1e-9));
-  if (x0 > x1 || y0 > y1) {
-    res.status = PlacementStatus::no_placement;
-    res.message = "the workpiece does not fit on the table";
-    return res;
+  return out;
+}
+
+
+Screened OptimalSearch::screen(const Box& b, const std::vector<Learned>& known) {
+  Screened out;
+  Ball ball;
+  const Placement c = centre(b, &ball);
+  // Placement-only checks first: on the table, clear of the peripherals.
+  Decision d = checker_.decide_block(c, ball);
+  if (d == Decision::infeasible) {
+    out.decision = d;
+    return out;
   }
-  std::priority_queue<Box, std::vector<Box>, std::greater<>> open;
-  open.push(make_box(x0, x1, y0, y1, 0, p1));
-  const double total = static_cast<double>(x1 - x0 + 1) * (y1 - y0 + 1) * (p1 + 1);
-  double done_volume = 0;
-  Finding last;
-  std::set<std::tuple<long, long, long>> rejected;  // grid points refused by a certification
-  while (!open.empty()) {
-    if (o.stop.stop_requested()) {
-      res.status = PlacementStatus::cancelled;
-      res.message = "cancelled";
-      break;
+  bool all_clear = d == Decision::feasible;
+  // Class 1 is known per rotation once asked (the merge asks before a certification).
+  if (!ring_clear_) {
+    if (b.r0 == b.r1 && class1_state_[b.r0] == 1) {
+      out.decision = Decision::infeasible;
+      return out;
     }
-    const Box b = open.top();
-    open.pop();
-    ++res.placements_examined;
-    const Placement centre{(b.x0 + b.x1) * 0.5 * g, (b.y0 + b.y1) * 0.5 * g, (b.p0 + b.p1) * 0.5 * g, rotation_deg};
-    const double radius = 0.5 * g * std::sqrt(double((b.x1 - b.x0) * (b.x1 - b.x0) + (b.y1 - b.y0) * (b.y1 - b.y0) +
-                                                     (b.p1 - b.p0) * (b.p1 - b.p0)));
-    if (radius == 0 && rejected.count({b.x0, b.y0, b.p0})) continue;
-    std::uint64_t settled = b.settled;
-    Decision d = checker.screen(centre, radius, &settled);
-    // A large box no known interference settles: look for a deep one at its centre.
-    if (d == Decision::unknown && radius >= kProbeRadius_mm) d = checker.probe(centre, radius);
-    const double volume = double(b.x1 - b.x0 + 1) * (b.y1 - b.y0 + 1) * (b.p1 - b.p0 + 1);
-    if (d == Decision::infeasible) {
-      done_volume += volume;
-      if (o.progress) o.progress(done_volume / total);
+    if (b.r0 != b.r1 || class1_state_[b.r0] != 0) all_clear = false;
+  }
+  std::uint64_t settled = b.settled;
+  const Where where = Where::of(c);
+  for (const Learned& w : known) {
+    const std::uint64_t bit = w.id < 64 ? std::uint64_t{1} << w.id : 0;
+    if (settled & bit) continue;
+    const Decision s = checker_.screen_spot(w.spot, where, ball, term_);
+    if (s == Decision::infeasible) {
+      out.decision = Decision::infeasible;
+      out.killer = w.id;
+      return out;
+    }
+    if (s == Decision::unknown)
+      all_clear = false;
+    else
+      settled |= bit;
+  }
+  out.settled = settled;
+  // A large box no known interference settles: look for a deep one at its centre.
+  const bool probing = !all_clear && ball.radius_mm >= kProbeRadius_mm && ball.radius_mm < b.probe_below;
+  if (probing) {
+    Spot spot;
+    if (checker_.probe(c, ball, term_, &spot) == Decision::infeasible) {
+      out.decision = Decision::infeasible;
+      out.probed = spot;
+      return out;
+    }
+  }
+  out.decision = all_clear ? Decision::feasible : Decision::unknown;
+  // Undecided, or free of everything known but not a single placement on an objective whose
+  // boxes have no best point: split now (the children's bounds are computed here, in
+  // parallel).
+  if (out.decision == Decision::unknown || (!lexicographic() && !b.point())) {
+    out.children = split(b, settled);
+    for (Box& child : out.children) child.probe_below = probing ? ball.radius_mm * kProbeShrink : b.probe_below;
+  }
+  return out;
+}
+
+void OptimalSearch::learn(const Spot& s) {
+  auto same = [&](const Learned& o) { return o.spot.pose == s.pose && o.spot.t == s.t && o.spot.constraint == s.constraint; };
+  const auto it = std::find_if(learned_.begin(), learned_.end(), same);
+  if (it != learned_.end()) {
+    std::rotate(learned_.begin(), it, it + 1);
+    return;
+  }
+  learned_.insert(learned_.begin(), Learned{s, static_cast<int>(learned_.size())});
+}
+
+bool OptimalSearch::class1_dead(int r) {
+  if (ring_clear_) return false;
+  if (class1_state_[r] < 0) class1_state_[r] = checker_.class1(rot_.shown[r], term_).interferes ? 1 : 0;
+  return class1_state_[r] == 1;
+}
+
+bool OptimalSearch::prepare(PlacementResult& res) {
+  res.rotations = static_cast<long>(rot_.deg.size());
+  // The grid: x, y where the footprint stays on the table at some rotation; pads from the
+  // lowest to the highest.
+  Eigen::AlignedBox2d region;
+  for (double r : rot_.shown) region.extend(placement_region(scene_, r));
+  res.region = region;
+  const long x0 = static_cast<long>(std::ceil(region.min().x() / g_ - 1e-9));
+  const long x1 = static_cast<long>(std::floor(region.max().x() / g_ + 1e-9));
+  const long y0 = static_cast<long>(std::ceil(region.min().y() / g_ - 1e-9));
+  const long y1 = static_cast<long>(std::floor(region.max().y() / g_ + 1e-9));
+  const long p1 = static_cast<long>(std::floor((scene_.search.pad_max_mm - pad0_) / g_ + 1e-9));
+  if (region.isEmpty() || x0 > x1 || y0 > y1 || p1 < 0) {
+    res.status = PlacementStatus::no_placement;
+    res.summary.message = p1 < 0 ? "the spoilboard is thicker than the highest pad" : "the workpiece does not fit on the table";
+    return false;
+  }
+  // Class 1 first: an interference no relocation or rotation cures ends the search.
+  const int nrot = static_cast<int>(rot_.deg.size());
+  class1_state_.assign(nrot, -1);
+  const Finding& every = nrot == 1 ? checker_.class1(rot_.shown[0], term_) : checker_.class1_every_rotation(term_);
+  ring_clear_ = !every.interferes;
+  if (every.interferes && (nrot == 1 || every.what.rfind("plate hinges (any rotation)", 0) != 0)) {
+    res.status = PlacementStatus::unavoidable;
+    res.summary.message = unavoidable_message(nrot == 1 ? every : checker_.class1(rot_.shown[0], term_));
+    res.report = checker_.report(at(0, 0, 0, 0), term_);
+    return false;
+  }
+  if (nrot == 1) class1_state_[0] = 0;
+  if (!lexicographic()) {
+    const auto kind = objective_ == PlacementOptions::Objective::travel ? AxisObjective::Kind::travel : AxisObjective::Kind::time;
+    for (int r = 0; r < nrot; ++r) {
+      const auto path = scene_.model->axis_path(checker_.poses(), scene_.feeds_mm_per_min, rot_.shown[r] * kDeg);
+      objective_at_.emplace_back(AxisObjective(*path, kind));
+    }
+  }
+  if (lexicographic()) {
+    open_.push(make(x0, x1, y0, y1, 0, p1, 0, nrot - 1));
+  } else {
+    for (int r = 0; r < nrot; ++r) open_.push(make(x0, x1, y0, y1, 0, p1, r, r));
+  }
+  total_volume_ = double(x1 - x0 + 1) * (y1 - y0 + 1) * (p1 + 1) * nrot;
+  return true;
+}
+
+bool OptimalSearch::certify(Box& b, PlacementResult& res) {
+  // No interference met so far objects anywhere in the box, so its best point is the best
+  // candidate left: certify it over the whole path. If that fails, the checker has found the
+  // interference, which is learned, and the box is screened again; the point is out for good
+  // (should the screening pass the box again, it is split, never certified at the same point).
+  const Placement best = best_point(b);
+  const int br = rot_.best(b.r0, b.r1);
+  const auto point = std::make_tuple(nearest_to_zero(b.x0, b.x1), nearest_to_zero(b.y0, b.y1), b.p0, br);
+  if (class1_dead(br)) {
+    if (b.r0 == b.r1)
+      done_volume_ += b.volume();
+    else
+      for (Box& c : split(b, 0)) open_.push(std::move(c));  // split the rotations away from the dead one
+    return false;
+  }
+  if (!rejected_.count(point)) {
+    ++res.certifications;
+    Spot spot;
+    if (checker_.probe(best, {}, term_, &spot) == Decision::infeasible) {  // a quick look first
+      learn(spot);
+      rejected_.insert(point);
+      last_ = Finding{};
+      last_.what = scene_.model->constraints()[spot.constraint].name;
+      open_.push(b);
+      return false;
+    }
+    spot = Spot{};
+    Finding w;
+    if (checker_.decide(best, {}, term_, &w, &spot) == Decision::feasible) {
+      res.status = PlacementStatus::found;
+      res.placement = best;
+      res.objective_value = lexicographic() ? best.pad_mm : b.key.primary;
+      return true;
+    }
+    last_ = w;
+    if (spot.exact) {
+      learn(spot);
+      rejected_.insert(point);
+      open_.push(b);
+      return false;
+    }
+    // Refused without an exact interfering pose (an interval that could not be proven): the
+    // point is out, and the rest of the box is split as usual.
+    rejected_.insert(point);
+  }
+  if (!b.point())
+    for (Box& c : split(b, b.settled)) open_.push(std::move(c));
+  return false;
+}
+
+bool OptimalSearch::merge(std::vector<Box>& batch, std::vector<Screened>& screened, PlacementResult& res) {
+  // In pop order: only a box with nothing smaller left may be certified.
+  bool blocked = false;
+  for (std::size_t k = 0; k < batch.size(); ++k) {
+    Box& b = batch[k];
+    Screened& s = screened[k];
+    if (s.decision == Decision::infeasible) {
+      done_volume_ += b.volume();
+      report_progress(progress_, done_volume_ / total_volume_);
+      if (s.killer >= 0) {
+        const auto it = std::find_if(learned_.begin(), learned_.end(), [&](const Learned& l) { return l.id == s.killer; });
+        if (it != learned_.end()) std::rotate(learned_.begin(), it, it + 1);
+      }
+      if (s.probed) learn(*s.probed);
       continue;
     }
-    if (d == Decision::feasible) {
-      // No interference met so far objects anywhere in the box, so its best point is the best
-      // candidate left: certify it over the whole path. If that fails, the checker has learned
-      // the interference and the box is screened again (now infeasible, or split).
-      const Placement best{nearest_to_zero(b.x0, b.x1) * g, nearest_to_zero(b.y0, b.y1) * g, b.p0 * g, rotation_deg};
-      Finding w;
-      ++res.certifications;
-      const std::size_t known = checker.known_interferences();
-      if (checker.probe(best, 0.0) == Decision::infeasible) {  // a quick look first
-        open.push(b);
-        continue;
-      }
-      if (checker.decide(best, 0.0, &w) == Decision::feasible) {
-        res.status = PlacementStatus::found;
-        res.placement = best;
-        res.message = fmt::format("lowest pad, then nearest the centre, on a {:.3g} mm grid", g);
-        break;
-      }
-      last = w;
-      if (checker.known_interferences() > known) {
-        open.push(b);
-        continue;
-      }
-      // Refused without an exact interfering pose (an interval that could not be proven): the
-      // point is out, and the rest of the box is split as usual.
-      rejected.insert({nearest_to_zero(b.x0, b.x1), nearest_to_zero(b.y0, b.y1), b.p0});
-      if (radius == 0) continue;
+    if (!s.children.empty()) {
+      for (Box& c : s.children) open_.push(std::move(c));
+      blocked = true;
+      continue;
     }
-    // Split the longest side (grid units); a single grid point is never "unknown" (screen at
-    // radius 0 always answers).
-    const long sx = b.x1 - b.x0, sy = b.y1 - b.y0, sp = b.p1 - b.p0;
-    MACHPLAN_ASSERT(sx + sy + sp > 0, "undecided single placement");
-    if (sp >= sx && sp >= sy) {
-      const long m = b.p0 + sp / 2;
-      open.push(make_box(b.x0, b.x1, b.y0, b.y1, b.p0, m, settled));
-      open.push(make_box(b.x0, b.x1, b.y0, b.y1, m + 1, b.p1, settled));
-    } else if (sx >= sy) {
-      const long m = b.x0 + sx / 2;
-      open.push(make_box(b.x0, m, b.y0, b.y1, b.p0, b.p1, settled));
-      open.push(make_box(m + 1, b.x1, b.y0, b.y1, b.p0, b.p1));
-    } else {
-      const long m = b.y0 + sy / 2;
-      open.push(make_box(b.x0, b.x1, b.y0, m, b.p0, b.p1, settled));
-      open.push(make_box(b.x0, b.x1, m + 1, b.y1, b.p0, b.p1, settled));
+    b.settled = s.settled;
+    if (blocked) {
+      open_.push(b);
+      continue;
     }
+    blocked = true;
+    if (certify(b, res)) return true;
   }
-  if (res.status != PlacementStatus::found && res.status != PlacementStatus::cancelled) {
+  return false;
+}
+
+PlacementResult OptimalSearch::run() {
+  PlacementResult res;
+  if (!prepare(res)) return res;
+  std::vector<Box> batch;
+  std::vector<Screened> screened;
+  bool found = false;
+  while (!open_.empty() && !found) {
+    if (term_.should_end()) throw WorkEnded{term_.reason()};
+    batch.clear();
+    while (!open_.empty() && batch.size() < batch_) {
+      batch.push_back(open_.top());
+      open_.pop();
+    }
+    res.placements_examined += static_cast<long>(batch.size());
+    screened.assign(batch.size(), Screened{});
+    const std::vector<Learned> known = learned_;
+    tbb::parallel_for(std::size_t{0}, batch.size(), [&](std::size_t k) { screened[k] = screen(batch[k], known); });
+    found = merge(batch, screened, res);
+  }
+  const int nrot = static_cast<int>(rot_.deg.size());
+  if (!found) {
     res.status = PlacementStatus::no_placement;
-    res.message = fmt::format("no placement on the table with a pad up to {:.0f} mm is "
-                              "free of interference{}",
-                              scene.search.pad_max_mm, last.what.empty() ? "" : fmt::format(" (e.g. {})", last.what));
+    res.summary.message = fmt::format("no placement on the table with a pad up to {:.0f} mm is free of interference{}",
+                                      scene_.search.pad_max_mm, last_.what.empty() ? "" : fmt::format(" (e.g. {})", last_.what));
+    res.report = checker_.report(at(0, 0, 0, rot_.best(0, nrot - 1)), term_);
+    return res;
   }
-  // A cancelled search stops now: no report (it can take as long as the search itself).
-  if (res.status != PlacementStatus::cancelled)
-    res.report = checker.report(res.status == PlacementStatus::found ? res.placement : Placement{0, 0, 0, rotation_deg});
-  res.verified = res.status == PlacementStatus::found && res.report.free();
-  res.counts = checker.counts();
+  res.summary.message = lexicographic()
+                            ? fmt::format("lowest pad, then nearest the centre{}, on a {:.3g} mm grid",
+                                          nrot > 1 ? ", then the smallest rotation" : "", g_)
+                            : fmt::format("least {} on a {:.3g} mm grid", to_string(objective_), g_);
+  res.report = checker_.report(res.placement, term_);
+  if (nrot > 1) certify_rotation_interval(res);
   return res;
 }
+
+void OptimalSearch::certify_rotation_interval(PlacementResult& res) {
+  // The widest turn around the answer, up to half the rotation grid's step, over which the
+  // answer is certified free.
+  double step = 360.0;
+  for (std::size_t k = 1; k < rot_.deg.size(); ++k) step = std::min(step, rot_.deg[k] - rot_.deg[k - 1]);
+  for (double turn = std::min(step, 1.0) / 2; turn >= 0.004; turn /= 2)
+    if (checker_.decide(res.placement, {0.0, turn}, term_) == Decision::feasible) {
+      res.rotation_tolerance_deg = turn;
+      return;
+    }
+}
+
 }  // namespace
+
+Eigen::AlignedBox2d placement_region(const Scene& scene, double rotation_deg) {
+  const Eigen::Rotation2Dd R(rotation_deg * kDeg);
+  Eigen::AlignedBox2d fp;
+  const auto& b = scene.workpiece_bounds;
+  for (int k = 0; k < 4; ++k)
+    fp.extend(R * Eigen::Vector2d(k & 1 ? b.max().x() : b.min().x(), k & 2 ? b.max().y() : b.min().y()));
+  const Eigen::Vector2d half = scene.model->table().half_mm;
+  return Eigen::AlignedBox2d(-half - fp.min(), half - fp.max());
+}
+
+
+namespace {
+Rotations rotations_for(const Scene& scene, const PlacementOptions& o, bool* reduced) {
+  Rotations rot;
+  *reduced = false;
+  std::vector<double> asked = o.rotations_deg;
+  if (o.any_rotation) {
+    asked.clear();
+    const double step = scene.search.rotation_step_deg;
+    const long lo = static_cast<long>(std::floor(-180.0 / step)) + 1, hi = static_cast<long>(std::floor(180.0 / step + 1e-9));
+    for (long k = lo; k <= hi; ++k) asked.push_back(normalized_deg(k * step));
+  }
+  // A machine whose rotary table turns nothing but the workpiece: a rotation is the same
+  // setup as a position, so one rotation is searched.
+  if (asked.size() > 1 && scene.model->rotation_is_position() && scene.peripherals.empty()) {
+    *reduced = true;
+    double nearest = asked[0];
+    for (double a : asked)
+      if (std::abs(normalized_deg(a)) < std::abs(normalized_deg(nearest))) nearest = a;
+    asked = {nearest};
+  }
+  std::vector<std::pair<double, double>> both;
+  for (double a : asked) both.push_back({normalized_deg(a), a});
+  std::sort(both.begin(), both.end());
+  for (const auto& [n, a] : both) rot.deg.push_back(n), rot.shown.push_back(a);
+  return rot;
+}
+}  // namespace
+
+PlacementResult place(const Scene& scene, const PlacementOptions& o, Termination& term, Progress* progress) {
+  o.validate();
+  PlacementOptions::Objective objective = o.objective;
+  if (objective == PlacementOptions::Objective::automatic)
+    objective = scene.model->affine_axes() ? PlacementOptions::Objective::travel : PlacementOptions::Objective::lowest;
+  if (objective != PlacementOptions::Objective::lowest && !scene.model->affine_axes())
+    throw InputError::field("objective", fmt::format("'{}' needs a machine whose axis positions follow the placement "
+                                                     "(a table-tilting machine); the {} machine '{}' is placed by 'lowest'",
+                                                     to_string(objective), scene.machine.kind, scene.machine.name));
+  if (o.strategy == PlacementOptions::Strategy::paper && scene.machine.kind != "hexapod")
+    throw InputError::field("strategy", "'paper' is the HexaM study's evasion search, defined for the hexapod only");
+  const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
+  tbb::task_arena arena(threads);
+  const double t0 = now_s();
+  PlacementResult best;
+  bool reduced = false;
+  arena.execute([&] {
+    try {
+      Checker checker(scene);
+      if (o.strategy == PlacementOptions::Strategy::paper) {
+        best = paper_search(scene, checker, term);
+      } else {
+        OptimalSearch search(scene, checker, objective, rotations_for(scene, o, &reduced), threads, term, progress);
+        best = search.run();
+      }
+      best.counts = checker.counts();
+    } catch (const WorkEnded& e) {
+      // A stop request, a deadline or a budget inside one decision: no partial answer.
+      best = PlacementResult{};
+      best.status = e.reason == Termination::Reason::stop_requested ? PlacementStatus::cancelled : PlacementStatus::ended;
+      best.summary.status = status_of(e.reason);
+      best.summary.message = e.reason == Termination::Reason::budget && !term.ended() ? budget_message(scene) : term.describe();
+    }
+  });
+  best.objective = objective;
+  best.threads = threads;
+  best.verified = best.status == PlacementStatus::found && best.report.free();
+  if (best.status == PlacementStatus::found) {
+    best.work_offset = scene.model->work_offset(best.placement, -scene.origin_in_cam_mm);
+    best.travel = axis_travel(scene, best.placement);
+    if (best.travel) best.centre_travel = axis_travel(scene, {0, 0, scene.pad_min_mm(), best.placement.rotation_deg});
+  }
+  best.seconds = now_s() - t0;
+  write_place_summary(scene, o, reduced, best);
+  return best;
+}
+
+std::optional<AxisTravel> axis_travel(const Scene& scene, const Placement& p) {
+  std::vector<PathPose> poses(scene.tips_mm.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {scene.tips_mm[i], scene.axes[i]};
+  if (scene.model->prepare(poses)) return std::nullopt;
+  const auto path = scene.model->axis_path(poses, scene.feeds_mm_per_min, p.rotation_deg * kDeg);
+  if (!path) return std::nullopt;
+  const AxisObjective f(*path, AxisObjective::Kind::travel);
+  AxisTravel t;
+  t.axes = path->names;
+  t.travel = f.travel_per_axis(p.offset());
+  t.linear_mm = t.travel[0] + t.travel[1] + t.travel[2];
+  t.time_s = f.time_s(p.offset());
+  t.flips = path->flips;
+  t.forced_flips = path->forced_flips;
+  t.flip_poses = path->flip_poses;
+  return t;
+}
 
 const char* to_string(PlacementStatus s) {
   switch (s) {
@@ -225,18 +647,94 @@ const char* to_string(PlacementStatus s) {
     case PlacementStatus::no_placement: return "no_placement";
     case PlacementStatus::gave_up: return "gave_up";
     case PlacementStatus::cancelled: return "cancelled";
+    case PlacementStatus::ended: return "ended";
   }
   return "?";
 }
 
-Eigen::AlignedBox2d placement_region(const Scene& scene, double rotation_deg) {
-  const Eigen::Rotation2Dd R(rotation_deg * kDeg);
-  Eigen::AlignedBox2d fp;
-  const auto& b = scene.workpiece_bounds;
-  for (int k = 0; k < 4; ++k)
-    fp.extend(R * Eigen::Vector2d(k & 1 ? b.max().x() : b.min().x(), k & 2 ? b.max().y() : b.min().y()));
-  const Eigen::Vector2d half = scene.machine.table_size_mm / 2;
-  return Eigen::AlignedBox2d(-half - fp.min(), half - fp.max());
+const char* to_string(PlacementOptions::Objective o) {
+  switch (o) {
+    case PlacementOptions::Objective::automatic: return "automatic";
+    case PlacementOptions::Objective::lowest: return "lowest";
+    case PlacementOptions::Objective::travel: return "travel";
+    case PlacementOptions::Objective::time: return "time";
+  }
+  return "?";
+}
+
+PlacementOptions::Objective parse_objective(std::string_view text) {
+  for (auto o : {PlacementOptions::Objective::automatic, PlacementOptions::Objective::lowest,
+                 PlacementOptions::Objective::travel, PlacementOptions::Objective::time})
+    if (text == to_string(o)) return o;
+  throw InputError::field("objective", fmt::format("'{}': must be lowest, travel, time or automatic", text.substr(0, 40)));
+}
+
+void parse_rotations(std::string_view text, PlacementOptions& o) {
+  auto fail = [](const std::string& msg) { throw InputError::field("rotations_deg", msg); };
+  auto number = [&](std::string_view item) {
+    const std::optional<double> v = parse_finite(std::string(item));
+    if (!v) fail(fmt::format("'{}' is not a number", item.substr(0, 40)));
+    return *v;
+  };
+  o.rotations_deg.clear();
+  o.any_rotation = false;
+  if (text == "any") {
+    o.any_rotation = true;
+    return;
+  }
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string_view item = text.substr(start, comma - start);
+    start = comma + 1;
+    const std::size_t c1 = item.find(':');
+    if (c1 == std::string_view::npos) {
+      o.rotations_deg.push_back(number(item));
+    } else {
+      // FROM:TO:STEP, TO excluded when it is the same angle as FROM.
+      const std::size_t c2 = item.find(':', c1 + 1);
+      if (c2 == std::string_view::npos) fail(fmt::format("range '{}': expected FROM:TO:STEP", item.substr(0, 40)));
+      const double from = number(item.substr(0, c1)), to = number(item.substr(c1 + 1, c2 - c1 - 1)),
+                   step = number(item.substr(c2 + 1));
+      if (!(step > 0) || to < from) fail(fmt::format("range '{}': needs FROM <= TO and a positive STEP", item.substr(0, 40)));
+      const double count = std::floor((to - from) / step + 1e-9) + 1;
+      if (count > static_cast<double>(PlacementOptions::kMaxRotations))
+        fail(fmt::format("range '{}' has {:.0f} rotations; at most {}", item.substr(0, 40), count, PlacementOptions::kMaxRotations));
+      for (long k = 0; k < static_cast<long>(count); ++k) {
+        const double a = from + k * step;
+        if (k > 0 && std::abs(std::remainder(a - from, 360.0)) < 1e-9) break;
+        o.rotations_deg.push_back(a);
+      }
+    }
+    if (comma == text.size()) break;
+  }
+}
+
+void PlacementOptions::validate() const {
+  if (threads < 0 || threads > 1024) throw InputError::field("threads", fmt::format("{}: must lie within 0 .. 1024", threads));
+  if (strategy == Strategy::paper && (any_rotation || rotations_deg != std::vector<double>{0.0}))
+    throw InputError::field("rotations_deg", "the paper strategy searches the workpiece as given (rotation 0); "
+                                             "other rotations need the optimal strategy");
+  if (any_rotation) return;
+  if (rotations_deg.empty()) throw InputError::field("rotations_deg", "needs at least one rotation");
+  if (rotations_deg.size() > kMaxRotations)
+    throw InputError::field("rotations_deg",
+                            fmt::format("{} rotations; at most {} are searched", rotations_deg.size(), kMaxRotations));
+  std::vector<std::pair<double, std::size_t>> sorted;
+  for (std::size_t i = 0; i < rotations_deg.size(); ++i) {
+    const double r = rotations_deg[i];
+    if (!std::isfinite(r) || std::abs(r) > 360.0)
+      throw InputError::field("rotations_deg", fmt::format("rotation {} deg: must be a finite angle within -360 .. 360", r));
+    sorted.push_back({normalized_deg(r), i});
+  }
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t k = 1; k < sorted.size(); ++k)
+    if (std::abs(sorted[k].first - sorted[k - 1].first) < 1e-9 ||
+        (k == sorted.size() - 1 && std::abs(sorted[k].first - sorted[0].first - 360) < 1e-9)) {
+      const std::size_t a = std::min(sorted[k].second, sorted[k - 1].second), b = std::max(sorted[k].second, sorted[k - 1].second);
+      throw InputError::field("rotations_deg", fmt::format("rotation {} deg repeats {} deg; each angle is searched once",
+                                                           rotations_deg[b], rotations_deg[a]));
+    }
 }
 
 namespace {
@@ -248,58 +746,6 @@ const char* to_string(PlacementOptions::Strategy s) { return kStrategyNames[stat
 Parsed<PlacementOptions::Strategy> parse_placement_strategy(std::string_view text) {
   const Parsed<std::size_t> p = parse_name(kStrategyNames, text, "strategy", "strategy");
   return {static_cast<PlacementOptions::Strategy>(p.value), p.note};
-}
-
-void PlacementOptions::validate() const {
-  if (rotations_deg.empty()) throw InputError::field("rotations_deg", "needs at least one rotation");
-  if (rotations_deg.size() > kMaxRotations)
-    throw InputError::field("rotations_deg",
-                            fmt::format("{} rotations; at most {} are searched (each is a whole placement search)",
-                                        rotations_deg.size(), kMaxRotations));
-  for (std::size_t i = 0; i < rotations_deg.size(); ++i) {
-    validate_rotation_deg(rotations_deg[i], "rotations_deg");
-    for (std::size_t k = 0; k < i; ++k)
-      if (std::abs(std::remainder(rotations_deg[i] - rotations_deg[k], 360.0)) < 1e-9)
-        throw InputError::field("rotations_deg",
-                                fmt::format("rotation {} deg repeats {} deg; each angle is searched once",
-                                            rotations_deg[i], rotations_deg[k]));
-  }
-}
-
-PlacementResult place(const Scene& scene, const PlacementOptions& o) {
-  o.validate();
-  const double t0 = now_s();
-  PlacementResult best;
-  try {
-    if (o.strategy == PlacementOptions::Strategy::paper) {
-      best = paper_search(scene, o);
-    } else {
-      bool have = false;
-      for (double rot : o.rotations_deg) {
-        PlacementResult r = optimal_for_rotation(scene, rot, o);
-        const auto key = [](const PlacementResult& x) {
-          return std::make_tuple(x.placement.pad_mm, std::hypot(x.placement.x_mm, x.placement.y_mm));
-        };
-        CheckCounts total = have ? best.counts : CheckCounts{};
-        total.add(r.counts);
-        const long examined = (have ? best.placements_examined : 0) + r.placements_examined;
-        const bool better = !have || (r.status == PlacementStatus::found &&
-                                      (best.status != PlacementStatus::found || key(r) < key(best)));
-        if (better) best = std::move(r);
-        best.counts = total;
-        best.placements_examined = examined;
-        have = true;
-        if (best.status == PlacementStatus::cancelled) break;
-      }
-    }
-  } catch (const Cancelled&) {
-    // A stop request inside one decision: no partial answer is certified.
-    best = PlacementResult{};
-    best.status = PlacementStatus::cancelled;
-    best.message = "cancelled";
-  }
-  best.seconds = now_s() - t0;
-  return best;
 }
 
 }  // namespace machplan::placement

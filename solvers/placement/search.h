@@ -1,57 +1,97 @@
-// Where to put the workpiece: the study's evasion search and a certified lexicographic optimum.
+// Where to put the workpiece: the study's evasion search and a certified optimum, on any
+// machine behind the model interface (machine_model.h).
 //
-// Both strategies use the same Checker and the same rule for "best": the lowest pad first,
-// then the placement nearest the table centre.
+// Objectives (what "best" means), each feasible first:
+//
+//   lowest   the lowest pad (fixture), then the placement nearest the table centre, then the
+//            smallest rotation (the HexaM study's rule; the default on the hexapod)
+//   travel   the least total travel of the linear axes over the path (the sum over axes of the
+//            distance each one moves), then nearest the centre (the default on a table-tilting
+//            machine; Wei and Lee, "Optimization of the setup position of a workpiece for
+//            five-axis machining to reduce machining time", 2020)
+//   time     the least machining time with every axis at most at its speed limit and every
+//            cutting move at most at its programmed feed
+//
+// Strategies:
 //
 // paper   Starts at the table centre on pad 0. At an interference it moves the workpiece one
 //         step (10 mm) along the evasion direction of the interference found: towards the table
 //         axis for self-interference and struts, away from the peripheral's facing side for
 //         peripherals. When two successive evasion directions are more than 150 deg apart, the
 //         plane is judged exhausted and the pad is raised one step (10 mm), keeping x, y.
+//         Hexapod only; rotation 0.
 //
-// optimal Branch and bound over boxes of placements (x, y, pad on a grid of `resolution_mm`),
-//         taken in order of (lowest pad in the box, distance of the box to the centre). A box
-//         is screened against the interferences met so far (Checker::screen: one pose query
-//         each, bounded over the box by the placement Lipschitz constants); a large box they
-//         leave undecided is probed for a deep interference at its centre (Checker::probe).
-//         A box is dropped when one interference is provably present everywhere in it, split
-//         when undecided, and when no known interference objects anywhere in it, its best point
-//         is certified over the whole path (Checker::decide). If that fails, the interference
-//         found is learned and the box goes back to be screened again; the first certified
-//         point is the optimum on the grid (all boxes before it were proven infeasible).
+// optimal Branch and bound over boxes of placements: x, y and pad on a grid of `resolution_mm`,
+//         and the rotations asked for (a list, a range, or `any`: every multiple of the scene's
+//         rotation_step_deg). Boxes are taken in order of the best objective any placement in
+//         them could have. A box is screened against the interferences met so far (each a
+//         spot on the path and the constraint it broke: one pose query each, bounded over the
+//         box, turns included, by the machine model's motion bounds); a large box they leave
+//         undecided is probed for a deep interference at its centre. A box is dropped when one
+//         interference is provably present everywhere in it, split when undecided, and when no
+//         known interference objects anywhere in it, its best point is certified over the
+//         whole path. If that fails, the interference found is learned and the box goes back to
+//         be screened again. On `lowest` the first certified point is the optimum on the grid
+//         (all boxes before it were proven infeasible; ties are broken by a total order on the
+//         placement, so the answer never depends on the order work was done in). On `travel`
+//         and `time` the objective's lower bound over a box (exact per pose and axis: the
+//         linear axes are affine in the placement) orders the boxes, and the search ends when
+//         no box left could beat the best certified placement by more than
+//         `kObjectiveTolerance`.
+//
 //         Learning interferences lazily is what makes this fast: the optimum of the bundled
-//         scene needs about 30 whole-path certifications, not one per box.
+//         HexaM scene needs about 30 whole-path certifications, not one per box.
+//
+// The rotation the answer claims: after the search, the answer is certified over the widest
+// interval of rotations around it (up to half the rotation step) that the checker can prove
+// free, and the report gives it, so that the operator knows how precisely the workpiece must
+// be turned.
+//
+// Threads: screening runs over batches of boxes on every thread, and every certification uses
+// them all (oneTBB; `threads` limits them). The answer, its report and its status do not depend
+// on the number of threads; the work counts may.
 #pragma once
 
-#include <functional>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "engine/common/names.h"
+#include "engine/common/progress.h"
+#include "engine/common/summary.h"
+#include "engine/common/termination.h"
 #include "solvers/placement/checker.h"
 
 namespace machplan::placement {
 
 struct PlacementOptions {
   enum class Strategy { paper, optimal } strategy = Strategy::optimal;
-  // Workpiece rotations about z tried by the optimal strategy (degrees); the best wins, ties
-  // go to the first listed.
+  // automatic: lowest on a hexapod, travel on a table-tilting machine.
+  enum class Objective { automatic, lowest, travel, time } objective = Objective::automatic;
+  // Workpiece rotations about the table's z the optimal strategy may choose (degrees, each
+  // within +-360, no two the same angle modulo 360; the paper strategy takes only {0}) ...
   std::vector<double> rotations_deg = {0.0};
-  // A stop request from outside (the CLI connects SIGINT, SIGTERM and SIGHUP to it), polled
-  // between placements and at every exact pose query; once set, the search ends with status
-  // `cancelled`.
-  StopToken stop;
-  // Called with a fraction in [0, 1] as the search advances (for a progress bar).
-  std::function<void(double)> progress;
+  // ... or every multiple of the scene's search.rotation_step_deg in (-180, 180].
+  bool any_rotation = false;
+  // Worker threads; 0 uses every core.
+  int threads = 0;
 
-  // Each rotation is a whole search (the bundled scene: about half a second each), so the
-  // list is bounded: at most kMaxRotations entries, each finite, within +-360 deg, and no
-  // two the same angle (modulo 360).
-  static constexpr std::size_t kMaxRotations = 72;
+  // Rotation lists are bounded (a range 0:360:0.1 is 3600 rotations).
+  static constexpr std::size_t kMaxRotations = 3600;
 
-  // Throws InputError::field naming the field (rotations_deg) and the rule broken.
+  // Throws InputError naming the field (rotations_deg, threads) and the rule broken.
   void validate() const;
 };
+
+// Reads a rotation list as people write it: "any", "0,90,180,270" or a range "FROM:TO:STEP"
+// (TO excluded when it is FROM + 360, the same angle), or lists of both ("0:90:15,180").
+// Throws InputError::field("rotations_deg", ...).
+void parse_rotations(std::string_view text, PlacementOptions& options);
+
+// Names of objectives and strategies, one spelling each.
+PlacementOptions::Objective parse_objective(std::string_view text);
+const char* to_string(PlacementOptions::Objective o);
 // "paper" | "optimal"; InputError::field("strategy", ...) listing them otherwise.
 const char* to_string(PlacementOptions::Strategy s);
 Parsed<PlacementOptions::Strategy> parse_placement_strategy(std::string_view text);
@@ -61,27 +101,53 @@ enum class PlacementStatus {
   unavoidable,   // class-1 interference: no relocation can cure it
   no_placement,  // no placement within the table and the pad limit is free
   gave_up,       // the paper's search ran out of steps
-  cancelled,
+  cancelled,     // a stop request
+  ended,         // the work's budget or deadline (summary.status says which)
 };
 const char* to_string(PlacementStatus s);
 
+// Axis travel of a table-tilting machine over the whole path at one placement.
+struct AxisTravel {
+  std::vector<std::string> axes;   // X, Y, Z, then the rotary axes
+  std::vector<double> travel;      // mm for linear axes, degrees for rotary ones
+  double linear_mm = 0.0;          // X + Y + Z
+  double time_s = 0.0;             // machining time at the axis and feed limits
+  long flips = 0;                  // rotary-table flips (a half turn within one step)
+  long forced_flips = 0;           // of which the axis limits force
+  std::vector<long> flip_poses;
+};
+
 struct PlacementResult {
+  Summary summary;  // how the search ended, with its brief and full report
   PlacementStatus status = PlacementStatus::no_placement;
-  std::string message;
   Placement placement;
+  // The answer is certified free for every rotation within this of its own (degrees).
+  double rotation_tolerance_deg = 0.0;
   CheckReport report;   // at the answer (or at the last placement tried); empty when cancelled
   bool verified = false;
   CheckCounts counts;   // all checking done by the search
   long placements_examined = 0;
   long certifications = 0;       // optimal: candidate answers checked over the whole path
+  long rotations = 0;            // rotations the search could choose from
   double seconds = 0;
+  int threads = 1;
+  PlacementOptions::Objective objective = PlacementOptions::Objective::lowest;
+  double objective_value = 0.0;  // travel (mm) or time (s) at the answer
   std::vector<Placement> trail;  // paper: every placement visited, in order
   Eigen::AlignedBox2d region;    // x, y range searched (workpiece origin)
+  WorkOffset work_offset;        // where to set the control's work offset
+  std::optional<AxisTravel> travel;         // table-tilting: at the answer ...
+  std::optional<AxisTravel> centre_travel;  // ... and at the table centre on the lowest fixture
 };
 
-PlacementResult place(const Scene& scene, const PlacementOptions& options);
+PlacementResult place(const Scene& scene, const PlacementOptions& options, Termination& term,
+                      Progress* progress = nullptr);
 
 // The x, y range where the workpiece's footprint (rotated) stays on the table.
 Eigen::AlignedBox2d placement_region(const Scene& scene, double rotation_deg);
+
+// Axis travel along the path at one placement, for a machine that has an AxisPath
+// (machine_model.h); nullopt otherwise.
+std::optional<AxisTravel> axis_travel(const Scene& scene, const Placement& p);
 
 }  // namespace machplan::placement

@@ -138,12 +138,17 @@ TEST(BadOptions, NonFiniteAndAbsurdValuesExitTwoNamingTheFlag) {
   }
 }
 
-TEST(BadOptions, TooManyRotationsAreRefusedWithTheLimit) {
-  std::string many = "0";
-  for (int k = 1; k < 100; ++k) many += fmt::format(",{}", k * 3.5);
-  const Outcome r = machplan(fmt::format("place '{}' --rotations {}", kScene, many));
+TEST(BadOptions, ThePaperStrategyRefusesRotations) {
+  const Outcome r = machplan(fmt::format("place '{}' --strategy paper --rotations 90", kScene));
   EXPECT_EQ(r.code, 2);
-  EXPECT_THAT(r.err, HasSubstr("--rotations: 100 rotations; at most 72"));
+  EXPECT_THAT(r.err, HasSubstr("--rotations: the paper strategy searches the workpiece as given"));
+  EXPECT_EQ(r.out, "");
+}
+
+TEST(BadOptions, TooManyRotationsAreRefusedWithTheLimit) {
+  const Outcome r = machplan(fmt::format("place '{}' --rotations 0:360:0.05", kScene));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--rotations: range '0:360:0.05' has 7201 rotations; at most 3600"));
   EXPECT_EQ(r.out, "");
 }
 

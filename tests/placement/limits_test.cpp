@@ -1,10 +1,12 @@
 // Absurd but well-formed placement input ends quickly with a message naming the limit: numbers
-// beyond the scene's bounds (a grid finer than the search's bound among them) are refused as
-// input errors, too many peripherals are refused by
+// beyond the scene's bounds are refused as input errors, too many peripherals are refused by
 // name, and a check that would run for minutes (a large safe distance) stops at its query
 // limit with exit 3 and says how to raise it.
-#include <csignal>
+#include <sys/wait.h>
+
+#include <atomic>
 #include <cstdlib>
+#include <thread>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -17,13 +19,13 @@
 #include "solvers/placement/checker.h"
 #include "solvers/placement/scene.h"
 #include "solvers/placement/search.h"
-#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::placement {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using test::error_of;
 using test::TempDir;
 
@@ -70,39 +72,6 @@ TEST(SceneLimits, HugeNumbersAreRefusedNamingTheKey) {
   }
 }
 
-// The optimal search's grid is bounded like the other search limits: a grid finer than
-// kMinResolutionMm (searching for minutes) is refused naming the key and the bound.
-TEST(SceneLimits, AGridFinerThanTheBoundIsRefused) {
-  TempDir dir;
-  const std::string fine = write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 200\n  resolution_mm: 0.01"}});
-  EXPECT_THAT(error_of([&] { load_scene(fine); }),
-              HasSubstr(fmt::format("key 'search.resolution_mm' must be >= {}, got 0.01", kMinResolutionMm)));
-  const std::string bound = write_scene(dir, {{"pad_max_mm: 200", fmt::format("pad_max_mm: 200\n  resolution_mm: {}",
-                                                                              kMinResolutionMm)}});
-  EXPECT_EQ(load_scene(bound).search.resolution_mm, kMinResolutionMm);
-}
-
-// `place` on a scene no placement fits says so once: the verdict is the command's, the reason
-// the search's.
-TEST(SceneLimits, APadLimitOfZeroSaysCannotBeMachinedOnce) {
-  TempDir dir;
-  // The whole tool path: a few rows of it fit on the table at pad 0.
-  const std::string scene =
-      write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 0"}, {"toolpath: toolpath.csv", "toolpath: " + kData + "toolpath.csv"}});
-  const std::string err = (dir.path() / "err").string();
-  const int rc = std::system(fmt::format("'{}' place '{}' > /dev/null 2> '{}'", MACHPLAN_CLI, scene, err).c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 3);
-  std::ifstream in(err);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string verdict = "cannot be machined on this machine: ";
-  const auto first = text.find(verdict);
-  ASSERT_NE(first, std::string::npos) << text;
-  EXPECT_EQ(text.find("cannot be machined", first + 1), std::string::npos) << text;
-  EXPECT_THAT(text, HasSubstr(verdict + "no placement on the table with a pad up to 0 mm is free of interference"))
-      << text;
-}
-
 TEST(SceneLimits, MorePeripheralsThanTheCheckerHandlesAreRefused) {
   std::string many = "peripherals:\n";
   for (int k = 0; k < static_cast<int>(kMaxPeripherals); ++k)  // plus the bundled magazine
@@ -116,16 +85,20 @@ TEST(SceneLimits, MorePeripheralsThanTheCheckerHandlesAreRefused) {
 TEST(CheckLimits, ACheckStopsAtTheQueryLimitWithExitThreeAndSaysHowToRaiseIt) {
   TempDir dir;
   const std::string scene = write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 200\n  max_pose_queries: 50"}});
-  const test::CliResult r = test::Cli().run({"check", scene, "--at", "-68,-22,57"});
-  EXPECT_EQ(r.code, 3);
-  const std::string& text = r.err;
+  const std::string err = (dir.path() / "err").string();
+  const int rc = std::system(fmt::format("'{}' check '{}' --at -68,-22,57 > /dev/null 2> '{}'", MACHPLAN_CLI, scene, err).c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  std::ifstream in(err);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_THAT(text, HasSubstr("limit of 50 exact pose queries (search.max_pose_queries in the scene)"));
   EXPECT_THAT(text, HasSubstr("Raise the limit"));
   // The default leaves the ordinary check alone.
   const Scene ok = load_scene(write_scene(dir, {}));
   EXPECT_EQ(ok.search.max_pose_queries, SearchSettings{}.max_pose_queries);
   Checker checker(ok);
-  checker.report({-68, -22, 57, 0});
+  Termination term;
+  checker.report({-68, -22, 57, 0}, term);
   EXPECT_LT(checker.counts().exact_queries, ok.search.max_pose_queries);
   EXPECT_GT(checker.counts().exact_queries, 50);  // so the limit of 50 above was really reached
 }
@@ -134,42 +107,85 @@ TEST(CheckStop, AStopRequestEndsACheckAndASearchWithoutAnAnswer) {
   TempDir dir;
   const Scene scene = load_scene(write_scene(dir, {}));
   StopSource source;
-  Checker checker(scene, 0.0, source.token());
-  const CheckReport before = checker.report({-68, -22, 57, 0});  // not stopped: an answer
+  Termination term(source.token());
+  Checker checker(scene);
+  const CheckReport before = checker.report({-68, -22, 57, 0}, term);  // not stopped: an answer
   EXPECT_GT(before.counts.exact_queries + checker.counts().exact_queries, 0);
   source.request_stop();
-  EXPECT_THROW(checker.report({-60, -20, 57, 0}), Cancelled);
-  EXPECT_THROW(checker.dense_check({-60, -20, 57, 0}), Cancelled);
-  EXPECT_THROW(Checker(scene, 0.0, source.token()), Cancelled);  // construction checks class 1
-  PlacementOptions o;
-  o.stop = source.token();
-  EXPECT_EQ(place(scene, o).status, PlacementStatus::cancelled);
+  EXPECT_THROW(checker.report({-60, -20, 57, 0}, term), WorkEnded);
+  EXPECT_THROW(checker.dense_check({-60, -20, 57, 0}, 0.5, term), WorkEnded);
+  Termination fresh(source.token());
+  const PlacementResult r = place(scene, PlacementOptions{}, fresh);
+  EXPECT_EQ(r.status, PlacementStatus::cancelled);
+  EXPECT_EQ(r.summary.status, Status::cancelled);
+  EXPECT_EQ(r.summary.exit_code(), 3);
+  EXPECT_THAT(r.summary.full_report(), HasSubstr("stopped on request"));
+  const CheckResult c = check(scene, {-60, -20, 57, 0}, CheckOptions{}, fresh);
+  EXPECT_EQ(c.summary.status, Status::cancelled);
 }
 
-TEST(CheckStop, SigintEndsADenseCheckOfTheWholePathWithExitThree) {
-  // The bundled scene's dense check visits 123k poses every 0.5 mm: minutes. SIGINT, sent once
-  // the command has taken over the signal, ends it through the stop token, with exit 3 and no
-  // verdict printed.
-  test::Cli cli;
-  test::CliProcess p = cli.start({"check", kData + "scene.yaml", "--at", "-42.05,-42.05,70", "--dense"});
-  ASSERT_TRUE(p.wait_until_catching(SIGINT));
-  ASSERT_TRUE(p.signal(SIGINT));
-  const test::CliResult r = p.wait();
-  EXPECT_EQ(r.code, 3);
-  EXPECT_THAT(r.err, HasSubstr("stopped on request"));
-  EXPECT_EQ(r.out, "");
+TEST(CheckStop, ABudgetEndsASearchWithStatusBudget) {
+  TempDir dir;
+  const Scene scene = load_scene(write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 200\n  max_pose_queries: 50"}}));
+  Termination term;
+  const PlacementResult r = place(scene, PlacementOptions{}, term);
+  EXPECT_EQ(r.status, PlacementStatus::ended);
+  EXPECT_EQ(r.summary.status, Status::budget);
+  EXPECT_THAT(r.summary.message, HasSubstr("limit of 50 exact pose queries"));
+  // A budget of the caller's own ends the search the same way, and says so.
+  Termination tight;
+  tight.set_budget(100, "exact pose queries");
+  const PlacementResult t = place(load_scene(write_scene(dir, {})), PlacementOptions{}, tight);
+  EXPECT_EQ(t.summary.status, Status::budget);
+  EXPECT_THAT(t.summary.message, HasSubstr("the budget of 100 exact pose queries was spent"));
+}
+
+TEST(CheckStop, SigintEndsASearchWithExitThree) {
+  // Every rotation a quarter of a degree apart on the bundled scene: a search of many seconds.
+  // A signal a second in ends it through the stop request, with exit 3 and no placement
+  // printed.
+  TempDir dir;
+  std::ifstream sc(kData + "scene.yaml");
+  std::string text((std::istreambuf_iterator<char>(sc)), std::istreambuf_iterator<char>());
+  for (const char* f : {"machine.yaml", "workpiece.stl", "toolpath.csv"}) text.replace(text.find(f), std::string(f).size(), kData + f);
+  text.replace(text.find("pad_max_mm: 200"), 15, "pad_max_mm: 200\n  rotation_step_deg: 0.25");
+  const std::string scene = dir.write("scene.yaml", text);
+  const std::string out = (dir.path() / "out").string(), err = (dir.path() / "err").string();
+  const std::string script = fmt::format(
+      "'{}' place '{}' --rotations any > '{}' 2> '{}' & pid=$!; sleep 1; kill -INT $pid; wait $pid; exit $?", MACHPLAN_CLI,
+      scene, out, err);
+  const int rc = std::system(script.c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  std::ifstream e(err), o(out);
+  const std::string said((std::istreambuf_iterator<char>(e)), std::istreambuf_iterator<char>());
+  const std::string printed((std::istreambuf_iterator<char>(o)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(said, HasSubstr("stopped on request"));
+  EXPECT_THAT(printed, Not(HasSubstr("placement:")));
+  EXPECT_THAT(printed, HasSubstr("placement search ended (cancelled) before an answer"));
 }
 
 TEST(CheckStop, TheDenseCheckReportsItsProgress) {
   TempDir dir;
   const Scene scene = load_scene(write_scene(dir, {}));
   Checker checker(scene);
+  Termination term;
+  // A display reading the share from another thread sees it grow to 1.
+  Progress progress;
+  std::atomic<bool> over{false};
   std::vector<double> seen;
-  checker.dense_check({-68, -22, 57, 0}, 0.5, [&](double f) { seen.push_back(f); });
-  ASSERT_GE(seen.size(), 3u);  // 1053 poses, a report every 256
-  EXPECT_EQ(seen.front(), 0.0);
-  for (std::size_t k = 1; k < seen.size(); ++k) EXPECT_GT(seen[k], seen[k - 1]);
-  EXPECT_LE(seen.back(), 1.0);
+  std::thread watcher([&] {
+    while (!over.load()) {
+      seen.push_back(progress.share());
+      std::this_thread::yield();
+    }
+  });
+  checker.dense_check({-68, -22, 57, 0}, 0.5, term, &progress);
+  over = true;
+  watcher.join();
+  EXPECT_EQ(progress.share(), 1.0);
+  ASSERT_FALSE(seen.empty());
+  for (double s : seen) EXPECT_TRUE(s >= 0.0 && s <= 1.0);
 }
 
 TEST(CheckLimits, ALargeSafeDistanceCostsNoMoreThanAnOrdinaryCheck) {
@@ -180,20 +196,21 @@ TEST(CheckLimits, ALargeSafeDistanceCostsNoMoreThanAnOrdinaryCheck) {
   const Scene big = load_scene(write_scene(dir, {{"safe_distance_mm: 5", "safe_distance_mm: 1000"}}));
   ASSERT_EQ(big.safe_distance_mm, 1000.0);
   Checker checker(big);
-  EXPECT_TRUE(checker.class1().interferes);
+  Termination term;
+  EXPECT_TRUE(checker.class1(0.0, term).interferes);
   const long class1_queries = checker.counts().exact_queries;
   // Without the bound every pose was an exact query; now a small share of them.
   EXPECT_LT(class1_queries, static_cast<long>(big.tips_mm.size()) / 4) << "class 1 walked most of the path";
-  EXPECT_GE(checker.class1().pose, 0);
-  EXPECT_THAT(checker.class1().what, HasSubstr("/ workpiece"));
-  const CheckReport r = checker.report({-68, -22, 57, 0});
+  EXPECT_GE(checker.class1(0.0, term).pose, 0);
+  EXPECT_THAT(checker.class1(0.0, term).what, HasSubstr("/ workpiece"));
+  const CheckReport r = checker.report({-68, -22, 57, 0}, term);
   EXPECT_FALSE(r.free());
   EXPECT_TRUE(r.kinds[static_cast<int>(Kind::workpiece_class1)].interferes);
   EXPECT_TRUE(r.kinds[static_cast<int>(Kind::workpiece_class2)].interferes);
   // No more work than the same check at the ordinary 5 mm (before the bound: 40 times more).
   const Scene five = load_scene(write_scene(dir, {}));  // the Checker keeps a reference
   Checker ordinary(five);
-  ordinary.report({-68, -22, 57, 0});
+  ordinary.report({-68, -22, 57, 0}, term);
   EXPECT_LE(checker.counts().exact_queries, 2 * ordinary.counts().exact_queries + 50);
 }
 
@@ -206,10 +223,13 @@ TEST(CheckLimits, AHugeToolTouchingEverywhereEndsQuicklyAsUnavoidable) {
       write_scene(dir, {{"tool_diameter_mm: 10", "tool_diameter_mm: 2000"}, {"chuck_diameter_mm: 60", "chuck_diameter_mm: 3000"}}));
   ASSERT_EQ(scene.tooling.tool_diameter_mm, 2000.0);
   Checker checker(scene);
-  EXPECT_TRUE(checker.class1().interferes);
-  EXPECT_EQ(checker.class1().clearance_mm, 0.0);
+  Termination term;
+  EXPECT_TRUE(checker.class1(0.0, term).interferes);
+  EXPECT_EQ(checker.class1(0.0, term).clearance_mm, 0.0);
   EXPECT_LT(checker.counts().exact_queries, static_cast<long>(scene.tips_mm.size()) / 4);
-  EXPECT_EQ(place(scene, PlacementOptions{}).status, PlacementStatus::unavoidable);
+  const PlacementResult r = place(scene, PlacementOptions{}, term);
+  EXPECT_EQ(r.status, PlacementStatus::unavoidable);
+  EXPECT_EQ(r.summary.status, Status::infeasible);
 }
 
 }  // namespace

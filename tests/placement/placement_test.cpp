@@ -12,7 +12,7 @@
 #include "models/hexam/hexam.h"
 #include "solvers/placement/checker.h"
 #include "solvers/placement/scene.h"
-#include "tests/support/cli_run.h"
+#include "solvers/placement/search.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
@@ -120,10 +120,11 @@ placement::Scene small_scene(int rows) {
 TEST(Checker, CertifiedReportAgreesWithDenseRecheck) {
   const placement::Scene scene = small_scene(3);
   placement::Checker checker(scene);
+  Termination term;
   for (const placement::Placement p : {placement::Placement{0, 0, 0, 0}, placement::Placement{-40, -40, 70, 0},
-                                       placement::Placement{120, 120, 0, 0}}) {
-    const auto fast = checker.report(p);
-    const auto dense = checker.dense_check(p, 0.5);
+                                       placement::Placement{120, 120, 0, 0}, placement::Placement{-40, -40, 70, 33}}) {
+    const auto fast = checker.report(p, term);
+    const auto dense = checker.dense_check(p, 0.5, term);
     for (int k = 0; k < placement::kKindCount; ++k)
       EXPECT_EQ(fast.kinds[k].interferes, dense.kinds[k].interferes)
           << placement::kind_name(static_cast<placement::Kind>(k)) << " at " << p.x_mm << "," << p.y_mm << "," << p.pad_mm;
@@ -133,14 +134,15 @@ TEST(Checker, CertifiedReportAgreesWithDenseRecheck) {
 TEST(Checker, WorkpieceOnTheMagazineIsFlaggedWithItsEvasion) {
   const placement::Scene scene = small_scene(1);
   placement::Checker checker(scene);
+  Termination term;
   placement::Finding w;
   const placement::Placement on_magazine{220, 220, 0, 0};
-  EXPECT_EQ(checker.decide(on_magazine, 0.0, &w), placement::Decision::infeasible);
+  EXPECT_EQ(checker.decide(on_magazine, {}, term, &w), placement::Decision::infeasible);
   EXPECT_TRUE(w.interferes);
   // The magazine sits on the first-quadrant diagonal: evasion points back towards the third.
   EXPECT_LT(w.evasion.x(), 0.0);
   EXPECT_LT(w.evasion.y(), 0.0);
-  const auto r = checker.report(on_magazine);
+  const auto r = checker.report(on_magazine, term);
   EXPECT_FALSE(r.free());
   EXPECT_TRUE(r.kinds[static_cast<int>(placement::Kind::workpiece_peripheral)].interferes);
 }
@@ -150,40 +152,88 @@ TEST(Checker, ABoxProvenFreeIsFreeAtItsCorners) {
   // 4 mm box must be provable, and then every corner must pass the brute-force re-check.
   const placement::Scene scene = small_scene(2);
   placement::Checker checker(scene);
+  Termination term;
   const placement::Placement centre{0, 0, 60, 0};
-  ASSERT_EQ(checker.decide(centre, 4.0), placement::Decision::feasible);
+  ASSERT_EQ(checker.decide(centre, {4.0}, term), placement::Decision::feasible);
   for (const Eigen::Vector3d& d : {Eigen::Vector3d(2.3, 2.3, 2.3), Eigen::Vector3d(-2.3, 2.3, -2.3), Eigen::Vector3d(0, 0, -4)})
-    EXPECT_TRUE(checker.dense_check({centre.x_mm + d.x(), centre.y_mm + d.y(), centre.pad_mm + d.z(), 0}).free());
+    EXPECT_TRUE(checker.dense_check({centre.x_mm + d.x(), centre.y_mm + d.y(), centre.pad_mm + d.z(), 0}, 0.5, term).free());
+  // And turned: a quarter of a degree either way. Class 1 over a turn is known only when
+  // the plate hinges' ring is clear at every rotation; then the ball must be provable, and free
+  // at its ends.
+  const placement::Decision turned = checker.decide(centre, {0.0, 0.25}, term);
+  if (!checker.class1_clear_every_rotation(term)) {
+    EXPECT_EQ(turned, placement::Decision::unknown);
+  } else {
+    ASSERT_EQ(turned, placement::Decision::feasible);
+    for (const double turn : {-0.25, 0.25})
+      EXPECT_TRUE(checker.dense_check({centre.x_mm, centre.y_mm, centre.pad_mm, turn}, 0.5, term).free()) << turn;
+  }
 }
 
 TEST(Checker, ScreensAndProbesNeverCondemnAFreePlacement) {
-  // Teach the checker interferences by deciding a few placements, then screen and probe boxes
-  // around free and interfering placements: a box called infeasible must have no free point
-  // (checked at its centre and corners by the brute-force re-check).
+  // Learn interferences by deciding a few placements (as the search does), then screen and
+  // probe balls around free and interfering placements, turned and not: a ball called
+  // infeasible must have no free point (checked at its centre and corners by the brute-force
+  // re-check).
   const placement::Scene scene = small_scene(2);
   placement::Checker checker(scene);
+  Termination term;
+  std::vector<placement::Spot> known;
   for (const placement::Placement p : {placement::Placement{0, 0, 0, 0}, placement::Placement{-150, 150, 0, 0},
-                                       placement::Placement{200, -200, 0, 0}, placement::Placement{220, 220, 0, 0}})
-    checker.decide(p, 0.0);
-  EXPECT_GT(checker.known_interferences(), 0u);
+                                       placement::Placement{200, -200, 0, 0}, placement::Placement{220, 220, 0, 0}}) {
+    placement::Spot spot;
+    if (checker.decide(p, {}, term, nullptr, &spot) == placement::Decision::infeasible && spot.exact) known.push_back(spot);
+  }
+  ASSERT_GT(known.size(), 0u);
   int condemned = 0;
   for (double x : {-200.0, -60.0, 0.0, 60.0, 200.0})
     for (double pad : {0.0, 40.0, 80.0})
-      for (double half : {2.0, 10.0, 40.0}) {
-        const placement::Placement c{x, -x / 2, pad + half, 0};
-        const double radius = half * std::sqrt(3.0);
-        std::uint64_t settled = 0;
-        const bool screened = checker.screen(c, radius, &settled) == placement::Decision::infeasible;
-        const bool probed = !screened && checker.probe(c, radius) == placement::Decision::infeasible;
-        if (!screened && !probed) continue;
-        ++condemned;
-        for (const Eigen::Vector3d& d : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(half, half, half),
-                                         Eigen::Vector3d(-half, -half, -half), Eigen::Vector3d(half, -half, -half)})
-          EXPECT_FALSE(checker.dense_check({c.x_mm + d.x(), c.y_mm + d.y(), c.pad_mm + d.z(), 0}).free())
-              << "box at " << c.x_mm << "," << c.y_mm << "," << c.pad_mm << " half " << half
-              << (screened ? " (screen)" : " (probe)");
-      }
+      for (double half : {2.0, 10.0, 40.0})
+        for (double turn : {0.0, 3.0}) {
+          const placement::Placement c{x, -x / 2, pad + half, 0};
+          const placement::Ball ball{half * std::sqrt(3.0), turn, half};
+          bool screened = false;
+          for (const auto& s : known) screened = screened || checker.screen_spot(s, c, ball, term) == placement::Decision::infeasible;
+          placement::Spot found;
+          const bool probed = !screened && checker.probe(c, ball, term, &found) == placement::Decision::infeasible;
+          if (!screened && !probed) continue;
+          ++condemned;
+          for (const Eigen::Vector4d& d : {Eigen::Vector4d(0, 0, 0, 0), Eigen::Vector4d(half, half, half, turn),
+                                           Eigen::Vector4d(-half, -half, -half, -turn), Eigen::Vector4d(half, -half, -half, turn)})
+            EXPECT_FALSE(checker.dense_check({c.x_mm + d.x(), c.y_mm + d.y(), c.pad_mm + d.z(), d.w()}, 0.5, term).free())
+                << "box at " << c.x_mm << "," << c.y_mm << "," << c.pad_mm << " half " << half << " turn " << turn
+                << (screened ? " (screen)" : " (probe)");
+        }
   EXPECT_GT(condemned, 5);  // the test must exercise both
+}
+
+TEST(Checker, AnOverlapWithTheMagazineReportsHowDeepAndCondemnsANeighbourhood) {
+  // Distances stop at 0 where solids overlap; the checker carries them below 0 by (at least)
+  // the depth of the overlap, so that one deep overlap condemns a whole ball of placements.
+  const placement::Scene scene = small_scene(1);
+  placement::Checker checker(scene);
+  Termination term;
+  // Towards the magazine along the diagonal, at a few heights: the deepest overlap.
+  placement::Placement p;
+  placement::Finding f;
+  f.clearance_mm = 1e9;
+  for (double pad : {0.0, 60.0, 120.0})
+    for (double x = 100; x <= 400; x += 50) {
+      const auto g = checker.report({x, x, pad, 0}, term).kinds[static_cast<int>(placement::Kind::machine_peripheral)];
+      if (g.clearance_mm < f.clearance_mm) f = g, p = {x, x, pad, 0};
+    }
+  ASSERT_TRUE(f.interferes);
+  ASSERT_LT(f.clearance_mm, -3.0) << f.what;
+  // The brute-force re-check looks at more poses: the same depth or a deeper one.
+  const auto dense = checker.dense_check(p, 0.5, term);
+  EXPECT_LE(dense.kinds[static_cast<int>(placement::Kind::machine_peripheral)].clearance_mm, f.clearance_mm + 0.25);
+  // A ball a third as wide as the depth is condemned as a whole, and its corners interfere.
+  const double radius = -f.clearance_mm / 3;
+  placement::Finding w;
+  ASSERT_EQ(checker.decide(p, {radius}, term, &w), placement::Decision::infeasible);
+  const double h = radius / std::sqrt(3.0);
+  for (const Eigen::Vector3d& d : {Eigen::Vector3d(h, h, h), Eigen::Vector3d(-h, h, -h), Eigen::Vector3d(h, -h, -h)})
+    EXPECT_FALSE(checker.dense_check({p.x_mm + d.x(), p.y_mm + d.y(), p.pad_mm + d.z(), 0}, 0.5, term).free());
 }
 
 // `machplan place` on a scene that cannot be machined: exit code 3 and the reason, quickly.
@@ -195,9 +245,12 @@ void expect_cannot_be_machined(const std::string& workpiece, const std::string& 
       dir.write("scene.yaml", fmt::format("machine: {}machine.yaml\n{}workpiece: {}\ntoolpath: path.csv\nsearch: {{pad_max_mm: 60}}\n",
                                           kData, tooling, workpiece));
   dir.write("path.csv", "x,y,z,i,j,k\n" + toolpath);
-  const test::CliResult r = test::Cli().run({"place", scene});
-  EXPECT_EQ(r.code, 3);
-  const std::string& text = r.err;
+  const std::string err = (dir.path() / "err.txt").string();
+  const int rc = std::system(fmt::format("'{}' place '{}' > /dev/null 2> '{}'", MACHPLAN_CLI, scene, err).c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 3);
+  std::ifstream in(err);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("cannot be machined on this machine"), std::string::npos) << text;
   EXPECT_NE(text.find(reason), std::string::npos) << text;
 }

@@ -34,9 +34,10 @@ TEST(Reproduction, Table1VerdictsMatchThePaper) {
                       {{-20, -20, 80, 0}, 7, true},
                       {{0, 0, 90, 0}, 13, true}};
   placement::Checker checker(scene());
+  Termination term;
   double previous_gap = 0;
   for (const Row& row : rows) {
-    const placement::CheckReport r = checker.report(row.at);
+    const placement::CheckReport r = checker.report(row.at, term);
     SCOPED_TRACE(testing::Message() << "at " << row.at.x_mm << ", " << row.at.y_mm << ", " << row.at.pad_mm);
     EXPECT_EQ(r.free(), row.paper_free);
     const placement::Finding& mp = r.kinds[static_cast<int>(Kind::machine_peripheral)];
@@ -60,8 +61,9 @@ TEST(Reproduction, Table1VerdictsMatchThePaper) {
 TEST(Reproduction, PaperSearchAndOptimumAgreeWithThePaperAndPassADenseRecheck) {
   placement::PlacementOptions o;
   o.strategy = placement::PlacementOptions::Strategy::paper;
-  const placement::PlacementResult paper = placement::place(scene(), o);
-  ASSERT_EQ(paper.status, placement::PlacementStatus::found) << paper.message;
+  Termination term;
+  const placement::PlacementResult paper = placement::place(scene(), o, term);
+  ASSERT_EQ(paper.status, placement::PlacementStatus::found) << paper.summary.message;
   EXPECT_TRUE(paper.verified);
   // The paper ends at (-42.05, -42.05, 70): third quadrant, on the diagonal, on a pad.
   EXPECT_LT(paper.placement.x_mm, 0);
@@ -71,8 +73,8 @@ TEST(Reproduction, PaperSearchAndOptimumAgreeWithThePaperAndPassADenseRecheck) {
   EXPECT_NEAR(paper.placement.pad_mm, 70.0, 10.0 + 1e-9);
 
   o.strategy = placement::PlacementOptions::Strategy::optimal;
-  const placement::PlacementResult best = placement::place(scene(), o);
-  ASSERT_EQ(best.status, placement::PlacementStatus::found) << best.message;
+  const placement::PlacementResult best = placement::place(scene(), o, term);
+  ASSERT_EQ(best.status, placement::PlacementStatus::found) << best.summary.message;
   EXPECT_TRUE(best.verified);
   EXPECT_LE(best.placement.pad_mm, paper.placement.pad_mm);
   if (best.placement.pad_mm == paper.placement.pad_mm) {
@@ -83,11 +85,11 @@ TEST(Reproduction, PaperSearchAndOptimumAgreeWithThePaperAndPassADenseRecheck) {
   placement::Checker checker(scene());
   Placement lower = best.placement;
   lower.pad_mm -= 1;
-  EXPECT_FALSE(checker.report(lower).free());
+  EXPECT_FALSE(checker.report(lower, term).free());
 
   // Both answers survive the brute-force re-check: every pose and every 0.5 mm between poses.
-  EXPECT_TRUE(checker.dense_check(paper.placement, 0.5).free());
-  EXPECT_TRUE(checker.dense_check(best.placement, 0.5).free());
+  EXPECT_TRUE(checker.dense_check(paper.placement, 0.5, term).free());
+  EXPECT_TRUE(checker.dense_check(best.placement, 0.5, term).free());
 }
 
 }  // namespace

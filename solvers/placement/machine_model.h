@@ -1,0 +1,232 @@
+// What a machine tells the placement checker: its constraints at one tool pose, and how fast
+// each can change as the tool moves along the path or the workpiece moves on the table.
+//
+// The checker (checker.h) and the searches (search.h) see a machine only through this
+// interface, so a new machine is a new model, not a change to them. Two models exist:
+//
+//   hexapod         the HexaM-type parallel machine (hexam_model.h, models/hexam)
+//   table_tilting   a 5-axis trunnion: X, Y, Z on the head, two rotary axes under the table
+//                   (trunnion_model.h, models/trunnion)
+//
+// The contract, which the certifier's proofs rest on:
+//
+//   * evaluate() gives, for one tool pose of the path (workpiece frame) and one placement, a
+//     value per constraint (larger is better; margins in mm or radians, clearances in mm),
+//     followed by `extras()` values of the model's own (state that fall() may use). A value
+//     may be a lower bound instead of the exact one when it is at least 10 mm above the
+//     constraint's limit (a far part is not measured exactly).
+//   * fall(c, v, m) bounds how far constraint c can drop over a motion m: from any state whose
+//     distances to the evaluated one are within m, the value is at least v[c] - fall. With v
+//     null the bound must hold from every state (path intervals use that form); with v given it
+//     may use the evaluated state's extras, but must then hold within m of that state.
+//   * motion_between() bounds the motion between two poses of the path and everything the
+//     machine passes through between them, as interpolate() describes the motion.
+//
+// A model is immutable once built and shared by every thread; each thread evaluates through
+// its own PoseEvaluator, which owns its collision objects.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "models/common/tooling.h"
+#include "solvers/placement/finding.h"
+
+namespace machplan::placement {
+
+struct Scene;
+
+// A set of constraints, one bit each (at most 64 per machine and scene).
+using Mask = std::uint64_t;
+inline constexpr Mask bit(int c) { return Mask{1} << c; }
+
+// A tool pose of the path in the workpiece frame, with the angles of the rotary axes that reach
+// it on a table-tilting machine (0 on machines without rotary axes).
+struct PathPose {
+  Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit, from the tip up into the spindle
+  double a_rad = 0.0, c_rad = 0.0;
+};
+
+// The workpiece frame in the machine's table frame: p_table = R p_workpiece + offset.
+struct Where {
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  double rotation_rad = 0.0;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  static Where of(const Placement& p);
+  bool operator==(const Where& o) const { return offset == o.offset && rotation_rad == o.rotation_rad; }
+};
+
+// Upper bounds of how far things move between two states the certifier compares: two poses of
+// the path and what lies between them, a tree node's centre and its members, or a placement
+// and the others in a ball.
+struct Motion {
+  double tip_mm = 0;        // the tool tip, relative to the table
+  double axis_rad = 0;      // the tool axis's turn, relative to the table
+  double joints_rad = 0;    // the rotary axes' turns, summed (table-tilting machines)
+  double workpiece_mm = 0;  // any point of the workpiece, its pad or fixture, relative to the table
+  double pad_mm = 0;        // the pad's (fixture's) height
+  // Along the path the tool moves relative to the workpiece as tip_mm and axis_rad say; when
+  // the placement changes (a ball) the path moves with the workpiece and the tool stays put
+  // relative to it.
+  bool along_path = true;
+};
+
+// One constraint: a value per pose, larger is better, that must reach `limit`.
+struct Constraint {
+  std::string name;
+  Kind kind = Kind::self;
+  double limit = 0.0;
+  double report_tolerance = 0.25;  // report() pins its smallest value to within this
+  bool distance = true;            // a distance, else a margin
+  bool signed_distance = false;    // a distance carried below 0 by the depth of an overlap
+  double order_weight = 1.0;       // weight of a deficit when scans order their work
+  // A travel margin (mm: sliders, linear axes) or a joint margin (rad: joint cones, rotary
+  // axes) reported on their own beside the kinds.
+  enum class Margin { none, travel, joint } margin = Margin::none;
+  // Cheap to evaluate (kinematics only, no collision query): probes look at these first.
+  bool cheap = false;
+  // +1: the value never falls as the pad rises (with everything else held); -1: never rises;
+  // 0: either. Screening a box tall in pad then looks at its top (or bottom) only.
+  int pad_trend = 0;
+};
+
+// A part of the tool assembly that rides on the tool axis and keeps its shape whatever the
+// rotation about that axis (class-1 checks); see models/common/tooling.h.
+using AxialPart = ToolPart;
+
+// Parts fixed to the spindle plate that turn with the workpiece's rotation relative to the
+// plate (the hexapod's plate hinges: spheres at `points` in the plate frame, z = 0 on the
+// plate's lower face `height_mm` above the tip). A ring of them covers every rotation.
+struct PlateRing {
+  double height_mm = 0.0;
+  double sphere_radius_mm = 0.0;
+  std::vector<Eigen::Vector3d> points;  // plate frame
+  double radius_mm() const;             // largest distance of a point from the axis
+};
+
+// The machine's table, for the search region and the on-table check.
+struct TableShape {
+  bool round = false;
+  Eigen::Vector2d half_mm = Eigen::Vector2d::Zero();  // rectangle: half sizes; round: radius, radius
+  // Margin of a point in the table frame: distance to the edge, negative outside.
+  double margin(const Eigen::Vector2d& p) const;
+};
+
+// Where the machine's axes are when the tool tip is at the workpiece origin with the rotary
+// axes at zero: the work offset a process planner types into the control (G54).
+struct WorkOffset {
+  std::string frame;           // what the numbers are measured from
+  Eigen::Vector3d xyz_mm = Eigen::Vector3d::Zero();
+  double rotation_deg = 0.0;   // the workpiece's turn about the table's z
+  std::string rotation_axis;   // how the control applies the rotation ("G68", "C")
+};
+
+// Axis positions along the path for a machine whose linear axes are affine in the placement:
+// q_i(offset) = M_i offset + b_i (mm), and its rotary axes (rad), for one rotation.
+struct AxisPath {
+  std::vector<std::string> names;            // the linear axes, then the rotary ones
+  std::vector<Eigen::Matrix3d> M;            // per pose
+  std::vector<Eigen::Vector3d> b;            // per pose
+  std::vector<Eigen::Vector2d> rotary_rad;   // per pose: the two rotary axes
+  Eigen::Matrix<double, 5, 1> speed;         // largest speed per axis: mm/s, rad/s
+  Eigen::Matrix<double, 5, 1> rapid;         // rapid speed per axis
+  std::vector<double> feed_mm_per_s;         // per pose: the feed of the step that ends there; 0: rapid
+  std::vector<double> tip_step_mm;           // per pose: the tip's distance from the pose before
+  long flips = 0;                            // rotary flips along the path (see the model)
+  long forced_flips = 0;                     // of which the machine's limits force
+  std::vector<long> flip_poses;              // where (the pose after the flip)
+};
+
+class PoseEvaluator {
+ public:
+  virtual ~PoseEvaluator() = default;
+  // Values of the constraints in `mask` and the model's extras into values[0 .. stride). A
+  // constraint outside the mask may be left at any value; one in it never below its true
+  // value (see the contract above).
+  virtual void evaluate(const PathPose& pose, const Where& where, Mask mask, double* values) = 0;
+  // The parts or the limit behind constraint c at a pose, and the paper search's evasion.
+  virtual void describe(int c, const PathPose& pose, const Where& where, double value, Finding& f) = 0;
+  // Placement-only constraint k (the workpiece with its pad against the peripherals): its
+  // value, or a lower bound when that is at least `enough`.
+  virtual double placement_value(int k, const Where& where, double enough, Finding* f) = 0;
+};
+
+class MachineModel {
+ public:
+  virtual ~MachineModel() = default;
+
+  virtual std::string kind() const = 0;  // "hexapod", "table_tilting"
+  virtual std::string name() const = 0;  // the machine file's name
+  const std::vector<Constraint>& constraints() const { return constraints_; }
+  int count() const { return static_cast<int>(constraints_.size()); }
+  int extras() const { return extras_; }
+  int stride() const { return count() + extras_; }
+  Mask all_mask() const { return count() >= 64 ? ~Mask{0} : bit(count()) - 1; }
+  // Placement-only constraints (workpiece and pad against the peripherals): all of kind
+  // workpiece_peripheral, limit the safe distance.
+  int placement_count() const { return placement_count_; }
+
+  virtual std::unique_ptr<PoseEvaluator> evaluator() const = 0;
+  virtual double fall(int c, const double* v, const Motion& m) const = 0;
+
+  // The path as this machine runs it: fills the rotary angles of every pose (an inverse
+  // kinematics branch chosen along the path), or leaves them 0. Placement-independent. A pose
+  // the machine cannot take (a tilt beyond its reach) is returned with the reason.
+  virtual std::optional<std::pair<long, std::string>> prepare(std::vector<PathPose>& poses) const { return std::nullopt; }
+  // The pose at fraction t in [0, 1] of the interval from a to b.
+  virtual PathPose interpolate(const PathPose& a, const PathPose& b, double t) const = 0;
+  // Motion from a to b, and over the interval between them (interpolate()).
+  virtual Motion motion_between(const PathPose& a, const PathPose& b) const = 0;
+  // Weights of the pose-tree keys: an axis turn of 1 rad weighs `axis_weight_mm`, a rotary
+  // turn of 1 rad `joint_weight_mm`.
+  virtual double axis_weight_mm() const = 0;
+  virtual double joint_weight_mm() const { return 0.0; }
+
+  // Class-1 geometry: the tool assembly's parts of revolution, and the plate ring if any.
+  virtual std::vector<AxialPart> class1_parts() const = 0;
+  virtual std::optional<PlateRing> plate_ring() const { return std::nullopt; }
+  virtual Eigen::Matrix3d plate_rotation(const Eigen::Vector3d& axis) const;
+  // Farthest any point of the tool assembly lies from the tip.
+  virtual double assembly_reach_mm() const = 0;
+  // How far any point of the tool assembly (class-1 parts, plate ring) can move, relative to
+  // the workpiece, over a motion.
+  virtual double assembly_motion_mm(const Motion& m) const = 0;
+  // The whole tool assembly, flutes included (tool_support checks).
+  virtual std::vector<AxialPart> tool_parts() const = 0;
+
+  virtual TableShape table() const = 0;
+  virtual WorkOffset work_offset(const Placement& p, const Eigen::Vector3d& origin_in_workpiece) const = 0;
+  // Whether axis_path() gives anything (the travel and time objectives need it).
+  virtual bool affine_axes() const { return false; }
+  // Axis positions along the path at a rotation, for machines whose linear axes are affine in
+  // the placement (table-tilting); nullopt otherwise.
+  virtual std::optional<AxisPath> axis_path(const std::vector<PathPose>& poses, const std::vector<double>& feeds,
+                                            double rotation_rad) const {
+    return std::nullopt;
+  }
+  // The machine's rotary table turns the workpiece about the table's z with nothing else
+  // turning (a round, unlimited C table and nothing fixed on it): a rotation is then the same
+  // setup as a position, and rotation searches can be skipped.
+  virtual bool rotation_is_position() const { return false; }
+
+ protected:
+  std::vector<Constraint> constraints_;
+  int extras_ = 0;
+  int placement_count_ = 0;
+};
+
+// Reads the machine file the scene names (scene.machine.source) and builds its model with the
+// scene's tooling, peripherals and workpiece (a hexapod file has no `kind`, or `kind:
+// hexapod`; a trunnion file says `kind: table_tilting`). Throws InputError naming the file and
+// key, or the scene's tooling (at `tooling_line`) when the tool does not fit the machine.
+std::shared_ptr<const MachineModel> make_machine_model(const Scene& scene, int tooling_line);
+
+}  // namespace machplan::placement

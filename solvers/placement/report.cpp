@@ -1,0 +1,187 @@
+#include "solvers/placement/report.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+namespace machplan::placement {
+
+namespace {
+
+std::string clearance_text(double v) { return std::isfinite(v) ? fmt::format("{:8.2f} mm", v) : "   >= safe"; }
+
+std::string where_text(const Finding& f) {
+  if (f.what.empty() && !std::isfinite(f.clearance_mm)) return "nothing comes within the safe distance";
+  std::string where = f.what;
+  if (f.pose >= 0) {
+    where += fmt::format(" (tool-path index {}{}", f.pose, f.t > 0 ? fmt::format(" +{:.2f}", f.t) : "");
+    if (f.line > 0) where += fmt::format(", line {}", f.line);
+    where += ")";
+  }
+  return where;
+}
+
+// What the scene did to the CAM file's coordinates, and the path below the bottom face.
+std::string frame_lines(const Scene& s) {
+  std::string out;
+  const Eigen::Vector3d& o = s.origin_in_cam_mm;
+  if (!s.origin_from_mesh || o.norm() > 1e-9)
+    out += fmt::format("workpiece frame: origin at CAM ({:.3f}, {:.3f}, {:.3f}) mm ({}); mesh and tool path moved by "
+                       "({:.3f}, {:.3f}, {:.3f}) mm\n",
+                       o.x(), o.y(), o.z(), s.origin_from_mesh ? "the centre of the mesh's bottom face" : "origin_in_cam_mm",
+                       -o.x(), -o.y(), -o.z());
+  if (s.below_bottom.poses > 0)
+    out += fmt::format("tool tips below the bottom face: {} poses, deepest {:.3f} mm below (tool-path index {}, line {}); "
+                       "spoilboard {:.1f} mm\n",
+                       s.below_bottom.poses, s.below_bottom.deepest_mm, s.below_bottom.deepest_pose, s.below_bottom.deepest_line,
+                       s.spoilboard_mm);
+  return out;
+}
+
+Status status_of(PlacementStatus s) {
+  switch (s) {
+    case PlacementStatus::found: return Status::done;
+    case PlacementStatus::unavoidable:
+    case PlacementStatus::no_placement: return Status::infeasible;
+    case PlacementStatus::gave_up: return Status::budget;
+    case PlacementStatus::cancelled: return Status::cancelled;
+    case PlacementStatus::ended: return Status::budget;
+  }
+  return Status::infeasible;
+}
+
+std::string travel_lines(const PlacementResult& r) {
+  if (!r.travel) return {};
+  const AxisTravel& t = *r.travel;
+  std::string axes;
+  for (std::size_t k = 0; k < t.axes.size(); ++k)
+    axes += fmt::format("{}{} {:.1f} {}", k ? ", " : "", t.axes[k], t.travel[k], k < 3 ? "mm" : "deg");
+  std::string out = fmt::format("axis travel: {}\n", axes);
+  if (r.centre_travel) {
+    const AxisTravel& c = *r.centre_travel;
+    out += fmt::format("linear travel {:.1f} mm against {:.1f} mm at the table centre ({:.1f} % less); machining time "
+                       "{:.1f} s against {:.1f} s ({:.1f} % less)\n",
+                       t.linear_mm, c.linear_mm, 100.0 * (1.0 - t.linear_mm / c.linear_mm), t.time_s, c.time_s,
+                       100.0 * (1.0 - t.time_s / c.time_s));
+  }
+  out += t.flips == 0 ? std::string("rotary flips: none\n")
+                      : fmt::format("rotary flips: {} ({} forced by the axis limits), first at tool-path index {}\n", t.flips,
+                                    t.forced_flips, t.flip_poses.empty() ? -1 : t.flip_poses.front());
+  return out;
+}
+
+}  // namespace
+
+std::string budget_message(const Scene& scene) {
+  return fmt::format(
+      "{}: the interference check stopped at its limit of {} exact pose queries (search.max_pose_queries in the scene) "
+      "without an answer; with a safe distance of {} mm little of the path can be certified in bulk. Raise the limit in "
+      "the scene to let it run longer.",
+      scene.source, scene.search.max_pose_queries, scene.safe_distance_mm);
+}
+
+std::string kinds_table(const Scene& scene, const CheckReport& r) {
+  std::string out = fmt::format("  {:<22} {:<12} {:<11} {}\n", "kind", "verdict", "clearance", "where");
+  for (int k = 0; k < kKindCount; ++k) {
+    const Finding& f = r.kinds[k];
+    out += fmt::format("  {:<22} {:<12} {}  {}\n", kind_name(static_cast<Kind>(k)), f.interferes ? "INTERFERES" : "free",
+                       clearance_text(f.clearance_mm), where_text(f));
+  }
+  const bool hexapod = scene.machine.kind == "hexapod";
+  out += fmt::format("  {} margin {:.1f} mm, {} margin {:.1f} deg, safe distance {:.1f} mm\n",
+                     hexapod ? "slider stroke" : "linear axis travel", r.stroke_margin_mm,
+                     hexapod ? "joint cone" : "rotary axis", r.joint_margin_deg, scene.safe_distance_mm);
+  if (!r.on_table) out += "  the workpiece overhangs the table\n";
+  return out;
+}
+
+void write_check_summary(const Scene& scene, CheckResult& result) {
+  Summary& s = result.summary;
+  const CheckReport& r = result.report;
+  const Placement& p = r.placement;
+  if (!s.done()) {
+    s.brief = fmt::format("check {}: {}", to_string(s.status), s.message);
+    s.full = fmt::format("machplan check {}: {} before a verdict: {}\n", scene.source, to_string(s.status), s.message);
+    return;
+  }
+  const bool free = r.free() && r.on_table;
+  s.brief = fmt::format("{} at x {:.2f}, y {:.2f}, pad {:.1f} mm, rotation {:g} deg", free ? "FREE" : "INTERFERENCE", p.x_mm,
+                        p.y_mm, p.pad_mm, p.rotation_deg);
+  s.full = fmt::format("machplan check {} at x {:.2f}, y {:.2f}, pad {:.1f} mm{}: {}{}\n", scene.source, p.x_mm, p.y_mm,
+                       p.pad_mm, p.rotation_deg != 0 ? fmt::format(", rotation {:g} deg", p.rotation_deg) : "",
+                       free ? "FREE" : "INTERFERENCE", result.dense ? " (dense re-check)" : "");
+  s.full += frame_lines(scene);
+  s.full += kinds_table(scene, r);
+}
+
+void write_place_summary(const Scene& scene, const PlacementOptions& o, bool rotations_reduced, PlacementResult& r) {
+  Summary& s = r.summary;
+  if (r.status != PlacementStatus::ended) s.status = status_of(r.status);
+  const bool optimal = o.strategy == PlacementOptions::Strategy::optimal;
+  const std::string head = fmt::format(
+      "machplan place {} (machine {}, strategy {}, objective {}, {} tool poses, safe distance {:.1f} mm, {} thread{})\n",
+      scene.source, scene.machine.name, optimal ? "optimal" : "paper", to_string(r.objective), scene.tips_mm.size(),
+      scene.safe_distance_mm, r.threads, r.threads == 1 ? "" : "s");
+  if (r.status == PlacementStatus::cancelled || r.status == PlacementStatus::ended) {
+    s.brief = fmt::format("place {}: {}", to_string(s.status), s.message);
+    s.full = head + fmt::format("placement search ended ({}) before an answer: {}\ntime: {:.3f} s\n", to_string(s.status),
+                                s.message, r.seconds);
+    return;
+  }
+  const Placement& p = r.placement;
+  std::string full = head + frame_lines(scene);
+  if (r.status == PlacementStatus::found) {
+    s.brief = fmt::format("x {:.2f} mm, y {:.2f} mm, {} {:.1f} mm, rotation {:g} deg{}", p.x_mm, p.y_mm,
+                          scene.machine.kind == "hexapod" ? "pad" : "fixture height", p.pad_mm, p.rotation_deg,
+                          r.verified ? ", certified free" : "");
+    full += fmt::format("placement: x {:.2f} mm, y {:.2f} mm, {} {:.1f} mm, rotation {:g} deg  ({})\n", p.x_mm, p.y_mm,
+                        scene.machine.kind == "hexapod" ? "pad" : "fixture height", p.pad_mm, p.rotation_deg, s.message);
+    if (r.rotations > 1)
+      full += fmt::format("rotations: {} searched; the answer is certified free {}\n", r.rotations,
+                          r.rotation_tolerance_deg > 0
+                              ? fmt::format("for every rotation from {:.3f} to {:.3f} deg", p.rotation_deg - r.rotation_tolerance_deg,
+                                            p.rotation_deg + r.rotation_tolerance_deg)
+                              : fmt::format("at {:g} deg exactly (no turn around it could be proven free)", p.rotation_deg));
+    if (rotations_reduced)
+      full += "rotations: on this machine a turn of the rotary table is the same setup as a position, so one rotation "
+              "was searched\n";
+    const WorkOffset& w = r.work_offset;
+    full += fmt::format("work offset (G54, the CAM zero from {}): X {:.3f} Y {:.3f} Z {:.3f}, rotation {:.3f} deg ({})\n",
+                        w.frame, w.xyz_mm.x(), w.xyz_mm.y(), w.xyz_mm.z(), w.rotation_deg, w.rotation_axis);
+    full += fmt::format("certified free over the whole path: {}\n", r.verified ? "yes" : "NO");
+  } else {
+    s.message = "cannot be machined on this machine: " + s.message;
+    s.brief = s.message;
+    full += s.message + "\n";
+  }
+  if (std::any_of(r.report.kinds.begin(), r.report.kinds.end(), [](const Finding& f) { return f.pose >= 0; }))
+    full += kinds_table(scene, r.report);
+  full += travel_lines(r);
+  full += fmt::format("checks: {} placements examined{}, {} exact pose queries, {} interpolated poses, {} tree nodes ({} "
+                      "proven by bound)\n",
+                      r.placements_examined, optimal ? fmt::format(" ({} certified over the whole path)", r.certifications) : "",
+                      r.counts.exact_queries, r.counts.interpolated_poses, r.counts.stretches, r.counts.proven_by_bound);
+  full += fmt::format("time: {:.3f} s\n", r.seconds);
+  s.full = std::move(full);
+}
+
+const char* kind_name(Kind k) {
+  switch (k) {
+    case Kind::self: return "self";
+    case Kind::workpiece_class1: return "workpiece_class1";
+    case Kind::workpiece_class2: return "workpiece_class2";
+    case Kind::machine_peripheral: return "machine_peripheral";
+    case Kind::workpiece_peripheral: return "workpiece_peripheral";
+    case Kind::tool_support: return "tool_support";
+  }
+  return "?";
+}
+
+bool CheckReport::free() const {
+  for (const Finding& f : kinds)
+    if (f.interferes) return false;
+  return on_table;
+}
+
+}  // namespace machplan::placement
