@@ -178,7 +178,9 @@ hardware::Health SimBackend::exchange(const hardware::Outputs& out, hardware::In
       const double gap_s = std::chrono::duration<double>(now - last_return_).count();
       const long missed = static_cast<long>(gap_s / period_s_);
       if (missed > opt_.watchdog_periods) {
-        watchdog_ = true;
+        // Drives enabled: the machine ran without a controller. Disabled (between two jobs of
+        // one session, after a run ended): nothing moved, the machine waited.
+        if (last_out_.drives_enabled) watchdog_ = true;
         t0_ += now - last_return_;  // keep pacing from here
       }
     }
