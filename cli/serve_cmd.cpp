@@ -25,6 +25,7 @@ struct ServeArgs {
   int port = 8090;
   bool allow_remote = false, no_pace = false;
   double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
+  double sim_speed = 1.0;
 };
 
 void serve(const ServeArgs& a) {
@@ -38,6 +39,7 @@ void serve(const ServeArgs& a) {
                               : accept(control::parse_controller_kind(a.controller), "--controller");
   po.store_path = a.db;
   po.pace = !a.no_pace;
+  po.sim_speed = a.sim_speed;
   po.run.max_machine_time_s = a.max_machine_time_s;
   panel::ServerOptions so;
   so.bind = a.bind;
@@ -78,6 +80,9 @@ void add_serve(CLI::App& app) {
                   "refuse a job whose estimate exceeds this many seconds of machine time (default 14400: 4 h)")
       ->check(kFinitePositive);
   cmd->add_flag("--no-pace", a->no_pace, "run the simulator as fast as it goes instead of in real time (tests)");
+  cmd->add_option("--sim-speed", a->sim_speed,
+                  "simulator: simulated seconds per wall-clock second (default 1: real time; tests and demos run faster)")
+      ->check(kFinitePositive);
   field_flags(cmd, {{"machine", "--machine"},
                     {"session.machine", "--machine"},
                     {"backend.name", "--backend"},
@@ -86,7 +91,9 @@ void add_serve(CLI::App& app) {
                     {"session.controller", "--controller"},
                     {"bind", "--bind"},
                     {"port", "--port"},
-                    {"run.max_machine_time_s", "--max-machine-time"}});
+                    {"run.max_machine_time_s", "--max-machine-time"},
+                    {"sim_speed", "--sim-speed"},
+                    {"backend.sim.realtime_speed", "--sim-speed"}});
   cmd->callback([a] { serve(*a); });
 }
 

@@ -42,6 +42,7 @@ void PanelOptions::validate() const {
                 "s must be in [0.05, 5]");
   require_field(std::isfinite(jog_idle_end_s) && jog_idle_end_s >= 0.1 && jog_idle_end_s <= 600, "jog_idle_end_s",
                 jog_idle_end_s, "s must be in [0.1, 600]");
+  require_field(std::isfinite(sim_speed) && sim_speed > 0 && sim_speed <= 1000, "sim_speed", sim_speed, "must be in (0, 1000]");
   validate_member("session", session);
   validate_member("run", run);
 }
@@ -93,6 +94,7 @@ Panel::Panel(PanelOptions options) : o_(std::move(options)) {
   o_.session.executor.record_trace = false;
   o_.session.trace_csv_path.clear();
   o_.session.backend.sim.realtime = o_.pace;
+  o_.session.backend.sim.realtime_speed = o_.sim_speed;
   o_.run.session = o_.session;
   session_ = std::make_unique<session::MachineSession>(o_.session);
   std::string tmpl = (fs::temp_directory_path() / "machplan-panel-XXXXXX").string();
@@ -485,7 +487,10 @@ void Panel::run_job(std::optional<int> from_line) {
     planning_ = false;
   }
   if (session_->backend_open()) {
-    const Eigen::Vector2d at = session_->live().read().measured_mm;
+    // Where the machine stands: the last setpoint, which the servo holds. The measured position
+    // differs from it by the servo's error at rest, and after a job that ends at the travel's
+    // corner it may lie a hundredth of a millimetre outside the travel, where no rapid starts.
+    const Eigen::Vector2d at = session_->live().read().commanded_mm;
     if ((plan->job.start_mm - at).norm() > 0.01 && !move_to(at, plan->job.start_mm, t)) return;
   }
   motion::RunOutcome outcome = motion::execute(*session_, std::move(*plan), options, {&t, nullptr, nullptr});

@@ -67,6 +67,9 @@ struct PanelOptions {
   motion::RunOptions run;
   // Pace the simulator to the wall clock (people watch it move). Off: as fast as it goes.
   bool pace = true;
+  // Paced: simulated seconds per wall-clock second (SimOptions::realtime_speed; tests and demos
+  // may run faster than the machine would).
+  double sim_speed = 1.0;
   // A browser jog falls back to centred when no jog request came for this long, s.
   double jog_deadman_s = 0.3;
   // A jog session of an idle machine ends when the stick has been centred for this long, s.

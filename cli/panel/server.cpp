@@ -524,7 +524,7 @@ Server::Server(Panel& panel, ServerOptions options) : impl_(std::make_unique<Imp
   Impl& m = *impl_;
   m.o.validate();
   if (!m.o.allow_remote && !is_loopback(m.o.bind))
-    throw InputError::field("bind", fmt::format("'{}' is not a loopback address: binding it needs allow_remote", excerpt(m.o.bind)));
+    throw InputError::field("bind", fmt::format("'{}' is not a loopback address: binding it needs allow_remote (serve: --allow-remote)", excerpt(m.o.bind)));
   m.token = m.o.token.empty() ? random_token() : m.o.token;
   const std::string root = m.o.web_root.empty() ? web_root_folder() : m.o.web_root;
   if (root.empty()) throw InputError::field("web_root", "the panel's page (share/machplan/panel) was not found");

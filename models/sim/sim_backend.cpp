@@ -27,6 +27,8 @@ void SimOptions::validate() const {
   if (watchdog_periods < 1 || watchdog_periods > 100000)
     throw InputError::field("watchdog_periods", fmt::format("{} must be 1 .. 100000", watchdog_periods));
   if (!start_mm.allFinite()) throw InputError::field("start_mm", "must be finite");
+  if (!(std::isfinite(realtime_speed) && realtime_speed > 0 && realtime_speed <= 1000))
+    throw InputError::field("realtime_speed", fmt::format("{} must be in (0, 1000]", realtime_speed));
   for (const FaultInjection& f : faults) {
     if (!(std::isfinite(f.at_s) && f.at_s >= 0 && f.at_s <= 1e7))
       throw InputError::field("faults", fmt::format("{}@{}: the time must be in [0, 1e7] s", to_string(f.kind), f.at_s));
@@ -176,7 +178,7 @@ hardware::Health SimBackend::exchange(const hardware::Outputs& out, hardware::In
     } else if (!watchdog_ && !lost_) {
       // Exchanges that came too late on the wall clock: the machine ran without a controller.
       const double gap_s = std::chrono::duration<double>(now - last_return_).count();
-      const long missed = static_cast<long>(gap_s / period_s_);
+      const long missed = static_cast<long>(gap_s * opt_.realtime_speed / period_s_);
       if (missed > opt_.watchdog_periods) {
         // Drives enabled: the machine ran without a controller. Disabled (between two jobs of
         // one session, after a run ended): nothing moved, the machine waited.
@@ -190,7 +192,7 @@ hardware::Health SimBackend::exchange(const hardware::Outputs& out, hardware::In
   in = sample();
   if (opt_.realtime) {
     const auto deadline = t0_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                    std::chrono::duration<double>(time_s_));
+                                    std::chrono::duration<double>(time_s_ / opt_.realtime_speed));
     std::this_thread::sleep_until(deadline);
     last_return_ = std::chrono::steady_clock::now();
   }

@@ -72,6 +72,7 @@ using hardware::OperatorEvent;
 struct SimOptions {
   std::uint64_t seed = 1;
   bool realtime = false;                  // pace exchange() to the wall clock
+  double realtime_speed = 1.0;            // with realtime: simulated seconds per wall second (tests: > 1)
   Eigen::Vector2d start_mm = Eigen::Vector2d::Zero();
   // Counter values at start: arbitrary, and not zero, so runs exercise the wrap.
   std::array<std::uint32_t, 2> counter_start{{40000u, 123u}};
