@@ -1,6 +1,6 @@
 // The panel's API (docs/panel.md) through real HTTP and WebSocket connections to a server on an
 // ephemeral loopback port: every route, the token, control, the E-stop, bad and malformed
-// requests, the live stream, jog, run from a line, the hybrid mode, and the hidden bracket held
+// requests, the live stream, jog, run from a line, the hybrid mode, and the L bracket held
 // and resumed mid-cut against `machplan run`'s figures.
 #include <sys/socket.h>
 
@@ -56,7 +56,7 @@ TEST(PanelApi, EveryRouteWantsTheTokenAndAnswers401AndNothingElse) {
   EXPECT_EQ(s["state"], "idle");
 }
 
-TEST(PanelApi, StatusHasTheFieldsTheIssueNames) {
+TEST(PanelApi, StatusHasTheFieldsAnOperatorReads) {
   PanelRig rig(0);
   const json s = rig.status();
   for (const char* k : {"machine", "state", "program", "line", "position_mm", "feed_mm_per_s", "overrides", "torch", "progress",
@@ -438,7 +438,7 @@ TEST(PanelApi, HistoryIsReadOnly) {
   EXPECT_FALSE(std::filesystem::exists(h["store"].get<std::string>())) << "reading the history creates no store";
 }
 
-// The hidden bracket through the API, with an origin, held and resumed mid-cut: the same contour
+// The L bracket (datasets/parts/bracket_l.ngc) through the API, with an origin, held and resumed mid-cut: the same contour
 // error as `machplan run` (the same pipeline, machine and seed; a hold and its re-pierce are the
 // only difference), and GET /api/report gives it.
 TEST(PanelApi, TheBracketHeldAndResumedMidCutMatchesMachplanRun) {
