@@ -220,6 +220,30 @@ TEST(PanelApi, FuzzedAndMalformedRequestsNeverCrashTheServerOrMoveTheMachine) {
   EXPECT_EQ(after["overrides"]["feed_pct"], 100.0);
 }
 
+TEST(PanelApi, StalledClientsHoldNoOneElseBackAndChangeNothing) {
+  PanelRig rig(0);
+  rig.take_control();
+  const std::string auth = "Authorization: Bearer " + rig.token + "\r\nX-Machplan-Client: client-one\r\n";
+  std::vector<std::unique_ptr<test::StalledClient>> stalled;
+  for (int i = 0; i < 24; ++i) {
+    // A head that never ends, and a body that stops before its length.
+    const std::string bytes = i % 2 ? "GET /api/status HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: "
+                                    : "POST /api/override HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth +
+                                          "Content-Type: application/json\r\nContent-Length: 40\r\n\r\n{\"feed\": 1";
+    stalled.push_back(std::make_unique<test::StalledClient>(rig.port, bytes));
+    ASSERT_TRUE(stalled.back()->connected());
+  }
+  // The others are served meanwhile, commands included.
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(rig.get("/api/status").status, 200);
+  ASSERT_EQ(rig.post("/api/override", {{"feed", 60}}).status, 200);
+  EXPECT_EQ(rig.status()["overrides"]["feed_pct"], 60.0);
+  stalled.clear();  // they give up: the half-sent overrides were never applied
+  EXPECT_EQ(rig.get("/api/status").status, 200);
+  const json s = rig.status();
+  EXPECT_EQ(s["overrides"]["feed_pct"], 60.0);
+  EXPECT_EQ(s["activity"], "idle");
+}
+
 TEST(PanelApi, TheTriangleRunsHoldsResumesAndReports) {
   PanelRig rig(8.0);
   rig.take_control();

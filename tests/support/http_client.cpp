@@ -104,6 +104,18 @@ std::string send_raw(int port, const std::string& bytes, double timeout_s) {
   return out;
 }
 
+StalledClient::StalledClient(int port, const std::string& bytes) {
+  fd_ = connect_loopback(port, 5.0);
+  if (fd_ >= 0 && !send_all(fd_, bytes)) {
+    ::close(fd_);
+    fd_ = -1;
+  }
+}
+
+StalledClient::~StalledClient() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
 WsClient::WsClient(int port, const std::string& path, const Headers& headers, double timeout_s) {
   fd_ = connect_loopback(port, timeout_s);
   if (fd_ < 0) return;

@@ -28,6 +28,20 @@ HttpResponse http(int port, const std::string& method, const std::string& path, 
 // Sends `bytes` as they are and returns what came back until the server closed or the timeout.
 std::string send_raw(int port, const std::string& bytes, double timeout_s = 5.0);
 
+// A client that sends `bytes` (a request cut short, say) and then neither sends nor reads
+// until it is destroyed: a slow or stalled client.
+class StalledClient {
+ public:
+  StalledClient(int port, const std::string& bytes);
+  ~StalledClient();
+  StalledClient(const StalledClient&) = delete;
+  StalledClient& operator=(const StalledClient&) = delete;
+  bool connected() const { return fd_ >= 0; }
+
+ private:
+  int fd_ = -1;
+};
+
 class WsClient {
  public:
   // Opens the connection and sends the upgrade request. ok() tells whether the server agreed
