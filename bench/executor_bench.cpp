@@ -23,6 +23,7 @@
 
 #include <fmt/format.h>
 
+#include "bench/tick_percentiles.h"
 #include "engine/executor/executor.h"
 #include "engine/hardware/operator_events.h"
 #include "models/axis/plant.h"
@@ -136,13 +137,7 @@ void tick_percentiles(benchmark::State& state, TraceKind kind, bool operated = f
     dropped = static_cast<double>(r.trace_stream_dropped);
     benchmark::DoNotOptimize(r.cycle_time_s);
   }
-  std::sort(us.begin(), us.end());
-  const auto at = [&](double q) { return us[std::min(us.size() - 1, static_cast<std::size_t>(q * us.size()))]; };
-  state.counters["p50_us"] = at(0.5);
-  state.counters["p99_us"] = at(0.99);
-  state.counters["p99.9_us"] = at(0.999);
-  state.counters["max_us"] = us.back();
-  state.counters["ticks"] = static_cast<double>(us.size());
+  bench::report_tick_percentiles(state, us);
   if (kind == TraceKind::stream) state.counters["dropped"] = dropped;
 }
 void BM_TickPercentilesTrace(benchmark::State& s) { tick_percentiles(s, TraceKind::memory); }

@@ -730,7 +730,7 @@ bool Session::Impl::tick() noexcept {
     raise(v == FeedbackAdapter::Verdict::counter_wrap_misread ? FK::counter_wrap_misread : FK::encoder_glitch, bad_axis, jump);
   else if (adapter.trusted())
     sup.note_trusted(adapter.position_mm());
-  if (in.estop) raise(FK::estop, -1, 0.0);
+  if (in.estop || in.op.estop) raise(FK::estop, -1, 0.0);  // the chain, or the operator's E-stop
   if (in.watchdog_tripped) raise(FK::watchdog, -1, be.watchdog_periods());
   if (parts.termination && parts.termination->should_end()) raise(FK::stop_requested, -1, 0.0);
   if (sup.arc_lost(moving_cut() && ms.torch.kind == TorchSetup::Kind::plasma, in.arc_ok)) arc_lost();

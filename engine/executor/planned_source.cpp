@@ -187,7 +187,12 @@ void PlannedSource::demand(Demand& d) const noexcept {
 }
 
 int PlannedSource::source_line() const noexcept {
-  return cur_ && step_ < ctx_.job->steps.size() ? ctx_.job->steps[step_].source_line : 0;
+  if (!cur_ || step_ >= ctx_.job->steps.size()) return 0;
+  // The line of the segment the tool is on (the cursor; blends carry the next piece's line),
+  // else the step's first line.
+  if (stretch_ && segment_ < stretch_->source_lines.size() && stretch_->source_lines[segment_] > 0)
+    return stretch_->source_lines[segment_];
+  return ctx_.job->steps[step_].source_line;
 }
 
 }  // namespace machplan::executor

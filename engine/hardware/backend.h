@@ -71,6 +71,10 @@ struct OperatorInputs {
   // request of that many millimetres.
   double recover_mm = 0.0;
   bool thc_enabled = true;          // torch height control allowed (plasma)
+  // A level, not a button: the operator's E-stop (a panel's, a pendant's) is open. The
+  // executor treats it as the E-stop chain opening (Inputs::estop): fault estop, torch off in
+  // the same period, controlled stop. It stays open until the operator resets it.
+  bool estop = false;
 };
 
 struct Outputs {

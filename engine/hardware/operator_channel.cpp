@@ -10,6 +10,7 @@ OperatorInputs OperatorMerger::merge(const OperatorInputs& backend, const Operat
   m.feed_hold = backend.feed_hold || channel.feed_hold;
   m.cycle_start = backend.cycle_start || channel.cycle_start;
   m.stop = backend.stop || channel.stop;
+  m.estop = backend.estop || channel.estop;  // either side's E-stop stops the machine
   // Levels: whichever side changed last.
   const auto level = [](double b, double c, double& last_b, double& last_c, double& held) {
     if (b != last_b) held = b;

@@ -34,6 +34,8 @@ void SimOptions::validate() const {
     if (!(std::isfinite(l) && l >= 1 && l <= 1e5))
       throw InputError::field("sheet_warp_mm", fmt::format("wavelength {} mm must be in [1, 100000]", l));
   }
+  if (!(std::isfinite(realtime_speed) && realtime_speed > 0 && realtime_speed <= 1000))
+    throw InputError::field("realtime_speed", fmt::format("{} must be in (0, 1000]", realtime_speed));
   for (const FaultInjection& f : faults) {
     if (!(std::isfinite(f.at_s) && f.at_s >= 0 && f.at_s <= 1e7))
       throw InputError::field("faults", fmt::format("{}@{}: the time must be in [0, 1e7] s", to_string(f.kind), f.at_s));
@@ -244,9 +246,11 @@ hardware::Health SimBackend::exchange(const hardware::Outputs& out, hardware::In
     } else if (!watchdog_ && !lost_) {
       // Exchanges that came too late on the wall clock: the machine ran without a controller.
       const double gap_s = std::chrono::duration<double>(now - last_return_).count();
-      const long missed = static_cast<long>(gap_s / period_s_);
+      const long missed = static_cast<long>(gap_s * opt_.realtime_speed / period_s_);
       if (missed > opt_.watchdog_periods) {
-        watchdog_ = true;
+        // Drives enabled: the machine ran without a controller. Disabled (between two jobs of
+        // one session, after a run ended): nothing moved, the machine waited.
+        if (last_out_.drives_enabled) watchdog_ = true;
         t0_ += now - last_return_;  // keep pacing from here
       }
     }
@@ -256,7 +260,7 @@ hardware::Health SimBackend::exchange(const hardware::Outputs& out, hardware::In
   in = sample();
   if (opt_.realtime) {
     const auto deadline = t0_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                    std::chrono::duration<double>(time_s_));
+                                    std::chrono::duration<double>(time_s_ / opt_.realtime_speed));
     std::this_thread::sleep_until(deadline);
     last_return_ = std::chrono::steady_clock::now();
   }

@@ -14,8 +14,10 @@
 // the torch by itself, as a real controller's watchdog must; `coast()` lets a test run the
 // machine on after the executor has gone. When no exchange arrives for more than
 // `watchdog_periods` periods (measured on the wall clock when paced with `realtime`; simulated
-// by `miss_exchanges()` or an injected `watchdog` fault otherwise), the watchdog trips: drives
-// and torch off, latched, and `Inputs::watchdog_tripped` reports it.
+// by `miss_exchanges()` or an injected `watchdog` fault otherwise) while the drives are
+// enabled, the watchdog trips: drives and torch off, latched, and `Inputs::watchdog_tripped`
+// reports it. A gap after an exchange that disabled the drives (a session between two jobs) is
+// the machine waiting, not a fault.
 //
 // Operator inputs: `operator_events` (time-stamped states of the joystick, feed hold and cycle
 // start) are applied at their times; set_operator() changes them at once.
@@ -72,6 +74,7 @@ using hardware::OperatorEvent;
 struct SimOptions {
   std::uint64_t seed = 1;
   bool realtime = false;                  // pace exchange() to the wall clock
+  double realtime_speed = 1.0;            // with realtime: simulated seconds per wall second (tests: > 1)
   Eigen::Vector2d start_mm = Eigen::Vector2d::Zero();
   // Counter values at start: arbitrary, and not zero, so runs exercise the wrap.
   std::array<std::uint32_t, 2> counter_start{{40000u, 123u}};

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <random>
 
 #include <fmt/format.h>
@@ -25,6 +26,7 @@ const char* to_string(OperatorSpec::Kind k) {
     case OperatorSpec::Kind::random: return "random";
     case OperatorSpec::Kind::joystick: return "joystick";
     case OperatorSpec::Kind::keys: return "keys";
+    case OperatorSpec::Kind::panel: return "panel";
   }
   return "?";
 }
@@ -96,7 +98,25 @@ struct Rig {
   double jog_speed = 0.0;
   std::vector<std::string>* warnings = nullptr;
   Termination* termination = nullptr;
+  const GuardLink* link = nullptr;  // a panel's, or null
+  const int* strokes = nullptr;     // the result's count, for the panel's live view
   long stops = 0, failsafe = 0, emergency = 0;
+
+  // The panel's E-stop, and the state it shows (GuardLink).
+  void link_inputs(hardware::OperatorInputs& in) const {
+    if (link && link->estop && link->estop->load(std::memory_order_acquire)) in.estop = true;
+  }
+  void publish(GuardLive::Phase phase, double t, const Eigen::Vector2d& p, bool holding) const {
+    if (!link || !link->live) return;
+    GuardLive g;
+    g.phase = phase;
+    g.t_s = t;
+    g.position_mm = p;
+    g.distance_mm = region->query(p).signed_distance_mm;
+    g.guard_holding = holding;
+    g.strokes = strokes ? *strokes : 0;
+    link->live->publish(g);
+  }
 
   // A machine session on the rig's machine: the simulated table from `start_mm`, seeded.
   session::MachineSessionOptions session(executor::Mode mode, std::uint64_t seed, bool realtime) const {
@@ -140,10 +160,12 @@ double jog_session(Rig& rig, const Eigen::Vector2d& start, std::uint64_t seed, b
       in = {};
       in.cycle_start = true;
     }
+    rig.link_inputs(in);
     ms.operator_inputs().set(in);
     if (!s->tick()) break;
     t += dt;
     if (!be.true_position(p)) p = guard.setpoint_mm();
+    rig.publish(GuardLive::Phase::roughing, t, p, guard.holding());
     if (ending && ++after_end > 20000) break;  // the controlled stop takes far less
   }
   const executor::ExecutionResult r = s->finish();
@@ -359,10 +381,21 @@ void finish_profile(Rig& rig, const Eigen::Vector2d& from, GuardRunResult& r) {
   executor::Trajectories trajs(job.steps.size());
   for (std::size_t i = 0; i < job.steps.size(); ++i) trajs[i] = motion::plan_stretch(job.stretches[job.steps[i].stretch], po);
 
-  session::MachineSession ms(rig.session(executor::Mode::planned, rig.o.seed + 7919, false));
+  const bool paced = rig.link && rig.link->paced_finish;
+  session::MachineSession ms(rig.session(executor::Mode::planned, rig.o.seed + 7919, paced));
   session::MachineSession::RunHooks hooks;
   hooks.termination = rig.termination;
-  const executor::ExecutionResult res = ms.run(job, trajs, hooks);
+  const std::unique_ptr<executor::Session> run = ms.start(job, trajs, hooks);
+  hardware::OperatorInputs in{};
+  for (double t = 0.0;; t += ms.setup().servo_period_s) {
+    rig.link_inputs(in);
+    if (rig.link) ms.operator_inputs().set(in);
+    if (!run->tick()) break;
+    Eigen::Vector2d p;
+    if (!ms.backend().true_position(p)) p = ms.live().read_single().measured_mm;
+    rig.publish(GuardLive::Phase::finishing, t, p, false);
+  }
+  const executor::ExecutionResult res = run->finish();
   r.finishing_time_s = res.cycle_time_s;
 
   for (std::size_t i = 0; i < passes.size(); ++i) {
@@ -485,8 +518,14 @@ void rough_live(Rig& rig, const ProhibitedRegion& region, Tracker& tracker, std:
   const GuardRunOptions& options = rig.o;
   const double T = options.guard.tolerance_mm;
   const bool js = options.op.kind == OperatorSpec::Kind::joystick;
-  hardware::LiveOperator live(js ? hardware::LiveOperator::Kind::joystick : hardware::LiveOperator::Kind::keys,
-                              options.op.path, options.feed_mm_per_s);
+  // A device of our own, or the stick a panel writes (GuardLink).
+  std::optional<hardware::LiveOperator> device;
+  if (options.op.kind != OperatorSpec::Kind::panel)
+    device.emplace(js ? hardware::LiveOperator::Kind::joystick : hardware::LiveOperator::Kind::keys, options.op.path,
+                   options.feed_mm_per_s);
+  const auto read_stick = [&] {
+    return device ? device->read() : hardware::LiveOperator::unpack(rig.link->stick->load(std::memory_order_acquire));
+  };
   rig.jog_speed = options.feed_mm_per_s;
   const Eigen::Vector2d start = random_start(region, rng, T + 10.0, T + 30.0);
   bool was_pushing = false;
@@ -494,7 +533,7 @@ void rough_live(Rig& rig, const ProhibitedRegion& region, Tracker& tracker, std:
       rig, start, options.seed, true,
       [&](double t, const Eigen::Vector2d& p, const executor::Guard& g, hardware::OperatorInputs& in) {
         tracker.sample(t, p, g.counters().limited_ticks);
-        const hardware::StickState st = live.read();
+        const hardware::StickState st = read_stick();
         const Eigen::Vector2d dir(st.x, st.y);
         const bool pushing = dir.norm() > 0.02 && st.speed_mm_per_s > 0;
         if (pushing && !was_pushing)
@@ -547,8 +586,11 @@ void summarize(GuardRunResult& r, const Termination* termination) {
 }
 
 GuardRunResult guard_session(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options,
-                             std::vector<std::string> warnings, Termination* termination, Progress* progress) {
+                             std::vector<std::string> warnings, Termination* termination, Progress* progress,
+                             const GuardLink* link) {
   options.validate();
+  if (options.op.kind == OperatorSpec::Kind::panel && !(link && link->stick))
+    throw InputError::field("op", "the panel operator needs a panel's stick (GuardLink::stick)");
   GuardRunResult r;
   r.warnings = std::move(warnings);
   r.profile_source = source;
@@ -558,6 +600,8 @@ GuardRunResult guard_session(const std::vector<Contour>& profile, const std::str
   rig.o = options;
   rig.machine = cutting::load_machine(cutting::find_machine(options.machine));
   rig.termination = termination;
+  rig.link = link;
+  rig.strokes = &r.strokes;
   r.machine = rig.machine.name;
   rig.warnings = &r.warnings;
   const ProhibitedRegion region = ProhibitedRegion::build(profile, options.region);
@@ -574,12 +618,14 @@ GuardRunResult guard_session(const std::vector<Contour>& profile, const std::str
     case OperatorSpec::Kind::random: rough_random(rig, region, tracker, rng, last, r, &roughing); break;
     case OperatorSpec::Kind::script: rough_script(rig, region, tracker, last, r, &roughing); break;
     case OperatorSpec::Kind::joystick:
-    case OperatorSpec::Kind::keys: rough_live(rig, region, tracker, rng, last, r); break;
+    case OperatorSpec::Kind::keys:
+    case OperatorSpec::Kind::panel: rough_live(rig, region, tracker, rng, last, r); break;
   }
   count_attempts(rig, r);
   const bool stopped = termination && termination->should_end();
   if (options.finish && !stopped) finish_profile(rig, last, r);
   report_progress(progress, 1.0);
+  rig.publish(GuardLive::Phase::done, 0.0, last, false);
   summarize(r, termination);
   return r;
 }
@@ -587,22 +633,27 @@ GuardRunResult guard_session(const std::vector<Contour>& profile, const std::str
 }  // namespace
 
 GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options,
-                         Termination* termination, Progress* progress) {
-  return guard_session(profile, source, options, {}, termination, progress);
+                         Termination* termination, Progress* progress, const GuardLink* link) {
+  return guard_session(profile, source, options, {}, termination, progress, link);
 }
 
-GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options, Termination* termination,
-                              Progress* progress) {
-  options.validate();
+std::vector<Contour> read_guard_profile(const std::string& dxf_path, std::vector<std::string>& warnings) {
   const ProfileReadResult pr = read_dxf_profile(dxf_path);
   for (const ProfileProblem& p : pr.problems)
     if (p.severity == ProfileProblem::Severity::error) throw InputError(dxf_path, 0, p.message);
   if (pr.contours.empty()) throw InputError(dxf_path, 0, "no closed contour in the drawing");
   std::vector<Contour> profile;
   for (const ProfileContour& c : pr.contours) profile.push_back(c.contour);
-  std::vector<std::string> warnings;
   for (const ProfileProblem& p : pr.problems) warnings.insert(warnings.begin(), p.message);
-  return guard_session(profile, dxf_path, options, std::move(warnings), termination, progress);
+  return profile;
+}
+
+GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options, Termination* termination,
+                              Progress* progress, const GuardLink* link) {
+  options.validate();
+  std::vector<std::string> warnings;
+  std::vector<Contour> profile = read_guard_profile(dxf_path, warnings);
+  return guard_session(profile, dxf_path, options, std::move(warnings), termination, progress, link);
 }
 
 std::string GuardRunResult::report() const {

@@ -30,15 +30,25 @@
 // holds the table at rest or the aim would have been passed by 0.5 s, then released. Each
 // stroke is one jog session from its start point.
 //
+// A panel (the web panel of `machplan serve`) drives a session through a GuardLink: the
+// operator kind `panel` reads the stick the panel writes (the browser's keys, on-screen stick
+// or gamepad) instead of a device, paced to the wall clock like a joystick; the panel's E-stop
+// opens the operator E-stop input of every period; and the session's state (phase, table
+// position, signed distance to the boundary, the guard holding) is published every period for
+// the panel's live view. Everything else (the region, the guard, the attempts, the finishing
+// pass) is the same code as `machplan guard`'s.
+//
 // Errors: bad options, profiles, scripts or devices throw InputError (exit 2 in the CLI).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "engine/common/latest.h"
 #include "engine/common/progress.h"
 #include "engine/common/summary.h"
 #include "engine/common/termination.h"
@@ -50,7 +60,8 @@
 namespace machplan::guard {
 
 struct OperatorSpec {
-  enum class Kind { script, random, joystick, keys };
+  // panel: the stick of a GuardLink (never read from text: a panel sets it).
+  enum class Kind { script, random, joystick, keys, panel };
   Kind kind = Kind::random;
   std::string path;   // script: the CSV; joystick: the device (default /dev/input/js0)
   int strokes = 20;   // random
@@ -123,18 +134,43 @@ struct GuardRunResult {
   std::string report() const;
 };
 
+// A guard session's state for a display, published every period (GuardLink::live).
+struct GuardLive {
+  enum class Phase : std::uint8_t { roughing, finishing, done };
+  Phase phase = Phase::roughing;
+  double t_s = 0.0;                                        // since the phase began
+  Eigen::Vector2d position_mm = Eigen::Vector2d::Zero();   // the table (the simulator's truth)
+  double distance_mm = 0.0;  // signed distance of the tool centre to the boundary (> 0: allowed)
+  bool guard_holding = false;                              // the guard holds the table back
+  int strokes = 0;                                         // pushes so far
+};
+
+// What a panel attaches to a session; every member may be null. The pointees must outlive the
+// run. Read and written from the session's thread between ticks (one atomic load each).
+struct GuardLink {
+  const std::atomic<std::uint64_t>* stick = nullptr;  // hardware::LiveOperator::pack()ed StickState
+  const std::atomic<bool>* estop = nullptr;           // true: the operator's E-stop is open
+  Latest<GuardLive>* live = nullptr;
+  bool paced_finish = false;                          // pace the finishing pass to the wall clock too
+};
+
 // Runs the whole thing on `profile` (closed contours in mm). `source` names the profile in
 // messages and reports.
 // `termination` (may be null) ends the session early: a stop request ends the stroke under way
 // (the machine stops in a controlled way) and the rest; the result then counts the attempts
 // made and its summary says why it ended. `progress` (may be null) follows the strokes
 // (random), the script's time (script), and the finishing pass.
+// `link` (may be null) connects a panel (see the file comment); the operator kind `panel` needs
+// its stick.
 GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options,
-                         Termination* termination = nullptr, Progress* progress = nullptr);
+                         Termination* termination = nullptr, Progress* progress = nullptr, const GuardLink* link = nullptr);
 
 // Reads the DXF (refusing drawings with errors, naming them) and runs run_guard.
 GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options, Termination* termination = nullptr,
-                              Progress* progress = nullptr);
+                              Progress* progress = nullptr, const GuardLink* link = nullptr);
+// The closed contours of a DXF profile as run_guard_file reads them (drawings with errors
+// refused, naming them); its warnings are added to `warnings`.
+std::vector<Contour> read_guard_profile(const std::string& dxf_path, std::vector<std::string>& warnings);
 
 // The picture of the paper's Figure 8: profile, offset region, roughing strokes, finishing path.
 // `field` names the option that gave `path` in a message about its extension.

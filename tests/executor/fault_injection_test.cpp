@@ -1,5 +1,6 @@
 // Every fault kind, injected at seeded random times during a cut, ends with the torch off, the
 // machine at rest, the fault reported with its kind, and no motion commanded after the stop.
+#include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -60,7 +61,11 @@ TEST_P(FaultInjection, EndsTorchOffAtRestReportedWithNoMotionAfter) {
     EXPECT_EQ(fr.kind, cs.expect) << fr.message;
     EXPECT_GE(fr.time_s, f.at_s - 1e-9);
     EXPECT_EQ(fr.step, 1);
-    EXPECT_EQ(fr.source_line, 10);
+    // The line of the half circle the tool was on (lines 10 and 11): clear away from the
+    // joints; near them the cursor of the segment the tool is on decides.
+    ASSERT_TRUE(fr.source_line == 10 || fr.source_line == 11) << fr.source_line;
+    const double above = fr.last_known_mm.y() - 700;
+    if (std::abs(above) > 5.0) EXPECT_EQ(fr.source_line, above > 0 ? 10 : 11) << fr.last_known_mm.transpose();
     EXPECT_FALSE(fr.message.empty());
     // The last known position: with the encoders still trusted it follows the machine to rest;
     // after a bad reading it is the last good one, on the circle being cut.

@@ -1,0 +1,727 @@
+#include "cli/panel/panel.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "cli/json/cut_order_json.h"
+#include "cli/json/guard.h"
+#include "cli/json/run.h"
+#include "cli/panel/job_drawing.h"
+#include "engine/common/error.h"
+#include "engine/executor/jog_source.h"
+#include "engine/executor/supervisor.h"
+#include "engine/geometry/region.h"
+#include "engine/hardware/operator_input.h"
+#include "solvers/calibration/store.h"
+#include "solvers/session/tuning_store.h"
+
+namespace machplan::panel {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+const char* to_string(Panel::Activity a) {
+  switch (a) {
+    case Panel::Activity::idle: return "idle";
+    case Panel::Activity::running: return "running";
+    case Panel::Activity::jogging: return "jogging";
+    case Panel::Activity::guarding: return "guarding";
+  }
+  return "?";
+}
+
+void PanelOptions::validate() const {
+  require_field(std::isfinite(jog_deadman_s) && jog_deadman_s >= 0.05 && jog_deadman_s <= 5, "jog_deadman_s", jog_deadman_s,
+                "s must be in [0.05, 5]");
+  require_field(std::isfinite(jog_idle_end_s) && jog_idle_end_s >= 0.1 && jog_idle_end_s <= 600, "jog_idle_end_s",
+                jog_idle_end_s, "s must be in [0.1, 600]");
+  require_field(std::isfinite(sim_speed) && sim_speed > 0 && sim_speed <= 1000, "sim_speed", sim_speed, "must be in (0, 1000]");
+  validate_member("session", session);
+  validate_member("run", run);
+}
+
+namespace {
+
+std::int64_t now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
+}
+
+// A file name safe to create in the panel's folder: letters, digits, '.', '-', '_' only.
+std::string safe_name(const std::string& name) {
+  std::string s;
+  for (char c : name.substr(0, 64))
+    s += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_') ? c : '_';
+  if (s.empty() || s[0] == '.') s = "upload" + s;
+  if (s.size() < 4 || s.substr(s.size() - 4) != ".ngc") s += ".ngc";
+  return s;
+}
+
+json vec(const Eigen::Vector2d& v) { return json::array({v.x(), v.y()}); }
+
+const char* run_state(executor::LiveState::Run r) {
+  using R = executor::LiveState::Run;
+  switch (r) {
+    case R::idle: return "idle";
+    case R::running: return "running";
+    case R::held: return "held";
+    case R::stopping: return "stopping";
+    case R::faulted: return "faulted";
+    case R::done: return "done";
+  }
+  return "idle";
+}
+
+const char* phase_name(guard::GuardLive::Phase p) {
+  switch (p) {
+    case guard::GuardLive::Phase::roughing: return "roughing";
+    case guard::GuardLive::Phase::finishing: return "finishing";
+    case guard::GuardLive::Phase::done: return "done";
+  }
+  return "?";
+}
+
+}  // namespace
+
+Panel::Panel(PanelOptions options) : o_(std::move(options)) {
+  o_.validate();
+  o_.session.executor.record_trace = false;
+  o_.session.trace_csv_path.clear();
+  o_.session.backend.sim.realtime = o_.pace;
+  o_.session.backend.sim.realtime_speed = o_.sim_speed;
+  o_.run.session = o_.session;
+  session_ = std::make_unique<session::MachineSession>(o_.session);
+  std::string tmpl = (fs::temp_directory_path() / "machplan-panel-XXXXXX").string();
+  if (!mkdtemp(tmpl.data())) throw InputError(tmpl, 0, "cannot create the panel's folder for uploaded programs");
+  tmp_dir_ = tmpl;
+  runner_ = std::thread([this] { runner_loop(); });
+}
+
+Panel::~Panel() {
+  {
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    if (current_stop_) current_stop_.load()->request_stop();
+  }
+  {
+    const std::lock_guard<std::mutex> lock(op_mutex_);
+    op_.stop = true;  // a run under way ends with a controlled stop
+    publish_inputs();
+  }
+  set_command(Command::quit);
+  runner_.join();
+  std::error_code ec;
+  fs::remove_all(tmp_dir_, ec);
+}
+
+void Panel::set_command(Command c) {
+  {
+    const std::lock_guard<std::mutex> lock(cmd_mutex_);
+    cmd_ = c;
+  }
+  cmd_cv_.notify_all();
+}
+
+void Panel::publish_inputs() { session_->operator_inputs().set(op_); }
+
+std::string Panel::clean(const std::string& text) const {
+  std::string s = text;
+  const std::string prefix = tmp_dir_ + "/";
+  for (std::size_t at; (at = s.find(prefix)) != std::string::npos;) s.erase(at, prefix.size());
+  return s;
+}
+
+// ---- jobs -------------------------------------------------------------------------------------
+
+json Panel::load_job(const JobRequest& request) {
+  if (activity_.load() != Activity::idle) throw Busy("the machine is busy: stop what runs before loading a job");
+  std::unique_lock<std::mutex> planning(plan_mutex_, std::try_to_lock);
+  if (!planning.owns_lock()) throw Busy("another job is being planned");
+  if (request.has_material)
+    throw InputError::field("material", "materials are not available on this machine yet (the machine file's cut data is used)");
+  if (request.program.empty()) throw InputError::field("program", "is empty: give a path or the program's text");
+  if (request.origin_mm && !(request.origin_mm->allFinite() && request.origin_mm->cwiseAbs().maxCoeff() <= 1e6))
+    throw InputError::field("origin", "must be two finite numbers within 1e6 mm");
+  std::string path = request.program;
+  if (request.program.find('\n') != std::string::npos) {
+    path = tmp_dir_ + "/" + safe_name(request.name);
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << request.program;
+    if (!out) throw InputError(path, 0, "cannot store the uploaded program");
+  }
+  motion::RunOptions options = o_.run;
+  options.origin_mm = request.origin_mm;
+  Termination t;
+  {
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    current_stop_ = &t;
+  }
+  planning_ = true;
+  std::optional<motion::PlannedRun> plan;
+  try {
+    plan.emplace(motion::plan_program(path, options, session_->machine(), {&t, nullptr, nullptr}));
+  } catch (const InputError& e) {
+    planning_ = false;
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    current_stop_ = nullptr;
+    throw InputError(clean(e.where()), e.line(), clean(e.message()));
+  } catch (...) {
+    planning_ = false;
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    current_stop_ = nullptr;
+    throw;
+  }
+  planning_ = false;
+  {
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    current_stop_ = nullptr;
+  }
+  json summary;
+  const std::lock_guard<std::mutex> lock(job_mutex_);
+  ++job_id_;
+  drawing_ = std::make_shared<const std::string>(job_drawing_json(*plan, job_id_));
+  summary = {{"job_id", job_id_},
+             {"source", clean(plan->job.source)},
+             {"origin_mm", vec(plan->origin_mm)},
+             {"origin_from", plan->origin_from},
+             {"steps", plan->job.steps.size()},
+             {"estimate_s", plan->expected_s()},
+             {"lower_bound_s", plan->lower_bound_s},
+             {"warnings", plan->warnings},
+             {"notes", plan->notes}};
+  programmed_ = plan->programmed;
+  job_path_ = path;
+  job_request_ = request;
+  job_request_.program.clear();  // the text is in the file now
+  plan_ = std::move(plan);
+  return summary;
+}
+
+std::shared_ptr<const std::string> Panel::job_drawing() const {
+  const std::lock_guard<std::mutex> lock(job_mutex_);
+  return drawing_;
+}
+
+std::shared_ptr<const std::string> Panel::report() const {
+  const std::lock_guard<std::mutex> lock(job_mutex_);
+  return report_;
+}
+
+std::shared_ptr<const std::string> Panel::guard_drawing() const {
+  const std::lock_guard<std::mutex> lock(job_mutex_);
+  return guard_drawing_;
+}
+
+void Panel::run(std::optional<int> from_line) {
+  const std::lock_guard<std::mutex> lock(cmd_mutex_);
+  if (activity_.load() != Activity::idle || cmd_ != Command::none) throw Busy("the machine is busy: a job, a jog or a guard session runs");
+  if (estop_.load()) throw Busy("the E-stop is latched: reset it first (POST /api/reset)");
+  {
+    const std::lock_guard<std::mutex> jl(job_mutex_);
+    if (job_path_.empty()) throw Busy("no job is loaded (POST /api/job)");
+    if (from_line) {
+      if (*from_line < 1 || *from_line > 10000000) throw InputError::field("from_line", fmt::format("{} is not a line number", *from_line));
+      job_from_line(programmed_, *from_line);  // throws when the program has no such line
+    }
+  }
+  activity_ = Activity::running;
+  cmd_ = Command::run;
+  cmd_from_line_ = from_line;
+  cmd_cv_.notify_all();
+}
+
+// ---- the operator -----------------------------------------------------------------------------
+
+void Panel::press(bool hardware::OperatorInputs::*button) {
+  const std::lock_guard<std::mutex> lock(op_mutex_);
+  op_.*button = true;
+  press_tick_ = session_->live().read().tick;
+  press_time_ = Clock::now();
+  publish_inputs();
+}
+
+void Panel::hold() { press(&hardware::OperatorInputs::feed_hold); }
+
+void Panel::resume() {
+  if (activity_.load() == Activity::guarding) {
+    // Cycle start ends the manual part of a hybrid session (the guard's rule).
+    hardware::StickState s = hardware::LiveOperator::unpack(stick_.load());
+    s.quit = true;
+    stick_.store(hardware::LiveOperator::pack(s));
+    return;
+  }
+  press(&hardware::OperatorInputs::cycle_start);
+}
+
+void Panel::stop() {
+  if (activity_.load() == Activity::guarding) {
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    if (current_stop_) current_stop_.load()->request_stop();
+    return;
+  }
+  {
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    if (planning_.load() && current_stop_) current_stop_.load()->request_stop();
+  }
+  press(&hardware::OperatorInputs::stop);
+}
+
+void Panel::estop() {
+  estop_.store(true);  // first: the guard's sessions read it every period
+  {
+    const std::lock_guard<std::mutex> lock(op_mutex_);
+    op_.estop = true;
+    op_.jog = {};
+    publish_inputs();
+  }
+  // A run sees the E-stop in its next period through the channel. Planning and the guard's
+  // sessions (which have channels of their own) are also told to stop.
+  const std::lock_guard<std::mutex> lock(stop_mutex_);
+  if (current_stop_ && (planning_.load() || activity_.load() == Activity::guarding)) current_stop_.load()->request_stop();
+}
+
+void Panel::reset() {
+  if (activity_.load() != Activity::idle) throw Busy("the machine is still stopping: reset once it is at rest");
+  estop_.store(false);
+  const std::lock_guard<std::mutex> lock(op_mutex_);
+  op_.estop = false;
+  publish_inputs();
+}
+
+void Panel::set_overrides(std::optional<double> feed_pct, std::optional<double> rapid_pct) {
+  if (feed_pct && !(std::isfinite(*feed_pct) && *feed_pct >= 0 && *feed_pct <= 200))
+    throw InputError::field("feed", fmt::format("{} % is out of range: the feed override is 0 .. 200 %", *feed_pct));
+  if (rapid_pct && !(std::isfinite(*rapid_pct) && *rapid_pct >= 1 && *rapid_pct <= 100))
+    throw InputError::field("rapid", fmt::format("{} % is out of range: the rapid override is 1 .. 100 %", *rapid_pct));
+  const std::lock_guard<std::mutex> lock(op_mutex_);
+  if (feed_pct) op_.feed_override_pct = *feed_pct;
+  if (rapid_pct) op_.rapid_override_pct = *rapid_pct;
+  publish_inputs();
+}
+
+void Panel::jog(double x, double y) {
+  if (!(std::isfinite(x) && std::isfinite(y) && std::abs(x) <= 1 && std::abs(y) <= 1))
+    throw InputError::field("x", "the jog is two numbers x, y in -1 .. 1");
+  const Activity a = activity_.load();
+  if (a == Activity::running) throw Busy("a job is running: hold or stop it; the jog moves an idle machine");
+  if (estop_.load()) throw Busy("the E-stop is latched: reset it first (POST /api/reset)");
+  const bool deflected = std::hypot(x, y) > 0.02;
+  if (deflected) last_deflection_ns_ = now_ns();
+  if (a == Activity::guarding) {
+    hardware::StickState s = hardware::LiveOperator::unpack(stick_.load());
+    s.x = x, s.y = y;
+    stick_.store(hardware::LiveOperator::pack(s));
+  }
+  {
+    const std::lock_guard<std::mutex> lock(op_mutex_);
+    jog_time_ = Clock::now();
+    if (a != Activity::guarding) {
+      op_.jog = {x, y};
+      publish_inputs();
+    }
+  }
+  if (a == Activity::idle && deflected) {
+    const std::lock_guard<std::mutex> lock(cmd_mutex_);
+    if (activity_.load() == Activity::idle && cmd_ == Command::none) {
+      activity_ = Activity::jogging;
+      cmd_ = Command::jog;
+      cmd_cv_.notify_all();
+    }
+  }
+}
+
+void Panel::start_guard(GuardRequest request) {
+  request.options.op.kind = guard::OperatorSpec::Kind::panel;
+  request.options.validate();
+  std::vector<std::string> warnings;
+  const std::vector<Contour> profile = guard::read_guard_profile(request.profile, warnings);
+  const ProhibitedRegion region = ProhibitedRegion::build(profile, request.options.region);
+  const std::lock_guard<std::mutex> lock(cmd_mutex_);
+  if (activity_.load() != Activity::idle || cmd_ != Command::none) throw Busy("the machine is busy");
+  if (estop_.load()) throw Busy("the E-stop is latched: reset it first (POST /api/reset)");
+  json d;
+  d["profile_source"] = request.profile;
+  const auto contours = [](const std::vector<Contour>& cs) {
+    json a = json::array();
+    for (const Contour& c : cs) {
+      json pts = json::array();
+      for (std::size_t i = 0; i < c.size(); ++i) {
+        const Segment s = c.span(i);
+        const int n = s.is_arc() ? std::clamp(static_cast<int>(std::abs(s.sweep) * 16), 2, 128) : 1;
+        for (int k = 0; k < n; ++k) {
+          const double a2 = s.start_angle + s.sweep * k / n;
+          const Eigen::Vector2d p = s.is_arc() ? Eigen::Vector2d(s.center + s.radius * Eigen::Vector2d(std::cos(a2), std::sin(a2))) : s.start;
+          pts.push_back(p.x());
+          pts.push_back(p.y());
+        }
+      }
+      a.push_back(pts);
+    }
+    return a;
+  };
+  d["profile"] = contours(profile);
+  d["boundary"] = contours(region.boundary());
+  d["side"] = to_string(request.options.region.side);
+  d["tool_radius_mm"] = request.options.region.tool_radius_mm;
+  d["tolerance_mm"] = request.options.guard.tolerance_mm;
+  d["finish"] = request.options.finish;
+  d["warnings"] = warnings;
+  {
+    const std::lock_guard<std::mutex> jl(job_mutex_);
+    guard_drawing_ = std::make_shared<const std::string>(d.dump(-1, ' ', false, json::error_handler_t::replace));
+    guard_request_ = std::move(request);
+  }
+  stick_.store(hardware::LiveOperator::pack({0.0, 0.0, guard_request_->options.feed_mm_per_s, false}));
+  guard_live_valid_ = false;
+  activity_ = Activity::guarding;
+  cmd_ = Command::guard;
+  cmd_cv_.notify_all();
+}
+
+void Panel::service() {
+  const auto now = Clock::now();
+  const std::lock_guard<std::mutex> lock(op_mutex_);
+  bool changed = false;
+  if (op_.feed_hold || op_.cycle_start || op_.stop) {
+    const std::uint64_t tick = session_->live().read().tick;
+    const bool seen = activity_.load() == Activity::running && tick >= press_tick_ + 2;
+    if (seen || now - press_time_ > std::chrono::milliseconds(250)) {
+      op_.feed_hold = op_.cycle_start = op_.stop = false;
+      changed = true;
+    }
+  }
+  if (now - jog_time_ > std::chrono::duration<double>(o_.jog_deadman_s)) {
+    if (op_.jog[0] != 0.0 || op_.jog[1] != 0.0) {
+      op_.jog = {};
+      changed = true;
+    }
+    hardware::StickState s = hardware::LiveOperator::unpack(stick_.load());
+    if (s.x != 0.0 || s.y != 0.0) {
+      s.x = s.y = 0.0;
+      stick_.store(hardware::LiveOperator::pack(s));
+    }
+  }
+  if (changed) publish_inputs();
+}
+
+// ---- the runner -------------------------------------------------------------------------------
+
+void Panel::runner_loop() {
+  for (;;) {
+    Command c;
+    std::optional<int> from_line;
+    {
+      std::unique_lock<std::mutex> lock(cmd_mutex_);
+      cmd_cv_.wait(lock, [&] { return cmd_ != Command::none; });
+      c = cmd_;
+      from_line = cmd_from_line_;
+      if (c == Command::quit) return;
+    }
+    try {
+      switch (c) {
+        case Command::run: run_job(from_line); break;
+        case Command::jog: run_jog(); break;
+        case Command::guard: run_guard_session(); break;
+        case Command::none:
+        case Command::quit: break;
+      }
+    } catch (const std::exception& e) {
+      const std::lock_guard<std::mutex> lock(job_mutex_);
+      last_end_ = "faulted";
+      last_fault_json_ = json::array({{{"kind", "error"}, {"message", clean(e.what())}, {"line", 0}}});
+    }
+    {
+      const std::lock_guard<std::mutex> lock(stop_mutex_);
+      current_stop_ = nullptr;
+    }
+    planning_ = false;
+    {
+      const std::lock_guard<std::mutex> lock(cmd_mutex_);
+      if (cmd_ != Command::quit) cmd_ = Command::none;
+      activity_ = Activity::idle;
+    }
+    if (c == Command::run) ++runs_finished_;
+  }
+}
+
+bool Panel::quitting() {
+  const std::lock_guard<std::mutex> lock(cmd_mutex_);
+  return cmd_ == Command::quit;
+}
+
+void Panel::run_job(std::optional<int> from_line) {
+  Termination t;
+  {
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    current_stop_ = &t;
+  }
+  std::optional<motion::PlannedRun> plan;
+  motion::Job programmed;
+  std::string path;
+  JobRequest request;
+  {
+    const std::lock_guard<std::mutex> lock(job_mutex_);
+    if (!from_line && plan_) plan = std::move(plan_);
+    plan_.reset();
+    programmed = programmed_;
+    path = job_path_;
+    request = job_request_;
+    last_fault_json_ = json::array();
+    last_end_ = "running";
+  }
+  motion::RunOptions options = o_.run;
+  options.origin_mm = request.origin_mm;
+  if (!plan) {
+    // Again (a job runs more than once), or from a line.
+    planning_ = true;
+    if (from_line) {
+      plan.emplace(motion::plan_job(job_from_line(programmed, *from_line), options, session_->machine(), {&t, nullptr, nullptr}));
+    } else {
+      plan.emplace(motion::plan_program(path, options, session_->machine(), {&t, nullptr, nullptr}));
+    }
+    planning_ = false;
+  }
+  if (session_->backend_open()) {
+    // Where the machine stands: the last setpoint, which the servo holds. The measured position
+    // differs from it by the servo's error at rest, and after a job that ends at the travel's
+    // corner it may lie a hundredth of a millimetre outside the travel, where no rapid starts.
+    const Eigen::Vector2d at = session_->live().read().commanded_mm;
+    if ((plan->job.start_mm - at).norm() > 0.01 && !move_to(at, plan->job.start_mm, t)) return;
+  }
+  motion::RunOutcome outcome = motion::execute(*session_, std::move(*plan), options, {&t, nullptr, nullptr});
+  json j = cli::to_json(outcome);
+  j["cut_order"] = cli::cut_order_json(outcome.cut_order);
+  auto text = std::make_shared<const std::string>(j.dump(-1, ' ', false, json::error_handler_t::replace));
+  const std::lock_guard<std::mutex> lock(job_mutex_);
+  report_ = std::move(text);
+  last_end_ = outcome.summary.done() ? "done" : "faulted";
+  last_fault_json_ = json::array();
+  for (const executor::FaultReport& f : outcome.result.faults)
+    last_fault_json_.push_back({{"kind", executor::to_string(f.kind)}, {"message", clean(f.message)}, {"line", f.source_line}});
+}
+
+bool Panel::move_to(const Eigen::Vector2d& from, const Eigen::Vector2d& target, Termination& t) {
+  motion::Job job;
+  job.source = "panel: rapid to the job's start";
+  job.start_mm = from;
+  motion::Stretch s;
+  s.rapid = true;
+  s.segments.push_back(make_segment(from, target, 0.0));
+  s.feed_mm_per_s.push_back(session_->machine().limits.rapid_mm_per_s);
+  s.source_lines.push_back(0);
+  job.stretches.push_back(std::move(s));
+  job.steps.push_back({motion::Step::Kind::move, 0, 0, 0.0});
+  motion::RunOptions options = o_.run;
+  options.kerf_mm = 0.0;
+  planning_ = true;
+  motion::PlannedRun plan = motion::plan_job(std::move(job), options, session_->machine(), {&t, nullptr, nullptr});
+  planning_ = false;
+  const motion::RunOutcome r = motion::execute(*session_, std::move(plan), options, {&t, nullptr, nullptr});
+  if (r.summary.done()) return true;
+  const std::lock_guard<std::mutex> lock(job_mutex_);
+  last_end_ = "faulted";
+  last_fault_json_ = json::array();
+  for (const executor::FaultReport& f : r.result.faults)
+    last_fault_json_.push_back({{"kind", executor::to_string(f.kind)}, {"message", f.message}, {"line", 0}});
+  return false;
+}
+
+void Panel::run_jog() {
+  Termination t;
+  {
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    current_stop_ = &t;
+  }
+  motion::Job job;
+  job.source = "jog";
+  job.start_mm = session_->backend_open() ? session_->live().read().measured_mm : Eigen::Vector2d::Zero();
+  executor::JogSource source(session_->executor_options().jog);
+  session::MachineSession::RunHooks hooks;
+  hooks.source = &source;
+  hooks.termination = &t;
+  const std::unique_ptr<executor::Session> s = session_->start(job, {}, hooks);
+  // The simulator unpaced (tests): the loop paces itself, outside the tick, as a jog is a
+  // person's and only makes sense in real time.
+  const bool self_paced = !session_->backend(job.start_mm).realtime();
+  const auto period = std::chrono::duration<double>(session_->setup().servo_period_s);
+  auto next = Clock::now();
+  while (s->tick()) {
+    if (!t.ended()) {
+      const double centred_s = (now_ns() - last_deflection_ns_.load()) * 1e-9;
+      if (centred_s > o_.jog_idle_end_s || quitting()) t.request_stop();
+    }
+    if (self_paced) {
+      next += std::chrono::duration_cast<Clock::duration>(period);
+      std::this_thread::sleep_until(next);
+    }
+  }
+  const executor::ExecutionResult r = s->finish();
+  const std::lock_guard<std::mutex> lock(job_mutex_);
+  for (const executor::FaultReport& f : r.faults) {
+    if (f.kind == executor::FaultKind::stop_requested) continue;  // the jog's own end
+    last_end_ = "faulted";
+    last_fault_json_ = json::array({{{"kind", executor::to_string(f.kind)}, {"message", f.message}, {"line", 0}}});
+  }
+}
+
+void Panel::run_guard_session() {
+  Termination t;
+  {
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    current_stop_ = &t;
+  }
+  GuardRequest request;
+  {
+    const std::lock_guard<std::mutex> lock(job_mutex_);
+    request = *guard_request_;
+  }
+  guard::GuardLink link;
+  link.stick = &stick_;
+  link.estop = &estop_;
+  link.live = &guard_live_;
+  link.paced_finish = o_.pace;
+  guard_live_valid_ = true;
+  const guard::GuardRunResult r = guard::run_guard_file(request.profile, request.options, &t, nullptr, &link);
+  json d = json::parse(*guard_drawing());
+  d["result"] = cli::to_json(r);
+  d["report"] = r.summary.full_report();
+  json passes = json::array();
+  for (const guard::FinishPass& f : r.finish) {
+    json pts = json::array();
+    for (const Eigen::Vector2d& p : f.path_mm) pts.push_back(p.x()), pts.push_back(p.y());
+    passes.push_back({{"allowance_mm", f.allowance_mm}, {"completed", f.completed}, {"points", pts}});
+  }
+  d["finish_paths"] = passes;
+  json strokes = json::array();
+  for (const guard::Attempt& a : r.attempts) {
+    json pts = json::array();
+    for (const Eigen::Vector2d& p : a.path_mm) pts.push_back(p.x()), pts.push_back(p.y());
+    strokes.push_back({{"success", a.success}, {"closest_mm", a.closest_mm}, {"points", pts}});
+  }
+  d["attempts"] = strokes;
+  const std::lock_guard<std::mutex> lock(job_mutex_);
+  guard_drawing_ = std::make_shared<const std::string>(d.dump(-1, ' ', false, json::error_handler_t::replace));
+}
+
+// ---- what the clients read --------------------------------------------------------------------
+
+json Panel::status() {
+  const executor::LiveState l = session_->live().read();
+  const Activity a = activity_.load();
+  json s;
+  s["machine"] = session_->machine().name;
+  s["backend"] = o_.session.backend.name;
+  std::string state;
+  switch (a) {
+    case Activity::idle: {
+      const std::lock_guard<std::mutex> lock(job_mutex_);
+      state = last_end_ == "running" ? "idle" : last_end_;
+      break;
+    }
+    case Activity::running: state = planning_.load() ? "planning" : run_state(l.run); break;
+    case Activity::jogging: state = "jogging"; break;
+    case Activity::guarding: state = "guarding"; break;
+  }
+  if (state == "cancelled") state = "faulted";
+  s["state"] = state;
+  s["activity"] = to_string(a);
+  s["estop"] = estop_.load();
+  {
+    const std::lock_guard<std::mutex> lock(job_mutex_);
+    s["job_id"] = job_id_;
+    s["program"] = job_path_.empty() ? json(nullptr) : json(clean(programmed_.source));
+    s["faults"] = last_fault_json_.is_null() ? json::array() : last_fault_json_;
+    s["report_available"] = report_ != nullptr;
+  }
+  if (a == Activity::running && l.fault >= 0)
+    s["faults"] = json::array({{{"kind", executor::to_string(static_cast<executor::FaultKind>(l.fault))},
+                                {"message", "the run is stopping"},
+                                {"line", l.source_line}}});
+  s["line"] = l.source_line;
+  s["position_mm"] = vec(l.measured_mm);
+  s["commanded_mm"] = vec(l.commanded_mm);
+  s["feed_mm_per_s"] = l.path_speed_mm_per_s;
+  {
+    const std::lock_guard<std::mutex> lock(op_mutex_);
+    s["overrides"] = {{"feed_pct", op_.feed_override_pct}, {"rapid_pct", op_.rapid_override_pct}};
+  }
+  s["torch"] = {{"fire", l.torch_fire},       {"arc_ok", l.arc_ok},     {"height_mm", l.torch_height_mm},
+                {"thc_active", l.thc_active}, {"arc_voltage_v", l.arc_voltage_v}};
+  s["progress"] = l.progress;
+  s["time_left_s"] = l.time_left_s;
+  s["holds"] = l.holds;
+  s["t_s"] = l.t_s;
+  if (guard_live_valid_.load()) {
+    const guard::GuardLive g = guard_live_.read();
+    s["guard"] = {{"phase", phase_name(g.phase)},         {"position_mm", vec(g.position_mm)},
+                  {"distance_mm", g.distance_mm},          {"holding", g.guard_holding},
+                  {"strokes", g.strokes},                  {"t_s", g.t_s}};
+  }
+  return s;
+}
+
+std::string Panel::live_frame() {
+  const executor::LiveState l = session_->live().read();
+  const Activity a = activity_.load();
+  const char* state = a == Activity::running ? (planning_.load() ? "planning" : run_state(l.run))
+                      : a == Activity::jogging ? "jogging"
+                      : a == Activity::guarding ? "guarding"
+                                                : "idle";
+  std::string out;
+  out.reserve(512);
+  fmt::format_to(std::back_inserter(out),
+                 "{{\"state\":\"{}\",\"activity\":\"{}\",\"estop\":{},\"tick\":{},\"t_s\":{:.3f},\"line\":{},"
+                 "\"position_mm\":[{:.4f},{:.4f}],\"commanded_mm\":[{:.4f},{:.4f}],\"feed_mm_per_s\":{:.3f},"
+                 "\"feed_pct\":{:.1f},\"rapid_pct\":{:.1f},\"torch\":{},\"arc_ok\":{},\"height_mm\":{:.3f},"
+                 "\"thc_active\":{},\"arc_voltage_v\":{:.2f},\"progress\":{:.5f},\"time_left_s\":{:.2f},\"fault\":\"{}\","
+                 "\"holds\":{}",
+                 state, to_string(a), estop_.load(), l.tick, l.t_s, l.source_line, l.measured_mm.x(), l.measured_mm.y(),
+                 l.commanded_mm.x(), l.commanded_mm.y(), l.path_speed_mm_per_s, l.feed_override_pct, l.rapid_override_pct,
+                 l.torch_fire, l.arc_ok, l.torch_height_mm, l.thc_active, l.arc_voltage_v, l.progress, l.time_left_s,
+                 l.fault >= 0 ? executor::to_string(static_cast<executor::FaultKind>(l.fault)) : "", l.holds);
+  if (guard_live_valid_.load()) {
+    const guard::GuardLive g = guard_live_.read();
+    fmt::format_to(std::back_inserter(out),
+                   ",\"guard\":{{\"phase\":\"{}\",\"position_mm\":[{:.4f},{:.4f}],\"distance_mm\":{:.4f},\"holding\":{},"
+                   "\"strokes\":{}}}",
+                   phase_name(g.phase), g.position_mm.x(), g.position_mm.y(), g.distance_mm, g.guard_holding, g.strokes);
+  }
+  out += '}';
+  return out;
+}
+
+json Panel::history() const {
+  json h;
+  h["calibrations"] = json::array();
+  h["tunings"] = json::array();
+  const std::string path = o_.store_path.empty() ? calibration::default_store_path() : o_.store_path;
+  std::error_code ec;
+  h["store"] = path;
+  if (!fs::is_regular_file(path, ec)) return h;  // nothing stored yet; never create the store here
+  for (const calibration::StoredFit& f : calibration::CalibrationStore(path).history())
+    h["calibrations"].push_back({{"fit_id", f.fit_id},
+                                 {"machine", f.machine},
+                                 {"status", f.status},
+                                 {"who", f.who},
+                                 {"created_utc", f.created_utc},
+                                 {"active", f.active},
+                                 {"feed_factor", {f.feed_factor[0], f.feed_factor[1]}},
+                                 {"backlash_mm", {f.backlash_mm[0], f.backlash_mm[1]}},
+                                 {"mm_per_count", {f.mm_per_count[0], f.mm_per_count[1]}}});
+  for (const tuning::StoredTuning& t : tuning::TuningStore(path).history())
+    h["tunings"].push_back({{"id", t.id},
+                            {"machine", t.machine},
+                            {"controller", t.controller},
+                            {"who", t.who},
+                            {"created_utc", t.created_utc},
+                            {"active", t.active},
+                            {"gains", t.gains}});
+  return h;
+}
+
+}  // namespace machplan::panel

@@ -1,0 +1,208 @@
+// The shop-floor panel's machine side: the one machine session of `machplan serve`, the job
+// runner thread that plans and runs jobs on it, and the operator's inputs the web clients
+// give. The HTTP / WebSocket front end (cli/panel/server.h) only calls this class; tests and
+// the bench use it directly.
+//
+//   session      one MachineSession (solvers/session/machine_session.h) for the life of the
+//                process: the machine stays where the last job left it. Before a job whose
+//                start is elsewhere, the runner moves the tool there with a rapid planned like
+//                any other (round the declared no-go zones), as an operator's "go to start".
+//   runner       one thread. A job is planned (motion::plan_program, on the calling thread, so
+//                that errors answer the request) and run by motion::execute on the runner
+//                thread: the same pipeline and the same report as `machplan run`, the
+//                simulator paced to the wall clock (SimOptions::realtime) unless asked not to.
+//                The runner also runs jog sessions (an idle machine jogged from the panel) and
+//                hybrid guard sessions (solvers/guard/guard_run.h, through a GuardLink).
+//   operator     the inputs every client shares, written to session.operator_inputs(): hold,
+//                resume and stop are buttons pressed until the tick has seen them (two servo
+//                periods; service() lets them go), the overrides are levels, the jog is a level
+//                with a dead man (it falls back to centred when no jog arrives for
+//                jog_deadman_s), the E-stop is a level latched until reset(): the executor
+//                faults E-stop in the first period that sees it (torch off in that period,
+//                controlled stop), and no job, jog or guard session starts while it is latched.
+//
+// Threading: every public member may be called from any thread. No member waits for the
+// runner or for a tick: the server threads read the session's LiveState (published by the
+// tick, engine/common/latest.h) and write the operator channel; they never touch executor
+// state. Planning takes a mutex of its own (one plan at a time).
+//
+// Errors: bad requests throw InputError (the message names the file and line, or the field)
+// or Infeasible (the job cannot run on this machine); a request the machine's state refuses
+// (a run while a run is under way, a job while the E-stop is latched) throws Busy.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/executor/live_state.h"
+#include "engine/hardware/backend.h"
+#include "solvers/guard/guard_run.h"
+#include "solvers/motion/run.h"
+#include "solvers/session/machine_session.h"
+
+namespace machplan::panel {
+
+// The machine's state forbids the request now (HTTP 409).
+class Busy : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct PanelOptions {
+  // The machine, its backend and controller. The panel sets executor.record_trace = false
+  // (a long job's trace would fill memory; the report does not need it).
+  session::MachineSessionOptions session;
+  // How jobs are planned (kerf, no-go zones, cut order, limits); its `session` is ignored.
+  motion::RunOptions run;
+  // Pace the simulator to the wall clock (people watch it move). Off: as fast as it goes.
+  bool pace = true;
+  // Paced: simulated seconds per wall-clock second (SimOptions::realtime_speed; tests and demos
+  // may run faster than the machine would).
+  double sim_speed = 1.0;
+  // A browser jog falls back to centred when no jog request came for this long, s.
+  double jog_deadman_s = 0.3;
+  // A jog session of an idle machine ends when the stick has been centred for this long, s.
+  double jog_idle_end_s = 2.0;
+  // Where calibrations and tunings are read from (read-only); "" for the default store.
+  std::string store_path;
+  void validate() const;  // InputError::field naming the field
+};
+
+// POST /api/job.
+struct JobRequest {
+  std::string program;       // a path, or the program's text (it has a newline)
+  std::string name;          // the text's file name, for messages ("upload.ngc" when empty)
+  std::optional<Eigen::Vector2d> origin_mm;
+  bool has_material = false; // a material (file or number) was asked for
+};
+
+// POST /api/guard: a hybrid session from the panel.
+struct GuardRequest {
+  std::string profile;                 // a DXF path
+  guard::GuardRunOptions options;      // op is set to the panel's stick
+};
+
+class Panel {
+ public:
+  explicit Panel(PanelOptions options);
+  ~Panel();  // stops what runs (controlled stop) and joins the runner
+  Panel(const Panel&) = delete;
+  Panel& operator=(const Panel&) = delete;
+
+  session::MachineSession& session() { return *session_; }
+
+  // Reads and plans a job; it replaces the loaded one. Returns its summary (GET /api/job has
+  // the drawing). Busy while a job runs.
+  nlohmann::json load_job(const JobRequest& request);
+  // The loaded job's drawing (GET /api/job); "" when none.
+  std::shared_ptr<const std::string> job_drawing() const;
+  // Starts the loaded job (from `from_line` when given). Busy when something runs, no job is
+  // loaded or the E-stop is latched; InputError for a line the program does not have.
+  void run(std::optional<int> from_line);
+  // Buttons (HTTP hold, resume, stop).
+  void hold();
+  void resume();
+  void stop();
+  // Any client, any time: opens the operator's E-stop (latched), stops planning and guard.
+  void estop();
+  // Closes the E-stop latch. Busy while a run is still stopping.
+  void reset();
+  // Levels; InputError::field for a value out of range (feed 0 .. 200 %, rapid 1 .. 100 %).
+  void set_overrides(std::optional<double> feed_pct, std::optional<double> rapid_pct);
+  // The stick, each axis -1 .. 1. An idle machine starts a jog session; a hybrid session
+  // steers with it. Busy while a job runs.
+  void jog(double x, double y);
+  // Starts a hybrid guard session. Busy when something runs.
+  void start_guard(GuardRequest request);
+  // The hybrid session's drawing (profile, boundary, options, finishing passes when done).
+  std::shared_ptr<const std::string> guard_drawing() const;
+
+  // GET /api/status's document.
+  nlohmann::json status();
+  // One frame of the live stream (WS /api/live): compact JSON text.
+  std::string live_frame();
+  // The last run's report, the JSON of `machplan run --json`; "" before the first run ends.
+  std::shared_ptr<const std::string> report() const;
+  // Stored calibrations and tunings, read-only (GET /api/history).
+  nlohmann::json history() const;
+
+  // Housekeeping, called 30 to 100 times a second by one thread (the live stream's): lets go
+  // of buttons the tick has seen and centres a jog whose dead man ran out.
+  void service();
+
+  // What runs now.
+  enum class Activity { idle, running, jogging, guarding };
+  Activity activity() const { return activity_.load(); }
+  // Runs finished since the start (tests wait on it).
+  int runs_finished() const { return runs_finished_.load(); }
+  // `text` without the panel's folder of uploaded programs (messages name the upload's name).
+  std::string clean(const std::string& text) const;
+
+ private:
+  enum class Command { none, run, jog, guard, quit };
+  void runner_loop();
+  void run_job(std::optional<int> from_line);
+  void run_jog();
+  void run_guard_session();
+  // The rapid to a job's start; false (the fault recorded) when it did not get there.
+  bool move_to(const Eigen::Vector2d& from, const Eigen::Vector2d& target, Termination& t);
+  bool quitting();
+  void press(bool hardware::OperatorInputs::*button);
+  void publish_inputs();  // op_ to the channel; under op_mutex_
+  void set_command(Command c);
+
+  PanelOptions o_;
+  std::unique_ptr<session::MachineSession> session_;
+
+  // The operator's inputs (op_mutex_).
+  mutable std::mutex op_mutex_;
+  hardware::OperatorInputs op_{};
+  std::uint64_t press_tick_ = 0;
+  std::chrono::steady_clock::time_point press_time_{}, jog_time_{};
+  std::atomic<bool> estop_{false};
+  std::atomic<std::uint64_t> stick_{0};  // hardware::LiveOperator::pack()ed, for the guard
+  std::atomic<std::int64_t> last_deflection_ns_{0};
+
+  // The job (job_mutex_; planning holds plan_mutex_).
+  mutable std::mutex job_mutex_, plan_mutex_;
+  std::string job_path_;
+  JobRequest job_request_;
+  motion::Job programmed_;  // the loaded job before kerf and rapids (run from line trims it)
+  std::optional<motion::PlannedRun> plan_;
+  std::shared_ptr<const std::string> drawing_, report_, guard_drawing_;
+  std::string tmp_dir_;
+  int job_id_ = 0;
+  std::vector<std::string> last_faults_;   // messages of the last run's faults
+  nlohmann::json last_fault_json_;         // [{kind, message, line}]
+  std::string last_end_ = "idle";          // done | faulted | cancelled | idle
+  std::optional<GuardRequest> guard_request_;
+  Latest<guard::GuardLive> guard_live_;
+  std::atomic<bool> guard_live_valid_{false};
+
+  // The runner.
+  std::mutex cmd_mutex_;
+  std::condition_variable cmd_cv_;
+  Command cmd_ = Command::none;
+  std::optional<int> cmd_from_line_;
+  std::atomic<Activity> activity_{Activity::idle};
+  std::atomic<bool> planning_{false};
+  std::atomic<int> runs_finished_{0};
+  std::atomic<Termination*> current_stop_{nullptr};  // the run's, for E-stop during planning
+  std::mutex stop_mutex_;
+  std::thread runner_;
+};
+
+const char* to_string(Panel::Activity a);
+
+}  // namespace machplan::panel

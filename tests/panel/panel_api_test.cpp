@@ -1,0 +1,506 @@
+// The panel's API (docs/panel.md) through real HTTP and WebSocket connections to a server on an
+// ephemeral loopback port: every route, the token, control, the E-stop, bad and malformed
+// requests, the live stream, jog, run from a line, the hybrid mode, and the L bracket held
+// and resumed mid-cut against `machplan run`'s figures.
+#include <sys/socket.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <set>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "solvers/motion/run.h"
+#include "tests/panel/panel_test_rig.h"
+
+namespace machplan {
+namespace {
+
+using nlohmann::json;
+using test::HttpResponse;
+using test::PanelRig;
+
+const char* const kTriangle = "datasets/parts/triangle_45.ngc";
+
+struct Route {
+  const char* method;
+  const char* path;
+};
+const Route kRoutes[] = {{"GET", "/api/status"},   {"POST", "/api/login"},    {"POST", "/api/control"}, {"POST", "/api/job"},
+                         {"GET", "/api/job"},      {"POST", "/api/run"},      {"POST", "/api/hold"},    {"POST", "/api/resume"},
+                         {"POST", "/api/stop"},    {"POST", "/api/estop"},    {"POST", "/api/reset"},   {"POST", "/api/override"},
+                         {"POST", "/api/jog"},     {"GET", "/api/report"},    {"POST", "/api/guard"},   {"GET", "/api/guard"},
+                         {"GET", "/api/history"}};
+
+TEST(PanelApi, EveryRouteWantsTheTokenAndAnswers401AndNothingElse) {
+  PanelRig rig(0);
+  for (const Route& r : kRoutes) {
+    for (const test::Headers& h : {test::Headers{}, test::Headers{{"Authorization", "Bearer " + std::string(64, 'a')}},
+                                   test::Headers{{"Authorization", "Bearer " + rig.token + "x"}},
+                                   test::Headers{{"Authorization", "Basic " + rig.token}},
+                                   test::Headers{{"Cookie", "machplan_token=" + rig.token.substr(1)}}}) {
+      const HttpResponse a = test::http(rig.port, r.method, r.path, h, r.method == std::string("POST") ? "{}" : "");
+      EXPECT_EQ(a.status, 401) << r.method << " " << r.path;
+      EXPECT_EQ(a.body, "") << r.path;
+      EXPECT_EQ(a.headers.count("set-cookie"), 0u);
+    }
+  }
+  // Nothing happened: no job, no estop, idle.
+  const json s = rig.status();
+  EXPECT_EQ(s["job_id"], 0);
+  EXPECT_EQ(s["estop"], false);
+  EXPECT_EQ(s["state"], "idle");
+}
+
+TEST(PanelApi, StatusHasTheFieldsAnOperatorReads) {
+  PanelRig rig(0);
+  const json s = rig.status();
+  for (const char* k : {"machine", "state", "program", "line", "position_mm", "feed_mm_per_s", "overrides", "torch", "progress",
+                        "time_left_s", "faults", "estop", "control", "backend"})
+    EXPECT_TRUE(s.contains(k)) << k;
+  EXPECT_EQ(s["machine"], "thermal_gantry");
+  EXPECT_EQ(s["state"], "idle");
+  EXPECT_EQ(s["overrides"]["feed_pct"], 100.0);
+}
+
+TEST(PanelApi, ThePageIsServedWithoutTheTokenAndNothingElseIs) {
+  PanelRig rig(0);
+  const HttpResponse page = test::http(rig.port, "GET", "/");
+  EXPECT_EQ(page.status, 200);
+  EXPECT_NE(page.body.find("panel.js"), std::string::npos);
+  EXPECT_NE(page.headers.at("content-security-policy").find("frame-ancestors 'none'"), std::string::npos);
+  EXPECT_EQ(test::http(rig.port, "GET", "/panel.js").status, 200);
+  EXPECT_EQ(test::http(rig.port, "GET", "/../../etc/passwd").status, 404);
+  EXPECT_EQ(test::http(rig.port, "GET", "/nothing.html").status, 404);
+  EXPECT_EQ(test::http(rig.port, "POST", "/").status, 405);
+  // A Host that is not loopback (DNS rebinding) is refused.
+  EXPECT_EQ(test::http(rig.port, "GET", "/api/status", {{"Host", "evil.example:80"}, {"Authorization", "Bearer " + rig.token}}).status,
+            403);
+}
+
+TEST(PanelApi, LoginSetsACookieThatWorksFromThePageOnly) {
+  PanelRig rig(0);
+  const HttpResponse login = test::http(rig.port, "POST", "/api/login", {{"Authorization", "Bearer " + rig.token}});
+  ASSERT_EQ(login.status, 200);
+  const std::string cookie = login.headers.at("set-cookie");
+  EXPECT_NE(cookie.find("HttpOnly"), std::string::npos);
+  EXPECT_NE(cookie.find("SameSite=Strict"), std::string::npos);
+  const std::string value = cookie.substr(0, cookie.find(';'));
+  EXPECT_EQ(test::http(rig.port, "GET", "/api/status", {{"Cookie", value}}).status, 200);
+  const std::string origin = "http://127.0.0.1:" + std::to_string(rig.port);
+  const test::Headers page = {{"Cookie", value}, {"Origin", origin}, {"Content-Type", "application/json"}, {"X-Machplan-Client", "page-client"}};
+  EXPECT_EQ(test::http(rig.port, "POST", "/api/control", page, "{}").status, 200);
+  // Cross-site: another origin, no origin, or a form's content type.
+  test::Headers evil = page;
+  evil[1].second = "http://evil.example";
+  EXPECT_EQ(test::http(rig.port, "POST", "/api/estop", evil, "{}").status, 403);
+  EXPECT_EQ(test::http(rig.port, "POST", "/api/estop", {{"Cookie", value}}, "{}").status, 403);
+  test::Headers form = page;
+  form[2].second = "application/x-www-form-urlencoded";
+  EXPECT_EQ(test::http(rig.port, "POST", "/api/estop", form, "a=b").status, 415);
+  EXPECT_EQ(rig.status()["estop"], false);
+}
+
+TEST(PanelApi, ControlIsTakenExplicitlyAndTheEstopIsEveryones) {
+  PanelRig rig(0);
+  EXPECT_EQ(rig.post("/api/job", {{"program", kTriangle}}).status, 409) << "nobody holds control yet";
+  rig.take_control("client-one");
+  EXPECT_EQ(rig.status()["control"]["yours"], true);
+  EXPECT_EQ(rig.post("/api/job", {{"program", kTriangle}}, "client-two").status, 409);
+  EXPECT_EQ(rig.post("/api/override", {{"feed", 50}}, "client-two").status, 409);
+  EXPECT_EQ(rig.post("/api/job", {{"program", kTriangle}}, "client-one").status, 200);
+  EXPECT_EQ(rig.post("/api/control", json::object(), "bad id").status, 400);
+  // Another client takes control: the first one watches from now on.
+  rig.take_control("client-two");
+  EXPECT_EQ(rig.post("/api/run", json::object(), "client-one").status, 409);
+  // The E-stop needs no control.
+  EXPECT_EQ(rig.post("/api/estop", json::object(), "client-one").status, 200);
+  EXPECT_EQ(rig.status()["estop"], true);
+  EXPECT_EQ(rig.post("/api/run", json::object(), "client-two").status, 409) << "the E-stop is latched";
+  EXPECT_EQ(rig.post("/api/reset", json::object(), "client-two").status, 200);
+  EXPECT_EQ(rig.status()["estop"], false);
+}
+
+TEST(PanelApi, BadRequestsGet4xxWithAMessageAndChangeNothing) {
+  PanelRig rig(0);
+  rig.take_control();
+  const json before = rig.status();
+  const auto bad = [&](const std::string& path, const std::string& body, int code, const std::string& says) {
+    const HttpResponse r = test::http(rig.port, "POST", path, rig.auth(), body);
+    EXPECT_EQ(r.status, code) << path << " " << body.substr(0, 80) << " -> " << r.body;
+    if (!says.empty()) EXPECT_NE(r.body.find(says), std::string::npos) << r.body;
+    if (code != 401) EXPECT_TRUE(json::parse(r.body, nullptr, false).contains("error")) << r.body;
+  };
+  bad("/api/job", "{not json", 400, "not valid JSON");
+  bad("/api/job", "[1,2]", 400, "JSON object");
+  bad("/api/job", "{\"program\": 5}", 400, "wrong type");
+  bad("/api/job", "{}", 400, "");
+  bad("/api/job", "{\"program\": \"no/such/file.ngc\"}", 400, "no/such/file.ngc");
+  bad("/api/job", json{{"program", "G21 G90\nG1 X10 Y10 F100\nG1 XA10\nM2\n"}, {"name", "part.ngc"}}.dump(), 400, "part.ngc:3");
+  bad("/api/job", json{{"program", kTriangle}, {"origin", {1}}}.dump(), 400, "origin");
+  bad("/api/job", json{{"program", kTriangle}, {"origin", {"a", 2}}}.dump(), 400, "origin");
+  bad("/api/job", json{{"program", kTriangle}, {"material", 3}}.dump(), 400, "material");
+  bad("/api/job", json{{"program", kTriangle}, {"origin", {1e9, 0}}}.dump(), 400, "origin");
+  bad("/api/override", "{\"feed\": 250}", 400, "0 .. 200");
+  bad("/api/override", "{\"rapid\": 0}", 400, "1 .. 100");
+  bad("/api/override", "{\"feed\": \"fast\"}", 400, "number");
+  bad("/api/jog", "{\"x\": 3}", 400, "-1 .. 1");
+  bad("/api/run", "{\"from_line\": 1.5}", 400, "whole number");
+  bad("/api/run", "{\"from_line\": -4}", 400, "line number");
+  bad("/api/run", "{}", 409, "no job");
+  bad("/api/guard", "{\"profile\": \"x.dxf\"}", 400, "");
+  bad("/api/guard", json{{"profile", "datasets/profiles/paper_triangle.dxf"}, {"side", "sideways"}, {"tool_radius_mm", 5}, {"tolerance_mm", 4}}.dump(), 400,
+      "sideways");
+  bad("/api/nothing", "{}", 404, "no route");
+  bad("/api/override", std::string(70 * 1024, ' '), 413, "larger");
+  EXPECT_EQ(rig.get("/api/run").status, 405);
+  EXPECT_EQ(test::http(rig.port, "DELETE", "/api/status", rig.auth()).status, 405);
+  EXPECT_EQ(rig.get("/api/report").status, 404);
+  EXPECT_EQ(rig.get("/api/job").status, 404);
+  const json after = rig.status();
+  for (const char* k : {"job_id", "state", "estop", "position_mm", "overrides", "activity"}) EXPECT_EQ(after[k], before[k]) << k;
+}
+
+TEST(PanelApi, FuzzedAndMalformedRequestsNeverCrashTheServerOrMoveTheMachine) {
+  PanelRig rig(0);
+  rig.take_control();
+  ASSERT_EQ(rig.post("/api/job", {{"program", kTriangle}}).status, 200);
+  const json before = rig.status();
+  std::mt19937_64 rng(7);
+  const std::string auth = "Authorization: Bearer " + rig.token + "\r\nX-Machplan-Client: client-one\r\n";
+  const std::vector<std::string> paths = {"/api/job", "/api/run", "/api/override", "/api/jog", "/api/hold", "/api/status",
+                                          "/api/guard", "/api/live", "/", "/api/control"};
+  const std::vector<std::string> bodies = {"{", "}", "null", "[]", "{\"program\":[]}", "{\"feed\":1e999}", "{\"x\":null,\"y\":{}}",
+                                           "{\"from_line\":99999999999}", "\"str\"", std::string(1000, '{'), "{\"origin\":[1,2,3]}"};
+  int answered = 0;
+  for (int i = 0; i < 300; ++i) {
+    std::string req;
+    switch (i % 6) {
+      case 0: {  // random bytes
+        req.resize(rng() % 400);
+        for (char& c : req) c = static_cast<char>(rng());
+        break;
+      }
+      case 1:  // a request line cut short
+        req = "POST /api/jo";
+        break;
+      case 2: {  // a body that lies about its length (the longer side times out)
+        const std::string& b = bodies[rng() % bodies.size()];
+        std::string p = paths[rng() % paths.size()];
+        if (p == "/api/run" || p == "/api/hold") p = "/api/job";  // valid with an empty body: they would run
+        req = "POST " + p + " HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth +
+              "Content-Length: " + std::to_string(b.size() / 2) + "\r\n\r\n" + b;
+        break;
+      }
+      case 3: {  // well-formed, wrong bodies (no run command: a run would move the machine legitimately)
+        std::string p = paths[rng() % paths.size()];
+        if (p == "/api/run" || p == "/api/hold") p = "/api/override";
+        const std::string& b = bodies[rng() % bodies.size()];
+        req = "POST " + p + " HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth + "Content-Length: " + std::to_string(b.size()) + "\r\n\r\n" + b;
+        break;
+      }
+      case 4:  // headers far too long
+        req = "GET /api/status HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Junk: " + std::string(200000, 'x') + "\r\n\r\n";
+        break;
+      case 5:  // a chunked body that never ends properly
+        req = "POST /api/override HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth +
+              "Transfer-Encoding: chunked\r\n\r\nFFFFFFFF\r\n{\"feed\":";
+        break;
+    }
+    const std::string reply = test::send_raw(rig.port, req, 2.0);
+    if (!reply.empty()) ++answered;
+  }
+  EXPECT_GT(answered, 100);
+  const json after = rig.status();
+  for (const char* k : {"job_id", "state", "estop", "position_mm", "activity"}) EXPECT_EQ(after[k], before[k]) << k;
+  EXPECT_EQ(after["overrides"]["feed_pct"], 100.0);
+}
+
+TEST(PanelApi, StalledClientsHoldNoOneElseBackAndChangeNothing) {
+  PanelRig rig(0);
+  rig.take_control();
+  const std::string auth = "Authorization: Bearer " + rig.token + "\r\nX-Machplan-Client: client-one\r\n";
+  std::vector<std::unique_ptr<test::StalledClient>> stalled;
+  for (int i = 0; i < 24; ++i) {
+    // A head that never ends, and a body that stops before its length.
+    const std::string bytes = i % 2 ? "GET /api/status HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: "
+                                    : "POST /api/override HTTP/1.1\r\nHost: 127.0.0.1\r\n" + auth +
+                                          "Content-Type: application/json\r\nContent-Length: 40\r\n\r\n{\"feed\": 1";
+    stalled.push_back(std::make_unique<test::StalledClient>(rig.port, bytes));
+    ASSERT_TRUE(stalled.back()->connected());
+  }
+  // The others are served meanwhile, commands included.
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(rig.get("/api/status").status, 200);
+  ASSERT_EQ(rig.post("/api/override", {{"feed", 60}}).status, 200);
+  EXPECT_EQ(rig.status()["overrides"]["feed_pct"], 60.0);
+  stalled.clear();  // they give up: the half-sent overrides were never applied
+  EXPECT_EQ(rig.get("/api/status").status, 200);
+  const json s = rig.status();
+  EXPECT_EQ(s["overrides"]["feed_pct"], 60.0);
+  EXPECT_EQ(s["activity"], "idle");
+}
+
+TEST(PanelApi, TheTriangleRunsHoldsResumesAndReports) {
+  PanelRig rig(8.0);
+  rig.take_control();
+  const json job = rig.load({{"program", kTriangle}});
+  EXPECT_EQ(job["source"], kTriangle);
+  const json drawing = json::parse(rig.get("/api/job").body);
+  EXPECT_EQ(drawing["parts"].size(), 1u);
+  EXPECT_EQ(drawing["pierces"].size(), 1u);
+  EXPECT_EQ(drawing["bounds"]["max"][0], 300.0);
+  ASSERT_EQ(rig.post("/api/run").status, 200);
+  EXPECT_EQ(rig.post("/api/run").status, 409) << "one run at a time";
+  EXPECT_EQ(rig.post("/api/job", {{"program", kTriangle}}).status, 409) << "no load while running";
+  // Cutting: the arc burns and the tool moves (not the pierce, when a hold waits for the dwell).
+  ASSERT_TRUE(rig.wait_for([](const json& s) { return s["torch"]["arc_ok"] == true && s["feed_mm_per_s"].get<double>() > 10; }));
+  const json cutting = rig.status();
+  EXPECT_EQ(cutting["state"], "running");
+  EXPECT_GT(cutting["line"].get<int>(), 0);
+  ASSERT_EQ(rig.post("/api/hold").status, 200);
+  ASSERT_TRUE(rig.wait_for([](const json& s) { return s["state"] == "held" && s["feed_mm_per_s"] == 0.0; }));
+  const json held = rig.status();
+  EXPECT_EQ(held["torch"]["fire"], false) << "the hold turned the torch off in the cut";
+  ASSERT_EQ(rig.post("/api/resume").status, 200);
+  ASSERT_TRUE(rig.wait_for([](const json& s) { return s["state"] == "done"; }));
+  const HttpResponse rep = rig.get("/api/report");
+  ASSERT_EQ(rep.status, 200);
+  const json r = json::parse(rep.body);
+  EXPECT_EQ(r["status"], "completed");
+  ASSERT_EQ(r["holds"].size(), 1u);
+  EXPECT_EQ(r["holds"][0]["in_cut"], true);
+  EXPECT_EQ(r["torch_off_at_end"], true);
+  EXPECT_TRUE(r.contains("cut_order"));
+  // Again: the job runs a second time from where the first left the machine.
+  ASSERT_EQ(rig.post("/api/run").status, 200);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 2; }));
+  EXPECT_EQ(json::parse(rig.get("/api/report").body)["status"], "completed");
+}
+
+TEST(PanelApi, TheEstopMidCutEndsTorchOffAndLatchesUntilReset) {
+  PanelRig rig(8.0);
+  rig.take_control("operator");
+  ASSERT_EQ(rig.post("/api/job", {{"program", kTriangle}}, "operator").status, 200);
+  ASSERT_EQ(rig.post("/api/run", json::object(), "operator").status, 200);
+  ASSERT_TRUE(rig.wait_for(
+      [](const json& s) { return s["torch"]["arc_ok"] == true && s["feed_mm_per_s"].get<double>() > 10; }));
+  ASSERT_EQ(rig.post("/api/estop", json::object(), "a-watcher-without-control").status, 200);
+  ASSERT_TRUE(rig.wait_idle());
+  const json s = rig.status();
+  EXPECT_EQ(s["state"], "faulted");
+  EXPECT_EQ(s["estop"], true);
+  EXPECT_EQ(s["torch"]["fire"], false);
+  ASSERT_FALSE(s["faults"].empty());
+  EXPECT_EQ(s["faults"][0]["kind"], "estop");
+  const json r = json::parse(rig.get("/api/report").body);
+  EXPECT_EQ(r["status"], "faulted");
+  EXPECT_EQ(r["faults"][0]["kind"], "estop");
+  EXPECT_EQ(r["torch_off_at_end"], true);
+  EXPECT_EQ(rig.post("/api/run", json::object(), "operator").status, 409);
+  EXPECT_EQ(rig.post("/api/jog", {{"x", 1}}, "operator").status, 409);
+  ASSERT_EQ(rig.post("/api/reset", json::object(), "operator").status, 200);
+  // The job runs again from where the machine stopped (a rapid to its start first).
+  ASSERT_EQ(rig.post("/api/run", json::object(), "operator").status, 200);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 2; }));
+  EXPECT_EQ(json::parse(rig.get("/api/report").body)["status"], "completed");
+}
+
+TEST(PanelApi, OverridesAndStopReachTheRun) {
+  PanelRig rig(8.0);
+  rig.take_control();
+  rig.load({{"program", kTriangle}});
+  ASSERT_EQ(rig.post("/api/override", {{"feed", 50}, {"rapid", 25}}).status, 200);
+  ASSERT_EQ(rig.post("/api/run").status, 200);
+  test::WsClient ws(rig.port, "/api/live", rig.auth());
+  ASSERT_TRUE(ws.ok()) << ws.response();
+  bool seen = false;
+  for (int i = 0; i < 2000 && !seen; ++i) {
+    const json f = json::parse(ws.next_text(), nullptr, false);
+    ASSERT_TRUE(f.is_object());
+    seen = f["state"] == "running" && f["feed_pct"] == 50.0 && f["rapid_pct"] == 25.0;
+  }
+  EXPECT_TRUE(seen) << "the overrides reach the executor";
+  ASSERT_EQ(rig.post("/api/stop").status, 200);
+  ASSERT_TRUE(rig.wait_idle());
+  const json r = json::parse(rig.get("/api/report").body);
+  EXPECT_EQ(r["faults"][0]["kind"], "operator_stop");
+  EXPECT_EQ(r["torch_off_at_end"], true);
+}
+
+TEST(PanelApi, TheLiveStreamWantsTheTokenAndThisOriginAndSendsTheState) {
+  PanelRig rig(0);
+  {
+    test::WsClient none(rig.port, "/api/live");
+    EXPECT_FALSE(none.ok());
+    EXPECT_EQ(none.response().rfind("HTTP/1.1 401", 0), 0u) << none.response();
+  }
+  {
+    test::WsClient cross(rig.port, "/api/live", {{"Authorization", "Bearer " + rig.token}, {"Origin", "http://evil.example"}});
+    EXPECT_FALSE(cross.ok());
+    EXPECT_EQ(cross.response().rfind("HTTP/1.1 403", 0), 0u) << cross.response();
+  }
+  test::WsClient ws(rig.port, "/api/live",
+                    {{"Authorization", "Bearer " + rig.token}, {"Origin", "http://127.0.0.1:" + std::to_string(rig.port)}});
+  ASSERT_TRUE(ws.ok()) << ws.response();
+  for (int i = 0; i < 20; ++i) {
+    const json f = json::parse(ws.next_text(), nullptr, false);
+    ASSERT_TRUE(f.is_object());
+    for (const char* k : {"state", "position_mm", "line", "feed_mm_per_s", "torch", "height_mm", "arc_voltage_v", "progress",
+                          "time_left_s", "estop"})
+      EXPECT_TRUE(f.contains(k)) << k;
+  }
+}
+
+TEST(PanelApi, ASlowViewerDoesNotHoldTheOthersBack) {
+  PanelRig rig(0);
+  std::vector<std::unique_ptr<test::WsClient>> stalled;
+  for (int i = 0; i < 4; ++i) {
+    stalled.push_back(std::make_unique<test::WsClient>(rig.port, "/api/live", rig.auth()));
+    ASSERT_TRUE(stalled.back()->ok());  // and never read from again
+  }
+  test::WsClient reader(rig.port, "/api/live", rig.auth());
+  ASSERT_TRUE(reader.ok());
+  for (int i = 0; i < 150; ++i) ASSERT_FALSE(reader.next_text().empty()) << "frame " << i;
+  EXPECT_GE(rig.server->counters().viewers, 5);
+  EXPECT_EQ(rig.status()["state"], "idle");
+}
+
+TEST(PanelApi, TheJogMovesAnIdleMachineAndStopsWhenTheStickIsLetGo) {
+  PanelRig rig(1.0);
+  rig.take_control();
+  const double x0 = rig.status()["position_mm"][0].get<double>();
+  // Hold the stick right for a while, as a held key does (a request every 100 ms).
+  for (int i = 0; i < 12; ++i) {
+    ASSERT_EQ(rig.post("/api/jog", {{"x", 1.0}, {"y", 0.0}}).status, 200);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_EQ(rig.status()["activity"], "jogging");
+  // Let go: the dead man centres the stick, and the jog session ends by itself.
+  ASSERT_TRUE(rig.wait_idle(30));
+  const json s = rig.status();
+  EXPECT_GT(s["position_mm"][0].get<double>(), x0 + 1.0);
+  EXPECT_TRUE(s["faults"].empty()) << s.dump();
+  EXPECT_EQ(rig.post("/api/jog", {{"x", 0.0}, {"y", 0.0}}).status, 200) << "a centred stick starts nothing";
+  EXPECT_EQ(rig.status()["activity"], "idle");
+}
+
+TEST(PanelApi, RunFromALineRunsTheTailOfTheJob) {
+  PanelRig rig(0);
+  rig.take_control();
+  rig.load({{"program", kTriangle}});
+  const HttpResponse too_far = rig.post("/api/run", {{"from_line", 400}});
+  EXPECT_EQ(too_far.status, 400);
+  EXPECT_NE(too_far.body.find("triangle_45.ngc:400"), std::string::npos) << too_far.body;
+  ASSERT_EQ(rig.post("/api/run", {{"from_line", 11}}).status, 200);  // the vertical leg
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 1; }));
+  const json r = json::parse(rig.get("/api/report").body);
+  EXPECT_EQ(r["status"], "completed") << r.dump();
+  ASSERT_EQ(r["cuts"].size(), 1u);
+  EXPECT_EQ(r["cuts"][0]["source_line"], 11) << "the cut starts at the line asked for";
+}
+
+TEST(PanelApi, AHybridSessionIsSteeredFromThePanelAndFinishes) {
+  PanelRig rig(8.0);
+  rig.take_control();
+  const json g = {{"profile", "datasets/profiles/paper_triangle.dxf"},
+                  {"side", "outside"},
+                  {"tool_radius_mm", 5},
+                  {"tolerance_mm", 4},
+                  {"feed_mm_per_s", 60},
+                  {"finish", true}};
+  ASSERT_EQ(rig.post("/api/guard", g).status, 200) << rig.post("/api/guard", g).body;
+  ASSERT_TRUE(rig.wait_for(
+      [](const json& s) { return s.contains("guard") && s["guard"]["phase"] == "roughing" && s["guard"]["t_s"].get<double>() > 0; }));
+  const json drawing = json::parse(rig.get("/api/guard").body);
+  EXPECT_FALSE(drawing["profile"].empty());
+  EXPECT_FALSE(drawing["boundary"].empty());
+  const double d0 = rig.status()["guard"]["distance_mm"].get<double>();
+  EXPECT_GT(d0, 0.0) << "the session starts outside the prohibited region";
+  // Along under the triangle's bottom edge (y = 0; the session starts below and left of it),
+  // then straight up at it until the guard brings the table to rest against the boundary.
+  const auto push = [&](double x, double y, const std::function<bool(const json&)>& until) {
+    for (int i = 0; i < 100; ++i) {
+      EXPECT_EQ(rig.post("/api/jog", {{"x", x}, {"y", y}}).status, 200);
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      const json s = rig.status()["guard"];
+      if (until(s)) return s;
+    }
+    return json();
+  };
+  const json under = push(1.0, 0.0, [](const json& g) { return g["position_mm"][0].get<double>() > 40.0; });
+  ASSERT_FALSE(under.is_null()) << "the stick moved the table";
+  EXPECT_LT(under["position_mm"][1].get<double>(), -5.0) << "clear of the boundary below the edge";
+  bool held = false;
+  double closest = d0;
+  for (int i = 0; i < 100 && !held; ++i) {
+    ASSERT_EQ(rig.post("/api/jog", {{"x", 0.0}, {"y", 1.0}}).status, 200);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const json s = rig.status()["guard"];
+    closest = std::min(closest, s["distance_mm"].get<double>());
+    held = s["holding"] == true;
+  }
+  EXPECT_TRUE(held) << "the guard held the table at the tolerance band";
+  EXPECT_GE(closest, -1e-3) << "never into the prohibited region";
+  ASSERT_EQ(rig.post("/api/resume").status, 200);  // cycle start: the end of the manual part
+  ASSERT_TRUE(rig.wait_idle(180));
+  const json done = json::parse(rig.get("/api/guard").body);
+  ASSERT_TRUE(done.contains("result")) << done.dump().substr(0, 400);
+  EXPECT_EQ(done["result"]["invasions"], 0);
+  ASSERT_FALSE(done["finish_paths"].empty());
+  EXPECT_EQ(done["finish_paths"].back()["completed"], true);
+}
+
+TEST(PanelApi, HistoryIsReadOnly) {
+  PanelRig rig(0);
+  const json h = json::parse(rig.get("/api/history").body);
+  EXPECT_TRUE(h["calibrations"].empty());
+  EXPECT_TRUE(h["tunings"].empty());
+  EXPECT_FALSE(std::filesystem::exists(h["store"].get<std::string>())) << "reading the history creates no store";
+}
+
+// The L bracket (datasets/parts/bracket_l.ngc) through the API, with an origin, held and resumed mid-cut: the same contour
+// error as `machplan run` (the same pipeline, machine and seed; a hold and its re-pierce are the
+// only difference), and GET /api/report gives it.
+TEST(PanelApi, TheBracketHeldAndResumedMidCutMatchesMachplanRun) {
+  motion::RunOptions o;
+  o.session.machine = "thermal_gantry";
+  o.session.executor.record_trace = false;
+  o.origin_mm = Eigen::Vector2d(150, 120);
+  const motion::RunOutcome cli = motion::run_program(test::source_path("datasets/parts/bracket_l.ngc"), o);
+  ASSERT_TRUE(cli.summary.done());
+
+  PanelRig rig(4.0);
+  rig.take_control();
+  rig.load({{"program", test::source_path("datasets/parts/bracket_l.ngc")}, {"origin", {150, 120}}});
+  ASSERT_EQ(rig.post("/api/run").status, 200);
+  // Mid-cut: the torch burns on the outline (the last cut, lines 40 on).
+  ASSERT_TRUE(rig.wait_for(
+      [](const json& s) {
+        return s["torch"]["arc_ok"] == true && s["line"].get<int>() >= 40 && s["feed_mm_per_s"].get<double>() > 10;
+      },
+      300))
+      << rig.status().dump();
+  ASSERT_EQ(rig.post("/api/hold").status, 200);
+  ASSERT_TRUE(rig.wait_for([](const json& s) { return s["state"] == "held"; }));
+  ASSERT_EQ(rig.post("/api/resume").status, 200);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 1; }, 300));
+  const HttpResponse rep = rig.get("/api/report");
+  ASSERT_EQ(rep.status, 200);
+  const json r = json::parse(rep.body);
+  ASSERT_EQ(r["status"], "completed") << rep.body.substr(0, 400);
+  ASSERT_EQ(r["holds"].size(), 1u);
+  EXPECT_EQ(r["holds"][0]["in_cut"], true);
+  EXPECT_EQ(r["cuts"].size(), cli.result.cuts.size());
+  const double max_cli = cli.result.max_contour_error_mm(), rms_cli = cli.rms_contour_error_mm;
+  const double max_panel = r["max_contour_error_mm"].get<double>(), rms_panel = r["rms_contour_error_mm"].get<double>();
+  std::printf("bracket: max contour error %.4f mm (machplan run %.4f), rms %.4f mm (%.4f)\n", max_panel, max_cli, rms_panel, rms_cli);
+  EXPECT_NEAR(max_panel, max_cli, 0.02);
+  EXPECT_NEAR(rms_panel, rms_cli, 0.25 * rms_cli);
+}
+
+}  // namespace
+}  // namespace machplan
