@@ -65,7 +65,8 @@ void add_serve(CLI::App& app) {
   auto a = std::make_shared<ServeArgs>();
   auto* cmd = app.add_subcommand("serve", "Serve the shop-floor panel: the machine and its jobs in a browser");
   cmd->add_option("--machine", a->machine, "thermal_gantry (default), xy_table, or a machine YAML file");
-  cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default)");
+  cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default) or hal (a machine "
+                  "through LinuxCNC's HAL: docs/hal.md)");
   cmd->add_option("--port", a->port, "TCP port (default 8090; 0: any free port, printed)")->check(CLI::Range(0, 65535));
   cmd->add_option("--bind", a->bind, "address to listen on (default 127.0.0.1; another needs --allow-remote)");
   cmd->add_flag("--allow-remote", a->allow_remote,

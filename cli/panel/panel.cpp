@@ -304,6 +304,20 @@ void Panel::set_overrides(std::optional<double> feed_pct, std::optional<double> 
   publish_inputs();
 }
 
+void Panel::recover(double mm) {
+  if (!(std::isfinite(mm) && std::abs(mm) <= 1000 && mm != 0))
+    throw InputError::field("mm", fmt::format("{} mm: a recovery moves -1000 .. 1000 mm along the path, not 0", mm));
+  const std::lock_guard<std::mutex> lock(op_mutex_);
+  op_.recover_mm += mm;
+  publish_inputs();
+}
+
+void Panel::set_thc(bool enabled) {
+  const std::lock_guard<std::mutex> lock(op_mutex_);
+  op_.thc_enabled = enabled;
+  publish_inputs();
+}
+
 void Panel::jog(double x, double y) {
   if (!(std::isfinite(x) && std::isfinite(y) && std::abs(x) <= 1 && std::abs(y) <= 1))
     throw InputError::field("x", "the jog is two numbers x, y in -1 .. 1");
@@ -649,6 +663,7 @@ json Panel::status() {
   {
     const std::lock_guard<std::mutex> lock(op_mutex_);
     s["overrides"] = {{"feed_pct", op_.feed_override_pct}, {"rapid_pct", op_.rapid_override_pct}};
+    s["thc_enabled"] = op_.thc_enabled;
   }
   s["torch"] = {{"fire", l.torch_fire},       {"arc_ok", l.arc_ok},     {"height_mm", l.torch_height_mm},
                 {"thc_active", l.thc_active}, {"arc_voltage_v", l.arc_voltage_v}};

@@ -120,6 +120,12 @@ class Panel {
   void reset();
   // Levels; InputError::field for a value out of range (feed 0 .. 200 %, rapid 1 .. 100 %).
   void set_overrides(std::optional<double> feed_pct, std::optional<double> rapid_pct);
+  // Cut recovery: while a cut is held with its torch off (a lost arc, or a hold), move `mm`
+  // along the cut's path (negative: back over what was cut), at most 1000 mm a request; the
+  // executor takes it at rest and re-pierces where the machine stands on resume.
+  void recover(double mm);
+  // The operator's THC switch (plasma): torch height control allowed or not.
+  void set_thc(bool enabled);
   // The stick, each axis -1 .. 1. An idle machine starts a jog session; a hybrid session
   // steers with it. Busy while a job runs.
   void jog(double x, double y);

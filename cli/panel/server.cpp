@@ -293,7 +293,7 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
   };
   const bool get = method == "GET";
   static const char* const kRoutes[] = {"/status", "/login", "/control", "/job", "/run", "/hold", "/resume", "/stop",
-                                        "/estop", "/reset", "/override", "/jog", "/report", "/guard", "/history"};
+                                        "/estop", "/reset", "/override", "/recover", "/thc", "/jog", "/report", "/guard", "/history"};
   if (std::find(std::begin(kRoutes), std::end(kRoutes), path) == std::end(kRoutes))
     return error(404, fmt::format("no route /api{}", excerpt(path, 80)));
   if ((get && path != "/status" && path != "/job" && path != "/report" && path != "/guard" && path != "/history") ||
@@ -373,6 +373,18 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
   if (path == "/reset") return panel.reset(), ok({{"ok", true}});
   if (path == "/override") {
     panel.set_overrides(number(body, "feed"), number(body, "rapid"));
+    return ok({{"ok", true}});
+  }
+  if (path == "/recover") {
+    const std::optional<double> mm = number(body, "mm");
+    if (!mm) throw InputError::field("mm", "takes {\"mm\": N}: millimetres along the cut's path (negative: back)");
+    panel.recover(*mm);
+    return ok({{"ok", true}});
+  }
+  if (path == "/thc") {
+    const auto it = body.find("enabled");
+    if (it == body.end() || !it->is_boolean()) throw InputError::field("enabled", "takes {\"enabled\": true|false}");
+    panel.set_thc(it->get<bool>());
     return ok({{"ok", true}});
   }
   if (path == "/jog") {

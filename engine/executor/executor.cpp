@@ -191,6 +191,7 @@ struct Session::Impl {
   };
   std::vector<ThcAcc> thc_acc;    // per stretch
   bool velocity_locked = false, void_locked = false;
+  bool thc_acting = false;        // THC moved the height this period
   double velocity_lock_h = 0.0, void_lock_h = 0.0;  // the height when the lock began
   Eigen::Vector2d last_loss_mm = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
 };
@@ -418,6 +419,7 @@ void Session::Impl::arc_lost() noexcept {
 
 void Session::Impl::thc_tick() noexcept {
   const bool cutting = thc_fitted && !held && moving_cut() && torch.lit() && !torch.busy() && in.arc_ok;
+  thc_acting = false;
   if (!cutting) {
     velocity_locked = void_locked = false;
     return;
@@ -435,6 +437,7 @@ void Session::Impl::thc_tick() noexcept {
   ti.feed_mm_per_s = std::min(s.feed_mm_per_s[seg] * std::min(feed_rate, 1.0), ms.max_velocity_mm_per_s);
   ti.allowed = (!m || m->thc) && (s.thc_off.empty() || !s.thc_off[seg]) && in.op.thc_enabled;
   out.torch_height_target_mm = torch.cut_height_mm() + thc.update(ti);
+  thc_acting = thc.active();
 
   // Figures, from the backend's truth.
   ThcAcc& acc = thc_acc[k];
@@ -821,6 +824,8 @@ void Session::Impl::publish_live() noexcept {
   l.torch_fire = out.torch_fire;
   l.arc_ok = in.arc_ok;
   l.torch_height_mm = in.torch_height_mm;
+  l.thc_active = thc_acting;
+  l.arc_voltage_v = in.arc_voltage_v;
   l.progress = std::min(progress_s / expected_s, over ? 1.0 : 0.999);
   // What is left at the current feed override; a hold stops the clock, it does not run it.
   const double left = std::max(0.0, expected_s - progress_s);

@@ -95,6 +95,29 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
   return ax;
 }
 
+// The plasma process beyond the torch: torch height control and the simulated sheet's warp.
+void read_plasma_process(const Yaml& root, MachineConfig& m) {
+  if (const auto th = root.get("thc")) {
+    th->reject_unknown_keys({"enabled", "delay_s", "sample_s", "threshold_v", "speed_mm_per_s_per_v", "max_speed_mm_per_s",
+                             "velocity_anti_dive_pct", "void_anti_dive_v_per_s", "max_correction_mm"});
+    executor::ThcSettings& c = m.thc;
+    c.enabled = th->boolean_or("enabled", c.enabled);
+    c.delay_s = th->number_or("delay_s", c.delay_s, {.min = 0.0, .max = 60.0});
+    c.sample_s = th->number_or("sample_s", c.sample_s, {.min = 0.0, .max = 10.0, .min_exclusive = true});
+    c.threshold_v = th->number_or("threshold_v", c.threshold_v, {.min = 0.0, .max = 50.0});
+    c.speed_mm_per_s_per_v = th->number_or("speed_mm_per_s_per_v", c.speed_mm_per_s_per_v, {.min = 0.0, .max = 100.0, .min_exclusive = true});
+    c.max_speed_mm_per_s = th->number_or("max_speed_mm_per_s", c.max_speed_mm_per_s, {.min = 0.0, .max = 1000.0, .min_exclusive = true});
+    c.velocity_anti_dive_pct = th->number_or("velocity_anti_dive_pct", c.velocity_anti_dive_pct, {.min = 0.0, .max = 100.0});
+    c.void_anti_dive_v_per_s = th->number_or("void_anti_dive_v_per_s", c.void_anti_dive_v_per_s, {.min = 0.0, .max = 1e6, .min_exclusive = true});
+    c.max_correction_mm = th->number_or("max_correction_mm", c.max_correction_mm, {.min = 0.0, .max = 50.0});
+  }
+  if (const auto sh = root.get("sheet")) {
+    sh->reject_unknown_keys({"warp_amplitude_mm", "warp_wavelength_mm"});
+    m.sheet_warp_amplitude_mm = sh->number_or("warp_amplitude_mm", 0.0, {.min = 0.0, .max = 50.0});
+    m.sheet_warp_wavelength_mm = sh->number_or("warp_wavelength_mm", 500.0, {.min = 1.0, .max = 1e5});
+  }
+}
+
 }  // namespace
 
 MachineConfig machine_from_yaml(const Yaml& root) {
@@ -191,25 +214,7 @@ MachineConfig machine_from_yaml(const Yaml& root) {
       t->at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + excerpt(kind) + "'");
     }
   }
-  if (const auto th = root.get("thc")) {
-    th->reject_unknown_keys({"enabled", "delay_s", "sample_s", "threshold_v", "speed_mm_per_s_per_v", "max_speed_mm_per_s",
-                             "velocity_anti_dive_pct", "void_anti_dive_v_per_s", "max_correction_mm"});
-    executor::ThcSettings& c = m.thc;
-    c.enabled = th->boolean_or("enabled", c.enabled);
-    c.delay_s = th->number_or("delay_s", c.delay_s, {.min = 0.0, .max = 60.0});
-    c.sample_s = th->number_or("sample_s", c.sample_s, {.min = 0.0, .max = 10.0, .min_exclusive = true});
-    c.threshold_v = th->number_or("threshold_v", c.threshold_v, {.min = 0.0, .max = 50.0});
-    c.speed_mm_per_s_per_v = th->number_or("speed_mm_per_s_per_v", c.speed_mm_per_s_per_v, {.min = 0.0, .max = 100.0, .min_exclusive = true});
-    c.max_speed_mm_per_s = th->number_or("max_speed_mm_per_s", c.max_speed_mm_per_s, {.min = 0.0, .max = 1000.0, .min_exclusive = true});
-    c.velocity_anti_dive_pct = th->number_or("velocity_anti_dive_pct", c.velocity_anti_dive_pct, {.min = 0.0, .max = 100.0});
-    c.void_anti_dive_v_per_s = th->number_or("void_anti_dive_v_per_s", c.void_anti_dive_v_per_s, {.min = 0.0, .max = 1e6, .min_exclusive = true});
-    c.max_correction_mm = th->number_or("max_correction_mm", c.max_correction_mm, {.min = 0.0, .max = 50.0});
-  }
-  if (const auto sh = root.get("sheet")) {
-    sh->reject_unknown_keys({"warp_amplitude_mm", "warp_wavelength_mm"});
-    m.sheet_warp_amplitude_mm = sh->number_or("warp_amplitude_mm", 0.0, {.min = 0.0, .max = 50.0});
-    m.sheet_warp_wavelength_mm = sh->number_or("warp_wavelength_mm", 500.0, {.min = 1.0, .max = 1e5});
-  }
+  read_plasma_process(root, m);
   if (const auto sp = root.get("spindle")) {
     if (root.has("torch")) sp->fail("a machine has a torch or a spindle, not both");
     if (root.has("torch_height")) sp->fail("a spindle machine has no torch height axis (torch_height)");

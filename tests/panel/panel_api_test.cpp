@@ -33,6 +33,7 @@ struct Route {
 const Route kRoutes[] = {{"GET", "/api/status"},   {"POST", "/api/login"},    {"POST", "/api/control"}, {"POST", "/api/job"},
                          {"GET", "/api/job"},      {"POST", "/api/run"},      {"POST", "/api/hold"},    {"POST", "/api/resume"},
                          {"POST", "/api/stop"},    {"POST", "/api/estop"},    {"POST", "/api/reset"},   {"POST", "/api/override"},
+                         {"POST", "/api/recover"}, {"POST", "/api/thc"},
                          {"POST", "/api/jog"},     {"GET", "/api/report"},    {"POST", "/api/guard"},   {"GET", "/api/guard"},
                          {"GET", "/api/history"}};
 
@@ -103,6 +104,21 @@ TEST(PanelApi, LoginSetsACookieThatWorksFromThePageOnly) {
   form[2].second = "application/x-www-form-urlencoded";
   EXPECT_EQ(test::http(rig.port, "POST", "/api/estop", form, "a=b").status, 415);
   EXPECT_EQ(rig.status()["estop"], false);
+}
+
+TEST(PanelApi, CutRecoveryAndTheThcSwitchTakeTheirValuesAndRefuseOthers) {
+  PanelRig rig(0);
+  rig.take_control();
+  EXPECT_EQ(rig.status()["thc_enabled"], true);
+  EXPECT_EQ(rig.post("/api/thc", {{"enabled", false}}).status, 200);
+  EXPECT_EQ(rig.status()["thc_enabled"], false);
+  EXPECT_EQ(rig.post("/api/thc", {{"enabled", "no"}}).status, 400);
+  EXPECT_EQ(rig.post("/api/thc", json::object()).status, 400);
+  EXPECT_EQ(rig.status()["thc_enabled"], false);
+  EXPECT_EQ(rig.post("/api/recover", {{"mm", -3.5}}).status, 200);
+  for (const json& bad : {json{{"mm", 0}}, json{{"mm", 5000}}, json{{"mm", "back"}}, json::object()})
+    EXPECT_EQ(rig.post("/api/recover", bad).status, 400) << bad.dump();
+  EXPECT_EQ(rig.post("/api/recover", {{"mm", -1}}, "client-two").status, 409) << "needs control";
 }
 
 TEST(PanelApi, ControlIsTakenExplicitlyAndTheEstopIsEveryones) {

@@ -338,6 +338,8 @@ function wire() {
   $('resume').onclick = () => act('POST', '/resume');
   $('stop').onclick = () => act('POST', '/stop');
   $('reset').onclick = () => act('POST', '/reset');
+  for (const b of document.querySelectorAll('.recover')) b.onclick = () => act('POST', '/recover', { mm: Number(b.dataset.mm) });
+  $('thc').onchange = () => act('POST', '/thc', { enabled: $('thc').checked });
   $('feed').oninput = () => { $('feed-val').textContent = $('feed').value + ' %'; };
   $('feed').onchange = () => act('POST', '/override', { feed: Number($('feed').value) });
   for (const b of document.querySelectorAll('.rapid')) b.onclick = () => { $('rapid-val').textContent = b.dataset.v + ' %'; act('POST', '/override', { rapid: Number(b.dataset.v) }); };
