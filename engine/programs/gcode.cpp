@@ -1602,7 +1602,7 @@ Program read_gcode(const std::string& text, const std::string& source_name, cons
   if (const GrblSign sign = grbl_sign(text); sign.line > 0) {
     Program p = read_as(text, source_name, o, ended);
     p.warnings.insert(p.warnings.begin(),
-                      fmt::format("{}:{}: read as a GRBL program (auto-detected: {}; --dialect linuxcnc reads it "
+                      fmt::format("{}:{}: read as a GRBL program (auto-detected: {}; the linuxcnc dialect reads it "
                                   "as LinuxCNC does)",
                                   source_name, sign.line, sign.what));
     return p;
@@ -1616,7 +1616,7 @@ Program read_gcode(const std::string& text, const std::string& source_name, cons
   Program g = read_as(text, source_name, o, ended);
   g.warnings.insert(g.warnings.begin(),
                     fmt::format("{}: read as a GRBL program (auto-detected: no program end, M2, M30 or a closing %; "
-                                "--dialect linuxcnc reads it as LinuxCNC does)",
+                                "the linuxcnc dialect reads it as LinuxCNC does)",
                                 source_name));
   return g;
 }

@@ -33,7 +33,7 @@ struct TurningProcess {
   double force_time_constant_s = 0.06; // tau_force: one revolution at 1000 rpm and the sensor
   double force_noise_n = 0.0;          // sigma of the measured force
   double dt_s = 0.001;                 // integration step
-  // Throws std::invalid_argument naming the field, its value and the rule.
+  // Throws InputError::field naming the field, its value and the rule.
   void validate() const;
   // The static force at depth `depth_mm` and feed `feed_mm_per_rev`, N.
   double static_force_n(double depth_mm, double feed_mm_per_rev) const;
@@ -54,7 +54,7 @@ struct AccSample {
 
 // Runs the loop on the process for `duration_s` with the depth schedule `depths` (sorted by
 // from_s; the depth is 0 before the first). One sample per control period (at its instant,
-// after the update). Throws std::invalid_argument on invalid options or schedule.
+// after the update). Throws InputError::field on invalid options or schedule.
 std::vector<AccSample> simulate_acc(const TurningProcess& process, const control::AccOptions& options,
                                     const std::vector<DepthChange>& depths, double duration_s, std::uint64_t seed = 1);
 

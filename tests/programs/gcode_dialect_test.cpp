@@ -107,7 +107,7 @@ TEST(GcodeDialect, AutomaticPicksGrblOnItsSignsWithANote) {
   EXPECT_EQ(laser.dialect, GcodeDialect::grbl);
   ASSERT_GE(laser.warnings.size(), 1u);
   EXPECT_EQ(laser.warnings[0],
-            "laser.nc:1: read as a GRBL program (auto-detected: a GRBL system command line; --dialect linuxcnc reads "
+            "laser.nc:1: read as a GRBL program (auto-detected: a GRBL system command line; the linuxcnc dialect reads "
             "it as LinuxCNC does)");
   // A setting line ($ digits =) is GRBL's; a spindle word ($1 M3) is LinuxCNC's.
   EXPECT_EQ(read_gcode("$100=250\nG0 X1\n", "s.nc", automatic).dialect, GcodeDialect::grbl);
