@@ -9,6 +9,7 @@
 #include <fstream>
 #include <new>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -28,6 +29,27 @@ namespace machplan::executor {
 namespace {
 
 std::string part(const char* name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+
+// The counter itself sees allocations, in each form the tick could use, or every zero below
+// would prove nothing.
+TEST(AllocationCounter, SeesEveryFormOfAllocation) {
+  std::vector<int> v = {5, 3, 4, 1, 2};
+  g_allocations = 0;
+  g_counting = true;
+  int* one = new int(1);
+  int* many = new int[8];
+  int* nothrow = new (std::nothrow) int(2);
+  void* raw = std::malloc(16);
+  std::stable_sort(v.begin(), v.end());  // its buffer: the nothrow form
+  g_counting = false;
+  const long seen = g_allocations;
+  delete one;
+  delete[] many;
+  delete nothrow;
+  std::free(raw);
+  EXPECT_GE(seen, 4);
+  EXPECT_TRUE(std::is_sorted(v.begin(), v.end()));
+}
 
 struct Case {
   const char* part;
