@@ -188,7 +188,8 @@ void read_search(const Yaml& root, Scene& s) {
   s.search.paper_step_mm = se->number_or("paper_step_mm", s.search.paper_step_mm, pos);
   s.search.paper_pad_step_mm = se->number_or("paper_pad_step_mm", s.search.paper_pad_step_mm, pos);
   s.search.reversal_deg = se->number_or("reversal_deg", s.search.reversal_deg, {.min = 0, .max = 180});
-  s.search.resolution_mm = se->number_or("resolution_mm", s.search.resolution_mm, {.min = 0.01, .max = 100});
+  s.search.resolution_mm = se->number_or("resolution_mm", s.search.resolution_mm,
+                                         {.min = kMinResolutionMm, .max = kMaxResolutionMm});
   s.search.rotation_step_deg = se->number_or("rotation_step_deg", s.search.rotation_step_deg, {.min = 0.01, .max = 90});
   if (se->has("paper_max_steps")) s.search.paper_max_steps = se->at("paper_max_steps").integer(1, 1000000);
   if (se->has("max_pose_queries")) s.search.max_pose_queries = se->at("max_pose_queries").integer(1, 1'000'000'000);

@@ -2,9 +2,8 @@
 // beyond the scene's bounds are refused as input errors, too many peripherals are refused by
 // name, and a check that would run for minutes (a large safe distance) stops at its query
 // limit with exit 3 and says how to raise it.
-#include <sys/wait.h>
-
 #include <atomic>
+#include <csignal>
 #include <cstdlib>
 #include <thread>
 #include <fstream>
@@ -19,6 +18,7 @@
 #include "solvers/placement/checker.h"
 #include "solvers/placement/scene.h"
 #include "solvers/placement/search.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::placement {
@@ -72,6 +72,34 @@ TEST(SceneLimits, HugeNumbersAreRefusedNamingTheKey) {
   }
 }
 
+// The optimal search's grid is bounded like the other search limits: a grid finer than
+// kMinResolutionMm (searching for minutes) is refused naming the key and the bound.
+TEST(SceneLimits, AGridFinerThanTheBoundIsRefused) {
+  TempDir dir;
+  const std::string fine = write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 200\n  resolution_mm: 0.01"}});
+  EXPECT_THAT(error_of([&] { load_scene(fine); }),
+              HasSubstr(fmt::format("key 'search.resolution_mm' must be >= {}, got 0.01", kMinResolutionMm)));
+  const std::string bound = write_scene(dir, {{"pad_max_mm: 200", fmt::format("pad_max_mm: 200\n  resolution_mm: {}",
+                                                                              kMinResolutionMm)}});
+  EXPECT_EQ(load_scene(bound).search.resolution_mm, kMinResolutionMm);
+}
+
+// `place` on a scene no placement fits says so once: the verdict is the command's, the reason
+// the search's.
+TEST(SceneLimits, APadLimitOfZeroSaysCannotBeMachinedOnce) {
+  TempDir dir;
+  const std::string scene =
+      write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 0"}, {"toolpath: toolpath.csv", "toolpath: " + kData + "toolpath.csv"}});
+  const test::CliResult r = test::Cli().run({"place", scene});
+  EXPECT_EQ(r.code, 3) << r.err;
+  const std::string verdict = "cannot be machined on this machine: ";
+  const auto first = r.err.find(verdict);
+  ASSERT_NE(first, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("cannot be machined", first + 1), std::string::npos) << r.err;
+  EXPECT_THAT(r.err, HasSubstr(verdict + "no placement on the table with a pad up to 0 mm is free of interference"))
+      << r.err;
+}
+
 TEST(SceneLimits, MorePeripheralsThanTheCheckerHandlesAreRefused) {
   std::string many = "peripherals:\n";
   for (int k = 0; k < static_cast<int>(kMaxPeripherals); ++k)  // plus the bundled magazine
@@ -85,14 +113,10 @@ TEST(SceneLimits, MorePeripheralsThanTheCheckerHandlesAreRefused) {
 TEST(CheckLimits, ACheckStopsAtTheQueryLimitWithExitThreeAndSaysHowToRaiseIt) {
   TempDir dir;
   const std::string scene = write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 200\n  max_pose_queries: 50"}});
-  const std::string err = (dir.path() / "err").string();
-  const int rc = std::system(fmt::format("'{}' check '{}' --at -68,-22,57 > /dev/null 2> '{}'", MACHPLAN_CLI, scene, err).c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 3);
-  std::ifstream in(err);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(text, HasSubstr("limit of 50 exact pose queries (search.max_pose_queries in the scene)"));
-  EXPECT_THAT(text, HasSubstr("Raise the limit"));
+  const test::CliResult r = test::Cli().run({"check", scene, "--at", "-68,-22,57"});
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("limit of 50 exact pose queries (search.max_pose_queries in the scene)"));
+  EXPECT_THAT(r.err, HasSubstr("Raise the limit"));
   // The default leaves the ordinary check alone.
   const Scene ok = load_scene(write_scene(dir, {}));
   EXPECT_EQ(ok.search.max_pose_queries, SearchSettings{}.max_pose_queries);
@@ -141,28 +165,24 @@ TEST(CheckStop, ABudgetEndsASearchWithStatusBudget) {
 }
 
 TEST(CheckStop, SigintEndsASearchWithExitThree) {
-  // Every rotation a quarter of a degree apart on the bundled scene: a search of many seconds.
-  // A signal a second in ends it through the stop request, with exit 3 and no placement
-  // printed.
+  // Every rotation a quarter of a degree apart on the bundled scene: a search of many seconds
+  // on any machine. SIGINT, sent once the command handles it, ends it through the stop request
+  // with exit 3 and no placement printed.
   TempDir dir;
   std::ifstream sc(kData + "scene.yaml");
   std::string text((std::istreambuf_iterator<char>(sc)), std::istreambuf_iterator<char>());
   for (const char* f : {"machine.yaml", "workpiece.stl", "toolpath.csv"}) text.replace(text.find(f), std::string(f).size(), kData + f);
   text.replace(text.find("pad_max_mm: 200"), 15, "pad_max_mm: 200\n  rotation_step_deg: 0.25");
   const std::string scene = dir.write("scene.yaml", text);
-  const std::string out = (dir.path() / "out").string(), err = (dir.path() / "err").string();
-  const std::string script = fmt::format(
-      "'{}' place '{}' --rotations any > '{}' 2> '{}' & pid=$!; sleep 1; kill -INT $pid; wait $pid; exit $?", MACHPLAN_CLI,
-      scene, out, err);
-  const int rc = std::system(script.c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 3);
-  std::ifstream e(err), o(out);
-  const std::string said((std::istreambuf_iterator<char>(e)), std::istreambuf_iterator<char>());
-  const std::string printed((std::istreambuf_iterator<char>(o)), std::istreambuf_iterator<char>());
-  EXPECT_THAT(said, HasSubstr("stopped on request"));
-  EXPECT_THAT(printed, Not(HasSubstr("placement:")));
-  EXPECT_THAT(printed, HasSubstr("placement search ended (cancelled) before an answer"));
+  test::Cli cli;
+  test::CliProcess p = cli.start({"place", scene, "--rotations", "any"});
+  ASSERT_TRUE(p.wait_until_catching(SIGINT));
+  ASSERT_TRUE(p.signal(SIGINT));
+  const test::CliResult r = p.wait();
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("stopped on request"));
+  EXPECT_THAT(r.out, Not(HasSubstr("placement:")));
+  EXPECT_THAT(r.out, HasSubstr("placement search ended (cancelled) before an answer"));
 }
 
 TEST(CheckStop, TheDenseCheckReportsItsProgress) {

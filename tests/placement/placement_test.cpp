@@ -13,6 +13,7 @@
 #include "solvers/placement/checker.h"
 #include "solvers/placement/scene.h"
 #include "solvers/placement/search.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
@@ -245,14 +246,10 @@ void expect_cannot_be_machined(const std::string& workpiece, const std::string& 
       dir.write("scene.yaml", fmt::format("machine: {}machine.yaml\n{}workpiece: {}\ntoolpath: path.csv\nsearch: {{pad_max_mm: 60}}\n",
                                           kData, tooling, workpiece));
   dir.write("path.csv", "x,y,z,i,j,k\n" + toolpath);
-  const std::string err = (dir.path() / "err.txt").string();
-  const int rc = std::system(fmt::format("'{}' place '{}' > /dev/null 2> '{}'", MACHPLAN_CLI, scene, err).c_str());
-  ASSERT_TRUE(WIFEXITED(rc));
-  EXPECT_EQ(WEXITSTATUS(rc), 3);
-  std::ifstream in(err);
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("cannot be machined on this machine"), std::string::npos) << text;
-  EXPECT_NE(text.find(reason), std::string::npos) << text;
+  const test::CliResult r = test::Cli().run({"place", scene});
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("cannot be machined on this machine"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(reason), std::string::npos) << r.err;
 }
 
 TEST(Place, AWorkpieceLargerThanTheTableCannotBeMachined) {
