@@ -253,6 +253,7 @@ void HalBackend::Impl::fill(const machplan_sample& s, std::uint32_t newest_flags
   in.estop = (f & MACHPLAN_IN_ESTOP) != 0;
   in.watchdog_tripped = (f & MACHPLAN_IN_WATCHDOG) != 0;
   in.torch_height_mm = s.height_fb_mm;
+  in.arc_voltage_v = std::isfinite(s.arc_volts) && s.arc_volts > 0.0 ? s.arc_volts : 0.0;  // 0: not measured
   in.op.feed_hold = (f & MACHPLAN_IN_FEED_HOLD) != 0;
   in.op.cycle_start = (f & MACHPLAN_IN_CYCLE_START) != 0;
   in.op.feed_override_pct = std::isfinite(s.feed_override_pct) ? std::clamp(s.feed_override_pct, 0.0, 200.0) : 100.0;

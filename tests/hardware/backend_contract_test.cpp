@@ -5,6 +5,7 @@
 // contract is about (missed exchanges, an open E-stop chain, a lost link). A backend that
 // cannot be told to do something in a test (a real controller) provides the hook through its
 // simulator or test mode.
+#include <array>
 #include <chrono>
 #include <functional>
 #include <memory>
@@ -176,6 +177,38 @@ TEST_P(BackendContract, DisabledDrivesDoNotMoveAndEnabledOnesDo) {
   for (int k = 0; k < 200; ++k) ASSERT_EQ(be().exchange(on, in), Health::ok);
   EXPECT_NE(travel(start, in, 0), 0.0);
   EXPECT_NE(travel(start, in, 1), 0.0);
+}
+
+// The timing rule: the outputs of an exchange take effect at the start of its period, after the
+// drive's declared command latency, and the inputs it returns are as old as the declared
+// reading latency. So a move commanded at exchange 0 shows in the feedback that exchange
+// (command + reading latency) returns at the soonest, and soon after that: no backend may
+// show it early (outputs applied before their period, feedback fresher than declared) nor
+// hold it back.
+TEST_P(BackendContract, ACommandShowsInTheFeedbackAfterTheDeclaredLatenciesAndNoSooner) {
+  Inputs in;
+  Outputs still = moving();
+  still.dac_code = {0, 0};
+  for (int k = 0; k < 50; ++k) ASSERT_EQ(be().exchange(still, in), Health::ok);
+  const Inputs rest = in;
+  for (int k = 0; k < 20; ++k) ASSERT_EQ(be().exchange(still, in), Health::ok);
+  ASSERT_EQ(travel(rest, in, 0), 0.0) << "the machine must stand still at rest for this test";
+  Outputs go = moving();
+  if (be().command_kind() == CommandKind::position) go.position_command_mm = {500.2, 499.8};
+  std::array<int, kAxes> first{-1, -1};
+  for (int k = 0; k < 200 && (first[0] < 0 || first[1] < 0); ++k) {
+    ASSERT_EQ(be().exchange(go, in), Health::ok);
+    for (int i = 0; i < kAxes; ++i)
+      if (first[i] < 0 && travel(rest, in, i) != 0.0) first[i] = k;
+  }
+  for (int i = 0; i < kAxes; ++i) {
+    const AxisSignals s = be().axis_signals(i);
+    const int latency = s.command_latency_ticks + s.reading_latency_ticks;
+    EXPECT_GE(first[i], latency) << "axis " << i << ": the move showed before the declared latencies";
+    // A counter shows the move once the axis has crossed a count: at 20 mm/s through the
+    // drive's lag, a few periods.
+    EXPECT_LE(first[i], latency + 20) << "axis " << i;
+  }
 }
 
 TEST_P(BackendContract, WatchdogStopsTheMachineWhenExchangesStop) {

@@ -24,8 +24,10 @@ class IdealBackendBase : public hardware::Backend {
   int watchdog_periods() const override { return 20; }
   hardware::AxisSignals axis_signals(int a) const override {
     const auto& p = m_.axes[a].plant;
-    return {p.mm_per_count(), p.counter_bits, p.dac_bits, p.dac_full_scale_mm_per_s(), p.command_latency_ticks,
-            p.reading_latency_ticks};
+    // The machine's signals, without its latencies: an ideal drive acts in the period it is
+    // commanded and its feedback is of that period (the contract suite checks that what a
+    // backend declares is what it does).
+    return {p.mm_per_count(), p.counter_bits, p.dac_bits, p.dac_full_scale_mm_per_s(), 0, 0};
   }
   hardware::Inputs initial_inputs() override {
     fill(in_);
