@@ -149,7 +149,8 @@ motion::RunOptions run_options(const RunArgs& a) {
     }
   }
   so.store_path = a.db;
-  if (!a.kerf.empty()) o.kerf_mm = number_of("--kerf", a.kerf);
+  if (a.kerf == "material") o.kerf_from_materials = true;
+  else if (!a.kerf.empty()) o.kerf_mm = number_of("--kerf", a.kerf);
   o.materials_path = a.materials;
   o.default_material = a.material;
   if (!a.feed.empty()) {
@@ -267,7 +268,9 @@ void add_run(CLI::App& app) {
   cmd->add_option("--db", a->db,
                   "calibration store for --calibration active and --controller tuned (default "
                   "$XDG_DATA_HOME/machplan/calibration.db)");
-  cmd->add_option("--kerf", a->kerf, "kerf width, mm: closed cuts are offset by half of it (default 0: as programmed)");
+  cmd->add_option("--kerf", a->kerf,
+                  "kerf width, mm: closed cuts are offset by half of it (default 0: as programmed); 'material': each "
+                  "cut's material's KERF_WIDTH");
   cmd->add_option("--feed", a->feed, "run every feed move at this speed, mm/s, instead of its F (the paper: 4)");
   cmd->add_option("--materials", a->materials,
                   "QtPlasmaC material file ([MATERIAL_NUMBER_n] sections, mm) the program's M190 Pn select from");

@@ -13,8 +13,14 @@ nlohmann::json to_json(const motion::RunOutcome& run) {
   const double mt = run.result.max_true_contour_error_mm();
   j["controller"] = run.controller;
   j["summary"] = {{"status", to_string(run.summary.status)}, {"message", run.summary.message}, {"brief", run.summary.brief}};
-  j["max_contour_error_mm"] = run.result.max_contour_error_mm();
-  j["rms_contour_error_mm"] = run.rms_contour_error_mm;
+  // No cut sample (a run that faulted before its first cut, a program without cuts): no figure
+  // that could read as a measured zero. A run that faulted later gives the figures of what ran
+  // up to the fault, beside its faulted status.
+  std::size_t cut_samples = 0;
+  for (const executor::CutError& c : run.result.cuts) cut_samples += c.samples;
+  const auto measured = [&](double v) { return cut_samples == 0 ? nlohmann::json(nullptr) : nlohmann::json(v); };
+  j["max_contour_error_mm"] = measured(run.result.max_contour_error_mm());
+  j["rms_contour_error_mm"] = measured(run.rms_contour_error_mm);
   j["max_true_contour_error_mm"] = std::isnan(mt) ? nlohmann::json(nullptr) : nlohmann::json(mt);
   j["rms_true_contour_error_mm"] = run.rms_true_contour_error_mm;
   j["lower_bound_s"] = run.lower_bound_s;
@@ -79,6 +85,7 @@ nlohmann::json to_json(const motion::RunOutcome& run) {
     for (const KerfIssue& i : run.kerf->issues)
       issues.push_back({{"kind", to_string(i.kind)}, {"source_line", i.source_line}, {"message", i.message}});
     j["kerf"] = {{"width_mm", run.kerf->kerf_width_mm},
+                 {"from_materials", run.kerf->kerf_from_materials},
                  {"loops", run.kerf->loops.size()},
                  {"compensated", run.kerf->compensated_count()},
                  {"issues", issues}};

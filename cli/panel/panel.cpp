@@ -138,12 +138,19 @@ std::string Panel::clean(const std::string& text) const {
 
 // ---- jobs -------------------------------------------------------------------------------------
 
+motion::RunOptions Panel::job_options(const std::optional<Eigen::Vector2d>& origin_mm, const std::string& materials_path,
+                                      int material) const {
+  motion::RunOptions options = o_.run;
+  options.origin_mm = origin_mm;
+  options.materials_path = materials_path;
+  options.default_material = material;  // plan_program validates the whole
+  return options;
+}
+
 json Panel::load_job(const JobRequest& request) {
   if (activity_.load() != Activity::idle) throw Busy("the machine is busy: stop what runs before loading a job");
   std::unique_lock<std::mutex> planning(plan_mutex_, std::try_to_lock);
   if (!planning.owns_lock()) throw Busy("another job is being planned");
-  if (request.has_material)
-    throw InputError::field("material", "materials are not available on this machine yet (the machine file's cut data is used)");
   if (request.program.empty()) throw InputError::field("program", "is empty: give a path or the program's text");
   if (request.origin_mm && !(request.origin_mm->allFinite() && request.origin_mm->cwiseAbs().maxCoeff() <= 1e6))
     throw InputError::field("origin", "must be two finite numbers within 1e6 mm");
@@ -154,8 +161,14 @@ json Panel::load_job(const JobRequest& request) {
     out << request.program;
     if (!out) throw InputError(path, 0, "cannot store the uploaded program");
   }
-  motion::RunOptions options = o_.run;
-  options.origin_mm = request.origin_mm;
+  std::string materials = request.materials;
+  if (materials.find('\n') != std::string::npos) {  // the file's text
+    materials = tmp_dir_ + "/materials.cfg";
+    std::ofstream out(materials, std::ios::binary | std::ios::trunc);
+    out << request.materials;
+    if (!out) throw InputError(materials, 0, "cannot store the uploaded material file");
+  }
+  const motion::RunOptions options = job_options(request.origin_mm, materials, request.material);
   Termination t;
   {
     const std::lock_guard<std::mutex> lock(stop_mutex_);
@@ -198,6 +211,7 @@ json Panel::load_job(const JobRequest& request) {
   job_path_ = path;
   job_request_ = request;
   job_request_.program.clear();  // the text is in the file now
+  job_request_.materials = materials;
   plan_ = std::move(plan);
   return summary;
 }
@@ -488,8 +502,7 @@ void Panel::run_job(std::optional<int> from_line) {
     last_fault_json_ = json::array();
     last_end_ = "running";
   }
-  motion::RunOptions options = o_.run;
-  options.origin_mm = request.origin_mm;
+  const motion::RunOptions options = job_options(request.origin_mm, request.materials, request.material);
   if (!plan) {
     // Again (a job runs more than once), or from a line.
     planning_ = true;

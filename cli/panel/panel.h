@@ -84,7 +84,11 @@ struct JobRequest {
   std::string program;       // a path, or the program's text (it has a newline)
   std::string name;          // the text's file name, for messages ("upload.ngc" when empty)
   std::optional<Eigen::Vector2d> origin_mm;
-  bool has_material = false; // a material (file or number) was asked for
+  // A QtPlasmaC material file: a path, or the file's text (it has a newline), as `run
+  // --materials`; empty for none. `material`: the number in force when the program selects
+  // none (`run --material`), -1 for the machine file's cut data.
+  std::string materials;
+  int material = -1;
 };
 
 // POST /api/guard: a hybrid session from the panel.
@@ -167,6 +171,9 @@ class Panel {
   void press(bool hardware::OperatorInputs::*button);
   void publish_inputs();  // op_ to the channel; under op_mutex_
   void set_command(Command c);
+  // The run's options for a job: the panel's, with the job's origin and materials.
+  motion::RunOptions job_options(const std::optional<Eigen::Vector2d>& origin_mm, const std::string& materials_path,
+                                 int material) const;
 
   PanelOptions o_;
   std::unique_ptr<session::MachineSession> session_;

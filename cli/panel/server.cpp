@@ -352,8 +352,13 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
         throw InputError::field("origin", "must be [x, y] in mm");
       r.origin_mm = Eigen::Vector2d(o[0].get<double>(), o[1].get<double>());
     }
-    r.has_material = (body.contains("material") && !body.at("material").is_null()) ||
-                     (body.contains("materials") && !body.at("materials").is_null());
+    if (body.contains("materials") && !body.at("materials").is_null()) r.materials = body.at("materials").get<std::string>();
+    if (body.contains("material") && !body.at("material").is_null()) {
+      if (!body.at("material").is_number_integer()) throw InputError::field("material", "must be a whole number");
+      const long long v = body.at("material").get<long long>();
+      if (v < 0 || v > 999999) throw InputError::field("material", fmt::format("{} is not a material number", v));
+      r.material = static_cast<int>(v);
+    }
     return ok(panel.load_job(r));
   }
   if (path == "/run") {

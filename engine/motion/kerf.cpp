@@ -376,6 +376,22 @@ KerfLoop compensate_loop(const Found& f, int depth, double half, const std::vect
   return info;
 }
 
+// The kerf each stretch is cut with: its material's (the material of the torch_on before it),
+// where KerfOptions::kerf_from_materials asks for it and the material gives one, else `width`.
+std::vector<double> kerf_of_stretches(const Job& job, double width, const KerfOptions& options) {
+  std::vector<double> kerf(job.stretches.size(), width);
+  if (!options.kerf_from_materials) return kerf;
+  int material = -1;
+  for (const Step& st : job.steps) {
+    if (st.kind == Step::Kind::torch_on) material = st.material;
+    if (st.kind != Step::Kind::move || st.stretch >= kerf.size()) continue;
+    if (material >= 0 && static_cast<std::size_t>(material) < job.materials.size() &&
+        job.materials[static_cast<std::size_t>(material)].kerf_mm > 0.0)
+      kerf[st.stretch] = job.materials[static_cast<std::size_t>(material)].kerf_mm;
+  }
+  return kerf;
+}
+
 }  // namespace
 
 void KerfOptions::validate() const {
@@ -407,9 +423,12 @@ std::string KerfReport::brief(const std::string& source) const {
   std::size_t parts = 0, holes = 0;
   for (const auto& l : loops)
     if (l.compensated) (l.depth % 2 == 0 ? parts : holes)++;
-  std::string s = fmt::format("kerf {:.3f} mm: {} of {} closed cuts compensated ({} part boundaries grown, {} holes "
+  const std::string width = !kerf_from_materials ? fmt::format("kerf {:.3f} mm", kerf_width_mm)
+                            : kerf_width_mm > 0 ? fmt::format("kerf of each cut's material (else {:.3f} mm)", kerf_width_mm)
+                                                : std::string("kerf of each cut's material");
+  std::string s = fmt::format("{}: {} of {} closed cuts compensated ({} part boundaries grown, {} holes "
                               "shrunk), {} issue(s)\n",
-                              kerf_width_mm, compensated_count(), loops.size(), parts, holes, issues.size());
+                              width, compensated_count(), loops.size(), parts, holes, issues.size());
   for (const auto& i : issues) {
     const std::string where = source.empty() ? "line" : source;
     s += i.source_line > 0 ? fmt::format("{}:{}: ", where, i.source_line) : (source.empty() ? "" : source + ": ");
@@ -424,14 +443,21 @@ KerfReport apply_kerf(Job& job, double kerf_width_mm, const KerfOptions& options
     throw InputError::field("kerf_width_mm", fmt::format("is {}, must be finite, >= 0 and <= 100 mm", kerf_width_mm));
   KerfReport report;
   report.kerf_width_mm = kerf_width_mm;
-  if (kerf_width_mm == 0.0) return report;
+  report.kerf_from_materials = options.kerf_from_materials;
+  const std::vector<double> kerf = kerf_of_stretches(job, kerf_width_mm, options);
+  if (std::none_of(kerf.begin(), kerf.end(), [](double k) { return k > 0.0; })) return report;
   const std::vector<Found> found = find_loops(job, options, report);                  // 1.
   const std::vector<int> depth = nesting_depths(found, options.closure_tolerance_mm);  // 2.
   const MoveOrder order(job);
   std::vector<Stretch> out = job.stretches;
-  for (std::size_t fi = 0; fi < found.size(); ++fi)                                    // 3. to 5.
-    report.loops.push_back(
-        compensate_loop(found[fi], depth[fi], 0.5 * kerf_width_mm, job.stretches, out, order, options, report));
+  for (std::size_t fi = 0; fi < found.size(); ++fi) {                                 // 3. to 5.
+    const double k = kerf[found[fi].stretch];
+    if (k > 0.0) {
+      report.loops.push_back(compensate_loop(found[fi], depth[fi], 0.5 * k, job.stretches, out, order, options, report));
+    } else {  // no kerf for this cut: as programmed
+      report.loops.push_back({found[fi].stretch, depth[fi], 0.0, false, line_of(job.stretches[found[fi].stretch], found[fi].loop.a)});
+    }
+  }
   job.stretches = std::move(out);
   return report;
 }

@@ -58,6 +58,10 @@ struct KerfOptions {
   // loop; also how near an overcut segment must stay to the loop to count as overcut.
   // Programs written to 3 decimals close to about 1e-3 mm. Must be finite, > 0 and <= 1.
   double closure_tolerance_mm = 1e-3;
+  // Each closed cut by the kerf of its material (Job::materials[Step::material].kerf_mm, a
+  // QtPlasmaC material's KERF_WIDTH) where its material gives one; cuts with none use the
+  // kerf_width_mm passed to apply_kerf (0: left as programmed).
+  bool kerf_from_materials = false;
   // Tolerances of the geometric offset.
   OffsetOptions offset;
 
@@ -92,7 +96,8 @@ struct KerfLoop {
 };
 
 struct KerfReport {
-  double kerf_width_mm = 0.0;
+  double kerf_width_mm = 0.0;       // the width given (cuts without a material kerf)
+  bool kerf_from_materials = false; // each cut's material's kerf where it has one
   std::vector<KerfLoop> loops;
   std::vector<KerfIssue> issues;
 
@@ -102,7 +107,8 @@ struct KerfReport {
 };
 
 // Compensates every closed cut of `job` for a kerf of `kerf_width_mm` (see the file
-// comment); 0 leaves the job unchanged. Throws InputError when the width is not finite,
+// comment), or of its material's kerf (KerfOptions::kerf_from_materials); 0 without materials
+// leaves the job unchanged. Throws InputError when the width is not finite,
 // negative or over 100 mm, when the options are invalid, and when a closed cut crosses itself
 // ("SOURCE:LINE: ..." naming its first line), since its offset is not defined. On a throw the
 // job is unchanged.

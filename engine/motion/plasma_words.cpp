@@ -54,7 +54,11 @@ const CutParameters* PlasmaWords::in_force() const {
 }
 
 void PlasmaWords::select(int number, int line) {
-  if (number == -1) {
+  // -1 (QtPlasmaC's "no material change") and 0, QtPlasmaC's default material (kept in its
+  // settings, not in the material file), are the material in force when the program selects
+  // none, unless the file or the program defines a material 0 of its own.
+  const bool own_zero = edited_.count(0) || (options_.materials && options_.materials->find(0));
+  if (number == -1 || (number == 0 && !own_zero)) {
     if (options_.default_material >= 0) select(options_.default_material, line);
     else current_ = -1;
     return;

@@ -2,7 +2,9 @@
 // through a program's events as its moves are walked:
 //
 //   * Materials: M190 Pn selects material n of the material file (JobOptions::materials),
-//     P-1 the default (JobOptions::default_material, else the machine's settings); the M66
+//     P-1 and P0 the default (JobOptions::default_material, else the machine's settings:
+//     QtPlasmaC's material 0 lives in its settings, not in the file; a material 0 the file or
+//     the program defines is taken as it is); the M66
 //     that waits for the change (M66 P3 L3 Q1) is its confirmation and takes no time here.
 //     A material comment "(o=0, ...)" makes a temporary material and selects it; "(o=1, nu=n,
 //     ...)" adds material n unless the file has it, "(o=2, nu=n, ...)" adds or replaces it,

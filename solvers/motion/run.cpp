@@ -372,7 +372,10 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
                                   c.number == 0 ? "(temporary)" : std::to_string(c.number),
                                   c.name.empty() ? "" : fmt::format(" '{}'", excerpt(c.name, 40)), c.cut_feed_mm_per_s * 60.0,
                                   c.pierce_height_mm, c.pierce_delay_s, c.cut_height_mm, c.kerf_mm,
-                                  options.kerf_mm > 0 ? "" : " (not compensated: kerf_mm is 0)", c.thc ? "on" : "off"));
+                                  options.kerf_from_materials ? " (compensated)"
+                                  : options.kerf_mm > 0       ? fmt::format(" (cuts compensated by {:.2f} mm)", options.kerf_mm)
+                                                              : " (not compensated: kerf_mm is 0)",
+                                  c.thc ? "on" : "off"));
   o.cut_order = std::move(ordered.report);
   return o;
 }
@@ -388,7 +391,11 @@ PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::Ma
   set_feeds(o.programmed, options);
   o.job = o.programmed;
 
-  if (options.kerf_mm > 0) o.kerf = apply_kerf(o.job, options.kerf_mm);
+  if (options.kerf_mm > 0 || options.kerf_from_materials) {
+    KerfOptions ko;
+    ko.kerf_from_materials = options.kerf_from_materials;
+    o.kerf = apply_kerf(o.job, options.kerf_mm, ko);
+  }
   if (options.from_line > 0) {
     LineStart start;
     o.job = start_at_line(o.job, options.from_line, o.machine.limits.rapid_mm_per_s, start);

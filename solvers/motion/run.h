@@ -7,7 +7,7 @@
 //       --make_job--> Job (QtPlasmaC's words: materials, THC switches, velocity, hole rules,
 //                      pierce only: engine/motion/plasma_words.h; F#<_hal[plasmac.cut-feed-rate]>
 //                      is the material's CUT_SPEED, else the machine file's value of it)
-//       --apply_kerf (when kerf_mm > 0)--> closed cuts moved by half the kerf
+//       --apply_kerf (when kerf_mm > 0, or by materials)--> closed cuts moved by half the kerf
 //       --plan_rapids--> rapids routed round the declared no-go zones and the parts cut so far
 //       --plan_stretch, one per move step--> Trajectories (planned mode)   = PlannedRun
 //   execute: the PlannedRun on a machine session (solvers/session/machine_session.h: the
@@ -85,6 +85,9 @@ struct RunOptions {
   session::MachineSessionOptions session;
   // Kerf width, mm; 0 leaves the program as written. At most 100 mm.
   double kerf_mm = 0.0;
+  // Each closed cut by its material's kerf (a QtPlasmaC material's KERF_WIDTH) where it has
+  // one; cuts without one use kerf_mm (KerfOptions::kerf_from_materials).
+  bool kerf_from_materials = false;
   // YAML file of declared no-go zones (engine/programs/zones.h); empty for none.
   std::string no_go_path;
   // Also keep rapids away from every closed contour cut before them (parts that may tip up).
@@ -155,7 +158,7 @@ struct PlannedRun {
   PlannerOptions planner;
   Job programmed;                    // after make_job (before kerf and rapid planning)
   Job job;                           // what runs: after kerf and rapid planning
-  std::optional<KerfReport> kerf;    // when kerf_mm > 0
+  std::optional<KerfReport> kerf;    // when kerf_mm > 0 or kerf_from_materials
   RapidsReport rapids;
   std::vector<NoGoZone> declared_zones;
   std::vector<Contour> cut_zones;    // the closed cuts, as plan_rapids saw them

@@ -51,6 +51,29 @@ TEST(MaterialsCli, CutsRunWithTheirMaterials) {
   EXPECT_THAT(text.out, HasSubstr("kerf 2.00 mm"));
 }
 
+// --kerf material: each closed cut by its material's KERF_WIDTH.
+TEST(MaterialsCli, KerfMaterialCompensatesEachCutByItsMaterialsKerf) {
+  test::Cli cli;
+  const std::string mats = cli.write("mats.cfg", kMaterials);
+  // A 40 mm square in material 2 (kerf 2) and one in material 1 (kerf 1).
+  const std::string prog = cli.write("squares.ngc",
+                                     "G21 G90\nF#<_hal[plasmac.cut-feed-rate]>\n"
+                                     "M190 P2\nG0 X0 Y0\nM3 $0 S1\nG1 X40\nG1 Y40\nG1 X0\nG1 Y0\nM5 $0\n"
+                                     "M190 P1\nG0 X60 Y0\nM3 $0 S1\nG1 X100\nG1 Y40\nG1 X60\nG1 Y0\nM5 $0\nM2\n");
+  const test::CliResult r = cli.run("run '" + prog + "' --machine thermal_gantry --materials '" + mats +
+                                    "' --origin 100,100 --kerf material --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["kerf"]["from_materials"], true);
+  EXPECT_EQ(j["kerf"]["compensated"], 2);
+  // The report says which kerf each material cut with (the offsets per cut: tests/motion/kerf_test.cpp).
+  const test::CliResult text = cli.run("run '" + prog + "' --machine thermal_gantry --materials '" + mats +
+                                       "' --origin 100,100 --kerf material");
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr("kerf of each cut's material: 2 of 2 closed cuts compensated"));
+  EXPECT_THAT(text.out, HasSubstr("kerf 2.00 mm (compensated)"));
+}
+
 TEST(MaterialsCli, BadFilesAndFlagsExitTwoNamingWhere) {
   test::Cli cli;
   const std::string prog = cli.write("parts.ngc", kProgram);

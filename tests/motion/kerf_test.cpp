@@ -6,6 +6,7 @@
 #include "engine/motion/kerf.h"
 
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <random>
 #include <string>
@@ -163,6 +164,38 @@ TEST(Kerf, PlateGrowsHoleShrinksWhateverTheDirection) {
       EXPECT_EQ(job.steps.size(), before.steps.size());
       EXPECT_EQ(job.stretches[2].segments.back().end, before.stretches[2].segments.back().end);
     }
+}
+
+// With kerf_from_materials each closed cut takes its material's kerf (the torch_on before it),
+// a cut whose material gives none the width passed (0: as programmed).
+TEST(Kerf, EachCutTakesItsMaterialsKerf) {
+  Job job = plate_job(true, true);  // stretch 1 the hole, 3 the plate
+  job.materials.resize(2);
+  job.materials[0].kerf_mm = 3.0;
+  job.materials[1].kerf_mm = 0.0;  // no KERF_WIDTH in the file
+  int torch_ons = 0;
+  for (Step& st : job.steps)
+    if (st.kind == Step::Kind::torch_on) st.material = torch_ons++ == 0 ? 0 : 1;
+  ASSERT_EQ(torch_ons, 2);
+  KerfOptions o;
+  o.kerf_from_materials = true;
+  const auto offsets = [](const KerfReport& r) {
+    std::map<std::size_t, double> m;
+    for (const auto& l : r.loops) m[l.stretch] = l.compensated ? l.offset_mm : 0.0;
+    return m;
+  };
+  Job a = job;
+  const KerfReport none = apply_kerf(a, 0.0, o);  // the plate's material has no kerf: as programmed
+  EXPECT_EQ(offsets(none), (std::map<std::size_t, double>{{1, -1.5}, {3, 0.0}})) << none.brief();
+  EXPECT_TRUE(none.kerf_from_materials);
+  EXPECT_NE(none.brief().find("kerf of each cut's material"), std::string::npos) << none.brief();
+  Job b = job;
+  const KerfReport fallback = apply_kerf(b, 1.0, o);  // ... or by the width given
+  EXPECT_EQ(offsets(fallback), (std::map<std::size_t, double>{{1, -1.5}, {3, 0.5}})) << fallback.brief();
+  expect_continuous(b);
+  Job c = job;
+  const KerfReport plain = apply_kerf(c, 1.0);  // materials ignored unless asked for
+  EXPECT_EQ(offsets(plain), (std::map<std::size_t, double>{{1, -0.5}, {3, 0.5}})) << plain.brief();
 }
 
 TEST(Kerf, NestingDecidesTheSide) {

@@ -159,7 +159,9 @@ TEST(PanelApi, BadRequestsGet4xxWithAMessageAndChangeNothing) {
   bad("/api/job", json{{"program", "G21 G90\nG1 X10 Y10 F100\nG1 XA10\nM2\n"}, {"name", "part.ngc"}}.dump(), 400, "part.ngc:3");
   bad("/api/job", json{{"program", kTriangle}, {"origin", {1}}}.dump(), 400, "origin");
   bad("/api/job", json{{"program", kTriangle}, {"origin", {"a", 2}}}.dump(), 400, "origin");
-  bad("/api/job", json{{"program", kTriangle}, {"material", 3}}.dump(), 400, "material");
+  bad("/api/job", json{{"program", kTriangle}, {"material", 3}}.dump(), 400, "no material file is given");
+  bad("/api/job", json{{"program", kTriangle}, {"material", 1.5}}.dump(), 400, "whole number");
+  bad("/api/job", json{{"program", kTriangle}, {"materials", 4}}.dump(), 400, "wrong type");
   bad("/api/job", json{{"program", kTriangle}, {"origin", {1e9, 0}}}.dump(), 400, "origin");
   bad("/api/override", "{\"feed\": 250}", 400, "0 .. 200");
   bad("/api/override", "{\"rapid\": 0}", 400, "1 .. 100");
@@ -417,6 +419,42 @@ TEST(PanelApi, RunFromALineRunsTheTailOfTheJob) {
   EXPECT_EQ(r["status"], "completed") << r.dump();
   ASSERT_EQ(r["cuts"].size(), 1u);
   EXPECT_EQ(r["cuts"][0]["source_line"], 11) << "the cut starts at the line asked for";
+}
+
+// A job takes a QtPlasmaC material file (a path, or its text from the page) and the material in
+// force, as `run --materials --material`; the run's cuts are cut in it, and a bad file is
+// answered with 400 naming its line.
+TEST(PanelApi, AJobTakesAMaterialFileAndTheMaterialInForce) {
+  PanelRig rig(0);
+  rig.take_control();
+  const std::string text = "[MATERIAL_NUMBER_7]\nNAME = Thin\nKERF_WIDTH = 1.1\nPIERCE_HEIGHT = 3\nPIERCE_DELAY = 0.1\n"
+                           "CUT_HEIGHT = 1\nCUT_SPEED = 2100\n";
+  const HttpResponse bad = rig.post("/api/job", {{"program", kTriangle}, {"materials", "[MATERIAL_NUMBER_7]\nCUT_SPEED = x\n"}});
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_NE(bad.body.find("materials.cfg:2"), std::string::npos) << bad.body;
+  const HttpResponse missing = rig.post("/api/job", {{"program", kTriangle}, {"materials", text}, {"material", 3}});
+  EXPECT_EQ(missing.status, 400);
+  EXPECT_NE(missing.body.find("material 3 is not in"), std::string::npos) << missing.body;
+  rig.load({{"program", kTriangle}, {"materials", text}, {"material", 7}});
+  ASSERT_EQ(rig.post("/api/run", json::object()).status, 200);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 1; }));
+  const json r = json::parse(rig.get("/api/report").body);
+  EXPECT_EQ(r["status"], "completed") << r.dump();
+  ASSERT_EQ(r["materials"].size(), 1u) << r.dump();
+  EXPECT_EQ(r["materials"][0]["number"], 7);
+  EXPECT_DOUBLE_EQ(r["materials"][0]["cut_feed_mm_per_min"].get<double>(), 2100.0);
+  ASSERT_GT(r["cuts"].size(), 0u);
+  for (const json& cut : r["cuts"]) EXPECT_EQ(cut["material"], 0) << cut.dump();
+  // The bundled file by path; the same run again uses it too.
+  rig.load({{"program", kTriangle}, {"materials", "datasets/materials/thermal_gantry_material.cfg"}, {"material", 2}});
+  ASSERT_EQ(rig.post("/api/run", json::object()).status, 200);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 2; }));
+  ASSERT_EQ(rig.post("/api/run", json::object()).status, 200);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 3; }));
+  const json again = json::parse(rig.get("/api/report").body);
+  EXPECT_EQ(again["status"], "completed") << again.dump();
+  ASSERT_EQ(again["materials"].size(), 1u) << again.dump();
+  EXPECT_EQ(again["materials"][0]["number"], 2);
 }
 
 TEST(PanelApi, AHybridSessionIsSteeredFromThePanelAndFinishes) {
