@@ -1060,7 +1060,7 @@ class Assembler {
       std::optional<Contour> c;
       try {
         c = Contour(pc.v, pc.b);
-      } catch (const std::invalid_argument&) {
+      } catch (const InputError&) {  // no contour (a degenerate chain): nothing to compare it with
       }
       boxes.push_back(c ? bounding_box(*c) : Eigen::AlignedBox2d());
       cs.push_back(std::move(c));

@@ -50,6 +50,10 @@ Comparison compare(const Evaluation& baseline, const Evaluation& tuned) {
       c.faulted.push_back(fmt::format("{}: {}", b.contour, b.faulted ? b.fault : "no samples"));
       continue;
     }
+    if (t.faulted || t.samples == 0) {  // the tuned gains did not complete it: nothing to compare
+      c.faulted.push_back(fmt::format("{}: tuned gains {}", t.contour, t.faulted ? "faulted: " + t.fault : "gave no samples"));
+      continue;
+    }
     c.contours.push_back(b.contour);
     c.baseline_max_mm = std::max(c.baseline_max_mm, b.max_mm);
     c.tuned_max_mm = std::max(c.tuned_max_mm, t.max_mm);
@@ -230,14 +234,15 @@ std::string TuneResult::report() const {
   s += line("tuned", tuned);
   const auto improvement_text = [](const Comparison& c) {
     std::string t;
-    if (!c.faulted.empty()) t += fmt::format(" (left out, the baseline faulted: {})", fmt::join(c.faulted, "; "));
+    if (!c.faulted.empty()) t += fmt::format(" (left out, a run did not complete: {})", fmt::join(c.faulted, "; "));
     return t;
   };
   if (improvement.any() && improvement.tuned_max_mm > 0)
     s += fmt::format("  improvement on the baseline: max {:.2f}x, rms {:.2f}x{}\n", improvement.max_ratio(),
                      improvement.rms_ratio(), improvement_text(improvement));
   else if (!improvement.any())
-    s += fmt::format("  no improvement figure: the baseline completed none of the contours{}\n", improvement_text(improvement));
+    s += fmt::format("  no improvement figure: baseline and tuned gains completed none of the contours together{}\n",
+                     improvement_text(improvement));
   if (fresh_seed > 0 && fresh_improvement.any() && fresh_improvement.tuned_max_mm > 0) {
     s += fmt::format("  under noise it was not tuned on (seeds from {}): baseline max {:.4f} mm, tuned max {:.4f} mm: "
                      "max {:.2f}x, rms {:.2f}x{}\n",

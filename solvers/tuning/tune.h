@@ -73,8 +73,8 @@ inline constexpr double kWorkPerMachineSecond = 2.5e-3;
 // ran to their end without a fault. A baseline that faulted on a contour (its first long
 // rapid beyond the following-error limit, say) has no contour error there to compare with.
 struct Comparison {
-  std::vector<std::string> contours;   // compared: the baseline completed them
-  std::vector<std::string> faulted;    // left out: the baseline faulted on them (with why)
+  std::vector<std::string> contours;   // compared: the baseline and the tuned gains completed them
+  std::vector<std::string> faulted;    // left out: the baseline or the tuned gains faulted on them (with why)
   double baseline_max_mm = 0.0, tuned_max_mm = 0.0, baseline_rms_mm = 0.0, tuned_rms_mm = 0.0;
   bool any() const { return !contours.empty(); }
   double max_ratio() const { return tuned_max_mm > 0 ? baseline_max_mm / tuned_max_mm : 0.0; }
