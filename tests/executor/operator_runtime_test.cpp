@@ -2,6 +2,8 @@
 // overrides, the operator's stop, run from line, and a spindle machine.
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <random>
 #include <string>
@@ -269,6 +271,44 @@ TEST(Spindle, TheMillingProgramRunsOnTheXyTableAndItsSpindleTurnsThroughAHold) {
     if (s.t_s > 10.5 && s.t_s < 10.9) turning_while_held = s.torch_fire;
   EXPECT_TRUE(turning_while_held);
   EXPECT_NE(r.summary.full_report().find("spindle on"), std::string::npos);
+}
+
+// An oxy-fuel torch held mid-cut: the cutting oxygen goes off before the axes rest, the preheat
+// flame burns on, so the resume re-pierces with the cutting oxygen's pierce delay alone, not a
+// second preheat.
+TEST(FeedHold, AnOxyFuelTorchKeepsItsPreheatFlameThroughAHold) {
+  test::TempDir dir;
+  std::ifstream in(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string plasma = "kind: plasma";
+  ASSERT_NE(text.find(plasma), std::string::npos);
+  text.replace(text.find(plasma), plasma.size(), "kind: oxy_fuel");
+  const std::string machine = dir.write("oxy_gantry.yaml", text);
+  const std::string prog = dir.write("long_cut.ngc", kLongCut);
+  const RunOutcome plain = run_with_events(prog, "", machine);
+  ASSERT_TRUE(plain.summary.done()) << plain.summary.full_report();
+  const double preheat = plain.machine.torch.oxy_fuel.preheat_s, pierce = plain.machine.torch.oxy_fuel.pierce_delay_s;
+  ASSERT_GT(preheat, 3 * pierce);  // so that a second preheat would show
+  // Held halfway along the 500 mm cut (the torch cutting at x = 350 mm).
+  double t_hold = -1.0;
+  for (const TraceSample& t : plain.result.trace)
+    if (t.torch_fire && t.measured_mm.x() > 350.0) {
+      t_hold = t.t_s;
+      break;
+    }
+  ASSERT_GT(t_hold, preheat);
+  const RunOutcome held =
+      run_with_events(prog, fmt::format("t_s,event,value\n{:.3f},hold,\n{:.3f},start,\n", t_hold, t_hold + 1.0), machine);
+  ASSERT_TRUE(held.summary.done()) << held.summary.full_report();
+  ASSERT_EQ(held.result.holds.size(), 1u);
+  const HoldReport& h = held.result.holds[0];
+  EXPECT_TRUE(h.in_cut);
+  EXPECT_TRUE(h.torch_off);
+  EXPECT_TRUE(h.torch_off_before_rest);
+  EXPECT_GE(h.repierce_s, pierce - 1e-9);
+  EXPECT_LT(h.repierce_s, pierce + 0.5 * preheat) << "the resume preheated again";
+  // The whole job took the hold, the wait and the re-pierce longer, no second preheat.
+  EXPECT_LT(held.result.cycle_time_s, plain.result.cycle_time_s + 1.0 + pierce + 0.5 * preheat);
 }
 
 TEST(OperatorEventsCli, HoldsAreReportedInJsonAndThePaperModesRefuseThem) {
