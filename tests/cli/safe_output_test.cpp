@@ -222,7 +222,7 @@ TEST(RunLimits, ARunLongerThanTheMachineTimeLimitIsRefusedBeforeItStarts) {
     const auto at = text.find(from);
     return at == std::string::npos ? "<" + from + " not in the machine file>" : text.replace(at, from.size(), to);
   };
-  const std::string crawl = dir.write("crawl.yaml", with("velocity_mm_per_s: 81.8", "velocity_mm_per_s: 0.001"));
+  const std::string crawl = dir.write("crawl.yaml", with("velocity_mm_per_s: 80", "velocity_mm_per_s: 0.001"));
   const std::string sluggish =
       dir.write("sluggish.yaml", with("acceleration_mm_per_s2: 500 ", "acceleration_mm_per_s2: 0.000001 "));
   const std::string triangle = kSource + "/datasets/parts/triangle_45.ngc";  // about 13 s of machine time
