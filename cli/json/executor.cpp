@@ -39,7 +39,9 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
                                            {"active_share", c.thc.active_share},
                                            {"target_v", c.thc.target_v},
                                            {"velocity_lock_height_change_mm", c.thc.velocity_lock_change_mm},
-                                           {"void_lock_height_change_mm", c.thc.void_lock_change_mm}};
+                                           {"void_lock_height_change_mm", c.thc.void_lock_change_mm},
+                                           {"velocity_locked_s", c.thc.velocity_locked_s},
+                                           {"void_locked_s", c.thc.void_locked_s}};
     j["cuts"].push_back(cut);
   }
   j["faults"] = json::array();

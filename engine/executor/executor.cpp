@@ -185,7 +185,7 @@ struct Session::Impl {
   int material = -1;              // index into job.materials (-1: the machine's settings)
   bool thc_fitted = false;        // plasma, a height axis and THC enabled
   struct ThcAcc {
-    std::size_t n = 0, active = 0;
+    std::size_t n = 0, active = 0, velocity_locked = 0, void_locked = 0;
     double max = 0.0, sum2 = 0.0, target_v = 0.0, velocity_change = 0.0, void_change = 0.0;
     int material = -1;
   };
@@ -445,8 +445,8 @@ void Session::Impl::thc_tick() noexcept {
   const bool vl = thc.holding() && thc.velocity_locked(), ol = thc.holding() && thc.void_locked();
   if (vl && !velocity_locked) velocity_lock_h = h;
   if (ol && !void_locked) void_lock_h = h;
-  if (vl) acc.velocity_change = std::max(acc.velocity_change, std::abs(h - velocity_lock_h));
-  if (ol) acc.void_change = std::max(acc.void_change, std::abs(h - void_lock_h));
+  if (vl) acc.velocity_change = std::max(acc.velocity_change, std::abs(h - velocity_lock_h)), ++acc.velocity_locked;
+  if (ol) acc.void_change = std::max(acc.void_change, std::abs(h - void_lock_h)), ++acc.void_locked;
   velocity_locked = vl;
   void_locked = ol;
   double gap = 0.0;
@@ -879,6 +879,8 @@ ExecutionResult Session::Impl::finish() {
       c.thc.target_v = h.target_v;
       c.thc.velocity_lock_change_mm = h.velocity_change;
       c.thc.void_lock_change_mm = h.void_change;
+      c.thc.velocity_locked_s = static_cast<double>(h.velocity_locked) * dt;
+      c.thc.void_locked_s = static_cast<double>(h.void_locked) * dt;
     }
     r.cuts.push_back(c);
   }

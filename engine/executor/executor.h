@@ -189,6 +189,7 @@ struct ThcFigures {
   // Anti-dive: the largest change of the torch height over one velocity lock (corners, small
   // holes) and over one void lock (kerf crossings), mm.
   double velocity_lock_change_mm = 0.0, void_lock_change_mm = 0.0;
+  double velocity_locked_s = 0.0, void_locked_s = 0.0;  // how long each lock held the height
 };
 
 // Contour error of one cutting stretch: distance from the position to the stretch's

@@ -37,7 +37,7 @@ RunOutcome run_on(const std::string& path, const cutting::MachineConfig& m, cons
 }
 
 struct ThcWorst {
-  double max_mm = 0.0, velocity_change_mm = 0.0, void_change_mm = 0.0;
+  double max_mm = 0.0, velocity_change_mm = 0.0, void_change_mm = 0.0, velocity_locked_s = 0.0;
   int cuts = 0;
 };
 ThcWorst worst_thc(const std::vector<CutError>& cuts) {
@@ -48,6 +48,7 @@ ThcWorst worst_thc(const std::vector<CutError>& cuts) {
     w.max_mm = std::max(w.max_mm, c.thc.max_mm);
     w.velocity_change_mm = std::max(w.velocity_change_mm, c.thc.velocity_lock_change_mm);
     w.void_change_mm = std::max(w.void_change_mm, c.thc.void_lock_change_mm);
+    w.velocity_locked_s += c.thc.velocity_locked_s;
   }
   return w;
 }
@@ -59,9 +60,10 @@ TEST(Thc, HoldsTheCutHeightWithinAThirdOfAMillimetreOnASheetWarpedThreeMillimetr
   const ThcWorst w = worst_thc(with.result.cuts);
   ASSERT_GT(w.cuts, 5);
   std::printf("THC on, +-3 mm warp: torch height within %.3f mm of the cut height; height change under velocity "
-              "anti-dive at most %.3f mm\n", w.max_mm, w.velocity_change_mm);
+              "anti-dive at most %.3f mm over %.2f s of velocity lock\n", w.max_mm, w.velocity_change_mm, w.velocity_locked_s);
   EXPECT_LT(w.max_mm, 0.3);
-  EXPECT_LT(w.velocity_change_mm, 0.2);  // no dive at corners and small holes
+  EXPECT_LT(w.velocity_change_mm, 0.2);  // no dive at corners and small holes ...
+  EXPECT_GT(w.velocity_locked_s, 0.1);    // ... where the velocity lock did hold the height
 
   // The operator's THC switch off: the torch rides the warp.
   const RunOutcome without = run_on(part("nested_sheet.ngc"), gantry(), "t_s,event,value\n0,thc,0\n", warp);
@@ -87,10 +89,11 @@ TEST(Thc, DoesNotDiveWhereACutCrossesAnEarlierKerf) {
   ASSERT_EQ(r.result.cuts.size(), 2u);
   const CutError& second = r.result.cuts[1];
   ASSERT_GT(second.thc.samples, 1000u);
-  std::printf("kerf crossing: height change while void-locked %.3f mm, worst height error %.3f mm\n",
-              second.thc.void_lock_change_mm, second.thc.max_mm);
+  std::printf("kerf crossing: height change while void-locked %.3f mm over %.3f s, worst height error %.3f mm\n",
+              second.thc.void_lock_change_mm, second.thc.void_locked_s, second.thc.max_mm);
   EXPECT_GT(second.thc.void_lock_change_mm + second.thc.max_mm, 0.0);  // measured
   EXPECT_LT(second.thc.void_lock_change_mm, 0.2);
+  EXPECT_GT(second.thc.void_locked_s, 0.0);  // the void lock held the height over the kerf
   EXPECT_LT(second.thc.max_mm, 0.3);
 
   // Without the void anti-dive (a threshold no rise reaches) the torch dives over the kerf.
