@@ -6,7 +6,8 @@ What it does, as an operator would, and what it asserts:
   1. the page opened without the token (and with a wrong one) shows the login banner, its
      API calls get 401 and the live stream stays offline;
   2. opened with the printed URL (the token), it logs in, goes live, takes control, loads
-     datasets/parts/triangle_45.ngc through the file picker, runs it: the state goes to
+     datasets/parts/triangle_45.ngc through the file picker with the bundled material file and
+     material 2, runs it: the state goes to
      running and the DRO's position changes; while the torch cuts a screenshot of the page is
      saved (OUT/panel_running.png); Hold brings the state to held and the DRO to rest;
      Resume ends in done, and the report box shows the run (completed, one hold, torch off);
@@ -36,6 +37,7 @@ from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 
 PART = "datasets/parts/triangle_45.ngc"
+MATERIALS = "datasets/materials/thermal_gantry_material.cfg"
 
 
 class Failure(Exception):
@@ -153,6 +155,9 @@ def run_job(d, out_dir, port, token):
     wait_until(lambda: text(d, "control") == "You have control", "control taken")
     # The file picker: the program's text goes up with its name.
     d.find_element(By.ID, "file").send_keys(os.path.abspath(PART))
+    # With a QtPlasmaC material file through its picker, and material 2 in force.
+    d.find_element(By.ID, "materials").send_keys(os.path.abspath(MATERIALS))
+    d.find_element(By.ID, "material").send_keys("2")
     d.find_element(By.ID, "load").click()
     wait_until(lambda: "triangle_45.ngc" in text(d, "job-info"), "the job is loaded and drawn")
     parts = d.execute_script("return view.job ? view.job.parts.length : 0")
@@ -193,6 +198,8 @@ def run_job(d, out_dir, port, token):
     report = json.loads(d.execute_script("return document.getElementById('report-json').textContent"))
     check(report["status"] == "completed" and len(report["holds"]) == 1 and report["holds"][0]["in_cut"],
           "the report's JSON: completed, one hold, in the cut")
+    check([m["number"] for m in report["materials"]] == [2] and all(c["material"] == 0 for c in report["cuts"]),
+          "the report's JSON: every cut in material 2 of the uploaded file")
     d.save_screenshot(os.path.join(out_dir, "panel_done.png"))
     s = server_status(port, token)
     check(s["state"] == "done", "the server agrees: done")

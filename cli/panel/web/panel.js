@@ -350,6 +350,9 @@ function wire() {
     else body.program = $('path').value.trim();
     const x = $('origin-x').value, y = $('origin-y').value;
     if (x !== '' && y !== '') body.origin = [Number(x), Number(y)];
+    const m = $('materials').files[0];
+    if (m) body.materials = await m.text();  // a QtPlasmaC material file, as run --materials
+    if ($('material').value !== '') body.material = parseInt($('material').value, 10);
     const r = await act('POST', '/job', body);
     if (r) { say(`loaded ${r.source}: ${r.steps} steps, about ${fmtTime(r.estimate_s)}`); await loadDrawing(); }
   };
