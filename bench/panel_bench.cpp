@@ -15,10 +15,21 @@
 // The rounds alternate 0 and 50 viewers, so that the load the machine carries from elsewhere
 // falls on both alike. The bench runs the tick on its own thread, as the panel's runner does;
 // the tick publishes its LiveState without a lock and the server's threads only read it.
+//
+// fifo:1 runs the tick's thread SCHED_FIFO (priority 70), as machplan runs the executor's
+// thread on a real machine (the HAL backend, engine/hardware/hal_backend.h); fifo:0 leaves it
+// to the ordinary scheduler. The viewers here are threads of this process on the same two cores
+// (a browser would run on its own machine), so with fifo:0 the tick competes with 50 readers
+// and the server for the CPU: that is the scheduler's doing, not the panel's. The run fails
+// when SCHED_FIFO is not allowed (not root, no CAP_SYS_NICE).
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -61,8 +72,28 @@ struct Crowd {
   }
 };
 
+// The calling thread SCHED_FIFO at `priority` for its lifetime, then as it was.
+class FifoScope {
+ public:
+  explicit FifoScope(int priority) {
+    pthread_getschedparam(pthread_self(), &policy_, &param_);
+    const sched_param p{priority};
+    ok_ = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+  }
+  ~FifoScope() {
+    if (ok_) pthread_setschedparam(pthread_self(), policy_, &param_);
+  }
+  bool ok() const { return ok_; }
+
+ private:
+  int policy_ = SCHED_OTHER;
+  sched_param param_{};
+  bool ok_ = false;
+};
+
 void BM_PanelTick(benchmark::State& state) {
   const int viewers = static_cast<int>(state.range(0));
+  const bool fifo = state.range(2) != 0;
   panel::PanelOptions po;
   po.session.machine = "thermal_gantry";
   po.pace = false;  // this loop paces the ticks, outside them
@@ -84,6 +115,11 @@ void BM_PanelTick(benchmark::State& state) {
     session::MachineSession::RunHooks hooks;
     hooks.expected_s = plan.expected_s();
     const std::unique_ptr<executor::Session> s = panel.session().start(plan.job, plan.trajectories, hooks);
+    std::optional<FifoScope> rt;
+    if (fifo && !rt.emplace(70).ok()) {
+      state.SkipWithError("SCHED_FIFO is not allowed here (run as root, or with CAP_SYS_NICE)");
+      break;
+    }
     auto next = Clock::now();
     for (bool more = true; more;) {
       const auto t0 = Clock::now();
@@ -93,6 +129,7 @@ void BM_PanelTick(benchmark::State& state) {
       next += std::chrono::milliseconds(1);
       std::this_thread::sleep_until(next);
     }
+    rt.reset();
     const executor::ExecutionResult r = s->finish();
     if (!r.faults.empty()) state.SkipWithError(r.faults.front().message.c_str());
     frames_per_viewer = viewers ? static_cast<double>(crowd.frames.load()) / viewers : 0.0;
@@ -101,13 +138,11 @@ void BM_PanelTick(benchmark::State& state) {
   state.counters["frames_per_viewer"] = frames_per_viewer;
 }
 BENCHMARK(BM_PanelTick)
-    ->ArgNames({"viewers", "round"})
-    ->Args({0, 1})
-    ->Args({50, 1})
-    ->Args({0, 2})
-    ->Args({50, 2})
-    ->Args({0, 3})
-    ->Args({50, 3})
+    ->ArgNames({"viewers", "round", "fifo"})
+    ->Apply([](benchmark::internal::Benchmark* b) {  // rounds alternating 0 and 50 viewers, each scheduling
+      for (int fifo : {0, 1})
+        for (int round = 1; round <= 3; ++round) b->Args({0, round, fifo})->Args({50, round, fifo});
+    })
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();
