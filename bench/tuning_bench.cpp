@@ -158,7 +158,7 @@ void report() {
                 k.c_str(), r.optimizer.evaluations, secs, r.optimizer.global.stop_reason.c_str(),
                 r.optimizer.local.stop_reason.c_str(), 1e3 * r.baseline.max_mm, 1e3 * r.tuned.max_mm,
                 ratio(r.baseline.max_mm, r.tuned.max_mm), 1e3 * pc.max_mm, 1e3 * oc.max_mm, ratio(pc.max_mm, oc.max_mm),
-                r.status.c_str(), 100 * r.tuned.overshoot, 100 * r.tuned.margin_residual);
+                to_string(r.summary.status), 100 * r.tuned.overshoot, 100 * r.tuned.margin_residual);
     std::printf("|  | gains: %s |  |  |  |  |  |\n", gains_text(r.gains).c_str());
   }
   // The tuner as `machplan tune` runs it: the drive model's feed-forward as the start, every
@@ -188,7 +188,7 @@ void report() {
     std::printf("\n## CCC with feed-forward tuned on the circle (as `machplan tune --controller ccc --contour %s`)\n\n"
                 "%d evaluations, %.1f s, %s. Over its three noise draws: P %.2f um, tuned %.2f um: %.2fx on the maximum, "
                 "%.2fx on the RMS.\nGains: %s.\n",
-                kCircle, r.optimizer.evaluations, r.optimizer.time_s, r.status.c_str(), 1e3 * r.baseline.max_mm,
+                kCircle, r.optimizer.evaluations, r.optimizer.time_s, to_string(r.summary.status), 1e3 * r.baseline.max_mm,
                 1e3 * r.tuned.max_mm, ratio(r.baseline.max_mm, r.tuned.max_mm), ratio(r.baseline.rms_mm, r.tuned.rms_mm),
                 gains_text(r.gains).c_str());
     fresh_check("The circle", {kCircle}, r.gains);
@@ -207,7 +207,7 @@ void report() {
                 "Tuned on %s, %s, %s and %s, two noise draws each (as `machplan tune --controller ccc --contour ... "
                 "--noise-runs 2`): %d evaluations, %.1f s, %s; tuned maxima %s.\nGains: %s.\n",
                 set[0].c_str(), set[1].c_str(), set[2].c_str(), set[3].c_str(), r.optimizer.evaluations, r.optimizer.time_s,
-                r.status.c_str(), where.c_str(), gains_text(r.gains).c_str());
+                to_string(r.summary.status), where.c_str(), gains_text(r.gains).c_str());
     fresh_check("datasets/programs/tune_corners.ngc (not tuned on)", {corners()}, r.gains);
     fresh_check("datasets/programs/tune_bracket.ngc (not tuned on; written after this set was chosen)", {bracket()}, r.gains);
     fresh_check("The circle, with the same gains", {kCircle}, r.gains);

@@ -35,7 +35,7 @@ using nlohmann::json;
 
 void ServerOptions::validate() const {
   require_field(port >= 0 && port <= 65535, "port", port, "must be in 0 .. 65535");
-  require_field(!bind.empty() && bind.find_first_of(",: \t") == std::string::npos, "bind", "'" + excerpt(bind) + "'",
+  require_field(!bind.empty() && bind.find_first_of(",: \t") == std::string::npos, "bind", fmt::format("'{}'", excerpt(bind)),
                 "is not an IPv4 address or host name");
   require_field(std::isfinite(frame_hz) && frame_hz >= 30 && frame_hz <= 200, "frame_hz", frame_hz, "must be in 30 .. 200");
   require_field(max_viewers >= 1 && max_viewers <= 1000, "max_viewers", max_viewers, "must be in 1 .. 1000");

@@ -58,10 +58,12 @@ std::mutex g_msg_mutex;
 std::string g_msg;
 void keep_message(msg_level_t level, const char* format, va_list ap) {
   if (level > RTAPI_MSG_ERR) return;
-  char buf[512];
-  std::vsnprintf(buf, sizeof buf, format, ap);
+  std::string line(512, '\0');  // a string, not a local array: g++ 12 takes the array for a dangling pointer
+  const int n = std::vsnprintf(line.data(), line.size(), format, ap);
+  if (n <= 0) return;
+  line.resize(std::min(static_cast<std::size_t>(n), line.size() - 1));
   std::lock_guard<std::mutex> lock(g_msg_mutex);
-  if (g_msg.size() < 2000) g_msg += buf;
+  if (g_msg.size() < 2000) g_msg += line;
 }
 std::string take_messages() {
   std::lock_guard<std::mutex> lock(g_msg_mutex);

@@ -30,7 +30,7 @@ class Writer {
 
   std::string run(const std::string& header) {
     std::istringstream lines(header);
-    for (std::string l; std::getline(lines, l);) out_ += "(" + comment_text(l) + ")\n";
+    for (std::string l; std::getline(lines, l);) out_ += fmt::format("({})\n", comment_text(l));
     out_ += "G21 G90 G91.1 G94\n";
     std::size_t e = 0;
     for (std::size_t i = 0; i < p_.moves.size(); ++i) {

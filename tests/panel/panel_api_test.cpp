@@ -263,7 +263,9 @@ TEST(PanelApi, StalledClientsHoldNoOneElseBackAndChangeNothing) {
 }
 
 TEST(PanelApi, TheTriangleRunsHoldsResumesAndReports) {
-  PanelRig rig(8.0);
+  // Twice real time: the cut lasts about 4 s of wall clock, far longer than a status poll takes
+  // on a loaded machine, so the test cannot miss it.
+  PanelRig rig(2.0);
   rig.take_control();
   const json job = rig.load({{"program", kTriangle}});
   EXPECT_EQ(job["source"], kTriangle);
@@ -300,7 +302,9 @@ TEST(PanelApi, TheTriangleRunsHoldsResumesAndReports) {
 }
 
 TEST(PanelApi, TheEstopMidCutEndsTorchOffAndLatchesUntilReset) {
-  PanelRig rig(8.0);
+  // Twice real time: the cut lasts about 4 s of wall clock, far longer than a status poll takes
+  // on a loaded machine, so the test cannot miss it.
+  PanelRig rig(2.0);
   rig.take_control("operator");
   ASSERT_EQ(rig.post("/api/job", {{"program", kTriangle}}, "operator").status, 200);
   ASSERT_EQ(rig.post("/api/run", json::object(), "operator").status, 200);
