@@ -65,6 +65,16 @@ std::string safe_name(const std::string& name) {
 
 json vec(const Eigen::Vector2d& v) { return json::array({v.x(), v.y()}); }
 
+// A request's file: a path as it is, or (holding a newline) the file's text, stored as `file`
+// and its path returned.
+std::string stored(const std::string& path_or_text, const std::string& file, const char* what) {
+  if (path_or_text.find('\n') == std::string::npos) return path_or_text;
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  out << path_or_text;
+  if (!out) throw InputError(file, 0, fmt::format("cannot store the uploaded {}", what));
+  return file;
+}
+
 const char* run_state(executor::LiveState::Run r) {
   using R = executor::LiveState::Run;
   switch (r) {
@@ -154,20 +164,8 @@ json Panel::load_job(const JobRequest& request) {
   if (request.program.empty()) throw InputError::field("program", "is empty: give a path or the program's text");
   if (request.origin_mm && !(request.origin_mm->allFinite() && request.origin_mm->cwiseAbs().maxCoeff() <= 1e6))
     throw InputError::field("origin", "must be two finite numbers within 1e6 mm");
-  std::string path = request.program;
-  if (request.program.find('\n') != std::string::npos) {
-    path = tmp_dir_ + "/" + safe_name(request.name);
-    std::ofstream out(path, std::ios::binary | std::ios::trunc);
-    out << request.program;
-    if (!out) throw InputError(path, 0, "cannot store the uploaded program");
-  }
-  std::string materials = request.materials;
-  if (materials.find('\n') != std::string::npos) {  // the file's text
-    materials = tmp_dir_ + "/materials.cfg";
-    std::ofstream out(materials, std::ios::binary | std::ios::trunc);
-    out << request.materials;
-    if (!out) throw InputError(materials, 0, "cannot store the uploaded material file");
-  }
+  const std::string path = stored(request.program, tmp_dir_ + "/" + safe_name(request.name), "program");
+  const std::string materials = stored(request.materials, tmp_dir_ + "/materials.cfg", "material file");
   const motion::RunOptions options = job_options(request.origin_mm, materials, request.material);
   Termination t;
   {

@@ -151,6 +151,15 @@ Reply error(int code, const std::string& message) {
 Reply ok(const json& j) { return {200, j.dump(-1, ' ', false, json::error_handler_t::replace) + "\n"}; }
 
 // A number member, or nullopt when absent; 400 text for a wrong type.
+// body[key] as a whole number in lo .. hi (`what` names it in the refusal); none when absent or null.
+std::optional<int> whole_number(const json& body, const char* key, long long lo, long long hi, const char* what) {
+  if (!body.contains(key) || body[key].is_null()) return std::nullopt;
+  if (!body[key].is_number_integer()) throw InputError::field(key, "must be a whole number");
+  const long long v = body[key].get<long long>();
+  if (v < lo || v > hi) throw InputError::field(key, fmt::format("{} is not a {}", v, what));
+  return static_cast<int>(v);
+}
+
 std::optional<double> number(const json& body, const char* key) {
   if (!body.contains(key) || body[key].is_null()) return std::nullopt;
   if (!body[key].is_number()) throw InputError::field(key, "must be a number");
@@ -353,23 +362,11 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
       r.origin_mm = Eigen::Vector2d(o[0].get<double>(), o[1].get<double>());
     }
     if (body.contains("materials") && !body.at("materials").is_null()) r.materials = body.at("materials").get<std::string>();
-    if (body.contains("material") && !body.at("material").is_null()) {
-      if (!body.at("material").is_number_integer()) throw InputError::field("material", "must be a whole number");
-      const long long v = body.at("material").get<long long>();
-      if (v < 0 || v > 999999) throw InputError::field("material", fmt::format("{} is not a material number", v));
-      r.material = static_cast<int>(v);
-    }
+    r.material = whole_number(body, "material", 0, 999999, "material number").value_or(-1);
     return ok(panel.load_job(r));
   }
   if (path == "/run") {
-    std::optional<int> from;
-    if (body.contains("from_line") && !body.at("from_line").is_null()) {
-      if (!body.at("from_line").is_number_integer()) throw InputError::field("from_line", "must be a whole number");
-      const long long v = body.at("from_line").get<long long>();
-      if (v < 1 || v > 10000000) throw InputError::field("from_line", fmt::format("{} is not a line number", v));
-      from = static_cast<int>(v);
-    }
-    panel.run(from);
+    panel.run(whole_number(body, "from_line", 1, 10000000, "line number"));
     return ok({{"ok", true}});
   }
   if (path == "/hold") return panel.hold(), ok({{"ok", true}});

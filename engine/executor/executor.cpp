@@ -445,8 +445,14 @@ void Session::Impl::thc_tick() noexcept {
   const bool vl = thc.holding() && thc.velocity_locked(), ol = thc.holding() && thc.void_locked();
   if (vl && !velocity_locked) velocity_lock_h = h;
   if (ol && !void_locked) void_lock_h = h;
-  if (vl) acc.velocity_change = std::max(acc.velocity_change, std::abs(h - velocity_lock_h)), ++acc.velocity_locked;
-  if (ol) acc.void_change = std::max(acc.void_change, std::abs(h - void_lock_h)), ++acc.void_locked;
+  if (vl) {
+    acc.velocity_change = std::max(acc.velocity_change, std::abs(h - velocity_lock_h));
+    ++acc.velocity_locked;
+  }
+  if (ol) {
+    acc.void_change = std::max(acc.void_change, std::abs(h - void_lock_h));
+    ++acc.void_locked;
+  }
   velocity_locked = vl;
   void_locked = ol;
   double gap = 0.0;

@@ -351,7 +351,7 @@ KerfLoop compensate_loop(const Found& f, int depth, double half, const std::vect
   const LoopContour& lc = f.loop;
   const double d = depth % 2 == 0 ? half : -half;
   KerfLoop info{f.stretch, depth, d, false, line_of(st, lc.a)};
-  if (!f.compensate) return info;
+  if (!f.compensate || half <= 0.0) return info;  // no kerf for this cut: as programmed
   const OffsetResult r = offset_contour(lc.contour, d, options.offset);
   const std::function<int(std::size_t)> line_of_span = [&](std::size_t span) {
     return span < lc.seg_of_span.size() ? line_of(st, lc.seg_of_span[span]) : info.source_line;
@@ -381,13 +381,13 @@ KerfLoop compensate_loop(const Found& f, int depth, double half, const std::vect
 std::vector<double> kerf_of_stretches(const Job& job, double width, const KerfOptions& options) {
   std::vector<double> kerf(job.stretches.size(), width);
   if (!options.kerf_from_materials) return kerf;
-  int material = -1;
+  double in_force = width;  // the kerf of the material the last torch_on lit
   for (const Step& st : job.steps) {
-    if (st.kind == Step::Kind::torch_on) material = st.material;
-    if (st.kind != Step::Kind::move || st.stretch >= kerf.size()) continue;
-    if (material >= 0 && static_cast<std::size_t>(material) < job.materials.size() &&
-        job.materials[static_cast<std::size_t>(material)].kerf_mm > 0.0)
-      kerf[st.stretch] = job.materials[static_cast<std::size_t>(material)].kerf_mm;
+    if (st.kind == Step::Kind::torch_on) {
+      const auto m = static_cast<std::size_t>(st.material);
+      in_force = st.material >= 0 && m < job.materials.size() && job.materials[m].kerf_mm > 0.0 ? job.materials[m].kerf_mm : width;
+    }
+    if (st.kind == Step::Kind::move && st.stretch < kerf.size()) kerf[st.stretch] = in_force;
   }
   return kerf;
 }
@@ -450,14 +450,9 @@ KerfReport apply_kerf(Job& job, double kerf_width_mm, const KerfOptions& options
   const std::vector<int> depth = nesting_depths(found, options.closure_tolerance_mm);  // 2.
   const MoveOrder order(job);
   std::vector<Stretch> out = job.stretches;
-  for (std::size_t fi = 0; fi < found.size(); ++fi) {                                 // 3. to 5.
-    const double k = kerf[found[fi].stretch];
-    if (k > 0.0) {
-      report.loops.push_back(compensate_loop(found[fi], depth[fi], 0.5 * k, job.stretches, out, order, options, report));
-    } else {  // no kerf for this cut: as programmed
-      report.loops.push_back({found[fi].stretch, depth[fi], 0.0, false, line_of(job.stretches[found[fi].stretch], found[fi].loop.a)});
-    }
-  }
+  for (std::size_t fi = 0; fi < found.size(); ++fi)                                    // 3. to 5.
+    report.loops.push_back(compensate_loop(found[fi], depth[fi], 0.5 * kerf[found[fi].stretch], job.stretches, out,
+                                           order, options, report));
   job.stretches = std::move(out);
   return report;
 }
