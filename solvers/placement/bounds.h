@@ -112,13 +112,27 @@ inline double cylinder_sdf(const Eigen::Vector3d& p, double r, double h) {
 // distance it changes by at most m when either solid moves by m. Clearances are distances,
 // which stop at 0 where solids overlap; this carries them below 0 so that an overlap found
 // deep inside proves itself over a whole neighbourhood.
+// `ball` (optional) receives the deepest ball's centre and radius (untouched when none reaches
+// in).
+struct DepthBall {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double radius_mm = 0.0;
+};
 template <class Sdf>
-double depth_into(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r, bool capsule, const Sdf& sdf) {
+double depth_into(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r, bool capsule, const Sdf& sdf,
+                  DepthBall* ball = nullptr) {
   const Eigen::Vector3d d = b - a;
   const double len = d.norm();
   double best = 0.0;
+  auto look = [&](const Eigen::Vector3d& q, double rho) {
+    const double v = sdf(q) - rho;
+    if (v < best) {
+      best = v;
+      if (ball) *ball = {q, rho};
+    }
+  };
   if (capsule) {
-    for (int k = 0; k <= 8; ++k) best = std::min(best, sdf(a + d * (k / 8.0)) - r);
+    for (int k = 0; k <= 8; ++k) look(a + d * (k / 8.0), r);
     return best;
   }
   // Balls of radius min(r, len / 2) along the axis, and balls of radius len / 2 around the
@@ -126,7 +140,7 @@ double depth_into(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r, 
   const double rho = std::min(r, len / 2);
   for (int k = 0; k <= 4; ++k) {
     const double t = len > 2 * rho ? (rho + (len - 2 * rho) * k / 4.0) / len : 0.5;
-    best = std::min(best, sdf(a + d * t) - rho);
+    look(a + d * t, rho);
   }
   if (r > len / 2 && len > 0) {
     const Eigen::Vector3d n = d / len;
@@ -135,7 +149,7 @@ double depth_into(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r, 
     // 64 around the rim: between two of them the rim strays less than 0.12 % of its radius.
     for (int k = 0; k < 64; ++k) {
       const double ang = 2 * M_PI * k / 64;
-      best = std::min(best, sdf(mid + (r - len / 2) * (std::cos(ang) * u + std::sin(ang) * v)) - len / 2);
+      look(mid + (r - len / 2) * (std::cos(ang) * u + std::sin(ang) * v), len / 2);
     }
   }
   return best;

@@ -284,6 +284,17 @@ void Certifier::evaluate(const PathPose& pose, const Where& where, Mask mask, do
   e.evaluate(pose, where, mask, v);
 }
 
+std::optional<BoxRange> Certifier::box_range(int c, const PathPose& pose, const Where& centre, const Eigen::Vector3d& half,
+                                             PoseEvaluator& e, Termination& term, WorkCounts& counts) const {
+  if (term.should_end()) throw WorkEnded{term.reason()};
+  std::optional<BoxRange> r = e.box_range(c, pose, centre, half);
+  if (r) {
+    term.charge(1);
+    ++counts.exact_queries;
+  }
+  return r;
+}
+
 bool Certifier::decide(const Where& centre, const Ball& ball, Mask mask, Termination& term, const Evaluator& evaluator,
                        WorkCounts& counts, Spot* failure) {
   Scan s(*this, Scan::Mode::decide, centre, ball, mask, term, counts);

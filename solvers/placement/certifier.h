@@ -105,6 +105,10 @@ class Certifier {
   // One exact evaluation, counted.
   void evaluate(const PathPose& pose, const Where& where, Mask mask, double* v, PoseEvaluator& e, Termination& term,
                 WorkCounts& counts) const;
+  // The model's bounds of constraint c over a box at one rotation (PoseEvaluator::box_range),
+  // counted as one exact evaluation when there are any.
+  std::optional<BoxRange> box_range(int c, const PathPose& pose, const Where& centre, const Eigen::Vector3d& half,
+                                    PoseEvaluator& e, Termination& term, WorkCounts& counts) const;
 
   const PoseTree& tree() const { return tree_; }
   const MachineModel& model() const { return model_; }

@@ -44,9 +44,11 @@ struct Checker::Impl {
   std::mutex class1_mutex;
   std::map<double, Finding> class1_at;  // by rotation (deg)
   std::optional<Finding> ring;          // class 1 for every rotation at once (once asked)
+  std::optional<Finding> axial;         // the parts of revolution alone, when the plate turns
+  std::mutex axial_mutex;
 
   explicit Impl(const Scene& s)
-      : scene(s), model(s.model), wp(workpiece_solid(s)), tree(*model, poses_of(s)),
+      : scene(s), model(s.model), wp(s.model->workpiece()), tree(*model, poses_of(s)),
         class1(*model, tree, wp, s.safe_distance_mm), certifier(*model, tree, wp.radius_mm) {}
 
   PoseEvaluator& evaluator() {
@@ -78,12 +80,29 @@ struct Checker::Impl {
       const auto it = class1_at.find(rotation_deg);
       if (it != class1_at.end()) return it->second;
     }
-    Call call(parent, budget());
-    Class1Result r = class1.run(rotation_deg * kDeg, call.term, [this]() -> Class1Check::Shapes& { return shapes(); });
-    counts.add(r.counts);
-    r.finding.line = line_of(r.finding.pose);
+    const Finding f = class1_walk(rotation_deg * kDeg, parent);
     const std::lock_guard<std::mutex> lock(class1_mutex);
-    return class1_at.emplace(rotation_deg, r.finding).first->second;
+    return class1_at.emplace(rotation_deg, f).first->second;
+  }
+
+  // Class 1 at a rotation (nullopt: for every rotation, through the ring). With a plate that
+  // turns, the parts of revolution, which are the same at every rotation, are walked once, and
+  // each rotation walks the plate parts alone; the finding is the closer of the two.
+  Finding class1_walk(std::optional<double> rotation_rad, Termination& parent) {
+    auto walk = [&](std::optional<double> rot, Class1Check::Parts which) {
+      Call call(parent, budget());
+      Class1Result r = class1.run(rot, call.term, [this]() -> Class1Check::Shapes& { return shapes(); }, which);
+      counts.add(r.counts);
+      r.finding.line = line_of(r.finding.pose);
+      return r.finding;
+    };
+    if (!class1.has_ring()) return walk(0.0, Class1Check::Parts::all);
+    {
+      const std::lock_guard<std::mutex> lock(axial_mutex);
+      if (!axial) axial = walk(0.0, Class1Check::Parts::axial);
+    }
+    const Finding plate = walk(rotation_rad, Class1Check::Parts::plate);
+    return plate.clearance_mm < axial->clearance_mm ? plate : *axial;
   }
 
   int line_of(long pose) const {
@@ -177,11 +196,7 @@ const Finding& Checker::class1_every_rotation(Termination& term) {
   if (!m.ring) {
     if (m.class1.has_ring()) {
       // Every rotation at once, through the ring the plate parts sweep.
-      Impl::Call call(term, m.budget());
-      Class1Result ring = m.class1.run(std::nullopt, call.term, [&m]() -> Class1Check::Shapes& { return m.shapes(); });
-      m.counts.add(ring.counts);
-      ring.finding.line = m.line_of(ring.finding.pose);
-      m.ring = ring.finding;
+      m.ring = m.class1_walk(std::nullopt, term);
     } else {
       // Nothing turns with the workpiece: one check holds for every rotation.
       m.ring = m.class1_finding(0.0, term);
@@ -300,10 +315,31 @@ Decision Checker::screen_spot(const Spot& s, const Placement& centre, const Ball
   return screen_spot(s, Where::of(centre), ball, term);
 }
 
-Decision Checker::screen_spot(const Spot& s, const Where& centre, const Ball& ball, Termination& term) {
+Decision Checker::screen_spot(const Spot& s, const Where& centre, const Ball& ball, Termination& term,
+                              SpotScreen* more) {
   Impl& m = *impl_;
+  if (more) *more = SpotScreen{};
   const PathPose pose = m.tree.at(s.pose, s.t);
   const Constraint& con = m.model->constraints()[s.constraint];
+  if (ball.box() && !ball.point()) {
+    // A box: the model's own bounds over it at its middle rotation, where it has them, widened
+    // by how far the turn to its other rotations can move the value (from any state).
+    const Eigen::Vector3d half(ball.x_half_mm, ball.y_half_mm, ball.pad_half_mm);
+    if (auto r = m.certifier.box_range(s.constraint, pose, centre, half, m.evaluator(), term, m.counts)) {
+      if (ball.turn_deg > 0.0) {
+        const double turn = m.model->fall(s.constraint, nullptr, m.certifier.ball_motion(Ball{0.0, ball.turn_deg, 0.0}, pose));
+        r->lower -= turn, r->upper += turn;
+      }
+      if (r->upper < con.limit) return Decision::infeasible;
+      if (r->lower >= con.limit) return Decision::feasible;
+      // The box's highest value is on its top face for a constraint that rises with the pad.
+      if (more) {
+        if (con.pad_trend > 0 && con.pad_rate > 0) more->condemned_below_mm = (r->upper - con.limit) / con.pad_rate + 1e-9;
+        for (int k = 0; k < 3; ++k) more->spread_mm[k] = r->spread_mm[k];
+      }
+      return Decision::unknown;
+    }
+  }
   thread_local std::vector<double> v;
   v.resize(m.model->stride());
   // A constraint that changes with the pad in one direction is looked at on the box's top (or
@@ -320,6 +356,10 @@ Decision Checker::screen_spot(const Spot& s, const Where& centre, const Ball& ba
   const double fall = flat.point() ? 0.0 : m.model->fall(s.constraint, v.data(), m.certifier.ball_motion(flat, pose));
   const bool bad = ball.point() ? value < limit : value <= limit - fall;
   if (bad) return Decision::infeasible;
+  if (more && con.pad_trend > 0 && con.pad_rate > 0)
+    // At most value + fall anywhere on the top face, less pad_rate for each mm lower; a margin
+    // of 1e-9 mm against rounding.
+    more->condemned_below_mm = (value + fall - limit) / con.pad_rate + 1e-9;
   if (&flat != &ball && flat.radius_mm != ball.radius_mm) {
     // Clear over the box: from the face looked at, across the box's height (the pad changes by
     // all of it) and width.

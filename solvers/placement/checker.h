@@ -75,9 +75,11 @@ class Checker {
 
   // One known interference (a spot) against a ball: infeasible when it is deep enough to
   // condemn every placement in the ball, feasible when the ball clears it everywhere, unknown
-  // otherwise. One pose query. Thread-safe.
+  // otherwise. One pose query. Thread-safe. When unknown, `more` (optional) tells what else
+  // is known (SpotScreen).
   Decision screen_spot(const Spot& spot, const Placement& centre, const Ball& ball, Termination& term);
-  Decision screen_spot(const Spot& spot, const Where& centre, const Ball& ball, Termination& term);
+  Decision screen_spot(const Spot& spot, const Where& centre, const Ball& ball, Termination& term,
+                       SpotScreen* more = nullptr);
 
   // The placement-only checks over a ball: the workpiece with its pad on the table and clear
   // of the peripherals (no pose query).

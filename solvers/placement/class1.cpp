@@ -25,7 +25,7 @@ Class1Check::Class1Check(const MachineModel& model, const PoseTree& tree, const 
 }
 
 Class1Check::Shapes Class1Check::make_shapes() const {
-  Shapes s{axial_shapes(parts_), interference::Shape::sphere(1.0), interference::Shape::mesh(wp_.vertices, wp_.triangles)};
+  Shapes s{axial_shapes(parts_), interference::Shape::sphere(1.0), wp_.mesh()};
   if (ring_) {
     s.parts.push_back(interference::Shape::cylinder(ring_->radius_mm() + ring_->sphere_radius_mm, 2 * ring_->sphere_radius_mm));
     s.hinge = interference::Shape::sphere(ring_->sphere_radius_mm);
@@ -40,6 +40,7 @@ struct Class1Check::Walk {
   Termination& term;
   Shapes& shapes;
   std::vector<AxialPart> parts;  // the axial parts, and the ring when checking every rotation
+  std::size_t shape0 = 0;        // parts[k]'s collision object is shapes.parts[shape0 + k]
   std::vector<Eigen::Vector3d> hinges;  // plate frame, turned by -rotation (exact mode)
   Finding f;
   CheckCounts counts;
@@ -86,7 +87,7 @@ struct Class1Check::Walk {
       const Eigen::Vector3d a = pose.tip + pose.axis * p.from_mm, b = pose.tip + pose.axis * p.to_mm;
       if (box_clear(cylinder_box(a, b, p.radius_mm), 0.0, t)) continue;
       const double dist =
-          interference::distance(shapes.parts[k], interference::segment_pose(a, b), shapes.workpiece, I).distance_mm;
+          interference::distance(shapes.parts[shape0 + k], interference::segment_pose(a, b), shapes.workpiece, I).distance_mm;
       if (dist < best) {
         best = dist;
         if (who) *who = p.name;
@@ -180,13 +181,16 @@ struct Class1Check::Walk {
   }
 };
 
-Class1Check::Walk Class1Check::make_walk(std::optional<double> rotation_rad, Termination& term, Shapes& s) const {
-  Walk w{*this, rotation_rad, term, s, parts_, {}, {}, {}, {}};
+Class1Check::Walk Class1Check::make_walk(std::optional<double> rotation_rad, Termination& term, Shapes& s,
+                                         Parts which) const {
+  Walk w{*this, rotation_rad, term, s, which == Parts::plate ? std::vector<AxialPart>{} : parts_, 0, {}, {}, {}, {}};
   w.f.clearance_mm = kInf;
-  if (ring_ && rotation_rad) {
+  if (which == Parts::plate) w.shape0 = parts_.size();
+  if (!ring_ || which == Parts::axial) return w;
+  if (rotation_rad) {
     const Eigen::Matrix3d back = Eigen::AngleAxisd(-*rotation_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     for (const auto& p : ring_->points) w.hinges.push_back(*rotation_rad == 0.0 ? p : Eigen::Vector3d(back * p));
-  } else if (ring_) {
+  } else {
     w.parts.push_back({"plate hinges (any rotation)", ring_->height_mm - ring_->sphere_radius_mm,
                        ring_->height_mm + ring_->sphere_radius_mm, ring_->radius_mm() + ring_->sphere_radius_mm, false,
                        ToolPart::Class::class1});
@@ -195,8 +199,8 @@ Class1Check::Walk Class1Check::make_walk(std::optional<double> rotation_rad, Ter
 }
 
 Class1Result Class1Check::run(std::optional<double> rotation_rad, Termination& term,
-                              const std::function<Shapes&()>& shapes) const {
-  auto make_walk = [&](Shapes& s) { return this->make_walk(rotation_rad, term, s); };
+                              const std::function<Shapes&()>& shapes, Parts which) const {
+  auto make_walk = [&](Shapes& s) { return this->make_walk(rotation_rad, term, s, which); };
   Class1Result out;
   out.finding.clearance_mm = kInf;
   if (tree_.size() == 0) return out;

@@ -56,10 +56,14 @@ class Class1Check {
   };
   Shapes make_shapes() const;
 
+  // Which parts a walk looks at: all, the parts of revolution only (the same at every
+  // rotation), or the plate parts only (the hinges at one rotation, or their ring).
+  enum class Parts { all, axial, plate };
   // `rotation_rad`: the exact plate parts at that rotation; nullopt: the ring (every rotation).
   // Each exact query charges one unit to `term`; when it ends the walk throws WorkEnded.
   // `shapes` gives the calling thread's own collision objects.
-  Class1Result run(std::optional<double> rotation_rad, Termination& term, const std::function<Shapes&()>& shapes) const;
+  Class1Result run(std::optional<double> rotation_rad, Termination& term, const std::function<Shapes&()>& shapes,
+                   Parts which = Parts::all) const;
   bool has_ring() const { return ring_.has_value(); }
   // The exact clearance at one pose (infinity when the height field proves every part at least
   // the safe distance away), for dense re-checks; `who` names the closest part.
@@ -67,7 +71,7 @@ class Class1Check {
 
  private:
   struct Walk;
-  Walk make_walk(std::optional<double> rotation_rad, Termination& term, Shapes& s) const;
+  Walk make_walk(std::optional<double> rotation_rad, Termination& term, Shapes& s, Parts which = Parts::all) const;
   const MachineModel& model_;
   const PoseTree& tree_;
   const WorkpieceSolid& wp_;

@@ -22,6 +22,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include <Eigen/Core>
@@ -46,7 +47,10 @@ struct Ball {
   // radius lies in x and y); negative when not known (up to the radius). Lets the checker look
   // at the box's top or bottom only for constraints that change with the pad one way.
   double pad_half_mm = -1.0;
+  // ... and half its sizes in x and y (negative when not known).
+  double x_half_mm = -1.0, y_half_mm = -1.0;
   bool point() const { return radius_mm == 0.0 && turn_deg == 0.0; }
+  bool box() const { return pad_half_mm >= 0.0 && x_half_mm >= 0.0 && y_half_mm >= 0.0; }
 };
 
 enum class Kind { self, workpiece_class1, workpiece_class2, machine_peripheral, workpiece_peripheral, tool_support };
@@ -88,5 +92,15 @@ struct CheckReport {
 };
 
 enum class Decision { feasible, infeasible, unknown };
+
+// What screening a known interference against a box of placements found besides its decision.
+struct SpotScreen {
+  // For a constraint that keeps a pad rate (machine_model.h): every placement more than this
+  // below the box's top pad is condemned (infinite: none is known to be).
+  double condemned_below_mm = std::numeric_limits<double>::infinity();
+  // How much of the constraint's range over the box each of its sides (x, y, pad) makes
+  // (zero when not known): splitting the side with the most narrows it most.
+  double spread_mm[3] = {0.0, 0.0, 0.0};
+};
 
 }  // namespace machplan::placement

@@ -35,6 +35,81 @@ Eigen::Vector2d evasion_from(const Peripheral& per, const Eigen::Vector3d& point
   return dir.norm() > 1e-9 ? Eigen::Vector2d(dir.normalized()) : Eigen::Vector2d::Zero();
 }
 
+// The point of a part (radius r around the segment a b, a capsule or a flat cylinder) nearest
+// to q.
+template <class Part>
+Eigen::Vector3d nearest_on(const Part& p, const Eigen::Vector3d& q) {
+  const Eigen::Vector3d d = p.b - p.a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 1e-18 ? std::clamp((q - p.a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  const Eigen::Vector3d on_axis = p.a + t * d;
+  if (p.capsule) {
+    const Eigen::Vector3d v = q - on_axis;
+    return v.norm() <= p.r ? q : Eigen::Vector3d(on_axis + v * (p.r / v.norm()));
+  }
+  // Flat cylinder: along the axis within its ends, across it within the radius.
+  const Eigen::Vector3d w = len2 > 1e-18 ? Eigen::Vector3d(d / std::sqrt(len2)) : Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d v = (q - p.a) - (q - p.a).dot(w) * w;
+  if (v.norm() > p.r) v *= p.r / v.norm();
+  return on_axis + v;
+}
+
+// A box peripheral and the moves of the tool assembly within a box of placements (by up to
+// `half` along each table axis: the assembly moves rigidly with the workpiece at one rotation).
+//   Below: any unit direction g separates. A part's lowest point along g less the box's highest
+//   bounds their distance, and a move d changes that by g.d.
+//   Above: the distance from any point of a part to the box is convex in the move, so its
+//   largest over the moves is at a corner; the part is never farther than that.
+// Both hold for any g and any point of the part; they are tight for the direction between the
+// nearest points and the part's point nearest the box.
+struct MovedNearBox {
+  // The bounds are drawn from the geometry itself; measured distances (GJK) may lie above the
+  // true ones by their tolerance, far less than this.
+  static constexpr double kSlack = 1e-4;
+  MovedNearBox(const Peripheral& per, const Eigen::Vector3d& h)
+      : to_local(per.T_table_peripheral.inverse()), R(per.T_table_peripheral.linear()),
+        centre(per.T_table_peripheral.translation()), box_half(per.box_half_mm), half(h), reach(h.norm()) {}
+
+  // The largest signed distance from q moved to a corner of the moves.
+  double corners_max(const Eigen::Vector3d& q) const {
+    double worst = -kInf;
+    for (int j = 0; j < 8; ++j) {
+      const Eigen::Vector3d d(j & 1 ? half.x() : -half.x(), j & 2 ? half.y() : -half.y(), j & 4 ? half.z() : -half.z());
+      worst = std::max(worst, box_sdf(to_local * (q + d), box_half));
+    }
+    return worst;
+  }
+  // How far along g the moves reach.
+  double move_along(const Eigen::Vector3d& g) const { return g.cwiseAbs().dot(half); }
+  // At the centre: the part's lowest point along g (into `at`) less the box's highest.
+  template <class Part>
+  double separation(const Part& p, const Eigen::Vector3d& g, Eigen::Vector3d* at) const {
+    const Eigen::Vector3d& e = g.dot(p.a) <= g.dot(p.b) ? p.a : p.b;
+    Eigen::Vector3d out = p.capsule ? Eigen::Vector3d(g) : Eigen::Vector3d::Zero();
+    if (!p.capsule) {
+      const Eigen::Vector3d w = (p.b - p.a).normalized();
+      const Eigen::Vector3d side = g - g.dot(w) * w;
+      if (side.norm() > 1e-12) out = side.normalized();
+    }
+    *at = e - p.r * out;
+    return g.dot(*at) - (g.dot(centre) + (R.transpose() * g).cwiseAbs().dot(box_half));
+  }
+  // From the box's point nearest q to q (zero inside the box).
+  Eigen::Vector3d away(const Eigen::Vector3d& q) const {
+    const Eigen::Vector3d l = to_local * q;
+    return R * (l - l.cwiseMax(-box_half).cwiseMin(box_half));
+  }
+  // How much of the range each side of the moves makes, for a direction g.
+  void spread(const Eigen::Vector3d& g, BoxRange& r) const {
+    for (int k = 0; k < 3; ++k) r.spread_mm[k] = std::abs(g[k]) * half[k];
+  }
+
+  Eigen::Isometry3d to_local;
+  Eigen::Matrix3d R;
+  Eigen::Vector3d centre, box_half, half;
+  double reach;
+};
+
 class HexapodModel;
 
 class HexapodEvaluator final : public PoseEvaluator {
@@ -43,6 +118,7 @@ class HexapodEvaluator final : public PoseEvaluator {
   void evaluate(const PathPose& pose, const Where& where, Mask mask, double* v) override;
   void describe(int c, const PathPose& pose, const Where& where, double value, Finding& f) override;
   double placement_value(int k, const Where& where, double enough, Finding* f) override;
+  std::optional<BoxRange> box_range(int c, const PathPose& pose, const Where& where, const Eigen::Vector3d& half) override;
 
  private:
   // What evaluate() found besides the values, for describe().
@@ -54,8 +130,41 @@ class HexapodEvaluator final : public PoseEvaluator {
   };
   void run(const PathPose& pose, const Where& where, Mask mask, double* v, Detail* d);
   double class2(const hexam::IkResult& ik, const Where& where, Detail* d);
+  // What assembly_to_peripheral() found, for box_range().
+  struct Near {
+    static constexpr std::size_t kParts = 16;
+    struct Part {
+      double lower;
+      std::size_t shape;
+      Eigen::Isometry3d pose;
+      int name;  // tool part index, -1 the plate, -2 - k hinge k
+      Eigen::Vector3d a, b;  // the solid: radius r around the segment a b, capsule or flat cylinder
+      double r;
+      bool capsule;
+      double exact = std::numeric_limits<double>::quiet_NaN();  // measured distance
+      Eigen::Vector3d on_part = Eigen::Vector3d::Zero(), on_peripheral = Eigen::Vector3d::Zero();
+    };
+    std::array<Part, kParts> parts;
+    std::size_t count = 0;  // 0: far, the value is the assembly's bound
+    int best = -1;          // the part whose measured distance is the value
+    bool deep = false;      // the value is the depth of `ball`
+    DepthBall ball;
+  };
   double assembly_to_peripheral(const Peripheral& per, const interference::Shape& shape, const hexam::IkResult& ik,
-                                const Eigen::Vector3d& tip, const Eigen::Vector3d& axis, std::string* part);
+                                const Eigen::Vector3d& tip, const Eigen::Vector3d& axis, std::string* part,
+                                Near* near = nullptr);
+  std::optional<BoxRange> assembly_box_range(const Peripheral& per, const interference::Shape& shape,
+                                             const hexam::IkResult& ik, const Eigen::Vector3d& tip,
+                                             const Eigen::Vector3d& axis, const Eigen::Vector3d& half);
+  // Without an exact distance: the range when it decides, or when measuring could not.
+  std::optional<BoxRange> assembly_range_unmeasured(const MovedNearBox& box, const std::array<Near::Part, Near::kParts>& parts,
+                                                    std::size_t count) const;
+  BoxRange assembly_range_measured(const MovedNearBox& box, const Peripheral& per, const interference::Shape& shape,
+                                   const hexam::IkResult& ik, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis);
+  std::optional<BoxRange> stroke_box_range(const hexam::IkResult& ik, const Eigen::Vector3d& half);
+  std::size_t assembly_parts(const Peripheral& per, const hexam::IkResult& ik, const Eigen::Vector3d& tip,
+                             const Eigen::Vector3d& axis, std::array<Near::Part, Near::kParts>& parts,
+                             double* assembly_lb) const;
   double struts_to_peripheral(const Peripheral& per, const interference::Shape& shape, const hexam::IkResult& ik,
                               std::string* part);
   double gap(const Peripheral& per, const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r, bool cylinder) const;
@@ -94,7 +203,13 @@ class HexapodModel final : public MachineModel {
     // rises, the upper one never rises.
     bool vertical = true;
     for (const auto& st : m.struts) vertical = vertical && st.rail_direction == Eigen::Vector3d::UnitZ();
-    if (vertical) constraints_[kStroke].pad_trend = 1, constraints_[kStrokeHigh].pad_trend = -1;
+    // More: a slider on a vertical rail follows the plate one to one, so the lower margin falls
+    // exactly as much as the pad; where a strut cannot reach its rail at all, it cannot at any
+    // height (the reach is horizontal), and the margin is negative at every pad.
+    if (vertical) {
+      constraints_[kStroke].pad_trend = 1, constraints_[kStrokeHigh].pad_trend = -1;
+      constraints_[kStroke].pad_rate = 1.0;
+    }
     // What carries the workpiece (the pad over its footprint and the table below it) only
     // shrinks as the pad rises: the tool's clearance to it never falls.
     constraints_[support_].pad_trend = 1;
@@ -183,7 +298,7 @@ class HexapodModel final : public MachineModel {
   double safe() const { return c_; }
   int support() const { return support_; }
   const std::vector<Peripheral>& peripherals() const { return peripherals_; }
-  const WorkpieceSolid& workpiece() const { return wp_; }
+  const WorkpieceSolid& workpiece() const override { return wp_; }
 
  private:
   hexam::Machine m_;
@@ -203,7 +318,7 @@ HexapodEvaluator::HexapodEvaluator(const HexapodModel& model)
   rigid_.push_back(interference::Shape::sphere(m.hinge_radius_mm));
   tool_ = axial_shapes(m.tool_parts);
   for (const auto& p : model.peripherals()) periph_.push_back(p.shape.copy());
-  workpiece_ = interference::Shape::mesh(model.workpiece().vertices, model.workpiece().triangles);
+  workpiece_ = model.workpiece().mesh();
 }
 
 double HexapodEvaluator::gap(const Peripheral& per, const Eigen::Vector3d& a, const Eigen::Vector3d& b, double r,
@@ -265,41 +380,52 @@ double HexapodEvaluator::class2(const hexam::IkResult& ik, const Where& where, D
   return best;
 }
 
-double HexapodEvaluator::assembly_to_peripheral(const Peripheral& per, const interference::Shape& shape,
-                                                const hexam::IkResult& ik, const Eigen::Vector3d& tip,
-                                                const Eigen::Vector3d& axis, std::string* part) {
+std::size_t HexapodEvaluator::assembly_parts(const Peripheral& per, const hexam::IkResult& ik, const Eigen::Vector3d& tip,
+                                             const Eigen::Vector3d& axis, std::array<Near::Part, Near::kParts>& parts,
+                                             double* assembly_lb) const {
   const hexam::Machine& m = model_.machine();
   const Eigen::Vector3d top = tip + axis * (m.gauge_mm + m.plate_thickness_mm);
-  const double assembly_lb = gap(per, tip, top, std::max(m.plate_radius_mm, m.plate_joint_reach_mm), false);
-  if (assembly_lb >= model_.safe() + kSlack_mm) {
-    if (part) *part = "tool assembly";
-    return assembly_lb;
-  }
-  // Every rigid part with a lower bound; exact distances in order of the bounds, so the
-  // closest part is usually met first and the rest are skipped by their bounds.
-  struct Part {
-    double lower;
-    std::size_t shape;
-    Eigen::Isometry3d pose;
-    int name;  // tool part index, -1 the plate, -2 - k hinge k
-  };
-  std::array<Part, 16> parts;
+  *assembly_lb = gap(per, tip, top, std::max(m.plate_radius_mm, m.plate_joint_reach_mm), false);
+  if (*assembly_lb >= model_.safe() + kSlack_mm) return 0;
+  // Every rigid part with a lower bound; exact distances are taken in order of the bounds, so
+  // the closest part is usually met first and the rest are skipped by their bounds.
   std::size_t count = 0;
   for (std::size_t s = 0; s < m.tool_parts.size() && count < parts.size(); ++s) {
     const auto& tp = m.tool_parts[s];
     const Eigen::Vector3d a = tip + axis * tp.from_mm, b = tip + axis * tp.to_mm;
-    parts[count++] = {gap(per, a, b, tp.radius_mm, !tp.capsule), s, interference::segment_pose(a, b), static_cast<int>(s)};
+    parts[count++] = {gap(per, a, b, tp.radius_mm, !tp.capsule), s, interference::segment_pose(a, b), static_cast<int>(s),
+                      a, b, tp.radius_mm, tp.capsule};
   }
   const Eigen::Vector3d pa = tip + axis * m.gauge_mm;
   if (count < parts.size())
-    parts[count++] = {gap(per, pa, top, m.plate_radius_mm, true), m.tool_parts.size(), interference::segment_pose(pa, top), -1};
+    parts[count++] = {gap(per, pa, top, m.plate_radius_mm, true), m.tool_parts.size(), interference::segment_pose(pa, top), -1,
+                      pa, top, m.plate_radius_mm, false};
   for (int s = 0; s < 6 && count < parts.size(); ++s) {
     const Eigen::Vector3d h = ik.struts[s].plate_mm;
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.translation() = h;
-    parts[count++] = {gap(per, h, h, m.hinge_radius_mm, false), rigid_.size() - 1, T, -2 - s};
+    parts[count++] = {gap(per, h, h, m.hinge_radius_mm, false), rigid_.size() - 1, T, -2 - s, h, h, m.hinge_radius_mm, true};
   }
-  std::sort(parts.begin(), parts.begin() + static_cast<long>(count), [](const Part& x, const Part& y) { return x.lower < y.lower; });
+  std::sort(parts.begin(), parts.begin() + static_cast<long>(count),
+            [](const Near::Part& x, const Near::Part& y) { return x.lower < y.lower; });
+  return count;
+}
+
+double HexapodEvaluator::assembly_to_peripheral(const Peripheral& per, const interference::Shape& shape,
+                                                const hexam::IkResult& ik, const Eigen::Vector3d& tip,
+                                                const Eigen::Vector3d& axis, std::string* part, Near* near) {
+  const hexam::Machine& m = model_.machine();
+  Near local;
+  Near& n = near ? *near : local;
+  double assembly_lb = 0.0;
+  const std::size_t count = assembly_parts(per, ik, tip, axis, n.parts, &assembly_lb);
+  n.count = count, n.best = -1, n.deep = false;
+  if (count == 0) {
+    if (part) *part = "tool assembly";
+    return assembly_lb;
+  }
+  std::array<Near::Part, Near::kParts>& parts = n.parts;
+  const Eigen::Vector3d top = tip + axis * (m.gauge_mm + m.plate_thickness_mm), pa = tip + axis * m.gauge_mm;
   double best = kInf;
   int best_name = 0;
   if (per.is_box && parts[0].lower <= 0.0) {
@@ -310,27 +436,187 @@ double HexapodEvaluator::assembly_to_peripheral(const Peripheral& per, const int
     for (std::size_t k = 0; k < count && parts[k].lower <= 0.0; ++k) {
       const int nm = parts[k].name;
       double depth;
+      DepthBall ball;
       if (nm >= 0) {
         const auto& tp = m.tool_parts[nm];
-        depth = depth_into(tip + axis * tp.from_mm, tip + axis * tp.to_mm, tp.radius_mm, tp.capsule, sdf);
+        depth = depth_into(tip + axis * tp.from_mm, tip + axis * tp.to_mm, tp.radius_mm, tp.capsule, sdf, &ball);
       } else if (nm == -1) {
-        depth = depth_into(pa, top, m.plate_radius_mm, false, sdf);
+        depth = depth_into(pa, top, m.plate_radius_mm, false, sdf, &ball);
       } else {
         const Eigen::Vector3d h = ik.struts[-2 - nm].plate_mm;
-        depth = depth_into(h, h, m.hinge_radius_mm, true, sdf);
+        depth = depth_into(h, h, m.hinge_radius_mm, true, sdf, &ball);
       }
-      if (depth < 0.0 && depth < best) best = depth, best_name = nm;
+      if (depth < 0.0 && depth < best) best = depth, best_name = nm, n.deep = true, n.ball = ball;
     }
   }
   for (std::size_t k = 0; k < count && parts[k].lower < best && best > 0.0; ++k) {
-    const double dist = interference::distance(rigid_[parts[k].shape], parts[k].pose, shape, per.T_table_peripheral).distance_mm;
-    if (dist < best) best = dist, best_name = parts[k].name;
+    const interference::Proximity p = interference::distance(rigid_[parts[k].shape], parts[k].pose, shape, per.T_table_peripheral);
+    parts[k].exact = p.distance_mm;
+    parts[k].on_part = p.point_a_mm;
+    parts[k].on_peripheral = p.point_b_mm;
+    if (p.distance_mm < best) best = p.distance_mm, best_name = parts[k].name, n.best = static_cast<int>(k);
   }
   if (part && std::isfinite(best))
     *part = best_name >= 0 ? m.tool_parts[best_name].name
             : best_name == -1 ? std::string("spindle plate")
                               : fmt::format("plate hinge {}", -1 - best_name);
   return best;
+}
+
+std::optional<BoxRange> HexapodEvaluator::assembly_box_range(const Peripheral& per, const interference::Shape& shape,
+                                                             const hexam::IkResult& ik, const Eigen::Vector3d& tip,
+                                                             const Eigen::Vector3d& axis, const Eigen::Vector3d& half) {
+  if (!per.is_box) return std::nullopt;
+  const MovedNearBox box(per, half);
+  std::array<Near::Part, Near::kParts> parts;
+  double far = 0.0;
+  const std::size_t count = assembly_parts(per, ik, tip, axis, parts, &far);
+  if (count == 0) {  // far: the assembly's bound
+    BoxRange r;
+    r.lower = far - box.reach, r.upper = kInf;
+    return r;
+  }
+  if (parts[0].lower > 0.0)
+    if (auto r = assembly_range_unmeasured(box, parts, count)) return r;
+  return assembly_range_measured(box, per, shape, ik, tip, axis);
+}
+
+std::optional<BoxRange> HexapodEvaluator::assembly_range_unmeasured(const MovedNearBox& box,
+                                                                    const std::array<Near::Part, Near::kParts>& parts,
+                                                                    std::size_t count) const {
+  // From a few directions per part near enough, without an exact distance. When that decides
+  // the box, it is the answer; so it is when what it shows of the distance at the centre, d,
+  // leaves the measured path no way to decide it either: that one's bounds are at best d less
+  // (or plus) the box's smallest half side (any unit g has |g|.half at least that).
+  BoxRange r;
+  double lower = kInf, upper = kInf, d_low = kInf, d_high = kInf;  // d within [d_low, d_high]
+  for (std::size_t k = 0; k < count; ++k) {
+    const Near::Part& p = parts[k];
+    if (p.lower - box.reach >= lower) {  // sorted by their bounds: the rest are farther
+      d_low = std::min(d_low, p.lower);
+      break;
+    }
+    // Directions: the peripheral's face normals turned towards the part, the part's axis, and
+    // those between alternating projections (the peripheral's point nearest the part's, and
+    // back).
+    Eigen::Vector3d g_best = Eigen::Vector3d::Zero(), at_best = (p.a + p.b) / 2, at;
+    double sep_best = -kInf, up_best = kInf, lo_best = -kInf;
+    auto look = [&](const Eigen::Vector3d& g) {
+      const double sep = box.separation(p, g, &at);
+      if (sep - box.move_along(g) > lo_best) lo_best = sep - box.move_along(g), g_best = g;
+      sep_best = std::max(sep_best, sep);
+      const double up = box.away(at).norm();
+      if (up < up_best) up_best = up, at_best = at;
+    };
+    const Eigen::Vector3d side = box.R.transpose() * ((p.a + p.b) / 2 - box.centre);
+    for (int j = 0; j < 3; ++j) look(box.R.col(j) * (side[j] >= 0 ? 1.0 : -1.0));
+    if (!p.capsule && (p.b - p.a).norm() > 1e-9) {
+      const Eigen::Vector3d w = (p.b - p.a).normalized();
+      look(w.dot((p.a + p.b) / 2 - box.centre) >= 0 ? w : Eigen::Vector3d(-w));
+    }
+    Eigen::Vector3d on_part = (p.a + p.b) / 2;
+    for (int step = 0; step < 3; ++step) {
+      const Eigen::Vector3d out = box.away(on_part);
+      if (out.norm() < 1e-9) return std::nullopt;  // touching: measure
+      look(out.normalized());
+      if (out.norm() < up_best) up_best = out.norm(), at_best = on_part;
+      on_part = nearest_on(p, on_part - out);
+    }
+    const double lo = std::max(p.lower - box.reach, lo_best);
+    if (lo < lower) lower = lo, box.spread(g_best, r);
+    upper = std::min(upper, std::max(0.0, box.corners_max(at_best)));
+    d_low = std::min(d_low, std::max(p.lower, sep_best)), d_high = std::min(d_high, up_best);
+  }
+  r.lower = lower - MovedNearBox::kSlack, r.upper = upper + MovedNearBox::kSlack;
+  const double limit = model_.safe(), least = box.half.minCoeff();
+  if (r.upper < limit || r.lower >= limit) return r;
+  if (d_high < limit + least && d_low >= limit - least) return r;
+  return std::nullopt;
+}
+
+BoxRange HexapodEvaluator::assembly_range_measured(const MovedNearBox& box, const Peripheral& per,
+                                                   const interference::Shape& shape, const hexam::IkResult& ik,
+                                                   const Eigen::Vector3d& tip, const Eigen::Vector3d& axis) {
+  // Measured (FCL): the nearest points give the direction; an overlap, the deepest ball.
+  constexpr double slack = MovedNearBox::kSlack;
+  Near n;
+  const double value = assembly_to_peripheral(per, shape, ik, tip, axis, nullptr, &n);
+  // Whatever the case, the value (a distance, or a depth that moves like one) changes no
+  // faster than the move.
+  BoxRange r;
+  r.lower = value - box.reach - slack, r.upper = value + box.reach + slack;
+  if (n.deep) {
+    r.upper = std::min(r.upper, box.corners_max(n.ball.centre) - n.ball.radius_mm + slack);
+    return r;
+  }
+  if (n.best < 0 || !(value > 0.0)) return r;
+  auto direction = [&](const Near::Part& p) -> Eigen::Vector3d {
+    if (!std::isnan(p.exact) && p.exact > 1e-9 && (p.on_part - p.on_peripheral).norm() > 1e-12)
+      return (p.on_part - p.on_peripheral).normalized();
+    const Eigen::Vector3d mid = (p.a + p.b) / 2, out = box.away(mid);
+    return out.norm() > 1e-12 ? Eigen::Vector3d(out.normalized()) : Eigen::Vector3d(mid - box.centre).normalized();
+  };
+  const Near::Part& nearest = n.parts[n.best];
+  Eigen::Vector3d at;
+  const Eigen::Vector3d g = direction(nearest);
+  double lower = std::max(r.lower, box.separation(nearest, g, &at) - box.move_along(g));
+  box.spread(g, r);
+  r.upper = std::min(r.upper, std::max(0.0, box.corners_max(at)) + slack);
+  for (std::size_t k = 0; k < n.count; ++k) {
+    const Near::Part& p = n.parts[k];
+    if (static_cast<int>(k) == n.best || p.lower - box.reach >= lower) continue;
+    const Eigen::Vector3d gk = direction(p);
+    lower = std::min(lower, std::max(p.lower - box.reach, box.separation(p, gk, &at) - box.move_along(gk)));
+  }
+  r.lower = std::max(r.lower, lower - slack);
+  return r;
+}
+
+std::optional<BoxRange> HexapodEvaluator::stroke_box_range(const hexam::IkResult& ik, const Eigen::Vector3d& half) {
+  // A slider on its rail: s = u.d + sqrt(L^2 - |d - (u.d) u|^2), d from the rail's foot to the
+  // plate joint, which moves with the workpiece. s is concave in the move, so over the box it
+  // is smallest at a corner, and at most its tangent plane at the centre.
+  const hexam::Machine& m = model_.machine();
+  if (!ik.reachable) return std::nullopt;
+  BoxRange r;
+  r.lower = r.upper = kInf;
+  for (int i = 0; i < 6; ++i) {
+    const hexam::Strut& st = m.struts[i];
+    const Eigen::Vector3d& u = st.rail_direction;
+    const Eigen::Vector3d d = ik.struts[i].plate_mm - st.rail_foot_mm;
+    const Eigen::Vector3d perp = d - u.dot(d) * u;
+    const double root = std::sqrt(std::max(0.0, st.length_mm * st.length_mm - perp.squaredNorm()));
+    const double low = ik.struts[i].s_mm - m.stroke_min_mm;
+    if (root < 1e-9) return std::nullopt;
+    const Eigen::Vector3d g = u - perp / root;
+    if (low + g.cwiseAbs().dot(half) < r.upper) {
+      r.upper = low + g.cwiseAbs().dot(half);
+      for (int k = 0; k < 3; ++k) r.spread_mm[k] = std::abs(g[k]) * half[k];
+    }
+    for (int j = 0; j < 8; ++j) {
+      const Eigen::Vector3d dj = d + Eigen::Vector3d(j & 1 ? half.x() : -half.x(), j & 2 ? half.y() : -half.y(),
+                                                     j & 4 ? half.z() : -half.z());
+      const double ud = u.dot(dj), disc = st.length_mm * st.length_mm - (dj.squaredNorm() - ud * ud);
+      // A corner out of reach: a placement in the box fails the stroke (its margin is then the
+      // negative reach deficit); nothing better than that is known below.
+      r.lower = std::min(r.lower, disc < 0 ? -kInf : ud + std::sqrt(disc) - m.stroke_min_mm);
+    }
+  }
+  r.lower -= 1e-9, r.upper += 1e-9;
+  return r;
+}
+
+std::optional<BoxRange> HexapodEvaluator::box_range(int c, const PathPose& pose, const Where& where,
+                                                    const Eigen::Vector3d& half) {
+  const bool periph = c >= kFirstPeripheral && c < model_.support() && (c - kFirstPeripheral) % 2 == 0;
+  if (c != kStroke && !periph) return std::nullopt;
+  const hexam::Machine& m = model_.machine();
+  const Eigen::Vector3d tip = where.R * pose.tip + where.offset;
+  const Eigen::Vector3d axis = where.R * pose.axis;
+  const hexam::IkResult ik = hexam::inverse_kinematics(m, tip, axis);
+  if (c == kStroke) return stroke_box_range(ik, half);
+  const std::size_t p = static_cast<std::size_t>(c - kFirstPeripheral) / 2;
+  return assembly_box_range(model_.peripherals()[p], periph_[p], ik, tip, axis, half);
 }
 
 double HexapodEvaluator::struts_to_peripheral(const Peripheral& per, const interference::Shape& shape,

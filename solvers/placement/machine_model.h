@@ -42,6 +42,7 @@
 namespace machplan::placement {
 
 struct Scene;
+struct WorkpieceSolid;
 
 // A set of constraints, one bit each (at most 64 per machine and scene).
 using Mask = std::uint64_t;
@@ -96,6 +97,10 @@ struct Constraint {
   // +1: the value never falls as the pad rises (with everything else held); -1: never rises;
   // 0: either. Screening a box tall in pad then looks at its top (or bottom) only.
   int pad_trend = 0;
+  // With pad_trend +1, a rate the value keeps to: lowering the pad by d lowers it by at least
+  // pad_rate d, except where it is below the limit at every pad. One look at a box's top then
+  // condemns every pad far enough below it (0: no such rate).
+  double pad_rate = 0.0;
 };
 
 // A part of the tool assembly that rides on the tool axis and keeps its shape whatever the
@@ -145,6 +150,13 @@ struct AxisPath {
   std::vector<long> flip_poses;              // where (the pose after the flip)
 };
 
+// Bounds of a constraint's value over a box of placements.
+struct BoxRange {
+  double lower = 0.0, upper = 0.0;
+  // How much of the range each side of the box (x, y, pad) makes, where known (else 0).
+  double spread_mm[3] = {0.0, 0.0, 0.0};
+};
+
 class PoseEvaluator {
  public:
   virtual ~PoseEvaluator() = default;
@@ -152,6 +164,17 @@ class PoseEvaluator {
   // constraint outside the mask may be left at any value; one in it never below its true
   // value (see the contract above).
   virtual void evaluate(const PathPose& pose, const Where& where, Mask mask, double* values) = 0;
+  // Constraint c at one pose over a box of placements at one rotation: the workpiece moved by
+  // up to `half` along each axis of the table (x, y, pad) from `where`: the value evaluate()
+  // gives at any placement in the box is at most `upper`, and the constraint's true value at
+  // least `lower` (evaluate() may give less only where it is 10 mm above the limit; see the
+  // contract above). A machine moves rigidly with the workpiece at one rotation, so the
+  // bounds can follow the geometry's shape (convex distances, concave strokes) where fall()
+  // knows only how far things move. nullopt when the model has no such bounds for c at this
+  // pose (fall() is used instead).
+  virtual std::optional<BoxRange> box_range(int c, const PathPose& pose, const Where& where, const Eigen::Vector3d& half) {
+    return std::nullopt;
+  }
   // The parts or the limit behind constraint c at a pose, and the paper search's evasion.
   virtual void describe(int c, const PathPose& pose, const Where& where, double value, Finding& f) = 0;
   // Placement-only constraint k (the workpiece with its pad against the peripherals): its
@@ -175,6 +198,8 @@ class MachineModel {
   int placement_count() const { return placement_count_; }
 
   virtual std::unique_ptr<PoseEvaluator> evaluator() const = 0;
+  // The workpiece as the model checks it (workpiece.h).
+  virtual const WorkpieceSolid& workpiece() const = 0;
   virtual double fall(int c, const double* v, const Motion& m) const = 0;
 
   // The path as this machine runs it: fills the rotary angles of every pose (an inverse

@@ -21,12 +21,6 @@ namespace machplan::placement {
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
-// Boxes at least this large (radius, mm) that the known interferences leave undecided are
-// probed for a deep interference at their centre before they are split.
-constexpr double kProbeRadius_mm = 8.0;
-// After a probe that found nothing, the next probe in the same box waits until the boxes are
-// this much smaller.
-constexpr double kProbeShrink = 0.5;
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -147,7 +141,6 @@ struct Box {
   int r0, r1;                   // rotation indices, inclusive
   Key key;
   std::uint64_t settled = 0;    // known interferences shown absent over the box
-  double probe_below = 1e300;   // probe only boxes smaller than this (an ancestor's probe failed)
   bool point() const { return x0 == x1 && y0 == y1 && p0 == p1 && r0 == r1; }
   double volume() const { return double(x1 - x0 + 1) * (y1 - y0 + 1) * (p1 - p0 + 1) * (r1 - r0 + 1); }
   bool operator>(const Box& o) const { return o.key < key; }
@@ -165,8 +158,8 @@ struct Screened {
   Decision decision = Decision::unknown;
   std::uint64_t settled = 0;
   int killer = -1;              // learned interference (by id) that condemned the box
-  std::optional<Spot> probed;   // a deep interference a probe found
-  std::vector<Box> children;    // the box split, when undecided
+  std::vector<Box> children;    // the box split (or lifted), when undecided
+  double condemned = 0.0;       // volume condemned by a lift
 };
 
 class OptimalSearch {
@@ -198,6 +191,8 @@ class OptimalSearch {
                       std::sqrt(double((b.x1 - b.x0) * (b.x1 - b.x0) + (b.y1 - b.y0) * (b.y1 - b.y0) + (b.p1 - b.p0) * (b.p1 - b.p0)));
     ball->turn_deg = (rot_.deg[b.r1] - rot_.deg[b.r0]) / 2;
     ball->pad_half_mm = 0.5 * g_ * double(b.p1 - b.p0);
+    ball->x_half_mm = 0.5 * g_ * double(b.x1 - b.x0);
+    ball->y_half_mm = 0.5 * g_ * double(b.y1 - b.y0);
     return {(b.x0 + b.x1) * 0.5 * g_, (b.y0 + b.y1) * 0.5 * g_, pad0_ + (b.p0 + b.p1) * 0.5 * g_,
             b.r0 == b.r1 ? rot_.shown[b.r0] : mid};
   }
@@ -207,7 +202,9 @@ class OptimalSearch {
     b.key = key_of(b);
     return b;
   }
-  std::vector<Box> split(const Box& b, std::uint64_t settled) const;
+  // Splits the side that narrows the undecided constraints most (`spread`: how much of their
+  // range each of x, y and pad makes; zero when not known: then the longest side).
+  std::vector<Box> split(const Box& b, std::uint64_t settled, const Eigen::Vector3d& spread = Eigen::Vector3d::Zero()) const;
   Screened screen(const Box& b, const std::vector<Learned>& known);
   // The grid, class 1 and the objective; false when that already settles the search.
   bool prepare(PlacementResult& res);
@@ -259,9 +256,15 @@ Key OptimalSearch::key_of(const Box& b) const {
   return k;
 }
 
-std::vector<Box> OptimalSearch::split(const Box& b, std::uint64_t settled) const {
+std::vector<Box> OptimalSearch::split(const Box& b, std::uint64_t settled, const Eigen::Vector3d& spread) const {
   // Split the longest side: grid steps, and for rotations the distance the farthest tip moves.
-  const double sx = b.x1 - b.x0, sy = b.y1 - b.y0, sp = b.p1 - b.p0;
+  double sx = b.x1 - b.x0, sy = b.y1 - b.y0, sp = b.p1 - b.p0;
+  if (b.r0 == b.r1 && spread.maxCoeff() > 0.0) {
+    // At one rotation, by what each side adds to the range (a side one grid step wide or less
+    // adds nothing a split could remove).
+    sx = sx > 0 ? spread.x() : 0, sy = sy > 0 ? spread.y() : 0, sp = sp > 0 ? spread.z() : 0;
+    if (std::max({sx, sy, sp}) <= 0) sx = b.x1 - b.x0, sy = b.y1 - b.y0, sp = b.p1 - b.p0;
+  }
   const double turn_mm = (rot_.deg[b.r1] - rot_.deg[b.r0]) * kDeg * radius_ / g_;
   std::vector<Box> out;
   if (b.r1 > b.r0 && turn_mm >= std::max({sx, sy, sp})) {
@@ -307,38 +310,41 @@ Screened OptimalSearch::screen(const Box& b, const std::vector<Learned>& known) 
   }
   std::uint64_t settled = b.settled;
   const Where where = Where::of(c);
+  long lift = b.p0;  // the lowest pad no known interference condemns
+  Eigen::Vector3d spread = Eigen::Vector3d::Zero();
   for (const Learned& w : known) {
     const std::uint64_t bit = w.id < 64 ? std::uint64_t{1} << w.id : 0;
     if (settled & bit) continue;
-    const Decision s = checker_.screen_spot(w.spot, where, ball, term_);
+    SpotScreen more;
+    const Decision s = checker_.screen_spot(w.spot, where, ball, term_, &more);
+    const double below = more.condemned_below_mm;
     if (s == Decision::infeasible) {
       out.decision = Decision::infeasible;
       out.killer = w.id;
       return out;
     }
-    if (s == Decision::unknown)
+    if (s == Decision::unknown) {
       all_clear = false;
-    else
+      if (below / g_ < double(b.p1 - lift)) lift = b.p1 - static_cast<long>(std::floor(below / g_));
+      spread += Eigen::Vector3d(more.spread_mm[0], more.spread_mm[1], more.spread_mm[2]);
+    } else {
       settled |= bit;
+    }
   }
   out.settled = settled;
-  // A large box no known interference settles: look for a deep one at its centre.
-  const bool probing = !all_clear && ball.radius_mm >= kProbeRadius_mm && ball.radius_mm < b.probe_below;
-  if (probing) {
-    Spot spot;
-    if (checker_.probe(c, ball, term_, &spot) == Decision::infeasible) {
-      out.decision = Decision::infeasible;
-      out.probed = spot;
-      return out;
-    }
+  if (lift > b.p0) {
+    // The pads below `lift` are condemned: the rest of the box is screened again.
+    out.decision = Decision::unknown;
+    out.condemned = b.volume() * double(lift - b.p0) / double(b.p1 - b.p0 + 1);
+    out.children.push_back(make(b.x0, b.x1, b.y0, b.y1, lift, b.p1, b.r0, b.r1, settled));
+    return out;
   }
   out.decision = all_clear ? Decision::feasible : Decision::unknown;
   // Undecided, or free of everything known but not a single placement on an objective whose
   // boxes have no best point: split now (the children's bounds are computed here, in
   // parallel).
   if (out.decision == Decision::unknown || (!lexicographic() && !b.point())) {
-    out.children = split(b, settled);
-    for (Box& child : out.children) child.probe_below = probing ? ball.radius_mm * kProbeShrink : b.probe_below;
+    out.children = split(b, settled, spread);
   }
   return out;
 }
@@ -467,10 +473,10 @@ bool OptimalSearch::merge(std::vector<Box>& batch, std::vector<Screened>& screen
         const auto it = std::find_if(learned_.begin(), learned_.end(), [&](const Learned& l) { return l.id == s.killer; });
         if (it != learned_.end()) std::rotate(learned_.begin(), it, it + 1);
       }
-      if (s.probed) learn(*s.probed);
       continue;
     }
     if (!s.children.empty()) {
+      done_volume_ += s.condemned;
       for (Box& c : s.children) open_.push(std::move(c));
       blocked = true;
       continue;

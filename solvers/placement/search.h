@@ -26,9 +26,12 @@
 //         rotation_step_deg). Boxes are taken in order of the best objective any placement in
 //         them could have. A box is screened against the interferences met so far (each a
 //         spot on the path and the constraint it broke: one pose query each, bounded over the
-//         box, turns included, by the machine model's motion bounds); a large box they leave
-//         undecided is probed for a deep interference at its centre. A box is dropped when one
-//         interference is provably present everywhere in it, split when undecided, and when no
+//         box by the machine model's own box bounds where it has them (the machine moves
+//         rigidly with the workpiece at one rotation, so distances are convex and slider
+//         strokes concave in the move), else, and for the turn, by its motion bounds). A box is
+//         dropped when one interference is provably present everywhere in it; its pads are
+//         cut from below when a constraint that keeps a pad rate condemns them; it is split
+//         when undecided, on the side that narrows the undecided constraints most; and when no
 //         known interference objects anywhere in it, its best point is certified over the
 //         whole path. If that fails, the interference found is learned and the box goes back to
 //         be screened again. On `lowest` the first certified point is the optimum on the grid

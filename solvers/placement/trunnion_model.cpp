@@ -204,7 +204,7 @@ class TrunnionModel final : public MachineModel {
   const std::vector<AxialPart>& tool() const { return tool_; }
   const std::vector<MachineSolid>& solids() const { return solids_; }
   const std::vector<Peripheral>& peripherals() const { return peripherals_; }
-  const WorkpieceSolid& workpiece() const { return wp_; }
+  const WorkpieceSolid& workpiece() const override { return wp_; }
 
  private:
   void add_solids(const std::vector<trunnion::Solid>& list, int body) {
@@ -337,7 +337,7 @@ std::optional<AxisPath> TrunnionModel::axis_path(const std::vector<PathPose>& po
 }
 
 TrunnionEvaluator::TrunnionEvaluator(const TrunnionModel& model)
-    : model_(model), workpiece_(interference::Shape::mesh(model.workpiece().vertices, model.workpiece().triangles)) {
+    : model_(model), workpiece_(model.workpiece().mesh()) {
   assembly_ = axial_shapes(model.assembly());
   tool_ = axial_shapes(model.tool());
   for (const auto& s : model.solids()) solids_.push_back(s.shape.copy());

@@ -23,6 +23,11 @@ WorkpieceSolid workpiece_solid(const Scene& scene) {
   return wp;
 }
 
+interference::Shape WorkpieceSolid::mesh() const {
+  std::call_once(built_->once, [this] { built_->shape = interference::Shape::mesh(vertices, triangles); });
+  return built_->shape->copy();
+}
+
 Eigen::Vector3d WorkpieceSolid::block_half(double pad_mm) const {
   return {bounds.sizes().x() / 2, bounds.sizes().y() / 2, (bounds.max().z() + pad_mm) / 2};
 }

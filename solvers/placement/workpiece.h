@@ -11,6 +11,9 @@
 #pragma once
 
 #include <array>
+#include <memory>
+#include <mutex>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -29,6 +32,10 @@ struct WorkpieceSolid {
   Eigen::AlignedBox3d bounds;   // workpiece frame
   double spoilboard_mm = 0.0;
   double radius_mm = 0.0;       // farthest a point of the block lies from the frame's z axis
+  // The solid's collision shape for the calling thread, a copy of its own: the mesh's
+  // bounding-volume tree is built once, when first asked (thread-safe), and shared by copies of
+  // this solid.
+  interference::Shape mesh() const;
 
   // The block (footprint from z = -pad to the top) in the table frame: its box shape's half
   // sizes and pose.
@@ -38,6 +45,13 @@ struct WorkpieceSolid {
   Eigen::AlignedBox3d block_bounds(const Where& where) const;
   // The footprint's corners in the table frame.
   std::array<Eigen::Vector2d, 4> footprint(const Where& where) const;
+
+ private:
+  struct Built {
+    std::once_flag once;
+    std::optional<interference::Shape> shape;
+  };
+  std::shared_ptr<Built> built_ = std::make_shared<Built>();
 };
 
 // The scene's workpiece (mesh, bounds, spoilboard), its radius that of the footprint's corners.
