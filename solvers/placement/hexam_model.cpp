@@ -79,6 +79,13 @@ struct MovedNearBox {
     }
     return worst;
   }
+  // What a part's bound (its gap) shows of its value anywhere in the moves: a positive gap
+  // less the reach; nothing from a gap of 0 (the part may overlap the box, and a value is
+  // carried below 0 by the depth).
+  template <class Part>
+  double floor(const Part& p) const {
+    return p.lower > 0.0 ? p.lower - reach : -kInf;
+  }
   // How far along g the moves reach.
   double move_along(const Eigen::Vector3d& g) const { return g.cwiseAbs().dot(half); }
   // At the centre: the part's lowest point along g (into `at`) less the box's highest.
@@ -136,7 +143,6 @@ class HexapodEvaluator final : public PoseEvaluator {
     struct Part {
       double lower;
       std::size_t shape;
-      Eigen::Isometry3d pose;
       int name;  // tool part index, -1 the plate, -2 - k hinge k
       Eigen::Vector3d a, b;  // the solid: radius r around the segment a b, capsule or flat cylinder
       double r;
@@ -393,18 +399,14 @@ std::size_t HexapodEvaluator::assembly_parts(const Peripheral& per, const hexam:
   for (std::size_t s = 0; s < m.tool_parts.size() && count < parts.size(); ++s) {
     const auto& tp = m.tool_parts[s];
     const Eigen::Vector3d a = tip + axis * tp.from_mm, b = tip + axis * tp.to_mm;
-    parts[count++] = {gap(per, a, b, tp.radius_mm, !tp.capsule), s, interference::segment_pose(a, b), static_cast<int>(s),
-                      a, b, tp.radius_mm, tp.capsule};
+    parts[count++] = {gap(per, a, b, tp.radius_mm, !tp.capsule), s, static_cast<int>(s), a, b, tp.radius_mm, tp.capsule};
   }
   const Eigen::Vector3d pa = tip + axis * m.gauge_mm;
   if (count < parts.size())
-    parts[count++] = {gap(per, pa, top, m.plate_radius_mm, true), m.tool_parts.size(), interference::segment_pose(pa, top), -1,
-                      pa, top, m.plate_radius_mm, false};
+    parts[count++] = {gap(per, pa, top, m.plate_radius_mm, true), m.tool_parts.size(), -1, pa, top, m.plate_radius_mm, false};
   for (int s = 0; s < 6 && count < parts.size(); ++s) {
     const Eigen::Vector3d h = ik.struts[s].plate_mm;
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.translation() = h;
-    parts[count++] = {gap(per, h, h, m.hinge_radius_mm, false), rigid_.size() - 1, T, -2 - s, h, h, m.hinge_radius_mm, true};
+    parts[count++] = {gap(per, h, h, m.hinge_radius_mm, false), rigid_.size() - 1, -2 - s, h, h, m.hinge_radius_mm, true};
   }
   std::sort(parts.begin(), parts.begin() + static_cast<long>(count),
             [](const Near::Part& x, const Near::Part& y) { return x.lower < y.lower; });
@@ -450,7 +452,9 @@ double HexapodEvaluator::assembly_to_peripheral(const Peripheral& per, const int
     }
   }
   for (std::size_t k = 0; k < count && parts[k].lower < best && best > 0.0; ++k) {
-    const interference::Proximity p = interference::distance(rigid_[parts[k].shape], parts[k].pose, shape, per.T_table_peripheral);
+    // The part's solid along its segment (a hinge's sphere at its point).
+    const interference::Proximity p = interference::distance(rigid_[parts[k].shape], interference::segment_pose(parts[k].a, parts[k].b),
+                                                             shape, per.T_table_peripheral);
     parts[k].exact = p.distance_mm;
     parts[k].on_part = p.point_a_mm;
     parts[k].on_peripheral = p.point_b_mm;
@@ -476,8 +480,7 @@ std::optional<BoxRange> HexapodEvaluator::assembly_box_range(const Peripheral& p
     r.lower = far - box.reach, r.upper = kInf;
     return r;
   }
-  if (parts[0].lower > 0.0)
-    if (auto r = assembly_range_unmeasured(box, parts, count)) return r;
+  if (auto r = assembly_range_unmeasured(box, parts, count)) return r;
   return assembly_range_measured(box, per, shape, ik, tip, axis);
 }
 
@@ -492,7 +495,7 @@ std::optional<BoxRange> HexapodEvaluator::assembly_range_unmeasured(const MovedN
   double lower = kInf, upper = kInf, d_low = kInf, d_high = kInf;  // d within [d_low, d_high]
   for (std::size_t k = 0; k < count; ++k) {
     const Near::Part& p = parts[k];
-    if (p.lower - box.reach >= lower) {  // sorted by their bounds: the rest are farther
+    if (box.floor(p) >= lower) {  // sorted by their bounds: the rest are farther
       d_low = std::min(d_low, p.lower);
       break;
     }
@@ -517,15 +520,18 @@ std::optional<BoxRange> HexapodEvaluator::assembly_range_unmeasured(const MovedN
     Eigen::Vector3d on_part = (p.a + p.b) / 2;
     for (int step = 0; step < 3; ++step) {
       const Eigen::Vector3d out = box.away(on_part);
-      if (out.norm() < 1e-9) return std::nullopt;  // touching: measure
+      if (out.norm() < 1e-9) {  // a point of the part in the box
+        up_best = 0.0, at_best = on_part;
+        break;
+      }
       look(out.normalized());
       if (out.norm() < up_best) up_best = out.norm(), at_best = on_part;
       on_part = nearest_on(p, on_part - out);
     }
-    const double lo = std::max(p.lower - box.reach, lo_best);
+    const double lo = std::max(box.floor(p), lo_best);
     if (lo < lower) lower = lo, box.spread(g_best, r);
     upper = std::min(upper, std::max(0.0, box.corners_max(at_best)));
-    d_low = std::min(d_low, std::max(p.lower, sep_best)), d_high = std::min(d_high, up_best);
+    d_low = std::min(d_low, p.lower > 0.0 ? std::max(p.lower, sep_best) : sep_best), d_high = std::min(d_high, up_best);
   }
   r.lower = lower - MovedNearBox::kSlack, r.upper = upper + MovedNearBox::kSlack;
   const double limit = model_.safe(), least = box.half.minCoeff();
@@ -564,9 +570,9 @@ BoxRange HexapodEvaluator::assembly_range_measured(const MovedNearBox& box, cons
   r.upper = std::min(r.upper, std::max(0.0, box.corners_max(at)) + slack);
   for (std::size_t k = 0; k < n.count; ++k) {
     const Near::Part& p = n.parts[k];
-    if (static_cast<int>(k) == n.best || p.lower - box.reach >= lower) continue;
+    if (static_cast<int>(k) == n.best || box.floor(p) >= lower) continue;
     const Eigen::Vector3d gk = direction(p);
-    lower = std::min(lower, std::max(p.lower - box.reach, box.separation(p, gk, &at) - box.move_along(gk)));
+    lower = std::min(lower, std::max(box.floor(p), box.separation(p, gk, &at) - box.move_along(gk)));
   }
   r.lower = std::max(r.lower, lower - slack);
   return r;
