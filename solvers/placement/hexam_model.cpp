@@ -147,8 +147,10 @@ class HexapodEvaluator final : public PoseEvaluator {
       Eigen::Vector3d a, b;  // the solid: radius r around the segment a b, capsule or flat cylinder
       double r;
       bool capsule;
-      double exact = std::numeric_limits<double>::quiet_NaN();  // measured distance
-      Eigen::Vector3d on_part = Eigen::Vector3d::Zero(), on_peripheral = Eigen::Vector3d::Zero();
+      // Set when measured (no initializers: a pose's evaluation fills few of the 16).
+      bool measured;
+      double exact;
+      Eigen::Vector3d on_part, on_peripheral;
     };
     std::array<Part, kParts> parts;
     std::size_t count = 0;  // 0: far, the value is the assembly's bound
@@ -399,14 +401,17 @@ std::size_t HexapodEvaluator::assembly_parts(const Peripheral& per, const hexam:
   for (std::size_t s = 0; s < m.tool_parts.size() && count < parts.size(); ++s) {
     const auto& tp = m.tool_parts[s];
     const Eigen::Vector3d a = tip + axis * tp.from_mm, b = tip + axis * tp.to_mm;
-    parts[count++] = {gap(per, a, b, tp.radius_mm, !tp.capsule), s, static_cast<int>(s), a, b, tp.radius_mm, tp.capsule};
+    parts[count++] = {gap(per, a, b, tp.radius_mm, !tp.capsule), s, static_cast<int>(s), a, b, tp.radius_mm, tp.capsule,
+                      false, 0.0, {}, {}};
   }
   const Eigen::Vector3d pa = tip + axis * m.gauge_mm;
   if (count < parts.size())
-    parts[count++] = {gap(per, pa, top, m.plate_radius_mm, true), m.tool_parts.size(), -1, pa, top, m.plate_radius_mm, false};
+    parts[count++] = {gap(per, pa, top, m.plate_radius_mm, true), m.tool_parts.size(), -1, pa, top, m.plate_radius_mm, false,
+                      false, 0.0, {}, {}};
   for (int s = 0; s < 6 && count < parts.size(); ++s) {
     const Eigen::Vector3d h = ik.struts[s].plate_mm;
-    parts[count++] = {gap(per, h, h, m.hinge_radius_mm, false), rigid_.size() - 1, -2 - s, h, h, m.hinge_radius_mm, true};
+    parts[count++] = {gap(per, h, h, m.hinge_radius_mm, false), rigid_.size() - 1, -2 - s, h, h, m.hinge_radius_mm, true,
+                      false, 0.0, {}, {}};
   }
   std::sort(parts.begin(), parts.begin() + static_cast<long>(count),
             [](const Near::Part& x, const Near::Part& y) { return x.lower < y.lower; });
@@ -455,6 +460,7 @@ double HexapodEvaluator::assembly_to_peripheral(const Peripheral& per, const int
     // The part's solid along its segment (a hinge's sphere at its point).
     const interference::Proximity p = interference::distance(rigid_[parts[k].shape], interference::segment_pose(parts[k].a, parts[k].b),
                                                              shape, per.T_table_peripheral);
+    parts[k].measured = true;
     parts[k].exact = p.distance_mm;
     parts[k].on_part = p.point_a_mm;
     parts[k].on_peripheral = p.point_b_mm;
@@ -557,7 +563,7 @@ BoxRange HexapodEvaluator::assembly_range_measured(const MovedNearBox& box, cons
   }
   if (n.best < 0 || !(value > 0.0)) return r;
   auto direction = [&](const Near::Part& p) -> Eigen::Vector3d {
-    if (!std::isnan(p.exact) && p.exact > 1e-9 && (p.on_part - p.on_peripheral).norm() > 1e-12)
+    if (p.measured && p.exact > 1e-9 && (p.on_part - p.on_peripheral).norm() > 1e-12)
       return (p.on_part - p.on_peripheral).normalized();
     const Eigen::Vector3d mid = (p.a + p.b) / 2, out = box.away(mid);
     return out.norm() > 1e-12 ? Eigen::Vector3d(out.normalized()) : Eigen::Vector3d(mid - box.centre).normalized();

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <limits>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/task_group.h>
 
 namespace machplan::placement {
@@ -19,16 +22,17 @@ PoseTree::PoseTree(const MachineModel& model, std::vector<PathPose> poses)
   const std::size_t n = poses_.size();
   for (const auto& p : poses_) radius_mm_ = std::max(radius_mm_, p.tip.head<2>().norm());
   steps_.resize(n > 0 ? n - 1 : 0);
-  for (std::size_t i = 0; i + 1 < n; ++i) steps_[i] = model.motion_between(poses_[i], poses_[i + 1]);
   if (n < 2) return;
   // Key of an interval: its mid tip, its mid axis scaled so that an axis turn weighs what it
-  // moves the rigid parts, and its mid rotary angles likewise.
+  // moves the rigid parts, and its mid rotary angles likewise. Each interval on its own, so
+  // on every thread.
   keys_.resize(8, static_cast<long>(n - 1));
-  for (std::size_t i = 0; i + 1 < n; ++i) {
+  tbb::parallel_for(std::size_t{0}, n - 1, [&](std::size_t i) {
     const PathPose &a = poses_[i], &b = poses_[i + 1];
+    steps_[i] = model.motion_between(a, b);
     keys_.col(static_cast<long>(i)) << (a.tip + b.tip) / 2, axis_w_ * (a.axis + b.axis) / 2, joint_w_ * (a.a_rad + b.a_rad) / 2,
         joint_w_ * (a.c_rad + b.c_rad) / 2;
-  }
+  });
   std::vector<long> intervals(n - 1);
   for (std::size_t i = 0; i + 1 < n; ++i) intervals[i] = static_cast<long>(i);
   nodes_.resize(2 * (n - 1) - 1);
@@ -48,33 +52,67 @@ Motion PoseTree::step(long i, double fraction) const {
 }
 
 void PoseTree::build(std::vector<long>& iv, std::size_t lo, std::size_t hi, int id, int depth) {
-  Eigen::Matrix<double, 8, 1> kmin = Eigen::Matrix<double, 8, 1>::Constant(kInf), kmax = -kmin;
-  for (std::size_t j = lo; j < hi; ++j) {
-    kmin = kmin.cwiseMin(keys_.col(iv[j])), kmax = kmax.cwiseMax(keys_.col(iv[j]));
-  }
-  // Centre: the member pose nearest the middle of the keys' box.
-  const Eigen::Matrix<double, 8, 1> mid = (kmin + kmax) / 2;
+  // The passes over the node's intervals: on every thread for a large node (the root's alone
+  // covers the whole path), the same results as in order.
+  using Key = Eigen::Matrix<double, 8, 1>;
+  const bool wide = hi - lo >= kParallelIntervals;
+  struct Box {
+    Key lo = Key::Constant(kInf), hi = Key::Constant(-kInf);
+  };
+  auto bounds = [&](const tbb::blocked_range<std::size_t>& r, Box b) {
+    for (std::size_t j = r.begin(); j < r.end(); ++j) b.lo = b.lo.cwiseMin(keys_.col(iv[j])), b.hi = b.hi.cwiseMax(keys_.col(iv[j]));
+    return b;
+  };
+  const tbb::blocked_range<std::size_t> all(lo, hi, kParallelIntervals);
+  auto pass = [&](auto init, const auto& body, const auto& join) {
+    return wide ? tbb::parallel_reduce(all, init, body, join) : body(all, init);
+  };
+  const Box kb = pass(Box{}, bounds, [](Box a, const Box& b) {
+    a.lo = a.lo.cwiseMin(b.lo), a.hi = a.hi.cwiseMax(b.hi);
+    return a;
+  });
+  const Key kmin = kb.lo, kmax = kb.hi;
+  // Centre: the member pose nearest the middle of the keys' box (the first such, in order).
+  const Key mid = (kmin + kmax) / 2;
   auto key_of = [&](long i) {
-    Eigen::Matrix<double, 8, 1> k;
+    Key k;
     k << poses_[i].tip, axis_w_ * poses_[i].axis, joint_w_ * poses_[i].a_rad, joint_w_ * poses_[i].c_rad;
     return k;
   };
-  long centre = iv[lo];
-  double best = kInf;
-  for (std::size_t j = lo; j < hi; ++j)
-    for (long i : {iv[j], iv[j] + 1}) {
-      const Eigen::Matrix<double, 8, 1> k = key_of(i);
-      const double d = (k.head<3>() - mid.head<3>()).squaredNorm() + (k.tail<5>() - mid.tail<5>()).squaredNorm();
-      if (d < best) best = d, centre = i;
-    }
-  double tip2 = 0, chord2 = 0, joints = 0;
+  struct Nearest {
+    double d = kInf;
+    long pose = -1;
+  };
+  auto nearest = [&](const tbb::blocked_range<std::size_t>& r, Nearest n) {
+    for (std::size_t j = r.begin(); j < r.end(); ++j)
+      for (long i : {iv[j], iv[j] + 1}) {
+        const Key k = key_of(i);
+        const double d = (k.head<3>() - mid.head<3>()).squaredNorm() + (k.tail<5>() - mid.tail<5>()).squaredNorm();
+        if (d < n.d) n = {d, i};
+      }
+    return n;
+  };
+  // Chunks join in order (left before right), so a tie keeps the earlier pose as a walk would.
+  const Nearest nc = pass(Nearest{}, nearest, [](const Nearest& a, const Nearest& b) { return b.d < a.d ? b : a; });
+  const long centre = nc.pose >= 0 ? nc.pose : iv[lo];
   const PathPose& c = poses_[centre];
-  for (std::size_t j = lo; j < hi; ++j)
-    for (long i : {iv[j], iv[j] + 1}) {
-      tip2 = std::max(tip2, (poses_[i].tip - c.tip).squaredNorm());
-      chord2 = std::max(chord2, (poses_[i].axis - c.axis).squaredNorm());
-      joints = std::max(joints, std::abs(poses_[i].a_rad - c.a_rad) + std::abs(poses_[i].c_rad - c.c_rad));
-    }
+  struct Reach {
+    double tip2 = 0, chord2 = 0, joints = 0;
+  };
+  auto reach = [&](const tbb::blocked_range<std::size_t>& r, Reach m) {
+    for (std::size_t j = r.begin(); j < r.end(); ++j)
+      for (long i : {iv[j], iv[j] + 1}) {
+        m.tip2 = std::max(m.tip2, (poses_[i].tip - c.tip).squaredNorm());
+        m.chord2 = std::max(m.chord2, (poses_[i].axis - c.axis).squaredNorm());
+        m.joints = std::max(m.joints, std::abs(poses_[i].a_rad - c.a_rad) + std::abs(poses_[i].c_rad - c.c_rad));
+      }
+    return m;
+  };
+  const Reach rc = pass(Reach{}, reach, [](Reach a, const Reach& b) {
+    a.tip2 = std::max(a.tip2, b.tip2), a.chord2 = std::max(a.chord2, b.chord2), a.joints = std::max(a.joints, b.joints);
+    return a;
+  });
+  const double tip2 = rc.tip2, chord2 = rc.chord2, joints = rc.joints;
   Node node;
   node.centre = centre;
   // Rounded up a little so the bound stays a bound in floating point.

@@ -286,7 +286,11 @@ TEST(PanelApi, TheTriangleRunsHoldsResumesAndReports) {
   const json held = rig.status();
   EXPECT_EQ(held["torch"]["fire"], false) << "the hold turned the torch off in the cut";
   ASSERT_EQ(rig.post("/api/resume").status, 200);
-  ASSERT_TRUE(rig.wait_for([](const json& s) { return s["state"] == "done"; }));
+  json last;
+  ASSERT_TRUE(rig.wait_for([&](const json& s) {
+    last = s;
+    return s["state"] == "done";
+  })) << last.dump();
   const HttpResponse rep = rig.get("/api/report");
   ASSERT_EQ(rep.status, 200);
   const json r = json::parse(rep.body);
