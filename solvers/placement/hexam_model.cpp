@@ -402,16 +402,16 @@ std::size_t HexapodEvaluator::assembly_parts(const Peripheral& per, const hexam:
     const auto& tp = m.tool_parts[s];
     const Eigen::Vector3d a = tip + axis * tp.from_mm, b = tip + axis * tp.to_mm;
     parts[count++] = {gap(per, a, b, tp.radius_mm, !tp.capsule), s, static_cast<int>(s), a, b, tp.radius_mm, tp.capsule,
-                      false, 0.0, {}, {}};
+                      false, 0.0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   }
   const Eigen::Vector3d pa = tip + axis * m.gauge_mm;
   if (count < parts.size())
     parts[count++] = {gap(per, pa, top, m.plate_radius_mm, true), m.tool_parts.size(), -1, pa, top, m.plate_radius_mm, false,
-                      false, 0.0, {}, {}};
+                      false, 0.0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   for (int s = 0; s < 6 && count < parts.size(); ++s) {
     const Eigen::Vector3d h = ik.struts[s].plate_mm;
     parts[count++] = {gap(per, h, h, m.hinge_radius_mm, false), rigid_.size() - 1, -2 - s, h, h, m.hinge_radius_mm, true,
-                      false, 0.0, {}, {}};
+                      false, 0.0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   }
   std::sort(parts.begin(), parts.begin() + static_cast<long>(count),
             [](const Near::Part& x, const Near::Part& y) { return x.lower < y.lower; });
