@@ -1,6 +1,7 @@
 #include "solvers/placement/checker.h"
 
 #include <algorithm>
+#include <iterator>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -321,6 +322,11 @@ Decision Checker::screen_spot(const Spot& s, const Where& centre, const Ball& ba
   if (more) *more = SpotScreen{};
   const PathPose pose = m.tree.at(s.pose, s.t);
   const Constraint& con = m.model->constraints()[s.constraint];
+  // For a constraint that keeps a pad rate, with `highest` bounding the value on the box's top
+  // face: it falls by pad_rate for each mm lower (1e-9 mm of margin against rounding).
+  auto condemn_below = [&](double highest) {
+    if (more && con.pad_trend > 0 && con.pad_rate > 0) more->condemned_below_mm = (highest - con.limit) / con.pad_rate + 1e-9;
+  };
   if (ball.box() && !ball.point()) {
     // A box: the model's own bounds over it at its middle rotation, where it has them, widened
     // by how far the turn to its other rotations can move the value (from any state).
@@ -333,10 +339,8 @@ Decision Checker::screen_spot(const Spot& s, const Where& centre, const Ball& ba
       if (r->upper < con.limit) return Decision::infeasible;
       if (r->lower >= con.limit) return Decision::feasible;
       // The box's highest value is on its top face for a constraint that rises with the pad.
-      if (more) {
-        if (con.pad_trend > 0 && con.pad_rate > 0) more->condemned_below_mm = (r->upper - con.limit) / con.pad_rate + 1e-9;
-        for (int k = 0; k < 3; ++k) more->spread_mm[k] = r->spread_mm[k];
-      }
+      condemn_below(r->upper);
+      if (more) std::copy(std::begin(r->spread_mm), std::end(r->spread_mm), more->spread_mm);
       return Decision::unknown;
     }
   }
@@ -356,11 +360,8 @@ Decision Checker::screen_spot(const Spot& s, const Where& centre, const Ball& ba
   const double fall = flat.point() ? 0.0 : m.model->fall(s.constraint, v.data(), m.certifier.ball_motion(flat, pose));
   const bool bad = ball.point() ? value < limit : value <= limit - fall;
   if (bad) return Decision::infeasible;
-  if (more && con.pad_trend > 0 && con.pad_rate > 0)
-    // At most value + fall anywhere on the top face, less pad_rate for each mm lower; a margin
-    // of 1e-9 mm against rounding.
-    more->condemned_below_mm = (value + fall - limit) / con.pad_rate + 1e-9;
-  if (&flat != &ball && flat.radius_mm != ball.radius_mm) {
+  condemn_below(value + fall);  // at most that anywhere on the top face
+  if (flat.radius_mm != ball.radius_mm) {
     // Clear over the box: from the face looked at, across the box's height (the pad changes by
     // all of it) and width.
     const Ball whole{flat.radius_mm + 2 * ball.pad_half_mm, ball.turn_deg, 2 * ball.pad_half_mm};

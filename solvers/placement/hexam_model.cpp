@@ -54,6 +54,17 @@ Eigen::Vector3d nearest_on(const Part& p, const Eigen::Vector3d& q) {
   return on_axis + v;
 }
 
+// Corner j (0 .. 7) of the box of moves within `half` of its centre.
+Eigen::Vector3d corner(const Eigen::Vector3d& half, int j) {
+  return {j & 1 ? half.x() : -half.x(), j & 2 ? half.y() : -half.y(), j & 4 ? half.z() : -half.z()};
+}
+
+// How much of a range over the box of moves each of its sides makes, for the direction (or
+// gradient) g the range changes along.
+void set_spread(BoxRange& r, const Eigen::Vector3d& g, const Eigen::Vector3d& half) {
+  for (int k = 0; k < 3; ++k) r.spread_mm[k] = std::abs(g[k]) * half[k];
+}
+
 // A box peripheral and the moves of the tool assembly within a box of placements (by up to
 // `half` along each table axis: the assembly moves rigidly with the workpiece at one rotation).
 //   Below: any unit direction g separates. A part's lowest point along g less the box's highest
@@ -73,10 +84,7 @@ struct MovedNearBox {
   // The largest signed distance from q moved to a corner of the moves.
   double corners_max(const Eigen::Vector3d& q) const {
     double worst = -kInf;
-    for (int j = 0; j < 8; ++j) {
-      const Eigen::Vector3d d(j & 1 ? half.x() : -half.x(), j & 2 ? half.y() : -half.y(), j & 4 ? half.z() : -half.z());
-      worst = std::max(worst, box_sdf(to_local * (q + d), box_half));
-    }
+    for (int j = 0; j < 8; ++j) worst = std::max(worst, box_sdf(to_local * (q + corner(half, j)), box_half));
     return worst;
   }
   // What a part's bound (its gap) shows of its value anywhere in the moves: a positive gap
@@ -106,11 +114,6 @@ struct MovedNearBox {
     const Eigen::Vector3d l = to_local * q;
     return R * (l - l.cwiseMax(-box_half).cwiseMin(box_half));
   }
-  // How much of the range each side of the moves makes, for a direction g.
-  void spread(const Eigen::Vector3d& g, BoxRange& r) const {
-    for (int k = 0; k < 3; ++k) r.spread_mm[k] = std::abs(g[k]) * half[k];
-  }
-
   Eigen::Isometry3d to_local;
   Eigen::Matrix3d R;
   Eigen::Vector3d centre, box_half, half;
@@ -137,7 +140,8 @@ class HexapodEvaluator final : public PoseEvaluator {
   };
   void run(const PathPose& pose, const Where& where, Mask mask, double* v, Detail* d);
   double class2(const hexam::IkResult& ik, const Where& where, Detail* d);
-  // What assembly_to_peripheral() found, for box_range().
+  // The tool assembly's parts near a peripheral, and what measuring them found (box_range()
+  // bounds from them).
   struct Near {
     static constexpr std::size_t kParts = 16;
     struct Part {
@@ -159,16 +163,18 @@ class HexapodEvaluator final : public PoseEvaluator {
     DepthBall ball;
   };
   double assembly_to_peripheral(const Peripheral& per, const interference::Shape& shape, const hexam::IkResult& ik,
-                                const Eigen::Vector3d& tip, const Eigen::Vector3d& axis, std::string* part,
-                                Near* near = nullptr);
+                                const Eigen::Vector3d& tip, const Eigen::Vector3d& axis, std::string* part);
+  // The value from parts assembly_parts() found (n.count > 0): depths, else exact distances.
+  double measure_assembly(const Peripheral& per, const interference::Shape& shape, const hexam::IkResult& ik,
+                          const Eigen::Vector3d& tip, const Eigen::Vector3d& axis, Near& n, std::string* part);
   std::optional<BoxRange> assembly_box_range(const Peripheral& per, const interference::Shape& shape,
                                              const hexam::IkResult& ik, const Eigen::Vector3d& tip,
                                              const Eigen::Vector3d& axis, const Eigen::Vector3d& half);
   // Without an exact distance: the range when it decides, or when measuring could not.
-  std::optional<BoxRange> assembly_range_unmeasured(const MovedNearBox& box, const std::array<Near::Part, Near::kParts>& parts,
-                                                    std::size_t count) const;
+  std::optional<BoxRange> assembly_range_unmeasured(const MovedNearBox& box, const Near& n) const;
   BoxRange assembly_range_measured(const MovedNearBox& box, const Peripheral& per, const interference::Shape& shape,
-                                   const hexam::IkResult& ik, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis);
+                                   const hexam::IkResult& ik, const Eigen::Vector3d& tip, const Eigen::Vector3d& axis,
+                                   Near& n);
   std::optional<BoxRange> stroke_box_range(const hexam::IkResult& ik, const Eigen::Vector3d& half);
   std::size_t assembly_parts(const Peripheral& per, const hexam::IkResult& ik, const Eigen::Vector3d& tip,
                              const Eigen::Vector3d& axis, std::array<Near::Part, Near::kParts>& parts,
@@ -420,17 +426,23 @@ std::size_t HexapodEvaluator::assembly_parts(const Peripheral& per, const hexam:
 
 double HexapodEvaluator::assembly_to_peripheral(const Peripheral& per, const interference::Shape& shape,
                                                 const hexam::IkResult& ik, const Eigen::Vector3d& tip,
-                                                const Eigen::Vector3d& axis, std::string* part, Near* near) {
-  const hexam::Machine& m = model_.machine();
-  Near local;
-  Near& n = near ? *near : local;
+                                                const Eigen::Vector3d& axis, std::string* part) {
+  Near n;
   double assembly_lb = 0.0;
-  const std::size_t count = assembly_parts(per, ik, tip, axis, n.parts, &assembly_lb);
-  n.count = count, n.best = -1, n.deep = false;
-  if (count == 0) {
+  n.count = assembly_parts(per, ik, tip, axis, n.parts, &assembly_lb);
+  if (n.count == 0) {
     if (part) *part = "tool assembly";
     return assembly_lb;
   }
+  return measure_assembly(per, shape, ik, tip, axis, n, part);
+}
+
+double HexapodEvaluator::measure_assembly(const Peripheral& per, const interference::Shape& shape, const hexam::IkResult& ik,
+                                          const Eigen::Vector3d& tip, const Eigen::Vector3d& axis, Near& n,
+                                          std::string* part) {
+  const hexam::Machine& m = model_.machine();
+  const std::size_t count = n.count;
+  n.best = -1, n.deep = false;
   std::array<Near::Part, Near::kParts>& parts = n.parts;
   const Eigen::Vector3d top = tip + axis * (m.gauge_mm + m.plate_thickness_mm), pa = tip + axis * m.gauge_mm;
   double best = kInf;
@@ -478,29 +490,27 @@ std::optional<BoxRange> HexapodEvaluator::assembly_box_range(const Peripheral& p
                                                              const Eigen::Vector3d& axis, const Eigen::Vector3d& half) {
   if (!per.is_box) return std::nullopt;
   const MovedNearBox box(per, half);
-  std::array<Near::Part, Near::kParts> parts;
+  Near n;
   double far = 0.0;
-  const std::size_t count = assembly_parts(per, ik, tip, axis, parts, &far);
-  if (count == 0) {  // far: the assembly's bound
+  n.count = assembly_parts(per, ik, tip, axis, n.parts, &far);
+  if (n.count == 0) {  // far: the assembly's bound
     BoxRange r;
     r.lower = far - box.reach, r.upper = kInf;
     return r;
   }
-  if (auto r = assembly_range_unmeasured(box, parts, count)) return r;
-  return assembly_range_measured(box, per, shape, ik, tip, axis);
+  if (auto r = assembly_range_unmeasured(box, n)) return r;
+  return assembly_range_measured(box, per, shape, ik, tip, axis, n);
 }
 
-std::optional<BoxRange> HexapodEvaluator::assembly_range_unmeasured(const MovedNearBox& box,
-                                                                    const std::array<Near::Part, Near::kParts>& parts,
-                                                                    std::size_t count) const {
+std::optional<BoxRange> HexapodEvaluator::assembly_range_unmeasured(const MovedNearBox& box, const Near& n) const {
   // From a few directions per part near enough, without an exact distance. When that decides
   // the box, it is the answer; so it is when what it shows of the distance at the centre, d,
   // leaves the measured path no way to decide it either: that one's bounds are at best d less
   // (or plus) the box's smallest half side (any unit g has |g|.half at least that).
   BoxRange r;
   double lower = kInf, upper = kInf, d_low = kInf, d_high = kInf;  // d within [d_low, d_high]
-  for (std::size_t k = 0; k < count; ++k) {
-    const Near::Part& p = parts[k];
+  for (std::size_t k = 0; k < n.count; ++k) {
+    const Near::Part& p = n.parts[k];
     if (box.floor(p) >= lower) {  // sorted by their bounds: the rest are farther
       d_low = std::min(d_low, p.lower);
       break;
@@ -535,7 +545,7 @@ std::optional<BoxRange> HexapodEvaluator::assembly_range_unmeasured(const MovedN
       on_part = nearest_on(p, on_part - out);
     }
     const double lo = std::max(box.floor(p), lo_best);
-    if (lo < lower) lower = lo, box.spread(g_best, r);
+    if (lo < lower) lower = lo, set_spread(r, g_best, box.half);
     upper = std::min(upper, std::max(0.0, box.corners_max(at_best)));
     d_low = std::min(d_low, p.lower > 0.0 ? std::max(p.lower, sep_best) : sep_best), d_high = std::min(d_high, up_best);
   }
@@ -548,11 +558,10 @@ std::optional<BoxRange> HexapodEvaluator::assembly_range_unmeasured(const MovedN
 
 BoxRange HexapodEvaluator::assembly_range_measured(const MovedNearBox& box, const Peripheral& per,
                                                    const interference::Shape& shape, const hexam::IkResult& ik,
-                                                   const Eigen::Vector3d& tip, const Eigen::Vector3d& axis) {
+                                                   const Eigen::Vector3d& tip, const Eigen::Vector3d& axis, Near& n) {
   // Measured (FCL): the nearest points give the direction; an overlap, the deepest ball.
   constexpr double slack = MovedNearBox::kSlack;
-  Near n;
-  const double value = assembly_to_peripheral(per, shape, ik, tip, axis, nullptr, &n);
+  const double value = measure_assembly(per, shape, ik, tip, axis, n, nullptr);
   // Whatever the case, the value (a distance, or a depth that moves like one) changes no
   // faster than the move.
   BoxRange r;
@@ -572,7 +581,7 @@ BoxRange HexapodEvaluator::assembly_range_measured(const MovedNearBox& box, cons
   Eigen::Vector3d at;
   const Eigen::Vector3d g = direction(nearest);
   double lower = std::max(r.lower, box.separation(nearest, g, &at) - box.move_along(g));
-  box.spread(g, r);
+  set_spread(r, g, box.half);
   r.upper = std::min(r.upper, std::max(0.0, box.corners_max(at)) + slack);
   for (std::size_t k = 0; k < n.count; ++k) {
     const Near::Part& p = n.parts[k];
@@ -603,11 +612,10 @@ std::optional<BoxRange> HexapodEvaluator::stroke_box_range(const hexam::IkResult
     const Eigen::Vector3d g = u - perp / root;
     if (low + g.cwiseAbs().dot(half) < r.upper) {
       r.upper = low + g.cwiseAbs().dot(half);
-      for (int k = 0; k < 3; ++k) r.spread_mm[k] = std::abs(g[k]) * half[k];
+      set_spread(r, g, half);
     }
     for (int j = 0; j < 8; ++j) {
-      const Eigen::Vector3d dj = d + Eigen::Vector3d(j & 1 ? half.x() : -half.x(), j & 2 ? half.y() : -half.y(),
-                                                     j & 4 ? half.z() : -half.z());
+      const Eigen::Vector3d dj = d + corner(half, j);
       const double ud = u.dot(dj), disc = st.length_mm * st.length_mm - (dj.squaredNorm() - ud * ud);
       // A corner out of reach: a placement in the box fails the stroke (its margin is then the
       // negative reach deficit); nothing better than that is known below.
