@@ -7,6 +7,7 @@
 #                                                          machplan::models, machplan::solvers
 #   P/share/machplan/machines/*.yaml                      the bundled machines (--machine NAME)
 #   P/share/machplan/datasets/{parts,profiles,programs,hexam-paper}/   the bundled inputs
+#   P/share/machplan/panel/{index.html,panel.js,panel.css}   the page `machplan serve` serves
 #
 # A consumer includes <machplan/engine/...>; the installed headers include each other as
 # "engine/...", which include/machplan on the include path resolves (docs/install.md).
@@ -38,3 +39,6 @@ install(FILES ${PROJECT_BINARY_DIR}/machplanConfig.cmake ${PROJECT_BINARY_DIR}/m
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/datasets/machines/ DESTINATION ${CMAKE_INSTALL_DATADIR}/machplan/machines)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/datasets/ DESTINATION ${CMAKE_INSTALL_DATADIR}/machplan/datasets
         PATTERN machines EXCLUDE)
+# The panel's page (cli/panel/web/), which an installed `machplan serve` finds beside it
+# (cli/panel/server.cpp, web_root_folder()).
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/cli/panel/web/ DESTINATION ${CMAKE_INSTALL_DATADIR}/machplan/panel)

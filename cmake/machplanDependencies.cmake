@@ -53,22 +53,46 @@ if(NOT MACHPLAN_FIND_AS_DEPENDENCY)
   machplan_find_package(nlohmann_json 3)
 endif()
 
-# LinuxCNC's HAL, for the HAL backend only (engine/hardware/hal_backend.cpp, behind HalBackend):
-# linuxcnc-uspace-dev ships hal.h and rtapi.h under include/linuxcnc and liblinuxcnchal, with no
-# pkg-config or CMake file. The headers are given to that one source file (engine/CMakeLists.txt);
-# the library is linked privately.
-if(NOT TARGET machplan::linuxcnc_hal)
+# LinuxCNC's HAL, for the HAL backend only (engine/hardware/hal_backend.cpp, behind HalBackend),
+# which is optional: MACHPLAN_HAL (AUTO, ON or OFF, top-level CMakeLists.txt) decides, and
+# MACHPLAN_WITH_HAL says what was decided. linuxcnc-uspace-dev ships hal.h and rtapi.h under
+# include/linuxcnc and liblinuxcnchal, with no pkg-config or CMake file. The headers are given
+# to that one source file (engine/CMakeLists.txt); the library is linked privately. An
+# installed machplan built without the HAL backend asks its consumers for nothing of LinuxCNC
+# (machplanConfig.cmake passes its MACHPLAN_WITH_HAL down), one built with it needs the library.
+if(MACHPLAN_FIND_AS_DEPENDENCY)
+  if(NOT MACHPLAN_WITH_HAL OR TARGET machplan::linuxcnc_hal)
+    return()
+  endif()
+  find_library(MACHPLAN_LINUXCNC_HAL_LIBRARY linuxcnchal)
+  if(NOT MACHPLAN_LINUXCNC_HAL_LIBRARY)
+    set(machplan_FOUND FALSE)
+    set(machplan_NOT_FOUND_MESSAGE "this machplan was built with the HAL backend and needs LinuxCNC's liblinuxcnchal, which was not found: install linuxcnc-uspace-dev")
+    return()
+  endif()
+elseif(MACHPLAN_HAL STREQUAL "OFF")
+  set(MACHPLAN_WITH_HAL OFF)
+  message(STATUS "HAL backend: off (MACHPLAN_HAL=OFF)")
+  return()
+else()
+  if(NOT MACHPLAN_HAL MATCHES "^(AUTO|ON)$")
+    message(FATAL_ERROR "MACHPLAN_HAL must be AUTO, ON or OFF (got '${MACHPLAN_HAL}')")
+  endif()
   find_path(MACHPLAN_LINUXCNC_INCLUDE_DIR hal.h PATH_SUFFIXES linuxcnc)
   find_library(MACHPLAN_LINUXCNC_HAL_LIBRARY linuxcnchal)
-  if(NOT MACHPLAN_LINUXCNC_HAL_LIBRARY OR (NOT MACHPLAN_FIND_AS_DEPENDENCY AND NOT MACHPLAN_LINUXCNC_INCLUDE_DIR))
-    set(_machplan_hal_missing "LinuxCNC HAL (liblinuxcnchal and include/linuxcnc/hal.h) not found: install linuxcnc-uspace-dev (scripts/setup)")
-    if(MACHPLAN_FIND_AS_DEPENDENCY)
-      set(machplan_FOUND FALSE)
-      set(machplan_NOT_FOUND_MESSAGE "${_machplan_hal_missing}")
-      return()
+  if(NOT MACHPLAN_LINUXCNC_HAL_LIBRARY OR NOT MACHPLAN_LINUXCNC_INCLUDE_DIR)
+    set(_machplan_hal_missing "LinuxCNC's HAL (liblinuxcnchal and include/linuxcnc/hal.h) not found (linuxcnc-uspace-dev, which scripts/setup installs)")
+    if(MACHPLAN_HAL STREQUAL "ON")
+      message(FATAL_ERROR "MACHPLAN_HAL=ON but ${_machplan_hal_missing}")
     endif()
-    message(FATAL_ERROR "${_machplan_hal_missing}")
+    set(MACHPLAN_WITH_HAL OFF)
+    message(STATUS "HAL backend: off, ${_machplan_hal_missing}; the rest builds without it")
+    return()
   endif()
+  set(MACHPLAN_WITH_HAL ON)
+  message(STATUS "HAL backend: on (${MACHPLAN_LINUXCNC_HAL_LIBRARY})")
+endif()
+if(NOT TARGET machplan::linuxcnc_hal)
   add_library(machplan::linuxcnc_hal UNKNOWN IMPORTED)
   set_target_properties(machplan::linuxcnc_hal PROPERTIES IMPORTED_LOCATION "${MACHPLAN_LINUXCNC_HAL_LIBRARY}")
 endif()

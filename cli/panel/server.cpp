@@ -60,12 +60,17 @@ std::string web_root_folder() {
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
   std::vector<fs::path> candidates;
+  // An installed machplan: the page beside it (PREFIX/bin/../share/machplan/panel), so that an
+  // installed tree can be moved; then the prefix it was configured for.
   if (!ec) candidates.push_back(exe.parent_path().parent_path() / "share" / "machplan" / "panel");
 #ifdef MACHPLAN_INSTALL_DATADIR
   candidates.push_back(fs::path(MACHPLAN_INSTALL_DATADIR) / "panel");
 #endif
-#ifdef MACHPLAN_SOURCE_DIR
-  candidates.push_back(fs::path(MACHPLAN_SOURCE_DIR) / "cli" / "panel" / "web");
+  // A program of this build tree (the CLI, the tests, the bench) serves the source tree's page;
+  // an installed one never does, so that a page missing from the install is seen.
+#if defined(MACHPLAN_SOURCE_DIR) && defined(MACHPLAN_BUILD_DIR)
+  if (!ec && exe.lexically_normal().string().rfind(fs::path(MACHPLAN_BUILD_DIR "/").lexically_normal().string(), 0) == 0)
+    candidates.push_back(fs::path(MACHPLAN_SOURCE_DIR) / "cli" / "panel" / "web");
 #endif
   for (const fs::path& c : candidates)
     if (fs::is_regular_file(c / "index.html", ec)) return c.string();

@@ -9,9 +9,18 @@
 
 namespace machplan::backends {
 
-std::vector<std::string> backend_names() { return {"sim", "hal"}; }
+// MACHPLAN_HAL_BACKEND is 1 when this build has the HAL backend (models/CMakeLists.txt).
+std::vector<std::string> backend_names() {
+#if MACHPLAN_HAL_BACKEND
+  return {"sim", "hal"};
+#else
+  return {"sim"};
+#endif
+}
 
 namespace {
+
+#if MACHPLAN_HAL_BACKEND
 
 hardware::HalOptions hal_options(const cutting::MachineConfig& m, hardware::HalOptions o) {
   const executor::MachineSetup setup = m.setup();
@@ -22,20 +31,30 @@ hardware::HalOptions hal_options(const cutting::MachineConfig& m, hardware::HalO
   o.torch_height = setup.torch.height_axis;
   return o;
 }
+#endif
 
 }  // namespace
 
 void BackendOptions::validate() const {
   const std::vector<std::string> names = backend_names();
-  if (std::find(names.begin(), names.end(), name) == names.end())
+  if (std::find(names.begin(), names.end(), name) == names.end()) {
+    if (name == "hal")
+      throw InputError::field("name", fmt::format("this machplan was built without LinuxCNC's HAL (MACHPLAN_HAL=OFF, or "
+                                                  "LinuxCNC not found when it was built): no 'hal' backend (known: {})",
+                                                  fmt::join(names, ", ")));
     throw InputError::field("name", fmt::format("unknown backend '{}' (known: {})", excerpt(name), fmt::join(names, ", ")));
+  }
   validate_member("sim", sim);
+#if MACHPLAN_HAL_BACKEND
   if (name == "hal") validate_member("hal", hal);
+#endif
 }
 
 std::unique_ptr<hardware::Backend> make_backend(const cutting::MachineConfig& machine, const BackendOptions& o) {
   o.validate();
+#if MACHPLAN_HAL_BACKEND
   if (o.name == "hal") return std::make_unique<hardware::HalBackend>(hal_options(machine, o.hal));
+#endif
   MACHPLAN_ASSERT(o.name == "sim", "backend '{}' is in backend_names() but make_backend() does not build it", o.name);
   return std::make_unique<sim::SimBackend>(machine, o.sim);
 }

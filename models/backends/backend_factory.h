@@ -5,7 +5,9 @@
 //
 //   sim  the simulated machine (models/sim/sim_backend.h)
 //   hal  a machine through LinuxCNC's HAL (engine/hardware/hal_backend.h): the machine file
-//        gives the servo period, the axis signals and which torch pins must be linked
+//        gives the servo period, the axis signals and which torch pins must be linked. Only in
+//        a build with the HAL backend (MACHPLAN_HAL); without it, asking for "hal" is an
+//        InputError that says this build has no HAL.
 #pragma once
 
 #include <memory>
@@ -30,7 +32,7 @@ struct BackendOptions {
   void validate() const;
 };
 
-std::vector<std::string> backend_names();
+std::vector<std::string> backend_names();  // the backends this build has
 // Throws InputError::field("name", ...) naming the known backends when `o.name` is unknown.
 std::unique_ptr<hardware::Backend> make_backend(const cutting::MachineConfig& machine, const BackendOptions& o);
 

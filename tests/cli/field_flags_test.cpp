@@ -5,9 +5,12 @@
 #include <fstream>
 #include <string>
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "models/backends/backend_factory.h"
 #include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
@@ -30,7 +33,8 @@ TEST(FieldFlags, AFieldErrorReadsAsTheFlagThatSetTheField) {
   for (const Case& c : {
            Case{kRun + " --mode paper-closed --blu 0", "--blu: 0 is out of range: must be in [0.01, 1000] mm\n"},
            Case{kRun + " --kerf 1e3", "--kerf: 1000 is out of range: must be >= 0 and <= 100 mm\n"},
-           Case{kRun + " --backend fieldbus", "--backend: unknown backend 'fieldbus' (known: sim, hal)\n"},
+           Case{kRun + " --backend fieldbus",
+                fmt::format("--backend: unknown backend 'fieldbus' (known: {})\n", fmt::join(backends::backend_names(), ", "))},
            Case{kGuard + " --side outside --latency-ms 5000", "--latency-ms: 5000 ms must be in [0, 1000]\n"},
            Case{kGuard + " --side middle", "--side: unknown machining side 'middle' (known: outside, inside)\n"},
            Case{"profile datasets/profiles/paper_triangle.dxf --flatten-tolerance 9",

@@ -11,10 +11,12 @@
 #include <thread>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "models/backends/backend_factory.h"
 #include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
@@ -141,7 +143,8 @@ TEST(Inject, BadValuesExitTwoNamingTheFlag) {
   }
   const CliRun r = machplan({"run", part("triangle_45.ngc"), "--machine", "thermal_gantry", "--backend", "linuxcnc"});
   EXPECT_EQ(r.code, 2);
-  EXPECT_THAT(r.err, HasSubstr("--backend: unknown backend 'linuxcnc' (known: sim, hal)"));
+  EXPECT_THAT(r.err, HasSubstr(fmt::format("--backend: unknown backend 'linuxcnc' (known: {})",
+                                           fmt::join(backends::backend_names(), ", "))));
 }
 
 TEST(Supervision, ALoopThatCannotHoldThePathIsAFault) {

@@ -5,12 +5,14 @@
 // contract is about (missed exchanges, an open E-stop chain, a lost link). A backend that
 // cannot be told to do something in a test (a real controller) provides the hook through its
 // simulator or test mode.
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -21,8 +23,12 @@
 #include "models/backends/backend_factory.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
-#include "tests/support/hal_sim.h"
 #include "tests/support/ideal_backend.h"
+// MACHPLAN_HAL_BACKEND (tests/CMakeLists.txt) is 1 in a build with the HAL backend: the suite
+// then runs on the HAL-simulated machine too.
+#if MACHPLAN_HAL_BACKEND
+#include "tests/support/hal_sim.h"
+#endif
 
 namespace machplan::hardware {
 namespace {
@@ -71,6 +77,7 @@ Harness ideal_harness(const cutting::MachineConfig& m) {
   return h;
 }
 
+#if MACHPLAN_HAL_BACKEND
 // The HAL-simulated thermal gantry (scripts/hal-sim, position mode), brought up once for all
 // the tests (ctest's hal_sim_down stops it): before each, the threads run, the E-stop chain is
 // closed and the resting axes are homed at 500, 500. Missed exchanges are counted in the
@@ -98,13 +105,16 @@ Harness hal_harness(const cutting::MachineConfig& m) {
   h.backend = std::move(b);
   return h;
 }
+#endif
 
 // ---- every backend: one line each ----
 const Entry kBackends[] = {
     {"sim", sim_harness},
     {"ideal_dac", ideal_harness<test::IdealDacBackend>},
     {"ideal_position", ideal_harness<test::IdealPositionBackend>},
+#if MACHPLAN_HAL_BACKEND
     {"hal", hal_harness},
+#endif
 };
 
 class BackendContract : public ::testing::TestWithParam<Entry> {
@@ -271,12 +281,34 @@ INSTANTIATE_TEST_SUITE_P(EveryBackend, BackendContract, ::testing::ValuesIn(kBac
 TEST(BackendFactory, UnknownNameListsTheKnownOnes) {
   backends::BackendOptions o;
   o.name = "linuxcnc-typo";
+  const std::string known = MACHPLAN_HAL_BACKEND ? "sim, hal" : "sim";
   try {
     backends::make_backend(gantry(), o);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("name: unknown backend 'linuxcnc-typo' (known: sim, hal)"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("name: unknown backend 'linuxcnc-typo' (known: " + known + ")"), std::string::npos)
         << e.what();
+  }
+}
+
+// A build without LinuxCNC's HAL has no "hal" backend, and says so to whoever asks for it; a
+// build with it takes "hal" as a valid name (opening it needs HAL running: tests/hal).
+TEST(BackendFactory, HalIsThereExactlyWhenBuiltWithIt) {
+  const std::vector<std::string> names = backends::backend_names();
+  const bool listed = std::find(names.begin(), names.end(), "hal") != names.end();
+  EXPECT_EQ(listed, MACHPLAN_HAL_BACKEND == 1);
+  backends::BackendOptions o;
+  o.name = "hal";
+  if (MACHPLAN_HAL_BACKEND) {
+    EXPECT_NO_THROW(o.validate());
+  } else {
+    try {
+      backends::make_backend(gantry(), o);
+      FAIL() << "a build without HAL made a hal backend";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("name: this machplan was built without LinuxCNC's HAL"), std::string::npos)
+          << e.what();
+    }
   }
 }
 

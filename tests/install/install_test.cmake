@@ -11,7 +11,10 @@
 #               PREFIX and runs it: it links the private dependencies without seeing them
 #   run         runs PREFIX/bin/machplan from / : `machines` lists the installed machines,
 #               `run PART --machine thermal_gantry` works, and a folder holding
-#               datasets/machines/thermal_gantry.yaml is not searched when it is the current one
+#               datasets/machines/thermal_gantry.yaml is not searched when it is the current one;
+#               `serve --port 0` from / serves the installed page (a marker written into the
+#               installed index.html comes back, so it is not the source tree's page) and answers
+#               its API with the printed token (401 without it), then stops on SIGTERM
 #   cleanup     removes PREFIX
 #
 # PREFIX lies outside the build tree, so the installed binary cannot fall back on the source
@@ -34,6 +37,102 @@ function(expect_in text needle what)
   endif()
 endfunction()
 
+# The installed `machplan serve`, started from / in the background (its output to a file), asked
+# for its page and its API with CMake's own HTTP client, then stopped. `env` (coreutils) execs
+# machplan, so the pid the shell reports is the server's. Uses `xdg` of the caller.
+function(serve_installed_page)
+  set(index "${PREFIX}/share/machplan/panel/index.html")
+  string(RANDOM LENGTH 16 marker)
+  set(marker "<!-- installed page ${marker} -->")
+  file(APPEND "${index}" "${marker}\n")
+  set(out "${PREFIX}-serve.out")
+  set(pidfile "${PREFIX}-serve.pid")
+  file(REMOVE "${out}" "${pidfile}")
+  execute_process(COMMAND sh -c "exec \"$@\" >'${out}' 2>&1 </dev/null & echo $! >'${pidfile}'" serve
+                          env XDG_CONFIG_HOME=${xdg} XDG_DATA_HOME=${xdg}/data
+                          LSAN_OPTIONS=suppressions=${SOURCE_DIR}/tests/lsan.supp "${PREFIX}/bin/machplan" serve --port 0
+                  WORKING_DIRECTORY / RESULT_VARIABLE rc)
+  file(READ "${pidfile}" pid)
+  string(STRIP "${pid}" pid)
+  if(NOT rc EQUAL 0 OR NOT pid MATCHES "^[0-9]+$")
+    message(FATAL_ERROR "machplan serve did not start (${rc})")
+  endif()
+  # The URL with its token, once the server listens (30 s: the sanitized build starts slowly).
+  set(url "")
+  foreach(i RANGE 300)
+    if(EXISTS "${out}")
+      file(READ "${out}" text)
+      if(text MATCHES "open the panel at (http://[^/ \n]+)/\\?token=([0-9a-f]+)")
+        set(url "${CMAKE_MATCH_1}")
+        set(token "${CMAKE_MATCH_2}")
+        break()
+      endif()
+    endif()
+    if(NOT EXISTS "/proc/${pid}")
+      break()
+    endif()
+    execute_process(COMMAND ${CMAKE_COMMAND} -E sleep 0.1)
+  endforeach()
+  if(url STREQUAL "")
+    execute_process(COMMAND kill -KILL ${pid})
+    file(READ "${out}" text)
+    message(FATAL_ERROR "the installed machplan serve printed no URL:\n${text}")
+  endif()
+  message("installed machplan serve at ${url}")
+  set(failed "")
+  file(DOWNLOAD "${url}/" "${PREFIX}-page.html" STATUS st TIMEOUT 30)
+  list(GET st 0 code)
+  file(READ "${PREFIX}-page.html" page)
+  if(NOT code EQUAL 0)
+    string(APPEND failed "\nGET / failed: ${st}")
+  else()
+    string(FIND "${page}" "${marker}" at)
+    if(at EQUAL -1)
+      string(APPEND failed "\nGET / did not serve the installed ${index}")
+    endif()
+  endif()
+  file(DOWNLOAD "${url}/api/status" "${PREFIX}-status.json" STATUS st TIMEOUT 30
+       HTTPHEADER "Authorization: Bearer ${token}")
+  list(GET st 0 code)
+  file(READ "${PREFIX}-status.json" status)
+  if(NOT code EQUAL 0 OR NOT status MATCHES "^{")
+    string(APPEND failed "\nGET /api/status with the token failed: ${st}: ${status}")
+  endif()
+  file(DOWNLOAD "${url}/api/status" "${PREFIX}-status.json" STATUS st TIMEOUT 30 LOG log)
+  if(NOT log MATCHES "HTTP/1.1 401")
+    string(APPEND failed "\nGET /api/status without the token was not refused with 401: ${st}\n${log}")
+  endif()
+  file(REMOVE "${PREFIX}-page.html" "${PREFIX}-status.json")
+  # SIGTERM: a controlled stop and a clean exit (the sanitizers report at exit into ${out}).
+  execute_process(COMMAND kill -TERM ${pid})
+  set(stopped FALSE)
+  foreach(i RANGE 300)
+    if(NOT EXISTS "/proc/${pid}/stat")
+      set(stopped TRUE)
+      break()
+    endif()
+    file(READ "/proc/${pid}/stat" stat)
+    if(stat MATCHES "^[0-9]+ \\([^)]*\\) Z")  # exited; its parent (init) has not reaped it yet
+      set(stopped TRUE)
+      break()
+    endif()
+    execute_process(COMMAND ${CMAKE_COMMAND} -E sleep 0.1)
+  endforeach()
+  file(READ "${out}" text)
+  if(NOT stopped)
+    execute_process(COMMAND kill -KILL ${pid})
+    string(APPEND failed "\nmachplan serve did not stop within 30 s of SIGTERM")
+  endif()
+  if(text MATCHES "Sanitizer")
+    string(APPEND failed "\nthe sanitizers reported")
+  endif()
+  file(REMOVE "${out}" "${pidfile}")
+  if(failed)
+    message(FATAL_ERROR "the installed machplan serve:${failed}\n--- its output\n${text}")
+  endif()
+  message("the installed machplan serve served ${index} and its API, and stopped")
+endfunction()
+
 if(STEP STREQUAL "install")
   file(REMOVE_RECURSE "${PREFIX}")
   run_checked("cmake --install" ${CMAKE_COMMAND} --install "${BUILD_DIR}" --prefix "${PREFIX}")
@@ -42,7 +141,8 @@ if(STEP STREQUAL "install")
             lib/libmachplan_solvers.a lib/cmake/machplan/machplanConfig.cmake
             lib/cmake/machplan/machplanConfigVersion.cmake lib/cmake/machplan/machplanTargets.cmake
             share/machplan/machines/thermal_gantry.yaml share/machplan/machines/xy_table.yaml
-            share/machplan/datasets/parts/triangle_45.ngc share/machplan/datasets/hexam-paper/scene.yaml)
+            share/machplan/datasets/parts/triangle_45.ngc share/machplan/datasets/hexam-paper/scene.yaml
+            share/machplan/panel/index.html share/machplan/panel/panel.js share/machplan/panel/panel.css)
     if(NOT EXISTS "${PREFIX}/${f}")
       message(FATAL_ERROR "cmake --install did not install ${f} under ${PREFIX}")
     endif()
@@ -151,7 +251,9 @@ elseif(STEP STREQUAL "run")
   set(EXTRA_ARGS WORKING_DIRECTORY "${stray}")
   run_checked("machplan run beside a stray machine folder" ${env} "${PREFIX}/bin/machplan" run "${part}"
               --machine thermal_gantry)
-  file(REMOVE_RECURSE "${stray}" "${xdg}")
+  file(REMOVE_RECURSE "${stray}")
+  serve_installed_page()
+  file(REMOVE_RECURSE "${xdg}")
 elseif(STEP STREQUAL "cleanup")
   file(REMOVE_RECURSE "${PREFIX}" "${PREFIX}-downstream" "${PREFIX}-headers")
 else()
