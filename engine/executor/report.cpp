@@ -84,7 +84,9 @@ double ExecutionResult::max_true_contour_error_mm() const {
 std::string ExecutionResult::report() const {
   std::string s = fmt::format("{} on {} ({} mode{}): {}\n", source.empty() ? "job" : source, machine, to_string(mode),
                               backend.empty() || backend == "sim" ? "" : ", backend " + backend,
-                              status == Status::completed ? "completed" : "FAULTED");
+                              summary.done()                       ? "completed"
+                              : summary.status == Status::faulted ? "FAULTED"
+                                                                   : to_string(summary.status));
   s += fmt::format("  cycle time {:.3f} s, torch on {:.3f} s, rapids {:.1f} mm, {} steps done\n", cycle_time_s, torch_on_s,
                    rapid_distance_mm, steps_completed);
   for (const CutError& c : cuts) {
@@ -93,8 +95,11 @@ std::string ExecutionResult::report() const {
     if (!std::isnan(c.max_true_mm)) s += fmt::format(" (true: max {:.4f}, rms {:.4f})", c.max_true_mm, c.rms_true_mm);
     s += c.complete ? "\n" : ", interrupted\n";
   }
+  if (!truth_available && !cuts.empty())
+    s += fmt::format("  true contour error unavailable: the {} backend reports only what the machine measures\n",
+                     backend.empty() ? "machine's" : backend);
   for (const FaultReport& f : faults) s += fmt::format("  fault {}: {}\n", to_string(f.kind), f.message);
-  if (status == Status::faulted)
+  if (!summary.done())
     s += fmt::format("  torch {} at the end; machine {}\n", torch_off_at_end ? "off" : "ON",
                      stopped_at_rest ? "stopped at rest" : "stop not confirmed (see fault)");
   if (trace_truncated) s += "  trace truncated (buffer full)\n";

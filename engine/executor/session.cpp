@@ -212,6 +212,7 @@ ExecutionResult Session::Impl::finish() {
   r.trace_truncated = recorder.truncated();
   r.torch_off_at_end = !out.torch_fire;
   r.stopped_at_rest = sup.stopped_at_rest();
+  r.truth_available = has_truth;
   const auto& acc = contour.accumulators();
   for (std::size_t k = 0; k < acc.size(); ++k) {
     const motion::Stretch& s = job.stretches[k];
@@ -245,7 +246,6 @@ ExecutionResult Session::Impl::finish() {
     r.cuts.push_back(c);
   }
   if (sup.faulted()) {
-    r.status = ExecutionResult::Status::faulted;
     FaultReport f;
     f.kind = sup.kind();
     f.time_s = sup.where().t_s;
@@ -256,6 +256,14 @@ ExecutionResult Session::Impl::finish() {
     f.commanded_mm = sup.where().commanded_mm;
     f.value = sup.value();
     f.message = fault_message(f);
+    // The operator's stop and a stop request end the run as asked: cancelled (or the deadline
+    // or budget that ended its Termination), not a fault of the machine.
+    const Termination* term = parts.termination;
+    r.summary.status = f.kind == FK::operator_stop ? Status::cancelled
+                       : f.kind == FK::stop_requested
+                           ? (term && term->ended() ? status_of(term->reason()) : Status::cancelled)
+                           : Status::faulted;
+    r.summary.message = f.message;
     r.faults.push_back(std::move(f));
   }
   if (parts.trace_stream) {
@@ -263,6 +271,8 @@ ExecutionResult Session::Impl::finish() {
     parts.trace_stream->close();
     r.trace_streamed = parts.trace_stream->written();
   }
+  r.summary.full = r.report();
+  r.summary.brief = r.summary.full.substr(0, r.summary.full.find('\n'));
   return std::move(r);
 }
 

@@ -309,7 +309,7 @@ async function showReport() {
   const r = await act('GET', '/report');
   if (!r) return;
   $('report-box').classList.remove('hidden');
-  const done = r.status === 'completed';
+  const done = r.status === 'done';
   $('report-summary').innerHTML = '';
   const lines = [
     `${done ? 'done' : 'FAULTED'}: ${r.source.split('/').pop()}`,
