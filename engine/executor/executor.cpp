@@ -535,9 +535,23 @@ void Session::Impl::publish_live() noexcept {
   l.thc_active = thc_acting;
   l.arc_voltage_v = in.arc_voltage_v;
   l.progress = std::min(progress_s / expected_s, over ? 1.0 : 0.999);
-  // What is left at the current feed override; a hold stops the clock, it does not run it.
+  // What is left at the current overrides as the machine will take them (a feed override above
+  // 100 % speeds up only the cruises its limits leave room in); a hold stops the clock, it
+  // does not run it. A source that cannot say has the plan's time divided by the override.
   const double left = std::max(0.0, expected_s - progress_s);
-  l.time_left_s = held ? left : left / std::max(feed_rate, 0.05);
+  const double rate = std::max(feed_rate, 0.05);
+  double feed_plan = 0.0, rapid_plan = 0.0, feed_s = 0.0, rapid_s = 0.0;
+  l.feed_effective_pct = l.feed_override_pct;
+  if (!source->supports_rate()) {
+    l.feed_effective_pct = 100.0;  // the source runs at its one speed
+    l.time_left_s = left;
+  } else if (source->motion_left_s(1.0, 1.0, feed_plan, rapid_plan) &&
+             source->motion_left_s(rate, rapid_rate, feed_s, rapid_s)) {
+    if (feed_rate > 1.0) l.feed_effective_pct = feed_s > 0.0 ? 100.0 * feed_plan / feed_s : 100.0;
+    l.time_left_s = held ? left : std::max(0.0, left - feed_plan - rapid_plan) + feed_s + rapid_s;
+  } else {
+    l.time_left_s = held ? left : left / rate;
+  }
   l.fault = sup.faulted() ? static_cast<int>(sup.kind()) : -1;
   l.holds = static_cast<int>(result.holds.size());
   parts.live->publish(l);
