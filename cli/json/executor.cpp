@@ -12,7 +12,7 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
   j["machine"] = r.machine;
   j["mode"] = to_string(r.mode);
   j["backend"] = r.backend;
-  j["status"] = r.status == ExecutionResult::Status::completed ? "completed" : "faulted";
+  j["status"] = to_string(r.summary.status);
   j["cycle_time_s"] = r.cycle_time_s;
   j["torch_on_s"] = r.torch_on_s;
   j["rapid_distance_mm"] = r.rapid_distance_mm;
@@ -20,6 +20,7 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
   j["stopped_at_rest"] = r.stopped_at_rest;
   j["torch_off_at_end"] = r.torch_off_at_end;
   j["backend_notes"] = r.backend_notes;
+  j["truth_available"] = r.truth_available;
   auto num = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
   j["cuts"] = json::array();
   for (const CutError& c : r.cuts) {

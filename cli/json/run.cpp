@@ -22,7 +22,8 @@ nlohmann::json to_json(const motion::RunOutcome& run) {
   j["max_contour_error_mm"] = measured(run.result.max_contour_error_mm());
   j["rms_contour_error_mm"] = measured(run.rms_contour_error_mm);
   j["max_true_contour_error_mm"] = std::isnan(mt) ? nlohmann::json(nullptr) : nlohmann::json(mt);
-  j["rms_true_contour_error_mm"] = run.rms_true_contour_error_mm;
+  j["rms_true_contour_error_mm"] = std::isnan(run.rms_true_contour_error_mm) ? nlohmann::json(nullptr)
+                                                                            : nlohmann::json(run.rms_true_contour_error_mm);
   j["lower_bound_s"] = run.lower_bound_s;
   j["motion_lower_bound_s"] = run.motion_lower_bound_s;
   j["process_time_s"] = run.process_time_s;

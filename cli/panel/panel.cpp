@@ -674,6 +674,7 @@ json Panel::status() {
   {
     const std::lock_guard<std::mutex> lock(op_mutex_);
     s["overrides"] = {{"feed_pct", op_.feed_override_pct}, {"rapid_pct", op_.rapid_override_pct}};
+    s["overrides"]["feed_effective_pct"] = l.feed_effective_pct;  // what the machine makes of it
     s["thc_enabled"] = op_.thc_enabled;
   }
   s["torch"] = {{"fire", l.torch_fire},       {"arc_ok", l.arc_ok},     {"height_mm", l.torch_height_mm},
@@ -703,11 +704,11 @@ std::string Panel::live_frame() {
   fmt::format_to(std::back_inserter(out),
                  "{{\"state\":\"{}\",\"activity\":\"{}\",\"estop\":{},\"tick\":{},\"t_s\":{:.3f},\"line\":{},"
                  "\"position_mm\":[{:.4f},{:.4f}],\"commanded_mm\":[{:.4f},{:.4f}],\"feed_mm_per_s\":{:.3f},"
-                 "\"feed_pct\":{:.1f},\"rapid_pct\":{:.1f},\"torch\":{},\"arc_ok\":{},\"height_mm\":{:.3f},"
+                 "\"feed_pct\":{:.1f},\"feed_effective_pct\":{:.1f},\"rapid_pct\":{:.1f},\"torch\":{},\"arc_ok\":{},\"height_mm\":{:.3f},"
                  "\"thc_active\":{},\"arc_voltage_v\":{:.2f},\"progress\":{:.5f},\"time_left_s\":{:.2f},\"fault\":\"{}\","
                  "\"holds\":{}",
                  state, to_string(a), estop_.load(), l.tick, l.t_s, l.source_line, l.measured_mm.x(), l.measured_mm.y(),
-                 l.commanded_mm.x(), l.commanded_mm.y(), l.path_speed_mm_per_s, l.feed_override_pct, l.rapid_override_pct,
+                 l.commanded_mm.x(), l.commanded_mm.y(), l.path_speed_mm_per_s, l.feed_override_pct, l.feed_effective_pct, l.rapid_override_pct,
                  l.torch_fire, l.arc_ok, l.torch_height_mm, l.thc_active, l.arc_voltage_v, l.progress, l.time_left_s,
                  l.fault >= 0 ? executor::to_string(static_cast<executor::FaultKind>(l.fault)) : "", l.holds);
   if (guard_live_valid_.load()) {

@@ -76,6 +76,7 @@
 #include "engine/common/termination.h"
 #include "engine/common/names.h"
 #include "engine/common/stop.h"
+#include "engine/common/summary.h"
 #include "engine/control/controller.h"
 #include "engine/control/pid_ff_controller.h"
 #include "engine/executor/blu_vector_source.h"
@@ -208,8 +209,10 @@ struct CutError {
 };
 
 struct ExecutionResult {
-  enum class Status { completed, faulted };
-  Status status = Status::completed;
+  // How the run ended (engine/common/summary.h): done; faulted (a fault stopped it); cancelled
+  // (the operator's stop, or a stop request); deadline or budget (the run's Termination ran
+  // out). The message is the first fault's; the full report is report().
+  Summary summary;
   std::string machine, source, backend;
   Mode mode = Mode::planned;
   double cycle_time_s = 0.0;
@@ -217,7 +220,7 @@ struct ExecutionResult {
   double rapid_distance_mm = 0.0;     // programmed length of the rapid stretches completed
   int steps_completed = 0;
   std::vector<CutError> cuts;
-  std::vector<FaultReport> faults;    // empty when completed; the first one stopped the run
+  std::vector<FaultReport> faults;    // empty when done; the first one stopped the run
   std::vector<HoldReport> holds;      // every feed hold, in order (at most kMaxHolds are kept)
   std::size_t holds_dropped = 0;
   std::vector<TraceSample> trace;
@@ -229,6 +232,9 @@ struct ExecutionResult {
   std::vector<std::string> backend_notes;
   bool stopped_at_rest = true;        // after a fault: the axes were seen at rest (false for lost backend)
   bool torch_off_at_end = true;
+  // The backend knew the true position (a simulator). A machine knows only what it measures:
+  // without truth, the cuts' true errors are NaN and the reports say the truth is unavailable.
+  bool truth_available = false;
 
   double max_contour_error_mm() const;       // over all cuts, measured
   double max_true_contour_error_mm() const;  // over all cuts, truth (NaN if unknown)

@@ -20,13 +20,17 @@ struct LiveState {
   Eigen::Vector2d measured_mm = Eigen::Vector2d::Zero();
   double path_speed_mm_per_s = 0.0; // commanded
   double rate = 1.0;                // of the plan: 0 held .. 2 (time_scale.h)
-  double feed_override_pct = 100.0, rapid_override_pct = 100.0;
+  double feed_override_pct = 100.0, rapid_override_pct = 100.0;  // as asked
+  // The feed override as the machine will really run the feed moves left: above 100 % only
+  // where its limits leave room (a job cut at the machine's top speed stays at 100 % whatever
+  // is asked); the asked one when the source cannot say.
+  double feed_effective_pct = 100.0;
   bool drives_enabled = false, torch_fire = false, arc_ok = false;
   double torch_height_mm = 0.0;
   bool thc_active = false;          // torch height control is holding the height (plasma)
   double arc_voltage_v = 0.0;       // when the backend reports it
   double progress = 0.0;            // share of the job's expected time done, 0 .. 1
-  double time_left_s = 0.0;         // at the current overrides; it stands still while held
+  double time_left_s = 0.0;         // at the current overrides as the machine takes them; it stands still while held
   int fault = -1;                   // the first fault's FaultKind, -1: none
   int holds = 0;                    // holds so far
 };

@@ -49,6 +49,65 @@ void PlannedSource::prepare(const SourceContext& ctx, const Eigen::Vector2d& sta
   lim.period_s = ctx.period_s;
   scale_.configure(lim);
   scale_.reset(1.0);
+  prepare_motion_times();
+}
+
+void PlannedSource::prepare_motion_times() {
+  const motion::Job& job = *ctx_.job;
+  from_step_.assign(job.steps.size() + 1, MotionTime{});
+  motion::Setpoint at;
+  for (std::size_t i = job.steps.size(); i-- > 0;) {
+    MotionTime m = from_step_[i + 1];
+    const motion::Step& st = job.steps[i];
+    if (st.kind == motion::Step::Kind::move) {
+      const motion::Trajectory& tr = *(*ctx_.trajectories)[i];
+      const double T = tr.duration_s();
+      if (job.stretches[st.stretch].rapid) {
+        m.rapid_s += T;
+      } else {
+        m.feed_s += T;
+        const int n = static_cast<int>(std::ceil(T / kCeilingSampleS));
+        const double h = n > 0 ? T / n : 0.0;
+        for (int j = 0; j < n; ++j) {
+          const double t = (j + 0.5) * h;
+          if (!(tr.cruise_left_s(t) > 0.0)) continue;
+          tr.sample(t, at);
+          const double c = scale_.speed_ceiling(at);
+          if (c < 1.0 + kCeilingBin) continue;  // no faster than the plan here
+          m.cruise_s[std::min(kCeilingBins - 1, static_cast<int>((c - 1.0) / kCeilingBin))] += h;
+        }
+      }
+    }
+    from_step_[i] = m;
+  }
+}
+
+double PlannedSource::feed_time_s(const MotionTime& m, double rate) noexcept {
+  if (rate <= 1.0) return m.feed_s / rate;  // below 100 % the whole plan slows down
+  double t = m.feed_s;
+  for (int b = 0; b < kCeilingBins; ++b) t -= m.cruise_s[b] - m.cruise_s[b] / std::min(rate, 1.0 + b * kCeilingBin);
+  return t;
+}
+
+bool PlannedSource::motion_left_s(double feed_rate, double rapid_rate, double& feed_s, double& rapid_s) const noexcept {
+  if (from_step_.empty()) return false;
+  feed_rate = std::max(feed_rate, 1e-3);
+  rapid_rate = std::max(rapid_rate, 1e-3);
+  const std::size_t n = ctx_.job->steps.size();
+  const MotionTime& after = from_step_[cur_ ? std::min(step_ + 1, n) : 0];
+  feed_s = feed_time_s(after, feed_rate);
+  rapid_s = after.rapid_s / rapid_rate;
+  if (cur_ && !move_done() && step_ < n) {
+    // The move under way: its share left, by plan time.
+    const double T = cur_->duration_s();
+    const double share = T > 0.0 ? std::clamp((T - t_) / T, 0.0, 1.0) : 0.0;
+    const MotionTime& with = from_step_[step_];
+    if (ctx_.job->stretches[ctx_.job->steps[step_].stretch].rapid)
+      rapid_s += share * (with.rapid_s - after.rapid_s) / rapid_rate;
+    else
+      feed_s += share * (feed_time_s(with, feed_rate) - feed_time_s(after, feed_rate));
+  }
+  return true;
 }
 
 void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d& measured_mm) noexcept {

@@ -16,6 +16,9 @@
 // ControllerInput::kMaxPreviewTicks setpoints ahead of r.
 #pragma once
 
+#include <array>
+#include <vector>
+
 #include "engine/executor/setpoint_source.h"
 #include "engine/executor/time_scale.h"
 
@@ -34,6 +37,7 @@ class PlannedSource final : public SetpointSource {
   bool supports_rate() const noexcept override { return true; }
   void set_rate(double target) noexcept override { target_ = target; }
   double rate() const noexcept override { return scale_.k(); }
+  bool motion_left_s(double feed_rate, double rapid_rate, double& feed_s, double& rapid_s) const noexcept override;
   double path_distance_mm(const Eigen::Vector2d& p) const noexcept override;
   void motion_now(Eigen::Vector2d& v_mm_per_s, Eigen::Vector2d& a_mm_per_s2) const noexcept override;
   // Cut recovery moves the path time back (or on) at kRecoverSpeed along the path, ramped at
@@ -62,6 +66,21 @@ class PlannedSource final : public SetpointSource {
   double estimate_s_ = 0.0;
   double recover_left_mm_ = 0.0, recover_v_ = 0.0, recovered_mm_ = 0.0;
   void step_recovery() noexcept;
+
+  // For motion_left_s, the motion from each step to the job's end: its rapids' time, its feed
+  // moves' time and, of that, the time they cruise by the rate the axes allow there
+  // (TimeScale::speed_ceiling; bin b from 1 + b kCeilingBin on). Sampled before the run, every
+  // kCeilingSampleS of plan time at most. An estimate for a display: the ramps of the rate
+  // into and out of a faster cruise are not counted.
+  static constexpr int kCeilingBins = 21;
+  static constexpr double kCeilingBin = 0.05, kCeilingSampleS = 0.005;
+  struct MotionTime {
+    double rapid_s = 0.0, feed_s = 0.0;
+    std::array<double, kCeilingBins> cruise_s{};
+  };
+  std::vector<MotionTime> from_step_;
+  void prepare_motion_times();
+  static double feed_time_s(const MotionTime& m, double rate) noexcept;
 };
 
 }  // namespace machplan::executor

@@ -82,6 +82,14 @@ class SetpointSource {
   virtual void set_rate(double target) noexcept { (void)target; }
   // The rate now (1 when the source cannot change it) and whether the move is at rest.
   virtual double rate() const noexcept { return 1.0; }
+  // The time the motion left takes (the rest of the move under way and the moves after it)
+  // at these rates, as the machine will run them: a rate above 1 only where its limits leave
+  // room (time_scale.h), so at 150 % a job cut at the machine's top speed takes as long as at
+  // 100 %. Out: the feed moves' time and the rapids', s. False: the source cannot say.
+  virtual bool motion_left_s(double feed_rate, double rapid_rate, double& feed_s, double& rapid_s) const noexcept {
+    (void)feed_rate, (void)rapid_rate, (void)feed_s, (void)rapid_s;
+    return false;
+  }
   // The commanded velocity and acceleration now (not the feed-forward's, which leads by the
   // latencies); zero when not known.
   virtual void motion_now(Eigen::Vector2d& v_mm_per_s, Eigen::Vector2d& a_mm_per_s2) const noexcept {

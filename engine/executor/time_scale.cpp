@@ -61,6 +61,17 @@ double TimeScale::stop_step(const motion::Trajectory& plan, double tau, const mo
   return advance;
 }
 
+double TimeScale::speed_ceiling(const motion::Setpoint& at) const noexcept {
+  const Eigen::Vector2d& v = at.velocity_mm_per_s;
+  double cv = kMaxScale;
+  for (int i = 0; i < 2; ++i)
+    if (std::abs(v[i]) > kTiny) cv = std::min(cv, lim_.margin * lim_.max_velocity_mm_per_s[i] / std::abs(v[i]));
+  // On an arc the normal acceleration grows with k^2.
+  const double an = at.acceleration_mm_per_s2.norm();
+  if (an > kTiny) cv = std::min(cv, std::sqrt(lim_.margin * lim_.max_acceleration_mm_per_s2.minCoeff() / an));
+  return cv;
+}
+
 double TimeScale::step(double target, const motion::Trajectory& plan, double tau) noexcept {
   motion::Setpoint at;
   plan.sample(tau, at);
@@ -105,12 +116,7 @@ double TimeScale::change_step(double target, const motion::Setpoint& at, double 
   // time to come back to 1 before the cruise ends allow.
   double ceiling = 1.0;
   if (cruise_left_s > 0 && vp > kTiny) {
-    double cv = kMaxScale;
-    for (int i = 0; i < 2; ++i)
-      if (std::abs(v[i]) > kTiny) cv = std::min(cv, lim_.margin * lim_.max_velocity_mm_per_s[i] / std::abs(v[i]));
-    // On an arc the normal acceleration grows with k^2.
-    const double an = a.norm();
-    if (an > kTiny) cv = std::min(cv, std::sqrt(lim_.margin * lim_.max_acceleration_mm_per_s2.minCoeff() / an));
+    const double cv = speed_ceiling(at);
     const double rate = std::min(std::abs(kd_lo), std::abs(kd_hi));  // k' available to come back
     const double T = cruise_left_s / std::max(k_, 1.0);              // real time left in the cruise
     double excess = 0.0;

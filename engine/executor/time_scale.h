@@ -69,6 +69,11 @@ class TimeScale {
   // path time to advance.
   double step(double target, const motion::Trajectory& plan, double tau) noexcept;
 
+  // The highest rate the axes allow at `at` (a sample of the plan at rate 1) while it cruises:
+  // their speeds, and on an arc the normal acceleration, which grows with k^2 (at most 2).
+  // Below 1 where the plan itself runs at the limits. Real time.
+  double speed_ceiling(const motion::Setpoint& at) const noexcept;
+
   double k() const noexcept { return k_; }
   double k_dot() const noexcept { return kd_; }
   // The ceiling of k at the last step (1 outside a cruise).

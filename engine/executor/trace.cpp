@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <fstream>
 
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/executor/executor.h"
 
 namespace machplan::executor {
 
@@ -70,6 +72,15 @@ void TraceStream::close() {
     file_ = nullptr;
     if (write_failed_.load()) throw InputError(path_, 0, "writing the trace failed");
   }
+}
+
+void ExecutionResult::write_trace_csv(const std::string& path) const {
+  std::ofstream out(path);
+  if (!out) throw InputError(path, 0, "cannot open the trace file for writing");
+  out << kTraceCsvHeader;
+  char line[256];
+  for (const TraceSample& s : trace) out.write(line, static_cast<std::streamsize>(format_trace_csv(s, line, sizeof line)));
+  if (!out) throw InputError(path, 0, "writing the trace failed");
 }
 
 }  // namespace machplan::executor

@@ -467,12 +467,17 @@ std::string full_report(const RunOutcome& o, const session::MachineSession& sess
   if (!std::isnan(mt)) s += fmt::format(" (simulated truth: max {:.4f}, rms {:.4f})", mt, o.rms_true_contour_error_mm);
   if (!o.summary.done()) s += " (until the run stopped)";
   s += "\n";
-  s += fmt::format("  {:>4} {:>7} {:>6} {:>10} {:>10} {:>10} {:>10}\n", "cut", "line", "samples", "max mm", "rms mm",
-                   "true max", "true rms");
+  // A machine (the HAL backend) has no truth to compare with: no true columns, and a line saying so.
+  const bool truth = r.truth_available;
+  if (!truth)
+    s += fmt::format("  true error       unavailable: the {} backend reports only what the machine measures\n", r.backend);
+  s += fmt::format("  {:>4} {:>7} {:>6} {:>10} {:>10}", "cut", "line", "samples", "max mm", "rms mm");
+  s += truth ? fmt::format(" {:>10} {:>10}\n", "true max", "true rms") : "\n";
   for (std::size_t i = 0; i < r.cuts.size(); ++i) {
     const executor::CutError& c = r.cuts[i];
-    s += fmt::format("  {:>4} {:>7} {:>6} {:>10.4f} {:>10.4f} {:>10.4f} {:>10.4f}{}\n", i + 1, c.source_line, c.samples,
-                     c.max_mm, c.rms_mm, c.max_true_mm, c.rms_true_mm, c.complete ? "" : "  interrupted");
+    s += fmt::format("  {:>4} {:>7} {:>6} {:>10.4f} {:>10.4f}", i + 1, c.source_line, c.samples, c.max_mm, c.rms_mm);
+    if (truth) s += fmt::format(" {:>10.4f} {:>10.4f}", c.max_true_mm, c.rms_true_mm);
+    s += c.complete ? "\n" : "  interrupted\n";
   }
   if (r.faults.empty()) {
     s += "  faults           none; torch off at the end\n";
@@ -485,21 +490,19 @@ std::string full_report(const RunOutcome& o, const session::MachineSession& sess
   return s;
 }
 
-// How the run ended: done; faulted (the first fault); or what ended its Termination.
-Summary summarize(const RunOutcome& o, const Termination& t) {
+// How the run ended (the executor's summary: done; faulted; cancelled or what ended its
+// Termination), with a brief for a list.
+Summary summarize(const RunOutcome& o) {
   const executor::ExecutionResult& r = o.result;
   Summary s;
-  if (!o.faulted()) {
-    s.status = Status::done;
+  s.status = r.summary.status;
+  s.message = r.summary.message;
+  if (s.done()) {
     s.brief = fmt::format("{} on {}: done in {:.3f} s, max contour error {:.4f} mm over {} cuts", r.source, r.machine,
                           r.cycle_time_s, r.max_contour_error_mm(), r.cuts.size());
     return s;
   }
   const executor::FaultReport& f = r.faults.front();
-  s.status = f.kind == executor::FaultKind::operator_stop                   ? Status::cancelled
-             : f.kind == executor::FaultKind::stop_requested && t.ended() ? status_of(t.reason())
-                                                                         : Status::faulted;
-  s.message = f.message;
   s.brief = fmt::format("{} on {}: {} at {:.3f} s (line {}): {}", r.source, r.machine,
                         s.status == Status::faulted ? "FAULTED" : to_string(s.status), f.time_s, f.source_line,
                         executor::to_string(f.kind));
@@ -533,8 +536,10 @@ RunOutcome execute(session::MachineSession& session, PlannedRun plan, const RunO
     n += c.samples;
   }
   o.rms_contour_error_mm = n ? std::sqrt(sum2 / static_cast<double>(n)) : 0.0;
-  o.rms_true_contour_error_mm = n ? std::sqrt(sum2_true / static_cast<double>(n)) : 0.0;
-  o.summary = summarize(o, t);
+  o.rms_true_contour_error_mm = !o.result.truth_available ? std::numeric_limits<double>::quiet_NaN()
+                                : n                          ? std::sqrt(sum2_true / static_cast<double>(n))
+                                                             : 0.0;
+  o.summary = summarize(o);
   o.summary.full = full_report(o, session);
   return o;
 }

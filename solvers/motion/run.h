@@ -189,12 +189,12 @@ struct RunOutcome : PlannedRun {
   double cycle_ratio = 0.0;
   // Over all cuts, weighted by samples: the RMS of the measured contour error, mm.
   double rms_contour_error_mm = 0.0;
-  double rms_true_contour_error_mm = 0.0;
+  double rms_true_contour_error_mm = 0.0;  // NaN: the backend has no truth (result.truth_available)
   // How the run ended (done, faulted, cancelled, deadline), with the brief and the full report
   // for people: run summary, per-cut errors, faults, bound and ratio.
   Summary summary;
 
-  bool faulted() const { return result.status == executor::ExecutionResult::Status::faulted; }
+  bool faulted() const { return !result.summary.done(); }
 };
 
 // The machine session a run of these options runs on: its machine loaded once (the paper

@@ -323,7 +323,7 @@ ContourScore Evaluator::score(const Prepared& p, const executor::ExecutionResult
   const double inf = std::numeric_limits<double>::infinity();
   const int dac_max[2] = {(1 << (setup_.signals[0].dac_bits - 1)) - 1, (1 << (setup_.signals[1].dac_bits - 1)) - 1};
   ContourScore s;
-  s.faulted = r.status == executor::ExecutionResult::Status::faulted;
+  s.faulted = !r.summary.done();
   if (s.faulted && !r.faults.empty()) s.fault = r.faults.front().message;
   const double T = setup_.servo_period_s > 0 ? setup_.servo_period_s : machine_.servo_period_s;
   int cur_step = -2;
@@ -437,7 +437,7 @@ Evaluation Evaluator::evaluate(const std::string& kind, const control::Gains& ga
     const executor::ExecutionResult r =
         run_prepared(step_->job, step_->trajectories, margin ? margin_machine_ : machine_, *ctl, options_.seed);
     ev.machine_s += r.cycle_time_s;
-    const bool faulted = r.status == executor::ExecutionResult::Status::faulted;
+    const bool faulted = !r.summary.done();
     double overshoot = 0.0;
     double lo[2] = {inf, inf}, hi[2] = {-inf, -inf};
     const double t_tail = options_.step_window_s * 2.0 / 3.0;

@@ -51,7 +51,7 @@ TEST(CalibrateCli, RecordFitApplyHistoryShow) {
   // Planned mode takes the active calibration into the executor's setup.
   r = cli.run("run datasets/parts/triangle_45.ngc --machine thermal_gantry --calibration active --json");
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_EQ(nlohmann::json::parse(r.out)["status"], "completed");
+  EXPECT_EQ(nlohmann::json::parse(r.out)["status"], "done");
 }
 
 TEST(CalibrateCli, BadInputIsNamedWithExitCode2) {

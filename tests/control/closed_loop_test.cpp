@@ -65,7 +65,7 @@ ContourError run(const std::string& kind, const Gains& gains, Shape shape, doubl
   so.seed = 1;
   const executor::ExecutionResult r = test::simulate(m, job, trajs, {}, so, hooks);
   ContourError e;
-  e.completed = r.status == executor::ExecutionResult::Status::completed;
+  e.completed = r.summary.done();
   double sum2 = 0;
   std::size_t n = 0;
   for (const executor::TraceSample& s : r.trace) {

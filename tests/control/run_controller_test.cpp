@@ -59,7 +59,7 @@ TEST(RunController, TheChosenControllerRunsAndIsReported) {
   const auto jd = nlohmann::json::parse(def.out), jf = nlohmann::json::parse(pid_ff.out), jp = nlohmann::json::parse(p.out);
   EXPECT_EQ(jd["controller"], "pid_ff");
   EXPECT_EQ(jp["controller"], "p");
-  EXPECT_EQ(jp["status"], "completed");
+  EXPECT_EQ(jp["status"], "done");
   EXPECT_EQ(jd["max_true_contour_error_mm"], jf["max_true_contour_error_mm"]);
   EXPECT_EQ(jd["cycle_time_s"], jf["cycle_time_s"]);
   // Without feed-forward the P loop carries the gantry's 0.7 drive gain as lag: another run.

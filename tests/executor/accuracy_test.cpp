@@ -53,7 +53,7 @@ ExecutionResult run_circle(const cutting::MachineConfig& m, double R, bool ccw, 
 }
 
 void expect_within(const ExecutionResult& r, const char* what) {
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   ASSERT_EQ(r.cuts.size(), 1u);
   const CutError& c = r.cuts[0];
   EXPECT_TRUE(c.complete);
@@ -87,7 +87,7 @@ TEST(PlannedAccuracy, WithoutTheAdaptiveFeedForwardTheCircleFails) {
   auto m = gantry();
   for (auto& a : m.axes) a.servo.ff_adaptation_per_s2 = 0;
   const ExecutionResult r = run_circle(m, 50, true, 1);
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed);
+  ASSERT_EQ(r.summary.status, Status::done);
   std::printf("circle R50, fixed FF: max %.4f mm\n", r.cuts[0].max_true_mm);
   EXPECT_GT(r.cuts[0].max_true_mm, 0.15);
 }

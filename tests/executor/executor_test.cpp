@@ -1,5 +1,6 @@
 // The executor's sequencing, validation and results on the simulated gantry.
 #include <atomic>
+#include <cmath>
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -9,6 +10,7 @@
 #include "engine/executor/executor.h"
 #include "models/cutting/machine_config.h"
 #include "models/sim/sim_backend.h"
+#include "tests/support/forwarding_backend.h"
 #include "tests/support/simulate.h"
 #include "tests/support/temp_dir.h"
 #include "tests/support/test_trajectory.h"
@@ -41,7 +43,7 @@ TEST(Executor, TorchSequenceRunsInOrder) {
   sim::SimBackend sim(m, so);
   Executor ex(m.setup(), {});
   const ExecutionResult r = ex.run(cut.job, cut.trajectories, sim);
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   const auto& t = r.trace;
   const long fire = first(t, [](auto& s) { return s.torch_fire; });
   const long arc = first(t, [](auto& s) { return s.arc_ok; });
@@ -76,7 +78,7 @@ TEST(Executor, ProgrammedDwellIsThePierceDelay) {
   cut.job.steps.insert(cut.job.steps.begin() + 1, Step{Step::Kind::dwell, 6, 0, 1.7});
   cut.trajectories.insert(cut.trajectories.begin() + 1, nullptr);
   const ExecutionResult r = test::simulate(m, cut.job, cut.trajectories, {});
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   const long arc = first(r.trace, [](auto& s) { return s.arc_ok; });
   const long move = first(r.trace, [](auto& s) { return s.step == 2; });
   const double pierce = r.trace[move].t_s - r.trace[arc].t_s;
@@ -90,7 +92,7 @@ TEST(Executor, OxyFuelPreheatsAndNeedsNoArcSignal) {
   m.torch.oxy_fuel.preheat_s = 3.0;
   auto cut = line_cut({100, 100}, {120, 100});
   const ExecutionResult r = test::simulate(m, cut.job, cut.trajectories, {});
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   const long fire = first(r.trace, [](auto& s) { return s.torch_fire; });
   EXPECT_GE(r.trace[fire].t_s, 3.0);
 }
@@ -100,7 +102,7 @@ TEST(Executor, ArcThatNeverStartsIsAFaultWithTorchOff) {
   m.torch.plasma.arc_start_failure_probability = 1.0;
   auto cut = line_cut({100, 100}, {120, 100});
   const ExecutionResult r = test::simulate(m, cut.job, cut.trajectories, {});
-  ASSERT_EQ(r.status, ExecutionResult::Status::faulted);
+  ASSERT_EQ(r.summary.status, Status::faulted);
   ASSERT_EQ(r.faults.size(), 1u);
   EXPECT_EQ(r.faults[0].kind, FaultReport::Kind::arc_start_failed);
   EXPECT_EQ(r.faults[0].step, 0);
@@ -120,7 +122,7 @@ TEST(Executor, TorchIsTurnedOffBeforeARapidEvenWithoutATorchOffStep) {
   c.job.steps.push_back({Step::Kind::move, 20, 1, 0.0});
   c.trajectories.push_back(std::make_unique<test::LineTrajectory>(Eigen::Vector2d(130, 100), Eigen::Vector2d(130, 160), 80, 500));
   const ExecutionResult r = test::simulate(m, c.job, c.trajectories, {});
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   for (const auto& s : r.trace)
     if (s.step == 2) { ASSERT_FALSE(s.torch_fire); }
   EXPECT_NEAR(r.rapid_distance_mm, 60.0, 1e-9);
@@ -217,11 +219,49 @@ TEST(Executor, ProgressRisesToOneOverTheRun) {
     ++ticks;
   }
   const ExecutionResult r = s.finish();
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   EXPECT_EQ(share.share(), 1.0);
   EXPECT_GT(last, 0.9);
   // Half way through the move's time is half way through the run (the stop settles after it).
   EXPECT_NEAR(halfway_at * 0.001, 0.5 * trs[0]->duration_s(), 0.01);
+}
+
+// A machine that knows only what it measures, as one through HAL: the simulator with its truth
+// hidden.
+struct WithoutTruth final : test::ForwardingBackend {
+  using ForwardingBackend::ForwardingBackend;
+  const char* name() const override { return "machine"; }
+  bool true_position(Eigen::Vector2d&) const noexcept override { return false; }
+};
+
+TEST(Executor, WithoutTruthTheReportsSayTheTrueErrorIsUnavailable) {
+  const auto m = gantry();
+  auto c = line_cut({100, 100}, {150, 130});
+  sim::SimOptions so;
+  so.start_mm = c.job.start_mm;
+  sim::SimBackend sim(m, so);
+  WithoutTruth machine(sim);
+  Executor ex(m.setup(), {});
+  const ExecutionResult r = ex.run(c.job, c.trajectories, machine);
+  ASSERT_TRUE(r.summary.done()) << r.report();
+  EXPECT_FALSE(r.truth_available);
+  ASSERT_EQ(r.cuts.size(), 1u);
+  EXPECT_GT(r.cuts[0].max_mm, 0.0);  // measured
+  EXPECT_TRUE(std::isnan(r.max_true_contour_error_mm()));
+  EXPECT_NE(r.report().find("true contour error unavailable: the machine backend"), std::string::npos) << r.report();
+  EXPECT_EQ(r.report().find("nan"), std::string::npos) << r.report();
+  const auto j = cli::to_json(r);
+  EXPECT_EQ(j["truth_available"], false);
+  EXPECT_TRUE(j["cuts"][0]["max_true_contour_error_mm"].is_null());
+  EXPECT_TRUE(j["cuts"][0]["rms_true_contour_error_mm"].is_null());
+
+  // The simulator itself knows the truth.
+  sim::SimBackend sim2(m, so);
+  const ExecutionResult s = ex.run(c.job, c.trajectories, sim2);
+  EXPECT_TRUE(s.truth_available);
+  EXPECT_FALSE(std::isnan(s.max_true_contour_error_mm()));
+  EXPECT_EQ(s.report().find("unavailable"), std::string::npos) << s.report();
+  EXPECT_EQ(cli::to_json(s)["truth_available"], true);
 }
 
 TEST(Executor, ReportJsonAndCsv) {
@@ -231,7 +271,7 @@ TEST(Executor, ReportJsonAndCsv) {
   EXPECT_NE(r.report().find("completed"), std::string::npos);
   EXPECT_NE(r.report().find("contour error max"), std::string::npos);
   const auto j = cli::to_json(r);
-  EXPECT_EQ(j["status"], "completed");
+  EXPECT_EQ(j["status"], "done");
   EXPECT_EQ(j["mode"], "planned");
   EXPECT_EQ(j["cuts"].size(), 1u);
   EXPECT_GT(j["cuts"][0]["max_contour_error_mm"].get<double>(), 0.0);
@@ -282,7 +322,7 @@ TEST(Executor, XyTableRunsAFastMoveToItsEnd) {
   so.start_mm = job.start_mm;
   sim::SimBackend sim(m, so);
   const ExecutionResult r = Executor(m.setup(), {}).run(job, tr, sim);
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   Eigen::Vector2d at;
   sim.true_position(at);
   EXPECT_LT((at - Eigen::Vector2d(350, 300)).norm(), 0.02);

@@ -55,7 +55,7 @@ TEST_P(FaultInjection, EndsTorchOffAtRestReportedWithNoMotionAfter) {
     Executor ex(setup, {});
     const ExecutionResult r = ex.run(cut.job, cut.trajectories, sim);
 
-    ASSERT_EQ(r.status, ExecutionResult::Status::faulted) << r.report();
+    ASSERT_EQ(r.summary.status, Status::faulted) << r.report();
     ASSERT_EQ(r.faults.size(), 1u);
     const FaultReport& fr = r.faults[0];
     EXPECT_EQ(fr.kind, cs.expect) << fr.message;
@@ -151,11 +151,34 @@ TEST(StopRequest, FromAnotherPlaceEndsLikeAFault) {
   const ExecutionResult r = ex.run(cut.job, cut.trajectories, st, parts);
   ASSERT_EQ(r.faults.size(), 1u);
   EXPECT_EQ(r.faults[0].kind, FK::stop_requested);
+  // A stop asked for is how the run was meant to end, not a fault of the machine.
+  EXPECT_EQ(r.summary.status, Status::cancelled);
+  EXPECT_EQ(r.summary.message, r.faults[0].message);
+  EXPECT_NE(r.report().find(": cancelled\n"), std::string::npos) << r.report();
+  EXPECT_EQ(r.report().find("FAULTED"), std::string::npos) << r.report();
   EXPECT_NEAR(r.faults[0].time_s, 2.5, 0.003);
   EXPECT_FALSE(sim.torch_firing());
   EXPECT_EQ(sim.plant(0).velocity_mm_per_s(), 0.0);
   EXPECT_EQ(sim.plant(1).velocity_mm_per_s(), 0.0);
   EXPECT_FALSE(r.cuts[0].complete);
+}
+
+TEST(StopRequest, ADeadlineInMachineTimeEndsTheRunAsDeadline) {
+  const auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
+  auto cut = circle_cut();
+  sim::SimOptions so;
+  so.start_mm = cut.job.start_mm;
+  sim::SimBackend sim(m, so);
+  Executor ex(m.setup(), {});
+  Termination t;
+  t.set_deadline(1.0, "machine time");
+  RunParts parts;
+  parts.termination = &t;
+  const ExecutionResult r = ex.run(cut.job, cut.trajectories, sim, parts);
+  ASSERT_EQ(r.faults.size(), 1u);
+  EXPECT_EQ(r.faults[0].kind, FK::stop_requested);
+  EXPECT_EQ(r.summary.status, Status::deadline) << r.report();
+  EXPECT_FALSE(sim.torch_firing());
 }
 
 }  // namespace

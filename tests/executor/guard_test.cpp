@@ -246,7 +246,7 @@ TEST(Guard, AJogSessionUnderTheGuardAllocatesNothingPerTickAndStaysOut) {
     be.set_operator(done);
     for (int k = 0; k < 5000 && session.tick(); ++k) {
     }
-    EXPECT_EQ(session.finish().status, ExecutionResult::Status::completed) << to_string(s);
+    EXPECT_EQ(session.finish().summary.status, Status::done) << to_string(s);
   }
 }
 

@@ -15,6 +15,7 @@
 
 #include "engine/hardware/operator_events.h"
 #include "solvers/motion/run.h"
+#include "solvers/session/machine_session.h"
 #include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
@@ -176,6 +177,62 @@ TEST(RapidOverride, TwentyFivePercentCapsTheRapidsAtAQuarter) {
   EXPECT_GT(slow.result.cycle_time_s, 3.0 * full.result.cycle_time_s);
 }
 
+// One straight cut along X on the thermal gantry at `feed` mm/min.
+std::string straight_cut(const test::TempDir& dir, int feed) {
+  return dir.write(fmt::format("straight_{}.ngc", feed),
+                   fmt::format("G21 G90 G17 G40 G94\nG0 X100 Y100\nM3 S1\nG1 X400 Y100 F{}\nM5\nG0 X0 Y0\nM2\n", feed));
+}
+
+// What the panel shows 0.5 s into the cut of `path` run with the feed override at `feed_pct`
+// from the start, and the run's cycle time.
+struct Shown {
+  executor::LiveState live;
+  double cycle_s = 0.0;
+};
+Shown shown_in_the_cut(const std::string& path, double feed_pct) {
+  RunOptions o;
+  o.session.machine = "thermal_gantry";
+  o.session.executor.record_trace = false;
+  o.session.backend.sim.operator_events =
+      hardware::parse_operator_events(fmt::format("t_s,event,value\n0.0,feed_override,{}\n", feed_pct), "events.csv").states;
+  session::MachineSession s(session_options_for(o));
+  const PlannedRun plan = plan_program(path, o, s.machine());
+  session::MachineSession::RunHooks hooks;
+  hooks.expected_s = plan.expected_s();
+  auto run = s.start(plan.job, plan.trajectories, hooks);
+  Shown r;
+  long in_cut = 0;
+  while (run->tick()) {
+    const executor::LiveState l = s.live().read();
+    if (l.arc_ok && l.path_speed_mm_per_s > 1.0 && ++in_cut == 500) r.live = l;
+  }
+  EXPECT_GE(in_cut, 500);
+  r.cycle_s = run->finish().cycle_time_s;
+  return r;
+}
+
+TEST(FeedOverride, AboveTheMachinesTopSpeedTheTimeLeftAndTheOverrideShownAreWhatTheMachineDoes) {
+  test::TempDir dir;
+  // At 80 mm/s along X the cut runs at the axis' top speed: 150 % changes nothing, and the
+  // panel must say so (the time left as at 100 %, the override taken 100 %).
+  const std::string top = straight_cut(dir, 4800);
+  const Shown top100 = shown_in_the_cut(top, 100), top150 = shown_in_the_cut(top, 150);
+  EXPECT_EQ(top150.cycle_s, top100.cycle_s);
+  EXPECT_EQ(top150.live.feed_override_pct, 150.0);
+  EXPECT_NEAR(top150.live.feed_effective_pct, 100.0, 1e-9);
+  EXPECT_NEAR(top150.live.time_left_s, top100.live.time_left_s, 1e-6);
+  // At 30 mm/s there is room: the cut runs at 150 %, and the time left is as true as at 100 %
+  // (only the cut speeds up; the rapids and the torch take as long as at 100 %).
+  const std::string slow = straight_cut(dir, 1800);
+  const Shown slow100 = shown_in_the_cut(slow, 100), slow150 = shown_in_the_cut(slow, 150);
+  EXPECT_LT(slow150.cycle_s, slow100.cycle_s - 2.0);
+  EXPECT_NEAR(slow150.live.feed_effective_pct, 150.0, 1.0);
+  const auto miss = [](const Shown& s) { return s.live.time_left_s - (s.cycle_s - s.live.t_s); };
+  std::printf("30 mm/s: time left shown minus the time the run took from there: %.3f s at 100 %%, %.3f s at 150 %%\n",
+              miss(slow100), miss(slow150));
+  EXPECT_NEAR(miss(slow150), miss(slow100), 0.1 * (slow100.cycle_s - slow150.cycle_s));
+}
+
 TEST(FeedOverride, ZeroPercentHoldsAFeedMoveUntilItRises) {
   test::TempDir dir;
   const std::string prog = dir.write("long_cut.ngc", kLongCut);
@@ -190,6 +247,7 @@ TEST(FeedOverride, ZeroPercentHoldsAFeedMoveUntilItRises) {
 TEST(OperatorStop, EndsTheJobTorchOffAsCancelled) {
   const RunOutcome r = run_with_events(part("triangle_45.ngc"), "t_s,event,value\n6.0,stop,\n");
   EXPECT_EQ(r.summary.status, Status::cancelled) << r.summary.full_report();
+  EXPECT_EQ(r.result.summary.status, Status::cancelled);  // the executor's own word for it
   ASSERT_FALSE(r.result.faults.empty());
   EXPECT_EQ(r.result.faults[0].kind, executor::FaultKind::operator_stop);
   EXPECT_TRUE(r.result.torch_off_at_end);

@@ -58,7 +58,7 @@ double run(const cutting::MachineConfig& m, const motion::Stretch& s, Mode mode,
   o.blu_mm = blu;
   o.calibration_factor = cal;
   const ExecutionResult r = test::simulate(m, cut.job, {}, o);
-  EXPECT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  EXPECT_EQ(r.summary.status, Status::done) << r.report();
   EXPECT_TRUE(r.cuts.at(0).complete);
   std::printf("%-12s BLU %5.1f mm  factor %.3f  max contour error %7.3f mm (measured %7.3f)\n", to_string(mode), blu, cal,
               r.cuts[0].max_true_mm, r.cuts[0].max_mm);

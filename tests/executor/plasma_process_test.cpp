@@ -196,7 +196,7 @@ TEST(CutRecovery, TenArcLossesAreRecoveredAndTheCutsLeaveNoGapLongerThanTheKerf)
     if (held_ticks > 5000) FAIL() << "the hold was never released";
   }
   const executor::ExecutionResult r = run->finish();
-  ASSERT_EQ(r.status, executor::ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   int recoveries = 0;
   for (const executor::HoldReport& h : r.holds) {
     if (!h.by_arc_loss) continue;
@@ -242,7 +242,7 @@ TEST(CutRecovery, AnArcLostAgainWithinAFewMillimetresEndsTheJob) {
       hardware::parse_operator_events(fmt::format("t_s,event,value\n{},start,\n", mid_cut_s + 2.0), "events.csv").states;
   session::MachineSession s(o.session);
   const executor::ExecutionResult r = s.run(plan.job, plan.trajectories);
-  ASSERT_EQ(r.status, executor::ExecutionResult::Status::faulted) << r.report();
+  ASSERT_EQ(r.summary.status, Status::faulted) << r.report();
   EXPECT_EQ(r.faults.front().kind, executor::FaultKind::arc_lost);
   EXPECT_TRUE(r.torch_off_at_end);
   ASSERT_FALSE(r.holds.empty());

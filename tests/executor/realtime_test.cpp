@@ -113,7 +113,7 @@ TEST_P(TickAllocations, AreZero) {
   const long during = g_allocations;
   const ExecutionResult r = s.finish();
   EXPECT_EQ(during, 0) << ticks << " ticks";
-  EXPECT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  EXPECT_EQ(r.summary.status, Status::done) << r.report();
   EXPECT_GT(ticks, 10000);
   EXPECT_EQ(static_cast<long>(r.trace.size()), ticks);  // every tick recorded, none dropped
   EXPECT_FALSE(r.trace_truncated);
@@ -224,7 +224,7 @@ TEST(PositionBackend, RunsAJobThroughTheSameLoop) {
   test::IdealPositionBackend be(m, a);
   Executor ex(m.setup(), {});
   const ExecutionResult r = ex.run(cut.job, cut.trajectories, be);
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   EXPECT_EQ(r.backend, "ideal_position");
   ASSERT_EQ(r.cuts.size(), 1u);
   EXPECT_TRUE(r.cuts[0].complete);
@@ -275,7 +275,7 @@ TEST(JogSession, FollowsTheOperatorAndEndsOnCycleStart) {
   none.source = "jog";
   none.start_mm = so.start_mm;
   const ExecutionResult r = ex.run(none, {}, sim);
-  ASSERT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  ASSERT_EQ(r.summary.status, Status::done) << r.report();
   Eigen::Vector2d at;
   sim.true_position(at);
   // 1 s at 40 and 20 mm/s (less the ramps at 500 mm/s^2 with the jerk limit): about 38 and 19 mm.
@@ -353,7 +353,7 @@ TEST(CalibratedEncoderScale, DecodesTheCountersWithTheMeasuredScale) {
     if (calibrated)
       for (int i = 0; i < 2; ++i) setup.calibrated_mm_per_count[i] = truth.axes[i].plant.mm_per_count();
     const ExecutionResult r = Executor(setup, {}).run(cut.job, cut.trajectories, be);
-    EXPECT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+    EXPECT_EQ(r.summary.status, Status::done) << r.report();
     Eigen::Vector2d at;
     sim.true_position(at);
     return (at - b).norm();

@@ -43,7 +43,7 @@ std::size_t torch_on_count(const Job& job) {
 // The checks every planned run at 80 mm/s must pass.
 void expect_planned_run_meets_the_issue(const RunOutcome& r, const std::string& name) {
   SCOPED_TRACE(name);
-  ASSERT_EQ(r.result.status, ExecutionResult::Status::completed) << r.summary.full_report();
+  ASSERT_EQ(r.result.summary.status, Status::done) << r.summary.full_report();
   EXPECT_TRUE(r.result.faults.empty());
   EXPECT_TRUE(r.result.torch_off_at_end);
   EXPECT_TRUE(r.rapids.ok()) << r.rapids.summary.full_report();
@@ -110,7 +110,7 @@ TEST(RunParts, NestedSheetHasSeveralDozenCutsAndRapidsRoundTheParts) {
 TEST(RunParts, TorchOnlyFiresForCutsAndIsOffAtTheEnd) {
   RunOptions o;
   const RunOutcome r = run_program(part("contour_lines_arcs.ngc"), o);
-  ASSERT_EQ(r.result.status, ExecutionResult::Status::completed);
+  ASSERT_EQ(r.result.summary.status, Status::done);
   ASSERT_FALSE(r.result.trace.empty());
   for (const auto& s : r.result.trace) {
     if (!s.torch_fire || s.step < 0) continue;
@@ -129,7 +129,7 @@ TEST(RunParts, KerfCompensatedContourStaysOnItsCompensatedPath) {
   const RunOutcome r = run_program(part("contour_lines_arcs.ngc"), o);
   ASSERT_TRUE(r.kerf.has_value());
   EXPECT_EQ(r.kerf->compensated_count(), 1u);
-  ASSERT_EQ(r.result.status, ExecutionResult::Status::completed);
+  ASSERT_EQ(r.result.summary.status, Status::done);
   EXPECT_LE(r.result.max_contour_error_mm(), 0.1);
   // The torch path moved: its length differs from the programmed one.
   double programmed = 0, compensated = 0;
@@ -152,7 +152,7 @@ double paper_run(Mode mode, double blu, double calibration, double* rms = nullpt
   o.session.executor.record_trace = false;
   o.feed_override_mm_per_s = 4.0;  // the paper's feed
   const RunOutcome r = run_program(part("triangle_45.ngc"), o);
-  EXPECT_EQ(r.result.status, ExecutionResult::Status::completed) << r.summary.full_report();
+  EXPECT_EQ(r.result.summary.status, Status::done) << r.summary.full_report();
   EXPECT_EQ(r.machine.axes[0].plant.decoding, 1);  // measured as the paper did
   std::printf("%-12s BLU %5.1f mm  factor %.4f  max %7.3f mm (true %7.3f)  rms %.3f mm\n", executor::to_string(mode), blu,
               calibration, r.result.max_contour_error_mm(), r.result.max_true_contour_error_mm(), r.rms_contour_error_mm);
@@ -168,7 +168,7 @@ double stopwatch_factor() {
   RunOptions o;
   o.session.executor.mode = Mode::paper_open;
   const RunOutcome r = run_program(prog, o);
-  EXPECT_EQ(r.result.status, ExecutionResult::Status::completed);
+  EXPECT_EQ(r.result.summary.status, Status::done);
   return 100.0 / r.result.trace.back().true_mm.x();
 }
 

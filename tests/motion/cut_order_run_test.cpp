@@ -33,7 +33,7 @@ RunOutcome run(const std::string& path, std::optional<CutOrder> order, const std
   o.order = order;
   o.session.executor.record_trace = false;
   RunOutcome r = run_program(path, o);
-  EXPECT_EQ(r.result.status, executor::ExecutionResult::Status::completed) << r.summary.full_report();
+  EXPECT_EQ(r.result.summary.status, Status::done) << r.summary.full_report();
   return r;
 }
 

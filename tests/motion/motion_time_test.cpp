@@ -34,7 +34,7 @@ RunOutcome run(const std::string& name) {
   std::printf("%-24s planned motion %.3f s  optimum %.3f s (ratio %.4f)  bound %.3f s  rapids %.1f mm (straight %.1f)\n",
               name.c_str(), r.planned_motion_s, r.motion_optimum_s, r.optimum_ratio, r.motion_lower_bound_s,
               r.rapids.length_mm, r.rapids.straight_length_mm);
-  EXPECT_EQ(r.result.status, executor::ExecutionResult::Status::completed) << r.summary.full_report();
+  EXPECT_EQ(r.result.summary.status, Status::done) << r.summary.full_report();
   EXPECT_LE(r.result.max_contour_error_mm(), 0.1) << name;
   // bound <= optimum <= planned.
   EXPECT_GE(r.motion_optimum_s, r.motion_lower_bound_s * (1 - 1e-9)) << name;

@@ -294,7 +294,7 @@ TEST(PanelApi, TheTriangleRunsHoldsResumesAndReports) {
   const HttpResponse rep = rig.get("/api/report");
   ASSERT_EQ(rep.status, 200);
   const json r = json::parse(rep.body);
-  EXPECT_EQ(r["status"], "completed");
+  EXPECT_EQ(r["status"], "done");
   ASSERT_EQ(r["holds"].size(), 1u);
   EXPECT_EQ(r["holds"][0]["in_cut"], true);
   EXPECT_EQ(r["torch_off_at_end"], true);
@@ -302,7 +302,7 @@ TEST(PanelApi, TheTriangleRunsHoldsResumesAndReports) {
   // Again: the job runs a second time from where the first left the machine.
   ASSERT_EQ(rig.post("/api/run").status, 200);
   ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 2; }));
-  EXPECT_EQ(json::parse(rig.get("/api/report").body)["status"], "completed");
+  EXPECT_EQ(json::parse(rig.get("/api/report").body)["status"], "done");
 }
 
 TEST(PanelApi, TheEstopMidCutEndsTorchOffAndLatchesUntilReset) {
@@ -332,7 +332,7 @@ TEST(PanelApi, TheEstopMidCutEndsTorchOffAndLatchesUntilReset) {
   // The job runs again from where the machine stopped (a rapid to its start first).
   ASSERT_EQ(rig.post("/api/run", json::object(), "operator").status, 200);
   ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 2; }));
-  EXPECT_EQ(json::parse(rig.get("/api/report").body)["status"], "completed");
+  EXPECT_EQ(json::parse(rig.get("/api/report").body)["status"], "done");
 }
 
 TEST(PanelApi, OverridesAndStopReachTheRun) {
@@ -424,7 +424,7 @@ TEST(PanelApi, RunFromALineRunsTheTailOfTheJob) {
   ASSERT_EQ(rig.post("/api/run", {{"from_line", 11}}).status, 200);  // the vertical leg
   ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 1; }));
   const json r = json::parse(rig.get("/api/report").body);
-  EXPECT_EQ(r["status"], "completed") << r.dump();
+  EXPECT_EQ(r["status"], "done") << r.dump();
   ASSERT_EQ(r["cuts"].size(), 1u);
   EXPECT_EQ(r["cuts"][0]["source_line"], 11) << "the cut starts at the line asked for";
 }
@@ -447,7 +447,7 @@ TEST(PanelApi, AJobTakesAMaterialFileAndTheMaterialInForce) {
   ASSERT_EQ(rig.post("/api/run", json::object()).status, 200);
   ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 1; }));
   const json r = json::parse(rig.get("/api/report").body);
-  EXPECT_EQ(r["status"], "completed") << r.dump();
+  EXPECT_EQ(r["status"], "done") << r.dump();
   ASSERT_EQ(r["materials"].size(), 1u) << r.dump();
   EXPECT_EQ(r["materials"][0]["number"], 7);
   EXPECT_DOUBLE_EQ(r["materials"][0]["cut_feed_mm_per_min"].get<double>(), 2100.0);
@@ -460,7 +460,7 @@ TEST(PanelApi, AJobTakesAMaterialFileAndTheMaterialInForce) {
   ASSERT_EQ(rig.post("/api/run", json::object()).status, 200);
   ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 3; }));
   const json again = json::parse(rig.get("/api/report").body);
-  EXPECT_EQ(again["status"], "completed") << again.dump();
+  EXPECT_EQ(again["status"], "done") << again.dump();
   ASSERT_EQ(again["materials"].size(), 1u) << again.dump();
   EXPECT_EQ(again["materials"][0]["number"], 2);
 }
@@ -553,7 +553,7 @@ TEST(PanelApi, TheBracketHeldAndResumedMidCutMatchesMachplanRun) {
   const HttpResponse rep = rig.get("/api/report");
   ASSERT_EQ(rep.status, 200);
   const json r = json::parse(rep.body);
-  ASSERT_EQ(r["status"], "completed") << rep.body.substr(0, 400);
+  ASSERT_EQ(r["status"], "done") << rep.body.substr(0, 400);
   ASSERT_EQ(r["holds"].size(), 1u);
   EXPECT_EQ(r["holds"][0]["in_cut"], true);
   EXPECT_EQ(r["cuts"].size(), cli.result.cuts.size());

@@ -46,7 +46,7 @@ TEST(MachineSession, LoadsTheMachineOnceAndOpensTheBackendOnFirstUse) {
   EXPECT_FALSE(s.backend_open());
   const Move a = move({100, 100}, {150, 120});
   const ExecutionResult r = s.run(a.job, a.trajectories);
-  EXPECT_EQ(r.status, ExecutionResult::Status::completed) << r.report();
+  EXPECT_EQ(r.summary.status, Status::done) << r.report();
   EXPECT_TRUE(s.backend_open());
   EXPECT_EQ(r.backend, "sim");
 }
@@ -57,11 +57,11 @@ TEST(MachineSession, JobsRunOneAfterTheOtherOnTheSameMachine) {
   o.executor.record_trace = false;
   MachineSession s(o);
   const Move a = move({100, 100}, {150, 120}), b = move({150, 120}, {120, 160});
-  ASSERT_EQ(s.run(a.job, a.trajectories).status, ExecutionResult::Status::completed);
+  ASSERT_EQ(s.run(a.job, a.trajectories).summary.status, Status::done);
   Eigen::Vector2d at;
   ASSERT_TRUE(s.backend().true_position(at));
   EXPECT_NEAR((at - Eigen::Vector2d(150, 120)).norm(), 0.0, 0.05) << "the simulated table stays where the first job left it";
-  ASSERT_EQ(s.run(b.job, b.trajectories).status, ExecutionResult::Status::completed);
+  ASSERT_EQ(s.run(b.job, b.trajectories).summary.status, Status::done);
   ASSERT_TRUE(s.backend().true_position(at));
   EXPECT_NEAR((at - Eigen::Vector2d(120, 160)).norm(), 0.0, 0.05);
 }
@@ -119,7 +119,7 @@ TEST(MachineSession, OperatorInputsReachTheExecutorThroughTheBackend) {
   int ticks = 0;
   while (session->tick() && ticks < 20000) ++ticks;
   EXPECT_LT(ticks, 20000);
-  EXPECT_EQ(session->finish().status, ExecutionResult::Status::completed);
+  EXPECT_EQ(session->finish().summary.status, Status::done);
 }
 
 TEST(OperatorChannel, TheNewestStateWinsAndButtonsMerge) {

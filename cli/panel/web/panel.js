@@ -242,6 +242,10 @@ function onFrame(f) {
     $('progress-bar').style.width = (100 * f.progress).toFixed(1) + '%';
     $('progress-text').textContent = (100 * f.progress).toFixed(1) + ' %';
     $('time-left').textContent = f.state === 'held' ? 'held, ' + fmtTime(f.time_left_s) + ' left' : fmtTime(f.time_left_s) + ' left';
+    // What the machine makes of the feed override: above 100 % only where its limits leave room.
+    const eff = f.feed_effective_pct;
+    if (Math.abs(eff - f.feed_pct) >= 0.5) $('feed-val').textContent = `${f.feed_pct.toFixed(0)} % (runs at ${eff.toFixed(0)} %)`;
+    else if ($('feed-val').textContent.includes('runs at')) $('feed-val').textContent = f.feed_pct.toFixed(0) + ' %';
   }
   if (f.guard) {
     $('g-phase').textContent = f.guard.phase;
@@ -309,10 +313,10 @@ async function showReport() {
   const r = await act('GET', '/report');
   if (!r) return;
   $('report-box').classList.remove('hidden');
-  const done = r.status === 'completed';
+  const done = r.status === 'done';
   $('report-summary').innerHTML = '';
   const lines = [
-    `${done ? 'done' : 'FAULTED'}: ${r.source.split('/').pop()}`,
+    `${done ? 'done' : r.status === 'faulted' ? 'FAULTED' : r.status}: ${r.source.split('/').pop()}`,
     `cycle time ${fmt(r.cycle_time_s, 2)} s (lower bound ${fmt(r.lower_bound_s, 2)} s)`,
     `contour error max ${fmt(r.max_contour_error_mm, 4)} mm, rms ${fmt(r.rms_contour_error_mm, 4)} mm`,
     `holds ${(r.holds || []).length}, torch off at the end: ${r.torch_off_at_end ? 'yes' : 'NO'}`,
