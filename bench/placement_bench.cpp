@@ -15,7 +15,7 @@
 //   BM_Trunnion/T         the trunnion scene's least-travel search
 #include <benchmark/benchmark.h>
 
-#include "solvers/placement/search.h"
+#include "solvers/placement/search/search.h"
 
 namespace {
 

@@ -12,8 +12,8 @@
 #include "cli/output.h"
 #include "engine/common/error.h"
 #include "engine/common/parse.h"
-#include "solvers/placement/plot.h"
-#include "solvers/placement/search.h"
+#include "solvers/placement/report/plot.h"
+#include "solvers/placement/search/search.h"
 
 namespace machplan::cli {
 namespace {

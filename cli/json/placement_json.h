@@ -7,8 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "solvers/placement/checker.h"
-#include "solvers/placement/search.h"
+#include "solvers/placement/check/checker.h"
+#include "solvers/placement/search/search.h"
 
 namespace machplan::cli {
 

@@ -14,7 +14,7 @@ namespace {
 
 using Eigen::Vector2d;
 
-// screen = (ox + scale * x, oy - scale * y), as in solvers/placement/plot.cpp.
+// screen = (ox + scale * x, oy - scale * y), as in solvers/placement/report/plot.cpp.
 using View = PlotView;
 
 void trace_stretch(Canvas& cr, const View& v, const Stretch& st) {

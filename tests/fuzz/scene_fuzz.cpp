@@ -1,4 +1,4 @@
-// Fuzz target: the placement scene reader (solvers/placement/scene.h), YAML plus machplan's
+// Fuzz target: the placement scene reader (solvers/placement/scene/scene.h), YAML plus machplan's
 // checks and bounds. The scene text comes from the fuzzer; the files it names are found in
 // tests/fuzz/scene_files/ (the bundled HexaM machine through a link, a small tool path), so
 // that seeds load completely and mutations reach every key. Any input must end in a scene
@@ -9,7 +9,7 @@
 #include <string>
 
 #include "engine/common/error.h"
-#include "solvers/placement/scene.h"
+#include "solvers/placement/scene/scene.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > 16 * 1024) return 0;

@@ -136,7 +136,7 @@ endfunction()
 if(STEP STREQUAL "install")
   file(REMOVE_RECURSE "${PREFIX}")
   run_checked("cmake --install" ${CMAKE_COMMAND} --install "${BUILD_DIR}" --prefix "${PREFIX}")
-  foreach(f bin/machplan include/machplan/engine/common/error.h include/machplan/solvers/placement/search.h
+  foreach(f bin/machplan include/machplan/engine/common/error.h include/machplan/solvers/placement/search/search.h
             include/machplan/models/cutting/machine_config.h lib/libmachplan_engine.a lib/libmachplan_models.a
             lib/libmachplan_solvers.a lib/cmake/machplan/machplanConfig.cmake
             lib/cmake/machplan/machplanConfigVersion.cmake lib/cmake/machplan/machplanTargets.cmake

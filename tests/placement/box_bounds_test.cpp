@@ -11,17 +11,17 @@
 
 #include <gtest/gtest.h>
 
-#include "solvers/placement/bounds.h"
-#include "solvers/placement/checker.h"
-#include "solvers/placement/class1.h"
-#include "solvers/placement/scene.h"
-#include "solvers/placement/workpiece.h"
+#include "solvers/placement/machines/internal/bounds.h"
+#include "solvers/placement/check/checker.h"
+#include "solvers/placement/check/internal/class1.h"
+#include "solvers/placement/scene/scene.h"
+#include "solvers/placement/scene/internal/workpiece.h"
 
 namespace machplan::placement {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-constexpr int kStroke = 0;          // hexam_model.cpp: the lower stroke margin ...
+constexpr int kStroke = 0;          // machines/hexam_model.cpp: the lower stroke margin ...
 constexpr int kAssemblyMagazine = 5;  // ... and the tool assembly against the first peripheral
 
 const std::string kData = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/hexam-paper/";
@@ -129,7 +129,8 @@ TEST(BoxBounds, TheRangesAreTighterThanTheMotionBoundsAlone) {
 }
 
 TEST(BoxBounds, TheLowerStrokeMarginFallsAtLeastAsMuchAsThePad) {
-  // What lets one look at a box's top condemn the pads below it (machine_model.h, pad_rate).
+  // What lets one look at a box's top condemn the pads below it (machines/machine_model.h,
+  // pad_rate).
   const Scene scene = bundled();
   const Constraint& con = scene.model->constraints()[kStroke];
   ASSERT_EQ(con.pad_trend, 1);

@@ -15,9 +15,9 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/stop.h"
-#include "solvers/placement/checker.h"
-#include "solvers/placement/scene.h"
-#include "solvers/placement/search.h"
+#include "solvers/placement/check/checker.h"
+#include "solvers/placement/scene/scene.h"
+#include "solvers/placement/search/search.h"
 #include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 

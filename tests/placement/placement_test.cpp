@@ -10,9 +10,9 @@
 #include "engine/interference/height_field.h"
 #include "engine/programs/mesh.h"
 #include "models/hexam/hexam.h"
-#include "solvers/placement/checker.h"
-#include "solvers/placement/scene.h"
-#include "solvers/placement/search.h"
+#include "solvers/placement/check/checker.h"
+#include "solvers/placement/scene/scene.h"
+#include "solvers/placement/search/search.h"
 #include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "solvers/placement/search.h"
+#include "solvers/placement/search/search.h"
 
 namespace machplan {
 namespace {

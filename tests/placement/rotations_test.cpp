@@ -9,7 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "solvers/placement/search.h"
+#include "solvers/placement/search/search.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::placement {

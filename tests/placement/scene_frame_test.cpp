@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <gtest/gtest.h>
 
-#include "solvers/placement/search.h"
+#include "solvers/placement/search/search.h"
 #include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 

@@ -1,7 +1,7 @@
 // A scene that points to a missing or broken file (the machine, the workpiece mesh, the tool
 // path, a peripheral's mesh) is refused naming the scene file, the key's line and the key,
 // then the file and what is wrong with it.
-#include "solvers/placement/scene.h"
+#include "solvers/placement/scene/scene.h"
 
 #include <string>
 

@@ -11,8 +11,8 @@
 #include <gtest/gtest.h>
 
 #include "models/trunnion/trunnion.h"
-#include "solvers/placement/objective.h"
-#include "solvers/placement/search.h"
+#include "solvers/placement/search/internal/objective.h"
+#include "solvers/placement/search/search.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::placement {

@@ -20,7 +20,7 @@
 #include <machplan/models/cutting/machine_config.h>
 #include <machplan/solvers/calibration/store.h>
 #include <machplan/solvers/common/picture.h>
-#include <machplan/solvers/placement/scene.h>
+#include <machplan/solvers/placement/scene/scene.h>
 
 int main(int argc, char** argv) {
   using namespace machplan;

@@ -1,12 +1,12 @@
 // What a machine tells the placement checker: its constraints at one tool pose, and how fast
 // each can change as the tool moves along the path or the workpiece moves on the table.
 //
-// The checker (checker.h) and the searches (search.h) see a machine only through this
-// interface, so a new machine is a new model, not a change to them. Two models exist:
+// The checker (check/checker.h) and the searches (search/search.h) see a machine only through
+// this interface, so a new machine is a new model, not a change to them. Two models exist:
 //
-//   hexapod         the HexaM-type parallel machine (hexam_model.h, models/hexam)
+//   hexapod         the HexaM-type parallel machine (machines/hexam_model.h, models/hexam)
 //   table_tilting   a 5-axis trunnion: X, Y, Z on the head, two rotary axes under the table
-//                   (trunnion_model.h, models/trunnion)
+//                   (machines/trunnion_model.h, models/trunnion)
 //
 // The contract, which the certifier's proofs rest on:
 //
@@ -37,7 +37,7 @@
 #include <Eigen/Geometry>
 
 #include "models/common/tooling.h"
-#include "solvers/placement/finding.h"
+#include "solvers/placement/machines/finding.h"
 
 namespace machplan::placement {
 
@@ -198,7 +198,7 @@ class MachineModel {
   int placement_count() const { return placement_count_; }
 
   virtual std::unique_ptr<PoseEvaluator> evaluator() const = 0;
-  // The workpiece as the model checks it (workpiece.h).
+  // The workpiece as the model checks it (scene/internal/workpiece.h).
   virtual const WorkpieceSolid& workpiece() const = 0;
   virtual double fall(int c, const double* v, const Motion& m) const = 0;
 

@@ -1,4 +1,4 @@
-#include "solvers/placement/report.h"
+#include "solvers/placement/report/internal/report.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "solvers/placement/plot.h"
+#include "solvers/placement/report/plot.h"
 
 #include <algorithm>
 #include <cmath>

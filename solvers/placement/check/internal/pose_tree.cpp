@@ -1,4 +1,4 @@
-#include "solvers/placement/pose_tree.h"
+#include "solvers/placement/check/internal/pose_tree.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "solvers/placement/checker.h"
+#include "solvers/placement/check/checker.h"
 
 #include <algorithm>
 #include <iterator>
@@ -11,11 +11,11 @@
 #include <tbb/task_arena.h>
 
 #include "engine/common/error.h"
-#include "solvers/placement/certifier.h"
-#include "solvers/placement/class1.h"
-#include "solvers/placement/pose_tree.h"
-#include "solvers/placement/report.h"
-#include "solvers/placement/workpiece.h"
+#include "solvers/placement/check/internal/certifier.h"
+#include "solvers/placement/check/internal/class1.h"
+#include "solvers/placement/check/internal/pose_tree.h"
+#include "solvers/placement/report/internal/report.h"
+#include "solvers/placement/scene/internal/workpiece.h"
 
 namespace machplan::placement {
 

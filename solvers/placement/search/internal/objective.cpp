@@ -1,4 +1,4 @@
-#include "solvers/placement/objective.h"
+#include "solvers/placement/search/internal/objective.h"
 
 #include <algorithm>
 #include <cmath>

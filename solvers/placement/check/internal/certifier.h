@@ -1,6 +1,6 @@
-// The certifier: proves that every constraint of a machine (machine_model.h) reaches its limit
-// over the whole continuous tool path at a placement or over a ball of placements, finds the
-// interference that refutes it, or pins each constraint's smallest value.
+// The certifier: proves that every constraint of a machine (machines/machine_model.h) reaches
+// its limit over the whole continuous tool path at a placement or over a ball of placements,
+// finds the interference that refutes it, or pins each constraint's smallest value.
 //
 // Soundness between tool points. Between poses i and i+1 the machine moves as the model's
 // interpolate() says (tip on a line; axis on a great circle, or rotary axes on lines). The
@@ -33,8 +33,8 @@
 
 #include "engine/common/progress.h"
 #include "engine/common/termination.h"
-#include "solvers/placement/class1.h"
-#include "solvers/placement/pose_tree.h"
+#include "solvers/placement/check/internal/class1.h"
+#include "solvers/placement/check/internal/pose_tree.h"
 
 namespace machplan::placement {
 

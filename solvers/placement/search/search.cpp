@@ -1,4 +1,4 @@
-#include "solvers/placement/search.h"
+#include "solvers/placement/search/search.h"
 
 #include <algorithm>
 #include <chrono>
@@ -14,8 +14,8 @@
 
 #include "engine/common/error.h"
 #include "engine/common/parse.h"
-#include "solvers/placement/objective.h"
-#include "solvers/placement/report.h"
+#include "solvers/placement/search/internal/objective.h"
+#include "solvers/placement/report/internal/report.h"
 
 namespace machplan::placement {
 

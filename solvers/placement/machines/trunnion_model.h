@@ -33,7 +33,7 @@
 #include <memory>
 
 #include "models/trunnion/trunnion.h"
-#include "solvers/placement/machine_model.h"
+#include "solvers/placement/machines/machine_model.h"
 
 namespace machplan::placement {
 

@@ -1,12 +1,12 @@
-#include "solvers/placement/machine_model.h"
+#include "solvers/placement/machines/machine_model.h"
 
 #include <cmath>
 
 #include "engine/common/error.h"
 #include "engine/config/yaml.h"
-#include "solvers/placement/hexam_model.h"
-#include "solvers/placement/scene.h"
-#include "solvers/placement/trunnion_model.h"
+#include "solvers/placement/machines/hexam_model.h"
+#include "solvers/placement/scene/scene.h"
+#include "solvers/placement/machines/trunnion_model.h"
 
 namespace machplan::placement {
 

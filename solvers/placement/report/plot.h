@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "solvers/placement/search.h"
+#include "solvers/placement/search/search.h"
 
 namespace machplan::placement {
 

@@ -14,7 +14,7 @@
 
 #include <vector>
 
-#include "solvers/placement/machine_model.h"
+#include "solvers/placement/machines/machine_model.h"
 
 namespace machplan::placement {
 

@@ -1,5 +1,5 @@
 // Axis travel and machining time of a path as functions of the workpiece's position, for a
-// machine whose linear axes are affine in it (machine_model.h AxisPath: a table-tilting
+// machine whose linear axes are affine in it (machines/machine_model.h AxisPath: a table-tilting
 // trunnion, where the rotary angles depend on the tool axis alone).
 //
 // With q_i(o) = M_i o + b_i the linear axes at pose i for the offset o:
@@ -22,7 +22,7 @@
 
 #include <Eigen/Core>
 
-#include "solvers/placement/machine_model.h"
+#include "solvers/placement/machines/machine_model.h"
 
 namespace machplan::placement {
 

@@ -1,5 +1,5 @@
 // Where to put the workpiece: the study's evasion search and a certified optimum, on any
-// machine behind the model interface (machine_model.h).
+// machine behind the model interface (machines/machine_model.h).
 //
 // Objectives (what "best" means), each feasible first:
 //
@@ -64,7 +64,7 @@
 #include "engine/common/progress.h"
 #include "engine/common/summary.h"
 #include "engine/common/termination.h"
-#include "solvers/placement/checker.h"
+#include "solvers/placement/check/checker.h"
 
 namespace machplan::placement {
 
@@ -150,7 +150,7 @@ PlacementResult place(const Scene& scene, const PlacementOptions& options, Termi
 Eigen::AlignedBox2d placement_region(const Scene& scene, double rotation_deg);
 
 // Axis travel along the path at one placement, for a machine that has an AxisPath
-// (machine_model.h); nullopt otherwise.
+// (machines/machine_model.h); nullopt otherwise.
 std::optional<AxisTravel> axis_travel(const Scene& scene, const Placement& p);
 
 }  // namespace machplan::placement

@@ -10,9 +10,9 @@
 // distance, which no stretch clears, still costs a small part of the path.
 //
 // Parts that turn with the workpiece's rotation relative to the tool (the hexapod's plate
-// hinges, machine_model.h PlateRing) are checked either at one rotation (exact spheres), or for
-// every rotation at once as the ring they sweep (a cylinder around the axis that holds every
-// position of every hinge): a ring found clear clears every rotation.
+// hinges, machines/machine_model.h PlateRing) are checked either at one rotation (exact
+// spheres), or for every rotation at once as the ring they sweep (a cylinder around the axis
+// that holds every position of every hinge): a ring found clear clears every rotation.
 //
 // The walk is split into a fixed set of subtrees of the pose tree, each walked with its own
 // record (in parallel when threads are available); the result is the same for any number of
@@ -28,9 +28,9 @@
 #include "engine/common/termination.h"
 #include "engine/interference/collision.h"
 #include "engine/interference/height_field.h"
-#include "solvers/placement/finding.h"
-#include "solvers/placement/pose_tree.h"
-#include "solvers/placement/workpiece.h"
+#include "solvers/placement/machines/finding.h"
+#include "solvers/placement/check/internal/pose_tree.h"
+#include "solvers/placement/scene/internal/workpiece.h"
 
 namespace machplan::placement {
 

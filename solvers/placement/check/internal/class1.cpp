@@ -1,4 +1,4 @@
-#include "solvers/placement/class1.h"
+#include "solvers/placement/check/internal/class1.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 
 #include <tbb/parallel_for.h>
 
-#include "solvers/placement/bounds.h"
+#include "solvers/placement/machines/internal/bounds.h"
 
 namespace machplan::placement {
 

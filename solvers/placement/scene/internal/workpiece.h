@@ -20,7 +20,7 @@
 #include <Eigen/Geometry>
 
 #include "engine/interference/collision.h"
-#include "solvers/placement/machine_model.h"
+#include "solvers/placement/machines/machine_model.h"
 
 namespace machplan::placement {
 

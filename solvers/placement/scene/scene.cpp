@@ -1,4 +1,4 @@
-#include "solvers/placement/scene.h"
+#include "solvers/placement/scene/scene.h"
 
 #include <cmath>
 #include <filesystem>

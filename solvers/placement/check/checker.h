@@ -1,19 +1,19 @@
 // Interference checking of a whole five-axis tool path at one workpiece placement, or over a
-// ball of placements, on any machine behind the model interface (machine_model.h).
+// ball of placements, on any machine behind the model interface (machines/machine_model.h).
 //
 // The checker is the constraint model, the certifier and class 1 put together for one scene:
 //
-//   machine model     what interferes with what at one pose, per kind (hexam_model.h,
-//                     trunnion_model.h)
+//   machine model     what interferes with what at one pose, per kind (machines/hexam_model.h,
+//                     machines/trunnion_model.h)
 //   certifier         what happens between checked poses, along the continuous path and over
-//                     balls of placements (certifier.h, pose_tree.h)
+//                     balls of placements (internal/certifier.h, internal/pose_tree.h)
 //   class 1           the tool assembly against the workpiece, once for every placement
-//                     (class1.h)
+//                     (internal/class1.h)
 //
 // and it gives the answers a user or a search asks for: a report per kind of interference at
 // one placement, a decision (free, not free, undecided) over a ball of placements, a quick
 // probe for a deep interference, a brute-force dense re-check, and one constraint at one spot
-// for the searches' cache of known interferences (search.h keeps that cache).
+// for the searches' cache of known interferences (search/search.h keeps that cache).
 //
 // Work and threads: every call takes a Termination; each exact pose query charges it one unit,
 // and each call has a budget of its own of scene.search.max_pose_queries queries. When the work
@@ -31,9 +31,9 @@
 #include "engine/common/progress.h"
 #include "engine/common/summary.h"
 #include "engine/common/termination.h"
-#include "solvers/placement/certifier.h"
-#include "solvers/placement/finding.h"
-#include "solvers/placement/scene.h"
+#include "solvers/placement/check/internal/certifier.h"
+#include "solvers/placement/machines/finding.h"
+#include "solvers/placement/scene/scene.h"
 
 namespace machplan::placement {
 

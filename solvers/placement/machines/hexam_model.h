@@ -21,7 +21,7 @@
 #include <memory>
 
 #include "models/hexam/hexam.h"
-#include "solvers/placement/machine_model.h"
+#include "solvers/placement/machines/machine_model.h"
 
 namespace machplan::placement {
 

@@ -1,11 +1,11 @@
-#include "solvers/placement/workpiece.h"
+#include "solvers/placement/scene/internal/workpiece.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "solvers/placement/bounds.h"
-#include "solvers/placement/scene.h"
+#include "solvers/placement/machines/internal/bounds.h"
+#include "solvers/placement/scene/scene.h"
 
 namespace machplan::placement {
 

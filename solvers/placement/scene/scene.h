@@ -35,7 +35,7 @@
 // kMinResolutionMm .. kMaxResolutionMm; max_pose_queries 1 .. 1e9.
 //
 // A placement (x, y, pad, rotation) puts the workpiece origin at (x, y, pad) in the machine's
-// table frame, turned by rotation about z (finding.h).
+// table frame, turned by rotation about z (machines/finding.h).
 #pragma once
 
 #include <memory>
@@ -48,7 +48,7 @@
 
 #include "engine/interference/collision.h"
 #include "models/common/tooling.h"
-#include "solvers/placement/machine_model.h"
+#include "solvers/placement/machines/machine_model.h"
 
 namespace machplan::placement {
 

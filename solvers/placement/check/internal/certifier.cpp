@@ -1,4 +1,4 @@
-#include "solvers/placement/certifier.h"
+#include "solvers/placement/check/internal/certifier.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,7 +11,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include "solvers/placement/bounds.h"
+#include "solvers/placement/machines/internal/bounds.h"
 
 namespace machplan::placement {
 

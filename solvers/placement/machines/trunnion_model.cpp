@@ -1,4 +1,4 @@
-#include "solvers/placement/trunnion_model.h"
+#include "solvers/placement/machines/trunnion_model.h"
 
 #include <algorithm>
 #include <array>
@@ -7,9 +7,9 @@
 
 #include "engine/common/error.h"
 #include "engine/interference/collision.h"
-#include "solvers/placement/bounds.h"
-#include "solvers/placement/scene.h"
-#include "solvers/placement/workpiece.h"
+#include "solvers/placement/machines/internal/bounds.h"
+#include "solvers/placement/scene/scene.h"
+#include "solvers/placement/scene/internal/workpiece.h"
 
 namespace machplan::placement {
 
