@@ -406,7 +406,7 @@ TEST(GcodeLimits, BinaryFileIsNotAText) {
   // words or its long "lines" meet the length limit.
   std::string png("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16);
   png += std::string(600, '\x7f');
-  expect_error(png, 2, "not a text file (a NUL byte on this line)");
+  expect_error(png, 3, "not a text file (a NUL byte on this line)");
   // Anywhere in the file, even after lines that read well, and in the GRBL dialect too.
   GcodeOptions grbl;
   grbl.dialect = GcodeDialect::grbl;
