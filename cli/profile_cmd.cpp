@@ -51,7 +51,7 @@ nlohmann::json to_json(const machplan::ProfileReadResult& r) {
     problems.push_back({{"severity", machplan::to_string(p.severity)},
                         {"kind", p.kind},
                         {"handles", p.handles},
-                        {"message", p.message},
+                        {"message", p.text()},
                         {"at", p.at ? json::array({p.at->x(), p.at->y()}) : json(nullptr)},
                         {"gap_mm", p.gap_mm ? json(*p.gap_mm) : json(nullptr)}});
   }
@@ -64,7 +64,7 @@ void add_profile(CLI::App& app) {
   auto file = std::make_shared<std::string>();
   auto json_out = std::make_shared<bool>(false);
   auto tolerance = std::make_shared<double>(machplan::DxfOptions{}.chain_tolerance_mm);
-  cmd->add_option("file", *file, "DXF drawing (ASCII)")->required();
+  cmd->add_option("file", *file, "DXF drawing (ASCII or binary)")->required();
   cmd->add_flag("--json", *json_out, "Print JSON instead of the readable report");
   cmd->add_option("--tolerance", *tolerance, "Largest gap (mm) still joined when chaining entities")
       ->capture_default_str();
@@ -84,11 +84,12 @@ void add_profile(CLI::App& app) {
   cmd->add_option("--max-entities", *max_entities,
                   "Most entities a drawing may hold, INSERT copies counted (about 1 s per 100 000)")
       ->capture_default_str();
-  machplan::cli::field_flags(cmd, {{"chain_tolerance_mm", "--tolerance"},
-                                   {"flatten_tolerance_deg", "--flatten-tolerance"},
-                                   {"max_entities", "--max-entities"},
-                                   {"assumed_mm_per_unit", "--units"},
-                                   {"join_tolerance_mm", "--join-tolerance"}});
+  static constexpr machplan::cli::FieldFlag kFlags[] = {{"chain_tolerance_mm", "--tolerance"},
+                                                         {"flatten_tolerance_deg", "--flatten-tolerance"},
+                                                         {"max_entities", "--max-entities"},
+                                                         {"assumed_mm_per_unit", "--units"},
+                                                         {"join_tolerance_mm", "--join-tolerance"}};
+  machplan::cli::field_flags(cmd, kFlags);
   cmd->callback([=] {
     machplan::DxfOptions options;
     options.max_entities = *max_entities;
@@ -104,7 +105,11 @@ void add_profile(CLI::App& app) {
                                                machplan::excerpt(*units)));
     }
     options.validate();
-    const auto result = machplan::read_dxf_profile(*file, options);
+    auto result = machplan::read_dxf_profile(*file, options);
+    // A problem an option settles names the flag that sets it ("... with --units").
+    for (auto& p : result.problems)
+      for (const auto& f : kFlags)
+        if (p.option == f.field) p.option = f.flag;
     if (*json_out)
       machplan::cli::print_json(to_json(result));
     else

@@ -25,11 +25,15 @@
 //     must keep one z within the chain tolerance plus that slope over their extent.
 //   * Units: $INSUNITS converts the drawing to mm. A drawing without it (or with 0, unitless)
 //     is read with DxfOptions::assumed_mm_per_unit, or as mm when that is 0, and always with
-//     a no_units warning.
+//     a no_units warning. Header variables written after the header's ENDSEC (dxflib 2.0,
+//     LibreCAD's writer, leaves some there) are read as the header's.
+//   * Binary DXF (AutoCAD's "AutoCAD Binary DXF" files, 1- or 2-byte group codes) is read as
+//     the same drawing in ASCII; its line numbers in messages are those of that ASCII form
+//     (group code k, from 0, on line 2k + 1).
 //
 // How contours are formed. Closed entities (CIRCLE, closed polylines, a full-turn ARC or
 // ELLIPSE, a polyline or spline whose ends meet) are contours by themselves. The open ones are
-// chained: starting from the first unused piece in file order, the chain's free end is joined
+// chained (engine/geometry/chaining.h): starting from the first unused piece in file order, the chain's free end is joined
 // to the nearest free end of another piece within `chain_tolerance_mm` (a piece is reversed
 // when its end, not its start, is the nearer), and the chain closes when its own start is the
 // nearest end within tolerance. Join gaps below the tolerance are closed by keeping the
@@ -75,18 +79,19 @@
 //                     approximation (a curve the fit could not bring within its tolerance).
 // A profile with any error must not be cut; has_errors() says so.
 //
-// What throws. A file that is not a well-formed ASCII DXF throws InputError with
-// "FILE:LINE: message": a group code that is not an integer, a value missing at the end of
-// the file, a number that does not parse or is not finite, a missing 0/EOF (truncation), a
-// binary DXF, a VERTEX outside a POLYLINE, an LWPOLYLINE whose vertex count disagrees with
+// What throws. A file that is not a well-formed DXF throws InputError with
+// "FILE:LINE: message": a group code that is not an integer (or, in binary DXF, not a DXF
+// group code), a value missing at the end of the file, a number that does not parse or is not
+// finite, a missing 0/EOF (truncation), a VERTEX outside a POLYLINE, an LWPOLYLINE whose vertex count disagrees with
 // its code 90, a SPLINE whose counts (72-74) disagree with its lists or whose knots, degree
 // or weights are invalid, a block that contains itself or nests deeper than 32, a drawing
 // that holds more than DxfOptions::max_entities entities (INSERT copies counted) or whose
 // curves need more than 250 000 arcs, an unknown $INSUNITS.
 //
-// Nesting. For each contour the parent is the smallest contour (by |area|) that contains it;
-// depth 0 are outer boundaries of parts, depth 1 their holes, depth 2 parts inside holes, and
-// so on. Contours keep the orientation they were drawn with.
+// Nesting (engine/geometry/nesting.h). For each contour the parent is the smallest contour (by
+// |area|) that contains it; depth 0 are outer boundaries of parts, depth 1 their holes, depth 2
+// parts inside holes, and so on. Contours keep the orientation they were drawn with. Contours
+// that cross (an overlap error) are nested by the first vertex of the smaller one.
 //
 // Thread safety: read_dxf_profile may be called from several threads at once.
 #pragma once
@@ -144,6 +149,14 @@ struct ProfileProblem {
   std::string message;               // one line, for people
   std::optional<Eigen::Vector2d> at; // mm, where it applies
   std::optional<double> gap_mm;      // open_chain: distance between the chain's two ends
+  // The DxfOptions field that settles the problem, when one does (no_units:
+  // "assumed_mm_per_unit", not_planar: "flatten_tolerance_deg"), as InputError::with_option
+  // names one: the library knows no flags, a command line renames it to the flag that sets it.
+  std::string option;
+
+  // The message, continued with " with OPTION" when an option settles it: "... give that
+  // unit with assumed_mm_per_unit".
+  std::string text() const;
 };
 const char* to_string(ProfileProblem::Severity s);
 

@@ -107,6 +107,9 @@
 //     undefined named parameters; a spindle number the machine does not have; O-word structure
 //     errors; a program that ends with neither M2/M30 nor a closing '%' (unless
 //     GcodeOptions::require_program_end is false: then Program::warnings says so).
+//   * A file that is not text: a NUL byte anywhere ("not a text file", at its line), before
+//     anything else is read. A line of GRBL real-time commands ('?', '~', '!'), naming the
+//     grbl dialect, which reads it.
 //   * Where rs274 accepts nonsense, this reader refuses it: R0 on an arc (rs274 prints a NaN
 //     centre) and a doubled sign such as "X--1" (rs274 reads it as X1).
 //   * Limits that keep any input bounded: GcodeOptions::max_moves moves, max_arc_turns turns
@@ -119,12 +122,14 @@
 //   * grbl: GRBL's reading, for programs written for GRBL controllers (Estlcam, laser plug-ins,
 //     GRBL posts): a line starting with '$' is a controller command ($H homing, $X unlock, $I,
 //     $$, $J=... jog, $100=... settings), kept as a controller_command event with its text and
-//     otherwise ignored, with one warning for the program; a program may end without M2, M30
-//     or '%'; '%' lines are ignored wherever they stand; GRBL's modal defaults (G0 G54 G17 G21
+//     otherwise ignored, with one warning for the program; a line of real-time commands only
+//     ('?' status, '~' cycle start, '!' feed hold, which a GRBL sender sends at once rather than
+//     as a line) is skipped as a sender skips it, with one warning; a program may end without
+//     M2, M30 or '%'; '%' lines are ignored wherever they stand; GRBL's modal defaults (G0 G54 G17 G21
 //     G90 G94 G91.1 M5 M9 T0 F0 S0 as LinuxCNC's, and G61 exact path, GRBL's only path mode);
 //     every other line is read as in linuxcnc.
 //   * automatic: grbl when the text shows a GRBL program (a '$' system command or setting
-//     line, or a '%' line where LinuxCNC allows none) or, when require_program_end is set, when
+//     line, a line of real-time commands, or a '%' line where LinuxCNC allows none) or, when require_program_end is set, when
 //     it has no program end; linuxcnc otherwise. Program::warnings opens with a note naming
 //     the reason and the line when grbl is chosen; Program::dialect says which was read.
 //

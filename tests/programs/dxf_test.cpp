@@ -4,7 +4,9 @@
 
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -239,7 +241,104 @@ TEST(Dxf, MalformedFilesGiveFileLineErrors) {
   expect_input_error("0\nSECTION\n2\nHEADER\n9\n$INSUNITS\n70\n77\n0\nENDSEC\n0\nEOF\n", 8, "$INSUNITS");
   expect_input_error("0\nSECTION\n2\nENTITIES\n0\nVERTEX\n0\nENDSEC\n0\nEOF\n", 5, "outside a POLYLINE");
   expect_input_error("0\nSECTION\n2\nENTITIES\n0\nLWPOLYLINE\n90\n5\n10\n0\n20\n0\n0\nENDSEC\n0\nEOF\n", 5, "declares 5");
-  expect_input_error(std::string("AutoCAD Binary DXF\r\n\x1a") + std::string(1, '\0'), 1, "binary");
+  // A binary DXF with nothing after its sentinel has no 0/EOF.
+  expect_input_error(std::string("AutoCAD Binary DXF\r\n\x1a") + std::string(1, '\0'), 1, "empty file");
+}
+
+// ---------------------------------------------------------------------------------------
+// Binary DXF, written here from the ASCII form by the format's rules (Autodesk's DXF
+// reference): group codes as 2 little-endian bytes (release 13 on) or 1 byte (older, 255
+// announcing a 2-byte code), strings NUL-terminated, reals 8-byte doubles, integers 2 or 4
+// bytes by the code's range.
+
+std::string binary_dxf(const std::string& ascii, bool two_byte_codes = true) {
+  std::string out("AutoCAD Binary DXF\r\n\x1a\0", 22);
+  const auto put = [&out](std::uint64_t v, int bytes) {
+    for (int k = 0; k < bytes; ++k) out.push_back(static_cast<char>((v >> (8 * k)) & 0xff));
+  };
+  std::vector<std::string> lines;
+  for (std::size_t at = 0; at < ascii.size();) {
+    const std::size_t nl = ascii.find('\n', at);
+    lines.push_back(ascii.substr(at, nl - at));
+    at = nl + 1;
+  }
+  for (std::size_t k = 0; k + 1 < lines.size(); k += 2) {
+    const int code = std::stoi(lines[k]);
+    const std::string& value = lines[k + 1];
+    if (two_byte_codes) put(static_cast<std::uint64_t>(code), 2);
+    else if (code < 255) put(static_cast<std::uint64_t>(code), 1);
+    else { put(255, 1); put(static_cast<std::uint64_t>(code), 2); }
+    if ((code >= 10 && code <= 59) || (code >= 210 && code <= 239)) {
+      put(std::bit_cast<std::uint64_t>(std::stod(value)), 8);
+    } else if ((code >= 60 && code <= 79) || (code >= 170 && code <= 179)) {
+      put(static_cast<std::uint64_t>(std::stoll(value)), 2);
+    } else if (code >= 90 && code <= 99) {
+      put(static_cast<std::uint64_t>(std::stoll(value)), 4);
+    } else {
+      out += value;
+      out.push_back('\0');
+    }
+  }
+  return out;
+}
+
+// A square plate with a slot and a round hole, in inches, as pairs of every value type.
+Writer binary_test_drawing() {
+  Writer w;
+  w.header = "9\n$INSUNITS\n70\n1\n";
+  w.lwpolyline("10", {{0, 0}, {4, 0}, {4, 3}, {0, 3}}, {0, 0, 0, 0}, true);
+  w.line("11", {1, 1}, {2, 1});
+  w.arc("12", {2, 1.25}, 0.25, 270, 90);
+  w.line("13", {2, 1.5}, {1, 1.5});
+  w.arc("14", {1, 1.25}, 0.25, 90, 270);
+  w.circle("15", {3, 2}, 0.5);
+  return w;
+}
+
+TEST(DxfBinary, ReadsAsTheSameDrawingInAscii) {
+  const Writer w = binary_test_drawing();
+  const ProfileReadResult ascii = read_dxf_profile_text(w.text(), "t.dxf");
+  ASSERT_EQ(ascii.contours.size(), 3u) << ascii.report();
+  for (bool two_byte : {true, false}) {
+    const ProfileReadResult bin = read_dxf_profile_text(binary_dxf(w.text(), two_byte), "t.dxf");
+    EXPECT_EQ(bin.mm_per_unit, 25.4);
+    ASSERT_EQ(bin.contours.size(), ascii.contours.size()) << bin.report();
+    for (std::size_t i = 0; i < bin.contours.size(); ++i) {
+      EXPECT_EQ(bin.contours[i].handles, ascii.contours[i].handles);
+      EXPECT_EQ(bin.contours[i].depth, ascii.contours[i].depth);
+      EXPECT_EQ(bin.contours[i].area_mm2, ascii.contours[i].area_mm2);
+    }
+    EXPECT_EQ(bin.report(), ascii.report());
+  }
+}
+
+TEST(DxfBinary, DamagedFilesGiveErrors) {
+  const std::string bin = binary_dxf(binary_test_drawing().text());
+  // Cut inside a double: the pair's line in the ASCII form is named.
+  const std::string cut = bin.substr(0, bin.find(std::string("\x09\0", 2) + "$INSUNITS") + 2 + 10);
+  expect_input_error(cut + std::string("\x46\0\x01", 3), 7, "truncated");
+  // A damaged sentinel, and a code no DXF has (80).
+  std::string damaged = bin;
+  damaged[20] = '\n';
+  expect_input_error(damaged, 1, "sentinel");
+  expect_input_error(std::string("AutoCAD Binary DXF\r\n\x1a\0", 22) + std::string("\x50\0\0\0", 4), 1,
+                     "80 is not a DXF group code");
+}
+
+TEST(DxfHeader, VariablesAfterTheHeadersEndsecAreTheHeaders) {
+  // The shape dxflib 2.0 (LibreCAD) writes: the header's last variables after its ENDSEC.
+  const std::string text =
+      "999\ndxflib 2.0\n0\nSECTION\n2\nHEADER\n9\n$ACADVER\n1\nAC1015\n0\nENDSEC\n"
+      "9\n$INSUNITS\n70\n1\n9\n$DIMEXE\n40\n0.05\n9\n$PLIMMAX\n10\n8.5\n20\n11\n"
+      "0\nSECTION\n2\nENTITIES\n0\nCIRCLE\n5\nC\n10\n0\n20\n0\n40\n1\n0\nENDSEC\n0\nEOF\n";
+  const ProfileReadResult r = read_dxf_profile_text(text, "librecad.dxf");
+  ASSERT_EQ(r.contours.size(), 1u) << r.report();
+  EXPECT_TRUE(r.has_insunits);
+  EXPECT_EQ(r.mm_per_unit, 25.4);
+  EXPECT_EQ(count(r, "no_units"), 0);
+  // Elsewhere between sections, a pair that is not 0/SECTION stays an error.
+  expect_input_error("0\nSECTION\n2\nENTITIES\n0\nENDSEC\n9\n$INSUNITS\n70\n1\n0\nEOF\n", 7,
+                     "expected 0/SECTION or 0/EOF, found group code 9");
 }
 
 // ---------------------------------------------------------------------------------------
@@ -653,6 +752,11 @@ TEST(DxfUnits, MissingUnitsWarnAndCanBeGiven) {
   ASSERT_EQ(mm.contours.size(), 1u);
   EXPECT_EQ(count(mm, "no_units"), 1);
   EXPECT_FALSE(mm.has_insunits);
+  // The warning names the option that gives the unit, as a field (a command line renames it).
+  EXPECT_EQ(find(mm, "no_units")->option, "assumed_mm_per_unit");
+  EXPECT_EQ(find(mm, "no_units")->text(),
+            "the drawing does not state its units ($INSUNITS); read as mm: if it is drawn in another unit, give that "
+            "unit with assumed_mm_per_unit");
   EXPECT_NEAR(mm.contours[0].area_mm2, 1, 1e-12);
   DxfOptions o;
   o.assumed_mm_per_unit = mm_per_drawing_unit("inch");
@@ -779,6 +883,25 @@ TEST(Dxf, CliPrintsJsonAndExitCodes) {
   EXPECT_EQ(exit_code("--flatten-tolerance 9"), 2);
   EXPECT_EQ(exit_code("--flatten-tolerance nan"), 2);
   EXPECT_EQ(exit_code("--max-entities 3"), 2);
+}
+
+TEST(Dxf, CliNamesTheFlagThatGivesTheUnits) {
+  test::Cli cli;
+  Writer w;
+  w.header.clear();
+  w.circle("C", {0, 0}, 5);
+  const std::string file = cli.write("nounits.dxf", w.text());
+  const test::CliResult r = cli.run({"profile", file});
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("give that unit with --units"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("assumed_mm_per_unit"), std::string::npos) << r.out;
+  const test::CliResult json = cli.run({"profile", file, "--json"});
+  EXPECT_NE(json.out.find("give that unit with --units"), std::string::npos) << json.out;
+  // Binary DXF is read by the command too.
+  const std::string bin = cli.write("plate.dxf", binary_dxf(binary_test_drawing().text()));
+  const test::CliResult b = cli.run({"profile", bin});
+  EXPECT_EQ(b.code, 0) << b.err;
+  EXPECT_NE(b.out.find("3 contour(s)"), std::string::npos) << b.out;
 }
 
 }  // namespace

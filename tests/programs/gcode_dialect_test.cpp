@@ -136,6 +136,45 @@ TEST(GcodeDialect, AutomaticPicksGrblOnItsSignsWithANote) {
   EXPECT_THAT(l2.warnings[0], HasSubstr("the program has no end"));
 }
 
+// A program as GRBL senders' users share them: real-time commands ('?' status, '~' cycle
+// start, '!' feed hold) on lines of their own, which the sender sends at once, not as lines.
+const char* const kRealtimeJob =
+    "?\n"                 // 1
+    "G21 G90\n"           // 2
+    "G0 X10 Y10\n"        // 3
+    "~\n"                 // 4
+    "G1 X20 F600\n"       // 5
+    " ! \r\n"             // 6
+    "M2\n";               // 7
+
+TEST(GcodeDialect, GrblSkipsRealTimeCommandLinesWithANote) {
+  const Program p = read_gcode(kRealtimeJob, "rt.nc", dialect(GcodeDialect::grbl));
+  // The moves of the program without those lines.
+  const Program q = read_gcode("G21 G90\nG0 X10 Y10\nG1 X20 F600\nM2\n", "q.nc", dialect(GcodeDialect::grbl));
+  ASSERT_EQ(p.moves.size(), q.moves.size());
+  for (std::size_t i = 0; i < p.moves.size(); ++i) {
+    EXPECT_EQ(p.moves[i].kind, q.moves[i].kind) << i;
+    EXPECT_TRUE(p.moves[i].end.isApprox(q.moves[i].end)) << i;
+  }
+  EXPECT_EQ(p.moves[1].line, 5);
+  ASSERT_EQ(p.warnings.size(), 1u);
+  EXPECT_EQ(p.warnings[0], "rt.nc:1: 3 GRBL real-time command lines (?, ~, !) skipped, as a GRBL sender skips them");
+  // A '?' inside a G-code line is not a real-time line: an error as before.
+  EXPECT_THAT(error_of("G0 X1 ?\n", dialect(GcodeDialect::grbl)), HasSubstr("p.nc:1: bad character '?'"));
+}
+
+TEST(GcodeDialect, LinuxcncRefusesRealTimeLinesNamingTheGrblDialect) {
+  EXPECT_EQ(error_of(kRealtimeJob, {}),
+            "p.nc:1: '?' is a GRBL real-time command, which a GRBL sender strips before streaming; LinuxCNC has no "
+            "such line: read the program in the grbl dialect");
+  EXPECT_THAT(error_of("G0 X1\n!\nM2\n", {}), HasSubstr("p.nc:2: '!' is a GRBL real-time command"));
+  // The automatic dialect takes such a line as a sign of a GRBL program.
+  const Program p = read_gcode(kRealtimeJob, "rt.nc", dialect(GcodeDialect::automatic));
+  EXPECT_EQ(p.dialect, GcodeDialect::grbl);
+  ASSERT_EQ(p.warnings.size(), 2u);
+  EXPECT_THAT(p.warnings[0], HasSubstr("rt.nc:1: read as a GRBL program (auto-detected: a GRBL real-time command line"));
+}
+
 TEST(GcodeDialect, NamesParseBothWays) {
   for (GcodeDialect d : {GcodeDialect::linuxcnc, GcodeDialect::grbl, GcodeDialect::automatic})
     EXPECT_EQ(gcode_dialect_from(to_string(d)), d);

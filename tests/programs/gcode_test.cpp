@@ -400,6 +400,20 @@ TEST(GcodeLimits, LinesMovesAndOptions) {
   expect_error(std::string("G0 X1\n\x01\x02\n", 9) + "M2\n", 2, "bad character");
 }
 
+TEST(GcodeLimits, BinaryFileIsNotAText) {
+  // A binary file (here the start of a PNG image, then a long run of bytes with no newline)
+  // is named for what it is, at the line of its first NUL byte, before its bytes are read as
+  // words or its long "lines" meet the length limit.
+  std::string png("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16);
+  png += std::string(600, '\x7f');
+  expect_error(png, 3, "not a text file (a NUL byte on this line)");
+  // Anywhere in the file, even after lines that read well, and in the GRBL dialect too.
+  GcodeOptions grbl;
+  grbl.dialect = GcodeDialect::grbl;
+  expect_error(std::string("G0 X1\nG1 X2 F100\n") + std::string(300, 'a') + std::string(1, '\0') + "\n", 3,
+               "not a text file", grbl);
+}
+
 TEST(GcodeFile, MissingFileAndDemo) {
   EXPECT_THROW(read_gcode_file("/nonexistent/prog.ngc"), InputError);
   const Program p = read_gcode_file(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/programs/demo_plate.ngc");
