@@ -18,7 +18,7 @@
 #include "cli/output.h"
 #include "engine/calibration/session_log.h"
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "solvers/session/machine_session.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/fit.h"

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "engine/programs/gcode.h"
 
 namespace machplan::cli {

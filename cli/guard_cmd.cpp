@@ -16,7 +16,7 @@
 #include "cli/field_flags.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "solvers/common/picture.h"
 #include "solvers/guard/guard_run.h"
 

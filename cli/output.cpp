@@ -11,7 +11,7 @@
 
 #include "cli/command.h"
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 
 namespace machplan::cli {
 

@@ -11,7 +11,7 @@
 #include "cli/json/placement_json.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "solvers/placement/report/plot.h"
 #include "solvers/placement/search/search.h"
 

@@ -23,7 +23,7 @@
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/store.h"
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "engine/hardware/operator_events.h"
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"

@@ -17,7 +17,7 @@
 #include "cli/json/tuning.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "solvers/calibration/store.h"
 #include "solvers/common/picture.h"
 #include "solvers/tuning/acc_tuning.h"

@@ -2,7 +2,9 @@
 #
 #   P/bin/machplan
 #   P/lib/libmachplan_{engine,models,solvers}.a
-#   P/include/machplan/{engine,models,solvers}/**.h      the public headers
+#   P/include/machplan/{engine,models,solvers}/**.h      the public headers: every header except
+#                                                          those in an internal/ folder and the
+#                                                          HAL component's engine/hardware/hal/
 #   P/lib/cmake/machplan/machplanConfig.cmake ...        find_package(machplan): machplan::engine,
 #                                                          machplan::models, machplan::solvers
 #   P/share/machplan/machines/*.yaml                      the bundled machines (--machine NAME)
@@ -16,9 +18,13 @@ include(CMakePackageConfigHelpers)
 install(TARGETS machplan RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 install(TARGETS machplan_engine machplan_models machplan_solvers EXPORT machplanTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
+# A header in an internal/ folder serves only its layer's own sources (text scanning, number
+# parsing, setting checks, SQLite plumbing, the parts of one solver); no installed header may
+# include one. engine/hardware/hal/ is the real-time component's C source (halcompile builds it,
+# scripts/setup installs it), not a header of the libraries.
 foreach(layer engine models solvers)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${layer}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/machplan/${layer}
-          FILES_MATCHING PATTERN "*.h")
+          FILES_MATCHING PATTERN "*.h" PATTERN internal EXCLUDE REGEX "/engine/hardware/hal$" EXCLUDE)
 endforeach()
 
 # Instrumented libraries need the same runtime in the program that links them.

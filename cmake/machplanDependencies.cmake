@@ -26,7 +26,7 @@ machplan_find_package(fmt)
 # links machplan links these too. yaml-cpp (engine/config/yaml.cpp, behind Yaml), FCL
 # (engine/interference/collision.cpp, behind Shape), OMPL (solvers/motion), Ceres
 # (solvers/calibration/fit.cpp), NLopt (solvers/tuning/optimizer.cpp), SQLite
-# (solvers/common/sqlite_db.cpp, behind SqliteDb), Cairo (solvers/common/picture.cpp, behind
+# (solvers/common/internal/sqlite_db.cpp, behind SqliteDb), Cairo (solvers/common/picture.cpp, behind
 # Canvas), oneTBB (solvers/placement: the checker's and the searches' threads).
 machplan_find_package(yaml-cpp)
 machplan_find_package(fcl)

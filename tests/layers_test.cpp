@@ -103,7 +103,7 @@ TEST(Layers, ThirdPartyLibrariesStayInsideTheirModules) {
       {"ompl/", {"solvers/motion/"}},
       {"ceres/", {"solvers/calibration/fit.cpp"}},
       {"nlopt", {"solvers/tuning/optimizer.cpp"}},
-      {"sqlite3", {"solvers/common/sqlite_db.cpp"}},
+      {"sqlite3", {"solvers/common/internal/sqlite_db.cpp"}},
       {"cairo", {"solvers/"}},
   };
   for (const Include& i : every_include()) {

@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "engine/control/cross_coupled_controller.h"
 #include "engine/control/fuzzy_controller.h"
 #include "engine/control/pid_controller.h"

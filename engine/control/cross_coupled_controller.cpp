@@ -5,7 +5,7 @@
 
 #include <fmt/format.h>
 
-#include "engine/control/setting_check.h"
+#include "engine/control/internal/setting_check.h"
 
 namespace machplan::control {
 

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "engine/control/setting_check.h"
+#include "engine/control/internal/setting_check.h"
 
 namespace machplan::control {
 

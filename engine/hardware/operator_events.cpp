@@ -6,9 +6,9 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "engine/common/text_file.h"
-#include "engine/programs/text_scan.h"
+#include "engine/programs/internal/text_scan.h"
 
 namespace machplan::hardware {
 

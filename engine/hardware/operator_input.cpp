@@ -15,7 +15,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "engine/common/text_file.h"
 
 namespace machplan::hardware {

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/LU>
 
 #include "engine/common/error.h"
 #include "engine/config/yaml.h"
+#include "engine/interference/collision.h"
 
 namespace machplan::hexam {
 
@@ -36,21 +38,42 @@ IkResult inverse_kinematics(const Machine& m, const Eigen::Vector3d& tip_mm, con
     const Strut& st = m.struts[i];
     StrutState& out = r.struts[i];
     out.plate_mm = r.plate_centre_mm + r.R * st.plate_joint_mm;
-    const Eigen::Vector3d d = out.plate_mm - st.rail_foot_mm;
-    const double ud = st.rail_direction.dot(d);
-    // Distance from the plate joint to the rail line; the strut must be at least that long.
-    const double perp2 = d.squaredNorm() - ud * ud;
-    const double disc = st.length_mm * st.length_mm - perp2;
-    if (disc < 0) {
+    const RailPosition on_rail = slider_on_rail(st, out.plate_mm - st.rail_foot_mm);
+    if (!on_rail.reachable) {
       r.reachable = false;
-      r.reach_deficit_mm = std::max(r.reach_deficit_mm, std::sqrt(perp2) - st.length_mm);
-      out.s_mm = ud;
-    } else {
-      out.s_mm = ud + std::sqrt(disc);
+      r.reach_deficit_mm = std::max(r.reach_deficit_mm, on_rail.deficit_mm);
     }
+    out.s_mm = on_rail.s_mm;
     out.slider_mm = st.rail_foot_mm + out.s_mm * st.rail_direction;
   }
   return r;
+}
+
+RailPosition slider_on_rail(const Strut& st, const Eigen::Vector3d& d_mm) {
+  const Eigen::Vector3d& d = d_mm;
+  const double ud = st.rail_direction.dot(d);
+  // Distance from the plate joint to the rail line; the strut must be at least that long.
+  const double perp2 = d.squaredNorm() - ud * ud;
+  const double disc = st.length_mm * st.length_mm - perp2;
+  if (disc < 0) return {ud, false, std::sqrt(perp2) - st.length_mm};
+  return {ud + std::sqrt(disc), true, 0.0};
+}
+
+double strut_clearance(const Machine& m, const IkResult& ik, int* a, int* b) {
+  // Capsules of one radius: their clearance is their axes' distance, in closed form, less two radii.
+  double best = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 6; ++i)
+    for (int j = i + 1; j < 6; ++j) {
+      const double dist = interference::segment_distance(ik.struts[i].slider_mm, ik.struts[i].plate_mm,
+                                                         ik.struts[j].slider_mm, ik.struts[j].plate_mm) -
+                          2 * m.strut_radius_mm;
+      if (dist < best) {
+        best = dist;
+        if (a) *a = i;
+        if (b) *b = j;
+      }
+    }
+  return best;
 }
 
 double strut_rail_angle(const Machine& m, const IkResult& ik) {

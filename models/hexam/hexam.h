@@ -27,8 +27,9 @@
 //   * joint cones:     the strut direction stays within `joint_half_angle_deg` of its direction
 //                      at the home pose, seen from the slider (fixed frame) and from the plate
 //                      (rotating frame).
-//   * strut clearance: strut capsules keep `safe distance` from each other and from the
-//                      spindle head and plate (checked by the placement checker with FCL).
+//   * strut clearance: strut capsules keep `safe distance` from each other (strut_clearance()
+//                      below) and from the spindle head and plate (the placement checker
+//                      measures those with FCL).
 //
 // Motion bound used to certify whole intervals: if the plate joints move at most dP along an
 // interval, a slider moves at most kappa dP, kappa = 1 / cos(alpha_max), where alpha_max bounds
@@ -115,6 +116,21 @@ struct IkResult {
 };
 
 IkResult inverse_kinematics(const Machine& m, const Eigen::Vector3d& tip_mm, const Eigen::Vector3d& axis);
+
+// Where a strut's slider stands on its rail when its plate joint lies at `d_mm` from the rail's
+// foot (table frame): s = u.d + sqrt(L^2 - |d|^2 + (u.d)^2), the upper branch. When the joint lies farther from the rail line than the strut is long there is no
+// such s: `reachable` is false, `s_mm` is u.d and `deficit_mm` says how much the strut is short.
+struct RailPosition {
+  double s_mm = 0.0;
+  bool reachable = true;
+  double deficit_mm = 0.0;
+};
+RailPosition slider_on_rail(const Strut& st, const Eigen::Vector3d& d_mm);
+
+// Smallest distance between two struts' capsules at one pose (their axes' distance less two
+// radii, negative when they overlap); `a` and `b` (optional) receive the pair. Meaningless when
+// the pose is out of reach.
+double strut_clearance(const Machine& m, const IkResult& ik, int* a = nullptr, int* b = nullptr);
 
 // Limit margins of one pose: positive is inside the limit.
 struct LimitMargins {

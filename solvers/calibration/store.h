@@ -44,7 +44,7 @@ std::string log_hash(const std::string& bytes);
 
 class CalibrationStore {
  public:
-  // Opens (creating file and schema when needed, never its folder: solvers/common/sqlite_db.h).
+  // Opens (creating file and schema when needed, never its folder: solvers/common/internal/sqlite_db.h).
   // Throws InputError::field("db_path", ...) when the file cannot be opened or is not a calibration store.
   explicit CalibrationStore(const std::string& path);
   ~CalibrationStore();

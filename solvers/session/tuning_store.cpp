@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/common/error.h"
-#include "solvers/common/sqlite_db.h"
+#include "solvers/common/internal/sqlite_db.h"
 
 namespace machplan::tuning {
 namespace {

@@ -7,7 +7,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
+#include "engine/common/internal/parse.h"
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
 #include "solvers/session/machine_session.h"

@@ -1,7 +1,8 @@
 # The installed machplan, tested from outside the source and build trees. Run by ctest as
 #   cmake -DSTEP=install|headers|downstream|run|cleanup -DBUILD_DIR=... -DPREFIX=... [...] -P install_test.cmake
 #
-#   install     cmake --install BUILD_DIR --prefix PREFIX, then checks the layout
+#   install     cmake --install BUILD_DIR --prefix PREFIX, then checks the layout (the API's
+#               headers, none of an internal/ folder)
 #   headers     no installed file #includes a private dependency (yaml-cpp, nlohmann-json,
 #               Cairo, SQLite, FCL, Ceres, NLopt, OMPL), and every installed header compiles on
 #               its own with only PREFIX/include, PREFIX/include/machplan and HEADER_INCLUDES
@@ -150,6 +151,12 @@ if(STEP STREQUAL "install")
   file(GLOB_RECURSE cpp RELATIVE "${PREFIX}" "${PREFIX}/include/*.cpp")
   if(cpp)
     message(FATAL_ERROR "sources installed as headers: ${cpp}")
+  endif()
+  # Only the API: no header of an internal/ folder, nor the HAL component's shared-memory layout.
+  file(GLOB_RECURSE inside RELATIVE "${PREFIX}" "${PREFIX}/include/*")
+  list(FILTER inside INCLUDE REGEX "/internal/|/engine/hardware/hal/")
+  if(inside)
+    message(FATAL_ERROR "internal headers installed as API: ${inside}")
   endif()
 elseif(STEP STREQUAL "headers")
   set(private_deps "yaml-cpp|nlohmann|cairo|sqlite3|fcl|ceres|nlopt|ompl")

@@ -11,11 +11,11 @@
 
 #include <gtest/gtest.h>
 
-#include "solvers/placement/machines/internal/bounds.h"
 #include "solvers/placement/check/checker.h"
 #include "solvers/placement/check/internal/class1.h"
-#include "solvers/placement/scene/scene.h"
+#include "solvers/placement/machines/internal/bounds.h"
 #include "solvers/placement/scene/internal/workpiece.h"
+#include "solvers/placement/scene/scene.h"
 
 namespace machplan::placement {
 namespace {

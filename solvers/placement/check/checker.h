@@ -31,7 +31,6 @@
 #include "engine/common/progress.h"
 #include "engine/common/summary.h"
 #include "engine/common/termination.h"
-#include "solvers/placement/check/internal/certifier.h"
 #include "solvers/placement/machines/finding.h"
 #include "solvers/placement/scene/scene.h"
 

@@ -27,6 +27,8 @@
 
 #include <Eigen/Core>
 
+#include "engine/common/termination.h"
+
 namespace machplan::placement {
 
 // A workpiece placement: its frame's origin (the centre of the bottom face unless the scene
@@ -92,6 +94,20 @@ struct CheckReport {
 };
 
 enum class Decision { feasible, infeasible, unknown };
+
+// Thrown by checks when their Termination ends the work: no partial answer is certified.
+struct WorkEnded {
+  Termination::Reason reason;
+};
+
+// A spot on the path: pose index, position inside the interval after it, constraint.
+struct Spot {
+  long pose = -1;
+  double t = 0;
+  int constraint = -1;
+  double value = 0;
+  bool exact = false;  // value is an exact one (else a bound that could not be raised)
+};
 
 // What screening a known interference against a box of placements found besides its decision.
 struct SpotScreen {

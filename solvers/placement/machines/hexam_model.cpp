@@ -8,8 +8,8 @@
 #include "engine/common/error.h"
 #include "engine/interference/collision.h"
 #include "solvers/placement/machines/internal/bounds.h"
-#include "solvers/placement/scene/scene.h"
 #include "solvers/placement/scene/internal/workpiece.h"
+#include "solvers/placement/scene/scene.h"
 
 namespace machplan::placement {
 
@@ -615,11 +615,10 @@ std::optional<BoxRange> HexapodEvaluator::stroke_box_range(const hexam::IkResult
       set_spread(r, g, half);
     }
     for (int j = 0; j < 8; ++j) {
-      const Eigen::Vector3d dj = d + corner(half, j);
-      const double ud = u.dot(dj), disc = st.length_mm * st.length_mm - (dj.squaredNorm() - ud * ud);
+      const hexam::RailPosition at = hexam::slider_on_rail(st, d + corner(half, j));
       // A corner out of reach: a placement in the box fails the stroke (its margin is then the
       // negative reach deficit); nothing better than that is known below.
-      r.lower = std::min(r.lower, disc < 0 ? -kInf : ud + std::sqrt(disc) - m.stroke_min_mm);
+      r.lower = std::min(r.lower, at.reachable ? at.s_mm - m.stroke_min_mm : -kInf);
     }
   }
   r.lower -= 1e-9, r.upper += 1e-9;
@@ -710,19 +709,9 @@ void HexapodEvaluator::run(const PathPose& pose, const Where& where, Mask mask, 
   v[kJoint] = lm.joint_rad;
   v[n] = hexam::strut_rail_angle(m, ik);
   if (d) d->ik = ik, d->limits = lm;
-  // Strut to strut: capsules, closed form.
-  double ss = kInf;
-  for (int a = 0; a < 6 && (mask & bit(kStrutStrut)); ++a)
-    for (int b = a + 1; b < 6; ++b) {
-      const double dist = interference::segment_distance(ik.struts[a].slider_mm, ik.struts[a].plate_mm,
-                                                         ik.struts[b].slider_mm, ik.struts[b].plate_mm) -
-                          2 * m.strut_radius_mm;
-      if (dist < ss) {
-        ss = dist;
-        if (d) d->strut_a = a, d->strut_b = b;
-      }
-    }
-  v[kStrutStrut] = ss;
+  v[kStrutStrut] = (mask & bit(kStrutStrut))
+                       ? hexam::strut_clearance(m, ik, d ? &d->strut_a : nullptr, d ? &d->strut_b : nullptr)
+                       : kInf;
   v[kClass2] = (mask & bit(kClass2)) ? class2(ik, where, d) : kInf;
   const auto& pers = model_.peripherals();
   if (d) d->periph_part.assign(2 * pers.size(), std::string());

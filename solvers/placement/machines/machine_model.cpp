@@ -5,8 +5,8 @@
 #include "engine/common/error.h"
 #include "engine/config/yaml.h"
 #include "solvers/placement/machines/hexam_model.h"
-#include "solvers/placement/scene/scene.h"
 #include "solvers/placement/machines/trunnion_model.h"
+#include "solvers/placement/scene/scene.h"
 
 namespace machplan::placement {
 

@@ -13,9 +13,9 @@
 #include <tbb/task_arena.h>
 
 #include "engine/common/error.h"
-#include "engine/common/parse.h"
-#include "solvers/placement/search/internal/objective.h"
+#include "engine/common/internal/parse.h"
 #include "solvers/placement/report/internal/report.h"
+#include "solvers/placement/search/internal/objective.h"
 
 namespace machplan::placement {
 

@@ -50,15 +50,6 @@ struct WorkCounts {
   }
 };
 
-// A spot on the path: pose index, position inside the interval after it, constraint.
-struct Spot {
-  long pose = -1;
-  double t = 0;
-  int constraint = -1;
-  double value = 0;
-  bool exact = false;  // value is an exact one (else a bound that could not be raised)
-};
-
 // Each constraint's smallest value found, and where.
 struct Minimum {
   double value = std::numeric_limits<double>::infinity();

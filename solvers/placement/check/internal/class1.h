@@ -28,16 +28,11 @@
 #include "engine/common/termination.h"
 #include "engine/interference/collision.h"
 #include "engine/interference/height_field.h"
-#include "solvers/placement/machines/finding.h"
 #include "solvers/placement/check/internal/pose_tree.h"
+#include "solvers/placement/machines/finding.h"
 #include "solvers/placement/scene/internal/workpiece.h"
 
 namespace machplan::placement {
-
-// Thrown by checks when their Termination ends the work: no partial answer is certified.
-struct WorkEnded {
-  Termination::Reason reason;
-};
 
 struct Class1Result {
   Finding finding;   // smallest clearance met, the part, where; interferes below the safe distance

@@ -1,4 +1,4 @@
-#include "solvers/common/sqlite_db.h"
+#include "solvers/common/internal/sqlite_db.h"
 
 #include <sqlite3.h>
 
