@@ -1,8 +1,9 @@
 # Precompiled headers (MACHPLAN_PCH), for a build that compiles everything often. Nearly every
-# source of machplan reads Eigen and fmt through its headers, and every test reads GoogleTest and GoogleMock; parsing them again for each of the ~250 sources
-# costs 2.5 to 3.5 s of CPU each (measured: GoogleTest with GoogleMock 3.5 s, Eigen 3.2 s,
-# nlohmann-json 3.4 s, fmt with the standard headers 2.5 s). With MACHPLAN_PCH each library and program parses them once, and
-# all the tests share one precompiled header (tests/CMakeLists.txt).
+# source of machplan reads Eigen and fmt through its headers, and every test reads GoogleTest
+# and GoogleMock; parsing them again for each of the ~250 sources costs 2.5 to 3.5 s of CPU
+# each (measured alone: GoogleTest with GoogleMock 3.5 s, Eigen 3.2 s, nlohmann-json 3.4 s,
+# fmt with the standard headers 2.5 s). With MACHPLAN_PCH each library and program parses them
+# once, and all the tests share one precompiled header (tests/CMakeLists.txt).
 #
 # Off by default (scripts/test and the demo build leave it off): a source that forgets an
 # #include the precompiled header happens to provide fails in a build without it, so keep one.
