@@ -33,7 +33,8 @@ const calibration::SessionLog& session_60s() {
     const long one = calibration::record_periods(o, truth.servo_period_s);
     o.repeats = static_cast<int>(60.0 / (one * truth.servo_period_s)) + 1;
     sim::SimBackend backend(truth, {});
-    return calibration::record_session(backend, nominal(), o);
+    Termination never;
+    return calibration::record_session(backend, nominal(), o, never).log;
   }();
   return log;
 }

@@ -35,6 +35,9 @@
 namespace {
 
 using namespace machplan;
+
+// These calls have no stop, deadline or budget of the caller's.
+Termination never;
 using tuning::Evaluation;
 using tuning::Evaluator;
 
@@ -127,7 +130,7 @@ void report() {
   for (int vg = 0; vg < 2; ++vg) {
     tuning::AccTuningOptions o;
     o.acc.variable_gain = vg == 1;
-    const auto t = tuning::tune_acc(o);
+    const auto t = tuning::tune_acc(o, never);
     std::printf("\nNLopt tuning of %s over depth steps from 1..6 mm (+2 mm), no overshoot (<= 2 %%):\n\n```\n%s```\n",
                 vg ? "the variable-gain law's L0" : "the fixed law's Kc", t.report().c_str());
   }
@@ -150,7 +153,7 @@ void report() {
     o.kind = k;
     o.evaluation.machine = "xy_table";
     const auto t0 = std::chrono::steady_clock::now();
-    const tuning::TuneResult r = tuning::tune(circle, o);
+    const tuning::TuneResult r = tuning::tune(circle, o, never);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const Evaluation oc = check.evaluate(k, r.gains);
     std::printf("| %s | %d | %.1f | %s / %s | %.2f / %.2f / %.1fx | %.2f / %.2f / %.1fx | %s: overshoot %.1f %%, margin "
@@ -184,7 +187,7 @@ void report() {
     const Evaluator tr = make({kCircle}, 1, 3);
     tuning::TuneOptions o;
     o.kind = "ccc";
-    const tuning::TuneResult r = tuning::tune(tr, o);
+    const tuning::TuneResult r = tuning::tune(tr, o, never);
     std::printf("\n## CCC with feed-forward tuned on the circle (as `machplan tune --controller ccc --contour %s`)\n\n"
                 "%d evaluations, %.1f s, %s. Over its three noise draws: P %.2f um, tuned %.2f um: %.2fx on the maximum, "
                 "%.2fx on the RMS.\nGains: %s.\n",
@@ -200,7 +203,7 @@ void report() {
     const Evaluator tr = make(set, 1, 2);
     tuning::TuneOptions o;
     o.kind = "ccc";
-    const tuning::TuneResult r = tuning::tune(tr, o);
+    const tuning::TuneResult r = tuning::tune(tr, o, never);
     std::string where;
     for (const auto& c : r.tuned.contours) where += fmt::format("{}{} {:.2f} um", where.empty() ? "" : ", ", c.contour, 1e3 * c.max_mm);
     std::printf("\n## CCC with feed-forward tuned on test-piece elements, checked on a program it was not tuned on\n\n"
@@ -228,7 +231,7 @@ void BM_TuneCircle(benchmark::State& state, const char* kind) {
   tuning::TuneOptions o;
   o.kind = kind;
   int evals = 0;
-  for (auto _ : state) evals = tuning::tune(ev, o).optimizer.evaluations;
+  for (auto _ : state) evals = tuning::tune(ev, o, never).optimizer.evaluations;
   state.counters["evaluations"] = evals;
 }
 

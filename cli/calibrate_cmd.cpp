@@ -99,14 +99,17 @@ void add_calibrate(CLI::App& app) {
     }
     if (!r->hold.empty()) o.stroke_hold_s = number_of("--hold", r->hold);
     o.validate();
-    // SIGINT, SIGTERM and SIGHUP stop the axes and end the session (Cancelled: exit 3).
+    // SIGINT, SIGTERM and SIGHUP stop the axes and end the session (cancelled: exit 3).
     const StopOnSignals signals;
     Termination stop(StopOnSignals::stop_token());
     Progress progress;
-    auto log = [&] {
+    calibration::Recording rec = [&] {
       const ProgressWatch watch("recording", !r->out.empty(), progress);
-      return calibration::record_session(session.backend(), nominal, o, &stop, &progress);
+      return calibration::record_session(session.backend(), nominal, o, stop, &progress);
     }();
+    // Ended early: no session to write (exit 3, saying why).
+    if (!rec.summary.done()) throw Infeasible(rec.summary.message);
+    calibration::SessionLog& log = rec.log;
     if (!r->truth.empty()) log.comments.push_back(fmt::format("sim truth: {}", r->truth));
     if (r->out.empty()) {
       calibration::write_session_log(std::cout, log);

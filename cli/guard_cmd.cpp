@@ -109,7 +109,7 @@ void add_guard(CLI::App& app) {
     const guard::GuardRunResult r = [&] {
       // Keys and joystick sessions are paced by the operator: no bar.
       const ProgressWatch watch("guard", !a->json && o.op.kind != guard::OperatorSpec::Kind::keys, progress);
-      return guard::run_guard_file(a->profile, o, &stop, &progress);
+      return guard::run_guard_file(a->profile, o, stop, &progress);
     }();
     if (!a->plot.empty()) guard::write_guard_plot(r, a->plot);
     if (a->json) print_json(to_json(r));

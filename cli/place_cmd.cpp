@@ -99,14 +99,14 @@ void add_place(CLI::App& app) {
       r = place(scene, po, term, &progress);
     }
     CheckResult dense;
-    if (o->verify && r.status == PlacementStatus::found) {
+    if (o->verify && r.summary.done()) {
       Progress progress;
       const ProgressWatch bar("dense re-check", !o->json, progress);
       CheckOptions co;
       co.dense = true;
       dense = check(scene, r.placement, co, term, &progress);
     }
-    if (!o->plot.empty() && r.status != PlacementStatus::cancelled && r.status != PlacementStatus::ended)
+    if (!o->plot.empty() && !r.ended_early())
       write_placement_plot(o->plot, scene, r);
     if (o->json) {
       nlohmann::json j = placement_result_json(scene, r, o->strategy);
@@ -115,7 +115,7 @@ void add_place(CLI::App& app) {
       print_json(j);
     }
     finish(r.summary, o->scene, o->json);
-    if (!o->json && o->verify && r.status == PlacementStatus::found)
+    if (!o->json && o->verify && r.summary.done())
       std::printf("dense re-check (every pose and every 0.5 mm): %s\n",
                   !dense.summary.done() ? dense.summary.message.c_str() : dense.report.free() ? "free" : "INTERFERES");
     if (!o->json && !o->plot.empty()) std::printf("picture: %s\n", o->plot.c_str());

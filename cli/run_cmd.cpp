@@ -229,6 +229,8 @@ void run_command(const RunArgs& a) {
     std::optional<ProgressWatch> watch(std::in_place, "planning rapids", !a.json, planning);
     session::MachineSession session(motion::session_options_for(o));
     motion::PlannedRun plan = motion::plan_program(a.program, o, session.machine(), {&stop, &planning, nullptr});
+    // Refused before the run (outside the travel, too long, stopped while planning): exit 3.
+    if (!plan.summary.done()) throw Infeasible(plan.summary.message, plan.limit_field);
     watch.emplace("running", !a.json, running);
     return motion::execute(session, std::move(plan), o, {&stop, nullptr, &running});
   }();

@@ -68,7 +68,6 @@ nlohmann::json scene_json(const Scene& s) {
 
 nlohmann::json placement_result_json(const Scene& scene, const PlacementResult& r, const std::string& strategy) {
   nlohmann::json j = check_report_json(r.report);
-  j["status"] = to_string(r.status);
   j["message"] = r.summary.message;
   j["summary"] = summary_json(r.summary);
   j["strategy"] = strategy;
@@ -78,7 +77,7 @@ nlohmann::json placement_result_json(const Scene& scene, const PlacementResult& 
   j["rotations_searched"] = r.rotations;
   j["rotation_tolerance_deg"] = r.rotation_tolerance_deg;
   j["threads"] = r.threads;
-  if (r.status == PlacementStatus::found) {
+  if (r.summary.done()) {
     const WorkOffset& w = r.work_offset;
     j["work_offset"] = {{"x_mm", w.xyz_mm.x()}, {"y_mm", w.xyz_mm.y()}, {"z_mm", w.xyz_mm.z()},
                         {"rotation_deg", w.rotation_deg}, {"rotation_axis", w.rotation_axis}, {"frame", w.frame}};

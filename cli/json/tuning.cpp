@@ -56,7 +56,8 @@ nlohmann::json to_json(const tuning::AccTuningResult& result) {
           {"before", score(result.before)},
           {"after", score(result.after)},
           {"optimizer", to_json(result.optimizer)},
-          {"status", result.summary.done() ? "ok" : to_string(result.summary.status)}};
+          {"status", to_string(result.summary.status)},
+          {"usable", result.summary.usable_answer()}};
 }
 
 nlohmann::json to_json(const tuning::Comparison& c) {
@@ -86,7 +87,8 @@ nlohmann::json to_json(const tuning::TuneResult& r) {
                       {"start", to_json(r.start)},
                       {"tuned", to_json(r.tuned)},
                       {"optimizer", to_json(r.optimizer)},
-                      {"status", r.summary.done() ? "ok" : to_string(r.summary.status)},
+                      {"status", to_string(r.summary.status)},
+                      {"usable", r.summary.usable_answer()},
                       {"message", r.summary.message}};
   j["improvement"] = to_json(r.improvement);
   if (r.fresh_seed > 0)
@@ -94,6 +96,26 @@ nlohmann::json to_json(const tuning::TuneResult& r) {
                   {"baseline", to_json(r.fresh_baseline)},
                   {"tuned", to_json(r.fresh_tuned)},
                   {"improvement", to_json(r.fresh_improvement)}};
+  return j;
+}
+
+nlohmann::json to_json(const tuning::AccStudy& study) {
+  const auto settled = [&](const std::vector<turning::AccSample>& run) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const tuning::AccSettled& s : study.settled(run))
+      a.push_back({{"t_s", s.t_s}, {"depth_mm", s.depth_mm}, {"feed_mm_per_rev", s.feed_mm_per_rev}, {"force_n", s.force_n}});
+    return a;
+  };
+  nlohmann::json j;
+  j["koren_fixed_kc_0_5"] = {{"settled", settled(study.koren)}};
+  nlohmann::json t = nlohmann::json::array();
+  for (std::size_t i = 0; i < study.tunings.size(); ++i) {
+    nlohmann::json r = to_json(study.tunings[i]);
+    r["settled"] = settled(study.tuned_runs[i]);
+    t.push_back(r);
+  }
+  j["tunings"] = t;
+  j["status"] = to_string(study.summary.status);
   return j;
 }
 

@@ -23,7 +23,8 @@ nlohmann::json to_json(const tuning::OptimizerResult& result);
 
 // {"machine", "controller", "objective", "gains": {...}, "start_gains": {...}, "fixed": [...],
 //  "start_from", "baseline", "start", "tuned" (each an Evaluation, above), "optimizer",
-//  "status", and when checked "fresh": {"first_seed", "baseline", "tuned"}}
+//  "status" (to_string(Status)), "usable" (the gains may be used: done, or a deadline or budget
+//  that left feasible gains), and when checked "fresh": {"first_seed", "baseline", "tuned"}}
 // The tuned controller against the baseline on what the baseline completed: no ratio when it
 // completed nothing.
 nlohmann::json to_json(const tuning::Comparison& comparison);
@@ -31,7 +32,12 @@ nlohmann::json to_json(const tuning::TuneResult& result);
 
 // {"law": "fixed_gain" | "variable_gain", "gain_name", "start_gain", "gain", "before" and
 //  "after": {"worst_settling_s", "worst_overshoot", "steps": [{"settling_s", "overshoot"}]},
-//  "optimizer", "status"}
+//  "optimizer", "status", "usable"}
 nlohmann::json to_json(const tuning::AccTuningResult& result);
+
+// Koren's test and the tunings: {"koren_fixed_kc_0_5": {"settled": [{"t_s", "depth_mm",
+//  "feed_mm_per_rev", "force_n"}]}, "tunings": [AccTuningResult above, with "settled"],
+//  "status"}
+nlohmann::json to_json(const tuning::AccStudy& study);
 
 }  // namespace machplan::cli

@@ -176,6 +176,10 @@ json Panel::load_job(const JobRequest& request) {
   std::optional<motion::PlannedRun> plan;
   try {
     plan.emplace(motion::plan_program(path, options, session_->machine(), {&t, nullptr, nullptr}));
+    if (!plan->summary.done()) {  // refused: the same replies as before (409 cancelled, 422 infeasible)
+      if (plan->summary.status == Status::infeasible) throw Infeasible(plan->summary.message, plan->limit_field);
+      throw Cancelled(plan->summary.message);
+    }
   } catch (const InputError& e) {
     planning_ = false;
     const std::lock_guard<std::mutex> lock(stop_mutex_);
@@ -611,7 +615,7 @@ void Panel::run_guard_session() {
   link.live = &guard_live_;
   link.paced_finish = o_.pace;
   guard_live_valid_ = true;
-  const guard::GuardRunResult r = guard::run_guard_file(request.profile, request.options, &t, nullptr, &link);
+  const guard::GuardRunResult r = guard::run_guard_file(request.profile, request.options, t, nullptr, &link);
   json d = json::parse(*guard_drawing());
   d["result"] = cli::to_json(r);
   d["report"] = r.summary.full_report();

@@ -14,6 +14,10 @@ const char* to_string(Status s) {
   return "?";
 }
 
+std::string status_text(const Summary& s) {
+  return std::string(to_string(s.status)) + (s.usable_answer() && !s.done() ? " (usable)" : "");
+}
+
 Status status_of(Termination::Reason r) {
   switch (r) {
     case Termination::Reason::none: return Status::done;

@@ -12,10 +12,17 @@
 // Anything but `done` is not a measurement: a result whose summary is not done never reports
 // an error figure or a ratio as if it had been measured (it reports what it has, labelled).
 //
+// A usable answer (Ceres' "usable solution"): a search that improves an answer it already
+// holds (a tuning, say) may be ended by its deadline or budget with an answer that meets every
+// constraint, only not the best it could have found. Its status stays deadline or budget, so
+// that the report says what ended it, and `usable` is set: usable_answer() is then true and
+// exit_code() 0. Only deadline and budget may be usable; a stop request (cancelled) never is,
+// and nor is work that has no answer yet when it ends (a placement, a fit, a run).
+//
 // The solver fills the reports once, at the end, from its result: brief_report() is one line
 // for a list or a log, full_report() what `machplan` prints for people. The CLI prints them and
-// does not format results itself; exit_code() is what the CLI returns for it (0 done, 3 any
-// other ending: the job could not be done as asked).
+// does not format results itself; exit_code() is what the CLI returns for it (0 done or a
+// usable answer, 3 any other ending: the job could not be done as asked).
 #pragma once
 
 #include <string>
@@ -36,14 +43,22 @@ struct Summary {
   Status status = Status::done;
   // Why it ended so, one sentence (empty for done with nothing to add).
   std::string message;
+  // deadline or budget only: the answer in the result is usable (see the file comment).
+  bool usable = false;
   // Filled by the solver when the work is over.
   std::string brief;
   std::string full;
 
   bool done() const { return status == Status::done; }
+  // The result holds an answer to use: done, or ended early with a usable one.
+  bool usable_answer() const { return done() || (usable && (status == Status::deadline || status == Status::budget)); }
   const std::string& brief_report() const { return brief; }
   const std::string& full_report() const { return full; }
-  int exit_code() const { return done() ? 0 : 3; }
+  int exit_code() const { return usable_answer() ? 0 : 3; }
 };
+
+// The status as a report's headline shows it: to_string(status), and " (usable)" after a
+// deadline or budget that left a usable answer.
+std::string status_text(const Summary& summary);
 
 }  // namespace machplan

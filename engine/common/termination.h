@@ -18,7 +18,7 @@
 // gives each part a child with limits of its own:
 //
 //     Termination run(stop_token);                 // the caller's: a stop request
-//     Termination rapid(&run);                     // one rapid: ends with `run`, or ...
+//     Termination rapid(run);                      // one rapid: ends with `run`, or ...
 //     rapid.set_budget(20000, "samples");          // ... after 20000 samples of its own
 //     while (!rapid.should_end()) { sample(); rapid.charge(1, 20e-6); }
 //     if (rapid.reason() == Termination::Reason::budget) ...   // the rapid's own limit
@@ -47,8 +47,9 @@ class Termination {
   // Never ends by itself.
   Termination() = default;
   explicit Termination(StopToken stop) : stop_(stop) {}
-  // A part of `parent`'s work (not owned; must outlive this).
-  explicit Termination(Termination* parent) : parent_(parent) {}
+  // A part of `parent`'s work (not owned; must outlive this). Not a copy: the child starts
+  // with no limits of its own and nothing spent.
+  explicit Termination(Termination& parent) : parent_(&parent) {}
   Termination(const Termination&) = delete;
   Termination& operator=(const Termination&) = delete;
 

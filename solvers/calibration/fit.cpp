@@ -572,7 +572,7 @@ std::string parameter_line(const AxisFit& a, const char* label, const char* name
 std::string full_report(const CalibrationFit& fit) {
   const Summary& sum = fit.summary;
   std::string s =
-      fmt::format("calibration fit for {} (period {:.6f} s): {}\n", fit.machine, fit.period_s, fit.status_label());
+      fmt::format("calibration fit for {} (period {:.6f} s): {}\n", fit.machine, fit.period_s, to_string(sum.status));
   if (!sum.message.empty()) s += fmt::format("  {}\n", sum.message);
   if (sum.status == Status::infeasible)
     s += "  the figures below are where the solver ended; those marked are not determined by the log\n";
@@ -605,22 +605,14 @@ std::string full_report(const CalibrationFit& fit) {
 std::string brief_report(const CalibrationFit& fit) {
   const Summary& sum = fit.summary;
   if (sum.done())
-    return fmt::format("calibration fit for {}: ok, feed factor x {:.5f} y {:.5f}, backlash x {:.4f} y {:.4f} mm, "
+    return fmt::format("calibration fit for {}: done, feed factor x {:.5f} y {:.5f}, backlash x {:.4f} y {:.4f} mm, "
                        "rms residual {:.4f} mm",
                        fit.machine, fit.axes[0].feed_factor, fit.axes[1].feed_factor, fit.axes[0].backlash_mm,
                        fit.axes[1].backlash_mm, fit.rms_residual_mm);
-  return fmt::format("calibration fit for {}: {}: {}", fit.machine, fit.status_label(), sum.message);
+  return fmt::format("calibration fit for {}: {}: {}", fit.machine, to_string(sum.status), sum.message);
 }
 
 }  // namespace
-
-const char* CalibrationFit::status_label() const {
-  switch (summary.status) {
-    case Status::done: return "ok";
-    case Status::infeasible: return "not identifiable";
-    default: return to_string(summary.status);
-  }
-}
 
 CalibrationFit fit_session(const SessionLog& log, const cutting::MachineConfig& machine, const FitOptions& o) {
   Termination unlimited;
@@ -686,7 +678,7 @@ std::string CalibrationFit::json() const {
   using nlohmann::json;
   json j;
   j["machine"] = machine;
-  j["status"] = status_label();
+  j["status"] = to_string(summary.status);
   j["message"] = summary.message;
   j["period_s"] = period_s;
   j["rms_residual_mm"] = rms_residual_mm;

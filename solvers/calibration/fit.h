@@ -118,10 +118,9 @@ struct CalibrationFit {
   // line, full_report() what `machplan calibrate fit` prints.
   Summary summary;
 
-  // The status word of the JSON form and of the calibration store: "ok" (done), "not
-  // identifiable" (infeasible), else the summary's status ("cancelled", "deadline", "budget").
-  const char* status_label() const;
-  std::string json() const;       // the --json form
+  // The --json form, with the summary's status in its own spelling (to_string(Status)), as
+  // the calibration store keeps it.
+  std::string json() const;
 };
 
 // Fits `log` against the nominal machine `machine` (DAC scale, drive current limit, counter

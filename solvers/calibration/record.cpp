@@ -65,8 +65,8 @@ long record_periods(const RecordOptions& o, double period_s) {
   return static_cast<long>(program(o, period_s).size());
 }
 
-SessionLog record_session(hardware::Backend& backend, const cutting::MachineConfig& nominal, const RecordOptions& o,
-                          Termination* termination, Progress* progress) {
+Recording record_session(hardware::Backend& backend, const cutting::MachineConfig& nominal, const RecordOptions& o,
+                         Termination& termination, Progress* progress) {
   o.validate();
   if (backend.command_kind() != hardware::CommandKind::speed_dac)
     throw InputError::field("backend", fmt::format("backend '{}' takes position commands; calibration needs a speed_dac "
@@ -76,7 +76,24 @@ SessionLog record_session(hardware::Backend& backend, const cutting::MachineConf
   const auto steps = program(o, dt);
   std::mt19937_64 rng(o.seed);
 
-  SessionLog log;
+  Recording rec;
+  SessionLog& log = rec.log;
+  hardware::Inputs in = backend.initial_inputs();
+  hardware::Outputs out;
+  // Leaves the machine with the drives off and a zero command.
+  const auto drives_off = [&] {
+    out = hardware::Outputs{};
+    backend.exchange(out, in);
+  };
+  // Ends the recording early (after a stop request, with the drives off; after a fault, as the
+  // backend left them).
+  const auto end_early = [&](Status status, std::string message) {
+    if (status != Status::faulted) drives_off();
+    rec.summary.status = status;
+    rec.summary.message = std::move(message);
+    rec.summary.brief = rec.summary.full = fmt::format("calibration {}: {}", to_string(status), rec.summary.message);
+    return rec;
+  };
   log.comments.push_back(fmt::format("machine: {}", nominal.name));
   log.comments.push_back(fmt::format("backend: {}", backend.name()));
   log.comments.push_back(fmt::format("routine: speeds {} of full scale, stair {}, hold {} s, dwell {} s, repeats {}",
@@ -114,22 +131,19 @@ SessionLog record_session(hardware::Backend& backend, const cutting::MachineConf
     }
   };
 
-  hardware::Inputs in = backend.initial_inputs();
   push(0.0, in, {0, 0}, true);
-  hardware::Outputs out;
   out.drives_enabled = true;
   for (std::size_t k = 0; k < steps.size(); ++k) {
     report_progress(progress, static_cast<double>(k) / static_cast<double>(steps.size()));
-    if (termination) termination->charge(1, dt);
-    if (termination && termination->should_end()) {
+    termination.charge(1, dt);
+    if (termination.should_end()) {
       // Zero speed until the drives' lag has run out, then drives off.
       out.dac_code = {0, 0};
       const long n = std::max(1L, std::lround(o.stop_s / dt));
       for (long i = 0; i < n; ++i)
         if (backend.exchange(out, in) == hardware::Health::lost) break;
-      out = hardware::Outputs{};
-      backend.exchange(out, in);
-      throw Cancelled(fmt::format("calibration ended at {:.3f} s ({}); the axes were stopped", k * dt, termination->describe()));
+      return end_early(status_of(termination.reason()),
+                 fmt::format("calibration ended at {:.3f} s ({}); the axes were stopped", k * dt, termination.describe()));
     }
     std::array<std::int32_t, 2> code{};
     for (int a = 0; a < 2; ++a)
@@ -137,17 +151,18 @@ SessionLog record_session(hardware::Backend& backend, const cutting::MachineConf
     for (int a = 0; a < 2; ++a) code[a] = std::clamp(code[a], kDacMin, kDacMax);
     out.dac_code = code;
     if (backend.exchange(out, in) == hardware::Health::lost)
-      throw Infeasible(fmt::format("calibration stopped at {:.3f} s: the backend is lost", (k + 1) * dt));
-    if (in.estop) throw Infeasible(fmt::format("calibration stopped at {:.3f} s: E-stop", (k + 1) * dt));
+      return end_early(Status::faulted, fmt::format("calibration stopped at {:.3f} s: the backend is lost", (k + 1) * dt));
+    if (in.estop) return end_early(Status::faulted, fmt::format("calibration stopped at {:.3f} s: E-stop", (k + 1) * dt));
     if (in.watchdog_tripped)
-      throw Infeasible(fmt::format("calibration stopped at {:.3f} s: the backend's watchdog tripped", (k + 1) * dt));
+      return end_early(Status::faulted, fmt::format("calibration stopped at {:.3f} s: the backend's watchdog tripped", (k + 1) * dt));
     push(static_cast<double>(k + 1) * dt, in, code, steps[k].ruler);
   }
   // Leave the machine at rest with the drives off.
-  out = hardware::Outputs{};
-  backend.exchange(out, in);
+  drives_off();
   report_progress(progress, 1.0);
-  return log;
+  rec.summary.brief = rec.summary.full =
+      fmt::format("calibration done: {} samples, {:.1f} s", log.samples.size(), log.samples.empty() ? 0.0 : log.samples.back().t_s);
+  return rec;
 }
 
 }  // namespace machplan::calibration

@@ -31,6 +31,7 @@
 
 #include "engine/calibration/session_log.h"
 #include "engine/common/progress.h"
+#include "engine/common/summary.h"
 #include "engine/common/termination.h"
 #include "engine/hardware/backend.h"
 #include "models/cutting/machine_config.h"
@@ -56,12 +57,20 @@ struct RecordOptions {
 // Length of the program in periods of `period_s`.
 long record_periods(const RecordOptions& o, double period_s);
 
-// Runs the routine on `backend` (speed_dac only; InputError otherwise) and returns the log.
-// `nominal` is the machine file (names, DAC scale); its comments go into the log. Throws
-// Infeasible when the backend is lost, the E-stop opens or the watchdog trips mid-session, and
-// Cancelled when `termination` ends the work (after stopping the axes). `progress` follows the
-// routine's periods. Both may be null.
-SessionLog record_session(hardware::Backend& backend, const cutting::MachineConfig& nominal, const RecordOptions& o,
-                          Termination* termination = nullptr, Progress* progress = nullptr);
+// A recorded session and how the recording ended: done (the whole routine); faulted (the
+// backend was lost, the E-stop opened or the watchdog tripped); cancelled, deadline or budget
+// (`termination` ended it, after the axes were stopped). Anything but done is no calibration
+// session: the log holds the samples read until then.
+struct Recording {
+  SessionLog log;
+  Summary summary;
+};
+
+// Runs the routine on `backend` (speed_dac only; InputError otherwise). `nominal` is the
+// machine file (names, DAC scale); its comments go into the log. Each period is charged to
+// `termination` (one unit and the period's seconds). `progress` (may be null) follows the
+// routine's periods.
+Recording record_session(hardware::Backend& backend, const cutting::MachineConfig& nominal, const RecordOptions& o,
+                         Termination& termination, Progress* progress = nullptr);
 
 }  // namespace machplan::calibration

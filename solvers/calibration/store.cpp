@@ -1,43 +1,13 @@
 #include "solvers/calibration/store.h"
 
-#include <cstdlib>
-#include <filesystem>
-
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "engine/common/error.h"
 #include "solvers/common/internal/sqlite_db.h"
+#include "solvers/common/store.h"
 
 namespace machplan::calibration {
-namespace {
-
-constexpr const char* kSchema = R"sql(
-CREATE TABLE IF NOT EXISTS sessions (
-  id INTEGER PRIMARY KEY,
-  machine TEXT NOT NULL,
-  log_path TEXT NOT NULL,
-  log_hash TEXT NOT NULL,
-  who TEXT NOT NULL,
-  added_utc TEXT NOT NULL
-);
-CREATE TABLE IF NOT EXISTS fits (
-  id INTEGER PRIMARY KEY,
-  session_id INTEGER NOT NULL REFERENCES sessions(id),
-  machine TEXT NOT NULL,
-  status TEXT NOT NULL,
-  fit_json TEXT NOT NULL,
-  who TEXT NOT NULL,
-  created_utc TEXT NOT NULL
-);
-CREATE TABLE IF NOT EXISTS active (
-  machine TEXT PRIMARY KEY,
-  fit_id INTEGER NOT NULL REFERENCES fits(id)
-);
-)sql";
-
-}  // namespace
-
 namespace {
 
 void fill_from_json(StoredFit& f) {
@@ -57,25 +27,6 @@ void fill_from_json(StoredFit& f) {
 
 }  // namespace
 
-std::string default_store_path() {
-  const char* xdg = std::getenv("XDG_DATA_HOME");
-  std::filesystem::path base;
-  if (xdg && *xdg) {
-    base = xdg;
-  } else {
-    const char* home = std::getenv("HOME");
-    if (!home || !*home) throw InputError::field("db_path", "neither XDG_DATA_HOME nor HOME is set: give the store's path");
-    base = std::filesystem::path(home) / ".local" / "share";
-  }
-  // The default location is the one folder machplan creates for a store (sqlite_db.h).
-  const std::filesystem::path dir = base / "machplan";
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec)
-    throw InputError::field("db_path", fmt::format("cannot create '{}': {} (give the store's path)", dir.string(), ec.message()));
-  return (dir / "calibration.db").string();
-}
-
 std::string log_hash(const std::string& bytes) {
   std::uint64_t h = 1469598103934665603ull;
   for (unsigned char c : bytes) {
@@ -85,7 +36,7 @@ std::string log_hash(const std::string& bytes) {
   return fmt::format("{:016x}", h);
 }
 
-CalibrationStore::CalibrationStore(const std::string& path) : db_(std::make_unique<store::SqliteDb>(path, kSchema)) {}
+CalibrationStore::CalibrationStore(const std::string& path) : store_(std::make_unique<store::Store>(path)) {}
 
 CalibrationStore::~CalibrationStore() = default;
 
@@ -94,41 +45,39 @@ std::int64_t CalibrationStore::apply(const CalibrationFit& fit, const std::strin
                                      void (*before_commit)()) {
   if (!fit.summary.done())
     throw Infeasible(fmt::format("a fit with status '{}' cannot become the active calibration: {}",
-                                 fit.status_label(), fit.summary.message));
-  return db_->transaction([&] {
+                                 to_string(fit.summary.status), fit.summary.message));
+  const store::SqliteDb& db = store_->db();
+  return db.transaction([&] {
     const std::string when = store::now_utc();
-    store::Statement s(*db_, "INSERT INTO sessions(machine, log_path, log_hash, who, added_utc) VALUES(?,?,?,?,?)");
+    store::Statement s(db, "INSERT INTO sessions(machine, log_path, log_hash, who, added_utc) VALUES(?,?,?,?,?)");
     s.bind(1, fit.machine);
     s.bind(2, log_path);
     s.bind(3, log_hash(log_bytes));
     s.bind(4, who);
     s.bind(5, when);
     s.run();
-    const std::int64_t session = db_->last_insert_id();
-    store::Statement f(*db_, "INSERT INTO fits(session_id, machine, status, fit_json, who, created_utc) VALUES(?,?,?,?,?,?)");
+    const std::int64_t session = db.last_insert_id();
+    store::Statement f(db, "INSERT INTO fits(session_id, machine, status, fit_json, who, created_utc) VALUES(?,?,?,?,?,?)");
     f.bind(1, session);
     f.bind(2, fit.machine);
-    f.bind(3, std::string(fit.status_label()));
+    f.bind(3, std::string(to_string(fit.summary.status)));
     f.bind(4, fit.json());
     f.bind(5, who);
     f.bind(6, when);
     f.run();
-    const std::int64_t id = db_->last_insert_id();
-    store::Statement a(*db_,
-                       "INSERT INTO active(machine, fit_id) VALUES(?,?) ON CONFLICT(machine) DO UPDATE SET fit_id = excluded.fit_id");
-    a.bind(1, fit.machine);
-    a.bind(2, id);
-    a.run();
+    const std::int64_t id = db.last_insert_id();
+    store_->activate(store::kFits, fit.machine, id);
     if (before_commit) before_commit();
     return id;
   });
 }
 
 std::vector<StoredFit> CalibrationStore::history(const std::string& machine) const {
-  store::Statement s(*db_,
-         "SELECT f.id, f.session_id, f.machine, f.status, f.who, f.created_utc, s.log_path, s.log_hash, f.fit_json, "
-         "(SELECT COUNT(*) FROM active a WHERE a.fit_id = f.id) FROM fits f JOIN sessions s ON s.id = f.session_id "
-         "WHERE (?1 = '' OR f.machine = ?1) ORDER BY f.id DESC");
+  const std::string sql =
+      "SELECT f.id, f.session_id, f.machine, f.status, f.who, f.created_utc, s.log_path, s.log_hash, f.fit_json, " +
+      store::Store::active_flag(store::kFits, "f") +
+      " FROM fits f JOIN sessions s ON s.id = f.session_id WHERE (?1 = '' OR f.machine = ?1) ORDER BY f.id DESC";
+  store::Statement s(store_->db(), sql.c_str());
   s.bind(1, machine);
   std::vector<StoredFit> out;
   while (s.step()) {
@@ -150,9 +99,7 @@ std::vector<StoredFit> CalibrationStore::history(const std::string& machine) con
 }
 
 std::optional<StoredFit> CalibrationStore::active(const std::string& machine) const {
-  for (auto& f : history(machine))
-    if (f.active) return f;
-  return std::nullopt;
+  return store::active_of(history(machine));
 }
 
 double open_loop_factor(const StoredFit& c, double feed_mm_per_s) {

@@ -1,12 +1,12 @@
 // The calibration store: calibration sessions and fits, and each machine's active calibration,
-// in one SQLite file.
+// in machplan's store (solvers/common/store.h, beside the tunings).
 //
 // Tables: `sessions` (the log's location, its FNV-1a 64-bit hash, machine, who and when it was
-// added), `fits` (the fit as JSON, its status, the session it came from, who and when) and
-// `active` (machine -> fit id). `apply()` stores the session, the fit and the activation in
-// one transaction: a process killed in the middle leaves the database as it was before, with
-// the previous calibration active (SQLite's rollback journal undoes the partial write at the
-// next open). A fit whose status is not ok cannot be applied.
+// added), `fits` (the fit as JSON, its status in Summary's spelling, the session it came from,
+// who and when) and `active` (machine -> fit id). `apply()` stores the session, the fit and
+// the activation in one transaction: a process killed in the middle leaves the database as it
+// was before, with the previous calibration active (SQLite's rollback journal undoes the
+// partial write at the next open). A fit whose status is not done cannot be applied.
 //
 // Default location: $XDG_DATA_HOME/machplan/calibration.db, or ~/.local/share/machplan/ when
 // XDG_DATA_HOME is unset (the folder is created). One store object per thread.
@@ -19,16 +19,14 @@
 #include <vector>
 
 #include "solvers/calibration/fit.h"
-
-namespace machplan::store {
-class SqliteDb;
-}
+#include "solvers/common/store.h"
 
 namespace machplan::calibration {
 
 struct StoredFit {
   std::int64_t fit_id = 0, session_id = 0;
-  std::string machine, status, who, created_utc;
+  std::string machine, who, created_utc;
+  std::string status;    // to_string(Status): "done" (only done fits are applied)
   std::string log_path;
   std::string log_hash;  // FNV-1a 64, hex
   std::string fit_json;  // CalibrationFit::json()
@@ -38,7 +36,7 @@ struct StoredFit {
 };
 
 // $XDG_DATA_HOME/machplan/calibration.db (or ~/.local/share/...); creates its folder on first use.
-std::string default_store_path();
+using store::default_store_path;
 // FNV-1a 64 of `bytes`, as 16 hex digits.
 std::string log_hash(const std::string& bytes);
 
@@ -52,7 +50,7 @@ class CalibrationStore {
   CalibrationStore& operator=(const CalibrationStore&) = delete;
 
   // Stores the session and `fit` and makes the fit the machine's active calibration, in one
-  // transaction. Returns the fit id. Throws Infeasible when fit.status is not ok.
+  // transaction. Returns the fit id. Throws Infeasible when the fit's status is not done.
   // `before_commit` (tests only) runs inside the transaction, just before COMMIT.
   std::int64_t apply(const CalibrationFit& fit, const std::string& log_path, const std::string& log_bytes,
                      const std::string& who, void (*before_commit)() = nullptr);
@@ -62,7 +60,7 @@ class CalibrationStore {
   std::vector<StoredFit> history(const std::string& machine = {}) const;
 
  private:
-  std::unique_ptr<store::SqliteDb> db_;
+  std::unique_ptr<store::Store> store_;
 };
 
 // The paper modes' open-loop factor (commanded / programmed speed) for a feed, from a stored

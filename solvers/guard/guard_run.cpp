@@ -574,10 +574,10 @@ void count_attempts(Rig& rig, GuardRunResult& r) {
 namespace {
 
 // How the session ended, and its reports.
-void summarize(GuardRunResult& r, const Termination* termination) {
+void summarize(GuardRunResult& r, const Termination& termination) {
   Summary& s = r.summary;
-  s.status = termination && termination->ended() ? status_of(termination->reason()) : Status::done;
-  if (!s.done()) s.message = fmt::format("{} after {} strokes", termination->describe(), r.strokes);
+  s.status = termination.ended() ? status_of(termination.reason()) : Status::done;
+  if (!s.done()) s.message = fmt::format("{} after {} strokes", termination.describe(), r.strokes);
   s.brief = fmt::format("guard on {}: {}{} attempts, {} successes ({:.1f} %), {} invasions, mean under-cut {:.2f} mm",
                         r.profile_source, s.done() ? "" : fmt::format("{} ({}); ", to_string(s.status), s.message),
                         r.attempts.size(), r.successes, r.success_percent(), r.invasions, r.mean_undercut_mm);
@@ -586,7 +586,7 @@ void summarize(GuardRunResult& r, const Termination* termination) {
 }
 
 GuardRunResult guard_session(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options,
-                             std::vector<std::string> warnings, Termination* termination, Progress* progress,
+                             std::vector<std::string> warnings, Termination& termination, Progress* progress,
                              const GuardLink* link) {
   options.validate();
   if (options.op.kind == OperatorSpec::Kind::panel && !(link && link->stick))
@@ -599,7 +599,7 @@ GuardRunResult guard_session(const std::vector<Contour>& profile, const std::str
   Rig rig;
   rig.o = options;
   rig.machine = cutting::load_machine(cutting::find_machine(options.machine));
-  rig.termination = termination;
+  rig.termination = &termination;
   rig.link = link;
   rig.strokes = &r.strokes;
   r.machine = rig.machine.name;
@@ -622,7 +622,7 @@ GuardRunResult guard_session(const std::vector<Contour>& profile, const std::str
     case OperatorSpec::Kind::panel: rough_live(rig, region, tracker, rng, last, r); break;
   }
   count_attempts(rig, r);
-  const bool stopped = termination && termination->should_end();
+  const bool stopped = termination.should_end();
   if (options.finish && !stopped) finish_profile(rig, last, r);
   report_progress(progress, 1.0);
   rig.publish(GuardLive::Phase::done, 0.0, last, false);
@@ -633,7 +633,7 @@ GuardRunResult guard_session(const std::vector<Contour>& profile, const std::str
 }  // namespace
 
 GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options,
-                         Termination* termination, Progress* progress, const GuardLink* link) {
+                         Termination& termination, Progress* progress, const GuardLink* link) {
   return guard_session(profile, source, options, {}, termination, progress, link);
 }
 
@@ -648,7 +648,7 @@ std::vector<Contour> read_guard_profile(const std::string& dxf_path, std::vector
   return profile;
 }
 
-GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options, Termination* termination,
+GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options, Termination& termination,
                               Progress* progress, const GuardLink* link) {
   options.validate();
   std::vector<std::string> warnings;

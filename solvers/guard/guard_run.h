@@ -156,17 +156,17 @@ struct GuardLink {
 
 // Runs the whole thing on `profile` (closed contours in mm). `source` names the profile in
 // messages and reports.
-// `termination` (may be null) ends the session early: a stop request ends the stroke under way
+// `termination` ends the session early: a stop request ends the stroke under way
 // (the machine stops in a controlled way) and the rest; the result then counts the attempts
 // made and its summary says why it ended. `progress` (may be null) follows the strokes
 // (random), the script's time (script), and the finishing pass.
 // `link` (may be null) connects a panel (see the file comment); the operator kind `panel` needs
 // its stick.
 GuardRunResult run_guard(const std::vector<Contour>& profile, const std::string& source, const GuardRunOptions& options,
-                         Termination* termination = nullptr, Progress* progress = nullptr, const GuardLink* link = nullptr);
+                         Termination& termination, Progress* progress = nullptr, const GuardLink* link = nullptr);
 
 // Reads the DXF (refusing drawings with errors, naming them) and runs run_guard.
-GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options, Termination* termination = nullptr,
+GuardRunResult run_guard_file(const std::string& dxf_path, const GuardRunOptions& options, Termination& termination,
                               Progress* progress = nullptr, const GuardLink* link = nullptr);
 // The closed contours of a DXF profile as run_guard_file reads them (drawings with errors
 // refused, naming them); its warnings are added to `warnings`.

@@ -213,17 +213,17 @@ class ExactMotionValidator : public ob::MotionValidator {
 // The uniform sampler with a local seed; charges every sample to the rapid's termination.
 class SeededSampler : public ob::RealVectorStateSampler {
  public:
-  SeededSampler(const ob::StateSpace* space, std::uint32_t seed, Termination* work)
+  SeededSampler(const ob::StateSpace* space, std::uint32_t seed, Termination& work)
       : ob::RealVectorStateSampler(space), work_(work) {
     rng_.setLocalSeed(seed);
   }
   void sampleUniform(ob::State* s) override {
-    work_->charge(1, kSampleWorkS);
+    work_.charge(1, kSampleWorkS);
     ob::RealVectorStateSampler::sampleUniform(s);
   }
 
  private:
-  Termination* work_;
+  Termination& work_;
 };
 
 class SeededRRTConnect : public og::RRTConnect {
@@ -343,7 +343,7 @@ Space make_space(const ZoneSet& zones, const Eigen::AlignedBox2d& bounds, std::u
   s.space->setBounds(rb);
   int* attempt = &s.attempt;
   s.space->setStateSamplerAllocator([seed, attempt, &work](const ob::StateSpace* sp) -> ob::StateSamplerPtr {
-    return std::make_shared<SeededSampler>(sp, derive_seed(seed, *attempt, 1), &work);
+    return std::make_shared<SeededSampler>(sp, derive_seed(seed, *attempt, 1), work);
   });
   s.si = std::make_shared<ob::SpaceInformation>(s.space);
   s.si->setStateValidityChecker(std::make_shared<ZoneValidityChecker>(s.si, zones));
@@ -429,18 +429,6 @@ Eigen::AlignedBox2d travel_bounds(const Vector2d& from, const Vector2d& to, cons
 
 // ---------------------------------------------------------------------------------------
 
-const char* to_string(RapidStatus s) {
-  switch (s) {
-    case RapidStatus::straight: return "straight";
-    case RapidStatus::planned: return "planned";
-    case RapidStatus::no_path: return "no_path";
-    case RapidStatus::endpoint_blocked: return "endpoint_blocked";
-    case RapidStatus::out_of_bounds: return "out_of_bounds";
-    case RapidStatus::cancelled: return "cancelled";
-  }
-  return "?";
-}
-
 void RapidOptions::validate() const {
   const auto bad = [](const char* field, double v, const char* rule) {
     throw InputError::field(field, fmt::format("is {}, {}", v, rule));
@@ -478,14 +466,14 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const ZoneSet& zo
   plan.straight_length_mm = (to - from).norm();
   const Eigen::AlignedBox2d bounds = travel_bounds(from, to, zones, options);
   if (!bounds.contains(from) || !bounds.contains(to)) {
-    plan.status = RapidStatus::out_of_bounds;
     plan.message = fmt::format("({:.3f}, {:.3f}) or ({:.3f}, {:.3f}) lies outside the travel box", from.x(),
                                from.y(), to.x(), to.y());
     return plan;
   }
   // The answer: `inner` between the escape points, with the escape legs added.
-  const auto finish = [&](RapidStatus status, Polyline inner, std::string msg) {
-    plan.status = status;
+  const auto finish = [&](bool straight, Polyline inner, std::string msg) {
+    plan.status = Status::done;
+    plan.straight = straight;
     plan.min_clearance_mm = zones.polyline_distance(inner);
     if (inner.front() != from) inner.insert(inner.begin(), from);
     if (inner.back() != to) inner.push_back(to);
@@ -497,10 +485,10 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const ZoneSet& zo
 
   // Step 1 and 1b. A rapid that goes nowhere moves nothing, wherever it is.
   plan.straight_blocked = from != to && !zones.segment_clear(from, to);
-  if (!plan.straight_blocked) return finish(RapidStatus::straight, {from, to}, "the straight move is clear");
+  if (!plan.straight_blocked) return finish(true, {from, to}, "the straight move is clear");
   if (leaves_directly(from, to, zones, first_part_zone)) {
     plan.straight_blocked = false;
-    return finish(RapidStatus::straight, {from, to}, "straight: leaves or reaches the cut part at its end directly");
+    return finish(true, {from, to}, "straight: leaves or reaches the cut part at its end directly");
   }
 
   // Step 2.
@@ -508,8 +496,7 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const ZoneSet& zo
   plan.start_zones = start.relaxed;
   plan.end_zones = end.relaxed;
   if (!start.ok || !end.ok) {
-    plan.status = RapidStatus::endpoint_blocked;
-    plan.message = !start.ok ? "start: " + start.why : "end: " + end.why;
+    plan.message = "an end point cannot leave its zones' clearance band: " + (!start.ok ? "start: " + start.why : "end: " + end.why);
     return plan;
   }
   const std::string escape_note =
@@ -517,28 +504,27 @@ RapidPlan plan_rapid(const Vector2d& from, const Vector2d& to, const ZoneSet& zo
       (end.relaxed.empty() ? std::string() : fmt::format("; enters zone(s) {} at the end", fmt::join(end.relaxed, ", ")));
   const Vector2d a = start.point, b = end.point;
   if (zones.segment_clear(a, b))
-    return finish(RapidStatus::planned, {a, b}, "straight between the escape legs" + escape_note);
+    return finish(false, {a, b}, "straight between the escape legs" + escape_note);
 
   // Steps 3 and 4, within the rapid's own budget of samples.
-  Termination work(&termination);
+  Termination work(termination);
   work.set_budget(options.max_samples, "samples");
   Space sp = make_space(zones, bounds, options.seed, work);
   Search found = search(a, b, zones, sp, options, work);
   plan.samples = static_cast<int>(work.units_spent());
   if (termination.ended()) {
-    plan.status = RapidStatus::cancelled;
+    plan.status = status_of(termination.reason());
     plan.message = fmt::format("ended after {} samples: {}", plan.samples, termination.describe());
     return plan;
   }
   if (found.best.empty()) {
-    plan.status = RapidStatus::no_path;
     plan.message = fmt::format("no clear path found in {} samples{}", plan.samples, escape_note);
     return plan;
   }
 
   // Step 5.
   const std::string smooth_note = smooth(found.best, zones, sp, options, plan.smoothed);
-  return finish(RapidStatus::planned, std::move(found.best),
+  return finish(false, std::move(found.best),
                 fmt::format("planned round the zones ({} of {} attempts found a path, {} samples){}{}", found.found,
                             options.attempts, plan.samples, escape_note, smooth_note));
 }

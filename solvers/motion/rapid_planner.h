@@ -97,7 +97,7 @@
 //     RapidOptions o;                  // 5 mm clearance, seed 1
 //     Termination never;               // no stop, deadline or budget of the caller's
 //     RapidPlan p = plan_rapid({-150, 0}, {150, 0}, clamps, o, never);
-//     // p.status == RapidStatus::planned, p.straight_blocked, p.length_mm about 306.2 (the shortest
+//     // p.status == Status::done, !p.straight, p.straight_blocked, p.length_mm about 306.2 (the shortest
 //     // clear curve is 306.17),
 //     // p.min_clearance_mm >= 5
 #pragma once
@@ -109,6 +109,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "engine/common/summary.h"
 #include "engine/common/termination.h"
 #include "engine/geometry/contour.h"
 #include "solvers/motion/rapid_zones.h"
@@ -125,7 +126,7 @@ struct RapidOptions {
   // Margin of the automatic box, mm (>= 0). It must leave room to pass round the outermost
   // zones: at least 2 * clearance_mm is sensible.
   double auto_margin_mm = 50.0;
-  // Total number of sampled states over all attempts before giving up with no_path (>= 1,
+  // Total number of sampled states over all attempts before giving up, infeasible (>= 1,
   // <= 10 000 000). A rapid round a few zones needs tens to a few hundred.
   int max_samples = 20000;
   // Independent RRT-Connect runs (derived seeds); the shortest shortened path wins (1 .. 100).
@@ -154,19 +155,16 @@ struct RapidOptions {
 // units as everything else, and decides the same way on any machine.
 inline constexpr double kSampleWorkS = 50e-6;
 
-enum class RapidStatus {
-  straight,          // the straight move is clear; polyline = {from, to}
-  planned,           // a clear detour (or a straight move between escape legs)
-  no_path,           // budget spent without a path (goal or start walled in)
-  endpoint_blocked,  // an end point cannot leave its zones' clearance band (see step 2)
-  out_of_bounds,     // from or to lies outside RapidOptions::bounds
-  cancelled,         // the caller's Termination ended the search (stop request, deadline, budget)
-};
-const char* to_string(RapidStatus s);
-
 struct RapidPlan {
-  RapidStatus status = RapidStatus::no_path;
-  // from ... to, for straight and planned; empty otherwise.
+  // done: a clear route (straight, or a detour); infeasible: none (max_samples spent without a
+  // path, the goal or start walled in; an end point that cannot leave its zones' clearance
+  // band, step 2; from or to outside RapidOptions::bounds), the message says which;
+  // cancelled, deadline or budget: the caller's Termination ended the search.
+  Status status = Status::infeasible;
+  // done only: the route is the straight move, polyline = {from, to}; otherwise a detour (or
+  // a straight move between escape legs).
+  bool straight = false;
+  // from ... to when done; empty otherwise.
   std::vector<Eigen::Vector2d> polyline;
   double length_mm = 0.0;           // length of polyline (0 when empty)
   double straight_length_mm = 0.0;  // |to - from|
@@ -174,8 +172,8 @@ struct RapidPlan {
   // when an end point lies in a zone's clearance band).
   bool straight_blocked = false;
   // Smallest distance from the polyline, escape legs excluded, to any zone region, mm
-  // (+infinity with no zones or an empty polyline). >= clearance_mm for straight / planned,
-  // except a rapid of zero length.
+  // (+infinity with no zones or an empty polyline). >= clearance_mm when done, except a rapid
+  // of zero length.
   double min_clearance_mm = 0.0;
   // Zones (indices into no_go) relaxed for the escape leg at the start / at the end.
   std::vector<std::size_t> start_zones, end_zones;
@@ -183,7 +181,7 @@ struct RapidPlan {
   int samples = 0;        // states sampled by the planner (0 when OMPL was not called)
   std::string message;
 
-  bool ok() const { return status == RapidStatus::straight || status == RapidStatus::planned; }
+  bool ok() const { return status == Status::done; }
 };
 
 // Plans one rapid; see the file comment. Throws InputError when the options are invalid and

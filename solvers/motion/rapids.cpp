@@ -155,7 +155,8 @@ RapidReport plan_one(Job& job, std::size_t step_index, JobZones& z, const RapidO
   std::vector<std::size_t> off = entered;
   for (std::size_t j : off) zones.set_active(j, false);
   RapidPlan plan = plan_rapid(r.from, r.to, zones, options, termination, z.declared);
-  if (!plan.ok() && plan.status != RapidStatus::cancelled) {
+  const auto ended_by_caller = [](const RapidPlan& p) { return !p.ok() && p.status != Status::infeasible; };
+  if (!plan.ok() && !ended_by_caller(plan)) {
     // No route round the other cut parts either: cross them too (declared zones still hold).
     std::vector<std::size_t> more;
     for (std::size_t j = z.declared; j < zones.size(); ++j)
@@ -163,7 +164,7 @@ RapidReport plan_one(Job& job, std::size_t step_index, JobZones& z, const RapidO
     if (!more.empty()) {
       for (std::size_t j : more) zones.set_active(j, false);
       const RapidPlan retry = plan_rapid(r.from, r.to, zones, options, termination, z.declared);
-      if (retry.ok() || retry.status == RapidStatus::cancelled) plan = retry;
+      if (retry.ok() || ended_by_caller(retry)) plan = retry;
       off.insert(off.end(), more.begin(), more.end());
       if (!retry.ok()) {
         for (std::size_t j : more) zones.set_active(j, true);
@@ -171,10 +172,11 @@ RapidReport plan_one(Job& job, std::size_t step_index, JobZones& z, const RapidO
       }
     }
   }
-  ended = plan.status == RapidStatus::cancelled;
+  ended = ended_by_caller(plan);
   r.zone_count = 0;
   for (std::size_t j = 0; j < zones.size(); ++j) r.zone_count += zones.active(j) ? 1 : 0;
   r.status = plan.status;
+  r.straight = plan.straight;
   r.straight_blocked = plan.straight_blocked;
   r.message = plan.message;
 
@@ -185,10 +187,10 @@ RapidReport plan_one(Job& job, std::size_t step_index, JobZones& z, const RapidO
   const double programmed_clearance = zones.polyline_distance(programmed);
   const bool one_straight = programmed.size() == 2 && lines;
   r.programmed_clear = lines && (programmed_clearance >= options.clearance_mm ||
-                                 (one_straight && plan.status == RapidStatus::straight));
+                                 (one_straight && plan.ok() && plan.straight));
   if (r.programmed_clear) {
     r.min_clearance_mm = programmed_clearance;
-    if (plan.status != RapidStatus::straight) r.message = "the programmed route is clear; kept";
+    if (!(plan.ok() && plan.straight)) r.message = "the programmed route is clear; kept";
   } else if (plan.ok()) {
     const double feed = s.feed_mm_per_s.empty() ? 0.0 : s.feed_mm_per_s.front();
     const int line = r.source_line;
@@ -207,7 +209,7 @@ RapidReport plan_one(Job& job, std::size_t step_index, JobZones& z, const RapidO
   }
   r.length_mm = stretch_length(s);
   r.extra_length_mm = r.length_mm - r.straight_length_mm;
-  if (r.replaced && plan.status == RapidStatus::planned) {
+  if (r.replaced && r.detour()) {
     // Why: the zones the straight move comes too near (those it merely leaves or reaches at
     // an end are named too: their band held the end point).
     for (std::size_t j = 0; j < zones.size(); ++j)
@@ -235,14 +237,14 @@ RapidReport plan_one(Job& job, std::size_t step_index, JobZones& z, const RapidO
 }
 
 void add_up(RapidsReport& report, const RapidReport& r) {
-  if (r.replaced && r.status == RapidStatus::planned) {
+  if (r.replaced && r.detour()) {
     ++report.detours;
     report.detour_extra_mm += r.extra_length_mm;
   }
   report.crossings += r.crossed.empty() ? 0 : 1;
   report.blocked += r.straight_blocked ? 1 : 0;
   report.replaced += r.replaced ? 1 : 0;
-  report.failed += (!r.replaced && !r.programmed_clear && r.status != RapidStatus::straight) ? 1 : 0;
+  report.failed += (!r.replaced && !r.programmed_clear && !(r.status == Status::done && r.straight)) ? 1 : 0;
   report.straight_length_mm += r.straight_length_mm;
   report.programmed_length_mm += r.programmed_length_mm;
   report.length_mm += r.length_mm;
@@ -264,13 +266,13 @@ void summarise(RapidsReport& report, const Termination& termination, bool ended)
                         "without a clear route; {:.1f} mm in all (straight {:.1f} mm)",
                         report.rapids.size(), straight, report.detours, report.detour_extra_mm, report.crossings,
                         report.failed, report.length_mm, report.straight_length_mm);
-  std::string out = fmt::format("{:>7} {:>5} {:>16} {:>10} {:>10} {:>10} {:>8}  {}\n", "stretch", "line", "status",
+  std::string out = fmt::format("{:>7} {:>5} {:>16} {:>10} {:>10} {:>10} {:>8}  {}\n", "stretch", "line", "route",
                                 "straight", "programmed", "final", "clear", "why");
   for (const RapidReport& r : report.rapids) {
     const std::string clear =
         std::isinf(r.min_clearance_mm) ? std::string("-") : fmt::format("{:.2f}", r.min_clearance_mm);
     out += fmt::format("{:>7} {:>5} {:>16} {:>10.2f} {:>10.2f} {:>10.2f} {:>8}  {}; {}\n", r.stretch, r.source_line,
-                       to_string(r.status), r.straight_length_mm, r.programmed_length_mm, r.length_mm, clear, r.why(),
+                       r.route(), r.straight_length_mm, r.programmed_length_mm, r.length_mm, clear, r.why(),
                        r.message);
   }
   out += fmt::format(
@@ -317,11 +319,16 @@ std::string RapidReport::why() const {
       crossed.empty() ? std::string()
                       : fmt::format(" over {}{}", fmt::join(crossed, "; "),
                                     travel_height_mm > 0 ? fmt::format(" (torch at {:g} mm)", travel_height_mm) : "");
-  if (replaced && status == RapidStatus::planned)
+  if (replaced && detour())
     return fmt::format("round {} (+{:.1f} mm){}", reason.empty() ? "the zones at its ends" : reason, extra_length_mm, over);
   if (programmed_clear) return (programmed_length_mm > straight_length_mm + 1e-9 ? "as programmed" : "straight") + over;
   if (replaced) return "straight" + over;
   return fmt::format("NOT CLEAR, left as programmed ({})", to_string(status));
+}
+
+const char* RapidReport::route() const {
+  if (status != Status::done) return to_string(status);
+  return straight ? "straight" : "detour";
 }
 
 RapidsReport plan_rapids(Job& job, const std::vector<Contour>& declared_zones, const RapidOptions& options,

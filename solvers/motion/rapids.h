@@ -40,8 +40,8 @@
 // and clear (the program's own route is respected; this includes a straight single-segment
 // G0). Otherwise, when the plan succeeds, the segments are replaced by the planned polyline:
 // one line per polyline edge, all with the feed and source line of the stretch's first
-// segment. When the plan fails (no_path, endpoint_blocked, out_of_bounds) the stretch is left
-// as programmed and the failure is reported; the caller decides whether to run the job.
+// segment. When the plan has no route (infeasible) the stretch is left as programmed and the
+// failure is reported; the caller decides whether to run the job.
 //
 // Termination and progress. Every rapid is planned under the caller's Termination (each with
 // its own budget of samples, see rapid_planner.h); once that ends (a stop request, its
@@ -72,7 +72,10 @@ namespace machplan::motion {
 struct RapidReport {
   std::size_t stretch = 0;  // index into Job::stretches
   int source_line = 0;      // of the stretch's first segment
-  RapidStatus status = RapidStatus::straight;
+  // The plan's: done (straight when `straight`, else a detour), infeasible (no clear route), or
+  // what ended the caller's Termination.
+  Status status = Status::done;
+  bool straight = true;
   Eigen::Vector2d from = Eigen::Vector2d::Zero(), to = Eigen::Vector2d::Zero();
   double straight_length_mm = 0.0;    // |to - from|
   double programmed_length_mm = 0.0;  // the stretch as programmed
@@ -96,6 +99,10 @@ struct RapidReport {
   // Why the rapid is what it is, one phrase: "straight", "straight over part cut at line 12
   // (torch at 40 mm)", "round part cut at line 40 (+25.3 mm)", "as programmed", or the failure.
   std::string why() const;
+  // The plan's route in a word, for the report's table: "straight", "detour", or the status.
+  const char* route() const;
+  // Re-routed round zones (not straight).
+  bool detour() const { return status == Status::done && !straight; }
 };
 
 struct RapidsReport {

@@ -35,8 +35,19 @@ Eigen::AlignedBox2d travel_box(const cutting::MachineConfig& m) {
   return Eigen::AlignedBox2d(Eigen::Vector2d::Zero(), Eigen::Vector2d(m.axes[0].travel_mm, m.axes[1].travel_mm));
 }
 
-// Throws Infeasible naming the first program line whose motion leaves the travel.
-void check_travel(const Job& job, const cutting::MachineConfig& m) {
+// Why the job cannot be run: a refusal of the planning (Summary infeasible or what ended the
+// work), for the caller to check; the executor is never started for it.
+void refuse(PlannedRun& o, Status status, std::string message, std::string limit_field = {}) {
+  o.summary.status = status;
+  o.summary.message = std::move(message);
+  o.summary.brief = o.summary.message;
+  o.summary.full = o.summary.message + "\n";
+  o.limit_field = std::move(limit_field);
+}
+
+// Why the job leaves the travel, naming the first program line whose motion does; "" when
+// it stays inside.
+std::string leaves_travel(const Job& job, const cutting::MachineConfig& m) {
   const Eigen::AlignedBox2d box = travel_box(m);
   const double tol = 1e-6;
   const auto inside = [&](const Eigen::AlignedBox2d& b) {
@@ -44,23 +55,24 @@ void check_travel(const Job& job, const cutting::MachineConfig& m) {
            b.max().y() <= box.max().y() + tol;
   };
   if (!inside(Eigen::AlignedBox2d(job.start_mm, job.start_mm)))
-    throw Infeasible(fmt::format("{}: the start position ({:.3f}, {:.3f}) lies outside the travel of machine '{}' "
-                                 "(X 0 .. {:g}, Y 0 .. {:g} mm)",
-                                 job.source, job.start_mm.x(), job.start_mm.y(), m.name, box.max().x(), box.max().y()));
+    return fmt::format("{}: the start position ({:.3f}, {:.3f}) lies outside the travel of machine '{}' "
+                       "(X 0 .. {:g}, Y 0 .. {:g} mm)",
+                       job.source, job.start_mm.x(), job.start_mm.y(), m.name, box.max().x(), box.max().y());
   for (const Stretch& s : job.stretches)
     for (std::size_t i = 0; i < s.segments.size(); ++i) {
       const Eigen::AlignedBox2d b = bounding_box(s.segments[i]);
       if (inside(b)) continue;
-      throw Infeasible(fmt::format("{}:{}: the move reaches X {:.3f} .. {:.3f}, Y {:.3f} .. {:.3f} mm, outside the travel "
-                                   "of machine '{}' (X 0 .. {:g}, Y 0 .. {:g} mm)",
-                                   job.source, s.source_lines[i], b.min().x(), b.max().x(), b.min().y(), b.max().y(), m.name,
-                                   box.max().x(), box.max().y()));
+      return fmt::format("{}:{}: the move reaches X {:.3f} .. {:.3f}, Y {:.3f} .. {:.3f} mm, outside the travel "
+                         "of machine '{}' (X 0 .. {:g}, Y 0 .. {:g} mm)",
+                         job.source, s.source_lines[i], b.min().x(), b.max().x(), b.min().y(), b.max().y(), m.name,
+                         box.max().x(), box.max().y());
     }
+  return {};
 }
 
-// Throws Infeasible naming the first cut that enters (or touches) a declared no-go zone: the
-// zones are clamps and the like, which the torch must never burn.
-void check_cuts_clear_of(const Job& job, const std::vector<NoGoZone>& zones, const std::string& zones_path) {
+// Names the first cut that enters (or touches) a declared no-go zone ("" when none does):
+// the zones are clamps and the like, which the torch must never burn.
+std::string cut_in_zone(const Job& job, const std::vector<NoGoZone>& zones, const std::string& zones_path) {
   for (const Stretch& s : job.stretches) {
     if (!s.cutting || s.rapid) continue;
     for (std::size_t i = 0; i < s.segments.size(); ++i) {
@@ -69,11 +81,12 @@ void check_cuts_clear_of(const Job& job, const std::vector<NoGoZone>& zones, con
         bool enters = contains(z.contour, g.start);
         for (std::size_t k = 0; !enters && k < z.contour.size(); ++k) enters = !intersect(g, z.contour.span(k)).empty();
         if (enters)
-          throw Infeasible(fmt::format("{}:{}: the cut enters the no-go zone '{}' declared at {}:{}", job.source,
-                                       s.source_lines[i], z.name, zones_path, z.line));
+          return fmt::format("{}:{}: the cut enters the no-go zone '{}' declared at {}:{}", job.source, s.source_lines[i],
+                             z.name, zones_path, z.line);
       }
     }
   }
+  return {};
 }
 
 // Seconds as people read them: "3.2 h (11520 s)".
@@ -97,12 +110,15 @@ double motion_floor_s(const Job& job, double max_speed_mm_per_s) {
   return t;
 }
 
-void refuse_long_run(const Job& job, double estimate_s, double limit_s, const char* what) {
-  if (!(estimate_s > limit_s)) return;
-  throw Infeasible(fmt::format("{}: the run would take {} of machine time ({}), more than the limit of {}; nothing "
-                               "was run. Check the feeds and the machine's limits, or raise the limit",
-                               job.source, duration_text(estimate_s), what, duration_text(limit_s)),
-                   "max_machine_time_s");
+// Refuses the run when its estimate exceeds the limit; false then.
+bool within_time_limit(PlannedRun& o, double estimate_s, double limit_s, const char* what) {
+  if (!(estimate_s > limit_s)) return true;
+  refuse(o, Status::infeasible,
+         fmt::format("{}: the run would take {} of machine time ({}), more than the limit of {}; nothing "
+                     "was run. Check the feeds and the machine's limits, or raise the limit",
+                     o.job.source, duration_text(estimate_s), what, duration_text(limit_s)),
+         "max_machine_time_s");
+  return false;
 }
 
 }  // namespace
@@ -236,19 +252,27 @@ void set_feeds(Job& job, const RunOptions& options) {
 }
 
 // Rapids round the declared zones and the parts cut so far; a rapid left as programmed must at
-// least not run into a declared zone (a clamp).
-void plan_the_rapids(PlannedRun& o, const RunOptions& options, const RunControl& control) {
+// least not run into a declared zone (a clamp). False (o.summary says why) when the job
+// cannot run so.
+bool plan_the_rapids(PlannedRun& o, const RunOptions& options, const RunControl& control) {
   if (!options.no_go_path.empty()) o.declared_zones = load_zones(options.no_go_path);
   const std::vector<Contour> declared = zone_contours(o.declared_zones);
-  check_cuts_clear_of(o.job, o.declared_zones, options.no_go_path);
+  if (std::string why = cut_in_zone(o.job, o.declared_zones, options.no_go_path); !why.empty()) {
+    refuse(o, Status::infeasible, std::move(why));
+    return false;
+  }
   RapidOptions ro = options.rapids;
   ro.bounds = travel_box(o.machine);
   ro.slug_tip_size_mm = o.machine.slug_tip_size_mm;
   ro.travel_height_over_cut_mm = o.machine.torch_height.fitted ? o.machine.torch_height.travel_height_over_cut_mm : 0.0;
-  Termination rapids_end(control.termination);
+  Termination never;
+  Termination rapids_end(control.termination ? *control.termination : never);
   o.rapids = plan_rapids(o.job, declared, ro, options.zones_from_cuts, rapids_end, control.planning);
-  if (o.rapids.ended_early())
-    throw Cancelled(fmt::format("{}: {} while planning the rapids; nothing was run", o.job.source, rapids_end.describe()));
+  if (o.rapids.ended_early()) {
+    refuse(o, o.rapids.summary.status,
+           fmt::format("{}: {} while planning the rapids; nothing was run", o.job.source, rapids_end.describe()));
+    return false;
+  }
   for (const Stretch& s : o.job.stretches)
     if (s.cutting && !s.rapid)
       if (auto loop = closed_loop(s)) o.cut_zones.push_back(std::move(*loop));
@@ -257,23 +281,29 @@ void plan_the_rapids(PlannedRun& o, const RunOptions& options, const RunControl&
     const Stretch& s = o.job.stretches[r.stretch];
     std::vector<Eigen::Vector2d> route{s.segments.front().start};
     for (const Segment& g : s.segments) route.push_back(g.end);
-    if (polyline_clearance_mm(route, declared) <= 0.0)
-      throw Infeasible(fmt::format("{}:{}: the rapid from ({:.3f}, {:.3f}) to ({:.3f}, {:.3f}) has no clear route ({}: {}) "
-                                   "and its programmed route enters a declared no-go zone",
-                                   o.job.source, r.source_line, r.from.x(), r.from.y(), r.to.x(), r.to.y(),
-                                   to_string(r.status), r.message));
+    if (polyline_clearance_mm(route, declared) <= 0.0) {
+      refuse(o, Status::infeasible,
+             fmt::format("{}:{}: the rapid from ({:.3f}, {:.3f}) to ({:.3f}, {:.3f}) has no clear route ({}) "
+                         "and its programmed route enters a declared no-go zone",
+                         o.job.source, r.source_line, r.from.x(), r.from.y(), r.to.x(), r.to.y(), r.message));
+      return false;
+    }
   }
+  return true;
 }
 
 // One trajectory per move step (also for the paper modes, for the bound), and the bounds.
-void plan_the_feeds(PlannedRun& o, const RunControl& control) {
+// False (o.summary says why) when the caller's Termination ended the planning.
+bool plan_the_feeds(PlannedRun& o, const RunControl& control) {
   o.trajectories.resize(o.job.steps.size());
   for (std::size_t i = 0; i < o.job.steps.size(); ++i) {
     const Step& st = o.job.steps[i];
     if (st.kind != Step::Kind::move) continue;
-    if (control.termination && control.termination->should_end())
-      throw Cancelled(fmt::format("{}: {} while planning the feeds; nothing was run", o.job.source,
-                                  control.termination->describe()));
+    if (control.termination && control.termination->should_end()) {
+      refuse(o, status_of(control.termination->reason()),
+             fmt::format("{}: {} while planning the feeds; nothing was run", o.job.source, control.termination->describe()));
+      return false;
+    }
     auto tr = plan_stretch_detailed(o.job.stretches[st.stretch], o.planner);
     o.planned_motion_s += tr->duration_s();
     o.motion_lower_bound_s += time_lower_bound_s(tr->executed_path(), o.planner);
@@ -284,6 +314,7 @@ void plan_the_feeds(PlannedRun& o, const RunControl& control) {
   o.lower_bound_s = o.motion_lower_bound_s + o.process_time_s;
   o.motion_ratio = o.motion_lower_bound_s > 0 ? o.planned_motion_s / o.motion_lower_bound_s : 1.0;
   o.optimum_ratio = o.motion_optimum_s > 0 ? o.planned_motion_s / o.motion_optimum_s : 1.0;
+  return true;
 }
 
 }  // namespace
@@ -401,20 +432,24 @@ PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::Ma
     o.job = start_at_line(o.job, options.from_line, o.machine.limits.rapid_mm_per_s, start);
     o.from_line = start;
   }
-  check_travel(o.job, o.machine);
+  if (std::string why = leaves_travel(o.job, o.machine); !why.empty()) {
+    refuse(o, Status::infeasible, std::move(why));
+    return o;
+  }
 
   // Refused before any planning when even the fastest conceivable motion is too long.
   const double height_tolerance_mm = o.machine.setup().torch.height_tolerance_mm;
-  refuse_long_run(o.job, motion_floor_s(o.job, o.machine.limits.velocity_mm_per_s) +
-                             process_time_s(o.job, o.machine, height_tolerance_mm),
-                  options.max_machine_time_s, "at least: every move at its feed, no time to accelerate");
-  plan_the_rapids(o, options, control);
+  if (!within_time_limit(o, motion_floor_s(o.job, o.machine.limits.velocity_mm_per_s) +
+                                process_time_s(o.job, o.machine, height_tolerance_mm),
+                         options.max_machine_time_s, "at least: every move at its feed, no time to accelerate"))
+    return o;
+  if (!plan_the_rapids(o, options, control)) return o;
   if (o.from_line) {  // the cuts before the line were there for the rapid planner only
     drop_prefix(o.job, *o.from_line);
     for (RapidReport& r : o.rapids.rapids) r.stretch -= o.from_line->prefix_stretches;
   }
-  plan_the_feeds(o, control);
-  refuse_long_run(o.job, o.expected_s(), options.max_machine_time_s, "the planned motion plus the torch process and dwells");
+  if (!plan_the_feeds(o, control)) return o;
+  within_time_limit(o, o.expected_s(), options.max_machine_time_s, "the planned motion plus the torch process and dwells");
   return o;
 }
 
@@ -514,9 +549,11 @@ Summary summarize(const RunOutcome& o) {
 RunOutcome execute(session::MachineSession& session, PlannedRun plan, const RunOptions& options, const RunControl& control) {
   RunOutcome o;
   static_cast<PlannedRun&>(o) = std::move(plan);
+  if (!o.summary.done()) return o;  // refused by its planning: nothing runs
   // The caller's stop request, and the deadline: no run lasts longer than the machine time
   // allowed (a job held and never resumed, an input that never comes).
-  Termination t(control.termination);
+  Termination never;
+  Termination t(control.termination ? *control.termination : never);
   t.set_deadline(options.max_machine_time_s, "machine time");
   session::MachineSession::RunHooks hooks;
   hooks.termination = &t;

@@ -46,13 +46,15 @@
 // moves Z (the torch height belongs to the machine), unless strict_z keeps them as an error.
 //
 // Errors: a bad program, machine file, zones file or option throws InputError naming the file
-// and line or the field (exit 2 in the CLI, which names the flag). A job the machine cannot do
-// throws Infeasible (exit 3): the program leaves the machine's travel, or a rapid with no
-// clear route would enter a declared no-go zone, or the run's estimate exceeds
-// max_machine_time_s. A stop request (the RunControl's Termination) during rapid or feed
-// planning throws Cancelled (also exit 3): there is nothing to report. Once the executor runs,
-// nothing throws: a fault, a stop request or the deadline (max_machine_time_s of machine time,
-// for a job held longer than its estimate) stops the machine and is the run's Summary.
+// and line or the field (exit 2 in the CLI, which names the flag). Anything else is a status,
+// never an exception: a job the machine cannot do is planned with its summary infeasible (the
+// program leaves the machine's travel, a cut enters a declared no-go zone, a rapid with no
+// clear route would enter one, or the run's estimate exceeds max_machine_time_s), and a stop
+// request, deadline or budget of the RunControl's Termination during rapid or feed planning
+// ends the planning with that status. The caller checks PlannedRun::summary; execute() runs
+// nothing for a plan that is not done and returns its summary. Once the executor runs, a
+// fault, a stop request or the deadline (max_machine_time_s of machine time, for a job held
+// longer than its estimate) stops the machine and is the run's Summary.
 #pragma once
 
 #include <optional>
@@ -129,7 +131,7 @@ struct RunOptions {
   // program had there, reached by a safe rapid (0: from the start).
   int from_line = 0;
   // The longest run accepted, s of machine time (> 0, at most one year). A run is refused
-  // before it starts, with Infeasible (exit 3) giving the estimate, when its time estimate
+  // before it starts (infeasible, the message giving the estimate) when its time estimate
   // exceeds this: first the time no motion can beat (each move at its feed capped by the
   // machine's speed, plus the torch process and dwells), checked before rapid and feed
   // planning, then the planned motion plus process time, checked before the executor starts.
@@ -180,6 +182,15 @@ struct PlannedRun {
   double motion_ratio = 0.0;
   // The run's expected machine time: the planned motion plus the torch process and dwells.
   double expected_s() const { return planned_motion_s + process_time_s; }
+
+  // Planned: done. Refused: infeasible, or what ended the planning (cancelled, deadline,
+  // budget), with the reason as message and reports (see the file comment). For a RunOutcome,
+  // how the run ended (done, faulted, cancelled, deadline), with the brief and the full
+  // report for people: run summary, per-cut errors, faults, bound and ratio.
+  Summary summary;
+  // The RunOptions field whose limit refused the plan ("max_machine_time_s"), so that a
+  // caller can name its own setting of it; empty otherwise.
+  std::string limit_field;
 };
 
 // What a run did, beside what it planned.
@@ -190,9 +201,6 @@ struct RunOutcome : PlannedRun {
   // Over all cuts, weighted by samples: the RMS of the measured contour error, mm.
   double rms_contour_error_mm = 0.0;
   double rms_true_contour_error_mm = 0.0;  // NaN: the backend has no truth (result.truth_available)
-  // How the run ended (done, faulted, cancelled, deadline), with the brief and the full report
-  // for people: run summary, per-cut errors, faults, bound and ratio.
-  Summary summary;
 
   bool faulted() const { return !result.summary.done(); }
 };
@@ -216,7 +224,8 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
 // build or trim jobs themselves, such as the paper reproduction in bench/.
 PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::MachineConfig& machine,
                     const RunControl& control = {});
-// Runs a planned job on `session` (whose machine it was planned for).
+// Runs a planned job on `session` (whose machine it was planned for); a plan whose summary is
+// not done is not run (the outcome keeps its summary).
 RunOutcome execute(session::MachineSession& session, PlannedRun plan, const RunOptions& options,
                    const RunControl& control = {});
 

@@ -1,6 +1,5 @@
 #include "solvers/session/tuning_store.h"
 
-
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -8,62 +7,42 @@
 #include "solvers/common/internal/sqlite_db.h"
 
 namespace machplan::tuning {
-namespace {
 
-constexpr const char* kSchema = R"sql(
-CREATE TABLE IF NOT EXISTS tunings (
-  id INTEGER PRIMARY KEY,
-  machine TEXT NOT NULL,
-  controller TEXT NOT NULL,
-  gains_json TEXT NOT NULL,
-  result_json TEXT NOT NULL,
-  who TEXT NOT NULL,
-  created_utc TEXT NOT NULL
-);
-CREATE TABLE IF NOT EXISTS active_tuning (
-  machine TEXT PRIMARY KEY,
-  tuning_id INTEGER NOT NULL REFERENCES tunings(id)
-);
-)sql";
-
-}  // namespace
-
-TuningStore::TuningStore(const std::string& path) : db_(std::make_unique<store::SqliteDb>(path, kSchema)) {}
+TuningStore::TuningStore(const std::string& path) : store_(std::make_unique<store::Store>(path)) {}
 
 TuningStore::~TuningStore() = default;
 
 std::int64_t TuningStore::save(const std::string& machine, const std::string& controller, const control::Gains& gains,
-                               const std::string& status, const std::string& result_json, const std::string& who) {
-  if (status != "ok")
-    throw Infeasible(fmt::format("a tuning with status '{}' cannot become the active tuning of '{}'", status, machine));
+                               const Summary& summary, const std::string& result_json, const std::string& who) {
+  if (!summary.usable_answer())
+    throw Infeasible(fmt::format("a tuning with status '{}' cannot become the active tuning of '{}'", to_string(summary.status),
+                                 machine));
   nlohmann::json g = nlohmann::json::object();
   for (const auto& [k, v] : gains) g[k] = v;
-  return db_->transaction([&] {
-    store::Statement s(*db_,
-                       "INSERT INTO tunings(machine, controller, gains_json, result_json, who, created_utc) VALUES(?,?,?,?,?,?)");
+  const store::SqliteDb& db = store_->db();
+  return db.transaction([&] {
+    store::Statement s(db,
+                       "INSERT INTO tunings(machine, controller, gains_json, result_json, who, created_utc, status) "
+                       "VALUES(?,?,?,?,?,?,?)");
     s.bind(1, machine);
     s.bind(2, controller);
     s.bind(3, g.dump());
     s.bind(4, result_json);
     s.bind(5, who);
     s.bind(6, store::now_utc());
+    s.bind(7, std::string(to_string(summary.status)));
     s.run();
-    const std::int64_t id = db_->last_insert_id();
-    store::Statement a(*db_,
-                       "INSERT INTO active_tuning(machine, tuning_id) VALUES(?,?) ON CONFLICT(machine) DO UPDATE SET "
-                       "tuning_id = excluded.tuning_id");
-    a.bind(1, machine);
-    a.bind(2, id);
-    a.run();
+    const std::int64_t id = db.last_insert_id();
+    store_->activate(store::kTunings, machine, id);
     return id;
   });
 }
 
 std::vector<StoredTuning> TuningStore::history(const std::string& machine) const {
-  store::Statement s(*db_,
-         "SELECT t.id, t.machine, t.controller, t.gains_json, t.result_json, t.who, t.created_utc, "
-         "(SELECT COUNT(*) FROM active_tuning a WHERE a.tuning_id = t.id) FROM tunings t "
-         "WHERE (?1 = '' OR t.machine = ?1) ORDER BY t.id DESC");
+  const std::string sql = "SELECT t.id, t.machine, t.controller, t.gains_json, t.result_json, t.who, t.created_utc, t.status, " +
+                          store::Store::active_flag(store::kTunings, "t") +
+                          " FROM tunings t WHERE (?1 = '' OR t.machine = ?1) ORDER BY t.id DESC";
+  store::Statement s(store_->db(), sql.c_str());
   s.bind(1, machine);
   std::vector<StoredTuning> out;
   while (s.step()) {
@@ -78,16 +57,15 @@ std::vector<StoredTuning> TuningStore::history(const std::string& machine) const
     t.result_json = s.text(4);
     t.who = s.text(5);
     t.created_utc = s.text(6);
-    t.active = s.int64(7) > 0;
+    t.status = s.text(7);
+    t.active = s.int64(8) > 0;
     out.push_back(std::move(t));
   }
   return out;
 }
 
 std::optional<StoredTuning> TuningStore::active(const std::string& machine) const {
-  for (auto& t : history(machine))
-    if (t.active) return t;
-  return std::nullopt;
+  return store::active_of(history(machine));
 }
 
 }  // namespace machplan::tuning

@@ -43,7 +43,7 @@ AccScore score_acc_gain(const AccTuningOptions& o, double gain) {
   return s;
 }
 
-AccTuningResult tune_acc(const AccTuningOptions& o, Termination* termination) {
+AccTuningResult tune_acc(const AccTuningOptions& o, Termination& termination) {
   o.validate();
   AccTuningResult out;
   out.variable_gain = o.acc.variable_gain;
@@ -61,20 +61,65 @@ AccTuningResult tune_acc(const AccTuningOptions& o, Termination* termination) {
     g[0] = (s.worst_overshoot - o.max_overshoot) / std::max(o.max_overshoot, 0.005);
     return s.worst_settling_s;
   };
-  out.optimizer = optimize(p, o.optimizer, &work);
+  out.optimizer = optimize(p, o.optimizer, work);
   out.gain = out.optimizer.x[0];
   out.after = score_acc_gain(o, out.gain);
   Summary& s = out.summary;
   s.status = out.optimizer.stopped() ? status_of(out.optimizer.ended_by) : out.optimizer.feasible ? Status::done : Status::infeasible;
-  if (!s.done()) s.message = out.optimizer.stopped() ? work.describe() : "no gain met the overshoot limit";
-  s.brief = fmt::format("ACC {} gain: {} ({:.4f})", out.variable_gain ? "variable" : "fixed", to_string(s.status), out.gain);
+  s.usable = usable_when_ended(out.optimizer, s.status);
+  if (!s.done()) s.message = out.optimizer.stopped() ? stop_message(work.describe(), s.usable, "gain") : "no gain met the overshoot limit";
+  s.brief = fmt::format("ACC {} gain: {} ({:.4f})", out.variable_gain ? "variable" : "fixed", status_text(s), out.gain);
   s.full = out.report();
   return out;
 }
 
+std::vector<AccSettled> AccStudy::settled(const std::vector<turning::AccSample>& run) const {
+  std::vector<double> at;
+  for (std::size_t i = 1; i < steps.size(); ++i) at.push_back(steps[i].from_s - 0.1);
+  at.push_back(duration_s - 0.1);
+  std::vector<AccSettled> out;
+  for (double t : at)
+    for (const auto& s : run)
+      if (std::abs(s.t_s - t) < 1e-6) out.push_back({t, s.depth_mm, s.feed_mm_per_rev, s.force_n});
+  return out;
+}
+
+AccStudy acc_study(const AccTuningOptions& base, AccLaws laws, Termination& termination) {
+  base.validate();
+  AccStudy st;
+  st.steps = turning::koren_depth_steps();
+  st.reference_force_n = base.acc.reference_force_n;
+  st.koren = turning::simulate_acc(base.process, base.acc, st.steps, st.duration_s);
+  for (const bool variable : {false, true}) {
+    if ((variable && laws == AccLaws::fixed) || (!variable && laws == AccLaws::variable)) continue;
+    AccTuningOptions o = base;
+    o.acc.variable_gain = variable;
+    st.tunings.push_back(tune_acc(o, termination));
+    control::AccOptions tuned = base.acc;
+    tuned.variable_gain = variable;
+    (variable ? tuned.open_loop_gain : tuned.kc) = st.tunings.back().gain;
+    st.tuned_runs.push_back(turning::simulate_acc(base.process, tuned, st.steps, st.duration_s));
+  }
+  Summary& s = st.summary;
+  for (const AccTuningResult& r : st.tunings)
+    if (!r.summary.done()) {
+      s = r.summary;
+      break;
+    }
+  s.brief = fmt::format("ACC on Koren's test: {} law{} tuned, {}", st.tunings.size(), st.tunings.size() == 1 ? "" : "s",
+                        status_text(s));
+  s.full = fmt::format("ACC on the turning model, Koren's test: Kc = {:g}, F_r = {:g} N, T = {:g} s, depth 2 -> 4 -> 6 mm\n",
+                       base.acc.kc, base.acc.reference_force_n, base.acc.sample_s);
+  for (const AccSettled& a : st.settled(st.koren))
+    s.full += fmt::format("  t {:5.1f} s  depth {:4.1f} mm  feed {:.3f} mm/rev  force {:7.1f} N\n", a.t_s, a.depth_mm,
+                          a.feed_mm_per_rev, a.force_n);
+  for (const AccTuningResult& r : st.tunings) s.full += "\n" + r.report();
+  return st;
+}
+
 std::string AccTuningResult::report() const {
   const char* name = variable_gain ? "L0 (variable gain)" : "Kc (fixed gain)";
-  std::string s = fmt::format("ACC gain tuning, {}: {}\n", name, summary.done() ? "ok" : to_string(summary.status));
+  std::string s = fmt::format("ACC gain tuning, {}: {}\n", name, status_text(summary));
   s += fmt::format("  before  gain {:.4f}: worst settling {:.2f} s, worst overshoot {:.1f} %\n", start_gain,
                    before.worst_settling_s, 100 * before.worst_overshoot);
   s += fmt::format("  after   gain {:.4f}: worst settling {:.2f} s, worst overshoot {:.1f} %\n", gain, after.worst_settling_s,

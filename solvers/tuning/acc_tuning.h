@@ -9,6 +9,10 @@
 // Constraint: the overshoot of every step (models/turning/turning_process.h, acc_step_response) at most
 // `max_overshoot` of F_r. The one gain is Kc for the fixed law and L0 for the variable-gain
 // law; the optimiser is the two-stage one of solvers/tuning/optimizer.h.
+//
+// acc_study() is the whole of `machplan tune --acc`: Koren's test (his fixed Kc = 0.5 on the
+// paper's depth steps) as the baseline, each law asked for tuned, and the same steps run again
+// with each tuned gain, with one report for people.
 #pragma once
 
 #include <string>
@@ -62,6 +66,38 @@ struct AccTuningResult {
   std::string report() const;
 };
 
-AccTuningResult tune_acc(const AccTuningOptions& options, Termination* termination = nullptr);
+AccTuningResult tune_acc(const AccTuningOptions& options, Termination& termination);
+
+// Koren's test runs this long: engagement at 1 s, steps at 4 and 7 s, each settled well before
+// the next (turning::koren_depth_steps()).
+inline constexpr double kKorenTestS = 10.0;
+
+// Which laws acc_study tunes.
+enum class AccLaws { fixed, variable, both };
+
+// The settled state of a run before a depth change (and at its end).
+struct AccSettled {
+  double t_s = 0.0, depth_mm = 0.0, feed_mm_per_rev = 0.0, force_n = 0.0;
+};
+
+struct AccStudy {
+  std::vector<turning::DepthChange> steps;  // Koren's depth steps
+  double duration_s = kKorenTestS;
+  double reference_force_n = 0.0;           // F_r
+  std::vector<turning::AccSample> koren;    // the steps with the options' fixed gain (Koren's Kc = 0.5)
+  std::vector<AccTuningResult> tunings;     // one per law tuned, fixed first
+  std::vector<std::vector<turning::AccSample>> tuned_runs;  // the steps with each tuned gain
+  // done when every tuning is; else the first tuning's that is not (a usable one stays usable).
+  // full: the baseline's settled states, then each tuning's report.
+  Summary summary;
+
+  // The settled feed and force 0.1 s before each depth change after the first, and at the end.
+  std::vector<AccSettled> settled(const std::vector<turning::AccSample>& run) const;
+};
+
+// Runs Koren's test with `base` (its acc gives the baseline's law and gain), tunes the laws
+// asked for (each from `base`, with its own deadline and budget, under `termination`) and
+// runs the test again with each tuned gain.
+AccStudy acc_study(const AccTuningOptions& base, AccLaws laws, Termination& termination);
 
 }  // namespace machplan::tuning

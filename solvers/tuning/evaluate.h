@@ -61,6 +61,10 @@ struct TestContour {
 };
 // Throws InputError::field("contours", ...) naming what is wrong.
 TestContour parse_contour(const std::string& spec);
+// The test contour when none is given: a 20 mm circle at 960 mm/min, the contouring test the
+// tuning figures are reported on (both axes reverse, so friction, backlash and the axes'
+// mismatch all show in the contour error).
+inline constexpr const char* kDefaultTestContour = "circle:20:960";
 
 enum class Objective { max, rms, itae };
 const char* to_string(Objective o);

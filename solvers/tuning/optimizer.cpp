@@ -37,7 +37,7 @@ const char* stop_words(nlopt_result r) {
 struct Run {
   const Problem& p;
   const OptimizerOptions& o;
-  Termination* termination;
+  Termination& termination;
   Clock::time_point t0;
   std::size_t n;
   int evaluations = 0;
@@ -52,8 +52,8 @@ struct Run {
   double least_violation = std::numeric_limits<double>::infinity(), least_f = 0.0;
   nlopt_opt current = nullptr;
 
-  Run(const Problem& p, const OptimizerOptions& o, Termination* t) : p(p), o(o), termination(t), n(p.parameters.size()) {}
-  bool ended() const { return termination && termination->should_end(); }
+  Run(const Problem& p, const OptimizerOptions& o, Termination& t) : p(p), o(o), termination(t), n(p.parameters.size()) {}
+  bool ended() const { return termination.should_end(); }
 
   std::vector<double> to_x(const double* u) const {
     std::vector<double> x(n);
@@ -164,7 +164,7 @@ StageReport run_stage(Run& r, nlopt_algorithm alg, const char* name, bool constr
   nlopt_destroy(opt);
   s.evaluations = r.evaluations - before;
   s.time_s = std::chrono::duration<double>(Clock::now() - t).count();
-  s.stop_reason = r.stopped ? r.termination->describe() : r.budget_hit ? "evaluation budget reached" : stop_words(res);
+  s.stop_reason = r.stopped ? r.termination.describe() : r.budget_hit ? "evaluation budget reached" : stop_words(res);
   s.best_objective = r.best_f;
   return s;
 }
@@ -198,7 +198,7 @@ void OptimizerOptions::validate() const {
   if (!(std::isfinite(penalty) && penalty > 0.0)) throw InputError::field("penalty", fmt::format("{} must be > 0", penalty));
 }
 
-OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, Termination* termination) {
+OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, Termination& termination) {
   o.validate();
   // The problem is the caller's construction (tune() builds it from the gain specs), not the
   // user's input: a malformed one is a bug.
@@ -259,7 +259,7 @@ OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, Terminatio
     }
   } else {
     out.local.algorithm = to_string(o.local);
-    out.local.stop_reason = local ? (r.ended() ? termination->describe() : "no budget left") : "";
+    out.local.stop_reason = local ? (r.ended() ? termination.describe() : "no budget left") : "";
   }
 
   out.feasible = !r.best_u.empty();
@@ -269,8 +269,16 @@ OptimizerResult optimize(const Problem& p, const OptimizerOptions& o, Terminatio
   out.constraints = out.feasible ? r.best_g : r.least_g;
   out.evaluations = r.evaluations;
   out.time_s = r.elapsed_s();
-  if (r.ended()) out.ended_by = termination->reason();
+  if (r.ended()) out.ended_by = termination.reason();
   return out;
+}
+
+bool usable_when_ended(const OptimizerResult& r, Status status) {
+  return r.stopped() && r.feasible && (status == Status::deadline || status == Status::budget);
+}
+
+std::string stop_message(const std::string& reason, bool usable, const std::string& what) {
+  return usable ? fmt::format("{}; the best {} found by then meet every constraint and are usable", reason, what) : reason;
 }
 
 std::string OptimizerResult::report() const {

@@ -39,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/common/summary.h"
 #include "engine/common/termination.h"
 
 namespace machplan::tuning {
@@ -96,8 +97,15 @@ struct OptimizerResult {
   std::string report() const;  // a few lines for people
 };
 
+// Whether a search the caller's Termination ended with `status` still holds a usable answer
+// (engine/common/summary.h): ended by its deadline or budget, with a feasible best point.
+bool usable_when_ended(const OptimizerResult& result, Status status);
+// Why the search ended early, for a summary's message: `reason` (what ended it), and when
+// usable that the best `what` found so far meet every constraint.
+std::string stop_message(const std::string& reason, bool usable, const std::string& what);
+
 // Throws InternalError (MACHPLAN_ASSERT) when the problem is malformed (empty, lo >= hi, start outside,
 // non-positive bound of a log-scale parameter) and InputError when options do not validate.
-OptimizerResult optimize(const Problem& problem, const OptimizerOptions& options, Termination* termination = nullptr);
+OptimizerResult optimize(const Problem& problem, const OptimizerOptions& options, Termination& termination);
 
 }  // namespace machplan::tuning

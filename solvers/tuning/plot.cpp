@@ -88,4 +88,41 @@ void write_time_plot(const std::string& path, const std::string& field, const st
   });
 }
 
+void write_tune_plot(const std::string& path, const std::string& field, const Evaluator& ev, const TuneOptions& o,
+                     const TuneResult& r) {
+  Panel p{fmt::format("contour error, um ({}, seed {})", ev.contours().front().spec, ev.options().seed), {}};
+  auto base = ev.error_series(0, o.baseline_kind, {});
+  auto tuned = ev.error_series(0, r.kind, r.gains);
+  for (auto* s : {&base, &tuned})
+    for (double& e : s->error_mm) e *= 1000.0;
+  p.series.push_back({"baseline: axial P", 0.8, 0.2, 0.1, base.t_s, base.error_mm});
+  p.series.push_back({fmt::format("tuned {}", r.kind), 0.1, 0.3, 0.8, tuned.t_s, tuned.error_mm});
+  write_time_plot(path, field, fmt::format("machplan tune: {} on {}", r.kind, r.machine), {p});
+}
+
+void write_acc_plot(const std::string& path, const std::string& field, const AccStudy& st) {
+  Panel force{"cutting force, N", {}}, feed{"feed, mm/rev", {}}, depth{"depth of cut, mm", {}};
+  auto add = [&](const std::vector<turning::AccSample>& run, const std::string& name, double r, double g, double b) {
+    Series f{name, r, g, b, {}, {}}, v{name, r, g, b, {}, {}};
+    for (const auto& s : run) {
+      f.t_s.push_back(s.t_s), f.y.push_back(s.force_n);
+      v.t_s.push_back(s.t_s), v.y.push_back(s.feed_mm_per_rev);
+    }
+    force.series.push_back(f);
+    feed.series.push_back(v);
+  };
+  add(st.koren, "fixed Kc = 0.5 (Koren)", 0.1, 0.1, 0.8);
+  for (std::size_t i = 0; i < st.tunings.size(); ++i) {
+    const AccTuningResult& t = st.tunings[i];
+    add(st.tuned_runs[i], fmt::format("tuned {} = {:.3f}", t.variable_gain ? "L0 (variable gain)" : "Kc", t.gain),
+        t.variable_gain ? 0.0 : 0.8, t.variable_gain ? 0.6 : 0.2, 0.1);
+  }
+  force.series.push_back(
+      {fmt::format("F_r = {:g} N", st.reference_force_n), 0.5, 0.5, 0.5, {0.0, st.duration_s}, {st.reference_force_n, st.reference_force_n}, true});
+  Series d{"depth", 0.3, 0.3, 0.3, {}, {}};
+  for (const auto& s : st.koren) d.t_s.push_back(s.t_s), d.y.push_back(s.depth_mm);
+  depth.series.push_back(d);
+  write_time_plot(path, field, "Adaptive control constraint: depth-of-cut steps of 2 mm", {force, feed, depth});
+}
+
 }  // namespace machplan::tuning

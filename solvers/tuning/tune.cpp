@@ -73,9 +73,12 @@ namespace {
 void summarize(TuneResult& r) {
   Summary& s = r.summary;
   s.status = r.optimizer.stopped() ? status_of(r.optimizer.ended_by) : !r.optimizer.feasible ? Status::infeasible : Status::done;
+  s.usable = usable_when_ended(r.optimizer, s.status);
   if (s.status == Status::infeasible) s.message = "no gains met the constraints; the least violating are shown";
-  else if (!s.done()) s.message = r.optimizer.local.stop_reason.empty() ? r.optimizer.global.stop_reason : r.optimizer.local.stop_reason;
-  s.brief = fmt::format("tuning {} on {}: {}", r.kind, r.machine, to_string(s.status));
+  else if (!s.done())
+    s.message = stop_message(r.optimizer.local.stop_reason.empty() ? r.optimizer.global.stop_reason : r.optimizer.local.stop_reason,
+                             s.usable, "gains");
+  s.brief = fmt::format("tuning {} on {}: {}", r.kind, r.machine, status_text(s));
   if (r.improvement.any())
     s.brief += fmt::format(", max contour error {:.4f} -> {:.4f} mm ({:.2f}x)", r.improvement.baseline_max_mm,
                            r.improvement.tuned_max_mm, r.improvement.max_ratio());
@@ -84,7 +87,7 @@ void summarize(TuneResult& r) {
 
 }  // namespace
 
-TuneResult tune(const Evaluator& ev, const TuneOptions& o, Termination* termination, Progress* progress) {
+TuneResult tune(const Evaluator& ev, const TuneOptions& o, Termination& termination, Progress* progress) {
   o.validate();
   TuneResult r;
   r.machine = ev.machine().name;
@@ -186,7 +189,7 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, Termination* terminat
     summarize(r);
     return r;
   }
-  r.optimizer = optimize(p, o.optimizer, &work);
+  r.optimizer = optimize(p, o.optimizer, work);
   r.gains = gains_of(r.optimizer.x);
   r.tuned = ev.evaluate(o.kind, r.gains);
   r.improvement = compare(r.baseline, r.tuned);
@@ -206,7 +209,7 @@ TuneResult tune(const Evaluator& ev, const TuneOptions& o, Termination* terminat
 
 std::string TuneResult::report() const {
   std::string s = fmt::format("tuning {} on {} ({} contour error): {}\n", kind, machine, to_string(objective),
-                              summary.done() ? "ok" : to_string(summary.status));
+                              status_text(summary));
   if (!summary.done() && !summary.message.empty()) s += fmt::format("  {}\n", summary.message);
   s += "  gains\n";
   for (const auto& sp : specs) {

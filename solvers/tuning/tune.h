@@ -106,10 +106,10 @@ struct TuneResult {
 // The constraint values g of the file comment for one evaluation.
 std::vector<double> constraint_values(const Evaluation& e, const EvaluationOptions& o, double following_limit_mm);
 
-// `termination` (may be null) ends the search early (a stop request); the tuning's own
-// deadline is TuneOptions::max_work_s and its budget the optimizer's max_evaluations.
-// `progress` follows the evaluation budget.
-TuneResult tune(const Evaluator& evaluator, const TuneOptions& options, Termination* termination = nullptr,
+// `termination` ends the search early (a stop request); the tuning's own deadline is
+// TuneOptions::max_work_s and its budget the optimizer's max_evaluations. `progress` follows
+// the evaluation budget.
+TuneResult tune(const Evaluator& evaluator, const TuneOptions& options, Termination& termination,
                 Progress* progress = nullptr);
 
 }  // namespace machplan::tuning

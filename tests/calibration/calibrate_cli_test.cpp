@@ -25,7 +25,7 @@ TEST(CalibrateCli, RecordFitApplyHistoryShow) {
   r = cli.run(fmt::format("calibrate fit '{}' --machine thermal_gantry --json", log));
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
-  EXPECT_EQ(j["status"], "ok");
+  EXPECT_EQ(j["status"], "done");
   for (const char* axis : {"x", "y"}) {
     const auto& a = j["axes"][axis];
     // The nominal machine: gain 0.7 with 2 % viscous friction.
@@ -93,7 +93,7 @@ TEST(CalibrateCli, ALogWithoutReferencesIsNotIdentifiableWithExitCode3) {
   const auto r = cli.run(fmt::format("calibrate fit '{}' --machine thermal_gantry --json", norefs));
   EXPECT_EQ(r.code, 3) << r.err;
   const auto j = nlohmann::json::parse(r.out);
-  EXPECT_EQ(j["status"], "not identifiable");
+  EXPECT_EQ(j["status"], "infeasible");
   EXPECT_NE(j["message"].get<std::string>().find("x.mm_per_count: the log has no reference readings"), std::string::npos);
   // And such a fit cannot become the active calibration.
   const auto a = cli.run(fmt::format("calibrate apply '{}' --machine thermal_gantry", norefs));

@@ -50,7 +50,8 @@ Session session(const cutting::MachineConfig& truth, std::uint64_t seed) {
   RecordOptions o;
   o.seed = seed;
   Session s;
-  s.log = record_session(backend, nominal(), o);
+  Termination never;
+  s.log = record_session(backend, nominal(), o, never).log;
   std::ostringstream out;
   write_session_log(out, s.log);
   s.bytes = out.str();

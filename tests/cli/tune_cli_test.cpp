@@ -26,7 +26,7 @@ TEST(TuneCli, TunesPrintsJsonPlotsAndStores) {
                                 png));
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
-  EXPECT_EQ(j["status"], "ok");
+  EXPECT_EQ(j["status"], "done");
   EXPECT_TRUE(j["gains"].is_object());
   EXPECT_FALSE(j["gains"].empty());
   for (const char* part : {"baseline", "tuned"})
@@ -82,14 +82,42 @@ TEST(TuneCli, AccRunsKorensTestAndPlots) {
   EXPECT_NEAR(settled[0]["feed_mm_per_rev"].get<double>(), 0.25, 0.02);
   for (const auto& s : settled) EXPECT_NEAR(s["force_n"].get<double>(), 1500.0, 30.0);
   ASSERT_EQ(j["tunings"].size(), 2u);
-  EXPECT_EQ(j["tunings"][0]["status"], "ok");
+  EXPECT_EQ(j["tunings"][0]["status"], "done");
   EXPECT_GT(std::filesystem::file_size(png), 1000u);
+}
+
+// The README's command, as written: the test contour has a default, which --help names.
+TEST(TuneCli, TheReadmesCommandTunesOnTheDefaultContour) {
+  test::Cli cli;
+  const auto r = cli.run("tune --machine xy_table --controller p --evaluations 3 --noise-runs 1 --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["tuned"]["contours"][0]["contour"], "circle:20:960");
+  const auto help = cli.run("tune --help");
+  EXPECT_NE(help.out.find("(default circle:20:960)"), std::string::npos) << help.out;
+}
+
+// A deadline that ends the search with gains that meet every constraint leaves a usable
+// answer: exit 0, and the status says the deadline ended it. The start point is evaluated
+// first and the axial P's defaults meet the constraints, so a deadline of a few evaluations'
+// work ends a feasible search.
+TEST(TuneCli, ADeadlineWithUsableGainsIsNoFailure) {
+  test::Cli cli;
+  const auto r = cli.run("tune --machine xy_table --controller p --noise-runs 1 --time 0.05 --json");
+  ASSERT_EQ(r.code, 0) << r.err << r.out.substr(0, 400);
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["status"], "deadline");
+  EXPECT_EQ(j["usable"], true);
+  EXPECT_TRUE(j["optimizer"]["feasible"].get<bool>());
+  EXPECT_NE(j["message"].get<std::string>().find("deadline"), std::string::npos) << j["message"];
+  const auto text = cli.run("tune --machine xy_table --controller p --noise-runs 1 --time 0.05");
+  EXPECT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("deadline (usable)"), std::string::npos) << text.out;
 }
 
 TEST(TuneCli, BadInputExitsTwoNamingTheFlag) {
   test::Cli cli;
   const std::pair<const char*, const char*> cases[] = {
-      {"tune --machine xy_table --controller p", "--contour"},
       {"tune --machine xy_table --controller warp --contour circle:20:960", "--controller"},
       {"tune --machine xy_table --controller p --contour circle:20", "--contour"},
       {"tune --machine xy_table --controller p --contour circle:20:960 --objective mean", "--objective"},

@@ -65,7 +65,7 @@ TEST(Termination, AChildEndsWithItsParentAndChargesIt) {
   StopSource source;
   Termination parent(source.token());
   parent.set_budget(10, "periods");
-  Termination child(&parent);
+  Termination child(parent);
   child.set_budget(4, "samples");
   child.charge(3);
   EXPECT_EQ(parent.units_spent(), 3);
@@ -75,7 +75,7 @@ TEST(Termination, AChildEndsWithItsParentAndChargesIt) {
   EXPECT_EQ(child.reason(), Termination::Reason::budget);
   EXPECT_FALSE(parent.should_end()) << "the parent does not learn the child's own limits";
 
-  Termination second(&parent);
+  Termination second(parent);
   EXPECT_EQ(second.stop_token().bound(), true) << "a child obeys its parent's stop request";
   source.request_stop();
   EXPECT_TRUE(second.should_end());
@@ -136,6 +136,23 @@ TEST(Summary, StatusesAreKeptApart) {
     EXPECT_EQ(s.exit_code(), 3) << to_string(st);
   }
   EXPECT_STREQ(to_string(Status::faulted), "faulted");
+}
+
+TEST(Summary, ADeadlineOrBudgetWithAUsableAnswerIsNoFailure) {
+  Summary s;
+  s.usable = true;
+  for (Status st : {Status::deadline, Status::budget}) {
+    s.status = st;
+    EXPECT_FALSE(s.done()) << "the status still says what ended the work";
+    EXPECT_TRUE(s.usable_answer()) << to_string(st);
+    EXPECT_EQ(s.exit_code(), 0) << to_string(st);
+  }
+  // A stop request, a fault or no answer stay failures whatever the flag says.
+  for (Status st : {Status::infeasible, Status::faulted, Status::cancelled}) {
+    s.status = st;
+    EXPECT_FALSE(s.usable_answer()) << to_string(st);
+    EXPECT_EQ(s.exit_code(), 3) << to_string(st);
+  }
 }
 
 }  // namespace

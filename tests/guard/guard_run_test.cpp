@@ -19,6 +19,9 @@
 namespace machplan::guard {
 namespace {
 
+// These runs have no stop, deadline or budget of the caller's.
+Termination never;
+
 std::string data(const std::string& rel) { return std::string(MACHPLAN_SOURCE_DIR) + "/" + rel; }
 std::string profile(const std::string& name) { return data("datasets/profiles/" + name + ".dxf"); }
 
@@ -44,7 +47,7 @@ struct Row {
 std::vector<Row> paper_table(double feed) {
   std::vector<Row> rows;
   for (double T : {1.0, 2.0, 3.0, 4.0, 5.0}) {
-    const GuardRunResult r = run_guard_file(profile("paper_triangle"), paper_run(MachiningSide::outside, feed, T, 40));
+    const GuardRunResult r = run_guard_file(profile("paper_triangle"), paper_run(MachiningSide::outside, feed, T, 40), never);
     EXPECT_EQ(r.attempts.size(), 40u) << "every stroke reaches the part";
     rows.push_back({T, r.success_percent(), r.mean_undercut_mm});
     std::printf("  %5.1f mm/s  T %3.1f  success %6.2f %%  under-cut %5.2f mm  max invasion %5.2f mm\n", feed, T,
@@ -77,7 +80,7 @@ TEST(ReproductionGuard, PaperStrategyTable2QuadrilateralPocket) {
   // 18 mm/s, which the paper's figures do not show (bench/results/guard_paper.md).
   for (double feed : {12.0, 18.0}) {
     for (double T : {4.0, 5.0}) {
-      const GuardRunResult r = run_guard_file(profile("paper_quadrilateral"), paper_run(MachiningSide::inside, feed, T, 30));
+      const GuardRunResult r = run_guard_file(profile("paper_quadrilateral"), paper_run(MachiningSide::inside, feed, T, 30), never);
       SCOPED_TRACE(feed);
       SCOPED_TRACE(T);
       std::printf("  quadrilateral %5.1f mm/s  T %3.1f  success %6.2f %%  under-cut %5.2f mm\n", feed, T, r.success_percent(),
@@ -88,7 +91,7 @@ TEST(ReproductionGuard, PaperStrategyTable2QuadrilateralPocket) {
     }
   }
   // And at T = 1 mm the same latency invades most of the time.
-  const GuardRunResult r = run_guard_file(profile("paper_quadrilateral"), paper_run(MachiningSide::inside, 12.0, 1.0, 30));
+  const GuardRunResult r = run_guard_file(profile("paper_quadrilateral"), paper_run(MachiningSide::inside, 12.0, 1.0, 30), never);
   EXPECT_LE(r.success_percent(), 30.0);
   EXPECT_GT(r.max_invasion_mm, 0.3);
 }
@@ -105,7 +108,7 @@ void expect_predictive_clean(double feed) {
     GuardRunOptions o = paper_run(c.side, feed, 0.5, 200, 7);
     o.guard.strategy = executor::GuardStrategy::predictive;
     o.region.method = OffsetMethod::robust;
-    const GuardRunResult r = run_guard_file(profile(c.name), o);
+    const GuardRunResult r = run_guard_file(profile(c.name), o, never);
     SCOPED_TRACE(c.name);
     SCOPED_TRACE(to_string(c.side));
     std::printf("  predictive %5.1f mm/s %-20s %-7s attempts %zu invasions %d (max %.4f mm) under-cut mean %.4f max %.4f mm\n",
@@ -131,7 +134,7 @@ TEST(GuardRun, FinishingContoursTheOffsetProfileWithin50Micrometres) {
       o.region.method = OffsetMethod::robust;
       o.finish = true;
       o.finish_allowance_mm = allowance;
-      const GuardRunResult r = run_guard_file(profile(name), o);
+      const GuardRunResult r = run_guard_file(profile(name), o, never);
       SCOPED_TRACE(name);
       SCOPED_TRACE(allowance);
       ASSERT_EQ(r.finish.size(), allowance > 0 ? 2u : 1u);
@@ -151,7 +154,7 @@ TEST(GuardRun, FinishingAPocketFromInside) {
   o.guard.strategy = executor::GuardStrategy::predictive;
   o.region.method = OffsetMethod::robust;
   o.finish = true;
-  const GuardRunResult r = run_guard_file(profile("paper_quadrilateral"), o);
+  const GuardRunResult r = run_guard_file(profile("paper_quadrilateral"), o, never);
   ASSERT_EQ(r.finish.size(), 1u);
   EXPECT_TRUE(r.finish[0].completed) << r.finish[0].fault;
   EXPECT_LE(r.finish[0].max_from_profile_mm, 0.05);
@@ -163,7 +166,7 @@ TEST(GuardRun, ScriptedOperatorRoughsTheTriangle) {
   o.region.tool_radius_mm = 5.0;
   o.guard.tolerance_mm = 0.5;
   o.op = operator_from_string(data("datasets/operators/triangle_roughing.csv"));
-  const GuardRunResult r = run_guard_file(profile("paper_triangle"), o);
+  const GuardRunResult r = run_guard_file(profile("paper_triangle"), o, never);
   EXPECT_GE(r.attempts.size(), 4u);
   EXPECT_EQ(r.invasions, 0);
   EXPECT_LE(r.max_undercut_mm, 0.2);
@@ -172,14 +175,14 @@ TEST(GuardRun, ScriptedOperatorRoughsTheTriangle) {
   o.guard.strategy = executor::GuardStrategy::paper;
   o.guard.tolerance_mm = 1.0;
   o.region.method = OffsetMethod::paper;
-  const GuardRunResult p = run_guard_file(profile("paper_triangle"), o);
+  const GuardRunResult p = run_guard_file(profile("paper_triangle"), o, never);
   EXPECT_GT(p.invasions, 0);
 }
 
 TEST(GuardRun, SameSeedSameRun) {
   const GuardRunOptions o = paper_run(MachiningSide::outside, 18.0, 3.0, 5, 11);
-  const GuardRunResult a = run_guard_file(profile("paper_heptagon"), o);
-  const GuardRunResult b = run_guard_file(profile("paper_heptagon"), o);
+  const GuardRunResult a = run_guard_file(profile("paper_heptagon"), o, never);
+  const GuardRunResult b = run_guard_file(profile("paper_heptagon"), o, never);
   ASSERT_EQ(a.attempts.size(), b.attempts.size());
   for (std::size_t i = 0; i < a.attempts.size(); ++i) EXPECT_EQ(a.attempts[i].closest_mm, b.attempts[i].closest_mm);
 }
@@ -215,7 +218,7 @@ TEST(GuardRun, BadOptionsNameTheField) {
   o.region.tool_radius_mm = 5;
   o.op.kind = OperatorSpec::Kind::script;
   o.op.path = data("tests/fuzz/corpus/operator_script_fuzz/bad_order.csv");
-  EXPECT_NE(where([&] { run_guard_file(profile("paper_triangle"), o); }).find("bad_order.csv"), std::string::npos);
+  EXPECT_NE(where([&] { run_guard_file(profile("paper_triangle"), o, never); }).find("bad_order.csv"), std::string::npos);
 }
 
 }  // namespace

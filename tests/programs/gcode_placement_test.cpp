@@ -40,7 +40,9 @@ TEST(GcodePlacement, OriginMovesTheProgramOntoTheMachine) {
   const ProgramFile f("corner.ngc", kCornerPart);
   motion::RunOptions o;
   o.session.machine = "thermal_gantry";
-  EXPECT_THROW(motion::run_program(f.path(), o), Infeasible) << "X -4 lies outside the travel without an origin";
+  const motion::RunOutcome outside = motion::run_program(f.path(), o);
+  EXPECT_EQ(outside.summary.status, Status::infeasible) << "X -4 lies outside the travel without an origin";
+  EXPECT_NE(outside.summary.message.find("outside the travel"), std::string::npos) << outside.summary.message;
   o.origin_mm = Eigen::Vector2d(100, 200);
   const motion::RunOutcome run = motion::run_program(f.path(), o);
   EXPECT_EQ(run.origin_from, "given");

@@ -11,6 +11,9 @@
 namespace machplan::tuning {
 namespace {
 
+// These calls have no stop, deadline or budget of the caller's.
+Termination never;
+
 TEST(Optimizer, FindsTheMinimumOfAMultimodalFunction) {
   // Two basins; the global one at (2, -1) is not where the start is.
   Problem p;
@@ -21,7 +24,7 @@ TEST(Optimizer, FindsTheMinimumOfAMultimodalFunction) {
   };
   OptimizerOptions o;
   o.max_evaluations = 400;
-  const OptimizerResult r = optimize(p, o);
+  const OptimizerResult r = optimize(p, o, never);
   ASSERT_TRUE(r.feasible);
   EXPECT_NEAR(r.x[0], 2.0, 1e-2);
   EXPECT_NEAR(r.x[1], -1.0, 1e-2);
@@ -42,7 +45,7 @@ TEST(Optimizer, RespectsAConstraintAndLogScale) {
   };
   OptimizerOptions o;
   o.max_evaluations = 200;
-  const OptimizerResult r = optimize(p, o);
+  const OptimizerResult r = optimize(p, o, never);
   ASSERT_TRUE(r.feasible);
   EXPECT_GE(r.x[0], 3.0 - 1e-6);
   EXPECT_NEAR(r.x[0], 3.0, 0.05);
@@ -60,7 +63,7 @@ TEST(Optimizer, ReportsInfeasibleProblemsAndKeepsTheBudget) {
   };
   OptimizerOptions o;
   o.max_evaluations = 60;  // the local stage runs twice (from the global best and from the start)
-  const OptimizerResult r = optimize(p, o);
+  const OptimizerResult r = optimize(p, o, never);
   EXPECT_FALSE(r.feasible);
   EXPECT_NEAR(r.x[0], 0.0, 1e-3) << "the least violating point";
   EXPECT_EQ(r.evaluations, calls);
@@ -83,7 +86,7 @@ TEST(Optimizer, NeverEvaluatesBeyondTheBudget) {
     calls = 0;
     OptimizerOptions o;
     o.max_evaluations = budget;
-    const OptimizerResult r = optimize(p, o);
+    const OptimizerResult r = optimize(p, o, never);
     EXPECT_LE(calls, budget) << budget;
     EXPECT_EQ(r.evaluations, calls) << budget;
     EXPECT_TRUE(r.feasible) << budget;  // the start is feasible
@@ -101,7 +104,7 @@ TEST(Optimizer, StopsOnRequest) {
   OptimizerOptions o;
   o.max_evaluations = 1000;
   Termination t(stop.token());
-  const OptimizerResult r = optimize(p, o, &t);
+  const OptimizerResult r = optimize(p, o, t);
   EXPECT_TRUE(r.stopped());
   EXPECT_EQ(r.ended_by, Termination::Reason::stop_requested);
   EXPECT_LT(r.evaluations, 10);
@@ -110,23 +113,23 @@ TEST(Optimizer, StopsOnRequest) {
 TEST(Optimizer, RejectsMalformedProblemsAndOptions) {
   Problem p;
   p.evaluate = [](const std::vector<double>&, std::vector<double>&) { return 0.0; };
-  EXPECT_THROW(optimize(p, {}), InternalError);
+  EXPECT_THROW(optimize(p, {}, never), InternalError);
   p.parameters = {{"k", 1, 1, 1, false}};
-  EXPECT_THROW(optimize(p, {}), InternalError);
+  EXPECT_THROW(optimize(p, {}, never), InternalError);
   p.parameters = {{"k", 0, 1, 0.5, true}};
-  EXPECT_THROW(optimize(p, {}), InternalError);
+  EXPECT_THROW(optimize(p, {}, never), InternalError);
   p.parameters = {{"k", 0, 1, 0.5, false}};
   OptimizerOptions o;
   o.max_evaluations = 0;
-  EXPECT_THROW(optimize(p, o), InputError);
+  EXPECT_THROW(optimize(p, o, never), InputError);
 }
 
 TEST(AccTuning, VariableGainSettlesFasterThanTheTunedFixedGainWithoutOvershoot) {
   AccTuningOptions o;
   o.optimizer.max_evaluations = 60;
-  const AccTuningResult fixed = tune_acc(o);
+  const AccTuningResult fixed = tune_acc(o, never);
   o.acc.variable_gain = true;
-  const AccTuningResult variable = tune_acc(o);
+  const AccTuningResult variable = tune_acc(o, never);
   ASSERT_TRUE(fixed.summary.done()) << fixed.summary.full_report();
   ASSERT_TRUE(variable.summary.done()) << variable.summary.full_report();
   for (const AccTuningResult* r : {&fixed, &variable}) {

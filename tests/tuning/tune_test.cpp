@@ -4,15 +4,21 @@
 #include <cmath>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "cli/json/tuning.h"
 #include "engine/common/error.h"
+#include "solvers/calibration/store.h"
+#include "solvers/common/internal/sqlite_db.h"
 #include "solvers/session/tuning_store.h"
 #include "solvers/tuning/tune.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::tuning {
 namespace {
+
+// These calls have no stop, deadline or budget of the caller's.
+Termination never;
 
 Evaluator circle_on(const std::string& machine, bool constraints = true) {
   EvaluationOptions o;
@@ -106,7 +112,7 @@ TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
   TuneOptions o;
   o.kind = "p";
   o.optimizer.max_evaluations = 12;
-  const TuneResult r = tune(ev, o);
+  const TuneResult r = tune(ev, o, never);
   ASSERT_TRUE(r.summary.done()) << r.report();
   EXPECT_LE(r.tuned.max_mm, r.start.max_mm + 1e-12);
   EXPECT_LE(r.optimizer.evaluations, 12);
@@ -130,7 +136,7 @@ TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
   EXPECT_NE(r.fresh_baseline.max_mm, r.baseline.max_mm) << "another draw of the noise";
   EXPECT_TRUE(cli::to_json(r).contains("fresh"));
   EXPECT_NE(r.report().find("under noise it was not tuned on"), std::string::npos);
-  const TuneResult rp = tune(ev, plain);
+  const TuneResult rp = tune(ev, plain, never);
   EXPECT_EQ(rp.start_from, "defaults");
   EXPECT_EQ(rp.fresh_seed, 0u);
   EXPECT_FALSE(cli::to_json(rp).contains("fresh"));
@@ -151,7 +157,7 @@ TEST(Tuning, CrossCoupledWithFeedForwardBeatsTheAxialPOnTheCircle) {
   o.start = {{"friction_ff_mm_per_s", 2.0}, {"friction_ff_band_mm_per_s", 0.05}, {"velocity_ff", 1.0},
              {"acceleration_ff_s", 0.006}, {"ccc_ki_per_s2", 10000.0}};
   o.optimizer.max_evaluations = 25;
-  const TuneResult r = tune(ev, o);
+  const TuneResult r = tune(ev, o, never);
   ASSERT_TRUE(r.summary.done()) << r.report();
   EXPECT_LE(r.tuned.max_mm, r.start.max_mm + 1e-12) << r.report();
   EXPECT_LT(r.tuned.max_mm, r.baseline.max_mm / 3.0) << r.report();
@@ -161,7 +167,7 @@ TEST(Tuning, CrossCoupledWithFeedForwardBeatsTheAxialPOnTheCircle) {
   EXPECT_LE(r.gains.at("friction_ff_mm_per_s"), 2.5 + 1e-9);
   // A start value for a gain the kind does not have is refused.
   o.start = {{"no_such_gain", 1.0}};
-  EXPECT_THROW(tune(ev, o), InputError);
+  EXPECT_THROW(tune(ev, o, never), InputError);
 }
 
 TEST(TuningContour, SquareIsOneClosedStretchOfFourSides) {
@@ -212,21 +218,21 @@ TEST(Tuning, FixedGainsAreHeldAndNotSearched) {
   o.kind = "p";
   o.fixed = {{"kp_per_s", 100.0}, {"observer_per_s", 0.0}};
   o.optimizer.max_evaluations = 8;
-  const TuneResult r = tune(ev, o);
+  const TuneResult r = tune(ev, o, never);
   EXPECT_EQ(r.gains.at("kp_per_s"), 100.0);
   EXPECT_EQ(r.gains.at("observer_per_s"), 0.0);
   EXPECT_EQ(cli::to_json(r)["fixed"].size(), 2u);
   EXPECT_NE(r.report().find("(fixed)"), std::string::npos);
   o.fixed = {{"no_such_gain", 1.0}};
   try {
-    tune(ev, o);
+    tune(ev, o, never);
     ADD_FAILURE() << "an unknown gain was fixed";
   } catch (const InputError& e) {
     EXPECT_EQ(e.where(), "fixed");
   }
   o.fixed = {{"kp_per_s", 100.0}};
   o.start = {{"kp_per_s", 90.0}};
-  EXPECT_THROW(tune(ev, o), InputError);
+  EXPECT_THROW(tune(ev, o, never), InputError);
 }
 
 TEST(TuningContour, CornerIsTwoLegsThroughTheCentre) {
@@ -248,17 +254,63 @@ TEST(TuningStoreTest, SavesActivatesAndRefusesFailedTunings) {
   const std::string db = (dir.path() / "store.db").string();
   TuningStore s(db);
   EXPECT_FALSE(s.active("xy_table"));
-  const auto id1 = s.save("xy_table", "p", {{"kp_per_s", 100}}, "ok", "{}", "tester");
-  const auto id2 = s.save("xy_table", "pid", {{"kp_per_s", 120}, {"ki_per_s2", 900}}, "ok", "{}", "tester");
+  const Summary done;
+  const auto id1 = s.save("xy_table", "p", {{"kp_per_s", 100}}, done, "{}", "tester");
+  const auto id2 = s.save("xy_table", "pid", {{"kp_per_s", 120}, {"ki_per_s2", 900}}, done, "{}", "tester");
   EXPECT_NE(id1, id2);
-  EXPECT_THROW(s.save("xy_table", "p", {}, "infeasible", "{}", "tester"), Infeasible);
+  Summary failed;
+  failed.status = Status::infeasible;
+  EXPECT_THROW(s.save("xy_table", "p", {}, failed, "{}", "tester"), Infeasible);
+  failed.status = Status::deadline;  // ended by its deadline, not usable
+  EXPECT_THROW(s.save("xy_table", "p", {}, failed, "{}", "tester"), Infeasible);
   const auto a = s.active("xy_table");
   ASSERT_TRUE(a);
   EXPECT_EQ(a->id, id2);
   EXPECT_EQ(a->controller, "pid");
   EXPECT_DOUBLE_EQ(a->gains.at("ki_per_s2"), 900);
+  EXPECT_EQ(a->status, "done");
   EXPECT_EQ(s.history("xy_table").size(), 2u);
   EXPECT_FALSE(s.active("thermal_gantry"));
+  // Ended by its deadline with gains that meet every constraint: stored, and says so.
+  Summary usable;
+  usable.status = Status::deadline;
+  usable.usable = true;
+  const auto id3 = s.save("xy_table", "ccc", {{"kp_per_s", 90}}, usable, "{}", "tester");
+  EXPECT_EQ(s.active("xy_table")->id, id3);
+  EXPECT_EQ(s.active("xy_table")->status, "deadline");
+}
+
+// A store written before statuses took Summary's spelling: a fit "ok" and a tuning without a
+// status column, both with "ok" in their JSON. Opening it reads them as done.
+TEST(TuningStoreTest, AnOlderStoreReadsInSummarysSpelling) {
+  test::TempDir dir;
+  const std::string db = (dir.path() / "old.db").string();
+  {
+    store::SqliteDb old(db, R"sql(
+CREATE TABLE sessions (id INTEGER PRIMARY KEY, machine TEXT NOT NULL, log_path TEXT NOT NULL, log_hash TEXT NOT NULL,
+  who TEXT NOT NULL, added_utc TEXT NOT NULL);
+CREATE TABLE fits (id INTEGER PRIMARY KEY, session_id INTEGER NOT NULL REFERENCES sessions(id), machine TEXT NOT NULL,
+  status TEXT NOT NULL, fit_json TEXT NOT NULL, who TEXT NOT NULL, created_utc TEXT NOT NULL);
+CREATE TABLE active (machine TEXT PRIMARY KEY, fit_id INTEGER NOT NULL REFERENCES fits(id));
+CREATE TABLE tunings (id INTEGER PRIMARY KEY, machine TEXT NOT NULL, controller TEXT NOT NULL, gains_json TEXT NOT NULL,
+  result_json TEXT NOT NULL, who TEXT NOT NULL, created_utc TEXT NOT NULL);
+CREATE TABLE active_tuning (machine TEXT PRIMARY KEY, tuning_id INTEGER NOT NULL REFERENCES tunings(id));
+INSERT INTO sessions VALUES (1, 'thermal_gantry', '/tmp/s.csv', '00', 'tester', '2026-01-01T00:00:00Z');
+INSERT INTO fits VALUES (1, 1, 'thermal_gantry', 'ok', '{"status": "ok", "axes": {}}', 'tester', '2026-01-01T00:00:00Z');
+INSERT INTO active VALUES ('thermal_gantry', 1);
+INSERT INTO tunings VALUES (1, 'xy_table', 'p', '{"kp_per_s": 80}', '{"status": "ok"}', 'tester', '2026-01-01T00:00:00Z');
+INSERT INTO active_tuning VALUES ('xy_table', 1);
+)sql");
+  }
+  const auto t = TuningStore(db).active("xy_table");
+  ASSERT_TRUE(t);
+  EXPECT_EQ(t->status, "done");
+  EXPECT_EQ(nlohmann::json::parse(t->result_json)["status"], "done");
+  EXPECT_DOUBLE_EQ(t->gains.at("kp_per_s"), 80);
+  const auto f = calibration::CalibrationStore(db).active("thermal_gantry");
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->status, "done");
+  EXPECT_EQ(nlohmann::json::parse(f->fit_json)["status"], "done");
 }
 
 }  // namespace

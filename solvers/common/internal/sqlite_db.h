@@ -1,9 +1,9 @@
-// The SQLite file behind machplan's stores (calibrations in solvers/calibration/store.h, tuned
-// gains in solvers/session/tuning_store.h): one file, each store owning its own tables.
+// The SQLite connection behind machplan's store (solvers/common/store.h: calibrations, tuned
+// gains): one file, each kind of record owning its own tables.
 //
 // Opening never creates folders: a store's path in a folder that does not exist is an error, so a
 // typing mistake cannot scatter databases over the disk. Only the default location
-// (default_store_path() in solvers/calibration/store.h) has its folder created, on first use.
+// (default_store_path() in solvers/common/store.h) has its folder created, on first use.
 // Every failure is an InputError::field("db_path", ...) naming the file.
 //
 // SQLite itself stays in sqlite_db.cpp: the connection and the prepared statement are held

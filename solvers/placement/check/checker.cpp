@@ -69,7 +69,7 @@ struct Checker::Impl {
   // The budget of one call: scene.search.max_pose_queries exact queries.
   struct Call {
     Termination term;
-    Call(Termination& parent, long budget) : term(&parent) {
+    Call(Termination& parent, long budget) : term(parent) {
       term.set_budget(budget, "exact pose queries (search.max_pose_queries in the scene)");
     }
   };

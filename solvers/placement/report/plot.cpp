@@ -97,7 +97,7 @@ void draw(Canvas& cr, double W, double H, const Scene& scene, const PlacementRes
   cr.arc(top.sx(p.x_mm), top.sy(p.y_mm), 5, 0, 2 * M_PI);
   cr.fill();
   cr.set_source_rgb(0, 0, 0);
-  draw_text(cr, 20, 28, fmt::format("top view: {}  x {:.2f}  y {:.2f}  pad {:.1f} mm  rotation {:.0f} deg", to_string(r.status),
+  draw_text(cr, 20, 28, fmt::format("top view: {}  x {:.2f}  y {:.2f}  pad {:.1f} mm  rotation {:.0f} deg", to_string(r.summary.status),
                                p.x_mm, p.y_mm, p.pad_mm, p.rotation_deg));
   draw_text(cr, 20, H - 14, "grey: table   red: peripherals   green: workpiece and tool path   dashed blue: searched region   "
                        "orange: paper search trail   red dot: answer", 11);

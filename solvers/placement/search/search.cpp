@@ -50,7 +50,7 @@ PlacementResult paper_search(const Scene& scene, Checker& checker, Termination& 
   res.region = placement_region(scene, 0.0);
   const Finding& c1 = checker.class1(0.0, term);
   if (c1.interferes) {
-    res.status = PlacementStatus::unavoidable;
+    res.summary.status = Status::infeasible;
     res.summary.message = unavoidable_message(c1);
     res.report = checker.report({}, term);
     return res;
@@ -66,7 +66,7 @@ PlacementResult paper_search(const Scene& scene, Checker& checker, Termination& 
     res.trail.push_back(p);
     ++res.placements_examined;
     if (checker.decide(p, {}, term, &w, nullptr, /*peripherals_first=*/true) == Decision::feasible) {
-      res.status = PlacementStatus::found;
+      res.summary.status = Status::done;
       res.placement = p;
       res.summary.message = fmt::format("free after {} steps", step);
       break;
@@ -82,7 +82,7 @@ PlacementResult paper_search(const Scene& scene, Checker& checker, Termination& 
       p.pad_mm += ss.paper_pad_step_mm;
       have_prev = false;
       if (p.pad_mm > ss.pad_max_mm + 1e-9) {
-        res.status = PlacementStatus::no_placement;
+        res.summary.status = Status::infeasible;
         res.summary.message = fmt::format("the search reached the highest pad ({:.0f} mm) without a free placement; last "
                                           "interference: {}",
                                           ss.pad_max_mm, w.what);
@@ -96,11 +96,11 @@ PlacementResult paper_search(const Scene& scene, Checker& checker, Termination& 
     have_prev = true;
     p = next;
     if (step + 1 == ss.paper_max_steps) {
-      res.status = PlacementStatus::gave_up;
+      res.summary.status = Status::budget;
       res.summary.message = fmt::format("gave up after {} steps", ss.paper_max_steps);
     }
   }
-  res.report = checker.report(res.status == PlacementStatus::found ? res.placement : p, term);
+  res.report = checker.report(res.summary.done() ? res.placement : p, term);
   return res;
 }
 
@@ -378,7 +378,7 @@ bool OptimalSearch::prepare(PlacementResult& res) {
   const long y1 = static_cast<long>(std::floor(region.max().y() / g_ + 1e-9));
   const long p1 = static_cast<long>(std::floor((scene_.search.pad_max_mm - pad0_) / g_ + 1e-9));
   if (region.isEmpty() || x0 > x1 || y0 > y1 || p1 < 0) {
-    res.status = PlacementStatus::no_placement;
+    res.summary.status = Status::infeasible;
     res.summary.message = p1 < 0 ? "the spoilboard is thicker than the highest pad" : "the workpiece does not fit on the table";
     return false;
   }
@@ -388,7 +388,7 @@ bool OptimalSearch::prepare(PlacementResult& res) {
   const Finding& every = nrot == 1 ? checker_.class1(rot_.shown[0], term_) : checker_.class1_every_rotation(term_);
   ring_clear_ = !every.interferes;
   if (every.interferes && (nrot == 1 || every.what.rfind("plate hinges (any rotation)", 0) != 0)) {
-    res.status = PlacementStatus::unavoidable;
+    res.summary.status = Status::infeasible;
     res.summary.message = unavoidable_message(nrot == 1 ? every : checker_.class1(rot_.shown[0], term_));
     res.report = checker_.report(at(0, 0, 0, 0), term_);
     return false;
@@ -439,7 +439,7 @@ bool OptimalSearch::certify(Box& b, PlacementResult& res) {
     spot = Spot{};
     Finding w;
     if (checker_.decide(best, {}, term_, &w, &spot) == Decision::feasible) {
-      res.status = PlacementStatus::found;
+      res.summary.status = Status::done;
       res.placement = best;
       res.objective_value = lexicographic() ? best.pad_mm : b.key.primary;
       return true;
@@ -513,7 +513,7 @@ PlacementResult OptimalSearch::run() {
   }
   const int nrot = static_cast<int>(rot_.deg.size());
   if (!found) {
-    res.status = PlacementStatus::no_placement;
+    res.summary.status = Status::infeasible;
     res.summary.message = fmt::format("no placement on the table with a pad up to {:.0f} mm is free of interference{}",
                                       scene_.search.pad_max_mm, last_.what.empty() ? "" : fmt::format(" (e.g. {})", last_.what));
     res.report = checker_.report(at(0, 0, 0, rot_.best(0, nrot - 1)), term_);
@@ -610,15 +610,14 @@ PlacementResult place(const Scene& scene, const PlacementOptions& o, Termination
     } catch (const WorkEnded& e) {
       // A stop request, a deadline or a budget inside one decision: no partial answer.
       best = PlacementResult{};
-      best.status = e.reason == Termination::Reason::stop_requested ? PlacementStatus::cancelled : PlacementStatus::ended;
       best.summary.status = status_of(e.reason);
       best.summary.message = e.reason == Termination::Reason::budget && !term.ended() ? budget_message(scene) : term.describe();
     }
   });
   best.objective = objective;
   best.threads = threads;
-  best.verified = best.status == PlacementStatus::found && best.report.free();
-  if (best.status == PlacementStatus::found) {
+  best.verified = best.summary.done() && best.report.free();
+  if (best.summary.done()) {
     best.work_offset = scene.model->work_offset(best.placement, -scene.origin_in_cam_mm);
     best.travel = axis_travel(scene, best.placement);
     if (best.travel) best.centre_travel = axis_travel(scene, {0, 0, scene.pad_min_mm(), best.placement.rotation_deg});
@@ -644,18 +643,6 @@ std::optional<AxisTravel> axis_travel(const Scene& scene, const Placement& p) {
   t.forced_flips = path->forced_flips;
   t.flip_poses = path->flip_poses;
   return t;
-}
-
-const char* to_string(PlacementStatus s) {
-  switch (s) {
-    case PlacementStatus::found: return "found";
-    case PlacementStatus::unavoidable: return "unavoidable";
-    case PlacementStatus::no_placement: return "no_placement";
-    case PlacementStatus::gave_up: return "gave_up";
-    case PlacementStatus::cancelled: return "cancelled";
-    case PlacementStatus::ended: return "ended";
-  }
-  return "?";
 }
 
 const char* to_string(PlacementOptions::Objective o) {

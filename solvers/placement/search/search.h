@@ -99,16 +99,6 @@ const char* to_string(PlacementOptions::Objective o);
 const char* to_string(PlacementOptions::Strategy s);
 Parsed<PlacementOptions::Strategy> parse_placement_strategy(std::string_view text);
 
-enum class PlacementStatus {
-  found,         // a free placement, certified over the whole path
-  unavoidable,   // class-1 interference: no relocation can cure it
-  no_placement,  // no placement within the table and the pad limit is free
-  gave_up,       // the paper's search ran out of steps
-  cancelled,     // a stop request
-  ended,         // the work's budget or deadline (summary.status says which)
-};
-const char* to_string(PlacementStatus s);
-
 // Axis travel of a table-tilting machine over the whole path at one placement.
 struct AxisTravel {
   std::vector<std::string> axes;   // X, Y, Z, then the rotary axes
@@ -121,8 +111,19 @@ struct AxisTravel {
 };
 
 struct PlacementResult {
-  Summary summary;  // how the search ended, with its brief and full report
-  PlacementStatus status = PlacementStatus::no_placement;
+  // How the search ended, with its brief and full report: done (a free placement, certified
+  // over the whole path); infeasible (class-1 interference no relocation can cure, or no
+  // placement within the table and the pad limit is free: the message says which); budget
+  // (the paper's search ran out of steps, or the pose queries' budget was spent); cancelled or
+  // deadline.
+  Summary summary = [] {
+    Summary s;
+    s.status = Status::infeasible;  // until the search finds a placement
+    return s;
+  }();
+  // The Termination (a stop request, deadline or budget) ended the search inside a decision:
+  // no answer and nothing examined to show.
+  bool ended_early() const { return !summary.done() && summary.status != Status::infeasible && placements_examined == 0; }
   Placement placement;
   // The answer is certified free for every rotation within this of its own (degrees).
   double rotation_tolerance_deg = 0.0;

@@ -39,18 +39,6 @@ std::string frame_lines(const Scene& s) {
   return out;
 }
 
-Status status_of(PlacementStatus s) {
-  switch (s) {
-    case PlacementStatus::found: return Status::done;
-    case PlacementStatus::unavoidable:
-    case PlacementStatus::no_placement: return Status::infeasible;
-    case PlacementStatus::gave_up: return Status::budget;
-    case PlacementStatus::cancelled: return Status::cancelled;
-    case PlacementStatus::ended: return Status::budget;
-  }
-  return Status::infeasible;
-}
-
 std::string travel_lines(const PlacementResult& r) {
   if (!r.travel) return {};
   const AxisTravel& t = *r.travel;
@@ -117,13 +105,12 @@ void write_check_summary(const Scene& scene, CheckResult& result) {
 
 void write_place_summary(const Scene& scene, const PlacementOptions& o, bool rotations_reduced, PlacementResult& r) {
   Summary& s = r.summary;
-  if (r.status != PlacementStatus::ended) s.status = status_of(r.status);
   const bool optimal = o.strategy == PlacementOptions::Strategy::optimal;
   const std::string head = fmt::format(
       "machplan place {} (machine {}, strategy {}, objective {}, {} tool poses, safe distance {:.1f} mm, {} thread{})\n",
       scene.source, scene.machine.name, optimal ? "optimal" : "paper", to_string(r.objective), scene.tips_mm.size(),
       scene.safe_distance_mm, r.threads, r.threads == 1 ? "" : "s");
-  if (r.status == PlacementStatus::cancelled || r.status == PlacementStatus::ended) {
+  if (r.ended_early()) {
     s.brief = fmt::format("place {}: {}", to_string(s.status), s.message);
     s.full = head + fmt::format("placement search ended ({}) before an answer: {}\ntime: {:.3f} s\n", to_string(s.status),
                                 s.message, r.seconds);
@@ -131,7 +118,7 @@ void write_place_summary(const Scene& scene, const PlacementOptions& o, bool rot
   }
   const Placement& p = r.placement;
   std::string full = head + frame_lines(scene);
-  if (r.status == PlacementStatus::found) {
+  if (s.done()) {
     s.brief = fmt::format("x {:.2f} mm, y {:.2f} mm, {} {:.1f} mm, rotation {:g} deg{}", p.x_mm, p.y_mm,
                           scene.machine.kind == "hexapod" ? "pad" : "fixture height", p.pad_mm, p.rotation_deg,
                           r.verified ? ", certified free" : "");
