@@ -1,5 +1,6 @@
 #include "engine/geometry/nesting.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <utility>
@@ -8,7 +9,14 @@
 
 namespace machplan {
 
-Nesting nest_contours(const std::vector<Contour>& contours) {
+Nesting nest_contours(const std::vector<Contour>& contours,
+                      const std::vector<std::pair<std::size_t, std::size_t>>& crossing) {
+  std::vector<std::pair<std::size_t, std::size_t>> apart;
+  for (const auto& [a, b] : crossing) apart.emplace_back(std::min(a, b), std::max(a, b));
+  std::sort(apart.begin(), apart.end());
+  const auto crosses = [&](std::size_t a, std::size_t b) {
+    return std::binary_search(apart.begin(), apart.end(), std::make_pair(std::min(a, b), std::max(a, b)));
+  };
   const std::size_t n = contours.size();
   Nesting out;
   out.parent.assign(n, -1);
@@ -31,7 +39,7 @@ Nesting nest_contours(const std::vector<Contour>& contours) {
     index.windings(contours[i].vertices().front(), held);
     for (const auto& [k, w] : held) {
       const std::size_t j = source[k];
-      if (j == i || !(area[j] > area[i])) continue;
+      if (j == i || !(area[j] > area[i]) || (!apart.empty() && crosses(i, j))) continue;
       ++out.depth[i];
       if (out.parent[i] < 0 || area[j] < area[static_cast<std::size_t>(out.parent[i])]) out.parent[i] = static_cast<int>(j);
     }

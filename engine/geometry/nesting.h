@@ -16,6 +16,8 @@
 // Thread safety: a pure function.
 #pragma once
 
+#include <cstddef>
+#include <utility>
 #include <vector>
 
 #include "engine/geometry/contour.h"
@@ -28,7 +30,10 @@ struct Nesting {
   std::vector<std::vector<int>> children;  // contours whose parent this is, ascending
 };
 
-// Empty contours hold nothing and have no holders.
-Nesting nest_contours(const std::vector<Contour>& contours);
+// Empty contours hold nothing and have no holders. `crossing` lists pairs (i, j), either order,
+// known to cross or touch (a drawing's overlapping outlines): neither holds the other, so that
+// a contour is nested only in contours it lies wholly inside.
+Nesting nest_contours(const std::vector<Contour>& contours,
+                      const std::vector<std::pair<std::size_t, std::size_t>>& crossing = {});
 
 }  // namespace machplan

@@ -90,8 +90,8 @@
 //
 // Nesting (engine/geometry/nesting.h). For each contour the parent is the smallest contour (by
 // |area|) that contains it; depth 0 are outer boundaries of parts, depth 1 their holes, depth 2
-// parts inside holes, and so on. Contours keep the orientation they were drawn with. Contours
-// that cross (an overlap error) are nested by the first vertex of the smaller one.
+// parts inside holes, and so on. Contours keep the orientation they were drawn with. Two
+// contours that cross or touch (an overlap error) hold neither the other.
 //
 // Thread safety: read_dxf_profile may be called from several threads at once.
 #pragma once

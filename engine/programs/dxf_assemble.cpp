@@ -20,6 +20,14 @@ namespace {
 
 using Eigen::Vector2d;
 
+// Removes the pieces marked gone, keeping the order of the others.
+void drop_gone(std::vector<Piece>& pieces, const std::vector<bool>& gone) {
+  std::vector<Piece> kept;
+  for (std::size_t i = 0; i < pieces.size(); ++i)
+    if (!gone[i]) kept.push_back(std::move(pieces[i]));
+  pieces = std::move(kept);
+}
+
 // Stage 3 over the pieces of one drawing.
 class Assembler {
  public:
@@ -71,10 +79,7 @@ class Assembler {
                 pieces_[b].vertices.front());
       }
     }
-    std::vector<Piece> kept;
-    for (std::size_t i = 0; i < pieces_.size(); ++i)
-      if (!gone[i]) kept.push_back(std::move(pieces_[i]));
-    pieces_ = std::move(kept);
+    drop_gone(pieces_, gone);
   }
 
   // Overlapping collinear lines and concentric arcs (single spans, open): a span lying within
@@ -99,10 +104,7 @@ class Assembler {
       if (arcs) merge_arcs(a, b, gone);
       else if (pieces_[a].bulges[0] == 0.0 && pieces_[b].bulges[0] == 0.0) merge_lines(a, b, gone);
     }
-    std::vector<Piece> kept;
-    for (std::size_t i = 0; i < pieces_.size(); ++i)
-      if (!gone[i]) kept.push_back(std::move(pieces_[i]));
-    pieces_ = std::move(kept);
+    drop_gone(pieces_, gone);
   }
 
   void note_merged(std::size_t dropped, std::size_t other, const std::string& what) {
@@ -203,10 +205,7 @@ class Assembler {
                           where(closed_[b].parts.front()), closed_[b].parts.size(), where(closed_[a].parts.front())),
               closed_[b].vertices.front());
     }
-    std::vector<Piece> kept;
-    for (std::size_t i = 0; i < closed_.size(); ++i)
-      if (!gone[i]) kept.push_back(std::move(closed_[i]));
-    closed_ = std::move(kept);
+    drop_gone(closed_, gone);
   }
 
   // Chaining at the chain tolerance, then healing: the chains still open are chained again at
@@ -320,14 +319,21 @@ class Assembler {
       for (auto e : contour_entities_[a]) h.push_back(label(e));
       for (auto e : contour_entities_[b]) h.push_back(label(e));
     }
-    // Nesting: the smallest contour that holds another's first vertex is its parent.
+    // Nesting: the smallest contour that holds another's first vertex, and does not cross
+    // it, is its parent; the depth counts the parents up to the top.
     std::vector<Contour> contours;
     for (const auto& c : cs) contours.push_back(c.contour);
-    const Nesting nesting = nest_contours(contours);
+    std::vector<std::pair<std::size_t, std::size_t>> crossing_pairs;
+    for (const auto& x : crossings) crossing_pairs.emplace_back(x.a, x.b);
+    const Nesting nesting = nest_contours(contours, crossing_pairs);
     for (std::size_t i = 0; i < cs.size(); ++i) {
       cs[i].parent = nesting.parent[i];
-      cs[i].depth = nesting.depth[i];
       cs[i].children = nesting.children[i];
+    }
+    for (auto& c : cs) {
+      int depth = 0;
+      for (int p = c.parent; p >= 0 && depth <= static_cast<int>(cs.size()); p = cs[static_cast<std::size_t>(p)].parent) ++depth;
+      c.depth = depth;
     }
     if (cs.empty()) problem(E, "no_contours", {}, "the drawing holds no closed contour");
   }

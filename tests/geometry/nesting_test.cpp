@@ -67,5 +67,17 @@ TEST(Nesting, MatchesEveryPairOnARandomSheet) {
   }
 }
 
+TEST(Nesting, ContoursGivenAsCrossingHoldNeitherTheOther) {
+  // A square crossing a larger one that holds its first vertex, inside a third.
+  const std::vector<Contour> cs = {rect(0, 0, 100, 100), rect(10, 10, 60, 60), rect(40, 40, 70, 70)};
+  const Nesting plain = nest_contours(cs);
+  EXPECT_EQ(plain.parent[2], 1);
+  const Nesting apart = nest_contours(cs, {{2, 1}});
+  EXPECT_EQ(apart.parent[2], 0);
+  EXPECT_EQ(apart.depth[2], 1);
+  EXPECT_EQ(apart.parent[1], 0);
+  EXPECT_EQ(apart.children[0], (std::vector<int>{1, 2}));
+}
+
 }  // namespace
 }  // namespace machplan
