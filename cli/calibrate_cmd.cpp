@@ -15,6 +15,7 @@
 #include "cli/command.h"
 #include "cli/field_flags.h"
 #include "cli/interrupt.h"
+#include "cli/json/calibration.h"
 #include "cli/output.h"
 #include "engine/calibration/session_log.h"
 #include "engine/common/error.h"
@@ -194,10 +195,7 @@ void add_store_commands(CLI::App& app) {
     const auto rows = store.history(a->machine);
     if (a->json) {
       nlohmann::json j = nlohmann::json::array();
-      for (const auto& f : rows)
-        j.push_back({{"fit_id", f.fit_id}, {"session_id", f.session_id}, {"machine", f.machine}, {"status", f.status},
-                     {"who", f.who}, {"created_utc", f.created_utc}, {"log_path", f.log_path}, {"log_hash", f.log_hash},
-                     {"active", f.active}, {"fit", nlohmann::json::parse(f.fit_json, nullptr, false)}});
+      for (const auto& f : rows) j.push_back(to_json(f));
       print_json(j);
       return;
     }

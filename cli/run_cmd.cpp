@@ -114,6 +114,7 @@ const FieldFlag kRunFields[] = {
     {"backend.name", "--backend"},
     {"backend", "--backend"},
     {"backend.sim.faults", "--inject"},
+    {"backend.sim.operator_events", "--operator-events"},
     {"backend.sim.sheet_warp_mm", "--sheet-warp"},
     {"gcode.spindle_count", "--spindles"},
     {"max_machine_time_s", "--max-machine-time"},
@@ -128,25 +129,15 @@ motion::RunOptions run_options(const RunArgs& a) {
   session::MachineSessionOptions& so = o.session;
   so.machine = a.machine;
   so.executor.mode = mode_of(a.mode);
-  const bool paper = so.executor.mode != executor::Mode::planned;
-  if (!a.blu.empty()) {
-    if (!paper) throw InputError("--blu", 0, "applies to the paper modes only (--mode paper-open or paper-closed)");
-    so.executor.blu_mm = number_of("--blu", a.blu);
-  }
-  if (!a.calibration.empty()) {
-    if (!paper && a.calibration != "active")
-      throw InputError("--calibration", 0,
-                       "a factor applies to the paper modes only (--mode paper-open or paper-closed); planned mode "
-                       "takes 'active' (the machine's stored calibration)");
-    if (a.calibration == "active") {
-      if (paper && a.feed.empty())
-        throw InputError("--calibration", 0, "'active' needs --feed: the open-loop factor depends on the feed");
-      // Paper modes: the open-loop factor for the feed; planned mode: the whole fit, applied to
-      // the executor's setup (the machine session does both).
-      so.active_calibration = true;
-    } else {
-      so.executor.calibration_factor = number_of("--calibration", a.calibration);
-    }
+  // The rules between options (the paper modes' settings, what only the simulator does) are
+  // the options' own validate(): the panel and a library caller meet them too.
+  if (!a.blu.empty()) so.executor.blu_mm = number_of("--blu", a.blu);
+  if (a.calibration == "active") {
+    // Paper modes: the open-loop factor for the feed; planned mode: the whole fit, applied to
+    // the executor's setup (the machine session does both).
+    so.active_calibration = true;
+  } else if (!a.calibration.empty()) {
+    so.executor.calibration_factor = number_of("--calibration", a.calibration);
   }
   so.store_path = a.db;
   if (a.kerf == "material") o.kerf_from_materials = true;
@@ -161,29 +152,14 @@ motion::RunOptions run_options(const RunArgs& a) {
   so.backend.name = a.backend;
   so.backend.sim.realtime = a.realtime;
   for (const std::string& text : a.inject) so.backend.sim.faults.push_back(injection_of(text));
-  if (!a.operator_events.empty()) {
-    if (a.backend != "sim")
-      throw InputError("--operator-events", 0, "a timeline of operator events plays on the simulator only (--backend sim)");
-    const hardware::OperatorTimeline timeline = hardware::read_operator_events(a.operator_events);
-    // The paper modes' BLU vectors run at one speed: no hold, override or recovery there.
-    if (so.executor.mode != executor::Mode::planned)
-      for (const hardware::OperatorEventRow& r : timeline.rows)
-        if (r.kind != hardware::OperatorEventRow::Kind::stop && r.kind != hardware::OperatorEventRow::Kind::thc)
-          throw InputError(a.operator_events, r.line,
-                           fmt::format("'{}': the paper modes take no feed hold, override or recovery (only stop and thc)",
-                                       hardware::to_string(r.kind)));
-    so.backend.sim.operator_events = timeline.states;
-  }
+  if (!a.operator_events.empty()) so.backend.sim.operator_events = hardware::read_operator_events(a.operator_events).states;
   if (!a.sheet_warp.empty()) {
-    if (a.backend != "sim") throw InputError("--sheet-warp", 0, "the sheet's warp is simulated (--backend sim only)");
     const auto comma = a.sheet_warp.find(',');
     if (comma == std::string::npos)
       throw InputError("--sheet-warp", 0, fmt::format("'{}' is not AMPLITUDE_MM,WAVELENGTH_MM", a.sheet_warp));
     so.backend.sim.sheet_warp_mm = std::make_pair(number_of("--sheet-warp", a.sheet_warp.substr(0, comma)),
                                                   number_of("--sheet-warp", a.sheet_warp.substr(comma + 1)));
   }
-  if (!so.backend.sim.faults.empty() && a.backend != "sim")
-    throw InputError("--inject", 0, "faults can only be injected into the simulator (--backend sim)");
   so.controller = a.controller.empty() || a.controller == "tuned"
                       ? a.controller
                       : accept(control::parse_controller_kind(a.controller), "--controller");

@@ -9,16 +9,20 @@
 
 #include <fmt/format.h>
 
+#include "cli/json/calibration.h"
 #include "cli/json/cut_order_json.h"
 #include "cli/json/guard.h"
 #include "cli/json/run.h"
 #include "cli/panel/job_drawing.h"
 #include "engine/common/error.h"
+#include "engine/common/stop.h"
+#include "engine/common/summary.h"
 #include "engine/executor/jog_source.h"
 #include "engine/executor/supervisor.h"
 #include "engine/geometry/region.h"
 #include "engine/hardware/operator_input.h"
 #include "solvers/calibration/store.h"
+#include "solvers/motion/from_line.h"
 #include "solvers/session/tuning_store.h"
 
 namespace machplan::panel {
@@ -48,6 +52,13 @@ void PanelOptions::validate() const {
 }
 
 namespace {
+
+// How a run ended, in Summary's spelling: the one place the panel reads it from a run.
+std::string ending_of(const motion::RunOutcome& r) { return to_string(r.summary.status); }
+
+// A stop asked for (the stop button, a stop request) ends a run as cancelled: it is the run's
+// ending, not a fault of the machine to show in the fault banner.
+bool a_stop(executor::FaultKind k) { return k == executor::FaultKind::stop_requested || k == executor::FaultKind::operator_stop; }
 
 std::int64_t now_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
@@ -261,7 +272,18 @@ void Panel::press(bool hardware::OperatorInputs::*button) {
   publish_inputs();
 }
 
-void Panel::hold() { press(&hardware::OperatorInputs::feed_hold); }
+void Panel::refuse_in_paper_mode(const hardware::OperatorInputs& asked) const {
+  if (!session::paper_mode(o_.session.executor.mode)) return;
+  if (const std::string lacks = session::paper_mode_lacks(asked); !lacks.empty())
+    throw InputError("", 0, fmt::format("{}: {}", lacks, session::kPaperModesLack));
+}
+
+void Panel::hold() {
+  hardware::OperatorInputs asked;
+  asked.feed_hold = true;
+  refuse_in_paper_mode(asked);
+  press(&hardware::OperatorInputs::feed_hold);
+}
 
 void Panel::resume() {
   if (activity_.load() == Activity::guarding) {
@@ -271,6 +293,9 @@ void Panel::resume() {
     stick_.store(hardware::LiveOperator::pack(s));
     return;
   }
+  hardware::OperatorInputs asked;
+  asked.cycle_start = true;
+  refuse_in_paper_mode(asked);
   press(&hardware::OperatorInputs::cycle_start);
 }
 
@@ -304,6 +329,10 @@ void Panel::estop() {
 void Panel::reset() {
   if (activity_.load() != Activity::idle) throw Busy("the machine is still stopping: reset once it is at rest");
   estop_.store(false);
+  {
+    const std::lock_guard<std::mutex> lock(job_mutex_);
+    last_fault_json_ = json::array();  // acknowledged: the banner shows only what is in force
+  }
   const std::lock_guard<std::mutex> lock(op_mutex_);
   op_.estop = false;
   publish_inputs();
@@ -314,6 +343,10 @@ void Panel::set_overrides(std::optional<double> feed_pct, std::optional<double> 
     throw InputError::field("feed", fmt::format("{} % is out of range: the feed override is 0 .. 200 %", *feed_pct));
   if (rapid_pct && !(std::isfinite(*rapid_pct) && *rapid_pct >= 1 && *rapid_pct <= 100))
     throw InputError::field("rapid", fmt::format("{} % is out of range: the rapid override is 1 .. 100 %", *rapid_pct));
+  hardware::OperatorInputs asked;
+  asked.feed_override_pct = feed_pct.value_or(100.0);
+  asked.rapid_override_pct = rapid_pct.value_or(100.0);
+  refuse_in_paper_mode(asked);
   const std::lock_guard<std::mutex> lock(op_mutex_);
   if (feed_pct) op_.feed_override_pct = *feed_pct;
   if (rapid_pct) op_.rapid_override_pct = *rapid_pct;
@@ -323,6 +356,9 @@ void Panel::set_overrides(std::optional<double> feed_pct, std::optional<double> 
 void Panel::recover(double mm) {
   if (!(std::isfinite(mm) && std::abs(mm) <= 1000 && mm != 0))
     throw InputError::field("mm", fmt::format("{} mm: a recovery moves -1000 .. 1000 mm along the path, not 0", mm));
+  hardware::OperatorInputs asked;
+  asked.recover_mm = mm;
+  refuse_in_paper_mode(asked);
   const std::lock_guard<std::mutex> lock(op_mutex_);
   op_.recover_mm += mm;
   publish_inputs();
@@ -461,9 +497,14 @@ void Panel::runner_loop() {
         case Command::quit: break;
       }
     } catch (const std::exception& e) {
+      // Planning a job again (a run from a line, a run after a change of origin) can be
+      // stopped (the E-stop, the stop button) or find the job cannot be done.
+      const bool cancelled = dynamic_cast<const Cancelled*>(&e) != nullptr;
+      const bool infeasible = !cancelled && dynamic_cast<const Infeasible*>(&e) != nullptr;
       const std::lock_guard<std::mutex> lock(job_mutex_);
-      last_end_ = "faulted";
-      last_fault_json_ = json::array({{{"kind", "error"}, {"message", clean(e.what())}, {"line", 0}}});
+      last_end_ = to_string(cancelled ? Status::cancelled : infeasible ? Status::infeasible : Status::faulted);
+      last_fault_json_ = cancelled ? json::array()
+                                   : json::array({{{"kind", "error"}, {"message", clean(e.what())}, {"line", 0}}});
     }
     {
       const std::lock_guard<std::mutex> lock(stop_mutex_);
@@ -526,37 +567,36 @@ void Panel::run_job(std::optional<int> from_line) {
   json j = cli::to_json(outcome);
   j["cut_order"] = cli::cut_order_json(outcome.cut_order);
   auto text = std::make_shared<const std::string>(j.dump(-1, ' ', false, json::error_handler_t::replace));
+  {
+    const std::lock_guard<std::mutex> lock(job_mutex_);
+    report_ = std::move(text);
+  }
+  record_end(ending_of(outcome), outcome.result.faults);
+}
+
+void Panel::record_end(const std::string& ending, const std::vector<executor::FaultReport>& faults) {
   const std::lock_guard<std::mutex> lock(job_mutex_);
-  report_ = std::move(text);
-  last_end_ = outcome.summary.done() ? "done" : "faulted";
+  last_end_ = ending;
   last_fault_json_ = json::array();
-  for (const executor::FaultReport& f : outcome.result.faults)
-    last_fault_json_.push_back({{"kind", executor::to_string(f.kind)}, {"message", clean(f.message)}, {"line", f.source_line}});
+  for (const executor::FaultReport& f : faults)
+    if (!a_stop(f.kind))
+      last_fault_json_.push_back({{"kind", executor::to_string(f.kind)}, {"message", clean(f.message)}, {"line", f.source_line}});
 }
 
 bool Panel::move_to(const Eigen::Vector2d& from, const Eigen::Vector2d& target, Termination& t) {
-  motion::Job job;
-  job.source = "panel: rapid to the job's start";
-  job.start_mm = from;
-  motion::Stretch s;
-  s.rapid = true;
-  s.segments.push_back(make_segment(from, target, 0.0));
-  s.feed_mm_per_s.push_back(session_->machine().limits.rapid_mm_per_s);
-  s.source_lines.push_back(0);
-  job.stretches.push_back(std::move(s));
-  job.steps.push_back({motion::Step::Kind::move, 0, 0, 0.0});
+  // The rapid a run from a line starts with (solvers/motion/from_line.h), planned and run as
+  // `machplan run` plans and runs a job: round the declared no-go zones, no kerf.
   motion::RunOptions options = o_.run;
   options.kerf_mm = 0.0;
+  options.kerf_from_materials = false;
   planning_ = true;
-  motion::PlannedRun plan = motion::plan_job(std::move(job), options, session_->machine(), {&t, nullptr, nullptr});
+  motion::PlannedRun plan =
+      motion::plan_job(motion::rapid_job(from, target, session_->machine().limits.rapid_mm_per_s, "panel: rapid to the job's start"),
+                       options, session_->machine(), {&t, nullptr, nullptr});
   planning_ = false;
   const motion::RunOutcome r = motion::execute(*session_, std::move(plan), options, {&t, nullptr, nullptr});
   if (r.summary.done()) return true;
-  const std::lock_guard<std::mutex> lock(job_mutex_);
-  last_end_ = "faulted";
-  last_fault_json_ = json::array();
-  for (const executor::FaultReport& f : r.result.faults)
-    last_fault_json_.push_back({{"kind", executor::to_string(f.kind)}, {"message", f.message}, {"line", 0}});
+  record_end(ending_of(r), r.result.faults);
   return false;
 }
 
@@ -590,12 +630,10 @@ void Panel::run_jog() {
     }
   }
   const executor::ExecutionResult r = s->finish();
-  const std::lock_guard<std::mutex> lock(job_mutex_);
-  for (const executor::FaultReport& f : r.faults) {
-    if (f.kind == executor::FaultKind::stop_requested) continue;  // the jog's own end
-    last_end_ = "faulted";
-    last_fault_json_ = json::array({{{"kind", executor::to_string(f.kind)}, {"message", f.message}, {"line", 0}}});
-  }
+  // A jog ends by its own stop request (or the stop button); only a fault is an ending worth
+  // showing.
+  for (const executor::FaultReport& f : r.faults)
+    if (!a_stop(f.kind)) return record_end(to_string(Status::faulted), r.faults);
 }
 
 void Panel::run_guard_session() {
@@ -656,7 +694,6 @@ json Panel::status() {
     case Activity::jogging: state = "jogging"; break;
     case Activity::guarding: state = "guarding"; break;
   }
-  if (state == "cancelled") state = "faulted";
   s["state"] = state;
   s["activity"] = to_string(a);
   s["estop"] = estop_.load();
@@ -683,7 +720,9 @@ json Panel::status() {
   }
   s["torch"] = {{"fire", l.torch_fire},       {"arc_ok", l.arc_ok},     {"height_mm", l.torch_height_mm},
                 {"thc_active", l.thc_active}, {"arc_voltage_v", l.arc_voltage_v}};
-  s["progress"] = l.progress;
+  // The tick's progress stops short of 1 until the job's end is seen; a job that ended done is
+  // all done.
+  s["progress"] = a == Activity::idle && state == to_string(Status::done) ? 1.0 : l.progress;
   s["time_left_s"] = l.time_left_s;
   s["holds"] = l.holds;
   s["t_s"] = l.t_s;
@@ -734,16 +773,7 @@ json Panel::history() const {
   std::error_code ec;
   h["store"] = path;
   if (!fs::is_regular_file(path, ec)) return h;  // nothing stored yet; never create the store here
-  for (const calibration::StoredFit& f : calibration::CalibrationStore(path).history())
-    h["calibrations"].push_back({{"fit_id", f.fit_id},
-                                 {"machine", f.machine},
-                                 {"status", f.status},
-                                 {"who", f.who},
-                                 {"created_utc", f.created_utc},
-                                 {"active", f.active},
-                                 {"feed_factor", {f.feed_factor[0], f.feed_factor[1]}},
-                                 {"backlash_mm", {f.backlash_mm[0], f.backlash_mm[1]}},
-                                 {"mm_per_count", {f.mm_per_count[0], f.mm_per_count[1]}}});
+  for (const calibration::StoredFit& f : calibration::CalibrationStore(path).history()) h["calibrations"].push_back(cli::to_json(f));
   for (const tuning::StoredTuning& t : tuning::TuningStore(path).history())
     h["tunings"].push_back({{"id", t.id},
                             {"machine", t.machine},

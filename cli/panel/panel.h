@@ -115,12 +115,15 @@ class Panel {
   // loaded or the E-stop is latched; InputError for a line the program does not have.
   void run(std::optional<int> from_line);
   // Buttons (HTTP hold, resume, stop).
+  // A paper-mode session has no hold, resume, override or recovery: those throw InputError
+  // with the rule a run's options give (session::kPaperModesLack).
   void hold();
   void resume();
   void stop();
   // Any client, any time: opens the operator's E-stop (latched), stops planning and guard.
   void estop();
-  // Closes the E-stop latch. Busy while a run is still stopping.
+  // Closes the E-stop latch and acknowledges the faults shown. Busy while a run is still
+  // stopping.
   void reset();
   // Levels; InputError::field for a value out of range (feed 0 .. 200 %, rapid 1 .. 100 %).
   void set_overrides(std::optional<double> feed_pct, std::optional<double> rapid_pct);
@@ -171,6 +174,12 @@ class Panel {
   void press(bool hardware::OperatorInputs::*button);
   void publish_inputs();  // op_ to the channel; under op_mutex_
   void set_command(Command c);
+  // A run ended `ending` (Summary's spelling) with `faults`: the status shows both. Takes
+  // job_mutex_.
+  void record_end(const std::string& ending, const std::vector<executor::FaultReport>& faults);
+  // The paper modes lack what `asked` asks (session::paper_mode_lacks): refused with the rule
+  // that refuses it in a run's options.
+  void refuse_in_paper_mode(const hardware::OperatorInputs& asked) const;
   // The run's options for a job: the panel's, with the job's origin and materials.
   motion::RunOptions job_options(const std::optional<Eigen::Vector2d>& origin_mm, const std::string& materials_path,
                                  int material) const;
@@ -196,9 +205,12 @@ class Panel {
   std::shared_ptr<const std::string> drawing_, report_, guard_drawing_;
   std::string tmp_dir_;
   int job_id_ = 0;
-  std::vector<std::string> last_faults_;   // messages of the last run's faults
-  nlohmann::json last_fault_json_;         // [{kind, message, line}]
-  std::string last_end_ = "idle";          // done | faulted | cancelled | idle
+  // The faults now in force, [{kind, message, line}]: the last run's (a stop request is its
+  // ending, not a fault), or the E-stop pressed since; reset() acknowledges them.
+  nlohmann::json last_fault_json_ = nlohmann::json::array();
+  // How the last run ended, in Summary's spelling (done, faulted, cancelled, ...); "idle"
+  // before the first, "running" while one runs.
+  std::string last_end_ = "idle";
   std::optional<GuardRequest> guard_request_;
   Latest<guard::GuardLive> guard_live_;
   std::atomic<bool> guard_live_valid_{false};

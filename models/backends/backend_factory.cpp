@@ -48,6 +48,22 @@ void BackendOptions::validate() const {
 #if MACHPLAN_HAL_BACKEND
   if (name == "hal") validate_member("hal", hal);
 #endif
+  // What only a simulated machine does: another backend would silently go without it.
+  if (name != "sim") {
+    const auto refuse = [&](const char* field, const std::string& what, const char* rule) {
+      throw InputError::field(field, fmt::format("{}: {} on the simulator only (backend sim), not on backend {}", what, rule, name));
+    };
+    if (!sim.faults.empty())
+      refuse("sim.faults", fmt::format("{} at {:g} s", sim::to_string(sim.faults.front().kind), sim.faults.front().at_s),
+             "faults are injected");
+    if (!sim.operator_events.empty())
+      refuse("sim.operator_events",
+             fmt::format("events from {:g} s to {:g} s", sim.operator_events.front().at_s, sim.operator_events.back().at_s),
+             "a timeline of operator events plays");
+    if (sim.sheet_warp_mm)
+      refuse("sim.sheet_warp_mm", fmt::format("{:g} mm over {:g} mm", sim.sheet_warp_mm->first, sim.sheet_warp_mm->second),
+             "the sheet's warp is simulated");
+  }
 }
 
 std::unique_ptr<hardware::Backend> make_backend(const cutting::MachineConfig& machine, const BackendOptions& o) {

@@ -27,8 +27,9 @@ struct BackendOptions {
   // For "hal": the connection's own settings; make_backend() fills in what the machine file
   // says (period, axis signals, torch pins).
   hardware::HalOptions hal;
-  // Throws InputError naming the field: an unknown name (listing the known backends), or a
-  // field of the simulator's options ("sim.faults").
+  // Throws InputError naming the field: an unknown name (listing the known backends), a
+  // field of the simulator's options ("sim.faults"), or what only the simulator does (injected
+  // faults, an operator timeline, a warped sheet) asked of another backend.
   void validate() const;
 };
 

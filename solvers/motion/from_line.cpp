@@ -43,7 +43,25 @@ void add_move(Job& job, Stretch s, int line) {
   job.steps.push_back(st);
 }
 
+// A straight rapid from `from` to `to`, at program line `line`; the rapid planner routes it.
+void add_rapid(Job& job, const Eigen::Vector2d& from, const Eigen::Vector2d& to, double rapid_feed_mm_per_s, int line) {
+  Stretch r;
+  r.rapid = true;
+  r.segments.push_back(make_segment(from, to, 0.0));
+  r.feed_mm_per_s.push_back(rapid_feed_mm_per_s);
+  r.source_lines.push_back(line);
+  add_move(job, std::move(r), line);
+}
+
 }  // namespace
+
+Job rapid_job(const Eigen::Vector2d& from_mm, const Eigen::Vector2d& to_mm, double rapid_feed_mm_per_s, std::string source) {
+  Job job;
+  job.source = std::move(source);
+  job.start_mm = from_mm;
+  add_rapid(job, from_mm, to_mm, rapid_feed_mm_per_s, 0);
+  return job;
+}
 
 Job start_at_line(const Job& job, int line, double rapid_feed_mm_per_s, LineStart& start) {
   start = LineStart{};
@@ -88,14 +106,7 @@ Job start_at_line(const Job& job, int line, double rapid_feed_mm_per_s, LineStar
   start.prefix_stretches = out.stretches.size();
 
   // The safe rapid to the start, and the torch lit there.
-  if ((at - job.start_mm).norm() > 1e-9) {
-    Stretch r;
-    r.rapid = true;
-    r.segments.push_back(make_segment(job.start_mm, at, 0.0));
-    r.feed_mm_per_s.push_back(rapid_feed_mm_per_s);
-    r.source_lines.push_back(line);
-    add_move(out, std::move(r), line);
-  }
+  if ((at - job.start_mm).norm() > 1e-9) add_rapid(out, job.start_mm, at, rapid_feed_mm_per_s, line);
   if (start.relight) {
     Step on;
     on.kind = Step::Kind::torch_on;

@@ -40,6 +40,11 @@ struct LineStart {
 // InputError::field("from_line", ...) when no step of the job is at or after the line.
 Job start_at_line(const Job& job, int line, double rapid_feed_mm_per_s, LineStart& start);
 
+// A job of one rapid from `from_mm` to `to_mm`, made as the rapid a run from a line starts
+// with: how the panel brings the machine to a job's start. Planned as any job (plan_job), its
+// rapid is routed round the declared no-go zones.
+Job rapid_job(const Eigen::Vector2d& from_mm, const Eigen::Vector2d& to_mm, double rapid_feed_mm_per_s, std::string source);
+
 // Removes the prefix that start_at_line() put in front, renumbering the stretches.
 void drop_prefix(Job& job, const LineStart& start);
 

@@ -121,9 +121,19 @@ bool within_time_limit(PlannedRun& o, double estimate_s, double limit_s, const c
   return false;
 }
 
+// The run's session with the feed its calibration's open-loop factor is for (the paper modes
+// run every feed move at the override).
+session::MachineSessionOptions with_paper_feed(session::MachineSessionOptions so, const RunOptions& o) {
+  if (o.feed_override_mm_per_s > 0) so.paper_feed_mm_per_s = o.feed_override_mm_per_s;
+  return so;
+}
+
 }  // namespace
 
 void RunOptions::validate() const {
+  // The session's rules as the run's own (its fields named as the session names them: a run
+  // and its session are one set of options to the caller).
+  with_paper_feed(session, *this).validate();
   check_range("kerf_mm", kerf_mm, 0.0, 100.0, false, " mm");
   // Below a micrometre a kerf is lost in the offset's own tolerance (engine/geometry/offset.h).
   if (kerf_mm > 0 && kerf_mm < 0.001)
@@ -320,11 +330,10 @@ bool plan_the_feeds(PlannedRun& o, const RunControl& control) {
 }  // namespace
 
 session::MachineSessionOptions session_options_for(const RunOptions& options) {
-  session::MachineSessionOptions so = options.session;
+  session::MachineSessionOptions so = with_paper_feed(options.session, options);
   if (!so.machine_config) so.machine_config = cutting::load_machine(cutting::find_machine(so.machine));
   if (paper_mode(options) && options.paper_x1_decoding)
     for (auto& a : so.machine_config->axes) a.plant.decoding = 1;
-  if (options.feed_override_mm_per_s > 0) so.paper_feed_mm_per_s = options.feed_override_mm_per_s;
   return so;
 }
 

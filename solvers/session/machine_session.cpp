@@ -12,6 +12,17 @@
 
 namespace machplan::session {
 
+bool paper_mode(executor::Mode mode) { return mode == executor::Mode::paper_open || mode == executor::Mode::paper_closed; }
+
+std::string paper_mode_lacks(const hardware::OperatorInputs& in) {
+  if (in.feed_hold) return "a feed hold";
+  if (in.cycle_start) return "a cycle start";
+  if (in.feed_override_pct != 100.0) return fmt::format("a feed override of {:g} %", in.feed_override_pct);
+  if (in.rapid_override_pct != 100.0) return fmt::format("a rapid override of {:g} %", in.rapid_override_pct);
+  if (in.recover_mm != 0.0) return fmt::format("a cut recovery of {:g} mm", in.recover_mm);
+  return {};
+}
+
 void MachineSessionOptions::validate() const {
   if (!machine_config && machine.empty()) throw InputError::field("machine", "names no machine");
   if (controller.empty() && !gains.empty())
@@ -19,10 +30,26 @@ void MachineSessionOptions::validate() const {
   if (!controller.empty() && controller != "tuned") control::parse_controller_kind(controller);
   if (calibration && active_calibration)
     throw InputError::field("calibration", "a calibration is given and the active one is asked for: choose one");
-  const bool paper = executor.mode == executor::Mode::paper_open || executor.mode == executor::Mode::paper_closed;
+  const bool paper = paper_mode(executor.mode);
   if (paper && (calibration || active_calibration) && !(std::isfinite(paper_feed_mm_per_s) && paper_feed_mm_per_s > 0))
     throw InputError::field("paper_feed_mm_per_s",
                             "a calibration in the paper modes needs the feed: the open-loop factor depends on it");
+  // The paper modes' own settings: another mode would silently ignore them. (Their defaults
+  // are every mode's.)
+  const executor::ExecutorOptions defaults;
+  if (!paper && executor.blu_mm != defaults.blu_mm)
+    throw InputError::field("executor.blu_mm", fmt::format("{} mm: a vector length applies to the paper modes only (mode "
+                                                           "paper-open or paper-closed), not to mode {}",
+                                                           executor.blu_mm, executor::to_string(executor.mode)));
+  if (!paper && executor.calibration_factor != defaults.calibration_factor)
+    throw InputError::field("executor.calibration_factor",
+                            fmt::format("{}: a factor applies to the paper modes only (mode paper-open or paper-closed); "
+                                        "mode {} takes the machine's active calibration instead",
+                                        executor.calibration_factor, executor::to_string(executor.mode)));
+  if (paper)
+    for (const hardware::OperatorEvent& e : backend.sim.operator_events)
+      if (const std::string lacks = paper_mode_lacks(e.inputs); !lacks.empty())
+        throw InputError::field("backend.sim.operator_events", fmt::format("{} at {:g} s: {}", lacks, e.at_s, kPaperModesLack));
   validate_member("executor", executor);
   validate_member("backend", backend);
 }
@@ -78,7 +105,7 @@ MachineSession::MachineSession(MachineSessionOptions options) : impl_(std::make_
   }
   executor::ExecutorOptions eo = m.o.executor;
   if (m.calibration) {
-    const bool paper = eo.mode == executor::Mode::paper_open || eo.mode == executor::Mode::paper_closed;
+    const bool paper = paper_mode(eo.mode);
     // Paper modes: the open-loop factor for the feed; otherwise the whole fit, applied to the
     // executor's setup.
     if (paper) eo.calibration_factor = calibration::open_loop_factor(*m.calibration, m.o.paper_feed_mm_per_s);
@@ -94,7 +121,9 @@ MachineSession::MachineSession(MachineSessionOptions options) : impl_(std::make_
     const auto t = tuning::TuningStore(m.store()).active(m.machine.name);
     if (!t)
       throw InputError::field("controller",
-                              fmt::format("no active tuning for '{}' in {} (machplan tune --store)", m.machine.name, m.store()));
+                              fmt::format("no active tuning for '{}' in {}: none has been stored for this machine (machplan "
+                                          "tune stores one)",
+                                          m.machine.name, m.store()));
     kind = t->controller;
     gains = t->gains;
     for (const auto& [name, value] : m.o.gains) gains[name] = value;

@@ -26,7 +26,11 @@
 // Errors: a bad machine, store, controller or option throws InputError before anything
 // opens (fields named as in MachineSessionOptions); a backend that disagrees with the machine
 // file throws InputError when it opens. Once a run has started nothing throws: faults are in
-// the result.
+// the result. The rules that tie one option to another live in validate(), so that every
+// caller (the command line, the panel, a library) meets the same refusal: the paper modes'
+// settings (blu_mm, calibration_factor) outside the paper modes, a paper mode asked for a feed
+// hold, override or recovery (paper_mode_lacks()), a calibration in a paper mode without its
+// feed; what only the simulator does is refused on another backend by BackendOptions.
 //
 // Threading: one thread runs jobs; operator() may be written from any thread.
 #pragma once
@@ -83,6 +87,16 @@ struct MachineSessionOptions {
   // Throws InputError naming the field, its value and the rule.
   void validate() const;
 };
+
+// The paper modes' BLU vectors run a stretch at one speed from its first vector to its last:
+// they have no feed hold, cycle start, override or cut recovery. What `inputs` asks of those
+// ("a feed hold", "a feed override of 50 %", ...), "" when it asks nothing the paper modes
+// lack (stop, THC and the E-stop they take). kPaperModesLack is the rule, for messages.
+std::string paper_mode_lacks(const hardware::OperatorInputs& inputs);
+inline constexpr const char* kPaperModesLack =
+    "the paper modes take no feed hold, override or recovery (only stop and thc)";
+// paper-open or paper-closed.
+bool paper_mode(executor::Mode mode);
 
 class MachineSession {
  public:

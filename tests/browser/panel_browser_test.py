@@ -4,15 +4,20 @@ Selenium through `chromium-driver`, against `machplan serve` on the simulator.
 
 What it does, as an operator would, and what it asserts:
   1. the page opened without the token (and with a wrong one) shows the login banner, its
-     API calls get 401 and the live stream stays offline;
-  2. opened with the printed URL (the token), it logs in, goes live, takes control, loads
+     API calls get 401, the live stream stays offline, and nothing looks live: the state says
+     "not authorised" (not idle) and the E-STOP is disabled (OUT/panel_refused.png);
+  2. opened with the printed URL (the token) while another client holds control, Load and Run
+     are greyed out and say why next to them; it logs in, goes live, takes control, loads
      datasets/parts/triangle_45.ngc through the file picker with the bundled material file and
      material 2, runs it: the state goes to
      running and the DRO's position changes; while the torch cuts a screenshot of the page is
      saved (OUT/panel_running.png); Hold brings the state to held and the DRO to rest;
-     Resume ends in done, and the report box shows the run (completed, one hold, torch off);
+     Resume ends in done at 100 %, and the report box shows the run (completed, one hold,
+     torch off) where it is seen, without scrolling;
   3. run again, E-STOP pressed mid-cut: the fault banner names the E-stop, the DRO's torch is
-     off, and the server's status agrees (faulted, estop latched, torch off).
+     off, and the server's status agrees (faulted, estop latched, torch off); Reset clears the
+     banner; run again and Stop: the state says cancelled, no fault banner; an E-STOP pressed
+     then shows the E-stop (not an older message) until Reset.
 
 Every wait is bounded and waits for a state, not for a time. The server and the browser are
 always stopped, whatever happens.
@@ -96,6 +101,15 @@ def server_status(port, token):
         return json.loads(r.read())
 
 
+def take_control_elsewhere(port, token):
+    # Another operator's client (a second browser, a script) holds control.
+    req = urllib.request.Request(f"http://127.0.0.1:{port}/api/control", data=b'{"take": true}', method="POST",
+                                 headers={"Authorization": "Bearer " + token, "Content-Type": "application/json",
+                                          "X-Machplan-Client": "another-operators-client"})
+    with urllib.request.urlopen(req, timeout=10) as r:
+        return json.loads(r.read())
+
+
 def browser(profile_dir):
     o = webdriver.ChromeOptions()
     o.binary_location = shutil.which("chromium") or "/usr/bin/chromium"
@@ -136,7 +150,7 @@ def fetch_status_code(d):
         "fetch('/api/status', {credentials: 'same-origin'}).then(r => done(r.status)).catch(e => done(-1));")
 
 
-def refused_without_token(d, port):
+def refused_without_token(d, out_dir, port):
     for url in [f"http://127.0.0.1:{port}/", f"http://127.0.0.1:{port}/?token={'0' * 64}"]:
         d.get(url)
         wait_until(lambda: visible(d, "login"), f"{url.split('?')[-1] if '?' in url else 'no token'}: the login banner shows")
@@ -144,6 +158,21 @@ def refused_without_token(d, port):
         time.sleep(0.5)  # a live stream, were it wrongly accepted, would be up by now
         check(text(d, "link") == "offline", "the live stream stays offline without the token")
         check(text(d, "machine") == "-", "nothing of the machine is shown")
+        check(state(d) == "not authorised", f"the state says the page is not authorised (not idle): {state(d)!r}")
+        check(not d.find_element(By.ID, "estop").is_enabled(), "the E-STOP is disabled: it could stop nothing from here")
+    d.save_screenshot(os.path.join(out_dir, "panel_refused.png"))
+
+
+def seen(d, id_):
+    # The element lies within the window and within its scrolling panel's visible part.
+    return d.execute_script(
+        "const r = document.getElementById(arguments[0]).getBoundingClientRect();"
+        "const a = document.querySelector('aside').getBoundingClientRect();"
+        "return r.height > 0 && r.top >= a.top && r.bottom <= a.bottom && r.bottom <= window.innerHeight;", id_)
+
+
+def why(d):
+    return [e.text for e in d.find_elements(By.CSS_SELECTOR, ".why") if e.is_displayed()]
 
 
 def run_job(d, out_dir, port, token):
@@ -151,8 +180,17 @@ def run_job(d, out_dir, port, token):
     check("token" not in d.current_url, "the token left the address bar")
     wait_until(lambda: text(d, "link") == "live", "the live stream is up")
     wait_until(lambda: "thermal_gantry" in text(d, "machine"), "the machine is named")
+    check(d.find_element(By.ID, "estop").is_enabled() and state(d) == "idle", "connected: the E-STOP is live, the state idle")
+    # Another client holds control: Load and Run are greyed out and say why, next to them.
+    wait_until(lambda: not d.find_element(By.ID, "load").is_enabled() and not d.find_element(By.ID, "run").is_enabled(),
+               "Load and Run are greyed out")
+    hints = wait_until(lambda: (lambda w: w if len(w) == 2 and all("Another client has control" in h for h in w) else None)(why(d)),
+                       "beside Load and beside Run: another client has control")
+    check(all("Take control" in h for h in hints), f"the hint says what to do: {hints[0]!r}")
+    d.save_screenshot(os.path.join(out_dir, "panel_control_elsewhere.png"))
     d.find_element(By.ID, "control").click()
     wait_until(lambda: text(d, "control") == "You have control", "control taken")
+    wait_until(lambda: not why(d) and d.find_element(By.ID, "load").is_enabled(), "with control: Load is live, no hint")
     # The file picker: the program's text goes up with its name.
     d.find_element(By.ID, "file").send_keys(os.path.abspath(PART))
     # With a QtPlasmaC material file through its picker, and material 2 in force.
@@ -191,7 +229,9 @@ def run_job(d, out_dir, port, token):
     d.find_element(By.ID, "resume").click()
     wait_until(lambda: state(d) in ("running", "done"), "Resume: it runs on")
     wait_until(lambda: state(d) == "done", "the job is done", timeout_s=60)
+    wait_until(lambda: text(d, "progress-text") == "100 %", "a completed run shows 100 %")
     wait_until(lambda: visible(d, "report-box") and text(d, "report-summary"), "the report shows")
+    check(seen(d, "report-summary"), "the report is where it is seen, without scrolling")
     summary = text(d, "report-summary")
     check(summary.startswith("done: triangle_45.ngc"), f"the report says done: {summary.splitlines()[0]}")
     check("holds 1," in summary and "torch off at the end: yes" in summary, "the report counts the hold, torch off at the end")
@@ -218,6 +258,24 @@ def estop_mid_cut(d, out_dir, port, token):
                    "the machine is at rest")
     check(s["state"] == "faulted" and s["estop"] and not s["torch"]["fire"], "the server: faulted, E-stop latched, torch off")
     check(s["faults"][0]["kind"] == "estop", "the server's fault is the E-stop")
+    d.find_element(By.ID, "reset").click()
+    wait_until(lambda: not visible(d, "fault"), "Reset: the fault banner clears")
+
+
+def stopped_then_estop(d, out_dir, port, token):
+    d.find_element(By.ID, "run").click()
+    wait_until(lambda: state(d) == "running", "run a third time: running")
+    d.find_element(By.ID, "stop").click()
+    wait_until(lambda: state(d) == "cancelled", "Stop: the state says cancelled, as the run ended")
+    check(server_status(port, token)["state"] == "cancelled", "the server agrees: cancelled")
+    time.sleep(1.0)  # two status polls: a banner, were one shown, would be up by now
+    check(not visible(d, "fault"), "a stop asked for is no fault: no banner")
+    d.find_element(By.ID, "estop").click()
+    wait_until(lambda: visible(d, "fault") and text(d, "fault").startswith("E-STOP latched"),
+               "E-STOP while idle: the banner shows the E-stop, the current fault")
+    d.save_screenshot(os.path.join(out_dir, "panel_estop_idle.png"))
+    d.find_element(By.ID, "reset").click()
+    wait_until(lambda: not visible(d, "fault"), "Reset: the banner clears")
 
 
 def main():
@@ -233,10 +291,12 @@ def main():
     d = None
     try:
         d = browser(profile)
-        refused_without_token(d, port)
+        refused_without_token(d, a.out, port)
+        take_control_elsewhere(port, token)
         d.get(url)
         run_job(d, a.out, port, token)
         estop_mid_cut(d, a.out, port, token)
+        stopped_then_estop(d, a.out, port, token)
         logs = [e for e in d.get_log("browser") if e.get("level") == "SEVERE" and "401" not in e.get("message", "")]
         check(not logs, f"no errors in the page's console: {logs[:3]}")
     except Failure as e:

@@ -68,10 +68,10 @@ TEST(CalibrateCli, BadInputIsNamedWithExitCode2) {
   EXPECT_NE(r.err.find("--backend"), std::string::npos) << r.err;
   r = cli.run("run datasets/parts/triangle_45.ngc --machine thermal_gantry --mode paper-open --calibration active");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("'active' needs --feed"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--feed: a calibration in the paper modes needs the feed"), std::string::npos) << r.err;
   r = cli.run("run datasets/parts/triangle_45.ngc --machine thermal_gantry --calibration 1.5");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("--calibration: a factor applies to the paper modes only"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--calibration: 1.5: a factor applies to the paper modes only"), std::string::npos) << r.err;
   r = cli.run("run datasets/parts/triangle_45.ngc --machine thermal_gantry --calibration active");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("no active calibration for 'thermal_gantry'"), std::string::npos) << r.err;

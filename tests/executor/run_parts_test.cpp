@@ -207,7 +207,7 @@ TEST(RunCommand, BadFlagsExitWithTwoAndNameTheFlag) {
       {"run " + tri + " --machine thermal_gantry --mode fast", "--mode: unknown mode 'fast'"},
       {"run " + tri + " --machine thermal_gantry --mode paper-closed --blu abc", "--blu: 'abc' is not a number"},
       {"run " + tri + " --machine thermal_gantry --mode paper-closed --blu 0", "--blu: 0 is out of range"},
-      {"run " + tri + " --machine thermal_gantry --blu 3", "--blu: applies to the paper modes only"},
+      {"run " + tri + " --machine thermal_gantry --blu 5", "--blu: 5 mm: a vector length applies to the paper modes only"},
       {"run " + tri + " --machine thermal_gantry --mode paper-open --calibration 0", "--calibration: 0 is out of range"},
       {"run " + tri + " --machine thermal_gantry --kerf -1", "--kerf: -1 is out of range"},
       {"run " + tri + " --machine thermal_gantry --kerf 1e3", "--kerf: 1000 is out of range"},

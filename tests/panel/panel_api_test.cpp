@@ -291,6 +291,7 @@ TEST(PanelApi, TheTriangleRunsHoldsResumesAndReports) {
     last = s;
     return s["state"] == "done";
   })) << last.dump();
+  EXPECT_EQ(last["progress"], 1.0) << "a run that ended done is all done, not 99.9 %";
   const HttpResponse rep = rig.get("/api/report");
   ASSERT_EQ(rep.status, 200);
   const json r = json::parse(rep.body);
@@ -329,6 +330,11 @@ TEST(PanelApi, TheEstopMidCutEndsTorchOffAndLatchesUntilReset) {
   EXPECT_EQ(rig.post("/api/run", json::object(), "operator").status, 409);
   EXPECT_EQ(rig.post("/api/jog", {{"x", 1}}, "operator").status, 409);
   ASSERT_EQ(rig.post("/api/reset", json::object(), "operator").status, 200);
+  // The reset acknowledges the fault: the status shows none in force (the report keeps it).
+  const json reset = rig.status();
+  EXPECT_EQ(reset["estop"], false);
+  EXPECT_TRUE(reset["faults"].empty()) << reset.dump();
+  EXPECT_EQ(reset["state"], "faulted") << "how the last run ended stays";
   // The job runs again from where the machine stopped (a rapid to its start first).
   ASSERT_EQ(rig.post("/api/run", json::object(), "operator").status, 200);
   ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 2; }));
@@ -354,7 +360,19 @@ TEST(PanelApi, OverridesAndStopReachTheRun) {
   ASSERT_TRUE(rig.wait_idle());
   const json r = json::parse(rig.get("/api/report").body);
   EXPECT_EQ(r["faults"][0]["kind"], "operator_stop");
+  EXPECT_EQ(r["summary"]["status"], "cancelled");
   EXPECT_EQ(r["torch_off_at_end"], true);
+  // The status says how the run really ended, in the summary's spelling, and shows no fault:
+  // the stop was asked for.
+  const json s = rig.status();
+  EXPECT_EQ(s["state"], "cancelled");
+  EXPECT_TRUE(s["faults"].empty()) << s.dump();
+  // An E-stop pressed now latches until it is reset.
+  ASSERT_EQ(rig.post("/api/estop").status, 200);
+  EXPECT_EQ(rig.status()["estop"], true);
+  ASSERT_EQ(rig.post("/api/reset").status, 200);
+  EXPECT_EQ(rig.status()["estop"], false);
+  EXPECT_EQ(rig.status()["state"], "cancelled");
 }
 
 TEST(PanelApi, TheLiveStreamWantsTheTokenAndThisOriginAndSendsTheState) {

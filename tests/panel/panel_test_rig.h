@@ -26,13 +26,16 @@ struct PanelRig {
   int port = 0;
   std::string token;
 
-  // `speed`: simulated seconds per wall second (0: unpaced, as fast as it goes).
-  explicit PanelRig(double speed = 8.0, const std::string& machine = "thermal_gantry") {
+  // `speed`: simulated seconds per wall second (0: unpaced, as fast as it goes). `adjust`
+  // changes the panel's options last (a paper mode, an injected fault).
+  explicit PanelRig(double speed = 8.0, const std::string& machine = "thermal_gantry",
+                    const std::function<void(panel::PanelOptions&)>& adjust = {}) {
     panel::PanelOptions po;
     po.session.machine = machine;
     po.pace = speed > 0;
     po.sim_speed = speed > 0 ? speed : 1.0;
     po.store_path = (dir.path() / "store.db").string();
+    if (adjust) adjust(po);
     panel = std::make_unique<panel::Panel>(po);
     panel::ServerOptions so;
     so.port = 0;

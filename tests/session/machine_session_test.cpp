@@ -6,6 +6,7 @@
 
 #include "engine/common/error.h"
 #include "engine/hardware/operator_channel.h"
+#include "models/backends/backend_factory.h"
 #include "solvers/motion/run.h"
 #include "solvers/session/machine_session.h"
 #include "tests/support/stretches.h"
@@ -89,9 +90,115 @@ TEST(MachineSession, BadChoicesNameTheirField) {
             std::string::npos);
   o.controller = "tuned";
   EXPECT_NE(field_of(o).find("controller: no active tuning for 'xy_table' in " + store), std::string::npos);
+  EXPECT_EQ(field_of(o).find("--"), std::string::npos) << "messages below cli/ name fields, never flags";
   o.controller.clear();
   o.active_calibration = true;
   EXPECT_NE(field_of(o).find("active_calibration: no active calibration for 'xy_table'"), std::string::npos);
+}
+
+// The rules between options are the options' own: a library caller meets them as the command
+// line and the panel do, under the field's name and never a flag's.
+TEST(MachineSession, RulesBetweenOptionsAreInValidate) {
+  const auto refusal = [](const MachineSessionOptions& o) {
+    try {
+      o.validate();
+    } catch (const InputError& e) {
+      EXPECT_TRUE(e.is_field()) << e.what();
+      EXPECT_EQ(std::string(e.what()).find("--"), std::string::npos) << "a flag named below cli/: " << e.what();
+      return std::string(e.what());
+    }
+    return std::string("<accepted>");
+  };
+  const MachineSessionOptions planned;
+  EXPECT_EQ(refusal(planned), "<accepted>");
+  MachineSessionOptions o = planned;
+  o.executor.blu_mm = 5;
+  EXPECT_EQ(refusal(o), "executor.blu_mm: 5 mm: a vector length applies to the paper modes only (mode paper-open or "
+                        "paper-closed), not to mode planned");
+  o.executor.mode = executor::Mode::paper_closed;
+  EXPECT_EQ(refusal(o), "<accepted>");
+  o = planned;
+  o.executor.calibration_factor = 1.2;
+  EXPECT_EQ(refusal(o).rfind("executor.calibration_factor: 1.2: a factor applies to the paper modes only", 0), 0u);
+  o.executor.mode = executor::Mode::paper_open;
+  EXPECT_EQ(refusal(o), "<accepted>");
+
+  // The paper modes take the operator's stop and THC switch, nothing that changes the speed.
+  hardware::OperatorEvent stop, hold;
+  stop.at_s = 2.0;
+  stop.inputs.stop = true;
+  stop.inputs.thc_enabled = false;
+  hold.at_s = 3.5;
+  hold.inputs.feed_hold = true;
+  o = planned;
+  o.backend.sim.operator_events = {stop, hold};
+  EXPECT_EQ(refusal(o), "<accepted>");
+  o.executor.mode = executor::Mode::paper_open;
+  EXPECT_EQ(refusal(o), "backend.sim.operator_events: a feed hold at 3.5 s: " + std::string(kPaperModesLack));
+  o.backend.sim.operator_events = {stop};
+  EXPECT_EQ(refusal(o), "<accepted>");
+
+  // What only the simulator does, on every other backend.
+  for (const std::string& name : backends::backend_names()) {
+    if (name == "sim") continue;
+    o = planned;
+    o.backend.name = name;
+    EXPECT_EQ(refusal(o), "<accepted>");
+    o.backend.sim.faults.push_back({sim::FaultInjection::Kind::estop, 1.5});
+    EXPECT_EQ(refusal(o), "backend.sim.faults: estop at 1.5 s: faults are injected on the simulator only (backend sim), not "
+                          "on backend " + name);
+    o.backend.sim.faults.clear();
+    o.backend.sim.operator_events = {stop};
+    EXPECT_NE(refusal(o).find("backend.sim.operator_events: events from 2 s to 2 s: a timeline of operator events plays on "
+                              "the simulator only"),
+              std::string::npos);
+    o.backend.sim.operator_events.clear();
+    o.backend.sim.sheet_warp_mm = std::make_pair(2.0, 300.0);
+    EXPECT_NE(refusal(o).find("backend.sim.sheet_warp_mm: 2 mm over 300 mm: the sheet's warp is simulated on the simulator only"),
+              std::string::npos);
+  }
+
+  // A run's options check their session's rules too (plan_program, plan_job), its calibration's
+  // feed being the run's feed override.
+  motion::RunOptions r;
+  r.session.executor.blu_mm = 5;
+  try {
+    r.validate();
+    ADD_FAILURE() << "a run's options took a paper mode's setting in planned mode";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "executor.blu_mm");
+  }
+  r = {};
+  r.session.executor.mode = executor::Mode::paper_open;
+  r.session.active_calibration = true;
+  try {
+    r.validate();
+    ADD_FAILURE() << "a calibration in a paper mode without a feed";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "paper_feed_mm_per_s");
+  }
+  r.feed_override_mm_per_s = 4.0;
+  EXPECT_NO_THROW(r.validate()) << "the feed override is the calibration's feed";
+}
+
+TEST(MachineSession, ThePaperModesLackHoldsOverridesAndRecoveryOnly) {
+  hardware::OperatorInputs in;
+  EXPECT_EQ(paper_mode_lacks(in), "");
+  in.stop = in.estop = true;
+  in.thc_enabled = false;
+  EXPECT_EQ(paper_mode_lacks(in), "") << "stop, the E-stop and THC are the paper modes' too";
+  hardware::OperatorInputs a;
+  a.cycle_start = true;
+  EXPECT_EQ(paper_mode_lacks(a), "a cycle start");
+  a = {};
+  a.feed_override_pct = 50;
+  EXPECT_EQ(paper_mode_lacks(a), "a feed override of 50 %");
+  a = {};
+  a.rapid_override_pct = 25;
+  EXPECT_EQ(paper_mode_lacks(a), "a rapid override of 25 %");
+  a = {};
+  a.recover_mm = -5;
+  EXPECT_EQ(paper_mode_lacks(a), "a cut recovery of -5 mm");
 }
 
 TEST(MachineSession, OperatorInputsReachTheExecutorThroughTheBackend) {

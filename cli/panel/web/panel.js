@@ -48,7 +48,20 @@ function say(text, isError) {
 async function act(method, path, body) {
   try { return await api(method, path, body); } catch (e) { say(e.message, true); return null; }
 }
-function showLogin(on) { $('login').classList.toggle('hidden', !on); }
+function showLogin(on) {
+  $('login').classList.toggle('hidden', !on);
+  if (on) linked(false, 'not authorised');
+}
+// Whether this page reaches the machine. When it does not (no token, a wrong one, the server
+// gone), nothing on it may look live: the state says so and the E-STOP is disabled, as it could
+// not stop anything.
+function linked(on, why) {
+  const e = $('estop');
+  e.disabled = !on;
+  e.title = on ? 'E-stop: torch off, controlled stop (any client, always)'
+               : 'not connected: this page cannot stop the machine; use the machine\'s own E-stop';
+  if (!on) showState(why || 'offline', 'offline');
+}
 
 async function login() {
   const q = new URLSearchParams(location.search);
@@ -219,10 +232,14 @@ function drawGuardStatic(g) {
 
 // ---- live stream and status ---------------------------------------------------------------------
 function fmt(v, d) { return (typeof v === 'number' && isFinite(v)) ? v.toFixed(d) : '-'; }
-function showState(s) {
+function showState(s, cls) {
   const el = $('state');
   el.textContent = s;
-  el.className = 'state ' + s;
+  el.className = 'state ' + (cls || s);
+}
+function showProgress(p) {
+  $('progress-bar').style.width = (100 * p).toFixed(1) + '%';
+  $('progress-text').textContent = (p >= 1 ? '100' : (100 * p).toFixed(1)) + ' %';
 }
 function onFrame(f) {
   live = f;
@@ -239,8 +256,7 @@ function onFrame(f) {
   $('dro-height').textContent = fmt(f.height_mm, 2);
   $('dro-thc').textContent = f.thc_active ? ('on ' + fmt(f.arc_voltage_v, 1) + ' V') : (f.arc_voltage_v ? fmt(f.arc_voltage_v, 1) + ' V' : '-');
   if (f.activity === 'running') {
-    $('progress-bar').style.width = (100 * f.progress).toFixed(1) + '%';
-    $('progress-text').textContent = (100 * f.progress).toFixed(1) + ' %';
+    showProgress(f.progress);
     $('time-left').textContent = f.state === 'held' ? 'held, ' + fmtTime(f.time_left_s) + ' left' : fmtTime(f.time_left_s) + ' left';
     // What the machine makes of the feed override: above 100 % only where its limits leave room.
     const eff = f.feed_effective_pct;
@@ -273,27 +289,43 @@ async function poll() {
   try {
     const s = await api('GET', '/status');
     lastStatus = s;
+    linked(true);
     $('machine').textContent = s.machine + ' (' + s.backend + ')';
     const c = $('control');
     c.textContent = s.control.yours ? 'You have control' : s.control.held ? 'Take control (another client has it)' : 'Take control';
     c.classList.toggle('yours', s.control.yours);
     for (const id of ['load', 'run', 'hold', 'resume', 'stop', 'reset', 'g-start', 'g-end']) $(id).disabled = !s.control.yours;
+    // Greyed-out buttons say why, next to them.
+    const why = s.control.yours ? ''
+      : s.control.held ? 'Another client has control: Take control (top right) to load and run from here.'
+                       : 'Take control (top right) to load and run: no client has it.';
+    for (const el of document.querySelectorAll('.why')) { el.textContent = why; el.classList.toggle('hidden', !why); }
+    // The banner shows what is in force now: a latched E-stop before the faults it caused or
+    // followed; the server drops the faults when they are reset.
     const fb = $('fault');
-    if (s.faults && s.faults.length) {
-      const f = s.faults[0];
-      fb.textContent = 'FAULT ' + f.kind + (f.line ? ' at line ' + f.line : '') + ': ' + f.message;
+    const f = s.faults && s.faults.length ? s.faults[0] : null;
+    if (s.estop) {
+      fb.textContent = 'E-STOP latched (fault estop' + (f && f.kind === 'estop' && f.line ? ' at line ' + f.line : '') +
+                       '): the machine is stopped; Reset to go on';
       fb.classList.remove('hidden');
-    } else if (s.estop) {
-      fb.textContent = 'E-STOP latched: the machine is stopped; Reset E-stop to go on';
+    } else if (f) {
+      fb.textContent = 'FAULT ' + f.kind + (f.line ? ' at line ' + f.line : '') + ': ' + f.message;
       fb.classList.remove('hidden');
     } else fb.classList.add('hidden');
     if (s.job_id !== shownJob && s.job_id > 0) await loadDrawing();
     if (s.activity === 'running' && lastActivity !== 'running') { trail.length = 0; drawStatic(); shownReport = false; $('report-box').classList.add('hidden'); }
     if (s.activity === 'idle' && s.report_available && !shownReport) await showReport();
-    if (s.activity === 'idle') showState(s.estop ? 'e-stop' : s.state);
+    if (s.activity === 'idle') {
+      showState(s.estop ? 'e-stop' : s.state);
+      showProgress(s.progress);  // a run that ended done is all done (100 %)
+      if (s.state === 'done') $('time-left').textContent = 'done';
+    }
     if (s.guard && view.mode === 'hybrid' && s.guard.phase === 'done' && !view.guardDone) { view.guardDone = true; await loadGuard(); }
     lastActivity = s.activity;
-  } catch (e) { /* offline: the next poll tries again */ }
+  } catch (e) {
+    // Offline (the next poll tries again), or no longer authorised (api() said so).
+    if ($('login').classList.contains('hidden')) linked(false, 'offline');
+  }
   setTimeout(poll, 500);
 }
 
@@ -313,16 +345,17 @@ async function showReport() {
   const r = await act('GET', '/report');
   if (!r) return;
   $('report-box').classList.remove('hidden');
-  const done = r.status === 'done';
+  const ending = r.summary.status;  // done, faulted, cancelled, deadline
   $('report-summary').innerHTML = '';
   const lines = [
-    `${done ? 'done' : r.status === 'faulted' ? 'FAULTED' : r.status}: ${r.source.split('/').pop()}`,
+    `${ending === 'done' ? 'done' : ending.toUpperCase()}: ${r.source.split('/').pop()}${r.summary.message ? ' (' + r.summary.message + ')' : ''}`,
     `cycle time ${fmt(r.cycle_time_s, 2)} s (lower bound ${fmt(r.lower_bound_s, 2)} s)`,
     `contour error max ${fmt(r.max_contour_error_mm, 4)} mm, rms ${fmt(r.rms_contour_error_mm, 4)} mm`,
     `holds ${(r.holds || []).length}, torch off at the end: ${r.torch_off_at_end ? 'yes' : 'NO'}`,
   ];
   for (const l of lines) { const d = document.createElement('div'); d.textContent = l; $('report-summary').appendChild(d); }
   $('report-json').textContent = JSON.stringify(r, null, 1);
+  $('report-box').scrollIntoView({ block: 'nearest' });
 }
 
 async function loadGuard() {
