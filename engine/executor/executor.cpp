@@ -251,9 +251,9 @@ void Session::Impl::follow_hold() noexcept {
     }
   }
   if (torch_off_running) {
-    const TorchSequencer::Status st = torch.tick(in, out);
-    if (st == TorchSequencer::Status::failed) raise(FK::torch_height_timeout, -1, torch.failure_value());
-    if (st != TorchSequencer::Status::busy) torch_off_running = false;
+    const TorchSequencer::Tick st = torch.tick(in, out);
+    if (st == TorchSequencer::Tick::failed) raise(FK::torch_height_timeout, -1, torch.failure_value());
+    if (st != TorchSequencer::Tick::busy) torch_off_running = false;
   }
   if (!held) return;
   const bool at_rest = source->rate() == 0.0;
@@ -318,7 +318,7 @@ void Session::Impl::sequence() noexcept {
       break;
     case Phase::torch:
       switch (torch.tick(in, out)) {
-        case TorchSequencer::Status::done:
+        case TorchSequencer::Tick::done:
           if (repiercing) {
             // The held cut goes on from where it stopped.
             repiercing = false;
@@ -334,13 +334,13 @@ void Session::Impl::sequence() noexcept {
             next_step();
           }
           break;
-        case TorchSequencer::Status::failed:
+        case TorchSequencer::Tick::failed:
           raise(torch.failure() == TorchSequencer::Failure::arc_start_failed ? FK::arc_start_failed
                                                                                : FK::torch_height_timeout,
                 -1, torch.failure_value());
           break;
-        case TorchSequencer::Status::idle:
-        case TorchSequencer::Status::busy: break;
+        case TorchSequencer::Tick::idle:
+        case TorchSequencer::Tick::busy: break;
       }
       break;
     case Phase::dwell:

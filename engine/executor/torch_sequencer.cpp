@@ -55,10 +55,10 @@ void TorchSequencer::lower_to_cut_height(hardware::Outputs& out) noexcept {
   enter(Phase::height_cut);
 }
 
-TorchSequencer::Status TorchSequencer::tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept {
+TorchSequencer::Tick TorchSequencer::tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept {
   pt_ += dt_;
   switch (phase_) {
-    case Phase::idle: return Status::idle;
+    case Phase::idle: return Tick::idle;
     case Phase::height_pierce:
       if (at(in, t_.pierce_height_mm)) {
         if (t_.kind == Kind::oxy_fuel && !preheated_) {
@@ -73,43 +73,43 @@ TorchSequencer::Status TorchSequencer::tick(const hardware::Inputs& in, hardware
       } else if (pt_ > t_.height_timeout_s) {
         return fail(Failure::torch_height_timeout, t_.height_timeout_s);
       }
-      return Status::busy;
+      return Tick::busy;
     case Phase::preheat:
       if (pt_ >= t_.preheat_s) {
         out.torch_fire = true;
         enter(Phase::pierce);
       }
-      return Status::busy;
+      return Tick::busy;
     case Phase::wait_arc:
       if (in.arc_ok) {
         enter(Phase::pierce);
       } else if (pt_ > t_.arc_ok_timeout_s) {
         return fail(Failure::arc_start_failed, t_.arc_ok_timeout_s);
       }
-      return Status::busy;
+      return Tick::busy;
     case Phase::pierce:
       if (programmed_ || pt_ >= (t_.kind == Kind::spindle ? t_.spin_up_s : t_.pierce_delay_s)) {
         lit_ = true;
         if (t_.height_axis && !programmed_ && puddle_mm_ > 0.0) {
           out.torch_height_target_mm = puddle_mm_;
           enter(Phase::puddle_jump);
-          return Status::busy;
+          return Tick::busy;
         }
         if (t_.height_axis && !programmed_) {
           lower_to_cut_height(out);
-          return Status::busy;
+          return Tick::busy;
         }
         phase_ = Phase::idle;
-        return Status::done;
+        return Tick::done;
       }
-      return Status::busy;
+      return Tick::busy;
     case Phase::puddle_jump:
       if (at(in, puddle_mm_)) enter(Phase::puddle_wait);
       else if (pt_ > t_.height_timeout_s) return fail(Failure::torch_height_timeout, t_.height_timeout_s);
-      return Status::busy;
+      return Tick::busy;
     case Phase::puddle_wait:
       if (pt_ >= puddle_s_) lower_to_cut_height(out);
-      return Status::busy;
+      return Tick::busy;
     case Phase::pause_end:
       if (pt_ >= pause_end_s_) {
         const double h = retract_mm_;
@@ -118,24 +118,24 @@ TorchSequencer::Status TorchSequencer::tick(const hardware::Inputs& in, hardware
         out.torch_height_target_mm = h;
         enter(Phase::off_retract);
       }
-      return Status::busy;
+      return Tick::busy;
     case Phase::height_cut:
       if (at(in, t_.cut_height_mm)) {
         phase_ = Phase::idle;
-        return Status::done;
+        return Tick::done;
       }
       if (pt_ > t_.height_timeout_s) return fail(Failure::torch_height_timeout, t_.height_timeout_s);
-      return Status::busy;
+      return Tick::busy;
     case Phase::off_retract:
-      if (t_.kind == Kind::spindle && pt_ < t_.spin_down_s) return Status::busy;  // running down
+      if (t_.kind == Kind::spindle && pt_ < t_.spin_down_s) return Tick::busy;  // running down
       if (!t_.height_axis || at(in, retract_mm_)) {
         phase_ = Phase::idle;
-        return Status::done;
+        return Tick::done;
       }
       if (pt_ > t_.height_timeout_s) return fail(Failure::torch_height_timeout, t_.height_timeout_s);
-      return Status::busy;
+      return Tick::busy;
   }
-  return Status::idle;
+  return Tick::idle;
 }
 
 }  // namespace machplan::executor

@@ -26,7 +26,9 @@ namespace machplan::executor {
 
 class TorchSequencer {
  public:
-  enum class Status { idle, busy, done, failed };
+  // What one period of the sequence did: nothing to do, still stepping, finished, or failed
+  // (failure_value() says how). How the run ended is the run's Summary, not this.
+  enum class Tick { idle, busy, done, failed };
   enum class Failure { none, arc_start_failed, torch_height_timeout };
 
   void configure(const TorchSetup& t, double period_s) {
@@ -68,7 +70,7 @@ class TorchSequencer {
   // Torch off and retract now (faults, stops); the sequence in progress is abandoned.
   void kill(hardware::Outputs& out) noexcept;
 
-  Status tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept;
+  Tick tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept;
 
   bool busy() const noexcept { return phase_ != Phase::idle; }
   // A torch-on sequence is under way (not the retract).
@@ -84,11 +86,11 @@ class TorchSequencer {
     phase_ = p;
     pt_ = 0.0;
   }
-  Status fail(Failure f, double v) noexcept {
+  Tick fail(Failure f, double v) noexcept {
     failure_ = f;
     failure_value_ = v;
     phase_ = Phase::idle;
-    return Status::failed;
+    return Tick::failed;
   }
   bool at(const hardware::Inputs& in, double h) const noexcept {
     return std::abs(in.torch_height_mm - h) <= t_.height_tolerance_mm;

@@ -7,7 +7,7 @@
 namespace machplan::executor {
 namespace {
 
-using S = TorchSequencer::Status;
+using S = TorchSequencer::Tick;
 
 TorchSetup plasma_with_height() {
   TorchSetup t;
