@@ -1,4 +1,6 @@
-// `machplan mesh FILE.stl [--json]`: reads an STL and reports its topology and size.
+// `machplan mesh FILE.stl [--json]`: reads an STL and reports its topology, size and verdict:
+// exit 0 for a sound solid, 3 for one that is open or mis-oriented (as `check` exits 3 when it
+// finds interference), 2 for a file that is not an STL.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -19,7 +21,7 @@ void add_mesh(CLI::App& app) {
     machplan::StlReadOptions options;
   };
   auto args = std::make_shared<Args>();
-  auto* cmd = app.add_subcommand("mesh", "Read an STL (binary or ASCII) and report whether it is a sound solid");
+  auto* cmd = app.add_subcommand("mesh", "Read an STL (binary or ASCII) and report whether it is a sound solid (exit 3 when it is not)");
   cmd->add_option("FILE", args->file, "STL file")->required();
   cmd->add_flag("--json", args->json, "print the report as JSON");
   cmd->add_option("--scale", args->options.scale_to_mm, "millimetres per file unit (25.4 for inches)")
@@ -53,10 +55,13 @@ void add_mesh(CLI::App& app) {
       }
       j["min_mm"] = {r.bounds.min().x(), r.bounds.min().y(), r.bounds.min().z()};
       j["max_mm"] = {r.bounds.max().x(), r.bounds.max().y(), r.bounds.max().z()};
+      j["sound"] = r.sound();
+      j["verdict"] = r.verdict();
       machplan::cli::print_json(j);
-      return;
+    } else {
+      std::printf("%s:\n%s", args->file.c_str(), r.brief().c_str());
     }
-    std::printf("%s:\n%s", args->file.c_str(), r.brief().c_str());
+    if (!r.sound()) machplan::cli::set_exit_code(3);
   });
 }
 

@@ -27,7 +27,10 @@ void add_toolpath(CLI::App& app) {
   cmd->callback([args] {
     const machplan::ToolPath path = machplan::read_toolpath_file(args->file);
     const machplan::ToolPathSummary s = machplan::summarize(path);
+    // What changes the result first, then one line for every statement skipped.
     for (const auto& w : path.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+    if (const std::string skipped = machplan::skipped_summary(path); !skipped.empty())
+      std::fprintf(stderr, "note: %s\n", skipped.c_str());
     if (args->json) {
       nlohmann::json j;
       j["source"] = path.source;
@@ -45,6 +48,9 @@ void add_toolpath(CLI::App& app) {
       j["rapid_length_mm"] = s.rapid_length_mm;
       j["arcs"] = path.arcs.size();
       j["warnings"] = path.warnings;
+      j["skipped"] = nlohmann::json::array();
+      for (const auto& k : path.skipped)
+        j["skipped"].push_back({{"statement", k.statement}, {"count", k.count}, {"first_line", k.first_line}});
       if (path.cutter)
         j["cutter"] = {{"diameter_mm", path.cutter->diameter_mm},
                        {"corner_radius_mm", path.cutter->corner_radius_mm},
@@ -56,6 +62,8 @@ void add_toolpath(CLI::App& app) {
     }
     std::string out = fmt::format("{}: {} poses ({} rapid){}\n", path.source, s.poses, s.rapid_poses,
                                   path.multiaxis ? ", multi-axis" : "");
+    // The report read alone (stderr aside) still shows that its figures are not the part's.
+    for (const auto& w : path.warnings) out += fmt::format("WARNING: {}\n", w);
     if (!path.part_name.empty()) out += fmt::format("part: {}\n", path.part_name);
     out += fmt::format("tips: x {:.4f} .. {:.4f}, y {:.4f} .. {:.4f}, z {:.4f} .. {:.4f} mm\n", s.min_mm.x(),
                        s.max_mm.x(), s.min_mm.y(), s.max_mm.y(), s.min_mm.z(), s.max_mm.z());

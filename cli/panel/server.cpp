@@ -295,6 +295,8 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
   } catch (const InputError& e) {
     return error(400, panel.clean(e.what()));
   } catch (const Infeasible& e) {
+    // A refusal the request's origin can lift names the page's fields for it.
+    if (e.option() == "origin_mm") return error(422, panel.clean(Infeasible(e.message(), "the origin X, Y fields").what()));
     return error(422, panel.clean(e.what()));
   } catch (const json::exception& e) {
     return error(400, fmt::format("wrong type in the request: {}", excerpt(e.what(), 200)));

@@ -326,6 +326,21 @@ MeshReport analyze_mesh(const Mesh& mesh) {
   return r;
 }
 
+std::string MeshReport::verdict() const {
+  if (sound()) return "sound: a closed solid, consistently oriented, faces outwards";
+  std::string faults;
+  const auto add = [&](const std::string& f) { faults += (faults.empty() ? "" : "; ") + f; };
+  if (triangles == 0) add("no triangles");
+  if (boundary_edges > 0) add(fmt::format("open: {} boundary edges", boundary_edges));
+  if (non_manifold_edges > 0) add(fmt::format("{} non-manifold edges (more than two triangles on one edge)", non_manifold_edges));
+  if (!consistently_oriented && non_manifold_edges == 0)
+    add("not consistently oriented: neighbouring triangles walk a shared edge the same way");
+  if (closed && consistently_oriented && !outward)
+    add(volume_mm3 > 0 ? "faces point inwards (the triangles' corners run clockwise seen from outside)"
+                       : "encloses no volume");
+  return "not a sound solid: " + faults;
+}
+
 std::string MeshReport::brief() const {
   std::string s = fmt::format("{} vertices, {} triangles, {} edges\n", vertices, triangles, edges);
   s += fmt::format("closed: {}  (boundary edges {}, non-manifold edges {})\n", closed ? "yes" : "no", boundary_edges,
@@ -339,6 +354,7 @@ std::string MeshReport::brief() const {
   if (!bounds.isEmpty())
     s += fmt::format("bounds: x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g}, z {:.6g} .. {:.6g} mm\n", bounds.min().x(),
                      bounds.max().x(), bounds.min().y(), bounds.max().y(), bounds.min().z(), bounds.max().z());
+  s += "verdict: " + verdict() + "\n";
   return s;
 }
 

@@ -69,7 +69,13 @@ struct MeshReport {
   bool outward = false;
   Eigen::AlignedBox3d bounds;  // of all vertices; empty for an empty mesh
 
-  std::string brief() const;   // a few lines for a terminal
+  // A sound solid: closed, consistently oriented and facing outwards, so that it has an inside
+  // and a volume (degenerate triangles are counted, not held against it: they enclose nothing).
+  bool sound() const { return closed && consistently_oriented && outward; }
+  // One line: "sound: a closed solid, consistently oriented, faces outwards", or "not a sound
+  // solid: " and each fault ("open: 3 boundary edges", "faces point inwards", ...).
+  std::string verdict() const;
+  std::string brief() const;   // a few lines for a terminal, ending with the verdict
 };
 
 MeshReport analyze_mesh(const Mesh& mesh);

@@ -6,7 +6,6 @@
 #include <cctype>
 #include <cmath>
 #include <limits>
-#include <map>
 #include <string>
 #include <vector>
 #include <filesystem>
@@ -176,9 +175,10 @@ class AptReader : public Reader {
     if (!known(word)) {
       // A coordinate system other than the identity moves the poses that follow; machplan
       // keeps them as written and says so apart from the harmless identity ones.
-      if (iequals(word, "CSYS") && has_slash && !identity_csys(split_all(rest.substr(1))))
-        return skip("CSYS", line, " with a transformation other than the identity: the poses after it are kept in "
-                                  "the coordinates written, not transformed");
+      if (iequals(word, "CSYS") && has_slash && !identity_csys(split_all(rest.substr(1)))) {
+        if (csys_count_++ == 0) csys_first_line_ = line;
+        return;
+      }
       return skip(word, line);
     }
     if (!rest.empty() && !has_slash)
@@ -265,31 +265,24 @@ class AptReader : public Reader {
     return true;
   }
 
-  // A statement that carries nothing for the tool path: one warning per kind (`note` tells
-  // a kind apart and ends its message).
-  void skip(std::string_view word, int line, std::string_view note = {}) {
+  // A statement that carries nothing for the tool path, counted per kind.
+  void skip(std::string_view word, int line) {
     std::string key(word);
     for (char& c : key) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    key += note;
-    auto [it, fresh] = skipped_.try_emplace(key, Skipped{line, 0});
-    ++it->second.count;
-    if (fresh) skipped_order_.push_back(key);
+    const auto it = std::find_if(path_.skipped.begin(), path_.skipped.end(),
+                                 [&](const ToolPath::SkippedKind& k) { return k.statement == key; });
+    if (it == path_.skipped.end()) path_.skipped.push_back({key, line, 1});
+    else ++it->count;
   }
 
  public:
-  // The warnings for skipped statements, in order of first appearance.
+  // The warning of the statements that change what the path means (a CSYS not applied).
   void finish_warnings() {
-    for (const auto& key : skipped_order_) {
-      const Skipped& k = skipped_.at(key);
-      const std::size_t word_end = std::min(key.find(' '), key.size());
-      const std::string count = k.count > 1 ? fmt::format(" ({} statements)", k.count) : "";
-      if (word_end < key.size())
-        path_.warnings.push_back(fmt::format("{}:{}: APT statement '{}'{} skipped{}", path_.source, k.first_line,
-                                             printable(key.substr(0, word_end)), key.substr(word_end), count));
-      else
-        path_.warnings.push_back(fmt::format("{}:{}: APT statement '{}' carries no tool-path geometry; skipped{}",
-                                             path_.source, k.first_line, printable(key), count));
-    }
+    if (csys_count_ > 0)
+      path_.warnings.push_back(fmt::format("{}:{}: APT statement 'CSYS' with a transformation other than the identity{}: "
+                                           "the poses after it are kept in the coordinates written, not transformed",
+                                           path_.source, csys_first_line_,
+                                           csys_count_ > 1 ? fmt::format(" ({} statements)", csys_count_) : ""));
   }
 
  private:
@@ -504,12 +497,9 @@ class AptReader : public Reader {
   bool cycle_ = false;
   double cycle_depth_ = 0, cycle_rapto_ = 0, cycle_rtrcto_ = 0, cycle_feed_ = 0;
   std::string_view current_statement_;
-  struct Skipped {
-    int first_line = 0;
-    std::size_t count = 0;
-  };
-  std::map<std::string, Skipped> skipped_;
-  std::vector<std::string> skipped_order_;
+  // CSYS statements that move the poses after them (not applied).
+  int csys_first_line_ = 0;
+  std::size_t csys_count_ = 0;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -684,6 +674,19 @@ ToolPath read_toolpath_file(const std::string& path, const ToolPathReadOptions& 
   if (ext == ".cl" || ext == ".apt" || ext == ".cls") return read_apt(text, path, options);
   if (ext == ".csv") return read_toolpath_csv(text, path, options);
   return read_toolpath(text, path, options);
+}
+
+std::string skipped_summary(const ToolPath& path) {
+  if (path.skipped.empty()) return {};
+  std::size_t total = 0;
+  std::string kinds;
+  for (const ToolPath::SkippedKind& k : path.skipped) {
+    total += k.count;
+    kinds += fmt::format("{}{}{} ({}line {})", kinds.empty() ? "" : ", ", printable(k.statement),
+                         k.count > 1 ? fmt::format(" x{}", k.count) : "", k.count > 1 ? "first at " : "", k.first_line);
+  }
+  return fmt::format("{}: skipped {} statement{} no tool-path geometry: {}", path.source, total,
+                     total > 1 ? "s that carry" : " that carries", kinds);
 }
 
 ToolPathSummary summarize(const ToolPath& path) {

@@ -60,10 +60,11 @@
 //   ... $                        a '$' ending a line continues the statement on the next line
 //
 // Any other statement (LOAD, SELECT, SPINDL, COOLNT, CUTCOM, CSYS, TRNTYP, INSERT, PPRINT,
-// post-processor words ...) carries nothing for placement and is skipped, with one warning
-// per kind in ToolPath::warnings ("FILE:LINE: ..." naming the first and how many). A CSYS
-// that is not the identity (another setup's coordinate system) is not applied either: the
-// poses after it stay in the coordinates written, and its warning says so separately.
+// post-processor words ...) carries nothing for placement and is skipped, counted per kind in
+// ToolPath::skipped (skipped_summary() says it in one line). A CSYS that is not the identity
+// (another setup's coordinate system) is not applied either, and that changes what the path
+// means: the poses after it stay in the coordinates written. It is the one warning
+// (ToolPath::warnings, "FILE:LINE: ..." naming the first and how many).
 //
 // CSV (extension .csv): one pose per line, comma separated, blanks around fields ignored,
 // lines starting with '#' and blank lines skipped. An optional header names the columns:
@@ -131,8 +132,21 @@ struct ToolPath {
   std::optional<Cutter> cutter;  // last CUTTER statement in the file, if any
   bool multiaxis = false;        // MULTAX/ON seen, or some pose carried its own axis
   std::vector<ToolArc> arcs;     // APT CIRCLE moves, in order
-  std::vector<std::string> warnings;  // skipped statements, one line per kind
+  // What changes the result: a CSYS that is not applied. Empty for most files.
+  std::vector<std::string> warnings;
+  // Statements that carry nothing for the tool path, per kind ("LOAD", "SPINDL"), in order of
+  // first appearance.
+  struct SkippedKind {
+    std::string statement;
+    int first_line = 0;
+    std::size_t count = 0;
+  };
+  std::vector<SkippedKind> skipped;
 };
+
+// One line for ToolPath::skipped: "FILE: skipped 6 statements that carry no tool-path geometry:
+// LOAD x2 (first at line 2), PPRINT (line 5), ..."; empty when nothing was skipped.
+std::string skipped_summary(const ToolPath& path);
 
 // Every number in a tool-path file lies within +-kMaxToolPathNumber (coordinates in mm or
 // inch, axis components, feeds); beyond it squares and sums of coordinates lose all precision.

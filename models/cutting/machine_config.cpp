@@ -120,7 +120,30 @@ void read_plasma_process(const Yaml& root, MachineConfig& m) {
 
 }  // namespace
 
+const char* to_string(MachineUse use) {
+  switch (use) {
+    case MachineUse::cutting: return "cutting";
+    case MachineUse::placement: return "placement";
+    case MachineUse::unreadable: break;
+  }
+  return "unreadable";
+}
+
+MachineUse machine_use(const Yaml& root) {
+  if (!root.is_map()) return MachineUse::unreadable;
+  return root.has("kind") || root.has("struts") ? MachineUse::placement : MachineUse::cutting;
+}
+
 MachineConfig machine_from_yaml(const Yaml& root) {
+  // A placement machine would otherwise be refused on its first key this reader does not
+  // know, which tells a user nothing about what went wrong.
+  if (machine_use(root) == MachineUse::placement)
+    throw InputError(root.file(), 0,
+                     fmt::format("'{}' is a machine for placement ({}): it is named by a scene's `machine:` for "
+                                 "`machplan place` and `machplan check`, and cannot run programs. `machplan machines` "
+                                 "lists each machine's use",
+                                 excerpt(root.string_or("name", std::filesystem::path(root.file()).stem().string()), 60),
+                                 root.has("kind") ? "kind " + excerpt(root.string("kind"), 40) : "a hexapod"));
   root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height",
                            "slug_tip_size_mm", "origin_mm", "gcode", "cut_order", "spindle", "thc", "sheet"});
   MachineConfig m;
@@ -387,7 +410,18 @@ std::vector<MachineEntry> list_machines() {
     std::sort(files.begin(), files.end());
     for (const fs::path& file : files) {
       const std::string name = file.stem().string();
-      out.push_back({name, file.string(), f.kind, !seen.insert(name).second});
+      MachineEntry entry;
+      entry.name = name;
+      entry.path = file.string();
+      entry.kind = f.kind;
+      entry.shadowed = !seen.insert(name).second;
+      try {
+        entry.use = machine_use(Yaml::load_file(entry.path));
+        if (entry.use == MachineUse::unreadable) entry.problem = "its top level is not a map of keys";
+      } catch (const InputError& e) {
+        entry.problem = e.what();
+      }
+      out.push_back(std::move(entry));
     }
   }
   return out;

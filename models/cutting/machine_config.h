@@ -137,7 +137,8 @@ struct MachineConfig {
   executor::MachineSetup setup() const;
 };
 
-// Reads and validates a machine file. Throws InputError "FILE:LINE: key 'a.b' ...".
+// Reads and validates a machine file. Throws InputError "FILE:LINE: key 'a.b' ...", and
+// "FILE: ... is a machine for placement ..." for a placement machine (see MachineUse).
 MachineConfig load_machine(const std::string& path);
 MachineConfig machine_from_yaml(const Yaml& root);
 
@@ -165,11 +166,24 @@ std::vector<MachineFolder> machine_folders();
 // matches.
 std::string find_machine(const std::string& name_or_path);
 
+// What a machine file is for. The machine folders hold two families:
+//   * cutting: machines that run programs (this reader: axes with their drives, path limits,
+//     a torch or a spindle); `run`, `tune`, `guard`, `calibrate` and `serve` take them;
+//   * placement: machines a workpiece is placed on (a top-level `kind:`, read by
+//     models/hexam and models/trunnion; a HexaM file may leave `kind` out and is known by its
+//     `struts`); a scene names them (`machine:`) for `place` and `check`.
+// `unreadable`: the file is not YAML a machine can be read from (MachineEntry::problem says why).
+enum class MachineUse { cutting, placement, unreadable };
+const char* to_string(MachineUse use);
+MachineUse machine_use(const Yaml& root);
+
 // Every NAME.yaml in machine_folders(), in search order; `shadowed` marks a name that an
-// earlier folder already provides.
+// earlier folder already provides. Each file's top level is read to tell its use.
 struct MachineEntry {
-  std::string name, path, kind;
+  std::string name, path, kind;  // kind: the folder's ("user", "installed", "source")
   bool shadowed = false;
+  MachineUse use = MachineUse::unreadable;
+  std::string problem;  // why the file is unreadable
 };
 std::vector<MachineEntry> list_machines();
 

@@ -478,8 +478,8 @@ void note_outer_first(const Program& p, const Layout& l, const SequenceProblem& 
       }
   if (r.outer_first && r.order == CutOrder::program)
     r.warnings.push_back(fmt::format("{}:{}: the contour cut at line {} encloses the cut at line {}, cut after it: a part "
-                                     "freed from the sheet can tip or shift before its inner cuts are made (--order "
-                                     "optimise cuts inner contours first)",
+                                     "freed from the sheet can tip or shift before its inner cuts are made (the cut order "
+                                     "'optimise' cuts inner contours first)",
                                      p.source, r.outer_first->first, r.outer_first->first, r.outer_first->second));
 }
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <string>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -45,27 +47,73 @@ void refuse(PlannedRun& o, Status status, std::string message, std::string limit
   o.limit_field = std::move(limit_field);
 }
 
-// Why the job leaves the travel, naming the first program line whose motion does; "" when
-// it stays inside.
-std::string leaves_travel(const Job& job, const cutting::MachineConfig& m) {
+// The ends of the travel `b` crosses, each named with how far: "Y reaches -0.600 mm, 0.600 mm
+// below its low end".
+std::string ends_crossed(const Eigen::AlignedBox2d& b, const Eigen::AlignedBox2d& box, double tol) {
+  std::string out;
+  for (int a = 0; a < 2; ++a) {
+    const auto add = [&](double reach, bool low) {
+      out += fmt::format("{}{} reaches {:.3f} mm, {:.3f} mm {} its {} end", out.empty() ? "" : " and ", a == 0 ? 'X' : 'Y',
+                         reach, low ? box.min()[a] - reach : reach - box.max()[a], low ? "below" : "beyond",
+                         low ? "low" : "high");
+    };
+    if (b.min()[a] < box.min()[a] - tol) add(b.min()[a], true);
+    if (b.max()[a] > box.max()[a] + tol) add(b.max()[a], false);
+  }
+  return out;
+}
+
+// A job outside the travel: names the ends `crossing` crosses, and where the program's zero
+// would have to sit on the machine for the whole job to fit (setting `field` to the option that
+// moves it), or that no place fits a job larger than the travel.
+std::string outside_travel(const std::string& where, const std::string& what, const Eigen::AlignedBox2d& crossing,
+                                 const Job& job, const Eigen::AlignedBox2d& box, const Eigen::Vector2d& origin,
+                                 const std::string& machine, double tol, std::string& field) {
+  Eigen::AlignedBox2d all(job.start_mm, job.start_mm);
+  for (const Stretch& s : job.stretches)
+    for (const Segment& g : s.segments) all.extend(bounding_box(g));
+  const std::string head = fmt::format("{}: {} outside the travel of machine '{}' (X {:g} .. {:g}, Y {:g} .. {:g} mm): {}. "
+                                       "The job spans X {:.3f} .. {:.3f}, Y {:.3f} .. {:.3f} mm",
+                                       where, what, machine, box.min().x(), box.max().x(), box.min().y(), box.max().y(),
+                                       ends_crossed(crossing, box, tol), all.min().x(), all.max().x(), all.min().y(),
+                                       all.max().y());
+  const Eigen::Vector2d size = all.sizes(), travel = box.sizes();
+  if (size.x() > travel.x() + tol || size.y() > travel.y() + tol)
+    return fmt::format("{}, {:.3f} x {:.3f} mm: larger than the travel, so no program origin fits it", head, size.x(),
+                       size.y());
+  Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+  for (int a = 0; a < 2; ++a) {
+    if (all.min()[a] < box.min()[a]) shift[a] = box.min()[a] - all.min()[a];
+    else if (all.max()[a] > box.max()[a]) shift[a] = box.max()[a] - all.max()[a];
+  }
+  const Eigen::Vector2d fits = origin + shift;
+  field = "origin_mm";
+  return fmt::format("{}; it fits with the program's zero at X {:.3f}, Y {:.3f} on the machine (it is at X {:.3f}, "
+                     "Y {:.3f}): move the zero there",
+                     head, fits.x(), fits.y(), origin.x(), origin.y());
+}
+
+// Why the job leaves the travel, naming the first program line whose motion does ("" when it
+// stays inside); `origin` is where the program's zero sits on the machine, `field` is set to
+// the option that would move the job inside.
+std::string leaves_travel(const Job& job, const cutting::MachineConfig& m, const Eigen::Vector2d& origin,
+                          std::string& field) {
   const Eigen::AlignedBox2d box = travel_box(m);
   const double tol = 1e-6;
   const auto inside = [&](const Eigen::AlignedBox2d& b) {
     return b.min().x() >= box.min().x() - tol && b.min().y() >= box.min().y() - tol && b.max().x() <= box.max().x() + tol &&
            b.max().y() <= box.max().y() + tol;
   };
-  if (!inside(Eigen::AlignedBox2d(job.start_mm, job.start_mm)))
-    return fmt::format("{}: the start position ({:.3f}, {:.3f}) lies outside the travel of machine '{}' "
-                       "(X 0 .. {:g}, Y 0 .. {:g} mm)",
-                       job.source, job.start_mm.x(), job.start_mm.y(), m.name, box.max().x(), box.max().y());
+  const Eigen::AlignedBox2d start(job.start_mm, job.start_mm);
+  if (!inside(start)) return outside_travel(job.source, "the start position lies", start, job, box, origin, m.name, tol, field);
   for (const Stretch& s : job.stretches)
     for (std::size_t i = 0; i < s.segments.size(); ++i) {
       const Eigen::AlignedBox2d b = bounding_box(s.segments[i]);
       if (inside(b)) continue;
-      return fmt::format("{}:{}: the move reaches X {:.3f} .. {:.3f}, Y {:.3f} .. {:.3f} mm, outside the travel "
-                         "of machine '{}' (X 0 .. {:g}, Y 0 .. {:g} mm)",
-                         job.source, s.source_lines[i], b.min().x(), b.max().x(), b.min().y(), b.max().y(), m.name,
-                         box.max().x(), box.max().y());
+      return outside_travel(fmt::format("{}:{}", job.source, s.source_lines[i]),
+                            fmt::format("the move (X {:.3f} .. {:.3f}, Y {:.3f} .. {:.3f} mm) goes", b.min().x(), b.max().x(),
+                                        b.min().y(), b.max().y()),
+                            b, job, box, origin, m.name, tol, field);
     }
   return {};
 }
@@ -230,6 +278,14 @@ void flatten_z(Program& program, const std::string& machine, std::vector<std::st
     if (m.plane == Move::Plane::xy) m.end.z() = program.start.z();
 }
 
+// Where the program's zero sits on the machine, and who said so: "given" (RunOptions),
+// "machine file" or "none" (machine zero).
+std::pair<Eigen::Vector2d, std::string> program_origin(const RunOptions& options, const cutting::MachineConfig& machine) {
+  if (options.origin_mm) return {*options.origin_mm, "given"};
+  if (machine.origin_mm) return {Eigen::Vector2d((*machine.origin_mm)[0], (*machine.origin_mm)[1]), "machine file"};
+  return {Eigen::Vector2d::Zero(), "none"};
+}
+
 // Moves the program's zero to `origin` on the machine.
 void place_program(Program& program, const Eigen::Vector2d& origin) {
   if (origin == Eigen::Vector2d::Zero()) return;
@@ -390,15 +446,7 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
   OrderedProgram ordered = order_cuts(program, order);
   program = std::move(ordered.program);
   warnings.insert(warnings.end(), ordered.report.warnings.begin(), ordered.report.warnings.end());
-  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
-  std::string from = "none";
-  if (options.origin_mm) {
-    origin = *options.origin_mm;
-    from = "given";
-  } else if (machine.origin_mm) {
-    origin = Eigen::Vector2d((*machine.origin_mm)[0], (*machine.origin_mm)[1]);
-    from = "machine file";
-  }
+  const auto [origin, from] = program_origin(options, machine);
   place_program(program, origin);
   jo.rapid_feed_mm_per_s = machine.limits.rapid_mm_per_s;
   PlannedRun o = plan_job(make_job(program, jo), options, machine, control);
@@ -441,8 +489,9 @@ PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::Ma
     o.job = start_at_line(o.job, options.from_line, o.machine.limits.rapid_mm_per_s, start);
     o.from_line = start;
   }
-  if (std::string why = leaves_travel(o.job, o.machine); !why.empty()) {
-    refuse(o, Status::infeasible, std::move(why));
+  std::string travel_field;
+  if (std::string why = leaves_travel(o.job, o.machine, program_origin(options, machine).first, travel_field); !why.empty()) {
+    refuse(o, Status::infeasible, std::move(why), std::move(travel_field));
     return o;
   }
 

@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 
 #include <fmt/format.h>
@@ -136,6 +137,51 @@ TEST(MachineLookup, MachinesCommandListsFoldersAndMachines) {
   EXPECT_THAT(json.out, HasSubstr("\"kind\": \"user\""));
   EXPECT_THAT(json.out, HasSubstr("\"name\": \"my_table\""));
   EXPECT_THAT(json.out, HasSubstr("\"name\": \"thermal_gantry\""));
+}
+
+TEST(MachineLookup, EachMachineSaysWhatItIsFor) {
+  UserConfig user;
+  fs::create_directories(user.machines());
+  // A HexaM file without `kind` is known by its struts; a broken file is listed, with why.
+  fs::copy_file(fs::path(MACHPLAN_SOURCE_DIR) / "datasets" / "hexam-paper" / "machine.yaml", user.machines() / "hexam.yaml");
+  std::ofstream(user.machines() / "broken.yaml") << "name: [unclosed\n";
+  std::map<std::string, MachineEntry> by_name;
+  for (const auto& m : list_machines()) by_name.emplace(m.name, m);
+  ASSERT_TRUE(by_name.count("trunnion_ac") && by_name.count("thermal_gantry") && by_name.count("xy_table"));
+  EXPECT_EQ(by_name.at("trunnion_ac").use, MachineUse::placement);
+  EXPECT_EQ(by_name.at("hexam").use, MachineUse::placement);
+  EXPECT_EQ(by_name.at("thermal_gantry").use, MachineUse::cutting);
+  EXPECT_EQ(by_name.at("xy_table").use, MachineUse::cutting);
+  EXPECT_EQ(by_name.at("broken").use, MachineUse::unreadable);
+  EXPECT_THAT(by_name.at("broken").problem, HasSubstr("broken.yaml"));
+  EXPECT_TRUE(by_name.at("xy_table").problem.empty());
+}
+
+TEST(MachineLookup, APlacementMachineIsRefusedForWhatItIsNotAKey) {
+  const std::string path = find_machine("trunnion_ac");
+  const std::string msg = error_of([&] { load_machine(path); });
+  EXPECT_THAT(msg, HasSubstr(path + ": 'trunnion_ac' is a machine for placement (kind table_tilting)"));
+  EXPECT_THAT(msg, HasSubstr("machplan place"));
+  EXPECT_THAT(msg, ::testing::Not(HasSubstr("unknown key")));
+  const std::string hexam = (fs::path(MACHPLAN_SOURCE_DIR) / "datasets" / "hexam-paper" / "machine.yaml").string();
+  EXPECT_THAT(error_of([&] { load_machine(hexam); }), HasSubstr("is a machine for placement (a hexapod)"));
+}
+
+TEST(MachineLookup, MachinesCommandSaysWhatEachMachineIsForAndRunRefusesAPlacementMachine) {
+  test::Cli cli;
+  const test::CliResult text = cli.run({"machines"});
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_THAT(text.out, ::testing::ContainsRegex("trunnion_ac +source +placement: place, check "));
+  EXPECT_THAT(text.out, ::testing::ContainsRegex("xy_table +source +cutting: run, tune, guard, calibrate, serve "));
+  const test::CliResult json = cli.run({"machines", "--json"});
+  ASSERT_EQ(json.code, 0) << json.err;
+  EXPECT_THAT(json.out, HasSubstr("\"use\": \"placement\""));
+  EXPECT_THAT(json.out, HasSubstr("\"use\": \"cutting\""));
+
+  const test::CliResult run = cli.run("run datasets/parts/triangle_45.ngc --machine trunnion_ac");
+  EXPECT_EQ(run.code, 2);
+  EXPECT_THAT(run.err, HasSubstr("trunnion_ac.yaml: 'trunnion_ac' is a machine for placement"));
+  EXPECT_THAT(run.err, ::testing::Not(HasSubstr("unknown key")));
 }
 
 }  // namespace

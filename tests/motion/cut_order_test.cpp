@@ -84,6 +84,9 @@ TEST(CutOrder, ProgramOrderIsKeptAndAnOuterContourCutFirstIsWarnedOnce) {
   EXPECT_EQ(*r.report.outer_first, std::make_pair(5, 15));
   ASSERT_EQ(r.report.warnings.size(), 1u);
   EXPECT_THAT(r.report.warnings[0], HasSubstr("p.ngc:5: the contour cut at line 5 encloses the cut at line 15"));
+  // Below the command line no flag is named: the order is, as every caller sets it.
+  EXPECT_THAT(r.report.warnings[0], HasSubstr("(the cut order 'optimise' cuts inner contours first)"));
+  EXPECT_THAT(r.report.warnings[0], ::testing::Not(HasSubstr("--")));
   EXPECT_EQ(r.report.summary.status, Status::done);
 }
 

@@ -163,6 +163,8 @@ TEST(PanelApi, BadRequestsGet4xxWithAMessageAndChangeNothing) {
   bad("/api/job", json{{"program", kTriangle}, {"material", 1.5}}.dump(), 400, "whole number");
   bad("/api/job", json{{"program", kTriangle}, {"materials", 4}}.dump(), 400, "wrong type");
   bad("/api/job", json{{"program", kTriangle}, {"origin", {1e9, 0}}}.dump(), 400, "origin");
+  // A job off the machine: the refusal names the origin fields that move it on.
+  bad("/api/job", json{{"program", kTriangle}, {"origin", {-500, 0}}}.dump(), 422, "move the zero there with the origin X, Y fields");
   bad("/api/override", "{\"feed\": 250}", 400, "0 .. 200");
   bad("/api/override", "{\"rapid\": 0}", 400, "1 .. 100");
   bad("/api/override", "{\"feed\": \"fast\"}", 400, "number");

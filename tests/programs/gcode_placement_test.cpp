@@ -1,5 +1,6 @@
 // Placing a program on the machine: `run --origin`, Z words on the 2-axis machines, and the
 // arcs those machines cannot make (solvers/motion/run.h, engine/motion/make_job.h).
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -13,6 +14,7 @@
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
 #include "solvers/motion/run.h"
+#include "tests/support/cli_run.h"
 
 namespace machplan {
 namespace {
@@ -57,6 +59,34 @@ TEST(GcodePlacement, OriginMovesTheProgramOntoTheMachine) {
       << run.summary.full_report();
   EXPECT_EQ(cli::to_json(run).at("origin_from"), "given");
   EXPECT_FALSE(run.faulted());
+}
+
+// A program off the machine is refused naming the end it crosses, by how much, against what
+// travel, and the origin that puts the whole job on the machine (the flag that sets it).
+TEST(GcodePlacement, AProgramOutsideTheTravelNamesTheLimitAndTheOriginThatFits) {
+  test::Cli cli;
+  const std::string corner = cli.write("corner.ngc", kCornerPart);
+  const test::CliResult r = cli.run({"run", corner, "--machine", "xy_table"});
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("outside the travel of machine 'xy_table' (X 0 .. 400, Y 0 .. 350 mm): "
+                                          "X reaches -4.000 mm, 4.000 mm below its low end and Y reaches -3.000 mm, "
+                                          "3.000 mm below its low end."));
+  EXPECT_THAT(r.err, ::testing::HasSubstr("The job spans X -4.000 .. 6.000, Y -3.000 .. 5.000 mm; it fits with the "
+                                          "program's zero at X 4.000, Y 3.000 on the machine (it is at X 0.000, "
+                                          "Y 0.000): move the zero there with --origin"));
+  // The advice is right: there the job runs; and an origin too far the other way is advised back.
+  EXPECT_EQ(cli.run({"run", corner, "--machine", "xy_table", "--origin", "4,3"}).code, 0);
+  const test::CliResult high = cli.run({"run", corner, "--machine", "xy_table", "--origin", "397,3"});
+  EXPECT_EQ(high.code, 3);
+  EXPECT_THAT(high.err, ::testing::HasSubstr("X reaches 403.000 mm, 3.000 mm beyond its high end"));
+  EXPECT_THAT(high.err, ::testing::HasSubstr("program's zero at X 394.000, Y 3.000 on the machine (it is at X 397.000, Y 3.000)"));
+  // A job larger than the travel has no origin to advise.
+  const std::string wide = cli.write("wide.ngc", "G21 G90\nG0 X0 Y0\nM3 S1\nG1 X500 Y0 F3000\nM5\nM2\n");
+  const test::CliResult big = cli.run({"run", wide, "--machine", "xy_table"});
+  EXPECT_EQ(big.code, 3);
+  EXPECT_THAT(big.err, ::testing::HasSubstr("X reaches 500.000 mm, 100.000 mm beyond its high end"));
+  EXPECT_THAT(big.err, ::testing::HasSubstr("larger than the travel, so no program origin fits it"));
+  EXPECT_THAT(big.err, ::testing::Not(::testing::HasSubstr("--origin")));
 }
 
 TEST(GcodePlacement, ZWordsAreDroppedWithOneWarningUnlessStrict) {

@@ -107,6 +107,23 @@ TEST(MeshReport, DegenerateTrianglesAreCounted) {
   EXPECT_EQ(r.degenerate_triangles, 2u);
 }
 
+TEST(MeshReport, TheVerdictNamesEachFault) {
+  EXPECT_TRUE(analyze_mesh(cube()).sound());
+  EXPECT_EQ(analyze_mesh(cube()).verdict(), "sound: a closed solid, consistently oriented, faces outwards");
+  Mesh flipped = cube();
+  for (auto& t : flipped.triangles) std::swap(t[1], t[2]);
+  EXPECT_FALSE(analyze_mesh(flipped).sound());
+  EXPECT_THAT(analyze_mesh(flipped).verdict(), StartsWith("not a sound solid: faces point inwards"));
+  Mesh one = cube();
+  std::swap(one.triangles[3][1], one.triangles[3][2]);
+  EXPECT_THAT(analyze_mesh(one).verdict(), StartsWith("not a sound solid: not consistently oriented"));
+  Mesh open = cube();
+  open.triangles.erase(open.triangles.begin() + 2, open.triangles.begin() + 4);
+  EXPECT_EQ(analyze_mesh(open).verdict(), "not a sound solid: open: 4 boundary edges");
+  EXPECT_THAT(analyze_mesh(three_fins()).verdict(),
+              StartsWith("not a sound solid: open: 6 boundary edges; 1 non-manifold edges"));
+}
+
 TEST(Weld, ToleranceMergesNearbyCorners) {
   const Mesh m = cube();
   std::vector<Eigen::Vector3d> corners;
@@ -336,6 +353,24 @@ TEST(Cli, MeshCommand) {
   EXPECT_EQ(ok.code, 0);
   EXPECT_THAT(ok.out, HasSubstr("\"closed\": true"));
   EXPECT_THAT(ok.out, HasSubstr(fmt::format("\"volume_mm3\": {}", kCubeVolume)));
+
+  EXPECT_THAT(ok.out, HasSubstr("\"sound\": true"));
+  const test::CliResult text = cli.run({"mesh", good});
+  EXPECT_EQ(text.code, 0);
+  EXPECT_THAT(text.out, HasSubstr("verdict: sound: a closed solid"));
+
+  // An open or inside-out mesh is not a sound solid: said in a verdict line, exit 3.
+  Mesh open = cube();
+  open.triangles.erase(open.triangles.begin() + 2, open.triangles.begin() + 4);
+  const test::CliResult o = cli.run({"mesh", cli.write("open.stl", to_binary_stl(open))});
+  EXPECT_EQ(o.code, 3);
+  EXPECT_THAT(o.out, HasSubstr("verdict: not a sound solid: open: 4 boundary edges\n"));
+  Mesh flipped = cube();
+  for (auto& t : flipped.triangles) std::swap(t[1], t[2]);
+  const test::CliResult f = cli.run({"mesh", cli.write("flipped.stl", to_binary_stl(flipped)), "--json"});
+  EXPECT_EQ(f.code, 3);
+  EXPECT_THAT(f.out, HasSubstr("\"sound\": false"));
+  EXPECT_THAT(f.out, HasSubstr("faces point inwards"));
 
   const std::string bad = cli.write("bad.stl", "solid x\nfacet normal 0 0 1\nendsolid\n");
   const test::CliResult r = cli.run({"mesh", bad});

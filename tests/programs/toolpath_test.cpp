@@ -1,6 +1,7 @@
 // Tool-path readers: APT/CLDATA and CSV, what they accept, what they refuse and how they say it.
 #include "engine/programs/toolpath.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -105,22 +106,28 @@ TEST(Apt, InchesAreConverted) {
   EXPECT_TRUE(p.poses[2].tip_mm.isApprox(Eigen::Vector3d(1, 1, 1)));
 }
 
-TEST(Apt, OtherStatementsAreSkippedWithOneWarningPerKind) {
+TEST(Apt, OtherStatementsAreSkippedAndCountedPerKind) {
   const ToolPath p = read_apt("PARTNO x\nLOAD/TOOL,3\nGOTO/0,0,0\nSPINDL/1000,RPM,CLW\nPPRINT hello there\n"
                               "COOLNT/FLOOD\nLOAD/TOOL,4\nSPINDL/OFF\nGOTO/1,1,1\nFINI\n",
                               "path.cl");
   ASSERT_EQ(p.poses.size(), 2u);
-  ASSERT_EQ(p.warnings.size(), 4u);
-  EXPECT_EQ(p.warnings[0], "path.cl:2: APT statement 'LOAD' carries no tool-path geometry; skipped (2 statements)");
-  EXPECT_EQ(p.warnings[1], "path.cl:4: APT statement 'SPINDL' carries no tool-path geometry; skipped (2 statements)");
-  EXPECT_EQ(p.warnings[2], "path.cl:5: APT statement 'PPRINT' carries no tool-path geometry; skipped");
-  EXPECT_EQ(p.warnings[3], "path.cl:6: APT statement 'COOLNT' carries no tool-path geometry; skipped");
-  // A coordinate system that moves the poses is not applied, and the warning says so apart.
-  const ToolPath c = read_apt("CSYS/1,0,0,0,0,1,0,0,0,0,1,0\nGOTO/0,0,0\nCSYS/1,0,0,5,0,1,0,0,0,0,1,0\nGOTO/1,1,1\n",
+  EXPECT_TRUE(p.warnings.empty()) << "nothing skipped changes the path";
+  ASSERT_EQ(p.skipped.size(), 4u);
+  EXPECT_EQ(p.skipped[0].statement, "LOAD");
+  EXPECT_EQ(p.skipped[0].first_line, 2);
+  EXPECT_EQ(p.skipped[0].count, 2u);
+  EXPECT_EQ(p.skipped[3].statement, "COOLNT");
+  EXPECT_EQ(skipped_summary(p), "path.cl: skipped 6 statements that carry no tool-path geometry: LOAD x2 (first at line 2), "
+                                "SPINDL x2 (first at line 4), PPRINT (line 5), COOLNT (line 6)");
+  // A coordinate system that moves the poses is not applied: the one warning; identity ones
+  // are skipped like the rest.
+  const ToolPath c = read_apt("CSYS/1,0,0,0,0,1,0,0,0,0,1,0\nGOTO/0,0,0\nCSYS/1,0,0,5,0,1,0,0,0,0,1,0\nGOTO/1,1,1\n"
+                              "CSYS/1,0,0,7,0,1,0,0,0,0,1,0\n",
                               "c.cl");
-  ASSERT_EQ(c.warnings.size(), 2u);
-  EXPECT_THAT(c.warnings[0], HasSubstr("c.cl:1: APT statement 'CSYS' carries no tool-path geometry"));
-  EXPECT_THAT(c.warnings[1], HasSubstr("c.cl:3: APT statement 'CSYS' with a transformation other than the identity"));
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_EQ(c.warnings[0], "c.cl:3: APT statement 'CSYS' with a transformation other than the identity (2 statements): "
+                           "the poses after it are kept in the coordinates written, not transformed");
+  EXPECT_EQ(skipped_summary(c), "c.cl: skipped 1 statement that carries no tool-path geometry: CSYS (line 1)");
   EXPECT_TRUE(c.poses[1].tip_mm.isApprox(Eigen::Vector3d(1, 1, 1)));
 }
 
@@ -184,8 +191,8 @@ TEST(Apt, CamStyleFileWithUnitCirclesAndCycles) {
       "GOTO/20.,10.,-7.\n"                        // 18: and down 2 mm: a helix
       "FINI\n";
   const ToolPath p = read_apt(text, "cam.apt");
-  ASSERT_EQ(p.warnings.size(), 1u);
-  EXPECT_THAT(p.warnings[0], HasSubstr("cam.apt:4: APT statement 'LOAD'"));
+  EXPECT_TRUE(p.warnings.empty());
+  EXPECT_EQ(skipped_summary(p), "cam.apt: skipped 1 statement that carries no tool-path geometry: LOAD (line 4)");
   // The cycle: from (15, 15, 25) already at the retract height, rapid to RAPTO 3, feed to
   // -10, back to 25; then the second hole adds its approach at 25 first.
   std::vector<Eigen::Vector3d> drill;
@@ -416,11 +423,29 @@ TEST(Cli, BadInputExitsWithTwoAndNamesTheLine) {
   EXPECT_EQ(r.code, 2);
   EXPECT_THAT(r.err, HasSubstr(bad + ":2: CIRCLE: expected at least 6 values"));
 
-  // Skipped statements are warnings on stderr, and the exit code stays 0.
+  // Skipped statements are one note on stderr, and the exit code stays 0.
   const std::string skipped = cli.write("skipped.apt", "UNIT/MM\nSPINDL/1000\nGOTO/0,0,0\nGOTO/1,0,0\nFINI\n");
   const test::CliResult w = cli.run({"toolpath", skipped});
   EXPECT_EQ(w.code, 0);
-  EXPECT_THAT(w.err, HasSubstr("warning: " + skipped + ":2: APT statement 'SPINDL'"));
+  EXPECT_EQ(w.err, "note: " + skipped + ": skipped 1 statement that carries no tool-path geometry: SPINDL (line 2)\n");
+
+  // A CAM file's dozen kinds of set-up statements stay one line, and the CSYS that is not
+  // applied comes first, on stderr and atop the report.
+  std::string cam = "PARTNO/P\n";
+  for (const char* word : {"LOAD/TOOL,1", "SELECT/TOOL,1", "SPINDL/1000", "COOLNT/ON", "CUTCOM/OFF", "TRNTYP/1",
+                           "INSERT/X", "PPRINT A", "OPSKIP/ON", "ORIGIN/0,0,0", "SEQNO/1", "TOOLNO/1"})
+    cam += std::string(word) + "\n";
+  cam += "GOTO/0,0,0\nCSYS/1,0,0,5,0,1,0,0,0,0,1,0\nGOTO/1,1,1\nFINI\n";
+  const std::string cam_file = cli.write("cam.cl", cam);
+  const test::CliResult c = cli.run({"toolpath", cam_file});
+  EXPECT_EQ(c.code, 0);
+  EXPECT_THAT(c.err, ::testing::StartsWith("warning: " + cam_file + ":15: APT statement 'CSYS' with a transformation"));
+  EXPECT_THAT(c.err, HasSubstr("\nnote: " + cam_file + ": skipped 12 statements that carry no tool-path geometry: LOAD "
+                               "(line 2), SELECT (line 3)"));
+  EXPECT_EQ(std::count(c.err.begin(), c.err.end(), '\n'), 2);
+  EXPECT_THAT(c.out, HasSubstr(" poses (0 rapid)\nWARNING: " + cam_file + ":15: APT statement 'CSYS'"));
+  const test::CliResult cj = cli.run({"toolpath", cam_file, "--json"});
+  EXPECT_THAT(cj.out, HasSubstr("\"statement\": \"TOOLNO\""));
 
   const std::string good = cli.write("good.csv", "1,2,3\n4,6,3\n");
   const test::CliResult ok = cli.run({"toolpath", good, "--json"});
