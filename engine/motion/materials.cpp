@@ -10,7 +10,7 @@
 
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
-#include "engine/programs/internal/text_scan.h"
+#include "engine/common/internal/text_scan.h"
 
 namespace machplan::motion {
 namespace {
