@@ -126,4 +126,13 @@ double round_step(double want) {
   return want >= 5 * p10 ? 5 * p10 : (want >= 2 * p10 ? 2 * p10 : p10);
 }
 
+void draw_scale_bar(Canvas& canvas, double x, double y, double scale, double length_mm) {
+  canvas.set_source_rgb(0, 0, 0);
+  canvas.set_line_width(2.0);
+  canvas.move_to(x, y);
+  canvas.line_to(x + length_mm * scale, y);
+  canvas.stroke();
+  draw_text(canvas, x, y - 6, fmt::format("{:g} mm", length_mm), 11);
+}
+
 }  // namespace machplan

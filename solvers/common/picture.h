@@ -96,4 +96,8 @@ void draw_text(Canvas& canvas, double x, double y, const std::string& s, double 
 // that is at most `want` (> 0).
 double round_step(double want);
 
+// A scale bar of `length_mm` (take it from round_step) from (x, y) to the right, at `scale`
+// picture units per mm, labelled above it ("50 mm").
+void draw_scale_bar(Canvas& canvas, double x, double y, double scale, double length_mm);
+
 }  // namespace machplan

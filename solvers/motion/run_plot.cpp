@@ -210,13 +210,7 @@ void draw(Canvas& cr, double W, double H, const RunOutcome& run, double K) {
   if (!run.cut_zones.empty()) legend_item(cr, lx, ly, 0.8, 0.8, 0.8, false, "parts cut", 6.0);
   // Scale bar: a round length near a fifth of the drawn width.
   const double bar = round_step(0.2 * box.sizes().x());
-  const double bx = W - side - bar * scale, by = H - 40;
-  cr.set_source_rgb(0, 0, 0);
-  cr.set_line_width(2.0);
-  cr.move_to(bx, by);
-  cr.line_to(bx + bar * scale, by);
-  cr.stroke();
-  draw_text(cr, bx, by - 6, fmt::format("{:g} mm", bar), 11);
+  draw_scale_bar(cr, W - side - bar * scale, H - 40, scale, bar);
 }
 
 }  // namespace

@@ -19,6 +19,7 @@ namespace machplan::placement {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using test::TempDir;
 
 constexpr double kDeg = M_PI / 180.0;
@@ -150,6 +151,18 @@ TEST(Trunnion, TheBundledSceneSavesAxisTravelAgainstTheTableCentreWithoutFlips) 
   const Eigen::Vector3d zero_table = r.placement.offset() - scene.origin_in_cam_mm;  // rotation 0
   EXPECT_LT((r.work_offset.xyz_mm - m.axes_for_nose(m.table_pose(0, 0) * zero_table)).norm(), 1e-9);
   EXPECT_THAT(r.summary.full_report(), HasSubstr("% less"));
+  // A rotary axis that turns more than once reads in turns ("C 33.2 turns"), not in thousands of
+  // degrees; a rotary axis within one turn stays in degrees.
+  for (std::size_t k = 3; k < r.travel->axes.size(); ++k) {
+    const double deg = r.travel->travel[k];
+    const std::string expected = deg > 360.0 ? fmt::format("{} {:.1f} turns", r.travel->axes[k], deg / 360.0)
+                                             : fmt::format("{} {:.1f} deg", r.travel->axes[k], deg);
+    EXPECT_THAT(r.summary.full_report(), HasSubstr(expected));
+  }
+  // Timed at the programmed feeds, the two setups take the same time here: the report does not
+  // print a comparison that could not differ.
+  if (std::abs(r.travel->time_s - r.centre_travel->time_s) < 0.05)
+    EXPECT_THAT(r.summary.full_report(), Not(HasSubstr("s at the table centre (")));
 }
 
 }  // namespace

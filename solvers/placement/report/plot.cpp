@@ -5,6 +5,7 @@
 
 #include "engine/common/error.h"
 #include "solvers/common/picture.h"
+#include "solvers/placement/report/internal/report.h"
 
 namespace machplan::placement {
 
@@ -97,8 +98,9 @@ void draw(Canvas& cr, double W, double H, const Scene& scene, const PlacementRes
   cr.arc(top.sx(p.x_mm), top.sy(p.y_mm), 5, 0, 2 * M_PI);
   cr.fill();
   cr.set_source_rgb(0, 0, 0);
-  draw_text(cr, 20, 28, fmt::format("top view: {}  x {:.2f}  y {:.2f}  pad {:.1f} mm  rotation {:.0f} deg", to_string(r.summary.status),
-                               p.x_mm, p.y_mm, p.pad_mm, p.rotation_deg));
+  draw_text(cr, 20, 28, fmt::format("top view: {}  x {:.2f}  y {:.2f}  {} {:.1f} mm  rotation {:.0f} deg", to_string(r.summary.status),
+                               p.x_mm, p.y_mm, height_name(scene), p.pad_mm, p.rotation_deg));
+  draw_scale_bar(cr, top.sx(-extent), top.sy(-extent) + 20, top.scale, round_step(0.4 * extent));
   draw_text(cr, 20, H - 14, "grey: table   red: peripherals   green: workpiece and tool path   dashed blue: searched region   "
                        "orange: paper search trail   red dot: answer", 11);
 
@@ -134,8 +136,9 @@ void draw(Canvas& cr, double W, double H, const Scene& scene, const PlacementRes
   }
   cr.fill();
   cr.set_source_rgb(0, 0, 0);
-  draw_text(cr, W * 0.5 + 20, 28, fmt::format("side view (x, z): pad {:.1f} mm, workpiece top {:.1f} mm", p.pad_mm,
-                                         p.pad_mm + b.max().z()));
+  draw_text(cr, W * 0.5 + 20, 28, fmt::format("side view (x, z): {} {:.1f} mm, workpiece top {:.1f} mm", height_name(scene),
+                                         p.pad_mm, p.pad_mm + b.max().z()));
+  draw_scale_bar(cr, side.sx(-extent), side.sy(0) + 40, side.scale, round_step(0.4 * extent));
 }
 }  // namespace
 

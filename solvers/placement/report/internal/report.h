@@ -12,6 +12,10 @@
 
 namespace machplan::placement {
 
+// What the workpiece's height over the table is called on the scene's machine: "pad" on the
+// HexaM (the paper's word), "fixture height" on a table-tilting machine.
+const char* height_name(const Scene& scene);
+
 // The message of a check stopped by its budget of exact pose queries.
 std::string budget_message(const Scene& scene);
 
