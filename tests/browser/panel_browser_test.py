@@ -236,8 +236,8 @@ def run_job(d, out_dir, port, token):
     check(summary.startswith("done: triangle_45.ngc"), f"the report says done: {summary.splitlines()[0]}")
     check("holds 1," in summary and "torch off at the end: yes" in summary, "the report counts the hold, torch off at the end")
     report = json.loads(d.execute_script("return document.getElementById('report-json').textContent"))
-    check(report["status"] == "done" and len(report["holds"]) == 1 and report["holds"][0]["in_cut"],
-          "the report's JSON: completed, one hold, in the cut")
+    check(report["summary"]["status"] == "done" and len(report["holds"]) == 1 and report["holds"][0]["in_cut"],
+          "the report's JSON: done, one hold, in the cut")
     check([m["number"] for m in report["materials"]] == [2] and all(c["material"] == 0 for c in report["cuts"]),
           "the report's JSON: every cut in material 2 of the uploaded file")
     d.save_screenshot(os.path.join(out_dir, "panel_done.png"))
