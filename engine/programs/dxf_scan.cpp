@@ -132,6 +132,67 @@ std::vector<Eigen::Vector3d> points_of(const std::string& source, const std::vec
   return pts;
 }
 
+namespace {
+
+// Fills an entity's handle (its own, or TYPE#N counted per type), layer and paper-space flag.
+void finish_entity(Entity& e, const std::string& source, std::map<std::string, int>& type_count) {
+  for (const auto& p : e.pairs) {
+    if (p.code == 5) e.handle = p.value;
+    if (p.code == 8) e.layer = p.value;
+    if (p.code == 67) e.paper_space = parse_int(source, p) == 1;
+  }
+  if (e.handle.empty()) e.handle = fmt::format("{}#{}", e.type, ++type_count[e.type]);
+}
+
+// Reads the entity starting at pairs[i] (a 0/TYPE pair) with its VERTEX / ATTRIB followers,
+// leaving i at the pair after it.
+Entity read_entity(const std::vector<Pair>& pairs, std::size_t& i, const std::string& source,
+                   std::map<std::string, int>& type_count) {
+  const Pair& p = pairs[i];
+  Entity e;
+  e.type = p.value;
+  e.line = p.line;
+  ++i;
+  while (i < pairs.size() && pairs[i].code != 0) e.pairs.push_back(pairs[i++]);
+  if (e.type == "VERTEX" || e.type == "SEQEND")
+    throw InputError(source, e.line, fmt::format("{} outside a POLYLINE", e.type));
+  if (e.type == "POLYLINE") {
+    // Its VERTEX entities follow until SEQEND.
+    while (i < pairs.size() && pairs[i].code == 0 && pairs[i].value == "VERTEX") {
+      e.vertex_lines.push_back(pairs[i].line);
+      ++i;
+      std::vector<Pair> v;
+      while (i < pairs.size() && pairs[i].code != 0) v.push_back(pairs[i++]);
+      e.vertices.push_back(std::move(v));
+    }
+    if (i >= pairs.size() || pairs[i].value != "SEQEND")
+      throw InputError(source, i < pairs.size() ? pairs[i].line : pairs.back().line,
+                       "POLYLINE is not closed by 0/SEQEND");
+    ++i;
+    while (i < pairs.size() && pairs[i].code != 0) ++i;  // SEQEND's own pairs
+  }
+  if (e.type == "INSERT") {
+    // Attributes (text) may follow, closed by SEQEND; they carry no geometry.
+    bool attributes = false;
+    while (i < pairs.size() && pairs[i].code == 0 && pairs[i].value == "ATTRIB") {
+      attributes = true;
+      ++i;
+      while (i < pairs.size() && pairs[i].code != 0) ++i;
+    }
+    if (attributes || (i < pairs.size() && pairs[i].code == 0 && pairs[i].value == "SEQEND")) {
+      if (i >= pairs.size() || pairs[i].value != "SEQEND")
+        throw InputError(source, i < pairs.size() ? pairs[i].line : pairs.back().line,
+                         "the attributes of an INSERT are not closed by 0/SEQEND");
+      ++i;
+      while (i < pairs.size() && pairs[i].code != 0) ++i;
+    }
+  }
+  finish_entity(e, source, type_count);
+  return e;
+}
+
+}  // namespace
+
 Scan scan(std::string_view text, const std::string& source) {
   const std::vector<Pair> pairs = split_pairs(text, source);
   Scan out;
@@ -140,58 +201,6 @@ Scan scan(std::string_view text, const std::string& source) {
   bool seen_eof = false;
   Block* block = nullptr;  // the block being read in the BLOCKS section
   std::size_t i = 0;
-  auto finish_entity = [&](Entity& e) {
-    for (const auto& p : e.pairs) {
-      if (p.code == 5) e.handle = p.value;
-      if (p.code == 8) e.layer = p.value;
-      if (p.code == 67) e.paper_space = parse_int(source, p) == 1;
-    }
-    if (e.handle.empty()) e.handle = fmt::format("{}#{}", e.type, ++type_count[e.type]);
-  };
-  // Reads the entity starting at pairs[i] (a 0/TYPE pair) with its VERTEX / ATTRIB followers.
-  auto read_entity = [&]() {
-    const Pair& p = pairs[i];
-    Entity e;
-    e.type = p.value;
-    e.line = p.line;
-    ++i;
-    while (i < pairs.size() && pairs[i].code != 0) e.pairs.push_back(pairs[i++]);
-    if (e.type == "VERTEX" || e.type == "SEQEND")
-      throw InputError(source, e.line, fmt::format("{} outside a POLYLINE", e.type));
-    if (e.type == "POLYLINE") {
-      // Its VERTEX entities follow until SEQEND.
-      while (i < pairs.size() && pairs[i].code == 0 && pairs[i].value == "VERTEX") {
-        e.vertex_lines.push_back(pairs[i].line);
-        ++i;
-        std::vector<Pair> v;
-        while (i < pairs.size() && pairs[i].code != 0) v.push_back(pairs[i++]);
-        e.vertices.push_back(std::move(v));
-      }
-      if (i >= pairs.size() || pairs[i].value != "SEQEND")
-        throw InputError(source, i < pairs.size() ? pairs[i].line : pairs.back().line,
-                         "POLYLINE is not closed by 0/SEQEND");
-      ++i;
-      while (i < pairs.size() && pairs[i].code != 0) ++i;  // SEQEND's own pairs
-    }
-    if (e.type == "INSERT") {
-      // Attributes (text) may follow, closed by SEQEND; they carry no geometry.
-      bool attributes = false;
-      while (i < pairs.size() && pairs[i].code == 0 && pairs[i].value == "ATTRIB") {
-        attributes = true;
-        ++i;
-        while (i < pairs.size() && pairs[i].code != 0) ++i;
-      }
-      if (attributes || (i < pairs.size() && pairs[i].code == 0 && pairs[i].value == "SEQEND")) {
-        if (i >= pairs.size() || pairs[i].value != "SEQEND")
-          throw InputError(source, i < pairs.size() ? pairs[i].line : pairs.back().line,
-                           "the attributes of an INSERT are not closed by 0/SEQEND");
-        ++i;
-        while (i < pairs.size() && pairs[i].code != 0) ++i;
-      }
-    }
-    finish_entity(e);
-    return e;
-  };
   // A header variable (9/$NAME at pairs[i]): $INSUNITS is read, the others skipped.
   auto header_variable = [&](const Pair& p) {
     if (p.value == "$INSUNITS") {
@@ -270,13 +279,13 @@ Scan scan(std::string_view text, const std::string& source) {
         continue;
       }
       if (!block) throw InputError(source, p.line, fmt::format("entity {} outside a block", p.value.substr(0, 40)));
-      block->entities.push_back(read_entity());
+      block->entities.push_back(read_entity(pairs, i, source, type_count));
       continue;
     }
     if (section != "ENTITIES") { ++i; continue; }
     if (p.code != 0)
       throw InputError(source, p.line, fmt::format("expected an entity (group code 0), found group code {}", p.code));
-    out.entities.push_back(read_entity());
+    out.entities.push_back(read_entity(pairs, i, source, type_count));
   }
   if (!seen_eof) {
     const int last = pairs.empty() ? 1 : pairs.back().line + 1;
