@@ -152,7 +152,7 @@ void add_calibrate(CLI::App& app) {
   });
 }
 
-const Registration reg(55, add_calibrate);
+const Registration reg_calibrate(55, add_calibrate);
 
 void add_store_commands(CLI::App& app) {
   auto* cal = app.get_subcommand("calibrate");

@@ -118,7 +118,7 @@ void add_guard(CLI::App& app) {
   });
 }
 
-const Registration reg(62, add_guard);
+const Registration reg_guard(62, add_guard);
 
 }  // namespace
 }  // namespace machplan::cli

@@ -71,6 +71,6 @@ void add_machines(CLI::App& app) {
   });
 }
 
-const machplan::cli::Registration reg(65, add_machines);
+const machplan::cli::Registration reg_machines(65, add_machines);
 
 }  // namespace

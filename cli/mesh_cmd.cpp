@@ -65,6 +65,6 @@ void add_mesh(CLI::App& app) {
   });
 }
 
-const machplan::cli::Registration reg(40, add_mesh);
+const machplan::cli::Registration reg_mesh(40, add_mesh);
 
 }  // namespace

@@ -82,7 +82,7 @@ void add_order(CLI::App& app) {
   });
 }
 
-const Registration reg(15, add_order);
+const Registration reg_order(15, add_order);
 
 }  // namespace
 }  // namespace machplan::cli

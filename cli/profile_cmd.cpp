@@ -121,6 +121,6 @@ void add_profile(CLI::App& app) {
   });
 }
 
-const machplan::cli::Registration reg(20, add_profile);
+const machplan::cli::Registration reg_profile(20, add_profile);
 
 }  // namespace

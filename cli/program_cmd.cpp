@@ -138,6 +138,6 @@ void add_program(CLI::App& app) {
   });
 }
 
-const machplan::cli::Registration reg(10, add_program);
+const machplan::cli::Registration reg_program(10, add_program);
 
 }  // namespace

@@ -296,7 +296,7 @@ void add_run(CLI::App& app) {
   cmd->callback([a] { run_command(*a); });
 }
 
-const Registration reg(60, add_run);
+const Registration reg_run(60, add_run);
 
 }  // namespace
 }  // namespace machplan::cli

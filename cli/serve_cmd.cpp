@@ -98,7 +98,7 @@ void add_serve(CLI::App& app) {
   cmd->callback([a] { serve(*a); });
 }
 
-const Registration reg(64, add_serve);
+const Registration reg_serve(64, add_serve);
 
 }  // namespace
 }  // namespace machplan::cli

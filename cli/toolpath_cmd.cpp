@@ -81,6 +81,6 @@ void add_toolpath(CLI::App& app) {
   });
 }
 
-const machplan::cli::Registration reg(30, add_toolpath);
+const machplan::cli::Registration reg_toolpath(30, add_toolpath);
 
 }  // namespace

@@ -193,7 +193,7 @@ void add_tune(CLI::App& app) {
   });
 }
 
-const Registration reg(57, add_tune);
+const Registration reg_tune(57, add_tune);
 
 }  // namespace
 }  // namespace machplan::cli

@@ -9,25 +9,19 @@
 #include "engine/common/error.h"
 
 namespace machplan::control {
-namespace {
-
-void require(bool ok, const std::string& field, double v, const char* rule) { require_field(ok, field, v, rule); }
-
-}  // namespace
-
 void AccOptions::validate() const {
-  require(std::isfinite(sample_s) && sample_s >= 0.001 && sample_s <= 10, "sample_s", sample_s, "must be in [0.001, 10]");
-  require(std::isfinite(reference_force_n) && reference_force_n > 0, "reference_force_n", reference_force_n, "must be > 0");
-  require(std::isfinite(kc) && kc >= 0 && kc <= 100, "kc", kc, "must be in [0, 100]");
-  require(std::isfinite(feed_step_mm_per_rev) && feed_step_mm_per_rev > 0, "feed_step_mm_per_rev", feed_step_mm_per_rev,
+  require_field(std::isfinite(sample_s) && sample_s >= 0.001 && sample_s <= 10, "sample_s", sample_s, "must be in [0.001, 10]");
+  require_field(std::isfinite(reference_force_n) && reference_force_n > 0, "reference_force_n", reference_force_n, "must be > 0");
+  require_field(std::isfinite(kc) && kc >= 0 && kc <= 100, "kc", kc, "must be in [0, 100]");
+  require_field(std::isfinite(feed_step_mm_per_rev) && feed_step_mm_per_rev > 0, "feed_step_mm_per_rev", feed_step_mm_per_rev,
           "must be > 0");
-  require(std::isfinite(open_loop_gain) && open_loop_gain >= 0 && open_loop_gain <= 10, "open_loop_gain", open_loop_gain,
+  require_field(std::isfinite(open_loop_gain) && open_loop_gain >= 0 && open_loop_gain <= 10, "open_loop_gain", open_loop_gain,
           "must be in [0, 10]");
-  require(std::isfinite(max_feed_mm_per_rev) && max_feed_mm_per_rev > 0, "max_feed_mm_per_rev", max_feed_mm_per_rev,
+  require_field(std::isfinite(max_feed_mm_per_rev) && max_feed_mm_per_rev > 0, "max_feed_mm_per_rev", max_feed_mm_per_rev,
           "must be > 0");
-  require(std::isfinite(min_feed_mm_per_rev) && min_feed_mm_per_rev > 0 && min_feed_mm_per_rev < max_feed_mm_per_rev,
+  require_field(std::isfinite(min_feed_mm_per_rev) && min_feed_mm_per_rev > 0 && min_feed_mm_per_rev < max_feed_mm_per_rev,
           "min_feed_mm_per_rev", min_feed_mm_per_rev, "must be > 0 and < max_feed_mm_per_rev");
-  require(std::isfinite(min_force_for_estimate_n) && min_force_for_estimate_n > 0, "min_force_for_estimate_n",
+  require_field(std::isfinite(min_force_for_estimate_n) && min_force_for_estimate_n > 0, "min_force_for_estimate_n",
           min_force_for_estimate_n, "must be > 0");
 }
 

@@ -6,22 +6,18 @@
 
 namespace machplan::control {
 
-namespace {
-void require(bool ok, const char* field, double value, const char* rule) { require_field(ok, field, value, rule); }
-}  // namespace
-
 void PidGains::validate() const {
   require_pid_core(kp_per_s, ki_per_s2, kd, velocity_ff, acceleration_ff_s, following_error_limit_mm);
-  require(finite_nonneg(friction_ff_mm_per_s) && friction_ff_mm_per_s <= 100, "friction_ff_mm_per_s", friction_ff_mm_per_s,
+  require_field(finite_nonneg(friction_ff_mm_per_s) && friction_ff_mm_per_s <= 100, "friction_ff_mm_per_s", friction_ff_mm_per_s,
           "must be in [0, 100] mm/s");
-  require(std::isfinite(friction_ff_band_mm_per_s) && friction_ff_band_mm_per_s > 0, "friction_ff_band_mm_per_s",
+  require_field(std::isfinite(friction_ff_band_mm_per_s) && friction_ff_band_mm_per_s > 0, "friction_ff_band_mm_per_s",
           friction_ff_band_mm_per_s, "must be > 0");
-  require(finite_nonneg(tracking_time_s), "tracking_time_s", tracking_time_s, "must be finite and >= 0 (0: Kp / Ki)");
-  require(std::isfinite(derivative_filter_s) && derivative_filter_s > 0, "derivative_filter_s", derivative_filter_s,
+  require_field(finite_nonneg(tracking_time_s), "tracking_time_s", tracking_time_s, "must be finite and >= 0 (0: Kp / Ki)");
+  require_field(std::isfinite(derivative_filter_s) && derivative_filter_s > 0, "derivative_filter_s", derivative_filter_s,
           "must be > 0");
-  require(finite_nonneg(backlash_ff_mm) && backlash_ff_mm <= 1, "backlash_ff_mm", backlash_ff_mm, "must be in [0, 1] mm");
-  require(finite_nonneg(observer_per_s), "observer_per_s", observer_per_s, "must be finite and >= 0 (0: off)");
-  require(!(ki_per_s2 > 0 && tracking_time_s == 0 && kp_per_s == 0), "kp_per_s", kp_per_s,
+  require_field(finite_nonneg(backlash_ff_mm) && backlash_ff_mm <= 1, "backlash_ff_mm", backlash_ff_mm, "must be in [0, 1] mm");
+  require_field(finite_nonneg(observer_per_s), "observer_per_s", observer_per_s, "must be finite and >= 0 (0: off)");
+  require_field(!(ki_per_s2 > 0 && tracking_time_s == 0 && kp_per_s == 0), "kp_per_s", kp_per_s,
           "must be > 0 when Ki > 0 and the tracking time is Kp / Ki (or give tracking_time_s)");
 }
 

@@ -1,4 +1,5 @@
 #include "engine/executor/time_scale.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +8,6 @@
 namespace machplan::executor {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kTiny = 1e-9;
 constexpr double kMaxScale = 2.0;  // 200 %
 }  // namespace

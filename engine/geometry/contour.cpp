@@ -1,4 +1,5 @@
 #include "engine/geometry/contour.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +14,6 @@ namespace machplan {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // Bulges smaller than this are straight: the sagitta of a 3e9 mm chord is then below 2 um,
 // and 1/|b| in the radius formula stays finite.

@@ -1,4 +1,5 @@
 #include "engine/geometry/offset.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,7 +15,6 @@ namespace machplan {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
 Vector2d unit(double angle) { return {std::cos(angle), std::sin(angle)}; }
 

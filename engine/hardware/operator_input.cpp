@@ -1,4 +1,5 @@
 #include "engine/hardware/operator_input.h"
+#include "engine/common/internal/text_scan.h"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -24,11 +25,7 @@ namespace machplan::hardware {
 
 namespace {
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
+using text_scan::trim;
 
 std::vector<std::string_view> split(std::string_view s) {
   std::vector<std::string_view> out;

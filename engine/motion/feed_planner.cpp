@@ -1,4 +1,5 @@
 #include "engine/motion/feed_planner.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,7 +15,6 @@ namespace machplan::motion {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 constexpr double kTangentRad = 1e-9;        // planner: junctions this straight are passed as they are
 constexpr double kBoundTangentRad = 1e-6;   // bound: junctions this straight are not counted as stops
 constexpr double kMinPieceMm = 1e-9;        // shorter pieces are dropped

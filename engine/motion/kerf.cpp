@@ -1,4 +1,5 @@
 #include "engine/motion/kerf.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -16,7 +17,6 @@ namespace machplan::motion {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
 double bulge_of(const Segment& s) { return s.is_arc() ? std::tan(s.sweep / 4.0) : 0.0; }
 

@@ -1,4 +1,5 @@
 #include "engine/motion/make_job.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +14,6 @@
 namespace machplan::motion {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 void require(bool ok, const char* field, double value, const char* rule) { require_field(ok, field, value, rule); }

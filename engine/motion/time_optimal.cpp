@@ -1,4 +1,5 @@
 #include "engine/motion/time_optimal.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +14,6 @@ namespace machplan::motion {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kMinPieceMm = 1e-9;      // shorter segments are skipped (as the planner does)
 constexpr double kJumpRad = 1e-6;         // tangent jumps above this are stops (as the bound)
 constexpr double kAxisEps = 1e-12;        // |u_i| below this: the axis takes no tangential part

@@ -1,6 +1,7 @@
 // Stage 2 of the DXF reader (engine/programs/internal/dxf_stages.h): every drawn entity into
 // pieces of lines and arcs in mm.
 #include <algorithm>
+#include "engine/common/internal/numbers.h"
 #include <cmath>
 #include <numbers>
 #include <set>
@@ -20,7 +21,6 @@ namespace {
 
 using Eigen::Vector2d;
 using Eigen::Vector3d;
-constexpr double kPi = std::numbers::pi;
 
 const std::set<std::string>& annotation_types() {
   static const std::set<std::string> t = {"TEXT", "MTEXT", "DIMENSION", "ARC_DIMENSION",

@@ -1,6 +1,7 @@
 // Stage 1 of the DXF reader (engine/programs/internal/dxf_stages.h): the file into pairs, the
 // pairs into sections, blocks and entities.
 #include <charconv>
+#include "engine/common/internal/text_scan.h"
 #include <cmath>
 #include <cstdlib>
 #include <map>
@@ -15,11 +16,7 @@
 namespace machplan::dxf {
 namespace {
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
+using text_scan::trim;
 
 // mm per drawing unit for $INSUNITS; 0 for 0 (unitless), which reads as no units given.
 double insunits_scale(const std::string& source, const Pair& p) {

@@ -1,4 +1,5 @@
 #include "engine/programs/toolpath.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <array>
@@ -28,7 +29,6 @@ using text_scan::trim;
 
 constexpr double kMinAxisNorm = 1e-9;
 constexpr double kMmPerInch = 25.4;
-constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kMaxFields = 8;
 
 // Up to kMaxFields comma-separated fields; `count` may exceed kMaxFields (then only the

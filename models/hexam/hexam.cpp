@@ -1,4 +1,5 @@
 #include "models/hexam/hexam.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +14,6 @@
 namespace machplan::hexam {
 
 namespace {
-constexpr double kDeg = M_PI / 180.0;
 
 double angle_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));

@@ -1,4 +1,5 @@
 #include "models/trunnion/trunnion.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +11,6 @@
 namespace machplan::trunnion {
 
 namespace {
-constexpr double kDeg = M_PI / 180.0;
 // Coordinates and sizes of a machine tool stay well within this (mm).
 constexpr double kMaxMm = 100'000.0;
 

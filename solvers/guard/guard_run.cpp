@@ -1,4 +1,5 @@
 #include "solvers/guard/guard_run.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -88,7 +89,6 @@ void GuardRunOptions::validate() const {
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // What every session shares.
 struct Rig {

@@ -1,4 +1,5 @@
 #include "solvers/motion/cut_order.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -19,7 +20,6 @@ namespace machplan::motion {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kZ = 1e-9;  // Z changes below this are none, mm
 
 bool is_motion(const Move& m) {

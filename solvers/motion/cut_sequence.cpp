@@ -1,4 +1,5 @@
 #include "solvers/motion/cut_sequence.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +14,6 @@ namespace machplan::motion {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kGain = 1e-9;  // a move must shorten the travel by more than this, mm
 
 double dist(const Vector2d& a, const Vector2d& b) { return (a - b).norm(); }

@@ -1,4 +1,5 @@
 #include "solvers/motion/rapid_planner.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -31,7 +32,6 @@ namespace og = ompl::geometric;
 using Eigen::Vector2d;
 using Polyline = std::vector<Vector2d>;
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 double path_length(const Polyline& p) {
   double s = 0.0;

@@ -1,4 +1,5 @@
 #include "solvers/motion/rapid_zones.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +8,6 @@ namespace machplan::motion {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 Eigen::AlignedBox2d grown(const Vector2d& a, const Vector2d& b, double by) {
   Eigen::AlignedBox2d box(a);

@@ -26,7 +26,7 @@
 namespace machplan::calibration {
 namespace {
 
-cutting::MachineConfig nominal() {
+cutting::MachineConfig nominal_gantry() {
   return cutting::load_machine(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
 }
 
@@ -51,17 +51,17 @@ Session session(const cutting::MachineConfig& truth, std::uint64_t seed) {
   o.seed = seed;
   Session s;
   Termination never;
-  s.log = record_session(backend, nominal(), o, never).log;
+  s.log = record_session(backend, nominal_gantry(), o, never).log;
   std::ostringstream out;
   write_session_log(out, s.log);
   s.bytes = out.str();
-  s.fit = fit_session(s.log, nominal());
+  s.fit = fit_session(s.log, nominal_gantry());
   return s;
 }
 
 TEST(CalibrationStore, AppliesListsAndActivates) {
   const std::string db = temp_db("apply");
-  auto truth = nominal();
+  auto truth = nominal_gantry();
   const auto a = session(truth, 1);
   truth.axes[0].plant.gain_factor = 0.65;
   const auto b = session(truth, 2);
@@ -93,7 +93,7 @@ TEST(CalibrationStore, AppliesListsAndActivates) {
 
 TEST(CalibrationStore, RefusesAFitThatIsNotOk) {
   const std::string db = temp_db("refuse");
-  auto s = session(nominal(), 3);
+  auto s = session(nominal_gantry(), 3);
   s.fit.summary.status = Status::infeasible;
   s.fit.summary.message = "x.backlash_mm: the axis never reversed";
   CalibrationStore store(db);
@@ -103,8 +103,8 @@ TEST(CalibrationStore, RefusesAFitThatIsNotOk) {
 
 TEST(CalibrationStore, AProcessKilledMidWriteLeavesThePreviousCalibrationActive) {
   const std::string db = temp_db("killed");
-  const auto a = session(nominal(), 4);
-  auto truth = nominal();
+  const auto a = session(nominal_gantry(), 4);
+  auto truth = nominal_gantry();
   truth.axes[1].plant.gain_factor = 0.74;
   const auto b = session(truth, 5);
   std::int64_t first = 0;
@@ -165,7 +165,7 @@ TEST(CalibrationStore, AFolderIsCreatedOnlyForTheDefaultLocation) {
 // contour error on the rebuilt 45 degree triangle drops at least five-fold at three feeds.
 TEST(CalibrationStore, OneSessionCalibratesPaperOpenLoopAtThreeFeeds) {
   const std::string db = temp_db("paper");
-  const auto s = session(nominal(), 6);
+  const auto s = session(nominal_gantry(), 6);
   ASSERT_EQ(s.fit.summary.status, Status::done) << s.fit.summary.message;
   CalibrationStore store(db);
   store.apply(s.fit, "session.csv", s.bytes, "frank");
@@ -195,7 +195,7 @@ namespace machplan::calibration {
 namespace {
 
 TEST(CalibrationApply, FeedFactorAndBacklashGoIntoTheServo) {
-  const auto m = nominal();
+  const auto m = nominal_gantry();
   StoredFit c;
   c.fit_id = 9;
   c.feed_factor[0] = 0.68;

@@ -19,7 +19,7 @@ namespace {
 using ::testing::HasSubstr;
 
 // A plate cut before its two holes (each pierced at its centre, lead-in to the edge).
-const char* const kProgram =
+const char* const kPlateProgram =
     "G21 G90 G17 G94\n"
     "G0 X94 Y150\nM3 S1\nG4 P0.5\nG1 X100 Y150 F3000\nG1 X100 Y200\nG1 X300 Y200\nG1 X300 Y100\n"
     "G1 X100 Y100\nG1 X100 Y150\nM5\n"
@@ -41,7 +41,7 @@ std::vector<std::pair<double, double>> rs274_feeds(const std::string& out) {
 
 TEST(OrderCli, WritesAProgramRs274ReadsToTheSameCuts) {
   test::TempDir dir;
-  const std::string in = dir.write("plate.ngc", kProgram);
+  const std::string in = dir.write("plate.ngc", kPlateProgram);
   const std::string out = (dir.path() / "ordered.ngc").string();
   const test::CliResult r = test::Cli().run("order '" + in + "' --output '" + out + "'");
   ASSERT_EQ(r.code, 0) << r.err;
@@ -78,7 +78,7 @@ TEST(OrderCli, WritesAProgramRs274ReadsToTheSameCuts) {
 
 TEST(OrderCli, ReportAsJsonAndBadInput) {
   test::TempDir dir;
-  const std::string in = dir.write("plate.ngc", kProgram);
+  const std::string in = dir.write("plate.ngc", kPlateProgram);
   const std::string out = (dir.path() / "o.ngc").string();
   const test::CliResult j = test::Cli().run("order '" + in + "' -o '" + out + "' --json");
   ASSERT_EQ(j.code, 0) << j.err;

@@ -20,7 +20,7 @@ namespace {
 
 namespace fs = std::filesystem;
 const fs::path kSamples = "/usr/share/linuxcnc/ncfiles/plasmac";
-const std::string kMaterials = "datasets/materials/thermal_gantry_material.cfg";
+const std::string kMaterialFile = "datasets/materials/thermal_gantry_material.cfg";
 
 std::vector<std::string> samples() {
   std::vector<std::string> names;
@@ -34,7 +34,7 @@ std::vector<std::string> samples() {
 nlohmann::json run_sample(const std::string& name) {
   test::Cli cli;
   const test::CliResult r = cli.run({"run", (kSamples / (name + ".ngc")).string(), "--machine", "thermal_gantry",
-                                     "--materials", kMaterials, "--material", "1", "--origin", "100,100", "--json"});
+                                     "--materials", kMaterialFile, "--material", "1", "--origin", "100,100", "--json"});
   EXPECT_EQ(r.code, 0) << name << ": " << r.err;
   if (r.code != 0) return {};
   return nlohmann::json::parse(r.out);

@@ -13,7 +13,7 @@
 namespace machplan::control {
 namespace {
 
-ControllerPlant plant() {
+ControllerPlant factory_plant() {
   ControllerPlant p;
   for (int i = 0; i < kAxes; ++i) {
     p.servo[i].kp_per_s = 150;
@@ -40,10 +40,10 @@ TEST(ControllerFactory, EveryKindBuildsWithItsDefaultsAndNamesItself) {
   const std::vector<std::string> kinds = controller_kinds();
   for (const char* k : {"p", "pid", "pid_ff"}) EXPECT_NE(std::find(kinds.begin(), kinds.end(), k), kinds.end()) << k;
   for (const std::string& k : kinds) {
-    auto c = make_controller(k, {}, plant());
+    auto c = make_controller(k, {}, factory_plant());
     ASSERT_TRUE(c) << k;
     EXPECT_EQ(std::string(c->name()), k);
-    for (const GainSpec& s : gain_specs(k, plant())) {
+    for (const GainSpec& s : gain_specs(k, factory_plant())) {
       EXPECT_LE(s.min_value, s.default_value) << k << " " << s.name;
       EXPECT_LE(s.default_value, s.max_value) << k << " " << s.name;
       EXPECT_LT(s.min_value, s.max_value) << k << " " << s.name;
@@ -54,7 +54,7 @@ TEST(ControllerFactory, EveryKindBuildsWithItsDefaultsAndNamesItself) {
 }
 
 TEST(ControllerFactory, PIsKpTimesTheErrorWithOptionalFeedForward) {
-  auto c = make_controller("p", {{"kp_per_s", 100.0}}, plant());
+  auto c = make_controller("p", {{"kp_per_s", 100.0}}, factory_plant());
   ControllerInput in;
   in.r_mm = {1.0, 2.0};
   in.y_mm = {0.9, 2.05};
@@ -63,13 +63,13 @@ TEST(ControllerFactory, PIsKpTimesTheErrorWithOptionalFeedForward) {
   c->update(in, out);
   EXPECT_NEAR(out.u_mm_per_s[0], 10.0, 1e-12);  // no feed-forward unless asked for
   EXPECT_NEAR(out.u_mm_per_s[1], -5.0, 1e-12);  // the given kp applies to both axes
-  auto ff = make_controller("p", {{"kp_per_s", 100.0}, {"velocity_ff", 1.0}}, plant());
+  auto ff = make_controller("p", {{"kp_per_s", 100.0}, {"velocity_ff", 1.0}}, factory_plant());
   ff->update(in, out);
   EXPECT_NEAR(out.u_mm_per_s[0], 40.0, 1e-12);
 }
 
 TEST(ControllerFactory, MissingGainsTakeEachAxisServoSection) {
-  auto c = make_controller("p", {}, plant());
+  auto c = make_controller("p", {}, factory_plant());
   ControllerInput in;
   in.r_mm = {0.1, 0.1};
   ControllerOutput out;
@@ -79,7 +79,7 @@ TEST(ControllerFactory, MissingGainsTakeEachAxisServoSection) {
 }
 
 TEST(ControllerFactory, PidFfWithDefaultsIsTheExecutorsServo) {
-  const ControllerPlant p = plant();
+  const ControllerPlant p = factory_plant();
   auto c = make_controller("pid_ff", {}, p);
   PidFfController ref;
   ref.configure(p.servo, p.output_limit_mm_per_s, p.period_s);
@@ -97,22 +97,22 @@ TEST(ControllerFactory, PidFfWithDefaultsIsTheExecutorsServo) {
 }
 
 TEST(ControllerFactory, RefusesUnknownKindsGainsAndValuesOutsideTheBox) {
-  EXPECT_NE(input_error_where([] { make_controller("pd", {}, plant()); }).find("controller: unknown controller 'pd'"),
+  EXPECT_NE(input_error_where([] { make_controller("pd", {}, factory_plant()); }).find("controller: unknown controller 'pd'"),
             std::string::npos);
-  EXPECT_EQ(input_error_where([] { gain_specs("nope", plant()); }).rfind("controller: ", 0), 0u);
-  const std::string unknown = input_error_where([] { make_controller("p", {{"ki_per_s2", 5.0}}, plant()); });
+  EXPECT_EQ(input_error_where([] { gain_specs("nope", factory_plant()); }).rfind("controller: ", 0), 0u);
+  const std::string unknown = input_error_where([] { make_controller("p", {{"ki_per_s2", 5.0}}, factory_plant()); });
   EXPECT_NE(unknown.find("gains: controller 'p' has no gain 'ki_per_s2'"), std::string::npos) << unknown;
-  const std::string box = input_error_where([] { make_controller("pid", {{"kp_per_s", 1e7}}, plant()); });
+  const std::string box = input_error_where([] { make_controller("pid", {{"kp_per_s", 1e7}}, factory_plant()); });
   EXPECT_NE(box.find("kp_per_s = 10000000 is outside"), std::string::npos) << box;
-  EXPECT_EQ(input_error_where([] { make_controller("pid", {{"kd", std::nan("")}}, plant()); }).rfind("gains: ", 0), 0u);
-  ControllerPlant bad = plant();
+  EXPECT_EQ(input_error_where([] { make_controller("pid", {{"kd", std::nan("")}}, factory_plant()); }).rfind("gains: ", 0), 0u);
+  ControllerPlant bad = factory_plant();
   bad.output_limit_mm_per_s[1] = 0;
   EXPECT_NE(input_error_where([&] { make_controller("p", {}, bad); }).find("output_limit_mm_per_s[1]"),
             std::string::npos);
 }
 
 TEST(ControllerFactory, ZpetcNeedsTheDriveTimeConstant) {
-  ControllerPlant p = plant();
+  ControllerPlant p = factory_plant();
   p.drive_time_constant_s = {0, 0};  // what plant_from_setup leaves: unknown
   EXPECT_NE(input_error_where([&] { make_controller("zpetc", {}, p); }).find("set model_time_constant_s"),
             std::string::npos);

@@ -16,7 +16,7 @@
 namespace machplan::control {
 namespace {
 
-constexpr double T = 0.001;
+constexpr double kTick_s = 0.001;
 
 // The XY table's X axis as its machine file describes it (2 um counts, a 4 ms drive, one period
 // of command and one of reading latency, no backlash here), with friction and noise as asked.
@@ -45,7 +45,7 @@ Errors run_open_loop(const axis::AxisPlantParams& p, double bandwidth_per_s, dou
   dec.configure(p.mm_per_count(), p.counter_bits, 100000);
   dec.reset(0, x0);
   ObserverModel m;
-  m.period_s = T;
+  m.period_s = kTick_s;
   m.gain = p.gain_factor;
   m.tau_s = p.velocity_loop_time_constant_s;
   m.quantum_mm = p.mm_per_count();
@@ -76,9 +76,9 @@ Errors run_open_loop(const axis::AxisPlantParams& p, double bandwidth_per_s, dou
       e.estimate_max = std::max(e.estimate_max, std::abs(x - t));
       ++n;
     }
-    const int code = static_cast<int>(std::lround(16.0 * std::sin(2 * M_PI * k * T / 4.0) / fs * full));
+    const int code = static_cast<int>(std::lround(16.0 * std::sin(2 * M_PI * k * kTick_s / 4.0) / fs * full));
     obs.command(code / full * fs);
-    plant.step(code, true, T, rng);
+    plant.step(code, true, kTick_s, rng);
     truth.push_back(plant.load_position_mm());
   }
   const int D = m.delay_ticks;

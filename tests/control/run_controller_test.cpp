@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "solvers/motion/run.h"
+#include "tests/support/datasets.h"
 #include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
@@ -20,7 +21,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+using test::part;
 
 using CliRun = test::CliResult;
 

@@ -13,7 +13,7 @@
 namespace machplan::executor {
 namespace {
 
-cutting::MachineConfig gantry() {
+cutting::MachineConfig checked_gantry() {
   auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
   // The test means nothing unless the effects are really on.
   for (const auto& a : m.axes) {
@@ -65,7 +65,7 @@ void expect_within(const ExecutionResult& r, const char* what) {
 }
 
 TEST(PlannedAccuracy, StraightLinesAt80) {
-  const auto m = gantry();
+  const auto m = checked_gantry();
   for (std::uint64_t seed : {1, 2, 3}) {
     expect_within(run_line(m, {100, 100}, {400, 250}, seed), "line 26.6 deg, 335 mm");
     expect_within(run_line(m, {500, 100}, {300, 300}, seed), "line 135 deg, 283 mm");
@@ -74,7 +74,7 @@ TEST(PlannedAccuracy, StraightLinesAt80) {
 }
 
 TEST(PlannedAccuracy, CircleR50At80) {
-  const auto m = gantry();
+  const auto m = checked_gantry();
   for (std::uint64_t seed : {1, 2, 3}) {
     expect_within(run_circle(m, 50, true, seed), "circle R50 ccw");
     expect_within(run_circle(m, 50, false, seed), "circle R50 cw");
@@ -84,7 +84,7 @@ TEST(PlannedAccuracy, CircleR50At80) {
 // The learned feed-forward is what copes with the 0.7 drive: with it frozen at the nominal
 // gain, the same PID misses the budget on the circle.
 TEST(PlannedAccuracy, WithoutTheAdaptiveFeedForwardTheCircleFails) {
-  auto m = gantry();
+  auto m = checked_gantry();
   for (auto& a : m.axes) a.servo.ff_adaptation_per_s2 = 0;
   const ExecutionResult r = run_circle(m, 50, true, 1);
   ASSERT_EQ(r.summary.status, Status::done);

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/executor/guard.h"
+#include "tests/support/datasets.h"
 #include "engine/executor/jog_source.h"
 #include "engine/executor/setpoint_source.h"
 #include "models/cutting/machine_config.h"
@@ -29,10 +30,7 @@ constexpr double kPeriod = 0.001;
 Eigen::Vector2d vec(const std::array<double, control::kAxes>& a) { return {a[0], a[1]}; }
 
 
-const MachineSetup& table() {
-  static const MachineSetup s = cutting::load_machine(cutting::find_machine("xy_table")).setup();
-  return s;
-}
+
 
 // A 100 x 100 mm square part at the origin, machined from outside or as a pocket, with a 5 mm
 // tool.
@@ -63,7 +61,7 @@ Rig guard_rig(GuardStrategy s, MachiningSide side, const Eigen::Vector2d& start,
   o.strategy = s;
   o.tolerance_mm = 1.0;
   Rig r;
-  r.filter = std::make_unique<Guard>(square(side), o, table(), kPeriod);
+  r.filter = std::make_unique<Guard>(square(side), o, test::xy_table_setup(), kPeriod);
   r.start = start;
   r.stick = stick;
   return r;
@@ -80,20 +78,20 @@ const Entry kFilters[] = {
 
 // One run: per period the source's demand, filtered. `measured(k, table)` may replace what the
 // machine reports in period k.
-struct Session {
+struct FilterSession {
   std::vector<Demand> in, out;
   long allocations = 0;
 };
 
-Session run(Rig& rig, int ticks = 4000,
+FilterSession run(Rig& rig, int ticks = 4000,
             const std::function<Eigen::Vector2d(int, const Eigen::Vector2d&)>& measured = nullptr) {
   JogOptions jo;
   jo.speed_mm_per_s = 12.0;  // the paper's operator
   JogSource source(jo);
   motion::Job none;
-  source.prepare({&none, nullptr, &table(), kPeriod}, rig.start);
+  source.prepare({&none, nullptr, &test::xy_table_setup(), kPeriod}, rig.start);
   rig.filter->reset(rig.start);
-  Session s;
+  FilterSession s;
   s.in.reserve(ticks);
   s.out.reserve(ticks);
   Eigen::Vector2d at = rig.start, next = rig.start;
@@ -127,7 +125,7 @@ class DemandFilterContract : public ::testing::TestWithParam<Entry> {};
 TEST_P(DemandFilterContract, AMachineAskedToStandStillStaysStill) {
   Rig rig = GetParam().make();
   rig.stick = {0, 0};
-  const Session s = run(rig, 1000);
+  const FilterSession s = run(rig, 1000);
   for (std::size_t k = 0; k < s.out.size(); ++k) {
     ASSERT_EQ(s.out[k].commanded_mm, rig.start) << k;
     ASSERT_EQ(vec(s.out[k].track.r_mm), rig.start) << k;
@@ -138,7 +136,7 @@ TEST_P(DemandFilterContract, AMachineAskedToStandStillStaysStill) {
 TEST_P(DemandFilterContract, TheOperatorsMotionGetsThroughAwayFromWhatItGuards) {
   // The first tenth of a second, far from the region: the machine moves as the stick asks.
   Rig rig = GetParam().make();
-  const Session s = run(rig, 100);
+  const FilterSession s = run(rig, 100);
   const Eigen::Vector2d moved_in = s.in.back().commanded_mm - rig.start, moved_out = s.out.back().commanded_mm - rig.start;
   ASSERT_GT(moved_in.norm(), 0.1);
   EXPECT_NEAR((moved_out - moved_in).norm(), 0.0, 1e-9);
@@ -146,7 +144,7 @@ TEST_P(DemandFilterContract, TheOperatorsMotionGetsThroughAwayFromWhatItGuards) 
 
 TEST_P(DemandFilterContract, ResetRepeatsTheSameDemandsExactly) {
   Rig rig = GetParam().make();
-  const Session a = run(rig), b = run(rig);  // run() resets the filter
+  const FilterSession a = run(rig), b = run(rig);  // run() resets the filter
   ASSERT_EQ(a.out.size(), b.out.size());
   for (std::size_t k = 0; k < a.out.size(); ++k) {
     ASSERT_EQ(a.out[k].commanded_mm, b.out[k].commanded_mm) << k;
@@ -159,7 +157,7 @@ TEST_P(DemandFilterContract, ResetRepeatsTheSameDemandsExactly) {
 TEST_P(DemandFilterContract, DemandsStayFiniteAndOfTheirKindWhateverTheMeasurement) {
   Rig rig = GetParam().make();
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
-  const Session s = run(rig, 4000, [&](int k, const Eigen::Vector2d& at) {
+  const FilterSession s = run(rig, 4000, [&](int k, const Eigen::Vector2d& at) {
     if (k >= 1000 && k < 1100) return Eigen::Vector2d(nan, at.y());
     if (k >= 2000 && k < 2010) return Eigen::Vector2d(at.x(), -inf);
     return at;
@@ -172,7 +170,7 @@ TEST_P(DemandFilterContract, DemandsStayFiniteAndOfTheirKindWhateverTheMeasureme
 
 TEST_P(DemandFilterContract, FilteringAllocatesNothing) {
   Rig rig = GetParam().make();
-  const Session s = run(rig);
+  const FilterSession s = run(rig);
   EXPECT_EQ(s.allocations, 0);
 }
 

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "cli/json/executor.h"
+#include "tests/support/datasets.h"
 #include "engine/common/error.h"
 #include "engine/executor/executor.h"
 #include "models/cutting/machine_config.h"
@@ -20,7 +21,7 @@ namespace {
 
 using motion::Step;
 
-cutting::MachineConfig gantry() { return cutting::load_machine(cutting::find_machine("thermal_gantry")); }
+using test::gantry;
 
 test::OneCut line_cut(Eigen::Vector2d a, Eigen::Vector2d b, double feed = 40) {
   return test::one_cut(test::make_stretch(test::polyline_segments({a, b}, false), feed, true),

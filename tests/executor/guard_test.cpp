@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "tests/support/datasets.h"
 #include "engine/executor/executor.h"
 #include "engine/executor/guard.h"
 #include "models/cutting/machine_config.h"
@@ -18,14 +19,11 @@
 namespace machplan::executor {
 namespace {
 
-const MachineSetup& table() {
-  static const MachineSetup s = cutting::load_machine(cutting::find_machine("xy_table")).setup();
-  return s;
-}
+
 
 // A 100 x 100 mm square part at the origin; with R = 5 the limit is 5 mm outside it (outside
 // machining) or inside it (a pocket).
-ProhibitedRegion square(MachiningSide side) {
+ProhibitedRegion square_region(MachiningSide side) {
   const Contour c({{0, 0}, {100, 0}, {100, 100}, {0, 100}}, {0, 0, 0, 0});
   RegionOptions o;
   o.side = side;
@@ -64,10 +62,10 @@ GuardOptions options(GuardStrategy s, double T, double L = kPaperLatencyS) {
 }
 
 TEST(Guard, PaperStopArrivesLateByOneToTwoRoundTrips) {
-  const ProhibitedRegion region = square(MachiningSide::outside);
-  const double v = 12.0, L = kPaperLatencyS, brake = v * v / (2 * table().max_acceleration_mm_per_s2);
+  const ProhibitedRegion region = square_region(MachiningSide::outside);
+  const double v = 12.0, L = kPaperLatencyS, brake = v * v / (2 * test::xy_table_setup().max_acceleration_mm_per_s2);
   for (double T : {1.0, 2.0, 3.0}) {
-    Guard g(region, options(GuardStrategy::paper, T), table(), 0.001);
+    Guard g(region, options(GuardStrategy::paper, T), test::xy_table_setup(), 0.001);
     g.reset({130, 50});
     Drive dr{region, g, {130, 50}, {130, 50}};
     dr.run({-v, 0}, 3.0);
@@ -83,8 +81,8 @@ TEST(Guard, PaperStopArrivesLateByOneToTwoRoundTrips) {
 }
 
 TEST(Guard, PaperReleasesWhenTheOperatorTurnsAway) {
-  const ProhibitedRegion region = square(MachiningSide::outside);
-  Guard g(region, options(GuardStrategy::paper, 4.0), table(), 0.001);
+  const ProhibitedRegion region = square_region(MachiningSide::outside);
+  Guard g(region, options(GuardStrategy::paper, 4.0), test::xy_table_setup(), 0.001);
   g.reset({130, 50});
   Drive dr{region, g, {130, 50}, {130, 50}};
   dr.run({-12, 0}, 3.0);
@@ -96,9 +94,9 @@ TEST(Guard, PaperReleasesWhenTheOperatorTurnsAway) {
 }
 
 TEST(Guard, PredictiveStopsBeforeTheBoundaryAtAnySpeedUnderTheSameLatency) {
-  const ProhibitedRegion region = square(MachiningSide::outside);
+  const ProhibitedRegion region = square_region(MachiningSide::outside);
   for (double v : {12.0, 18.0, 100.0, 400.0}) {
-    Guard g(region, options(GuardStrategy::predictive, 0.5), table(), 0.001);
+    Guard g(region, options(GuardStrategy::predictive, 0.5), test::xy_table_setup(), 0.001);
     g.reset({160, 50});
     Drive dr{region, g, {160, 50}, {160, 50}};
     dr.run({-v, 0}, 60.0 / v + 1.0);
@@ -110,8 +108,8 @@ TEST(Guard, PredictiveStopsBeforeTheBoundaryAtAnySpeedUnderTheSameLatency) {
 }
 
 TEST(Guard, PredictiveSlidesAlongTheBoundary) {
-  const ProhibitedRegion region = square(MachiningSide::outside);
-  Guard g(region, options(GuardStrategy::predictive, 0.5), table(), 0.001);
+  const ProhibitedRegion region = square_region(MachiningSide::outside);
+  Guard g(region, options(GuardStrategy::predictive, 0.5), test::xy_table_setup(), 0.001);
   g.reset({110, 20});
   Drive dr{region, g, {110, 20}, {110, 20}};
   const double a = 30.0 * M_PI / 180.0;  // 30 degrees off the wall, toward it
@@ -127,10 +125,10 @@ TEST(Guard, PredictiveSlidesAlongTheBoundary) {
 }
 
 TEST(Guard, PredictiveNeverEntersAPocketCorner) {
-  const ProhibitedRegion region = square(MachiningSide::inside);  // allowed: [5, 95]^2
+  const ProhibitedRegion region = square_region(MachiningSide::inside);  // allowed: [5, 95]^2
   for (double deg : {10.0, 45.0, 80.0}) {
     for (double v : {18.0, 100.0}) {
-      Guard g(region, options(GuardStrategy::predictive, 0.5), table(), 0.001);
+      Guard g(region, options(GuardStrategy::predictive, 0.5), test::xy_table_setup(), 0.001);
       g.reset({60, 60});
       Drive dr{region, g, {60, 60}, {60, 60}};
       const double a = deg * M_PI / 180.0;
@@ -145,16 +143,16 @@ TEST(Guard, PredictiveNeverEntersAPocketCorner) {
 }
 
 TEST(Guard, ALostLinkStopsTheAxesFarFromTheRegion) {
-  const ProhibitedRegion region = square(MachiningSide::outside);
+  const ProhibitedRegion region = square_region(MachiningSide::outside);
   for (GuardStrategy s : {GuardStrategy::paper, GuardStrategy::predictive}) {
-    Guard g(region, options(s, 2.0), table(), 0.001);
+    Guard g(region, options(s, 2.0), test::xy_table_setup(), 0.001);
     g.reset({300, 50});
     Drive dr{region, g, {300, 50}, {300, 50}};
     dr.run({50, 0}, 0.5);
     ASSERT_NEAR(g.setpoint_velocity_mm_per_s().x(), 50.0, 1e-9);
     g.drop_answers(true);
     // The budget: one answer period (L) and a tick, then the ramp down at A.
-    dr.run({50, 0}, kPaperLatencyS + 0.002 + 50.0 / table().max_acceleration_mm_per_s2 + 0.002);
+    dr.run({50, 0}, kPaperLatencyS + 0.002 + 50.0 / test::xy_table_setup().max_acceleration_mm_per_s2 + 0.002);
     EXPECT_EQ(g.setpoint_velocity_mm_per_s().norm(), 0.0) << to_string(s);
     EXPECT_TRUE(g.holding());
     EXPECT_GT(g.counters().failsafe_ticks, 0);
@@ -166,8 +164,8 @@ TEST(Guard, ALostLinkStopsTheAxesFarFromTheRegion) {
 
 TEST(Guard, PredictiveHoldsWhenTheTableDoesNotFollow) {
   // A jammed table: the answers stay where it stuck while the setpoint runs on.
-  const ProhibitedRegion region = square(MachiningSide::outside);
-  Guard g(region, options(GuardStrategy::predictive, 1.0), table(), 0.001);
+  const ProhibitedRegion region = square_region(MachiningSide::outside);
+  Guard g(region, options(GuardStrategy::predictive, 1.0), test::xy_table_setup(), 0.001);
   g.reset({300, 50});
   Drive dr{region, g, {300, 50}, {300, 50}};
   const Eigen::Vector2d stuck(300, 50);
@@ -178,8 +176,8 @@ TEST(Guard, PredictiveHoldsWhenTheTableDoesNotFollow) {
 }
 
 TEST(Guard, ANonFinitePositionHoldsTheAxes) {
-  const ProhibitedRegion region = square(MachiningSide::outside);
-  Guard g(region, options(GuardStrategy::predictive, 1.0), table(), 0.001);
+  const ProhibitedRegion region = square_region(MachiningSide::outside);
+  Guard g(region, options(GuardStrategy::predictive, 1.0), test::xy_table_setup(), 0.001);
   g.reset({300, 50});
   Drive dr{region, g, {300, 50}, {300, 50}};
   dr.run({50, 0}, 0.2);
@@ -190,9 +188,9 @@ TEST(Guard, ANonFinitePositionHoldsTheAxes) {
 }
 
 TEST(Guard, ATickAllocatesNothing) {
-  const ProhibitedRegion region = square(MachiningSide::inside);
+  const ProhibitedRegion region = square_region(MachiningSide::inside);
   for (GuardStrategy s : {GuardStrategy::paper, GuardStrategy::predictive}) {
-    Guard g(region, options(s, 1.0), table(), 0.001);
+    Guard g(region, options(s, 1.0), test::xy_table_setup(), 0.001);
     g.reset({50, 50});
     Drive dr{region, g, {50, 50}, {50, 50}};
     g_allocations = 0;
@@ -205,7 +203,7 @@ TEST(Guard, ATickAllocatesNothing) {
 
 TEST(Guard, AJogSessionUnderTheGuardAllocatesNothingPerTickAndStaysOut) {
   // The closed loop: jog source -> guard -> controller -> simulated table, ticked by hand.
-  const ProhibitedRegion region = square(MachiningSide::outside);
+  const ProhibitedRegion region = square_region(MachiningSide::outside);
   const auto m = cutting::load_machine(cutting::find_machine("xy_table"));
   for (GuardStrategy s : {GuardStrategy::paper, GuardStrategy::predictive}) {
     sim::SimOptions so;

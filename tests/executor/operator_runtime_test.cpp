@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/hardware/operator_events.h"
+#include "tests/support/datasets.h"
 #include "solvers/motion/run.h"
 #include "solvers/session/machine_session.h"
 #include "tests/support/cli_run.h"
@@ -25,7 +26,7 @@ namespace {
 using executor::HoldReport;
 using executor::TraceSample;
 
-std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+using test::part;
 std::string program(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/programs/" + name; }
 
 RunOutcome run_with_events(const std::string& path, const std::string& events, const std::string& machine = "thermal_gantry",

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/hardware/operator_events.h"
+#include "tests/support/datasets.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/motion/run.h"
 #include "solvers/session/machine_session.h"
@@ -23,9 +24,9 @@ namespace {
 using executor::CutError;
 using executor::TraceSample;
 
-std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+using test::part;
 
-cutting::MachineConfig gantry() { return cutting::load_machine(cutting::find_machine("thermal_gantry")); }
+using test::gantry;
 
 RunOutcome run_on(const std::string& path, const cutting::MachineConfig& m, const std::string& events = "",
                   std::optional<std::pair<double, double>> warp = std::nullopt) {

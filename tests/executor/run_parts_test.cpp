@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/programs/gcode.h"
+#include "tests/support/datasets.h"
 #include "solvers/motion/run.h"
 #include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
@@ -32,7 +33,7 @@ using executor::ExecutionResult;
 using executor::Mode;
 using ::testing::HasSubstr;
 
-std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+using test::part;
 
 std::size_t torch_on_count(const Job& job) {
   std::size_t n = 0;

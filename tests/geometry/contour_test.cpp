@@ -1,6 +1,7 @@
 // Contracts of engine/geometry/contour.h: exact areas against closed-form formulas,
 // orientation, lengths, distances, containment, intersections and degenerate input.
 #include "engine/common/error.h"
+#include "engine/common/internal/numbers.h"
 #include "engine/geometry/contour.h"
 #include "engine/geometry/curve_fit.h"
 
@@ -17,7 +18,6 @@ namespace machplan {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
 Contour square(double side, bool ccw = true) {
   Contour c({{0, 0}, {side, 0}, {side, side}, {0, side}}, {0, 0, 0, 0});

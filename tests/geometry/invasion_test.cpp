@@ -3,6 +3,8 @@
 // holes, several contours), both machining sides, both offset methods; and their distances
 // agree where each method measures the true one.
 #include "engine/geometry/invasion.h"
+#include "tests/support/shapes.h"
+#include "engine/common/internal/numbers.h"
 
 #include <cmath>
 #include <numbers>
@@ -18,9 +20,8 @@ namespace machplan {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
-Contour polygon(const std::vector<Vector2d>& v) { return Contour(v, std::vector<double>(v.size(), 0.0)); }
+using test::polygon;
 
 struct Case {
   std::string name;

@@ -3,6 +3,8 @@
 // the distance function), closed-form areas for convex and concave shapes, exact arcs, and
 // the reported problems for arcs that collapse and features narrower than 2|d|.
 #include "engine/geometry/offset.h"
+#include "tests/support/shapes.h"
+#include "engine/common/internal/numbers.h"
 
 #include <cmath>
 #include <numbers>
@@ -17,13 +19,10 @@ namespace machplan {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
-Contour polygon(const std::vector<Vector2d>& v) { return Contour(v, std::vector<double>(v.size(), 0.0)); }
+using test::polygon;
 
-Contour rectangle(double x0, double y0, double x1, double y1) {
-  return polygon({{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}});
-}
+using test::rectangle;
 
 std::vector<Vector2d> samples(const Contour& c, int per_span = 9) {
   std::vector<Vector2d> out;

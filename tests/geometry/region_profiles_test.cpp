@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/support/shapes.h"
 #include "engine/common/error.h"
 #include "engine/geometry/region.h"
 #include "engine/programs/dxf.h"
@@ -19,13 +20,7 @@ using Eigen::Vector2d;
 
 std::string dir() { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/profiles/"; }
 
-RegionOptions opts(MachiningSide side, double r, OffsetMethod m = OffsetMethod::robust) {
-  RegionOptions o;
-  o.side = side;
-  o.tool_radius_mm = r;
-  o.method = m;
-  return o;
-}
+
 
 std::string dxf(const std::string& entities) {
   return "0\nSECTION\n2\nHEADER\n9\n$INSUNITS\n70\n4\n0\nENDSEC\n0\nSECTION\n2\nENTITIES\n" + entities +
@@ -58,7 +53,7 @@ TEST(RegionProfiles, PaperProfilesBuildOnBothSidesWithBothMethods) {
     EXPECT_FALSE(p.has_errors()) << p.report();
     for (auto side : {MachiningSide::outside, MachiningSide::inside})
       for (auto m : {OffsetMethod::robust, OffsetMethod::paper}) {
-        const auto r = build_region(p, opts(side, 3, m));
+        const auto r = build_region(p, test::region_options(side, 3, m));
         ASSERT_EQ(r.boundary().size(), 1u) << f << " " << to_string(side) << " " << to_string(m);
         const double a = std::abs(p.contours[0].area_mm2), b = std::abs(signed_area(r.boundary()[0]));
         // Grown outside, shrunk inside.
@@ -75,7 +70,7 @@ TEST(RegionProfiles, ArcProfileKeepsArcsAndReportsTheSmallFillet) {
   const auto p = read_dxf_profile(dir() + "arc_profile.dxf");
   ASSERT_EQ(p.contours.size(), 2u) << p.report();
   EXPECT_FALSE(p.has_errors()) << p.report();
-  const auto r = build_region(p, opts(MachiningSide::outside, 5));
+  const auto r = build_region(p, test::region_options(MachiningSide::outside, 5));
   // The concave R3 fillet cannot be followed by a 5 mm tool: reported with its contour and
   // entities named.
   EXPECT_TRUE(has_problem(r, OffsetProblem::Kind::arc_collapsed, "contour 0 (entities")) << r.problems().size();
@@ -92,13 +87,13 @@ TEST(RegionProfiles, NarrowSlotIsReportedOnBothSides) {
   const auto p = read_dxf_profile(dir() + "narrow_slot.dxf");
   ASSERT_EQ(p.contours.size(), 2u);
   // Outside, a 5 mm tool cannot enter the 8 mm slot: the slot's walls are lost.
-  const auto out = build_region(p, opts(MachiningSide::outside, 5));
+  const auto out = build_region(p, test::region_options(MachiningSide::outside, 5));
   EXPECT_TRUE(has_problem(out, OffsetProblem::Kind::feature_too_small, "contour 0 (entity")) << out.problems().size();
   EXPECT_TRUE(out.prohibited({60, 70}));  // in the slot
   // A 3.9 mm tool fits (8 > 7.8): the slot's middle is allowed.
-  EXPECT_FALSE(build_region(p, opts(MachiningSide::outside, 3.9)).prohibited({60, 60}));
+  EXPECT_FALSE(build_region(p, test::region_options(MachiningSide::outside, 3.9)).prohibited({60, 60}));
   // Inside, the keyhole pocket's 6 mm channel cannot take a 5 mm tool.
-  const auto in = build_region(p, opts(MachiningSide::inside, 5));
+  const auto in = build_region(p, test::region_options(MachiningSide::inside, 5));
   EXPECT_TRUE(has_problem(in, OffsetProblem::Kind::feature_too_small, "contour 1 (entity")) << in.problems().size();
   EXPECT_FALSE(in.prohibited({30, 40}));
   EXPECT_FALSE(in.prohibited({170, 40}));
@@ -106,7 +101,7 @@ TEST(RegionProfiles, NarrowSlotIsReportedOnBothSides) {
   // The paper's method keeps the channel's square corners (their setback R tan(45 deg) = 5 mm
   // is shorter than the 6 mm channel end), so its mitre offset turns the channel inside out;
   // the merge removes that loop and says so.
-  const auto paper = build_region(p, opts(MachiningSide::inside, 5, OffsetMethod::paper));
+  const auto paper = build_region(p, test::region_options(MachiningSide::inside, 5, OffsetMethod::paper));
   EXPECT_TRUE(has_problem(paper, OffsetProblem::Kind::gap_too_narrow, "contour 1 (entity")) << paper.problems().size();
   EXPECT_TRUE(paper.prohibited({205, 40}));
 }
@@ -114,7 +109,7 @@ TEST(RegionProfiles, NarrowSlotIsReportedOnBothSides) {
 TEST(RegionProfiles, OpenChainIsRefusedNamingFileAndEntities) {
   const std::string text = dxf(line("A1", 0, 0, 50, 0) + line("A2", 50, 0, 50, 40) + line("A3", 50, 40, 0, 40));
   const auto p = read_dxf_profile_text(text, "open.dxf");
-  const std::string m = message_of(p, opts(MachiningSide::outside, 2));
+  const std::string m = message_of(p, test::region_options(MachiningSide::outside, 2));
   EXPECT_NE(m.find("open.dxf: open_chain (entities A1, A2, A3)"), std::string::npos) << m;
 }
 
@@ -124,14 +119,14 @@ TEST(RegionProfiles, SelfIntersectionIsRefusedNamingFileAndEntities) {
   const std::string text =
       dxf(line("B1", 0, 0, 50, 40) + line("B2", 50, 40, 50, 0) + line("B3", 50, 0, 0, 30) + line("B4", 0, 30, 0, 0));
   const auto p = read_dxf_profile_text(text, "bow.dxf");
-  const std::string m = message_of(p, opts(MachiningSide::outside, 2));
+  const std::string m = message_of(p, test::region_options(MachiningSide::outside, 2));
   EXPECT_NE(m.find("bow.dxf: self_intersection (entities"), std::string::npos) << m;
   EXPECT_NE(m.find("at (21.4286, 17.1429)"), std::string::npos) << m;
 }
 
 TEST(RegionProfiles, ToolTooBigForThePocketIsRefused) {
   const auto p = read_dxf_profile(dir() + "narrow_slot.dxf");
-  const std::string m = message_of(p, opts(MachiningSide::inside, 45));
+  const std::string m = message_of(p, test::region_options(MachiningSide::inside, 45));
   EXPECT_NE(m.find("narrow_slot.dxf: prohibited region: nothing is left for the tool"), std::string::npos) << m;
 }
 
@@ -143,10 +138,10 @@ TEST(RegionProfiles, SharpCornerDroppedByThePaperMethodIsNamed) {
                                line("C7", 0, 40, 0, 0));
   const auto p = read_dxf_profile_text(text, "spike.dxf");
   ASSERT_FALSE(p.has_errors()) << p.report();
-  const auto r = build_region(p, opts(MachiningSide::outside, 4, OffsetMethod::paper));
+  const auto r = build_region(p, test::region_options(MachiningSide::outside, 4, OffsetMethod::paper));
   EXPECT_TRUE(has_problem(r, OffsetProblem::Kind::vertex_dropped, "(20.0000, 57.0000) dropped")) << r.problems().size();
   // The robust method keeps the spike: its tip is 4 mm inside the limit.
-  const auto robust = build_region(p, opts(MachiningSide::outside, 4));
+  const auto robust = build_region(p, test::region_options(MachiningSide::outside, 4));
   EXPECT_NEAR(robust.query({20, 57}).signed_distance_mm, -4.0, 1e-9);
   EXPECT_TRUE(robust.problems().empty());
 }

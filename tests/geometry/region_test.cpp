@@ -3,6 +3,8 @@
 // against the profile's own distance function), signed distances and normals at known points,
 // both offset methods, merged neighbours, and errors that name the contour.
 #include "engine/geometry/region.h"
+#include "tests/support/shapes.h"
+#include "engine/common/internal/numbers.h"
 
 #include <cmath>
 #include <numbers>
@@ -17,20 +19,11 @@ namespace machplan {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
-Contour polygon(const std::vector<Vector2d>& v) { return Contour(v, std::vector<double>(v.size(), 0.0)); }
-Contour rectangle(double x0, double y0, double x1, double y1) {
-  return polygon({{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}});
-}
+using test::polygon;
+using test::rectangle;
 
-RegionOptions opts(MachiningSide side, double r, OffsetMethod m = OffsetMethod::robust) {
-  RegionOptions o;
-  o.side = side;
-  o.tool_radius_mm = r;
-  o.method = m;
-  return o;
-}
+
 
 // Material by the even-odd rule over the profile (depth parity), and the distance to it.
 bool in_material(const std::vector<Contour>& profile, const Vector2d& p) {
@@ -54,7 +47,7 @@ bool exact_prohibited(const std::vector<Contour>& profile, MachiningSide side, d
 }
 
 TEST(Region, RectangleOutsideDistancesAndNormals) {
-  const auto region = ProhibitedRegion::build({rectangle(0, 0, 100, 50)}, opts(MachiningSide::outside, 5));
+  const auto region = ProhibitedRegion::build({rectangle(0, 0, 100, 50)}, test::region_options(MachiningSide::outside, 5));
   auto q = region.query({110, 25});
   EXPECT_NEAR(q.signed_distance_mm, 5.0, 1e-9);
   EXPECT_NEAR((q.nearest_mm - Vector2d(105, 25)).norm(), 0, 1e-9);
@@ -75,7 +68,7 @@ TEST(Region, RectangleOutsideDistancesAndNormals) {
 }
 
 TEST(Region, RectanglePocketInside) {
-  const auto region = ProhibitedRegion::build({rectangle(0, 0, 100, 50).reversed()}, opts(MachiningSide::inside, 5));
+  const auto region = ProhibitedRegion::build({rectangle(0, 0, 100, 50).reversed()}, test::region_options(MachiningSide::inside, 5));
   EXPECT_NEAR(region.query({50, 25}).signed_distance_mm, 20.0, 1e-9);
   auto q = region.query({2, 25});
   EXPECT_NEAR(q.signed_distance_mm, -3.0, 1e-9);
@@ -95,7 +88,7 @@ std::vector<Contour> plate_with_holes() {
 
 void expect_matches_exact(const std::vector<Contour>& profile, MachiningSide side, double r, int count,
                           unsigned seed) {
-  const auto region = ProhibitedRegion::build(profile, opts(side, r));
+  const auto region = ProhibitedRegion::build(profile, test::region_options(side, r));
   Eigen::AlignedBox2d box;
   for (const auto& c : profile) box.extend(bounding_box(c));
   std::mt19937 rng(seed);
@@ -136,7 +129,7 @@ TEST(Region, LargeWavyProfileMatchesTheExactSet) {
   }
   const std::vector<Contour> profile = {polygon(v)};
   for (auto side : {MachiningSide::outside, MachiningSide::inside}) {
-    const auto region = ProhibitedRegion::build(profile, opts(side, 5));
+    const auto region = ProhibitedRegion::build(profile, test::region_options(side, 5));
     ASSERT_EQ(region.boundary().size(), 1u);
     std::mt19937 rng(17);
     std::uniform_real_distribution<double> u(-400, 400);
@@ -156,7 +149,7 @@ TEST(Region, LargeWavyProfileMatchesTheExactSet) {
 TEST(Region, NeighboursCloserThanTheToolMergeAndAreReported) {
   // Two squares 4 mm apart, tool radius 3: the tool cannot pass between them.
   const std::vector<Contour> profile = {rectangle(0, 0, 10, 10), rectangle(14, 0, 24, 10)};
-  const auto region = ProhibitedRegion::build(profile, opts(MachiningSide::outside, 3));
+  const auto region = ProhibitedRegion::build(profile, test::region_options(MachiningSide::outside, 3));
   ASSERT_EQ(region.boundary().size(), 1u);
   EXPECT_TRUE(region.prohibited({12, 5}));
   bool reported = false;
@@ -172,7 +165,7 @@ TEST(Region, PaperMethodMitresTheTriangle) {
   // distance R / sin(alpha / 2)... checked as: every boundary edge is parallel to its profile
   // edge at distance R.
   const Contour tri = polygon({{0, 0}, {60, 0}, {0, 40}});
-  const auto region = ProhibitedRegion::build({tri}, opts(MachiningSide::outside, 2, OffsetMethod::paper));
+  const auto region = ProhibitedRegion::build({tri}, test::region_options(MachiningSide::outside, 2, OffsetMethod::paper));
   ASSERT_EQ(region.boundary().size(), 1u);
   const Contour& b = region.boundary()[0];
   ASSERT_EQ(b.size(), 3u);
@@ -188,25 +181,25 @@ TEST(Region, PaperMethodMitresTheTriangle) {
 TEST(Region, BadProfilesNameTheContour) {
   const Contour bow = polygon({{0, 0}, {10, 10}, {10, 0}, {0, 10}});
   try {
-    ProhibitedRegion::build({rectangle(-50, -50, 50, 50), bow}, opts(MachiningSide::outside, 1));
+    ProhibitedRegion::build({rectangle(-50, -50, 50, 50), bow}, test::region_options(MachiningSide::outside, 1));
     FAIL() << "a self-crossing contour was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("contour 1: the contour crosses itself"), std::string::npos) << e.what();
   }
   try {
-    ProhibitedRegion::build({rectangle(0, 0, 10, 10), rectangle(5, 5, 15, 15)}, opts(MachiningSide::outside, 1),
+    ProhibitedRegion::build({rectangle(0, 0, 10, 10), rectangle(5, 5, 15, 15)}, test::region_options(MachiningSide::outside, 1),
                             {"part (1A)", "pocket (2B)"});
     FAIL() << "crossing contours were accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("part (1A) and pocket (2B): the contours cross"), std::string::npos)
         << e.what();
   }
-  EXPECT_THROW(ProhibitedRegion::build({}, opts(MachiningSide::outside, 1)), InputError);
-  EXPECT_THROW(ProhibitedRegion::build({polygon({{0, 0}, {10, 0}, {20, 0}})}, opts(MachiningSide::outside, 1)),
+  EXPECT_THROW(ProhibitedRegion::build({}, test::region_options(MachiningSide::outside, 1)), InputError);
+  EXPECT_THROW(ProhibitedRegion::build({polygon({{0, 0}, {10, 0}, {20, 0}})}, test::region_options(MachiningSide::outside, 1)),
                InputError);
   // A pocket narrower than the tool everywhere leaves nothing.
   try {
-    ProhibitedRegion::build({rectangle(0, 0, 100, 6)}, opts(MachiningSide::inside, 4));
+    ProhibitedRegion::build({rectangle(0, 0, 100, 6)}, test::region_options(MachiningSide::inside, 4));
     FAIL() << "a pocket narrower than the tool was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("nothing is left"), std::string::npos) << e.what();

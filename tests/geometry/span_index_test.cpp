@@ -2,6 +2,8 @@
 // brute force over contour.h), paper_offset.h (the paper's filter and mitre shift, arcs as
 // chords) and merge_positive (offset.h: the boundary of positive winding).
 #include "engine/geometry/span_index.h"
+#include "tests/support/shapes.h"
+#include "engine/common/internal/numbers.h"
 
 #include <cmath>
 #include <numbers>
@@ -16,9 +18,8 @@ namespace machplan {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
-Contour polygon(const std::vector<Vector2d>& v) { return Contour(v, std::vector<double>(v.size(), 0.0)); }
+using test::polygon;
 
 // A star-shaped contour of n spans about c with random radii and random bulges, either
 // orientation; drawn again until it does not cross itself (bulged spikes can).

@@ -22,7 +22,7 @@ struct Outcome {
   std::string err;
 };
 
-std::string slurp(const std::string& path) {
+std::string read_whole(const std::string& path) {
   std::ifstream f(path);
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
@@ -33,7 +33,7 @@ Outcome run_triangle(const test::TempDir& dir) {
   test::Child c(fmt::format("'{}' run datasets/parts/triangle_45.ngc --machine thermal_gantry --backend hal", MACHPLAN_CLI),
                 out, err);
   const int code = c.wait(60s);
-  return {code, slurp(err)};
+  return {code, read_whole(err)};
 }
 
 // `scripts/hal-sim up` arguments for a HAL file of `text`, written into `dir`.
@@ -105,7 +105,7 @@ TEST(HalSetup, ASecondMachplanIsRefusedWhileOneDrivesTheMachine) {
       fmt::format("'{}' run datasets/parts/triangle_45.ngc --machine thermal_gantry --backend hal", MACHPLAN_CLI), out, err);
   const auto limit = std::chrono::steady_clock::now() + 60s;
   while (pins.number("machplan.state") != 2 && std::chrono::steady_clock::now() < limit) std::this_thread::sleep_for(5ms);
-  ASSERT_EQ(pins.number("machplan.state"), 2) << slurp(err);
+  ASSERT_EQ(pins.number("machplan.state"), 2) << read_whole(err);
   expect_refused(run_triangle(dir2), fmt::format("another machplan (pid {}) is driving this machine", first.pid()));
   first.kill_now();
 }

@@ -23,7 +23,7 @@
 namespace machplan::hardware {
 namespace {
 
-std::string error_of(const std::string& text) {
+std::string script_error_of(const std::string& text) {
   try {
     parse_operator_script(text, "op.csv");
   } catch (const InputError& e) {
@@ -49,14 +49,14 @@ TEST(OperatorScript, ReadsStartHeaderRowsAndComments) {
 }
 
 TEST(OperatorScript, BadInputNamesFileAndLine) {
-  EXPECT_EQ(error_of("0,180\n"), "op.csv:1: expected 3 fields (t_s, direction_deg, speed_mm_per_s), found 2");
-  EXPECT_EQ(error_of("0,180,12\n1,abc,12\n"), "op.csv:2: direction 'abc' is not a finite number");
-  EXPECT_EQ(error_of("0,180,12\n0,0,12\n"), "op.csv:2: time 0 s does not rise (previous row: 0 s)");
-  EXPECT_EQ(error_of("0,180,-1\n"), "op.csv:1: speed -1 mm/s must be in [0, 10000]");
-  EXPECT_EQ(error_of("0,180,nan\n"), "op.csv:1: speed 'nan' is not a finite number");
-  EXPECT_EQ(error_of("0,180,12\nstart,1,2\n"), "op.csv:2: the start row must come before the first data row, once");
-  EXPECT_EQ(error_of("# nothing\n"), "op.csv: no data rows (t_s, direction_deg, speed_mm_per_s)");
-  EXPECT_EQ(error_of("1e400,0,1\n"), "op.csv:1: time '1e400' is not a finite number");
+  EXPECT_EQ(script_error_of("0,180\n"), "op.csv:1: expected 3 fields (t_s, direction_deg, speed_mm_per_s), found 2");
+  EXPECT_EQ(script_error_of("0,180,12\n1,abc,12\n"), "op.csv:2: direction 'abc' is not a finite number");
+  EXPECT_EQ(script_error_of("0,180,12\n0,0,12\n"), "op.csv:2: time 0 s does not rise (previous row: 0 s)");
+  EXPECT_EQ(script_error_of("0,180,-1\n"), "op.csv:1: speed -1 mm/s must be in [0, 10000]");
+  EXPECT_EQ(script_error_of("0,180,nan\n"), "op.csv:1: speed 'nan' is not a finite number");
+  EXPECT_EQ(script_error_of("0,180,12\nstart,1,2\n"), "op.csv:2: the start row must come before the first data row, once");
+  EXPECT_EQ(script_error_of("# nothing\n"), "op.csv: no data rows (t_s, direction_deg, speed_mm_per_s)");
+  EXPECT_EQ(script_error_of("1e400,0,1\n"), "op.csv:1: time '1e400' is not a finite number");
 }
 
 TEST(OperatorScript, MissingFileIsNamed) {

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "tests/support/datasets.h"
 #include "engine/common/text_file.h"
 #include "solvers/motion/run.h"
 #include "tests/support/temp_dir.h"
@@ -25,7 +26,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+using test::part;
 
 RunOutcome run(const std::string& path, std::optional<CutOrder> order, const std::string& machine = "thermal_gantry") {
   RunOptions o;

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "engine/common/internal/numbers.h"
 #include "engine/geometry/contour.h"
 #include "engine/motion/feed_planner.h"
 #include "engine/motion/interpolator.h"
@@ -19,7 +20,6 @@ namespace {
 
 using Eigen::Vector2d;
 using ::testing::HasSubstr;
-constexpr double kPi = std::numbers::pi;
 constexpr double kT = 0.001;  // servo period
 
 Segment line(Vector2d a, Vector2d b) { return make_segment(a, b, 0.0); }

@@ -4,6 +4,7 @@
 // stretches, and open cuts, vanishing holes, narrow features and self-crossing loops are
 // reported with their program lines.
 #include "engine/motion/kerf.h"
+#include "engine/common/internal/numbers.h"
 
 #include <cmath>
 #include <map>
@@ -20,16 +21,15 @@ namespace machplan::motion {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
-Segment line(Vector2d a, Vector2d b) { return make_segment(a, b, 0.0); }
+Segment straight(Vector2d a, Vector2d b) { return make_segment(a, b, 0.0); }
 
 // A cutting stretch through `segs`; source lines first_line, first_line + 1, ...
 Stretch cut(std::vector<Segment> segs, int first_line, double feed = 20.0) {
   return test::make_stretch(std::move(segs), feed, true, false, first_line);
 }
 
-Stretch rapid(Vector2d a, Vector2d b, int line_no) { return test::make_stretch({line(a, b)}, 200.0, false, true, line_no); }
+Stretch rapid(Vector2d a, Vector2d b, int line_no) { return test::make_stretch({straight(a, b)}, 200.0, false, true, line_no); }
 
 // Steps: a move per stretch, cuts wrapped in torch on / off.
 Job make(std::vector<Stretch> stretches) {
@@ -51,7 +51,7 @@ std::vector<Segment> rect_loop(double x0, double y0, double x1, double y1, bool 
   std::vector<Vector2d> v = {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
   if (!ccw) std::swap(v[1], v[3]);
   std::vector<Segment> s;
-  for (int i = 0; i < 4; ++i) s.push_back(line(v[i], v[(i + 1) % 4]));
+  for (int i = 0; i < 4; ++i) s.push_back(straight(v[i], v[(i + 1) % 4]));
   return s;
 }
 
@@ -111,9 +111,9 @@ Job plate_job(bool plate_ccw, bool hole_ccw) {
   const Vector2d hc(30, 20);
   std::vector<Stretch> st;
   st.push_back(rapid({-20, -20}, hc, 1));
-  st.push_back(cut(concat({line(hc, hc + Vector2d(5, 0))}, circle_loop(hc, 5, hole_ccw)), 10));
+  st.push_back(cut(concat({straight(hc, hc + Vector2d(5, 0))}, circle_loop(hc, 5, hole_ccw)), 10));
   st.push_back(rapid(hc + Vector2d(5, 0), {-5, -5}, 20));
-  st.push_back(cut(concat({line({-5, -5}, {0, 0})}, rect_loop(0, 0, 60, 40, plate_ccw)), 30));
+  st.push_back(cut(concat({straight({-5, -5}, {0, 0})}, rect_loop(0, 0, 60, 40, plate_ccw)), 30));
   st.push_back(rapid({0, 0}, {-20, -20}, 40));
   return make(st);
 }
@@ -247,7 +247,7 @@ TEST(Kerf, OvercutFollowsTheNewLoopAndLeadOutKeepsItsEnd) {
   const double over_angle = 3.0 / r;
   const Vector2d q = c + r * Vector2d(std::cos(over_angle), std::sin(over_angle));
   const Segment over = make_segment(p, q, std::tan(over_angle / 4));
-  const Segment lead_out = line(q, {5, 2});
+  const Segment lead_out = straight(q, {5, 2});
   std::vector<Segment> segs = concat({lead_in}, circle_loop(c, r));
   segs.push_back(over);
   segs.push_back(lead_out);
@@ -282,7 +282,7 @@ TEST(Kerf, OvercutFollowsTheNewLoopAndLeadOutKeepsItsEnd) {
 }
 
 TEST(Kerf, OpenCutsAreLeftAndReported) {
-  Job job = make({rapid({0, 0}, {10, 10}, 1), cut({line({10, 10}, {40, 10}), line({40, 10}, {40, 30})}, 7),
+  Job job = make({rapid({0, 0}, {10, 10}, 1), cut({straight({10, 10}, {40, 10}), straight({40, 10}, {40, 30})}, 7),
                   rapid({40, 30}, {0, 0}, 9)});
   const Job before = job;
   const KerfReport r = apply_kerf(job, 2.0);
@@ -297,10 +297,10 @@ TEST(Kerf, OpenCutsAreLeftAndReported) {
 }
 
 TEST(Kerf, HoleSmallerThanTheKerfIsLeftAsProgrammed) {
-  Job job = make({rapid({-20, -20}, {11, 10}, 1), cut({line({11, 10}, {10.8, 10})}, 3), rapid({10.8, 10}, {-5, -5}, 4),
-                  cut(concat({line({-5, -5}, {0, 0})}, rect_loop(0, 0, 40, 40)), 10)});
+  Job job = make({rapid({-20, -20}, {11, 10}, 1), cut({straight({11, 10}, {10.8, 10})}, 3), rapid({10.8, 10}, {-5, -5}, 4),
+                  cut(concat({straight({-5, -5}, {0, 0})}, rect_loop(0, 0, 40, 40)), 10)});
   // Replace the hole by a lead-in then a 0.8 mm circle.
-  job.stretches[1] = cut(concat({line({11, 10}, {10.8, 10})}, circle_loop({10, 10}, 0.8)), 3);
+  job.stretches[1] = cut(concat({straight({11, 10}, {10.8, 10})}, circle_loop({10, 10}, 0.8)), 3);
   const Job before = job;
   const KerfReport r = apply_kerf(job, 2.0);
   ASSERT_EQ(r.loops.size(), 2u);
@@ -319,8 +319,8 @@ TEST(Kerf, SlotNarrowerThanTheKerfIsReportedWithItsLine) {
   // A 40 x 20 part with a 1.5 wide, 10 deep slot in its top edge; kerf 2 closes the slot.
   const std::vector<Vector2d> v = {{0, 0}, {40, 0}, {40, 20}, {20.75, 20}, {20.75, 10}, {19.25, 10}, {19.25, 20}, {0, 20}};
   std::vector<Segment> loop;
-  for (std::size_t i = 0; i < v.size(); ++i) loop.push_back(line(v[i], v[(i + 1) % v.size()]));
-  Job job = make({rapid({-10, -10}, {-3, -3}, 1), cut(concat({line({-3, -3}, {0, 0})}, loop), 50)});
+  for (std::size_t i = 0; i < v.size(); ++i) loop.push_back(straight(v[i], v[(i + 1) % v.size()]));
+  Job job = make({rapid({-10, -10}, {-3, -3}, 1), cut(concat({straight({-3, -3}, {0, 0})}, loop), 50)});
   const KerfReport r = apply_kerf(job, 2.0);
   ASSERT_EQ(r.compensated_count(), 1u);
   ASSERT_EQ(count_kind(r, KerfIssue::Kind::feature_too_small), 1);
@@ -338,9 +338,9 @@ TEST(Kerf, HoleWithANarrowNeckCutsThePieceNearTheLeadIn) {
   const std::vector<Vector2d> v = {{20, 20}, {30, 20}, {30, 24.5}, {40, 24.5}, {40, 20}, {50, 20},
                                    {50, 30}, {40, 30}, {40, 25.5}, {30, 25.5}, {30, 30}, {20, 30}};
   std::vector<Segment> loop;
-  for (std::size_t i = 0; i < v.size(); ++i) loop.push_back(line(v[i], v[(i + 1) % v.size()]));
-  Job job = make({rapid({0, 0}, {25, 25}, 1), cut(concat({line({25, 25}, {20, 20})}, loop), 10),
-                  rapid({20, 20}, {-2, -2}, 30), cut(concat({line({-2, -2}, {0, 0})}, rect_loop(0, 0, 70, 50)), 31)});
+  for (std::size_t i = 0; i < v.size(); ++i) loop.push_back(straight(v[i], v[(i + 1) % v.size()]));
+  Job job = make({rapid({0, 0}, {25, 25}, 1), cut(concat({straight({25, 25}, {20, 20})}, loop), 10),
+                  rapid({20, 20}, {-2, -2}, 30), cut(concat({straight({-2, -2}, {0, 0})}, rect_loop(0, 0, 70, 50)), 31)});
   const KerfReport r = apply_kerf(job, 2.0);
   ASSERT_EQ(r.loops.size(), 2u);
   EXPECT_EQ(r.loops[0].depth, 1);
@@ -361,7 +361,7 @@ TEST(Kerf, ConcaveFilletSmallerThanHalfTheKerfIsReported) {
   const std::vector<Vector2d> v = {{0, 0}, {20, 0}, {20, 19.5}, {19.5, 20}, {0, 20}};
   std::vector<Segment> loop;
   for (std::size_t i = 0; i < v.size(); ++i) loop.push_back(make_segment(v[i], v[(i + 1) % v.size()], i == 2 ? b : 0.0));
-  Job job = make({rapid({-5, -5}, {-2, 0}, 1), cut(concat({line({-2, 0}, {0, 0})}, loop), 60)});
+  Job job = make({rapid({-5, -5}, {-2, 0}, 1), cut(concat({straight({-2, 0}, {0, 0})}, loop), 60)});
   const KerfReport r = apply_kerf(job, 3.0);
   ASSERT_EQ(count_kind(r, KerfIssue::Kind::arc_collapsed), 1);
   for (const auto& i : r.issues)
@@ -370,10 +370,10 @@ TEST(Kerf, ConcaveFilletSmallerThanHalfTheKerfIsReported) {
 }
 
 TEST(Kerf, LeadOutBackToThePierceIsNotPartOfTheLoop) {
-  std::vector<Segment> segs = concat({line({-4, 5}, {0, 5})}, {line({0, 5}, {0, 0}), line({0, 0}, {10, 0}),
-                                                                line({10, 0}, {10, 10}), line({10, 10}, {0, 10}),
-                                                                line({0, 10}, {0, 5})});
-  segs.push_back(line({0, 5}, {-4, 5}));
+  std::vector<Segment> segs = concat({straight({-4, 5}, {0, 5})}, {straight({0, 5}, {0, 0}), straight({0, 0}, {10, 0}),
+                                                                straight({10, 0}, {10, 10}), straight({10, 10}, {0, 10}),
+                                                                straight({0, 10}, {0, 5})});
+  segs.push_back(straight({0, 5}, {-4, 5}));
   Job job = make({rapid({-10, 5}, {-4, 5}, 1), cut(segs, 2)});
   const KerfReport r = apply_kerf(job, 1.0);
   ASSERT_EQ(r.compensated_count(), 1u);
@@ -401,7 +401,7 @@ TEST(Kerf, RandomStarPartsWithHolesKeepTheDistanceProperty) {
     for (double a : ang) v.push_back(ur(rng) * Vector2d(std::cos(a), std::sin(a)));
     if (trial % 2) std::reverse(v.begin(), v.end());
     std::vector<Segment> part;
-    for (int i = 0; i < n; ++i) part.push_back(line(v[i], v[(i + 1) % n]));
+    for (int i = 0; i < n; ++i) part.push_back(straight(v[i], v[(i + 1) % n]));
     const Contour part_c = loop_of(cut(part, 1), 0, n);
     if (std::abs(signed_area(part_c)) < 1.0 || !self_intersections(part_c, 1e-6).empty()) continue;
     if (!contains(part_c, Vector2d::Zero())) continue;  // the origin must be inside for a hole there
@@ -412,8 +412,8 @@ TEST(Kerf, RandomStarPartsWithHolesKeepTheDistanceProperty) {
     ++used;
     const Vector2d pierce = 1.2 * v[0];
     Job job = make({rapid({-60, -60}, Vector2d::Zero(), 1),
-                    cut(concat({line(Vector2d::Zero(), {hole_r, 0})}, circle_loop({0, 0}, hole_r, trial % 3 == 0)), 10),
-                    rapid({hole_r, 0}, pierce, 20), cut(concat({line(pierce, v[0])}, part), 30)});
+                    cut(concat({straight(Vector2d::Zero(), {hole_r, 0})}, circle_loop({0, 0}, hole_r, trial % 3 == 0)), 10),
+                    rapid({hole_r, 0}, pierce, 20), cut(concat({straight(pierce, v[0])}, part), 30)});
     const KerfReport r = apply_kerf(job, kerf);
     const std::string what = "trial " + std::to_string(trial);
     ASSERT_EQ(r.compensated_count(), 2u) << what << "\n" << r.brief();
@@ -444,8 +444,8 @@ TEST(Kerf, FirstMoveWithoutLeadInGetsAConnector) {
 }
 
 TEST(Kerf, SelfCrossingLoopThrowsWithItsLine) {
-  std::vector<Segment> bow = {line({0, 0}, {10, 10}), line({10, 10}, {10, 0}), line({10, 0}, {0, 10}),
-                              line({0, 10}, {-3, 0}), line({-3, 0}, {0, 0})};
+  std::vector<Segment> bow = {straight({0, 0}, {10, 10}), straight({10, 10}, {10, 0}), straight({10, 0}, {0, 10}),
+                              straight({0, 10}, {-3, 0}), straight({-3, 0}, {0, 0})};
   Job job = make({rapid({-9, -9}, {0, 0}, 1), cut(bow, 12)});
   const Job before = job;
   try {

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "engine/common/internal/numbers.h"
 #include "engine/geometry/contour.h"
 #include "engine/motion/make_job.h"
 #include "engine/programs/gcode.h"
@@ -17,7 +18,6 @@ namespace machplan::motion {
 namespace {
 
 using ::testing::HasSubstr;
-constexpr double kPi = std::numbers::pi;
 
 // The reader wants a program end; append one after the lines under test.
 Job job_of(const std::string& gcode, const JobOptions& o = {}) {

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "cli/json/run.h"
+#include "tests/support/datasets.h"
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
 #include "solvers/motion/run.h"
@@ -25,7 +26,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+using test::part;
 
 RunOutcome run(const std::string& name) {
   RunOptions o;  // thermal_gantry, planned mode, its jerk limit on

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "engine/common/internal/numbers.h"
 #include "engine/common/progress.h"
 #include "engine/common/summary.h"
 #include "engine/common/termination.h"
@@ -26,7 +27,6 @@ namespace {
 
 using Eigen::Vector2d;
 using Polyline = std::vector<Vector2d>;
-constexpr double kPi = std::numbers::pi;
 
 // --- the test's own geometry ------------------------------------------------------------
 

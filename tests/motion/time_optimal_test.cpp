@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "engine/common/internal/numbers.h"
 #include "engine/geometry/contour.h"
 #include "engine/motion/feed_planner.h"
 #include "engine/motion/time_optimal.h"
@@ -16,7 +17,6 @@ namespace machplan::motion {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
 Stretch stretch_of(const std::vector<Segment>& segs, double feed) { return test::make_stretch(segs, feed, true, false, 1); }
 

@@ -573,7 +573,7 @@ TEST(PanelApi, TheBracketHeldAndResumedMidCutMatchesMachplanRun) {
   const HttpResponse rep = rig.get("/api/report");
   ASSERT_EQ(rep.status, 200);
   const json r = json::parse(rep.body);
-  ASSERT_EQ(r["status"], "done") << rep.body.substr(0, 400);
+  ASSERT_EQ(r["status"], "done") << r.value("faults", json::array()).dump() << " " << r.value("summary", json::object()).dump();
   ASSERT_EQ(r["holds"].size(), 1u);
   EXPECT_EQ(r["holds"][0]["in_cut"], true);
   EXPECT_EQ(r["cuts"].size(), cli.result.cuts.size());

@@ -22,7 +22,7 @@ namespace {
 
 using nlohmann::json;
 
-const char* const kTriangle = "datasets/parts/triangle_45.ngc";
+const char* const kTriangleProgram = "datasets/parts/triangle_45.ngc";
 
 // The panel's refusal of `po`: the field it names and the message.
 InputError panel_refusal(panel::PanelOptions po) {
@@ -82,7 +82,7 @@ TEST(PanelRules, EveryForbiddenCombinationOfRunIsRefusedByThePanelWithTheCommand
   }
   for (const Combination& c : cases) {
     SCOPED_TRACE(c.what);
-    std::vector<std::string> args = {"run", kTriangle, "--machine", "thermal_gantry"};
+    std::vector<std::string> args = {"run", kTriangleProgram, "--machine", "thermal_gantry"};
     args.insert(args.end(), c.run_flags.begin(), c.run_flags.end());
     const test::CliResult r = cli.run(args);
     EXPECT_EQ(r.code, 2) << r.err;
@@ -120,7 +120,7 @@ TEST(PanelRules, APaperModePanelRefusesHoldsOverridesAndRecoveryAsTheCommandLine
     SCOPED_TRACE(c.event);
     const std::string events = cli.write("events.csv", std::string("t_s,event,value\n5.0,") + c.event + "\n");
     const test::CliResult r =
-        cli.run({"run", kTriangle, "--machine", "thermal_gantry", "--mode", "paper-open", "--operator-events", events});
+        cli.run({"run", kTriangleProgram, "--machine", "thermal_gantry", "--mode", "paper-open", "--operator-events", events});
     ASSERT_EQ(r.code, 2) << r.err;
     // "--operator-events: a feed hold at 5 s: RULE": what is asked, when, and the rule.
     const std::string head = "--operator-events: ", tail = " at 5 s: " + rule + "\n";

@@ -12,6 +12,8 @@
 #include <gtest/gtest.h>
 
 #include "solvers/placement/check/checker.h"
+#include "tests/support/datasets.h"
+#include "engine/common/internal/numbers.h"
 #include "solvers/placement/check/internal/class1.h"
 #include "solvers/placement/machines/internal/bounds.h"
 #include "solvers/placement/scene/internal/workpiece.h"
@@ -20,13 +22,11 @@
 namespace machplan::placement {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 constexpr int kStroke = 0;          // machines/hexam_model.cpp: the lower stroke margin ...
 constexpr int kAssemblyMagazine = 5;  // ... and the tool assembly against the first peripheral
 
-const std::string kData = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/hexam-paper/";
 
-Scene bundled() { return load_scene(kData + "scene.yaml"); }
+Scene bundled() { return load_scene(test::kHexamPaper + "scene.yaml"); }
 
 // A pose of the path near the magazine's corner of the table at this rotation (the best of a
 // few random ones), so that the assembly comes near the magazine, into it, or stays clear.

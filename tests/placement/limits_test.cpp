@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/stop.h"
+#include "tests/support/datasets.h"
 #include "solvers/placement/check/checker.h"
 #include "solvers/placement/scene/scene.h"
 #include "solvers/placement/search/search.h"
@@ -29,19 +30,18 @@ using ::testing::Not;
 using test::error_of;
 using test::TempDir;
 
-const std::string kData = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/hexam-paper/";
 
 // The bundled scene with 3 rows of its tool path and `replace` pairs applied to its text.
 std::string write_scene(const TempDir& dir, std::vector<std::pair<std::string, std::string>> replace) {
-  std::ifstream in(kData + "toolpath.csv");
+  std::ifstream in(test::kHexamPaper + "toolpath.csv");
   std::ofstream out(dir.path() / "toolpath.csv");
   std::string line;
   for (int i = 0; i <= 3 * 351 && std::getline(in, line); ++i) out << line << '\n';
   out.close();
-  std::ifstream sc(kData + "scene.yaml");
+  std::ifstream sc(test::kHexamPaper + "scene.yaml");
   std::string text((std::istreambuf_iterator<char>(sc)), std::istreambuf_iterator<char>());
-  replace.emplace_back("machine.yaml", kData + "machine.yaml");
-  replace.emplace_back("workpiece.stl", kData + "workpiece.stl");
+  replace.emplace_back("machine.yaml", test::kHexamPaper + "machine.yaml");
+  replace.emplace_back("workpiece.stl", test::kHexamPaper + "workpiece.stl");
   for (const auto& [from, to] : replace) {
     const auto at = text.find(from);
     if (at == std::string::npos) return "<'" + from + "' not in the bundled scene>";
@@ -89,7 +89,7 @@ TEST(SceneLimits, AGridFinerThanTheBoundIsRefused) {
 TEST(SceneLimits, APadLimitOfZeroSaysCannotBeMachinedOnce) {
   TempDir dir;
   const std::string scene =
-      write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 0"}, {"toolpath: toolpath.csv", "toolpath: " + kData + "toolpath.csv"}});
+      write_scene(dir, {{"pad_max_mm: 200", "pad_max_mm: 0"}, {"toolpath: toolpath.csv", "toolpath: " + test::kHexamPaper + "toolpath.csv"}});
   const test::CliResult r = test::Cli().run({"place", scene});
   EXPECT_EQ(r.code, 3) << r.err;
   const std::string verdict = "cannot be machined on this machine: ";
@@ -169,9 +169,9 @@ TEST(CheckStop, SigintEndsASearchWithExitThree) {
   // on any machine. SIGINT, sent once the command handles it, ends it through the stop request
   // with exit 3 and no placement printed.
   TempDir dir;
-  std::ifstream sc(kData + "scene.yaml");
+  std::ifstream sc(test::kHexamPaper + "scene.yaml");
   std::string text((std::istreambuf_iterator<char>(sc)), std::istreambuf_iterator<char>());
-  for (const char* f : {"machine.yaml", "workpiece.stl", "toolpath.csv"}) text.replace(text.find(f), std::string(f).size(), kData + f);
+  for (const char* f : {"machine.yaml", "workpiece.stl", "toolpath.csv"}) text.replace(text.find(f), std::string(f).size(), test::kHexamPaper + f);
   text.replace(text.find("pad_max_mm: 200"), 15, "pad_max_mm: 200\n  rotation_step_deg: 0.25");
   const std::string scene = dir.write("scene.yaml", text);
   test::Cli cli;

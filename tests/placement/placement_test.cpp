@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "tests/support/datasets.h"
 #include "engine/interference/collision.h"
 #include "engine/interference/height_field.h"
 #include "engine/programs/mesh.h"
@@ -19,10 +20,9 @@
 namespace machplan {
 namespace {
 
-const std::string kData = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/hexam-paper/";
 
 hexam::Machine paper_machine() {
-  hexam::Machine m = hexam::load_machine(kData + "machine.yaml");
+  hexam::Machine m = hexam::load_machine(test::kHexamPaper + "machine.yaml");
   hexam::attach_tooling(m, hexam::Tooling{});
   return m;
 }
@@ -68,7 +68,7 @@ TEST(Hexam, SliderSpeedBoundHoldsForSmallMoves) {
 TEST(Hexam, BadMachineFileNamesTheKey) {
   const auto dir = std::filesystem::temp_directory_path() / "machplan_hexam_test";
   std::filesystem::create_directories(dir);
-  std::ifstream in(kData + "machine.yaml");
+  std::ifstream in(test::kHexamPaper + "machine.yaml");
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   text.replace(text.find("strut_length_mm: 1100"), 21, "strut_length_mm: -5");
   std::ofstream(dir / "machine.yaml") << text;
@@ -103,16 +103,16 @@ TEST(Interference, HeightFieldNeverUnderestimates) {
 placement::Scene small_scene(int rows) {
   const auto dir = std::filesystem::temp_directory_path() / ("machplan_place_test_" + std::to_string(rows));
   std::filesystem::create_directories(dir);
-  std::ifstream in(kData + "toolpath.csv");
+  std::ifstream in(test::kHexamPaper + "toolpath.csv");
   std::ofstream out(dir / "toolpath.csv");
   std::string line;
   for (int i = 0; i <= rows * 351 && std::getline(in, line); ++i) out << line << '\n';
   out.close();
-  std::ifstream sc(kData + "scene.yaml");
+  std::ifstream sc(test::kHexamPaper + "scene.yaml");
   std::string text((std::istreambuf_iterator<char>(sc)), std::istreambuf_iterator<char>());
   for (const char* f : {"machine.yaml", "workpiece.stl"}) {
     const auto pos = text.find(f);
-    text.replace(pos, std::string(f).size(), kData + f);
+    text.replace(pos, std::string(f).size(), test::kHexamPaper + f);
   }
   std::ofstream(dir / "scene.yaml") << text;
   return placement::load_scene((dir / "scene.yaml").string());
@@ -244,7 +244,7 @@ void expect_cannot_be_machined(const std::string& workpiece, const std::string& 
       "tooling: {tool_diameter_mm: 10, stick_out_mm: 50, flute_length_mm: 20, chuck_diameter_mm: 60, chuck_length_mm: 45}\n";
   const std::string scene =
       dir.write("scene.yaml", fmt::format("machine: {}machine.yaml\n{}workpiece: {}\ntoolpath: path.csv\nsearch: {{pad_max_mm: 60}}\n",
-                                          kData, tooling, workpiece));
+                                          test::kHexamPaper, tooling, workpiece));
   dir.write("path.csv", "x,y,z,i,j,k\n" + toolpath);
   const test::CliResult r = test::Cli().run({"place", scene});
   EXPECT_EQ(r.code, 3) << r.err;

@@ -2,6 +2,7 @@
 // path, a peripheral's mesh) is refused naming the scene file, the key's line and the key,
 // then the file and what is wrong with it.
 #include "solvers/placement/scene/scene.h"
+#include "tests/support/datasets.h"
 
 #include <string>
 
@@ -21,7 +22,6 @@ using ::testing::StartsWith;
 using test::error_of;
 using test::TempDir;
 
-const std::string kData = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/hexam-paper/";
 
 struct Files {
   std::string machine, workpiece, toolpath;
@@ -55,7 +55,7 @@ TEST(Scene, AMissingOrBrokenFileIsNamedWithTheSceneAndItsKey) {
   };
   const std::string scene = (dir.path() / "scene.yaml").string();
   const auto at = [&](int line, const char* key) { return fmt::format("{}:{}: key '{}': ", scene, line, key); };
-  const std::string machine = kData + "machine.yaml", workpiece = kData + "workpiece.stl";
+  const std::string machine = test::kHexamPaper + "machine.yaml", workpiece = test::kHexamPaper + "workpiece.stl";
   const Case cases[] = {
       {{missing, workpiece, path, ""}, at(1, "machine"), missing},
       {{bad_yaml, workpiece, path, ""}, at(1, "machine"), bad_yaml + ":"},
@@ -83,7 +83,7 @@ TEST(Scene, TheCommandNamesTheKeyOfAMissingFile) {
   TempDir dir;
   const std::string path = dir.write("path.csv", "x,y,z,i,j,k\n0,0,100,0,0,1\n");
   const std::string scene =
-      write_scene(dir, {kData + "machine.yaml", (dir.path() / "x.stl").string(), path, ""});
+      write_scene(dir, {test::kHexamPaper + "machine.yaml", (dir.path() / "x.stl").string(), path, ""});
   const test::CliResult r = test::Cli().run("check '" + scene + "' --at 0,0,50");
   EXPECT_EQ(r.code, 2);
   EXPECT_THAT(r.err, StartsWith(scene + ":3: key 'workpiece.mesh': " + (dir.path() / "x.stl").string() + ": "));

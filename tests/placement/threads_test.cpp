@@ -6,11 +6,11 @@
 #include <gtest/gtest.h>
 
 #include "solvers/placement/search/search.h"
+#include "tests/support/datasets.h"
 
 namespace machplan::placement {
 namespace {
 
-const std::string kData = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/";
 
 void expect_same(const CheckReport& a, const CheckReport& b, const std::string& what) {
   EXPECT_EQ(a.free(), b.free()) << what;
@@ -39,6 +39,18 @@ void expect_same(const PlacementResult& a, const PlacementResult& b, const std::
   expect_same(a.report, b.report, what);
 }
 
+// The scene with only the first `n` poses of its tool path. The number of threads may change
+// no answer on any path; a shorter one keeps the slowest comparisons (dense checks, the paper's
+// search) within seconds under the sanitizers.
+Scene first_poses(Scene s, std::size_t n) {
+  EXPECT_LT(n, s.tips_mm.size());
+  s.tips_mm.resize(n);
+  s.axes.resize(n);
+  s.lines.resize(n);
+  s.feeds_mm_per_min.resize(n);
+  return s;
+}
+
 PlacementResult search(const Scene& scene, PlacementOptions o, int threads) {
   o.threads = threads;
   Termination term;
@@ -46,32 +58,36 @@ PlacementResult search(const Scene& scene, PlacementOptions o, int threads) {
 }
 
 TEST(Threads, TheHexapodSearchGivesTheSameAnswerOnOneAndSeveralThreads) {
-  const Scene scene = load_scene(kData + "hexam-paper/scene.yaml");
+  const Scene scene = load_scene(test::kDatasets + "hexam-paper/scene.yaml");
   PlacementOptions o;
   const PlacementResult one = search(scene, o, 1);
   ASSERT_EQ(one.threads, 1);
   ASSERT_TRUE(one.summary.done());
   expect_same(one, search(scene, o, 4), "threads 4");
-  // A list of rotations, and the paper's search.
+  // A list of rotations, and the paper's search, on the first tenth of the path.
+  const Scene part = first_poses(scene, scene.tips_mm.size() / 10);
   o.rotations_deg = {0, 180};
-  const PlacementResult turned = search(scene, o, 1);
-  expect_same(turned, search(scene, o, 3), "rotations, 3 threads");
+  const PlacementResult turned = search(part, o, 1);
+  ASSERT_TRUE(turned.summary.done());
+  expect_same(turned, search(part, o, 3), "rotations, 3 threads");
   PlacementOptions paper;
   paper.strategy = PlacementOptions::Strategy::paper;
-  expect_same(search(scene, paper, 1), search(scene, paper, 2), "paper");
+  expect_same(search(part, paper, 1), search(part, paper, 2), "paper");
 }
 
 TEST(Threads, ChecksGiveTheSameFiguresOnOneAndSeveralThreads) {
-  const Scene scene = load_scene(kData + "hexam-paper/scene.yaml");
+  const Scene whole = load_scene(test::kDatasets + "hexam-paper/scene.yaml");
+  // The dense checks on the first twentieth of the path (a dense check of the whole path is the
+  // slowest of all under the sanitizers).
+  const Scene part = first_poses(whole, whole.tips_mm.size() / 20);
   for (const bool dense : {false, true}) {
+    const Scene& scene = dense ? part : whole;
     CheckOptions o;
     o.dense = dense;
     o.threads = 1;
     Termination term;
-    // A free placement and one that interferes, turned (dense: the one that interferes only, the
-    // free one's dense check being the slowest of all under the sanitizers).
+    // A free placement and one that interferes, turned.
     for (const Placement p : {Placement{-68, -22, 57, 0}, Placement{-35, -35, 70, 10}}) {
-      if (dense && p.x_mm == -68) continue;
       const CheckResult one = check(scene, p, o, term);
       o.threads = 3;
       const CheckResult three = check(scene, p, o, term);
@@ -82,7 +98,7 @@ TEST(Threads, ChecksGiveTheSameFiguresOnOneAndSeveralThreads) {
 }
 
 TEST(Threads, TheTrunnionSearchGivesTheSameAnswerOnOneAndSeveralThreads) {
-  const Scene scene = load_scene(kData + "trunnion-5axis/scene.yaml");
+  const Scene scene = load_scene(test::kDatasets + "trunnion-5axis/scene.yaml");
   expect_same(search(scene, {}, 1), search(scene, {}, 2), "trunnion");
 }
 

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "models/trunnion/trunnion.h"
+#include "engine/common/internal/numbers.h"
 #include "solvers/placement/search/internal/objective.h"
 #include "solvers/placement/search/search.h"
 #include "tests/support/temp_dir.h"
@@ -22,7 +23,6 @@ using ::testing::HasSubstr;
 using ::testing::Not;
 using test::TempDir;
 
-constexpr double kDeg = M_PI / 180.0;
 const std::string kMachine = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/trunnion_ac.yaml";
 const std::string kScene = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/trunnion-5axis/scene.yaml";
 

@@ -1,6 +1,7 @@
 // Contracts of engine/programs/dxf.h: contours, chaining, nesting, units, and every problem
 // and error the reader promises to report.
 #include "engine/programs/dxf.h"
+#include "engine/common/internal/numbers.h"
 
 
 #include <algorithm>
@@ -22,7 +23,6 @@ namespace machplan {
 namespace {
 
 using Eigen::Vector2d;
-constexpr double kPi = std::numbers::pi;
 
 // Small DXF writer: entities are lists of (code, value) lines.
 struct Writer {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "tests/support/datasets.h"
 #include "engine/hardware/operator_channel.h"
 #include "models/backends/backend_factory.h"
 #include "solvers/motion/run.h"
@@ -18,7 +19,7 @@ namespace {
 
 using executor::ExecutionResult;
 
-std::string part(const std::string& name) { return std::string(MACHPLAN_SOURCE_DIR) + "/datasets/parts/" + name; }
+using test::part;
 
 // A move of the table from a to b, no torch.
 struct Move {

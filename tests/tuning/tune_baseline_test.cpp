@@ -13,7 +13,7 @@ namespace machplan::tuning {
 namespace {
 
 // These calls have no stop, deadline or budget of the caller's.
-Termination never;
+Termination no_stop;
 
 // On the XY table the axial P baseline faults on the triangle: its first long rapid runs the
 // following error past the limit.
@@ -28,7 +28,7 @@ TEST(TuneBaseline, AFaultedBaselineGivesNoRatio) {
   o.evaluation = eo;
   o.optimizer.max_evaluations = 3;
   o.fresh_check = false;
-  const TuneResult r = tune(ev, o, never);
+  const TuneResult r = tune(ev, o, no_stop);
   ASSERT_TRUE(r.baseline.faulted);
   ASSERT_TRUE(r.baseline.contours[0].faulted);
   ASSERT_FALSE(r.baseline.contours[1].faulted);

@@ -18,7 +18,7 @@ namespace machplan::tuning {
 namespace {
 
 // These calls have no stop, deadline or budget of the caller's.
-Termination never;
+Termination no_stop_yet;
 
 Evaluator circle_on(const std::string& machine, bool constraints = true) {
   EvaluationOptions o;
@@ -112,7 +112,7 @@ TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
   TuneOptions o;
   o.kind = "p";
   o.optimizer.max_evaluations = 12;
-  const TuneResult r = tune(ev, o, never);
+  const TuneResult r = tune(ev, o, no_stop_yet);
   ASSERT_TRUE(r.summary.done()) << r.report();
   EXPECT_LE(r.tuned.max_mm, r.start.max_mm + 1e-12);
   EXPECT_LE(r.optimizer.evaluations, 12);
@@ -136,7 +136,7 @@ TEST(Tuning, ASmallBudgetImprovesOnTheStartWithinTheConstraints) {
   EXPECT_NE(r.fresh_baseline.max_mm, r.baseline.max_mm) << "another draw of the noise";
   EXPECT_TRUE(cli::to_json(r).contains("fresh"));
   EXPECT_NE(r.report().find("under noise it was not tuned on"), std::string::npos);
-  const TuneResult rp = tune(ev, plain, never);
+  const TuneResult rp = tune(ev, plain, no_stop_yet);
   EXPECT_EQ(rp.start_from, "defaults");
   EXPECT_EQ(rp.fresh_seed, 0u);
   EXPECT_FALSE(cli::to_json(rp).contains("fresh"));
@@ -157,7 +157,7 @@ TEST(Tuning, CrossCoupledWithFeedForwardBeatsTheAxialPOnTheCircle) {
   o.start = {{"friction_ff_mm_per_s", 2.0}, {"friction_ff_band_mm_per_s", 0.05}, {"velocity_ff", 1.0},
              {"acceleration_ff_s", 0.006}, {"ccc_ki_per_s2", 10000.0}};
   o.optimizer.max_evaluations = 25;
-  const TuneResult r = tune(ev, o, never);
+  const TuneResult r = tune(ev, o, no_stop_yet);
   ASSERT_TRUE(r.summary.done()) << r.report();
   EXPECT_LE(r.tuned.max_mm, r.start.max_mm + 1e-12) << r.report();
   EXPECT_LT(r.tuned.max_mm, r.baseline.max_mm / 3.0) << r.report();
@@ -167,7 +167,7 @@ TEST(Tuning, CrossCoupledWithFeedForwardBeatsTheAxialPOnTheCircle) {
   EXPECT_LE(r.gains.at("friction_ff_mm_per_s"), 2.5 + 1e-9);
   // A start value for a gain the kind does not have is refused.
   o.start = {{"no_such_gain", 1.0}};
-  EXPECT_THROW(tune(ev, o, never), InputError);
+  EXPECT_THROW(tune(ev, o, no_stop_yet), InputError);
 }
 
 TEST(TuningContour, SquareIsOneClosedStretchOfFourSides) {
@@ -218,21 +218,21 @@ TEST(Tuning, FixedGainsAreHeldAndNotSearched) {
   o.kind = "p";
   o.fixed = {{"kp_per_s", 100.0}, {"observer_per_s", 0.0}};
   o.optimizer.max_evaluations = 8;
-  const TuneResult r = tune(ev, o, never);
+  const TuneResult r = tune(ev, o, no_stop_yet);
   EXPECT_EQ(r.gains.at("kp_per_s"), 100.0);
   EXPECT_EQ(r.gains.at("observer_per_s"), 0.0);
   EXPECT_EQ(cli::to_json(r)["fixed"].size(), 2u);
   EXPECT_NE(r.report().find("(fixed)"), std::string::npos);
   o.fixed = {{"no_such_gain", 1.0}};
   try {
-    tune(ev, o, never);
+    tune(ev, o, no_stop_yet);
     ADD_FAILURE() << "an unknown gain was fixed";
   } catch (const InputError& e) {
     EXPECT_EQ(e.where(), "fixed");
   }
   o.fixed = {{"kp_per_s", 100.0}};
   o.start = {{"kp_per_s", 90.0}};
-  EXPECT_THROW(tune(ev, o, never), InputError);
+  EXPECT_THROW(tune(ev, o, no_stop_yet), InputError);
 }
 
 TEST(TuningContour, CornerIsTwoLegsThroughTheCentre) {

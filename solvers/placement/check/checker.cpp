@@ -1,4 +1,5 @@
 #include "solvers/placement/check/checker.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <iterator>
@@ -20,8 +21,6 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kDeg = M_PI / 180.0;
 
 std::vector<PathPose> poses_of(const Scene& scene) {
   std::vector<PathPose> poses(scene.tips_mm.size());

@@ -1,4 +1,5 @@
 #include "solvers/placement/machines/hexam_model.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <array>
@@ -14,10 +15,6 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kDeg = M_PI / 180.0;
-// Lower bounds this far above what a check needs are kept instead of an exact query.
-constexpr double kSlack_mm = 50.0;
 
 enum : int { kStroke = 0, kStrokeHigh = 1, kJoint = 2, kStrutStrut = 3, kClass2 = 4, kFirstPeripheral = 5 };
 

@@ -1,4 +1,5 @@
 #include "solvers/placement/machines/trunnion_model.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <array>
@@ -14,9 +15,6 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kDeg = M_PI / 180.0;
-constexpr double kSlack_mm = 50.0;
 // The workpiece mesh itself is measured only within this of the safe distance.
 constexpr double kMeshSlack_mm = 10.0;
 // A flip: the table turning more than a quarter turn within one step of the path.

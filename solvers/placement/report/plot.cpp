@@ -1,4 +1,5 @@
 #include "solvers/placement/report/plot.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +11,6 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kDeg = M_PI / 180.0;
 
 using View = PlotView;
 

@@ -1,4 +1,5 @@
 #include "solvers/placement/scene/scene.h"
+#include "engine/common/internal/numbers.h"
 
 #include <cmath>
 #include <filesystem>
@@ -12,7 +13,6 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kDeg = M_PI / 180.0;
 Scene read_scene(const Yaml& root, const std::string& path);
 
 // Reads the file `key` names (a mesh, a tool path). Its errors name the scene, the key's line

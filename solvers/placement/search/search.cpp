@@ -1,4 +1,5 @@
 #include "solvers/placement/search/search.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <chrono>
@@ -20,7 +21,6 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kDeg = M_PI / 180.0;
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();

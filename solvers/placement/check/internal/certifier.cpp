@@ -1,4 +1,5 @@
 #include "solvers/placement/check/internal/certifier.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -16,9 +17,6 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kDeg = M_PI / 180.0;
-constexpr int kMaxIntervalDepth = 12;
 // report() walks the subtrees at this depth of the pose tree, each on its own.
 constexpr int kReportSplitDepth = 5;
 

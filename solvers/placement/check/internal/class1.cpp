@@ -1,4 +1,5 @@
 #include "solvers/placement/check/internal/class1.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,8 +13,6 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr int kMaxIntervalDepth = 12;
 // The walk is split into the subtrees at this depth of the pose tree (32 of them).
 constexpr int kSplitDepth = 5;
 }  // namespace

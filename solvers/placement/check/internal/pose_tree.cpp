@@ -1,4 +1,5 @@
 #include "solvers/placement/check/internal/pose_tree.h"
+#include "engine/common/internal/numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,7 +13,6 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
 // Subtrees at least this large are built as tasks of their own.
 constexpr std::size_t kParallelIntervals = 4096;
 }  // namespace

@@ -18,6 +18,10 @@
 
 namespace machplan::placement {
 
+// The certifier and the class-1 walk split an interval between two poses in halves at most this
+// many times.
+inline constexpr int kMaxIntervalDepth = 12;
+
 class PoseTree {
  public:
   struct Node {

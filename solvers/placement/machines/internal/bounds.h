@@ -10,6 +10,10 @@
 
 namespace machplan::placement {
 
+// Both machine models keep a cheap lower bound instead of an exact query when it lies this far
+// above what the check needs.
+inline constexpr double kSlack_mm = 50.0;
+
 // Distance between two axis-aligned boxes (0 when they overlap).
 inline double aabb_distance(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) {
   const Eigen::Vector3d gap = (a.min() - b.max()).cwiseMax(b.min() - a.max()).cwiseMax(Eigen::Vector3d::Zero());
