@@ -25,6 +25,7 @@
 
 #include "engine/common/error.h"
 #include "engine/common/names.h"
+#include "engine/common/output_file.h"
 #include "engine/common/stop.h"
 #include "engine/executor/guard.h"
 
@@ -135,6 +136,7 @@ const char* reason(int code) {
     case 422: return "Unprocessable Content";
     case 500: return "Internal Server Error";
     case 503: return "Service Unavailable";
+    case 507: return "Insufficient Storage";
   }
   return "Status";
 }
@@ -160,8 +162,12 @@ Reply ok(const json& j) { return {200, j.dump(-1, ' ', false, json::error_handle
 std::optional<int> whole_number(const json& body, const char* key, long long lo, long long hi, const char* what) {
   if (!body.contains(key) || body[key].is_null()) return std::nullopt;
   if (!body[key].is_number_integer()) throw InputError::field(key, "must be a whole number");
+  // Above the largest signed 64-bit number JSON gives an unsigned one: read as such, so the
+  // message quotes it as sent (as signed it would wrap to a negative number).
+  if (body[key].is_number_unsigned() && body[key].get<unsigned long long>() > static_cast<unsigned long long>(hi))
+    throw InputError::field(key, fmt::format("{} is not a {} ({} to {})", body[key].get<unsigned long long>(), what, lo, hi));
   const long long v = body[key].get<long long>();
-  if (v < lo || v > hi) throw InputError::field(key, fmt::format("{} is not a {}", v, what));
+  if (v < lo || v > hi) throw InputError::field(key, fmt::format("{} is not a {} ({} to {})", v, what, lo, hi));
   return static_cast<int>(v);
 }
 
@@ -222,7 +228,13 @@ bool Server::Impl::host_allowed(const mg_connection* c) const {
   if (host.empty()) return true;  // HTTP/1.0 clients
   if (host.front() == '[') host = host.substr(0, host.find(']') + 1);
   else host = host.substr(0, host.find(':'));
-  return host == "127.0.0.1" || host == "localhost" || host == "[::1]" || host == o.bind;
+  // Host names are case-insensitive (RFC 9110): LOCALHOST is localhost.
+  const auto lower = [](std::string t) {
+    for (char& ch : t) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    return t;
+  };
+  host = lower(host);
+  return host == "127.0.0.1" || host == "localhost" || host == "[::1]" || host == lower(o.bind);
 }
 
 std::optional<Reply> Server::Impl::authorize(mg_connection* c, const std::string& method, bool& by_cookie) {
@@ -294,6 +306,9 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
     return error(409, fmt::format("cancelled: {}", e.what()));
   } catch (const InputError& e) {
     return error(400, panel.clean(e.what()));
+  } catch (const OutputError& e) {
+    // The server's disk refused a file (an upload stored for a job): not the request's fault.
+    return error(507, panel.clean(e.what()));
   } catch (const Infeasible& e) {
     // A refusal the request's origin can lift names the page's fields for it.
     if (e.option() == "origin_mm") return error(422, panel.clean(Infeasible(e.message(), "the origin X, Y fields").what()));
@@ -308,12 +323,21 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
     if (method != m) throw InputError::field("method", fmt::format("{} takes {}", path, m));
   };
   const bool get = method == "GET";
-  static const char* const kRoutes[] = {"/status", "/login", "/control", "/job", "/run", "/hold", "/resume", "/stop",
-                                        "/estop", "/reset", "/override", "/recover", "/thc", "/jog", "/report", "/guard", "/history"};
-  if (std::find(std::begin(kRoutes), std::end(kRoutes), path) == std::end(kRoutes))
-    return error(404, fmt::format("no route /api{}", excerpt(path, 80)));
-  if ((get && path != "/status" && path != "/job" && path != "/report" && path != "/guard" && path != "/history") ||
-      (!get && method != "POST"))
+  // Every route with the methods it takes (docs/panel.md's table); any other method is 405.
+  struct ApiRoute {
+    const char* path;
+    bool get, post;
+  };
+  static const ApiRoute kApiRoutes[] = {
+      {"/status", true, false}, {"/login", false, true},   {"/control", false, true}, {"/job", true, true},
+      {"/run", false, true},    {"/hold", false, true},    {"/resume", false, true},  {"/stop", false, true},
+      {"/estop", false, true},  {"/reset", false, true},   {"/override", false, true}, {"/recover", false, true},
+      {"/thc", false, true},    {"/jog", false, true},     {"/report", true, false},  {"/guard", true, true},
+      {"/history", true, false}};
+  const auto route_it = std::find_if(std::begin(kApiRoutes), std::end(kApiRoutes),
+                                     [&](const ApiRoute& r) { return path == r.path; });
+  if (route_it == std::end(kApiRoutes)) return error(404, fmt::format("no route /api{}", excerpt(path, 80)));
+  if (!(get ? route_it->get : method == "POST" && route_it->post))
     return error(405, fmt::format("/api{} does not take {}", path, excerpt(method, 10)));
 
   // Open to every authenticated client.
