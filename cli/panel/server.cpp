@@ -271,6 +271,58 @@ int Server::Impl::handle(mg_connection* c) {
   return send(c, r);
 }
 
+namespace {
+
+// Every API route with the methods it takes (docs/panel.md's table; any other method is 405)
+// and whether a POST needs the client in control.
+struct ApiRoute {
+  const char* path;
+  bool get, post, post_needs_control;
+};
+constexpr ApiRoute kApiRoutes[] = {
+    {"/status", true, false, false},  {"/login", false, true, false},   {"/control", false, true, false},
+    {"/job", true, true, true},       {"/run", false, true, true},      {"/hold", false, true, true},
+    {"/resume", false, true, true},   {"/stop", false, true, true},     {"/estop", false, true, false},
+    {"/reset", false, true, true},    {"/override", false, true, true}, {"/recover", false, true, true},
+    {"/thc", false, true, true},      {"/jog", false, true, true},      {"/report", true, false, false},
+    {"/guard", true, true, true},     {"/history", true, false, false}};
+
+const ApiRoute* find_api_route(const std::string& path) {
+  for (const ApiRoute& r : kApiRoutes)
+    if (path == r.path) return &r;
+  return nullptr;
+}
+
+// Deeper JSON than this is refused before it is parsed: no request of the API nests more than
+// three levels, and a parser's memory grows with the nesting (a 32 MB body of '[' would make
+// millions of nodes).
+constexpr int kMaxJsonDepth = 64;
+
+constexpr const char* kTakeControlFirst = "another client holds control, or none does: take control first (POST /api/control)";
+
+// Whether `text` opens more than `max_depth` arrays or objects inside one another, counted on
+// the bytes (brackets inside strings do not count): O(n), no allocation.
+bool json_nested_deeper_than(std::string_view text, int max_depth) {
+  int depth = 0;
+  bool in_string = false, escaped = false;
+  for (const char ch : text) {
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (ch == '\\') escaped = true;
+      else if (ch == '"') in_string = false;
+    } else if (ch == '"') {
+      in_string = true;
+    } else if (ch == '[' || ch == '{') {
+      if (++depth > max_depth) return true;
+    } else if (ch == ']' || ch == '}') {
+      --depth;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 Reply Server::Impl::route(mg_connection* c, const std::string& method, const std::string& uri) {
   if (!host_allowed(c)) return error(403, "this server answers to its loopback address only (Host refused)");
   if (uri.rfind("/api/", 0) != 0 && uri != "/api") {
@@ -279,6 +331,12 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
   }
   bool by_cookie = false;
   if (auto refused = authorize(c, method, by_cookie)) return *refused;
+  // A command from a client not in control is refused before its body is read or parsed.
+  if (method == "POST") {
+    const ApiRoute* r = find_api_route(uri.substr(4));
+    if (r && r->post && r->post_needs_control && !holds_control(c))
+      return error(409, kTakeControlFirst);
+  }
   // The body: JSON, bounded before it is read.
   const mg_request_info* ri = mg_get_request_info(c);
   const std::size_t limit = uri == "/api/job" ? o.max_job_bytes : o.max_body_bytes;
@@ -294,6 +352,8 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
   }
   json body = json::object();
   if (!raw.empty()) {
+    if (json_nested_deeper_than(raw, kMaxJsonDepth))
+      return error(400, fmt::format("the body nests arrays or objects deeper than {} levels", kMaxJsonDepth));
     body = json::parse(raw, nullptr, false);
     if (body.is_discarded()) return error(400, "the body is not valid JSON");
     if (!body.is_object()) return error(400, "the body must be a JSON object");
@@ -323,20 +383,8 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
     if (method != m) throw InputError::field("method", fmt::format("{} takes {}", path, m));
   };
   const bool get = method == "GET";
-  // Every route with the methods it takes (docs/panel.md's table); any other method is 405.
-  struct ApiRoute {
-    const char* path;
-    bool get, post;
-  };
-  static const ApiRoute kApiRoutes[] = {
-      {"/status", true, false}, {"/login", false, true},   {"/control", false, true}, {"/job", true, true},
-      {"/run", false, true},    {"/hold", false, true},    {"/resume", false, true},  {"/stop", false, true},
-      {"/estop", false, true},  {"/reset", false, true},   {"/override", false, true}, {"/recover", false, true},
-      {"/thc", false, true},    {"/jog", false, true},     {"/report", true, false},  {"/guard", true, true},
-      {"/history", true, false}};
-  const auto route_it = std::find_if(std::begin(kApiRoutes), std::end(kApiRoutes),
-                                     [&](const ApiRoute& r) { return path == r.path; });
-  if (route_it == std::end(kApiRoutes)) return error(404, fmt::format("no route /api{}", excerpt(path, 80)));
+  const ApiRoute* route_it = find_api_route(path);
+  if (!route_it) return error(404, fmt::format("no route /api{}", excerpt(path, 80)));
   if (!(get ? route_it->get : method == "POST" && route_it->post))
     return error(405, fmt::format("/api{} does not take {}", path, excerpt(method, 10)));
 
@@ -381,7 +429,7 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
   }
 
   // The rest changes the machine: the client must hold control.
-  if (!holds_control(c)) return error(409, "another client holds control, or none does: take control first (POST /api/control)");
+  if (!holds_control(c)) return error(409, kTakeControlFirst);
   if (path == "/job") {
     JobRequest r;
     r.program = body.at("program").get<std::string>();

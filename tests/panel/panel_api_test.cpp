@@ -273,6 +273,32 @@ TEST(PanelApi, AnOutOfRangeWholeNumberIsQuotedAsSent) {
   EXPECT_NE(line.body.find("18446744073709551615 is not a line number"), std::string::npos) << line.body;
 }
 
+// Parsing is bounded: a command from a client not in control is refused before its body is
+// parsed (bad JSON from it gets 409, not 400), and JSON nested deeper than 64 levels is refused
+// before the parser builds it; 64 levels still parse (and get the route's own answer).
+TEST(PanelApi, ControlAndNestingAreCheckedBeforeTheBodyIsParsed) {
+  PanelRig rig(0);
+  EXPECT_EQ(test::http(rig.port, "POST", "/api/job", rig.auth("client-two"), "{not json").status, 409);
+  rig.take_control();
+  EXPECT_EQ(test::http(rig.port, "POST", "/api/job", rig.auth(), "{not json").status, 400);
+  const auto nested = [](int depth) {
+    return "{\"program\": " + std::string(static_cast<std::size_t>(depth - 1), '[') + std::string(static_cast<std::size_t>(depth - 1), ']') + "}";
+  };
+  const HttpResponse deep = test::http(rig.port, "POST", "/api/job", rig.auth(), nested(65));
+  EXPECT_EQ(deep.status, 400);
+  EXPECT_NE(deep.body.find("deeper than 64 levels"), std::string::npos) << deep.body;
+  const HttpResponse bomb = test::http(rig.port, "POST", "/api/job", rig.auth(), nested(4'000'000));
+  EXPECT_EQ(bomb.status, 400);
+  EXPECT_NE(bomb.body.find("deeper than 64 levels"), std::string::npos) << bomb.body.substr(0, 200);
+  const HttpResponse ok64 = test::http(rig.port, "POST", "/api/job", rig.auth(), nested(64));
+  EXPECT_EQ(ok64.status, 400);
+  EXPECT_NE(ok64.body.find("wrong type"), std::string::npos) << ok64.body;  // parsed, then refused by the route
+  // Brackets inside strings are text, not nesting.
+  const HttpResponse text = test::http(rig.port, "POST", "/api/job", rig.auth(),
+                                       "{\"program\": \"" + std::string(100, '[') + "\\\"]\"}");
+  EXPECT_EQ(text.body.find("deeper than"), std::string::npos) << text.body;
+}
+
 // Host names are case-insensitive: LOCALHOST is this server; a foreign name still is not.
 TEST(PanelApi, TheHostCheckIgnoresCase) {
   PanelRig rig(0);
