@@ -1,5 +1,6 @@
 #include "cli/panel/server.h"
 
+#include <malloc.h>
 #include <sys/random.h>
 #include <unistd.h>
 
@@ -255,6 +256,9 @@ bool Server::Impl::holds_control(const mg_connection* c) {
   return !controller.empty() && id == controller;
 }
 
+// Bodies larger than this are followed by malloc_trim() (Server::Impl::handle).
+constexpr long long kTrimAfterBodyBytes = 1 << 20;
+
 int Server::Impl::handle(mg_connection* c) {
   const mg_request_info* ri = mg_get_request_info(c);
   const std::string method = ri->request_method ? ri->request_method : "";
@@ -268,6 +272,10 @@ int Server::Impl::handle(mg_connection* c) {
                 return error(500, fmt::format("internal error: {}", excerpt(e.what(), 200)));
               }
             }).get();
+  // A large body (a program's text, or junk up to the route's limit) was held in memory the
+  // allocator keeps for the thread that read it: give it back to the system, so that requests
+  // cannot pin the server's memory one after another.
+  if (ri->content_length > kTrimAfterBodyBytes) ::malloc_trim(0);
   return send(c, r);
 }
 
@@ -344,6 +352,8 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
     return error(413, fmt::format("the body is larger than {} bytes", limit));
   std::string raw;
   if (method == "POST") {
+    // One allocation of the announced size, not a doubling series of them.
+    if (ri->content_length > 0) raw.reserve(static_cast<std::size_t>(ri->content_length));
     std::string buf(16384, '\0');
     for (int n; (n = mg_read(c, buf.data(), buf.size())) > 0;) {
       raw.append(buf.data(), static_cast<std::size_t>(n));
