@@ -5,6 +5,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 
 #include <filesystem>
@@ -20,6 +21,7 @@
 #include "engine/calibration/session_log.h"
 #include "engine/common/error.h"
 #include "engine/common/internal/parse.h"
+#include "engine/common/output_file.h"
 #include "solvers/session/machine_session.h"
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/fit.h"
@@ -115,11 +117,10 @@ void add_calibrate(CLI::App& app) {
     if (r->out.empty()) {
       calibration::write_session_log(std::cout, log);
     } else {
-      std::ofstream f(r->out);
-      if (!f) throw InputError("--out", 0, fmt::format("cannot write '{}'", r->out));
-      calibration::write_session_log(f, log);
-      f.close();
-      if (!f) throw InputError("--out", 0, fmt::format("writing '{}' failed", r->out));
+      // Whole or not at all: a full disk leaves no half log (OutputError, exit 4).
+      std::ostringstream text;
+      calibration::write_session_log(text, log);
+      write_file_atomically(r->out, text.str());
       std::printf("session log: %s (%zu samples, %.1f s)\n", r->out.c_str(), log.samples.size(),
                   log.samples.empty() ? 0.0 : log.samples.back().t_s);
     }

@@ -12,6 +12,7 @@
 #include "cli/command.h"
 #include "cli/field_flags.h"
 #include "engine/common/error.h"
+#include "engine/common/output_file.h"
 
 namespace machplan::cli {
 namespace {
@@ -40,7 +41,8 @@ namespace {
 
 // Every command writes its results to stdout (printf or std::cout, which share the stdio
 // buffer); an error on any of those writes sticks to the stream. Checked once, here, so that a
-// full disk or a closed pipe is exit 1 with the reason instead of a silent success.
+// full disk or a closed pipe is exit 4 (an output could not be written, engine/common/error.h)
+// with the reason instead of a silent success.
 int check_stdout(int code) {
   std::cout.flush();
   errno = 0;
@@ -56,7 +58,7 @@ int check_stdout(int code) {
   }
   std::fprintf(stderr, "machplan: cannot write the output to standard output: %s; the output is incomplete\n",
                err != 0 ? std::strerror(err) : "write error");
-  return code == 0 ? 1 : code;
+  return code == 0 ? 4 : code;
 }
 
 int run(int argc, char** argv);
@@ -72,7 +74,7 @@ int run(int argc, char** argv) {
   CLI::App app{
       "machplan: planning engine and runtime for machine tools.\n"
       "Places workpieces on parallel-kinematic machines, calibrates and tunes axes, and runs\n"
-      "part programs. Exit codes: 0 done, 1 internal error, 2 bad input, 3 cannot be done\n(or, for `check`, interference found).",
+      "part programs. Exit codes: 0 done, 1 internal error, 2 bad input, 3 cannot be done\n(or, for `check`, interference found), 4 an output could not be written (full disk, no\npermission: the system's reason is printed).",
       "machplan"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "machplan 0.1.0");
@@ -92,6 +94,10 @@ int run(int argc, char** argv) {
   } catch (const Infeasible& e) {
     std::fprintf(stderr, "machplan: %s\n", cli::for_user(e, app).what());
     return 3;
+  } catch (const OutputError& e) {
+    // FILE: cannot write: REASON. The old file, if any, is as it was (AtomicOutput).
+    std::fprintf(stderr, "machplan: %s\n", e.what());
+    return 4;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "machplan: internal error: %s\n", e.what());
     return 1;

@@ -5,7 +5,6 @@
 // same cuts. The G-code goes to --output, or to stdout (the report then goes to stderr).
 // Exit 3 when the program cannot be reordered (the report says why; nothing is written).
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <string>
 
@@ -16,6 +15,7 @@
 #include "cli/json/cut_order_json.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
+#include "engine/common/output_file.h"
 #include "engine/programs/gcode.h"
 #include "engine/programs/gcode_writer.h"
 #include "solvers/motion/cut_order.h"
@@ -71,9 +71,8 @@ void add_order(CLI::App& app) {
       if (a->output.empty()) {
         std::fputs(text.c_str(), stdout);
       } else {
-        std::ofstream out(a->output, std::ios::binary);
-        out << text;
-        if (!out) throw std::runtime_error(fmt::format("--output: cannot write {}", a->output));
+        // The old program stays byte for byte unless the new one is written whole.
+        write_file_atomically(a->output, text);
       }
     }
     if (a->json) print_json(cut_order_json(r));

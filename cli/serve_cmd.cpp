@@ -21,7 +21,7 @@ namespace machplan::cli {
 namespace {
 
 struct ServeArgs {
-  std::string machine = "thermal_gantry", backend = "sim", bind = "127.0.0.1", seed, db, controller;
+  std::string machine = "thermal_gantry", backend = "sim", bind = "127.0.0.1", seed, db, controller, jobs;
   int port = 8090;
   bool allow_remote = false, no_pace = false;
   double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
@@ -38,6 +38,7 @@ void serve(const ServeArgs& a) {
                               ? a.controller
                               : accept(control::parse_controller_kind(a.controller), "--controller");
   po.store_path = a.db;
+  po.job_folder = a.jobs;
   po.pace = !a.no_pace;
   po.sim_speed = a.sim_speed;
   po.run.max_machine_time_s = a.max_machine_time_s;
@@ -77,6 +78,9 @@ void add_serve(CLI::App& app) {
   cmd->add_option("--db", a->db,
                   "calibration and tuning store, for --controller tuned and the panel's history (default "
                   "$XDG_DATA_HOME/machplan/calibration.db)");
+  cmd->add_option("--jobs", a->jobs,
+                  "the job folder: programs, material files and profiles named by path are read from here, the bundled "
+                  "datasets and the uploads only (default: the current folder)");
   cmd->add_option("--max-machine-time", a->max_machine_time_s,
                   "refuse a job whose estimate exceeds this many seconds of machine time (default 14400: 4 h)")
       ->check(kFinitePositive);
@@ -93,6 +97,7 @@ void add_serve(CLI::App& app) {
                     {"bind", "--bind"},
                     {"port", "--port"},
                     {"run.max_machine_time_s", "--max-machine-time"},
+                    {"job_folder", "--jobs"},
                     {"sim_speed", "--sim-speed"},
                     {"backend.sim.realtime_speed", "--sim-speed"}});
   cmd->callback([a] { serve(*a); });

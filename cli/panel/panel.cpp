@@ -1,13 +1,16 @@
 #include "cli/panel/panel.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "cli/json/calibration.h"
 #include "cli/json/cut_order_json.h"
@@ -15,12 +18,14 @@
 #include "cli/json/run.h"
 #include "cli/panel/job_drawing.h"
 #include "engine/common/error.h"
+#include "engine/common/output_file.h"
 #include "engine/common/stop.h"
 #include "engine/common/summary.h"
 #include "engine/executor/jog_source.h"
 #include "engine/executor/supervisor.h"
 #include "engine/geometry/region.h"
 #include "engine/hardware/operator_input.h"
+#include "models/cutting/machine_config.h"
 #include "solvers/calibration/store.h"
 #include "solvers/motion/from_line.h"
 #include "solvers/session/tuning_store.h"
@@ -78,11 +83,9 @@ json vec(const Eigen::Vector2d& v) { return json::array({v.x(), v.y()}); }
 
 // A request's file: a path as it is, or (holding a newline) the file's text, stored as `file`
 // and its path returned.
-std::string stored(const std::string& path_or_text, const std::string& file, const char* what) {
+std::string stored(const std::string& path_or_text, const std::string& file) {
   if (path_or_text.find('\n') == std::string::npos) return path_or_text;
-  std::ofstream out(file, std::ios::binary | std::ios::trunc);
-  out << path_or_text;
-  if (!out) throw InputError(file, 0, fmt::format("cannot store the uploaded {}", what));
+  write_file_atomically(file, path_or_text);  // a full disk: OutputError, no half program left
   return file;
 }
 
@@ -121,7 +124,48 @@ Panel::Panel(PanelOptions options) : o_(std::move(options)) {
   std::string tmpl = (fs::temp_directory_path() / "machplan-panel-XXXXXX").string();
   if (!mkdtemp(tmpl.data())) throw InputError(tmpl, 0, "cannot create the panel's folder for uploaded programs");
   tmp_dir_ = tmpl;
+  // The folders requests may read from, resolved once (symbolic links and '..' gone).
+  std::error_code ec;
+  const fs::path jobs = fs::canonical(o_.job_folder.empty() ? fs::current_path() : fs::path(o_.job_folder), ec);
+  if (ec || !fs::is_directory(jobs, ec))
+    throw InputError::field("job_folder", fmt::format("'{}' is not a folder", excerpt(o_.job_folder)));
+  read_folders_.push_back(jobs.string());
+  for (const cutting::MachineFolder& f : cutting::machine_folders()) {
+    if (!f.exists || f.kind == "user") continue;
+    const fs::path datasets = fs::canonical(fs::path(f.path).parent_path(), ec);
+    if (!ec) read_folders_.push_back(datasets.string());
+  }
+  read_folders_.push_back(fs::canonical(tmp_dir_).string());
   runner_ = std::thread([this] { runner_loop(); });
+}
+
+std::string Panel::readable_file(const std::string& path, const char* field, FileKind kind) const {
+  static const std::vector<std::string> kPrograms = {".ngc", ".nc", ".tap", ".gcode", ".cnc"};
+  static const std::vector<std::string> kMaterials = {".cfg"};
+  static const std::vector<std::string> kProfiles = {".dxf"};
+  const std::vector<std::string>& endings = kind == FileKind::program     ? kPrograms
+                                            : kind == FileKind::materials ? kMaterials
+                                                                          : kProfiles;
+  const char* what = kind == FileKind::program ? "program" : kind == FileKind::materials ? "material file" : "DXF profile";
+  // The kind first, from the name alone: a file of another kind is never opened.
+  std::string ext = fs::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (std::find(endings.begin(), endings.end(), ext) == endings.end())
+    throw InputError::field(field, fmt::format("'{}' is not a {} (its name must end in {})", excerpt(path), what,
+                                               fmt::join(endings, ", ")));
+  const InputError refused = InputError::field(
+      field, fmt::format("'{}': no readable {} by that name in the job folder, the bundled datasets or the uploads",
+                         excerpt(path), what));
+  std::error_code ec;
+  const fs::path real = fs::canonical(path, ec);
+  if (ec) throw refused;
+  const std::string r = real.string();
+  const bool inside = std::any_of(read_folders_.begin(), read_folders_.end(), [&](const std::string& folder) {
+    return r.size() > folder.size() && r.compare(0, folder.size(), folder) == 0 && r[folder.size()] == '/';
+  });
+  struct stat st {};
+  if (!inside || ::stat(r.c_str(), &st) != 0 || !S_ISREG(st.st_mode) || ::access(r.c_str(), R_OK) != 0) throw refused;
+  return path;
 }
 
 Panel::~Panel() {
@@ -175,8 +219,10 @@ json Panel::load_job(const JobRequest& request) {
   if (request.program.empty()) throw InputError::field("program", "is empty: give a path or the program's text");
   if (request.origin_mm && !(request.origin_mm->allFinite() && request.origin_mm->cwiseAbs().maxCoeff() <= 1e6))
     throw InputError::field("origin", "must be two finite numbers within 1e6 mm");
-  const std::string path = stored(request.program, tmp_dir_ + "/" + safe_name(request.name), "program");
-  const std::string materials = stored(request.materials, tmp_dir_ + "/materials.cfg", "material file");
+  const std::string path =
+      readable_file(stored(request.program, tmp_dir_ + "/" + safe_name(request.name)), "program", FileKind::program);
+  std::string materials = stored(request.materials, tmp_dir_ + "/materials.cfg");
+  if (!materials.empty()) materials = readable_file(materials, "materials", FileKind::materials);
   const motion::RunOptions options = job_options(request.origin_mm, materials, request.material);
   Termination t;
   {
@@ -403,9 +449,14 @@ void Panel::jog(double x, double y) {
 
 void Panel::start_guard(GuardRequest request) {
   request.options.op.kind = guard::OperatorSpec::Kind::panel;
+  // A machine by name only: a path would let a request read any YAML file.
+  if (request.options.machine.find_first_of("/.") != std::string::npos)
+    throw InputError::field("machine", fmt::format("'{}': the panel takes a machine by its name (machplan machines lists them)",
+                                                   excerpt(request.options.machine)));
   request.options.validate();
   std::vector<std::string> warnings;
-  const std::vector<Contour> profile = guard::read_guard_profile(request.profile, warnings);
+  const std::vector<Contour> profile =
+      guard::read_guard_profile(readable_file(request.profile, "profile", FileKind::profile), warnings);
   const ProhibitedRegion region = ProhibitedRegion::build(profile, request.options.region);
   const std::lock_guard<std::mutex> lock(cmd_mutex_);
   if (activity_.load() != Activity::idle || cmd_ != Command::none) throw Busy("the machine is busy");

@@ -76,6 +76,11 @@ struct PanelOptions {
   double jog_idle_end_s = 2.0;
   // Where calibrations and tunings are read from (read-only); "" for the default store.
   std::string store_path;
+  // The job folder: programs, material files and guard profiles named by path are read from
+  // here, the bundled datasets (datasets/ beside the machines machplan ships) and the panel's
+  // own folder of uploads, nowhere else; "" for the folder `serve` was started in. Requests
+  // name a file by a path relative to the server's current folder, or an absolute one.
+  std::string job_folder;
   void validate() const;  // InputError::field naming the field
 };
 
@@ -180,6 +185,13 @@ class Panel {
   // The paper modes lack what `asked` asks (session::paper_mode_lacks): refused with the rule
   // that refuses it in a run's options.
   void refuse_in_paper_mode(const hardware::OperatorInputs& asked) const;
+  // What a request may read (PanelOptions::job_folder): `path`, when it names a regular,
+  // readable file of the kind asked for (by its ending) inside one of read_folders_. Any
+  // other answer is one and the same InputError::field(`field`): a missing file, an
+  // unreadable one, a folder, a FIFO and a file outside those folders are not told apart, and
+  // nothing is read from a file of another kind, so no answer quotes it.
+  enum class FileKind { program, materials, profile };
+  std::string readable_file(const std::string& path, const char* field, FileKind kind) const;
   // The run's options for a job: the panel's, with the job's origin and materials.
   motion::RunOptions job_options(const std::optional<Eigen::Vector2d>& origin_mm, const std::string& materials_path,
                                  int material) const;
@@ -204,6 +216,7 @@ class Panel {
   std::optional<motion::PlannedRun> plan_;
   std::shared_ptr<const std::string> drawing_, report_, guard_drawing_;
   std::string tmp_dir_;
+  std::vector<std::string> read_folders_;  // canonical: the job folder, the datasets, tmp_dir_
   int job_id_ = 0;
   // The faults now in force, [{kind, message, line}]: the last run's (a stop request is its
   // ending, not a fault), or the E-stop pressed since; reset() acknowledges them.

@@ -1,5 +1,6 @@
 #include "cli/panel/server.h"
 
+#include <malloc.h>
 #include <sys/random.h>
 #include <unistd.h>
 
@@ -25,6 +26,7 @@
 
 #include "engine/common/error.h"
 #include "engine/common/names.h"
+#include "engine/common/output_file.h"
 #include "engine/common/stop.h"
 #include "engine/executor/guard.h"
 
@@ -135,6 +137,7 @@ const char* reason(int code) {
     case 422: return "Unprocessable Content";
     case 500: return "Internal Server Error";
     case 503: return "Service Unavailable";
+    case 507: return "Insufficient Storage";
   }
   return "Status";
 }
@@ -160,8 +163,12 @@ Reply ok(const json& j) { return {200, j.dump(-1, ' ', false, json::error_handle
 std::optional<int> whole_number(const json& body, const char* key, long long lo, long long hi, const char* what) {
   if (!body.contains(key) || body[key].is_null()) return std::nullopt;
   if (!body[key].is_number_integer()) throw InputError::field(key, "must be a whole number");
+  // Above the largest signed 64-bit number JSON gives an unsigned one: read as such, so the
+  // message quotes it as sent (as signed it would wrap to a negative number).
+  if (body[key].is_number_unsigned() && body[key].get<unsigned long long>() > static_cast<unsigned long long>(hi))
+    throw InputError::field(key, fmt::format("{} is not a {} ({} to {})", body[key].get<unsigned long long>(), what, lo, hi));
   const long long v = body[key].get<long long>();
-  if (v < lo || v > hi) throw InputError::field(key, fmt::format("{} is not a {}", v, what));
+  if (v < lo || v > hi) throw InputError::field(key, fmt::format("{} is not a {} ({} to {})", v, what, lo, hi));
   return static_cast<int>(v);
 }
 
@@ -222,7 +229,13 @@ bool Server::Impl::host_allowed(const mg_connection* c) const {
   if (host.empty()) return true;  // HTTP/1.0 clients
   if (host.front() == '[') host = host.substr(0, host.find(']') + 1);
   else host = host.substr(0, host.find(':'));
-  return host == "127.0.0.1" || host == "localhost" || host == "[::1]" || host == o.bind;
+  // Host names are case-insensitive (RFC 9110): LOCALHOST is localhost.
+  const auto lower = [](std::string t) {
+    for (char& ch : t) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    return t;
+  };
+  host = lower(host);
+  return host == "127.0.0.1" || host == "localhost" || host == "[::1]" || host == lower(o.bind);
 }
 
 std::optional<Reply> Server::Impl::authorize(mg_connection* c, const std::string& method, bool& by_cookie) {
@@ -243,6 +256,9 @@ bool Server::Impl::holds_control(const mg_connection* c) {
   return !controller.empty() && id == controller;
 }
 
+// Bodies larger than this are followed by malloc_trim() (Server::Impl::handle).
+constexpr long long kTrimAfterBodyBytes = 1 << 20;
+
 int Server::Impl::handle(mg_connection* c) {
   const mg_request_info* ri = mg_get_request_info(c);
   const std::string method = ri->request_method ? ri->request_method : "";
@@ -256,8 +272,64 @@ int Server::Impl::handle(mg_connection* c) {
                 return error(500, fmt::format("internal error: {}", excerpt(e.what(), 200)));
               }
             }).get();
+  // A large body (a program's text, or junk up to the route's limit) was held in memory the
+  // allocator keeps for the thread that read it: give it back to the system, so that requests
+  // cannot pin the server's memory one after another.
+  if (ri->content_length > kTrimAfterBodyBytes) ::malloc_trim(0);
   return send(c, r);
 }
+
+namespace {
+
+// Every API route with the methods it takes (docs/panel.md's table; any other method is 405)
+// and whether a POST needs the client in control.
+struct ApiRoute {
+  const char* path;
+  bool get, post, post_needs_control;
+};
+constexpr ApiRoute kApiRoutes[] = {
+    {"/status", true, false, false},  {"/login", false, true, false},   {"/control", false, true, false},
+    {"/job", true, true, true},       {"/run", false, true, true},      {"/hold", false, true, true},
+    {"/resume", false, true, true},   {"/stop", false, true, true},     {"/estop", false, true, false},
+    {"/reset", false, true, true},    {"/override", false, true, true}, {"/recover", false, true, true},
+    {"/thc", false, true, true},      {"/jog", false, true, true},      {"/report", true, false, false},
+    {"/guard", true, true, true},     {"/history", true, false, false}};
+
+const ApiRoute* find_api_route(const std::string& path) {
+  for (const ApiRoute& r : kApiRoutes)
+    if (path == r.path) return &r;
+  return nullptr;
+}
+
+// Deeper JSON than this is refused before it is parsed: no request of the API nests more than
+// three levels, and a parser's memory grows with the nesting (a 32 MB body of '[' would make
+// millions of nodes).
+constexpr int kMaxJsonDepth = 64;
+
+constexpr const char* kTakeControlFirst = "another client holds control, or none does: take control first (POST /api/control)";
+
+// Whether `text` opens more than `max_depth` arrays or objects inside one another, counted on
+// the bytes (brackets inside strings do not count): O(n), no allocation.
+bool json_nested_deeper_than(std::string_view text, int max_depth) {
+  int depth = 0;
+  bool in_string = false, escaped = false;
+  for (const char ch : text) {
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (ch == '\\') escaped = true;
+      else if (ch == '"') in_string = false;
+    } else if (ch == '"') {
+      in_string = true;
+    } else if (ch == '[' || ch == '{') {
+      if (++depth > max_depth) return true;
+    } else if (ch == ']' || ch == '}') {
+      --depth;
+    }
+  }
+  return false;
+}
+
+}  // namespace
 
 Reply Server::Impl::route(mg_connection* c, const std::string& method, const std::string& uri) {
   if (!host_allowed(c)) return error(403, "this server answers to its loopback address only (Host refused)");
@@ -267,6 +339,12 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
   }
   bool by_cookie = false;
   if (auto refused = authorize(c, method, by_cookie)) return *refused;
+  // A command from a client not in control is refused before its body is read or parsed.
+  if (method == "POST") {
+    const ApiRoute* r = find_api_route(uri.substr(4));
+    if (r && r->post && r->post_needs_control && !holds_control(c))
+      return error(409, kTakeControlFirst);
+  }
   // The body: JSON, bounded before it is read.
   const mg_request_info* ri = mg_get_request_info(c);
   const std::size_t limit = uri == "/api/job" ? o.max_job_bytes : o.max_body_bytes;
@@ -274,6 +352,8 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
     return error(413, fmt::format("the body is larger than {} bytes", limit));
   std::string raw;
   if (method == "POST") {
+    // One allocation of the announced size, not a doubling series of them.
+    if (ri->content_length > 0) raw.reserve(static_cast<std::size_t>(ri->content_length));
     std::string buf(16384, '\0');
     for (int n; (n = mg_read(c, buf.data(), buf.size())) > 0;) {
       raw.append(buf.data(), static_cast<std::size_t>(n));
@@ -282,6 +362,8 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
   }
   json body = json::object();
   if (!raw.empty()) {
+    if (json_nested_deeper_than(raw, kMaxJsonDepth))
+      return error(400, fmt::format("the body nests arrays or objects deeper than {} levels", kMaxJsonDepth));
     body = json::parse(raw, nullptr, false);
     if (body.is_discarded()) return error(400, "the body is not valid JSON");
     if (!body.is_object()) return error(400, "the body must be a JSON object");
@@ -294,6 +376,9 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
     return error(409, fmt::format("cancelled: {}", e.what()));
   } catch (const InputError& e) {
     return error(400, panel.clean(e.what()));
+  } catch (const OutputError& e) {
+    // The server's disk refused a file (an upload stored for a job): not the request's fault.
+    return error(507, panel.clean(e.what()));
   } catch (const Infeasible& e) {
     // A refusal the request's origin can lift names the page's fields for it.
     if (e.option() == "origin_mm") return error(422, panel.clean(Infeasible(e.message(), "the origin X, Y fields").what()));
@@ -308,12 +393,9 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
     if (method != m) throw InputError::field("method", fmt::format("{} takes {}", path, m));
   };
   const bool get = method == "GET";
-  static const char* const kRoutes[] = {"/status", "/login", "/control", "/job", "/run", "/hold", "/resume", "/stop",
-                                        "/estop", "/reset", "/override", "/recover", "/thc", "/jog", "/report", "/guard", "/history"};
-  if (std::find(std::begin(kRoutes), std::end(kRoutes), path) == std::end(kRoutes))
-    return error(404, fmt::format("no route /api{}", excerpt(path, 80)));
-  if ((get && path != "/status" && path != "/job" && path != "/report" && path != "/guard" && path != "/history") ||
-      (!get && method != "POST"))
+  const ApiRoute* route_it = find_api_route(path);
+  if (!route_it) return error(404, fmt::format("no route /api{}", excerpt(path, 80)));
+  if (!(get ? route_it->get : method == "POST" && route_it->post))
     return error(405, fmt::format("/api{} does not take {}", path, excerpt(method, 10)));
 
   // Open to every authenticated client.
@@ -357,7 +439,7 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
   }
 
   // The rest changes the machine: the client must hold control.
-  if (!holds_control(c)) return error(409, "another client holds control, or none does: take control first (POST /api/control)");
+  if (!holds_control(c)) return error(409, kTakeControlFirst);
   if (path == "/job") {
     JobRequest r;
     r.program = body.at("program").get<std::string>();

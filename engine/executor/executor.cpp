@@ -443,6 +443,9 @@ bool Session::Impl::tick() noexcept {
     sup.note_trusted(adapter.position_mm());
   if (in.estop || in.op.estop) raise(FK::estop, -1, 0.0);  // the chain, or the operator's E-stop
   if (in.watchdog_tripped) raise(FK::watchdog, -1, be.watchdog_periods());
+  // A torch that met the plate: torch off in this period and a controlled stop, as for the
+  // E-stop; the axes cannot drag it on through the sheet.
+  if (in.torch_breakaway) raise(FK::torch_breakaway, -1, in.torch_height_mm);
   if (parts.termination && parts.termination->should_end()) raise(FK::stop_requested, -1, 0.0);
   if (sup.arc_lost(moving_cut() && ms.torch.kind == TorchSetup::Kind::plasma, in.arc_ok)) arc_lost();
 

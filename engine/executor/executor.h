@@ -240,7 +240,7 @@ struct ExecutionResult {
   double max_true_contour_error_mm() const;  // over all cuts, truth (NaN if unknown)
   std::string report() const;                // human-readable summary
   // kTraceCsvHeader's columns (engine/executor/trace.h)
-  void write_trace_csv(const std::string& path) const;  // throws InputError(path) on failure
+  void write_trace_csv(const std::string& path) const;  // atomically; throws OutputError(path) on failure
 };
 
 // What a run is made of beyond the job and the backend; every part is optional.

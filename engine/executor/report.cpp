@@ -57,6 +57,11 @@ std::string Session::Impl::fault_message(const FaultReport& f) const {
                             "cannot give)",
                             f.value, ms.contour_error_limit_mm);
       break;
+    case FK::torch_breakaway:
+      message = fmt::format("the torch touched the plate (breakaway switch open) at a torch height of {:.2f} mm: a "
+                            "collision; torch off and a controlled stop",
+                            f.value);
+      break;
     case FK::operator_stop: message = "stopped by the operator"; break;
     case FK::stop_requested:
       message = termination && termination->ended() && termination->reason() != Termination::Reason::stop_requested

@@ -20,6 +20,7 @@ const char* to_string(FaultKind k) {
     case FaultKind::torch_height_timeout: return "torch_height_timeout";
     case FaultKind::axis_stalled: return "axis_stalled";
     case FaultKind::drive_saturated: return "drive_saturated";
+    case FaultKind::torch_breakaway: return "torch_breakaway";
     case FaultKind::stop_requested: return "stop_requested";
     case FaultKind::operator_stop: return "operator_stop";
   }

@@ -2,7 +2,8 @@
 //
 // Detection, every period (each check is O(1)):
 //   * lost backend, watchdog tripped, E-stop, encoder glitch and counter wrap misread (verdicts
-//     of the feedback adapter), a stop requested from another thread or by a signal;
+//     of the feedback adapter), the torch's breakaway switch (a collision with the plate), a
+//     stop requested from another thread or by a signal;
 //   * arc lost while a plasma cut moves (arc OK low for longer than arc_loss_debounce_s);
 //   * following error (the controller's, for tracking sources);
 //   * no progress: an axis commanded to move that does not. Per axis, while the speed command
@@ -51,6 +52,7 @@ enum class FaultKind {
   torch_height_timeout,
   axis_stalled,
   drive_saturated,
+  torch_breakaway,  // the torch touched the plate (its breakaway switch opened): a collision
   stop_requested,
   operator_stop   // the operator's stop button (or a `stop` event): the job ends, not a machine fault
 };

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <chrono>
-#include <fstream>
+#include <memory>
+#include <string_view>
 
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/common/output_file.h"
 #include "engine/executor/executor.h"
 
 namespace machplan::executor {
@@ -32,17 +34,19 @@ TraceStream::TraceStream(const std::string& path, std::size_t ring_samples) : pa
   while (n < ring_samples) n <<= 1;
   ring_.assign(n, TraceSample{});  // touched now, not in the tick
   mask_ = n - 1;
-  file_ = std::fopen(path.c_str(), "w");
-  if (!file_) throw InputError(path, 0, "cannot open the trace file for writing");
+  // Streamed into a temporary beside `path`, renamed into place by close(): a run that fails
+  // to write its trace leaves no partial file and an old trace as it was.
+  out_ = std::make_unique<AtomicOutput>(path);
+  file_ = out_->stream();
   if (std::fputs(kTraceCsvHeader, file_) < 0) write_failed_.store(true);
   thread_ = std::thread([this] { writer(); });
 }
 
 TraceStream::~TraceStream() {
-  try {
-    if (thread_.joinable() || file_) close();
-  } catch (...) {
-  }
+  // Not closed: the writer stops and the temporary goes (AtomicOutput's destructor); the
+  // target is left as it was.
+  stop_.store(true, std::memory_order_release);
+  if (thread_.joinable()) thread_.join();
 }
 
 void TraceStream::writer() {
@@ -68,19 +72,18 @@ void TraceStream::close() {
   stop_.store(true, std::memory_order_release);
   if (thread_.joinable()) thread_.join();
   if (file_) {
-    if (std::fclose(file_) != 0) write_failed_.store(true);
     file_ = nullptr;
-    if (write_failed_.load()) throw InputError(path_, 0, "writing the trace failed");
+    // A failed write stuck to the stream; commit() finds it with its reason (OutputError).
+    out_->commit();
   }
 }
 
 void ExecutionResult::write_trace_csv(const std::string& path) const {
-  std::ofstream out(path);
-  if (!out) throw InputError(path, 0, "cannot open the trace file for writing");
-  out << kTraceCsvHeader;
+  AtomicOutput out(path);
+  out.write(kTraceCsvHeader);
   char line[256];
-  for (const TraceSample& s : trace) out.write(line, static_cast<std::streamsize>(format_trace_csv(s, line, sizeof line)));
-  if (!out) throw InputError(path, 0, "writing the trace failed");
+  for (const TraceSample& s : trace) out.write(std::string_view(line, format_trace_csv(s, line, sizeof line)));
+  out.commit();
 }
 
 }  // namespace machplan::executor

@@ -19,11 +19,14 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <Eigen/Core>
+
+#include "engine/common/output_file.h"
 
 namespace machplan::executor {
 
@@ -75,8 +78,9 @@ class TraceRecorder {
 
 class TraceStream {
  public:
-  // Opens `path` for writing (throws InputError naming it when it cannot) and starts the
-  // writer thread. `ring_samples` is rounded up to a power of two.
+  // Opens a temporary beside `path` (throws OutputError naming it when it cannot) and starts
+  // the writer thread. `ring_samples` is rounded up to a power of two. The trace appears
+  // under `path` only when close() succeeds (engine/common/output_file.h).
   explicit TraceStream(const std::string& path, std::size_t ring_samples = 1u << 16);
   ~TraceStream();
   TraceStream(const TraceStream&) = delete;
@@ -98,8 +102,9 @@ class TraceStream {
     ring_[h & mask_] = s;
     head_.store(h + 1, std::memory_order_release);
   }
-  // Drains what is left, stops the writer and closes the file; throws InputError on a write
-  // error. Called once after the run (the destructor closes quietly if it was not).
+  // Drains what is left, stops the writer and renames the file into place; throws
+  // OutputError (the system's reason) on a write error, leaving no file. Called once after the
+  // run (without it the destructor stops the writer and removes the temporary).
   void close();
   std::size_t written() const { return written_; }
   std::size_t dropped() const { return dropped_.load(); }
@@ -108,6 +113,7 @@ class TraceStream {
  private:
   void writer();
   std::string path_;
+  std::unique_ptr<AtomicOutput> out_;  // the temporary the writer fills, renamed by close()
   std::FILE* file_ = nullptr;
   std::vector<TraceSample> ring_;
   std::size_t mask_ = 0;

@@ -94,6 +94,9 @@ struct Inputs {
   bool watchdog_tripped = false;   // the backend stopped the machine: exchanges came too late
   double torch_height_mm = 0.0;    // torch height axis position
   double arc_voltage_v = 0.0;      // plasma: the arc's voltage while it burns (0: not measured)
+  // The torch's breakaway switch is open: the torch met something (the plate, a tipped-up
+  // part) and its mount gave way, QtPlasmaC's "breakaway". A collision: the executor stops.
+  bool torch_breakaway = false;
   OperatorInputs op;
 };
 

@@ -201,7 +201,11 @@ Program read_gcode(const std::string& text, const std::string& source_name, cons
 }
 
 Program read_gcode_file(const std::string& path, const GcodeOptions& options) {
-  return read_gcode(read_text_file(path), path, options);
+  std::string text = read_text_file(path);
+  // An empty file is a copy or a post-processor that failed, not a program that does nothing
+  // (read as one, it would "complete" at once, and with no program end as a GRBL program).
+  if (text.empty()) throw InputError(path, 0, "the file is empty (0 bytes): there is no program to read");
+  return read_gcode(text, path, options);
 }
 
 }  // namespace machplan

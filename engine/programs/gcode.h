@@ -188,7 +188,8 @@ std::optional<GcodeDialect> gcode_dialect_from(std::string_view name);
 // Throws InputError("source_name", line, message) on the first error.
 Program read_gcode(const std::string& text, const std::string& source_name, const GcodeOptions& options = {});
 
-// Reads the file at `path` (see read_text_file for its limits) and interprets it.
+// Reads the file at `path` (see read_text_file for its limits) and interprets it. An empty
+// file (0 bytes) is refused: it is a failed copy or post-processor, not a program.
 Program read_gcode_file(const std::string& path, const GcodeOptions& options = {});
 
 }  // namespace machplan

@@ -381,7 +381,8 @@ std::string find_machine(const std::string& name_or_path) {
   const bool looks_like_name = name_or_path.find('/') == std::string::npos && name_or_path.find('.') == std::string::npos &&
                                !name_or_path.empty();
   if (!looks_like_name) {
-    if (fs::is_regular_file(name_or_path, ec)) return name_or_path;
+    // A folder, a FIFO or a device goes on to the reader, which says what it is.
+    if (fs::exists(name_or_path, ec)) return name_or_path;
     throw InputError::field("machine", fmt::format("no such machine file '{}'", excerpt(name_or_path)));
   }
   const std::vector<MachineFolder> folders = machine_folders();

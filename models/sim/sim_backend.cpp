@@ -104,6 +104,7 @@ hardware::Inputs SimBackend::sample() {
   in.op = op_;
   in.torch_height_mm = height_mm_;
   in.arc_voltage_v = arc_voltage_v_;
+  in.torch_breakaway = breakaway_;
   return in;
 }
 
@@ -189,6 +190,8 @@ void SimBackend::advance(const hardware::Outputs& out) {
       const double step = m_.torch_height.speed_mm_per_s * dt;
       height_mm_ += std::clamp(height_target_mm_ - height_mm_, -step, step);
     }
+    double gap = 0.0;
+    breakaway_ = true_torch_gap(gap) && gap <= 0.0;
   }
   burn_and_measure(dt);
   time_s_ += dt;

@@ -19,6 +19,11 @@
 // reports it. A gap after an exchange that disabled the drives (a session between two jobs) is
 // the machine waiting, not a fault.
 //
+// Collision: with a height axis, a torch whose true gap to the (warped) plate is zero or less
+// has touched it; the torch's breakaway switch opens (`Inputs::torch_breakaway`) for as long as
+// it stays there, as QtPlasmaC's breakaway input does. The simulator does not stop anything by
+// itself: that is the executor's job.
+//
 // Operator inputs: `operator_events` (time-stamped states of the joystick, feed hold and cycle
 // start) are applied at their times; set_operator() changes them at once.
 //
@@ -150,6 +155,7 @@ class SimBackend final : public hardware::Backend {
   int arc_starts_ = 0;
   double height_mm_ = 0.0, height_target_mm_ = 0.0, ihs_left_s_ = 0.0;
   bool height_retracted_ = true;
+  bool breakaway_ = false;              // the torch touches the plate (gap <= 0)
   bool estop_ = false, lost_ = false, watchdog_ = false, arc_start_fails_ = false;
   hardware::OperatorInputs op_{};
   hardware::Outputs last_out_{};

@@ -1,6 +1,7 @@
 #include "solvers/common/picture.h"
 
 #include <cmath>
+#include <string_view>
 
 #include <cairo-svg.h>
 #include <cairo.h>
@@ -8,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/common/output_file.h"
 #include "engine/geometry/contour.h"
 
 namespace machplan {
@@ -16,6 +18,19 @@ namespace {
 bool ends_with(const std::string& s, const char* tail) {
   const std::string t(tail);
   return s.size() > t.size() && s.compare(s.size() - t.size(), t.size(), t) == 0;
+}
+
+// Cairo writes the picture through this callback into the AtomicOutput's temporary; a write
+// that fails stops Cairo with a write error, and AtomicOutput::write has kept the reason.
+cairo_status_t write_picture_bytes(void* closure, const unsigned char* data, unsigned int length) {
+  auto* out = static_cast<AtomicOutput*>(closure);
+  try {
+    out->write(std::string_view(reinterpret_cast<const char*>(data), length));
+  } catch (const OutputError& e) {
+    out->fail(e.reason());
+    return CAIRO_STATUS_WRITE_ERROR;
+  }
+  return CAIRO_STATUS_SUCCESS;
 }
 
 }  // namespace
@@ -72,7 +87,9 @@ void write_picture(const std::string& path, const std::string& field, double wid
   const bool svg = ends_with(path, ".svg");
   const bool png = ends_with(path, ".png");
   if (!svg && !png) throw InputError::field(field, fmt::format("'{}' must end in .png or .svg", excerpt(path)));
-  cairo_surface_t* surface = svg ? cairo_svg_surface_create(path.c_str(), width, height)
+  // Whole or not at all: into a temporary beside `path`, renamed by commit().
+  AtomicOutput out(path);
+  cairo_surface_t* surface = svg ? cairo_svg_surface_create_for_stream(write_picture_bytes, &out, width, height)
                                  : cairo_image_surface_create(CAIRO_FORMAT_ARGB32, static_cast<int>(width),
                                                               static_cast<int>(height));
   if (cairo_surface_status(surface) != CAIRO_STATUS_SUCCESS) {
@@ -91,12 +108,13 @@ void write_picture(const std::string& path, const std::string& field, double wid
   }
   cairo_destroy(cr);
   cairo_status_t st = CAIRO_STATUS_SUCCESS;
-  if (png) st = cairo_surface_write_to_png(surface, path.c_str());
+  if (png) st = cairo_surface_write_to_png_stream(surface, write_picture_bytes, &out);
   cairo_surface_finish(surface);
   if (st == CAIRO_STATUS_SUCCESS) st = cairo_surface_status(surface);
   cairo_surface_destroy(surface);
-  if (st != CAIRO_STATUS_SUCCESS)
-    throw InputError(path, 0, std::string("cannot write the picture: ") + cairo_status_to_string(st));
+  // A failed write has its reason in `out` already; another Cairo failure is named here.
+  if (st != CAIRO_STATUS_SUCCESS) out.fail(std::string("cannot draw the picture: ") + cairo_status_to_string(st));
+  out.commit();
 }
 
 void draw_text(Canvas& canvas, double x, double y, const std::string& s, double size) {

@@ -513,6 +513,32 @@ PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::Ma
 
 namespace {
 
+// Torch height control over the cuts, the figures --json gives per cut (cuts[].thc), from the
+// backend's truth: how far the torch was from its cut height while THC held it. Empty when no
+// cut has them (no height axis, a machine without truth, THC never took hold).
+std::string thc_lines(const executor::ExecutionResult& r) {
+  std::size_t cuts = 0, samples = 0, worst = 0;
+  double max_mm = -1.0, sum2 = 0.0, active = 0.0, velocity_change = 0.0, void_change = 0.0;
+  for (std::size_t i = 0; i < r.cuts.size(); ++i) {
+    const executor::ThcFigures& h = r.cuts[i].thc;
+    if (h.samples == 0 || std::isnan(h.max_mm)) continue;
+    ++cuts;
+    samples += h.samples;
+    sum2 += h.rms_mm * h.rms_mm * static_cast<double>(h.samples);
+    active += h.active_share * static_cast<double>(h.samples);
+    if (h.max_mm > max_mm) max_mm = h.max_mm, worst = i;
+    velocity_change = std::max(velocity_change, h.velocity_lock_change_mm);
+    void_change = std::max(void_change, h.void_lock_change_mm);
+  }
+  if (cuts == 0) return {};
+  const double n = static_cast<double>(samples);
+  return fmt::format("  torch height     max {:.3f} mm, rms {:.3f} mm off the cut height over {} cuts while THC held it "
+                     "(largest in cut {}, line {}); THC acting {:.0f} % of that time\n"
+                     "                   height change under a velocity lock at most {:.3f} mm, under a void lock {:.3f} mm\n",
+                     max_mm, std::sqrt(sum2 / n), cuts, worst + 1, r.cuts[worst].source_line, 100.0 * active / n,
+                     velocity_change, void_change);
+}
+
 // The full report for people: what the planning did, then the run.
 std::string full_report(const RunOutcome& o, const session::MachineSession& session) {
   const executor::ExecutionResult& r = o.result;
@@ -572,6 +598,7 @@ std::string full_report(const RunOutcome& o, const session::MachineSession& sess
     if (truth) s += fmt::format(" {:>10.4f} {:>10.4f}", c.max_true_mm, c.rms_true_mm);
     s += c.complete ? "\n" : "  interrupted\n";
   }
+  s += thc_lines(r);
   if (r.faults.empty()) {
     s += "  faults           none; torch off at the end\n";
   } else {

@@ -1,14 +1,20 @@
-// The command line's output and option checks: a failed write to stdout is exit 1 with the
-// reason, --json is valid UTF-8 whatever the input's bytes, an output path that is an input is
+// The command line's output and option checks: a failed write to stdout is exit 4 with the
+// reason, output files are written whole or not at all (a full disk leaves the old file and no
+// partial one), inputs that are not regular files are refused at once, --json is valid UTF-8 whatever the input's bytes, an output path that is an input is
 // refused before any work, and bad option values (NaN, infinities, too many or repeated
 // rotations, absurd placements) exit 2 naming the flag.
+#include <sys/stat.h>
+
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -44,16 +50,117 @@ const std::string kSource = MACHPLAN_SOURCE_DIR;
 const std::string kScene = kSource + "/datasets/hexam-paper/scene.yaml";
 const std::string kProgram = kSource + "/datasets/programs/demo_plate.ngc";
 
-TEST(SafeOutput, AFullStdoutIsExitOneWithTheReason) {
+TEST(SafeOutput, AFullStdoutIsExitFourWithTheReason) {
   if (!fs::exists("/dev/full")) GTEST_FAIL() << "/dev/full is needed by this test";
   const Outcome json = machplan(fmt::format("program --json '{}'", kProgram), "/dev/full");
-  EXPECT_EQ(json.code, 1);
+  EXPECT_EQ(json.code, 4);
   EXPECT_THAT(json.err, HasSubstr("cannot write the output to standard output: No space left on device"));
   const Outcome text = machplan(fmt::format("program '{}'", kProgram), "/dev/full");
-  EXPECT_EQ(text.code, 1);
+  EXPECT_EQ(text.code, 4);
   EXPECT_THAT(text.err, HasSubstr("No space left on device"));
   // Bad input keeps its own exit code even when stdout is broken too.
   EXPECT_EQ(machplan("program /nonexistent/x.ngc", "/dev/full").code, 2);
+}
+
+// Inputs that are not regular files: a FIFO would block the reader until someone writes to it
+// (for ever), /dev/zero has no end and reads as an empty GRBL program, a folder is no file.
+// Each is refused at once, exit 2, naming the file and what it is. (A reader that blocked
+// would hang this test: there is no writer on the FIFO.)
+TEST(InputFiles, AFifoADeviceOrAFolderIsRefusedAtOnceNamingIt) {
+  test::Cli cli;
+  const std::string fifo = (cli.dir() / "part.ngc").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
+  const std::string folder = cli.dir().string();
+  struct Case {
+    std::vector<std::string> args;
+    std::string path, what;
+  };
+  const Case cases[] = {
+      {{"run", fifo, "--machine", "thermal_gantry"}, fifo, "is a FIFO (named pipe), not a regular file"},
+      {{"order", fifo}, fifo, "is a FIFO (named pipe), not a regular file"},
+      {{"program", fifo}, fifo, "is a FIFO (named pipe), not a regular file"},
+      {{"run", "/dev/zero", "--machine", "thermal_gantry"}, "/dev/zero", "is a character device, not a regular file"},
+      {{"program", "/dev/zero"}, "/dev/zero", "is a character device, not a regular file"},
+      {{"profile", "/dev/zero"}, "/dev/zero", "is a character device, not a regular file"},
+      {{"run", kProgram, "--machine", fifo}, fifo, "is a FIFO (named pipe), not a regular file"},
+      {{"program", folder}, folder, "is a folder, expected a file"},
+  };
+  for (const Case& c : cases) {
+    const Outcome r = cli.run(c.args);
+    EXPECT_EQ(r.code, 2) << fmt::format("{}", fmt::join(c.args, " ")) << "\n" << r.err;
+    EXPECT_THAT(r.err, HasSubstr(c.path + ": " + c.what)) << fmt::format("{}", fmt::join(c.args, " "));
+    EXPECT_EQ(r.out, "");
+  }
+}
+
+TEST(InputFiles, AnEmptyProgramIsRefused) {
+  test::Cli cli;
+  const std::string empty = cli.write("empty.ngc", "");
+  for (const char* command : {"run", "program", "order"}) {
+    std::vector<std::string> args = {command, empty};
+    if (std::string(command) == "run") args.insert(args.end(), {"--machine", "thermal_gantry"});
+    const Outcome r = cli.run(args);
+    EXPECT_EQ(r.code, 2) << command << "\n" << r.err;
+    EXPECT_THAT(r.err, HasSubstr(empty + ": the file is empty (0 bytes)")) << command;
+  }
+}
+
+// Outputs on a full file system: a 64 KiB tmpfs in the run's own mount namespace, filled up
+// before machplan runs. Each output fails with exit 4 (neither bad input nor a bug), names the
+// file and the system's reason, leaves an existing file byte for byte and no partial file.
+class FullDisk : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!test::Cli::network_namespace()) GTEST_FAIL() << "this test needs user and mount namespaces (unshare -rmn)";
+    disk_ = cli_.dir() / "disk";
+    fs::create_directories(disk_);
+    fs::create_directories(cli_.dir() / "out");
+  }
+  // Runs `args` with the disk mounted and filled; `before` runs after the mount, before the
+  // fill. The disk's listing (ls -A) afterwards is in listing().
+  Outcome run_full(const std::string& args, const std::string& before = "") {
+    test::CliIo io;
+    io.small_disk_kb = 64;
+    io.small_disk_at = disk_.string();
+    io.small_disk_before = before + fmt::format("\ndd if=/dev/zero of='{}/fill' bs=1k count=1024 2>/dev/null\n", disk_.string());
+    io.small_disk_after = fmt::format("ls -A '{}' > '{}/listing'; cp -p '{}'/*.ngc '{}/' 2>/dev/null", disk_.string(),
+                                      (cli_.dir() / "out").string(), disk_.string(), (cli_.dir() / "out").string());
+    return cli_.run(args, io);
+  }
+  std::string listing() const { return slurp(cli_.dir() / "out" / "listing"); }
+  test::Cli cli_;
+  fs::path disk_;
+};
+
+TEST_F(FullDisk, OrderOntoAnExistingProgramLeavesItByteForByte) {
+  const std::string old_text = slurp(kProgram);
+  const std::string target = (disk_ / "old.ngc").string();
+  const Outcome r = run_full(fmt::format("order '{}' -o '{}'", kSource + "/datasets/parts/nested_sheet.ngc", target),
+                             fmt::format("cp '{}' '{}'", kProgram, target));
+  EXPECT_EQ(r.code, 4) << r.err;
+  EXPECT_THAT(r.err, HasSubstr(target + ": cannot write: No space left on device"));
+  EXPECT_EQ(slurp(cli_.dir() / "out" / "old.ngc"), old_text);  // the old program, whole
+  EXPECT_EQ(listing(), "fill\nold.ngc\n");                     // and nothing else
+}
+
+TEST_F(FullDisk, TracePlotLogAndNewStoreLeaveNoFile) {
+  const std::string part = kSource + "/datasets/parts/triangle_45.ngc";
+  const struct {
+    std::string args, file;
+  } cases[] = {
+      {fmt::format("run '{}' --machine thermal_gantry --trace '{}/trace.csv'", part, disk_.string()), "trace.csv"},
+      {fmt::format("run '{}' --machine thermal_gantry --plot '{}/run.png'", part, disk_.string()), "run.png"},
+      {fmt::format("calibrate record --machine thermal_gantry --speeds 0.3 --out '{}/session.csv'", disk_.string()),
+       "session.csv"},
+      {fmt::format("calibrate history --db '{}/new.db'", disk_.string()), "new.db"},
+  };
+  for (const auto& c : cases) {
+    const Outcome r = run_full(c.args);
+    EXPECT_EQ(r.code, 4) << c.args << "\n" << r.err;
+    EXPECT_THAT(r.err, HasSubstr(c.file + ": cannot write: ")) << c.args;
+    EXPECT_THAT(r.err, HasSubstr("No space left on device")) << c.args;
+    EXPECT_EQ(listing(), "fill\n") << c.args;  // no partial file, no temporary
+  }
 }
 
 TEST(SafeOutput, JsonIsValidUtf8WhateverTheFileName) {
@@ -178,9 +285,9 @@ TEST(SafeOutput, JsonOfALongProgramIsStreamedAndStaysValid) {
   EXPECT_EQ(j["moves"].back()["kind"], "torch_off");
   EXPECT_EQ(j["units"], "mm");
   EXPECT_TRUE(j["ends_with_program_end"].get<bool>());
-  // A full disk part way through: exit 1 with the reason, and no claim of success.
+  // A full disk part way through: exit 4 with the reason, and no claim of success.
   const Outcome full = machplan(fmt::format("program --json '{}'", prog), "/dev/full");
-  EXPECT_EQ(full.code, 1);
+  EXPECT_EQ(full.code, 4);
   EXPECT_THAT(full.err, HasSubstr("No space left on device"));
 }
 

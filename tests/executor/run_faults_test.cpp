@@ -3,7 +3,9 @@
 // the machine at rest, a report and exit 3.
 #include <signal.h>
 
+#include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -43,6 +45,16 @@ std::vector<std::string> last_trace_row(const std::string& path, std::size_t& li
   return cols;
 }
 
+// While a run streams its trace, the rows go to a hidden temporary beside the trace's name
+// (engine/common/output_file.h), renamed into place when the run ends: its path, or "" while
+// there is none yet.
+std::string streaming_trace_in(const std::filesystem::path& dir, const std::string& name) {
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(dir, ec))
+    if (e.path().filename().string().rfind("." + name + ".tmp-", 0) == 0) return e.path().string();
+  return {};
+}
+
 class Signals : public ::testing::TestWithParam<int> {};
 
 TEST_P(Signals, StopTheMachineWriteTheReportAndTraceAndExitThree) {
@@ -57,9 +69,11 @@ TEST_P(Signals, StopTheMachineWriteTheReportAndTraceAndExitThree) {
   std::size_t before = 0;
   for (int k = 0; k < 6000 && before <= 1000; ++k) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    last_trace_row(trace, before);
+    const std::string streaming = streaming_trace_in(cli.dir(), "trace.csv");
+    if (!streaming.empty()) last_trace_row(streaming, before);
   }
   ASSERT_GT(before, 1000u) << "the run never got going";
+  EXPECT_FALSE(std::filesystem::exists(trace));  // the trace takes its name only when complete
   ASSERT_TRUE(p.signal(GetParam()));
   const CliRun r = p.wait();
   EXPECT_EQ(r.code, 3) << r.err;
@@ -73,6 +87,7 @@ TEST_P(Signals, StopTheMachineWriteTheReportAndTraceAndExitThree) {
   ASSERT_EQ(row.size(), 16u);
   EXPECT_EQ(row[10], "0");  // drives disabled
   EXPECT_EQ(row[11], "0");  // torch off
+  EXPECT_EQ(streaming_trace_in(cli.dir(), "trace.csv"), "");  // renamed, nothing left beside it
 }
 
 INSTANTIATE_TEST_SUITE_P(IntTermHup, Signals, ::testing::Values(SIGINT, SIGTERM, SIGHUP),
@@ -145,6 +160,82 @@ TEST(Inject, BadValuesExitTwoNamingTheFlag) {
   EXPECT_EQ(r.code, 2);
   EXPECT_THAT(r.err, HasSubstr(fmt::format("--backend: unknown backend 'linuxcnc' (known: {})",
                                            fmt::join(backends::backend_names(), ", "))));
+}
+
+// A warped simulated sheet rises into the torch. A torch that touches the plate is a collision
+// (QtPlasmaC's breakaway): the torch goes off in the period the breakaway switch opens, the
+// machine stops under control, the run ends faulted with the fault named, exit 3. Before the
+// breakaway input a run on a sheet warped 50 mm "completed" with the torch 63 mm below the
+// plate's surface and the arc on.
+TEST(TorchCollision, ATorchThatTouchesTheWarpedPlateIsAFaultWithTheTorchOff) {
+  test::Cli cli;
+  const std::string trace = (cli.dir() / "collision.csv").string();
+  // 8 mm over 40 mm: THC cannot follow, and the plate meets the torch in the first cut.
+  const CliRun r = cli.run({"run", part("nested_sheet.ngc"), "--machine", "thermal_gantry", "--sheet-warp", "8,40",
+                            "--json", "--trace", trace});
+  ASSERT_EQ(r.code, 3) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["status"], "faulted");
+  ASSERT_EQ(j["faults"].size(), 1u);
+  EXPECT_EQ(j["faults"][0]["kind"], "torch_breakaway");
+  EXPECT_THAT(j["faults"][0]["message"].get<std::string>(), HasSubstr("the torch touched the plate"));
+  EXPECT_TRUE(j["torch_off_at_end"].get<bool>());
+  EXPECT_TRUE(j["stopped_at_rest"].get<bool>());
+  EXPECT_THAT(r.err, HasSubstr("fault: "));
+  // The trace: from the first period the torch is at or below the plate, the torch is off
+  // (torch_fire, column 11) and never fires again, and the run ends with the drives off.
+  std::ifstream in(trace);
+  std::string line;
+  std::getline(in, line);  // header
+  bool touched = false, cutting_before = false;
+  std::size_t rows = 0, fired_after = 0;
+  std::vector<std::string> cols, before;
+  while (std::getline(in, line)) {
+    before = cols;
+    cols.clear();
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cols.push_back(c);
+    ASSERT_EQ(cols.size(), 16u) << line;
+    ++rows;
+    const double gap = std::stod(cols[14]);
+    if (gap <= 0.0 && !touched) {
+      touched = true;
+      cutting_before = !before.empty() && before[11] == "1" && before[12] == "1";  // torch firing, arc OK
+    }
+    if (touched && cols[11] != "0") ++fired_after;
+  }
+  EXPECT_TRUE(touched);
+  EXPECT_TRUE(cutting_before) << "the collision is expected mid-cut, with the arc on";
+  EXPECT_GT(rows, 1000u);
+  EXPECT_EQ(fired_after, 0u);
+  EXPECT_EQ(cols[10], "0");  // drives disabled at the end
+
+  // The run of the report: 50 mm over 1 mm. The report for people names the fault and the
+  // state the machine was left in.
+  const CliRun text = cli.run({"run", part("nested_sheet.ngc"), "--machine", "thermal_gantry", "--sheet-warp", "50,1"});
+  EXPECT_EQ(text.code, 3);
+  EXPECT_THAT(text.out, HasSubstr("FAULT torch_breakaway: "));
+  EXPECT_THAT(text.out, HasSubstr("torch off at the end; machine stopped at rest"));
+}
+
+// The text report of a completed run on a warped sheet carries the THC figures of the JSON.
+TEST(TorchHeight, TheTextReportShowsTheThcFiguresOfTheJson) {
+  const std::vector<std::string> args = {"run", part("nested_sheet.ngc"), "--machine", "thermal_gantry", "--sheet-warp",
+                                         "3,1000"};
+  std::vector<std::string> with_json = args;
+  with_json.push_back("--json");
+  const CliRun js = machplan(with_json);
+  ASSERT_EQ(js.code, 0) << js.err;
+  const auto j = nlohmann::json::parse(js.out);
+  double max_mm = 0.0;
+  int cuts = 0;
+  for (const auto& c : j["cuts"])
+    if (!c["thc"].is_null()) max_mm = std::max(max_mm, c["thc"]["max_height_error_mm"].get<double>()), ++cuts;
+  ASSERT_GT(cuts, 0);
+  const CliRun text = machplan(args);
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr(fmt::format("torch height     max {:.3f} mm", max_mm)));
+  EXPECT_THAT(text.out, HasSubstr(fmt::format("over {} cuts while THC held it", cuts)));
 }
 
 TEST(Supervision, ALoopThatCannotHoldThePathIsAFault) {

@@ -3,14 +3,17 @@
 // requests, the live stream, jog, run from a line, the hybrid mode, and the L bracket held
 // and resumed mid-cut against `machplan run`'s figures.
 #include <sys/socket.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <random>
 #include <set>
 #include <string>
 #include <thread>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -183,6 +186,128 @@ TEST(PanelApi, BadRequestsGet4xxWithAMessageAndChangeNothing) {
   EXPECT_EQ(rig.get("/api/job").status, 404);
   const json after = rig.status();
   for (const char* k : {"job_id", "state", "estop", "position_mm", "overrides", "activity"}) EXPECT_EQ(after[k], before[k]) << k;
+}
+
+// Files a request may read: only regular files of the kind asked for, from the job folder, the
+// bundled datasets and the uploads. A marker planted in files the panel must not read (outside
+// those folders, or of another kind) appears in no answer; a missing file, a file outside, a
+// folder and a FIFO get one and the same refusal, at once (no writer ever opens the FIFO).
+TEST(PanelApi, AFileOutsideTheFoldersOrOfAnotherKindIsNeverQuoted) {
+  test::TempDir jobs, outside;
+  PanelRig rig(0, "thermal_gantry", [&](panel::PanelOptions& po) { po.job_folder = jobs.path().string(); });
+  rig.take_control();
+  const std::string marker = "root:MARKER-5ec7e7:20228:0:99999:7";
+  const std::string secret_cfg = outside.write("secret.cfg", marker + "\n");
+  const std::string secret_ngc = outside.write("secret.ngc", marker + "\n");
+  const std::string secret_dxf = outside.write("secret.dxf", marker + "\n");
+  const std::string notes = jobs.write("notes.txt", marker + "\n");
+  const std::string program_as_materials = jobs.write("part.ngc", marker + "\n");
+  const std::string fifo = (jobs.path() / "pipe.ngc").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string folder_ngc = (jobs.path() / "folder.ngc").string();
+  std::filesystem::create_directory(folder_ngc);
+  const auto answer = [&](const std::string& path, const json& body) {
+    const HttpResponse r = rig.post(path, body);
+    EXPECT_EQ(r.status, 400) << body.dump() << " -> " << r.body;
+    EXPECT_EQ(r.body.find("MARKER-5ec7e7"), std::string::npos) << body.dump() << " -> " << r.body;
+    return json::parse(r.body, nullptr, false).value("error", std::string());
+  };
+  const auto same_refusal = [&](const std::string& text, const std::string& path) {
+    std::string t = text;
+    const std::size_t at = t.find(path);
+    EXPECT_NE(at, std::string::npos) << t;
+    if (at != std::string::npos) t.replace(at, path.size(), "PATH");
+    return t;
+  };
+  const std::string missing = (jobs.path() / "missing.ngc").string();
+  const std::string refusal = same_refusal(answer("/api/job", {{"program", missing}}), missing);
+  EXPECT_NE(refusal.find("no readable program by that name in the job folder, the bundled datasets or the uploads"),
+            std::string::npos)
+      << refusal;
+  for (const std::string& p : {secret_ngc, fifo, folder_ngc, std::string("/etc/../etc/passwd.ngc")})
+    EXPECT_EQ(same_refusal(answer("/api/job", {{"program", p}}), p), refusal) << p;
+  // Files of another kind are refused by their name, before anything is opened.
+  for (const std::string& p : {notes, program_as_materials, std::string("/etc/shadow")})
+    EXPECT_NE(answer("/api/job", {{"program", kTriangle}, {"materials", p}}).find("is not a material file"), std::string::npos) << p;
+  EXPECT_NE(answer("/api/job", {{"program", notes}}).find("is not a program"), std::string::npos);
+  answer("/api/job", {{"program", kTriangle}, {"materials", secret_cfg}});
+  const json guard = {{"profile", secret_dxf}, {"side", "outside"}, {"tool_radius_mm", 5}, {"tolerance_mm", 4}};
+  EXPECT_NE(answer("/api/guard", guard).find("no readable DXF profile"), std::string::npos);
+  json by_path = guard;
+  by_path["profile"] = "datasets/profiles/paper_triangle.dxf";
+  by_path["machine"] = secret_cfg;
+  EXPECT_NE(answer("/api/guard", by_path).find("takes a machine by its name"), std::string::npos);
+  // None of that held the planning lock: a job from the bundled datasets loads at once.
+  rig.load({{"program", kTriangle}});
+}
+
+// Each route takes the methods docs/panel.md gives it: POST on a GET-only route is 405, as GET
+// on a POST-only one is.
+TEST(PanelApi, AWrongMethodIs405OnEveryRoute) {
+  PanelRig rig(0);
+  rig.take_control();
+  for (const Route& r : kRoutes) {
+    const bool get = std::string(r.method) == "GET";
+    const bool both = std::any_of(std::begin(kRoutes), std::end(kRoutes), [&](const Route& o) {
+      return std::string(o.path) == r.path && std::string(o.method) != r.method;
+    });
+    if (both) continue;
+    const HttpResponse h = test::http(rig.port, get ? "POST" : "GET", r.path, rig.auth(), get ? "{}" : "");
+    EXPECT_EQ(h.status, 405) << (get ? "POST " : "GET ") << r.path << " -> " << h.body;
+  }
+  for (const char* method : {"PUT", "DELETE", "PATCH"})
+    EXPECT_EQ(test::http(rig.port, method, "/api/job", rig.auth(), "{}").status, 405) << method;
+}
+
+// A whole number beyond 64 signed bits is refused as sent, never echoed wrapped to a negative.
+TEST(PanelApi, AnOutOfRangeWholeNumberIsQuotedAsSent) {
+  PanelRig rig(0);
+  rig.take_control();
+  const std::string body = R"({"program": "datasets/parts/triangle_45.ngc", "material": 9223372036854775808})";
+  const HttpResponse r = test::http(rig.port, "POST", "/api/job", rig.auth(), body);
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_NE(r.body.find("9223372036854775808 is not a material number (0 to 999999)"), std::string::npos) << r.body;
+  EXPECT_EQ(r.body.find("-9223372036854775808"), std::string::npos) << r.body;
+  const HttpResponse line = test::http(rig.port, "POST", "/api/run", rig.auth(), R"({"from_line": 18446744073709551615})");
+  EXPECT_EQ(line.status, 400) << line.body;
+  EXPECT_NE(line.body.find("18446744073709551615 is not a line number"), std::string::npos) << line.body;
+}
+
+// Parsing is bounded: a command from a client not in control is refused before its body is
+// parsed (bad JSON from it gets 409, not 400), and JSON nested deeper than 64 levels is refused
+// before the parser builds it; 64 levels still parse (and get the route's own answer).
+TEST(PanelApi, ControlAndNestingAreCheckedBeforeTheBodyIsParsed) {
+  PanelRig rig(0);
+  EXPECT_EQ(test::http(rig.port, "POST", "/api/job", rig.auth("client-two"), "{not json").status, 409);
+  rig.take_control();
+  EXPECT_EQ(test::http(rig.port, "POST", "/api/job", rig.auth(), "{not json").status, 400);
+  const auto nested = [](int depth) {
+    return "{\"program\": " + std::string(static_cast<std::size_t>(depth - 1), '[') + std::string(static_cast<std::size_t>(depth - 1), ']') + "}";
+  };
+  const HttpResponse deep = test::http(rig.port, "POST", "/api/job", rig.auth(), nested(65));
+  EXPECT_EQ(deep.status, 400);
+  EXPECT_NE(deep.body.find("deeper than 64 levels"), std::string::npos) << deep.body;
+  const HttpResponse bomb = test::http(rig.port, "POST", "/api/job", rig.auth(), nested(4'000'000));
+  EXPECT_EQ(bomb.status, 400);
+  EXPECT_NE(bomb.body.find("deeper than 64 levels"), std::string::npos) << bomb.body.substr(0, 200);
+  const HttpResponse ok64 = test::http(rig.port, "POST", "/api/job", rig.auth(), nested(64));
+  EXPECT_EQ(ok64.status, 400);
+  EXPECT_NE(ok64.body.find("wrong type"), std::string::npos) << ok64.body;  // parsed, then refused by the route
+  // Brackets inside strings are text, not nesting.
+  const HttpResponse text = test::http(rig.port, "POST", "/api/job", rig.auth(),
+                                       "{\"program\": \"" + std::string(100, '[') + "\\\"]\"}");
+  EXPECT_EQ(text.body.find("deeper than"), std::string::npos) << text.body;
+}
+
+// Host names are case-insensitive: LOCALHOST is this server; a foreign name still is not.
+TEST(PanelApi, TheHostCheckIgnoresCase) {
+  PanelRig rig(0);
+  const auto with_host = [&](const std::string& host) {
+    return test::http(rig.port, "GET", "/api/status", {{"Host", host}, {"Authorization", "Bearer " + rig.token}}).status;
+  };
+  EXPECT_EQ(with_host("LOCALHOST"), 200);
+  EXPECT_EQ(with_host(fmt::format("LocalHost:{}", rig.port)), 200);
+  EXPECT_EQ(with_host("EVIL.example"), 403);
 }
 
 TEST(PanelApi, FuzzedAndMalformedRequestsNeverCrashTheServerOrMoveTheMachine) {

@@ -82,7 +82,7 @@ Cli::Cli() {
 
 CliProcess Cli::spawn(const std::vector<std::string>& words, const CliIo& io) const {
   std::vector<std::string> argv;
-  if (io.isolate && network_namespace()) argv = {"unshare", "-rn", "--"};
+  if (io.isolate && network_namespace()) argv = {"unshare", io.small_disk_kb > 0 ? "-rmn" : "-rn", "--"};
   argv.insert(argv.end(), words.begin(), words.end());
 
   std::vector<std::string> env;
@@ -123,6 +123,15 @@ CliProcess Cli::spawn(const std::vector<std::string>& words, const CliIo& io) co
 }
 
 CliResult Cli::run(const std::string& args, const CliIo& io) const {
+  if (io.small_disk_kb > 0) {
+    if (!io.isolate || !network_namespace())
+      throw std::runtime_error("a small disk needs the run's own namespaces (unshare -rmn)");
+    // In the run's mount namespace: mount, prepare, run, copy out; machplan's status.
+    const std::string script =
+        fmt::format("mount -t tmpfs -o size={}k machplan-test \"{}\" || exit 125\n{}\n\"$0\" {}\nrc=$?\n{}\nexit $rc\n",
+                    io.small_disk_kb, io.small_disk_at, io.small_disk_before, args, io.small_disk_after);
+    return spawn({"/bin/sh", "-c", script, MACHPLAN_CLI}, io).wait();
+  }
   // The shell splits and unquotes `args`; `exec` leaves machplan as the process waited for.
   return spawn({"/bin/sh", "-c", "exec \"$0\" " + args, MACHPLAN_CLI}, io).wait();
 }

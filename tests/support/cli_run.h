@@ -43,6 +43,14 @@ struct CliIo {
   // that drive a machine through HAL: in the namespace's user namespace the process may not
   // lock its memory or take a real-time priority.
   bool isolate = true;
+  // A full disk on demand (Cli::run with the shell form only): a tmpfs of `small_disk_kb` KiB
+  // mounted at `small_disk_at` (an existing folder) in a mount namespace of the run's own
+  // (`unshare -rmn`), where `small_disk_before` (shell commands: copy a file in, fill the disk)
+  // runs first and `small_disk_after` after machplan (copy out what the test checks: the tmpfs
+  // goes away with the run). The exit status is machplan's; 125 when the tmpfs could not be
+  // mounted. Needs Cli::network_namespace().
+  int small_disk_kb = 0;
+  std::string small_disk_at, small_disk_before, small_disk_after;
 };
 
 class CliProcess;

@@ -1,12 +1,18 @@
 #include "solvers/common/internal/sqlite_db.h"
 
 #include <sqlite3.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <ctime>
+#include <filesystem>
 
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/common/output_file.h"
 
 namespace machplan::store {
 
@@ -20,8 +26,53 @@ struct Statement::Prepared {
   ~Prepared() { sqlite3_finalize(s); }
 };
 
+namespace {
+
+// The reason SQLite gives for a failure on `h`, with the system's when there is one (a full
+// disk reads "database or disk is full (No space left on device)").
+std::string sqlite_failure(sqlite3* h) {
+  if (!h) return "out of memory";
+  // A full disk may come back as SQLITE_FULL with no system error recorded (a short write).
+  const int err = sqlite3_system_errno(h) != 0 ? sqlite3_system_errno(h) : sqlite3_errcode(h) == SQLITE_FULL ? ENOSPC : 0;
+  return err != 0 ? fmt::format("{} ({})", sqlite3_errmsg(h), std::strerror(err)) : std::string(sqlite3_errmsg(h));
+}
+
+// A store that does not exist yet is built whole beside its path and renamed into place, so
+// that a failure (a full disk) leaves no empty or half-made file under the store's name.
+void create_store_file(const std::string& path, const char* schema) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path folder = fs::path(path).parent_path();
+  if (!folder.empty() && !fs::is_directory(folder, ec))
+    throw InputError::field("db_path", fmt::format("cannot open '{}': its folder does not exist", path));
+  AtomicOutput out(path);
+  sqlite3* h = nullptr;
+  std::string why;
+  if (sqlite3_open_v2(out.temp_path().c_str(), &h, SQLITE_OPEN_READWRITE, nullptr) != SQLITE_OK) {
+    why = sqlite_failure(h);
+  } else {
+    char* err = nullptr;
+    for (const char* sql : {"PRAGMA foreign_keys = ON;", schema}) {
+      if (sqlite3_exec(h, sql, nullptr, nullptr, &err) == SQLITE_OK) continue;
+      why = sqlite_failure(h);
+      sqlite3_free(err);
+      break;
+    }
+  }
+  sqlite3_close(h);
+  if (!why.empty()) {
+    ::unlink((out.temp_path() + "-journal").c_str());
+    out.fail(why);
+  }
+  out.commit();  // throws OutputError with the reason, and removes the temporary
+}
+
+}  // namespace
+
 SqliteDb::SqliteDb(const std::string& path, const char* schema)
     : connection_(std::make_unique<Connection>()), path_(path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0 && errno == ENOENT) create_store_file(path, schema);
   sqlite3*& h = connection_->h;
   if (sqlite3_open_v2(path.c_str(), &h, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
     const std::string why = h ? sqlite3_errmsg(h) : "out of memory";

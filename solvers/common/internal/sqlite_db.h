@@ -4,7 +4,10 @@
 // Opening never creates folders: a store's path in a folder that does not exist is an error, so a
 // typing mistake cannot scatter databases over the disk. Only the default location
 // (default_store_path() in solvers/common/store.h) has its folder created, on first use.
-// Every failure is an InputError::field("db_path", ...) naming the file.
+// A store that does not exist yet is made whole in a temporary beside its path and renamed
+// into place (engine/common/output_file.h): a failure there (a full disk) is an OutputError
+// and leaves no file. Every other failure is an InputError::field("db_path", ...) naming the
+// file.
 //
 // SQLite itself stays in sqlite_db.cpp: the connection and the prepared statement are held
 // behind pointers to types defined there, so this header needs no SQLite header.
