@@ -72,7 +72,8 @@ void create_store_file(const std::string& path, const char* schema) {
 SqliteDb::SqliteDb(const std::string& path, const char* schema)
     : connection_(std::make_unique<Connection>()), path_(path) {
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0 && errno == ENOENT) create_store_file(path, schema);
+  const bool created = ::stat(path.c_str(), &st) != 0 && errno == ENOENT;
+  if (created) create_store_file(path, schema);  // made whole with its schema
   sqlite3*& h = connection_->h;
   if (sqlite3_open_v2(path.c_str(), &h, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
     const std::string why = h ? sqlite3_errmsg(h) : "out of memory";
@@ -83,7 +84,7 @@ SqliteDb::SqliteDb(const std::string& path, const char* schema)
   sqlite3_busy_timeout(h, 5000);
   try {
     exec("PRAGMA foreign_keys = ON;");
-    exec(schema);
+    if (!created) exec(schema);  // an existing store: the tables it lacks (schemas say IF NOT EXISTS)
   } catch (const InputError& e) {
     sqlite3_close(h);
     h = nullptr;
