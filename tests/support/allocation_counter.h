@@ -1,5 +1,5 @@
-// Counts the allocations a piece of real-time code makes. Include in exactly ONE source file of a
-// test program.
+// Counts the allocations a piece of real-time code makes (defined in allocation_counter.cpp, in
+// the test support library; any number of a test program's sources may include this).
 //
 // Only the allocations made on a thread while its `g_counting` is set are counted (other
 // threads, such as a trace writer, allocate freely):
@@ -20,53 +20,6 @@
 //     through malloc and free.
 #pragma once
 
-#include <cstdlib>
-#include <new>
-
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define MACHPLAN_COUNT_WITH_ASAN_HOOKS 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__) && !defined(MACHPLAN_COUNT_WITH_ASAN_HOOKS)
-#define MACHPLAN_COUNT_WITH_ASAN_HOOKS 1
-#endif
-
-namespace {
-thread_local bool g_counting = false;
-thread_local long g_allocations = 0;
-}  // namespace
-
-#ifdef MACHPLAN_COUNT_WITH_ASAN_HOOKS
-#include <sanitizer/allocator_interface.h>
-
-namespace {
-void count_allocation(const volatile void*, std::size_t) {
-  if (g_counting) ++g_allocations;
-}
-void count_free(const volatile void*) {}
-// Installed while the program's statics are made, before any test runs.
-[[maybe_unused]] const int g_hooks_installed = __sanitizer_install_malloc_and_free_hooks(count_allocation, count_free);
-}  // namespace
-#else
-namespace {
-void* counted(std::size_t n) {
-  if (g_counting) ++g_allocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-void* operator new(std::size_t n) { return counted(n); }
-void* operator new[](std::size_t n) { return counted(n); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  if (g_counting) ++g_allocations;
-  return std::malloc(n ? n : 1);
-}
-void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-#endif
+// Set on a thread while its allocations are counted; the count.
+extern thread_local bool g_counting;
+extern thread_local long g_allocations;
