@@ -4,7 +4,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -18,6 +17,7 @@
 #include "cli/json/run.h"
 #include "cli/panel/job_drawing.h"
 #include "engine/common/error.h"
+#include "engine/common/internal/text_scan.h"
 #include "engine/common/output_file.h"
 #include "engine/common/stop.h"
 #include "engine/common/summary.h"
@@ -148,9 +148,8 @@ std::string Panel::readable_file(const std::string& path, const char* field, Fil
                                                                           : kProfiles;
   const char* what = kind == FileKind::program ? "program" : kind == FileKind::materials ? "material file" : "DXF profile";
   // The kind first, from the name alone: a file of another kind is never opened.
-  std::string ext = fs::path(path).extension().string();
-  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  if (std::find(endings.begin(), endings.end(), ext) == endings.end())
+  const std::string ext = fs::path(path).extension().string();
+  if (std::none_of(endings.begin(), endings.end(), [&](const std::string& e) { return text_scan::iequals(ext, e); }))
     throw InputError::field(field, fmt::format("'{}' is not a {} (its name must end in {})", excerpt(path), what,
                                                fmt::join(endings, ", ")));
   const InputError refused = InputError::field(

@@ -26,6 +26,7 @@
 
 #include "engine/common/error.h"
 #include "engine/common/names.h"
+#include "engine/common/internal/text_scan.h"
 #include "engine/common/output_file.h"
 #include "engine/common/stop.h"
 #include "engine/executor/guard.h"
@@ -230,12 +231,8 @@ bool Server::Impl::host_allowed(const mg_connection* c) const {
   if (host.front() == '[') host = host.substr(0, host.find(']') + 1);
   else host = host.substr(0, host.find(':'));
   // Host names are case-insensitive (RFC 9110): LOCALHOST is localhost.
-  const auto lower = [](std::string t) {
-    for (char& ch : t) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-    return t;
-  };
-  host = lower(host);
-  return host == "127.0.0.1" || host == "localhost" || host == "[::1]" || host == lower(o.bind);
+  using text_scan::iequals;
+  return host == "127.0.0.1" || iequals(host, "localhost") || host == "[::1]" || iequals(host, o.bind);
 }
 
 std::optional<Reply> Server::Impl::authorize(mg_connection* c, const std::string& method, bool& by_cookie) {

@@ -11,7 +11,6 @@
 
 #include <fmt/format.h>
 
-
 namespace machplan {
 
 namespace {
@@ -81,8 +80,7 @@ void AtomicOutput::write(std::string_view bytes) {
   if (bytes.empty()) return;
   errno = 0;
   if (std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size()) {
-    write_errno_ = errno != 0 ? errno : EIO;
-    give_up(std::strerror(write_errno_));
+    give_up(std::strerror(errno != 0 ? errno : EIO));
   }
 }
 

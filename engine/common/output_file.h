@@ -68,7 +68,6 @@ class AtomicOutput {
   [[noreturn]] void give_up(const std::string& reason);
   std::string path_, target_, temp_;  // target_: path_, or the file a symbolic link names
   std::FILE* file_ = nullptr;
-  int write_errno_ = 0;
   std::string failure_;
   bool committed_ = false;
 };
