@@ -16,12 +16,22 @@
 // falls on both alike. The bench runs the tick on its own thread, as the panel's runner does;
 // the tick publishes its LiveState without a lock and the server's threads only read it.
 //
+// BM_SlowClients/sockets:S/seconds:T   `serve`'s server (default limits) on the simulated gantry
+//                        while S sockets each send one more byte of a request head that never
+//                        ends every second, and reconnect when the server closes them, for T
+//                        seconds. Meanwhile a client polls GET /api/status ten times a second
+//                        and presses the E-stop (then reset) every 2 s: status_p50_ms,
+//                        status_p99_ms, status_max_ms, failed (answers other than 200),
+//                        estop_max_ms (request to answer: the E-stop is applied before it is
+//                        answered), reconnects and evicted (slow heads closed to make room).
+//
 // fifo:1 runs the tick's thread SCHED_FIFO (priority 70), as machplan runs the executor's
 // thread on a real machine (the HAL backend, engine/hardware/hal_backend.h); fifo:0 leaves it
 // to the ordinary scheduler. The viewers here are threads of this process on the same two cores
 // (a browser would run on its own machine), so with fifo:0 the tick competes with 50 readers
 // and the server for the CPU: that is the scheduler's doing, not the panel's. The run fails
 // when SCHED_FIFO is not allowed (not root, no CAP_SYS_NICE).
+#include <poll.h>
 #include <pthread.h>
 #include <sched.h>
 
@@ -137,6 +147,86 @@ void BM_PanelTick(benchmark::State& state) {
   bench::report_tick_percentiles(state, us);
   state.counters["frames_per_viewer"] = frames_per_viewer;
 }
+// S loopback sockets each sending one byte of an endless head a second; a socket the server
+// closes is opened again at once.
+struct SlowHeads {
+  std::vector<std::unique_ptr<test::StalledClient>> sockets;
+  std::atomic<bool> go{true};
+  std::atomic<long> reconnects{0};
+  std::thread driver;
+  int port;
+
+  SlowHeads(int port_, int n) : port(port_) {
+    for (int i = 0; i < n; ++i) sockets.push_back(open());
+    driver = std::thread([this] {
+      while (go.load()) {
+        for (auto& s : sockets) {
+          if (!s->send("a") || s->closed_within(0.0)) {
+            s = open();
+            ++reconnects;
+          }
+        }
+        std::this_thread::sleep_for(std::chrono::seconds(1));
+      }
+    });
+  }
+  std::unique_ptr<test::StalledClient> open() const {
+    return std::make_unique<test::StalledClient>(port, "GET /api/status HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ");
+  }
+  ~SlowHeads() {
+    go = false;
+    driver.join();
+  }
+};
+
+void BM_SlowClients(benchmark::State& state) {
+  const int sockets = static_cast<int>(state.range(0));
+  const double seconds = static_cast<double>(state.range(1));
+  panel::PanelOptions po;
+  po.session.machine = "thermal_gantry";
+  panel::Panel panel(po);
+  panel::ServerOptions so;
+  so.port = 0;
+  panel::Server server(panel, so);
+  const test::Headers auth{{"Authorization", "Bearer " + server.token()}, {"X-Machplan-Client", "bench-client"}};
+  if (test::http(server.port(), "POST", "/api/control", auth, "{}").status != 200) throw std::runtime_error("control refused");
+  std::vector<double> status_ms;
+  double estop_max_ms = 0;
+  long failed = 0;
+  long reconnects = 0;
+  for (auto _ : state) {
+    SlowHeads slow(server.port(), sockets);
+    const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+    auto next_estop = Clock::now() + std::chrono::seconds(2);
+    while (Clock::now() < end) {
+      const auto t0 = Clock::now();
+      if (test::http(server.port(), "GET", "/api/status", auth, {}, 10.0).status != 200) ++failed;
+      status_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      if (Clock::now() >= next_estop) {
+        next_estop += std::chrono::seconds(2);
+        const auto e0 = Clock::now();
+        if (test::http(server.port(), "POST", "/api/estop", auth, "{}", 10.0).status != 200) ++failed;
+        estop_max_ms = std::max(estop_max_ms, std::chrono::duration<double, std::milli>(Clock::now() - e0).count());
+        if (test::http(server.port(), "POST", "/api/reset", auth, "{}", 10.0).status != 200) ++failed;
+      }
+      std::this_thread::sleep_until(t0 + std::chrono::milliseconds(100));
+    }
+    reconnects = slow.reconnects.load();
+  }
+  std::sort(status_ms.begin(), status_ms.end());
+  const auto at = [&](double q) { return status_ms.empty() ? 0.0 : status_ms[static_cast<std::size_t>(q * static_cast<double>(status_ms.size() - 1))]; };
+  state.counters["status_p50_ms"] = at(0.5);
+  state.counters["status_p99_ms"] = at(0.99);
+  state.counters["status_max_ms"] = at(1.0);
+  state.counters["requests"] = static_cast<double>(status_ms.size());
+  state.counters["failed"] = static_cast<double>(failed);
+  state.counters["estop_max_ms"] = estop_max_ms;
+  state.counters["reconnects"] = static_cast<double>(reconnects);
+  state.counters["evicted"] = static_cast<double>(server.counters().evicted);
+}
+
+BENCHMARK(BM_SlowClients)->ArgNames({"sockets", "seconds"})->Args({200, 60})->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
 BENCHMARK(BM_PanelTick)
     ->ArgNames({"viewers", "round", "fifo"})
     ->Apply([](benchmark::internal::Benchmark* b) {  // rounds alternating 0 and 50 viewers, each scheduling

@@ -2,25 +2,28 @@
 
 #include <malloc.h>
 #include <sys/random.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
-#include <condition_variable>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <future>
+#include <limits>
 #include <list>
 #include <map>
 #include <mutex>
-#include <sstream>
+#include <optional>
 #include <thread>
 
-#include <civetweb.h>
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -34,6 +37,11 @@
 namespace machplan::panel {
 
 namespace fs = std::filesystem;
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+using tcp = asio::ip::tcp;
 using nlohmann::json;
 
 void ServerOptions::validate() const {
@@ -42,7 +50,15 @@ void ServerOptions::validate() const {
                 "is not an IPv4 address or host name");
   require_field(std::isfinite(frame_hz) && frame_hz >= 30 && frame_hz <= 200, "frame_hz", frame_hz, "must be in 30 .. 200");
   require_field(max_viewers >= 1 && max_viewers <= 1000, "max_viewers", max_viewers, "must be in 1 .. 1000");
-  require_field(threads >= max_viewers + 8 && threads <= 2000, "threads", threads, "must be max_viewers + 8 .. 2000");
+  require_field(threads >= 1 && threads <= 256, "threads", threads, "must be in 1 .. 256");
+  require_field(std::isfinite(head_timeout_s) && head_timeout_s >= 0.1 && head_timeout_s <= 600, "head_timeout_s",
+                head_timeout_s, "must be in 0.1 .. 600");
+  require_field(std::isfinite(body_timeout_s) && body_timeout_s >= 1 && body_timeout_s <= 3600, "body_timeout_s",
+                body_timeout_s, "must be in 1 .. 3600");
+  require_field(max_connections >= 16 && max_connections <= 100000, "max_connections", max_connections,
+                "must be in 16 .. 100000");
+  require_field(max_connections_per_peer >= 4 && max_connections_per_peer <= max_connections, "max_connections_per_peer",
+                max_connections_per_peer, "must be in 4 .. max_connections");
 }
 
 std::string random_token() {
@@ -93,17 +109,38 @@ bool same_token(const std::string& given, const std::string& expected) {
   return diff == 0;
 }
 
-std::string header(const mg_connection* c, const char* name) {
-  const char* v = mg_get_header(c, name);
-  return v ? std::string(v) : std::string();
+// A request as the routes see it: its head (read before anything else is decided) and, once
+// the route has allowed it, its body.
+struct Request {
+  std::string method;
+  std::string path;  // the target without its query
+  http::fields fields;
+  std::optional<std::uint64_t> content_length;  // as announced (none: no body, or chunked)
+  std::string body;
+
+  std::string header(std::string_view name) const {
+    const auto it = fields.find(beast::string_view(name.data(), name.size()));
+    return it == fields.end() ? std::string() : std::string(it->value());
+  }
+};
+
+Request request_of(const http::request_parser<http::string_body>& parser) {
+  const auto& m = parser.get();
+  Request q;
+  q.method = std::string(m.method_string());
+  const std::string target(m.target());
+  q.path = target.substr(0, target.find('?'));
+  q.fields = static_cast<const http::fields&>(m);
+  if (const auto n = parser.content_length()) q.content_length = *n;
+  return q;
 }
 
 // The token of a request: the bearer header, else the login cookie. `by_cookie` says which.
-std::string request_token(const mg_connection* c, bool& by_cookie) {
+std::string request_token(const Request& q, bool& by_cookie) {
   by_cookie = false;
-  const std::string auth = header(c, "Authorization");
+  const std::string auth = q.header("Authorization");
   if (auth.size() > 7 && strncasecmp(auth.c_str(), "Bearer ", 7) == 0) return auth.substr(7);
-  const std::string cookies = header(c, "Cookie");
+  const std::string cookies = q.header("Cookie");
   const std::string key = "machplan_token=";
   for (std::size_t at = 0; (at = cookies.find(key, at)) != std::string::npos; at += key.size()) {
     if (at != 0 && cookies[at - 1] != ' ' && cookies[at - 1] != ';') continue;
@@ -135,6 +172,7 @@ const char* reason(int code) {
     case 409: return "Conflict";
     case 413: return "Payload Too Large";
     case 415: return "Unsupported Media Type";
+    case 431: return "Request Header Fields Too Large";
     case 422: return "Unprocessable Content";
     case 500: return "Internal Server Error";
     case 503: return "Service Unavailable";
@@ -143,14 +181,14 @@ const char* reason(int code) {
   return "Status";
 }
 
-int send(mg_connection* c, const Reply& r) {
-  const std::string head = fmt::format(
+// The answer's bytes: head and body (none for HEAD). Every answer closes its connection.
+std::string bytes_of(const Reply& r, bool head_only) {
+  std::string out = fmt::format(
       "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-store\r\n"
       "X-Content-Type-Options: nosniff\r\nX-Frame-Options: DENY\r\nReferrer-Policy: no-referrer\r\nConnection: close\r\n{}\r\n",
       r.code, reason(r.code), r.type, r.body.size(), r.headers);
-  mg_write(c, head.data(), head.size());
-  if (!r.body.empty()) mg_write(c, r.body.data(), r.body.size());
-  return r.code;
+  if (!head_only) out += r.body;
+  return out;
 }
 
 Reply error(int code, const std::string& message) {
@@ -178,105 +216,6 @@ std::optional<double> number(const json& body, const char* key) {
   if (!body[key].is_number()) throw InputError::field(key, "must be a number");
   return body[key].get<double>();
 }
-
-struct Viewer {
-  mg_connection* conn = nullptr;
-  std::mutex m;
-  std::condition_variable cv;
-  std::shared_ptr<const std::string> next;
-  bool closing = false;
-  std::thread writer;
-  std::atomic<std::uint64_t> sent{0}, skipped{0};
-};
-
-}  // namespace
-
-struct Server::Impl {
-  Panel& panel;
-  ServerOptions o;
-  std::string token;
-  mg_context* ctx = nullptr;
-  int port = 0;
-  std::map<std::string, std::string> files;  // the page: name -> bytes
-
-  std::mutex control_mutex;
-  std::string controller;  // the client that holds control ("" : nobody)
-
-  std::mutex viewers_mutex;
-  std::list<std::unique_ptr<Viewer>> viewers;
-  std::atomic<std::uint64_t> frames{0}, skipped_gone{0}, sent_gone{0};
-  std::atomic<bool> streaming{true};
-  std::thread streamer;
-
-  Impl(Panel& p, ServerOptions opt) : panel(p), o(std::move(opt)) {}
-
-  bool host_allowed(const mg_connection* c) const;
-  int handle(mg_connection* c);
-  Reply route(mg_connection* c, const std::string& method, const std::string& uri);
-  Reply api(mg_connection* c, const std::string& method, const std::string& path, const json& body);
-  Reply serve_file(mg_connection* c, const std::string& uri) const;
-  std::optional<Reply> authorize(mg_connection* c, const std::string& method, bool& by_cookie);
-  bool holds_control(const mg_connection* c);
-  void stream();
-  int ws_connect(mg_connection* c);
-  void ws_ready(mg_connection* c);
-  void ws_close(const mg_connection* c);
-};
-
-// The Host header names this server: any port of a loopback name when bound to loopback.
-bool Server::Impl::host_allowed(const mg_connection* c) const {
-  if (o.allow_remote) return true;
-  std::string host = header(c, "Host");
-  if (host.empty()) return true;  // HTTP/1.0 clients
-  if (host.front() == '[') host = host.substr(0, host.find(']') + 1);
-  else host = host.substr(0, host.find(':'));
-  // Host names are case-insensitive (RFC 9110): LOCALHOST is localhost.
-  using text_scan::iequals;
-  return host == "127.0.0.1" || iequals(host, "localhost") || host == "[::1]" || iequals(host, o.bind);
-}
-
-std::optional<Reply> Server::Impl::authorize(mg_connection* c, const std::string& method, bool& by_cookie) {
-  if (!same_token(request_token(c, by_cookie), token)) return Reply{401, "", "text/plain", "WWW-Authenticate: Bearer\r\n"};
-  if (by_cookie && method != "GET") {
-    // A browser's request on the cookie: only from this server's own page.
-    const std::string origin = header(c, "Origin"), host = header(c, "Host");
-    if (origin != "http://" + host) return error(403, "cross-origin request refused");
-    if (header(c, "Content-Type").rfind("application/json", 0) != 0)
-      return error(415, "send JSON with Content-Type: application/json");
-  }
-  return std::nullopt;
-}
-
-bool Server::Impl::holds_control(const mg_connection* c) {
-  const std::string id = header(c, "X-Machplan-Client");
-  const std::lock_guard<std::mutex> lock(control_mutex);
-  return !controller.empty() && id == controller;
-}
-
-// Bodies larger than this are followed by malloc_trim() (Server::Impl::handle).
-constexpr long long kTrimAfterBodyBytes = 1 << 20;
-
-int Server::Impl::handle(mg_connection* c) {
-  const mg_request_info* ri = mg_get_request_info(c);
-  const std::string method = ri->request_method ? ri->request_method : "";
-  const std::string uri = ri->local_uri ? ri->local_uri : "";
-  // civetweb's workers have small stacks (about 100 kB): the request is handled on a thread of
-  // ours (planning a job and building a guard region go deep), this worker waits for it.
-  Reply r = std::async(std::launch::async, [&]() -> Reply {
-              try {
-                return route(c, method, uri);
-              } catch (const std::exception& e) {
-                return error(500, fmt::format("internal error: {}", excerpt(e.what(), 200)));
-              }
-            }).get();
-  // A large body (a program's text, or junk up to the route's limit) was held in memory the
-  // allocator keeps for the thread that read it: give it back to the system, so that requests
-  // cannot pin the server's memory one after another.
-  if (ri->content_length > kTrimAfterBodyBytes) ::malloc_trim(0);
-  return send(c, r);
-}
-
-namespace {
 
 // Every API route with the methods it takes (docs/panel.md's table; any other method is 405)
 // and whether a POST needs the client in control.
@@ -326,47 +265,392 @@ bool json_nested_deeper_than(std::string_view text, int max_depth) {
   return false;
 }
 
+class Connection;
+class Viewer;
+
 }  // namespace
 
-Reply Server::Impl::route(mg_connection* c, const std::string& method, const std::string& uri) {
-  if (!host_allowed(c)) return error(403, "this server answers to its loopback address only (Host refused)");
-  if (uri.rfind("/api/", 0) != 0 && uri != "/api") {
-    if (method != "GET" && method != "HEAD") return error(405, "the page's files are read with GET");
-    return serve_file(c, uri);
+// Threads: one I/O thread runs every socket (accepting, reading heads and bodies, writing
+// answers and live frames) without ever blocking; requests run on `workers`, except the E-stop
+// and the status, which have a thread each (`estop_lane`, `status_lane`) so that no request,
+// however slow, is ever ahead of them; one more thread paces the live stream.
+struct Server::Impl {
+  Panel& panel;
+  ServerOptions o;
+  std::string token;
+  std::map<std::string, std::string> files;  // the page: name -> bytes
+
+  std::mutex control_mutex;
+  std::string controller;  // the client that holds control ("" : nobody)
+
+  // Connections by peer, and those still sending their head, oldest first: a peer (or the
+  // server) at its limit makes room by closing its oldest unfinished head.
+  std::mutex connections_mutex;
+  std::map<std::string, int> per_peer;
+  int open_connections = 0;
+  std::list<std::weak_ptr<Connection>> heading;
+  std::atomic<std::uint64_t> evicted{0}, refused{0};
+
+  std::mutex viewers_mutex;
+  std::list<std::shared_ptr<Viewer>> viewers;
+  std::atomic<std::uint64_t> frames{0}, skipped_gone{0}, sent_gone{0};
+  std::atomic<bool> streaming{true};
+  std::thread streamer;
+
+  // Declared last, stopped first (~Server): what their handlers hold refers to the above.
+  asio::io_context ioc{1};
+  tcp::acceptor acceptor{ioc};
+  asio::steady_timer accept_pause{ioc};
+  asio::thread_pool workers, estop_lane{1}, status_lane{1};
+  std::thread io_thread;
+  int port = 0;
+
+  Impl(Panel& p, ServerOptions opt) : panel(p), o(std::move(opt)), workers(static_cast<std::size_t>(o.threads)) {}
+
+  void listen();
+  void accept();
+  void admit(tcp::socket socket);
+  bool host_allowed(const Request& q) const;
+  std::optional<Reply> before_body(const Request& q, std::size_t& body_limit);
+  Reply after_body(const Request& q);
+  Reply api(const Request& q, const std::string& path, const json& body);
+  Reply serve_file(const Request& q) const;
+  std::optional<Reply> authorize(const Request& q, bool& by_cookie);
+  std::optional<Reply> ws_refusal(const Request& q);
+  bool holds_control(const Request& q);
+  void stream();
+};
+
+namespace {
+
+// One client connection, from its accept to its close, on the I/O thread: the head within
+// head_timeout_s, the checks that need only the head, the body within body_timeout_s, the
+// request on its lane, the answer, then a lingering close (the client reads the whole answer
+// even when its body was refused unread). A WebSocket upgrade of /api/live becomes a Viewer.
+class Connection : public std::enable_shared_from_this<Connection> {
+ public:
+  Connection(Server::Impl& s, tcp::socket socket, std::string peer) : s_(s), stream_(std::move(socket)), peer_(std::move(peer)) {}
+  ~Connection() { release(); }
+
+  // Counts the connection for its peer and lists it as sending its head (connections_mutex held).
+  void enlist(std::list<std::weak_ptr<Connection>>::iterator at) {
+    listed_ = true;
+    in_heading_ = at;
+  }
+  const std::string& peer() const { return peer_; }
+
+  void start() {
+    parser_.emplace();
+    parser_->header_limit(kHeadBytes);
+    // The route's limit is set once the head is read (before_body refuses a larger announced
+    // length); until then Beast's own default (1 MiB) must not refuse a body first.
+    parser_->body_limit(std::numeric_limits<std::uint64_t>::max());
+    stream_.expires_after(seconds(s_.o.head_timeout_s));
+    http::async_read_header(stream_, buffer_, *parser_,
+                            [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_head(ec); });
+  }
+
+  // Closed to make room for another (I/O thread): its pending read ends, and so does it.
+  void evict() {
+    release();
+    beast::error_code ignored;
+    stream_.socket().shutdown(tcp::socket::shutdown_both, ignored);
+    stream_.socket().close(ignored);
+  }
+
+  // Called by the lanes when the answer is ready (any thread).
+  void answer(Reply r) {
+    asio::post(stream_.get_executor(), [self = shared_from_this(), r = std::move(r)]() mutable { self->write(std::move(r)); });
+  }
+
+  // Off the peer's count and the list of unfinished heads; idempotent (connections_mutex free).
+  void release() {
+    const std::lock_guard<std::mutex> lock(s_.connections_mutex);
+    if (!counted_) return;
+    counted_ = false;
+    if (listed_) s_.heading.erase(in_heading_), listed_ = false;
+    if (--s_.per_peer[peer_] <= 0) s_.per_peer.erase(peer_);
+    --s_.open_connections;
+  }
+  void counted() { counted_ = true; }
+
+ private:
+  static constexpr std::uint32_t kHeadBytes = 16 * 1024;
+  static std::chrono::steady_clock::duration seconds(double s) {
+    return std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(s));
+  }
+
+  void head_done() {
+    const std::lock_guard<std::mutex> lock(s_.connections_mutex);
+    if (listed_) s_.heading.erase(in_heading_), listed_ = false;
+  }
+
+  void on_head(beast::error_code ec) {
+    head_done();
+    if (ec == http::error::header_limit) return write(error(431, fmt::format("the request's head is over {} bytes", kHeadBytes)));
+    if (ec.category() == http::make_error_code(http::error::bad_target).category() && ec != http::error::end_of_stream &&
+        ec != http::error::partial_message)
+      return write(error(400, "malformed request"));
+    if (ec) return close();  // gone, or too slow (the stream closed itself at the deadline)
+    request_ = request_of(*parser_);
+    if (websocket::is_upgrade(parser_->get())) return upgrade();
+    if (auto refused = s_.before_body(request_, body_limit_)) return write(std::move(*refused));
+    if (parser_->is_done()) return dispatch();
+    parser_->body_limit(body_limit_);
+    stream_.expires_after(seconds(s_.o.body_timeout_s));
+    const auto read_body = [self = shared_from_this()] {
+      http::async_read(self->stream_, self->buffer_, *self->parser_,
+                       [self](beast::error_code e, std::size_t) { self->on_body(e); });
+    };
+    // A client that waits for leave to send its body (curl does, for large ones) gets it.
+    if (beast::iequals(request_.header("Expect"), "100-continue")) {
+      static const std::string kContinue = "HTTP/1.1 100 Continue\r\n\r\n";
+      asio::async_write(stream_, asio::buffer(kContinue), [read_body](beast::error_code e, std::size_t) {
+        if (!e) read_body();
+      });
+      return;
+    }
+    read_body();
+  }
+
+  void on_body(beast::error_code ec) {
+    if (ec == http::error::body_limit) return write(error(413, fmt::format("the body is larger than {} bytes", body_limit_)));
+    if (ec) return close();  // gone, or too slow (the stream closed itself at the deadline)
+    request_.body = std::move(parser_->get().body());
+    parser_.reset();
+    dispatch();
+  }
+
+  // The request on its lane: the E-stop and the status on threads of their own, the rest on the
+  // workers.
+  void dispatch() {
+    stream_.expires_never();
+    const bool post = request_.method == "POST", get = request_.method == "GET";
+    asio::thread_pool& lane = post && request_.path == "/api/estop"  ? s_.estop_lane
+                              : get && request_.path == "/api/status" ? s_.status_lane
+                                                                      : s_.workers;
+    asio::post(lane, [self = shared_from_this()] {
+      Reply r;
+      try {
+        r = self->s_.after_body(self->request_);
+      } catch (const std::exception& e) {
+        r = error(500, fmt::format("internal error: {}", excerpt(e.what(), 200)));
+      }
+      // A large body (a program's text, or junk up to the route's limit) was held in memory the
+      // allocator keeps for the thread that read it: give it back to the system, so that
+      // requests cannot pin the server's memory one after another.
+      if (self->request_.body.size() > kTrimAfterBodyBytes) {
+        std::string().swap(self->request_.body);
+        ::malloc_trim(0);
+      }
+      self->answer(std::move(r));
+    });
+  }
+
+  void write(Reply r) {
+    out_ = bytes_of(r, request_.method == "HEAD");
+    stream_.expires_after(seconds(kWriteTimeout_s));
+    asio::async_write(stream_, asio::buffer(out_), [self = shared_from_this()](beast::error_code ec, std::size_t) {
+      if (ec) return self->close();
+      self->linger();
+    });
+  }
+
+  // The answer is sent: say so (FIN), then read and drop what the client still sends (a body
+  // refused unread) until it closes, for at most kLinger_s, so that a reset cannot overtake
+  // the answer.
+  void linger() {
+    beast::error_code ignored;
+    stream_.socket().shutdown(tcp::socket::shutdown_send, ignored);
+    stream_.expires_after(seconds(kLinger_s));
+    drain();
+  }
+  void drain() {
+    scratch_.resize(16384);
+    stream_.async_read_some(asio::buffer(scratch_), [self = shared_from_this()](beast::error_code ec, std::size_t n) {
+      self->drained_ += n;
+      if (ec || self->drained_ > kLingerBytes) return self->close();
+      self->drain();
+    });
+  }
+
+  void close() {
+    release();
+    beast::error_code ignored;
+    stream_.socket().close(ignored);
+  }
+
+  void upgrade();
+
+  static constexpr double kWriteTimeout_s = 30, kLinger_s = 2;
+  static constexpr std::size_t kLingerBytes = 64 << 20;
+  static constexpr std::size_t kTrimAfterBodyBytes = 1 << 20;
+
+  Server::Impl& s_;
+  beast::tcp_stream stream_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+  Request request_;
+  std::string out_, scratch_;
+  std::size_t drained_ = 0, body_limit_ = 0;
+  std::string peer_;
+  bool counted_ = false, listed_ = false;
+  std::list<std::weak_ptr<Connection>>::iterator in_heading_;
+};
+
+// A live-stream viewer: the WebSocket, a mailbox of one frame (a frame that arrives while one
+// is being written replaces the waiting one, counted as skipped), everything on the I/O thread.
+class Viewer : public std::enable_shared_from_this<Viewer> {
+ public:
+  Viewer(Server::Impl& s, beast::tcp_stream&& stream) : s_(s), ws_(std::move(stream)) {}
+  std::atomic<std::uint64_t> sent{0}, skipped{0};
+
+  void start(const http::request<http::string_body>& upgrade_request) {
+    websocket::stream_base::timeout t{};
+    t.handshake_timeout = std::chrono::seconds(10);
+    t.idle_timeout = std::chrono::seconds(60);  // a ping at 30 s: a viewer that answers none is gone
+    t.keep_alive_pings = true;
+    ws_.set_option(t);
+    ws_.read_message_max(4096);
+    ws_.async_accept(upgrade_request, [self = shared_from_this()](beast::error_code ec) {
+      if (ec) return self->close();
+      self->read();
+    });
+  }
+
+  // A new frame (I/O thread).
+  void offer(std::shared_ptr<const std::string> frame) {
+    if (closed_) return;
+    if (writing_) {
+      if (waiting_) ++skipped;
+      waiting_ = std::move(frame);
+      return;
+    }
+    write(std::move(frame));
+  }
+
+  void close() {
+    if (closed_) return;
+    closed_ = true;
+    beast::error_code ignored;
+    beast::get_lowest_layer(ws_).socket().close(ignored);
+    std::shared_ptr<Viewer> self;
+    {
+      const std::lock_guard<std::mutex> lock(s_.viewers_mutex);
+      const auto it = std::find(s_.viewers.begin(), s_.viewers.end(), shared_from_this());
+      if (it == s_.viewers.end()) return;
+      self = std::move(*it);
+      s_.viewers.erase(it);
+    }
+    s_.skipped_gone += skipped.load();
+    s_.sent_gone += sent.load();
+  }
+
+ private:
+  void write(std::shared_ptr<const std::string> frame) {
+    writing_ = std::move(frame);
+    ws_.text(true);
+    ws_.async_write(asio::buffer(*writing_), [self = shared_from_this()](beast::error_code ec, std::size_t) {
+      self->writing_.reset();
+      if (ec) return self->close();
+      ++self->sent;
+      if (self->waiting_) self->write(std::exchange(self->waiting_, nullptr));
+    });
+  }
+  // What viewers send is read (pongs and the close handshake are handled by the stream) and
+  // dropped.
+  void read() {
+    ws_.async_read(in_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
+      if (ec) return self->close();
+      self->in_.consume(self->in_.size());
+      self->read();
+    });
+  }
+
+  Server::Impl& s_;
+  websocket::stream<beast::tcp_stream> ws_;
+  beast::flat_buffer in_;
+  std::shared_ptr<const std::string> writing_, waiting_;
+  bool closed_ = false;
+};
+
+void Connection::upgrade() {
+  if (request_.path != "/api/live") return write(error(404, "no WebSocket here: the live stream is /api/live"));
+  if (auto refused = s_.ws_refusal(request_)) return write(std::move(*refused));
+  release();  // a viewer is counted by max_viewers
+  stream_.expires_never();
+  auto v = std::make_shared<Viewer>(s_, std::move(stream_));
+  {
+    const std::lock_guard<std::mutex> lock(s_.viewers_mutex);
+    s_.viewers.push_back(v);
+  }
+  v->start(parser_->get());
+}
+
+}  // namespace
+
+// The Host header names this server: any port of a loopback name when bound to loopback.
+bool Server::Impl::host_allowed(const Request& q) const {
+  if (o.allow_remote) return true;
+  std::string host = q.header("Host");
+  if (host.empty()) return true;  // HTTP/1.0 clients
+  if (host.front() == '[') host = host.substr(0, host.find(']') + 1);
+  else host = host.substr(0, host.find(':'));
+  // Host names are case-insensitive (RFC 9110): LOCALHOST is localhost.
+  using text_scan::iequals;
+  return host == "127.0.0.1" || iequals(host, "localhost") || host == "[::1]" || iequals(host, o.bind);
+}
+
+std::optional<Reply> Server::Impl::authorize(const Request& q, bool& by_cookie) {
+  if (!same_token(request_token(q, by_cookie), token)) return Reply{401, "", "text/plain", "WWW-Authenticate: Bearer\r\n"};
+  if (by_cookie && q.method != "GET") {
+    // A browser's request on the cookie: only from this server's own page.
+    if (q.header("Origin") != "http://" + q.header("Host")) return error(403, "cross-origin request refused");
+    if (q.header("Content-Type").rfind("application/json", 0) != 0)
+      return error(415, "send JSON with Content-Type: application/json");
+  }
+  return std::nullopt;
+}
+
+bool Server::Impl::holds_control(const Request& q) {
+  const std::string id = q.header("X-Machplan-Client");
+  const std::lock_guard<std::mutex> lock(control_mutex);
+  return !controller.empty() && id == controller;
+}
+
+// What the head alone decides, on the I/O thread before any byte of the body is read: the
+// Host, the page's files, the token, control, and the body's size (`body_limit` for the rest).
+std::optional<Reply> Server::Impl::before_body(const Request& q, std::size_t& body_limit) {
+  if (!host_allowed(q)) return error(403, "this server answers to its loopback address only (Host refused)");
+  if (q.path.rfind("/api/", 0) != 0 && q.path != "/api") {
+    if (q.method != "GET" && q.method != "HEAD") return error(405, "the page's files are read with GET");
+    return serve_file(q);
   }
   bool by_cookie = false;
-  if (auto refused = authorize(c, method, by_cookie)) return *refused;
+  if (auto refused = authorize(q, by_cookie)) return refused;
   // A command from a client not in control is refused before its body is read or parsed.
-  if (method == "POST") {
-    const ApiRoute* r = find_api_route(uri.substr(4));
-    if (r && r->post && r->post_needs_control && !holds_control(c))
-      return error(409, kTakeControlFirst);
+  if (q.method == "POST") {
+    const ApiRoute* r = find_api_route(q.path.substr(4));
+    if (r && r->post && r->post_needs_control && !holds_control(q)) return error(409, kTakeControlFirst);
   }
-  // The body: JSON, bounded before it is read.
-  const mg_request_info* ri = mg_get_request_info(c);
-  const std::size_t limit = uri == "/api/job" ? o.max_job_bytes : o.max_body_bytes;
-  if (ri->content_length > 0 && static_cast<unsigned long long>(ri->content_length) > limit)
-    return error(413, fmt::format("the body is larger than {} bytes", limit));
-  std::string raw;
-  if (method == "POST") {
-    // One allocation of the announced size, not a doubling series of them.
-    if (ri->content_length > 0) raw.reserve(static_cast<std::size_t>(ri->content_length));
-    std::string buf(16384, '\0');
-    for (int n; (n = mg_read(c, buf.data(), buf.size())) > 0;) {
-      raw.append(buf.data(), static_cast<std::size_t>(n));
-      if (raw.size() > limit) return error(413, fmt::format("the body is larger than {} bytes", limit));
-    }
-  }
+  body_limit = q.path == "/api/job" ? o.max_job_bytes : o.max_body_bytes;
+  if (q.content_length && *q.content_length > body_limit)
+    return error(413, fmt::format("the body is larger than {} bytes", body_limit));
+  return std::nullopt;
+}
+
+// The rest, on the request's lane once the body is in: the body's JSON, then the route.
+Reply Server::Impl::after_body(const Request& q) {
   json body = json::object();
-  if (!raw.empty()) {
-    if (json_nested_deeper_than(raw, kMaxJsonDepth))
+  if (!q.body.empty()) {
+    if (json_nested_deeper_than(q.body, kMaxJsonDepth))
       return error(400, fmt::format("the body nests arrays or objects deeper than {} levels", kMaxJsonDepth));
-    body = json::parse(raw, nullptr, false);
+    body = json::parse(q.body, nullptr, false);
     if (body.is_discarded()) return error(400, "the body is not valid JSON");
     if (!body.is_object()) return error(400, "the body must be a JSON object");
   }
   try {
-    return api(c, method, uri.substr(4), body);
+    return api(q, q.path.substr(4), body);
   } catch (const Busy& e) {
     return error(409, e.what());
   } catch (const Cancelled& e) {
@@ -385,7 +669,8 @@ Reply Server::Impl::route(mg_connection* c, const std::string& method, const std
   }
 }
 
-Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::string& path, const json& body) {
+Reply Server::Impl::api(const Request& q, const std::string& path, const json& body) {
+  const std::string& method = q.method;
   const auto need = [&](const char* m) {
     if (method != m) throw InputError::field("method", fmt::format("{} takes {}", path, m));
   };
@@ -398,7 +683,7 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
   // Open to every authenticated client.
   if (path == "/status") {
     json s = panel.status();
-    const std::string id = header(c, "X-Machplan-Client");
+    const std::string id = q.header("X-Machplan-Client");
     const std::lock_guard<std::mutex> lock(control_mutex);
     s["control"] = {{"held", !controller.empty()}, {"yours", !controller.empty() && id == controller}};
     return ok(s);
@@ -424,7 +709,7 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
   }
   if (get && path == "/history") return ok(panel.history());
   if (path == "/control") {
-    const std::string id = header(c, "X-Machplan-Client");
+    const std::string id = q.header("X-Machplan-Client");
     if (id.size() < 8 || id.size() > 64 ||
         !std::all_of(id.begin(), id.end(), [](char ch) { return std::isalnum(static_cast<unsigned char>(ch)) || ch == '-'; }))
       return error(400, "name the client with X-Machplan-Client: 8 to 64 letters, digits or '-'");
@@ -436,7 +721,7 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
   }
 
   // The rest changes the machine: the client must hold control.
-  if (!holds_control(c)) return error(409, kTakeControlFirst);
+  if (!holds_control(q)) return error(409, kTakeControlFirst);
   if (path == "/job") {
     JobRequest r;
     r.program = body.at("program").get<std::string>();
@@ -497,8 +782,8 @@ Reply Server::Impl::api(mg_connection* c, const std::string& method, const std::
   return error(404, "no route");
 }
 
-Reply Server::Impl::serve_file(mg_connection* c, const std::string& uri) const {
-  const std::string name = uri == "/" ? "index.html" : uri.substr(1);
+Reply Server::Impl::serve_file(const Request& q) const {
+  const std::string name = q.path == "/" ? "index.html" : q.path.substr(1);
   const auto f = files.find(name);
   if (f == files.end()) return error(404, "no such page");
   static const std::map<std::string, std::string> kTypes = {
@@ -509,8 +794,105 @@ Reply Server::Impl::serve_file(mg_connection* c, const std::string& uri) const {
   Reply r{200, f->second, t == kTypes.end() ? "application/octet-stream" : t->second};
   r.headers = fmt::format("Content-Security-Policy: default-src 'self'; connect-src 'self' ws://{}; img-src 'self' data:; "
                           "frame-ancestors 'none'; base-uri 'none'; form-action 'none'\r\n",
-                          header(c, "Host"));
+                          q.header("Host"));
   return r;
+}
+
+std::optional<Reply> Server::Impl::ws_refusal(const Request& q) {
+  if (!host_allowed(q)) return error(403, "Host refused");
+  bool by_cookie = false;
+  if (!same_token(request_token(q, by_cookie), token)) return Reply{401, "", "text/plain", "WWW-Authenticate: Bearer\r\n"};
+  const std::string origin = q.header("Origin");
+  if (!origin.empty() && origin != "http://" + q.header("Host")) return error(403, "cross-origin WebSocket refused");
+  const std::lock_guard<std::mutex> lock(viewers_mutex);
+  if (static_cast<int>(viewers.size()) >= o.max_viewers) return error(503, fmt::format("at most {} viewers at once", o.max_viewers));
+  return std::nullopt;
+}
+
+// ---- connections -------------------------------------------------------------------------------
+
+void Server::Impl::listen() {
+  beast::error_code ec;
+  tcp::resolver resolver(ioc);
+  const auto found = resolver.resolve(o.bind, std::to_string(o.port), tcp::resolver::passive | tcp::resolver::numeric_service, ec);
+  const auto cannot = [&] {
+    return InputError::field("port", fmt::format("cannot listen on {}:{} (in use, or not an address of this machine)", o.bind, o.port));
+  };
+  if (ec || found.empty()) throw cannot();
+  const tcp::endpoint at = found.begin()->endpoint();
+  acceptor.open(at.protocol(), ec);
+  if (!ec) acceptor.set_option(asio::socket_base::reuse_address(true), ec);
+  if (!ec) acceptor.bind(at, ec);
+  if (!ec) acceptor.listen(asio::socket_base::max_listen_connections, ec);
+  if (ec) throw cannot();
+  port = acceptor.local_endpoint().port();
+  // Every connection is a file descriptor: as many as the limits allow, within the process's.
+  rlimit files{};
+  if (getrlimit(RLIMIT_NOFILE, &files) == 0) {
+    const rlim_t want = static_cast<rlim_t>(o.max_connections) + 256;
+    if (files.rlim_cur < want) {
+      files.rlim_cur = std::min(want, files.rlim_max);
+      setrlimit(RLIMIT_NOFILE, &files);
+      getrlimit(RLIMIT_NOFILE, &files);
+    }
+    if (files.rlim_cur < want) o.max_connections = std::max(16, static_cast<int>(files.rlim_cur) - 256);
+    o.max_connections_per_peer = std::min(o.max_connections_per_peer, o.max_connections);
+  }
+}
+
+void Server::Impl::accept() {
+  acceptor.async_accept([this](beast::error_code ec, tcp::socket socket) {
+    if (!acceptor.is_open()) return;
+    if (!ec) {
+      admit(std::move(socket));
+      return accept();
+    }
+    // Out of file descriptors (or another passing failure): try again shortly, not in a loop.
+    accept_pause.expires_after(std::chrono::milliseconds(50));
+    accept_pause.async_wait([this](beast::error_code e) {
+      if (!e) accept();
+    });
+  });
+}
+
+// A new connection within the limits: a peer at max_connections_per_peer (or the server at
+// max_connections) makes room by closing its oldest connection still sending its head; with
+// none to close the new one is refused.
+void Server::Impl::admit(tcp::socket socket) {
+  beast::error_code ec;
+  const tcp::endpoint from = socket.remote_endpoint(ec);
+  if (ec) return;
+  const std::string peer = from.address().to_string();
+  std::shared_ptr<Connection> victim;
+  std::shared_ptr<Connection> c;
+  {
+    const std::lock_guard<std::mutex> lock(connections_mutex);
+    const bool peer_full = per_peer[peer] >= o.max_connections_per_peer, all_full = open_connections >= o.max_connections;
+    if (peer_full || all_full) {
+      for (const auto& w : heading) {
+        auto h = w.lock();
+        if (h && (!peer_full || h->peer() == peer)) {
+          victim = std::move(h);
+          break;
+        }
+      }
+      if (!victim) {
+        if (per_peer[peer] == 0) per_peer.erase(peer);
+        ++refused;
+        return;  // the socket closes here
+      }
+    }
+    c = std::make_shared<Connection>(*this, std::move(socket), peer);
+    ++per_peer[peer];
+    ++open_connections;
+    c->counted();
+    c->enlist(heading.insert(heading.end(), c));
+  }
+  if (victim) {
+    victim->evict();
+    ++evicted;
+  }
+  c->start();
 }
 
 // ---- the live stream ---------------------------------------------------------------------------
@@ -526,96 +908,11 @@ void Server::Impl::stream() {
     ++frames;
     {
       const std::lock_guard<std::mutex> lock(viewers_mutex);
-      for (const auto& v : viewers) {
-        {
-          const std::lock_guard<std::mutex> vl(v->m);
-          if (v->next) ++v->skipped;  // the viewer has not taken the last one: it is dropped
-          v->next = frame;
-        }
-        v->cv.notify_one();
-      }
+      for (const auto& v : viewers) asio::post(ioc, [v, frame] { v->offer(frame); });
     }
     std::this_thread::sleep_until(next);
     if (Clock::now() - next > std::chrono::seconds(1)) next = Clock::now();  // fell far behind: no burst
   }
-}
-
-int Server::Impl::ws_connect(mg_connection* c) {
-  bool by_cookie = false;
-  Reply refused;
-  bool refuse = false;
-  if (!host_allowed(c)) {
-    refused = error(403, "Host refused");
-    refuse = true;
-  } else if (!same_token(request_token(c, by_cookie), token)) {
-    refused = Reply{401, "", "text/plain", "WWW-Authenticate: Bearer\r\n"};
-    refuse = true;
-  } else {
-    const std::string origin = header(c, "Origin");
-    if (!origin.empty() && origin != "http://" + header(c, "Host")) {
-      refused = error(403, "cross-origin WebSocket refused");
-      refuse = true;
-    }
-  }
-  if (!refuse) {
-    const std::lock_guard<std::mutex> lock(viewers_mutex);
-    if (static_cast<int>(viewers.size()) >= o.max_viewers) {
-      refused = error(503, fmt::format("at most {} viewers at once", o.max_viewers));
-      refuse = true;
-    }
-  }
-  if (refuse) {
-    send(c, refused);
-    return 1;
-  }
-  return 0;
-}
-
-void Server::Impl::ws_ready(mg_connection* c) {
-  auto v = std::make_unique<Viewer>();
-  v->conn = c;
-  Viewer* raw = v.get();
-  mg_set_user_connection_data(c, raw);
-  raw->writer = std::thread([raw] {
-    for (;;) {
-      std::shared_ptr<const std::string> f;
-      {
-        std::unique_lock<std::mutex> lock(raw->m);
-        raw->cv.wait(lock, [&] { return raw->closing || raw->next; });
-        if (raw->closing) return;
-        f = std::move(raw->next);
-        raw->next.reset();
-      }
-      if (mg_websocket_write(raw->conn, MG_WEBSOCKET_OPCODE_TEXT, f->data(), f->size()) <= 0) return;
-      ++raw->sent;
-    }
-  });
-  const std::lock_guard<std::mutex> lock(viewers_mutex);
-  viewers.push_back(std::move(v));
-}
-
-void Server::Impl::ws_close(const mg_connection* c) {
-  auto* raw = static_cast<Viewer*>(mg_get_user_connection_data(c));
-  if (!raw) return;
-  std::unique_ptr<Viewer> gone;
-  {
-    const std::lock_guard<std::mutex> lock(viewers_mutex);
-    for (auto it = viewers.begin(); it != viewers.end(); ++it) {
-      if (it->get() != raw) continue;
-      gone = std::move(*it);
-      viewers.erase(it);
-      break;
-    }
-  }
-  if (!gone) return;
-  {
-    const std::lock_guard<std::mutex> lock(gone->m);
-    gone->closing = true;
-  }
-  gone->cv.notify_one();
-  if (gone->writer.joinable()) gone->writer.join();
-  skipped_gone += gone->skipped.load();
-  sent_gone += gone->sent.load();
 }
 
 // ---- Server -----------------------------------------------------------------------------------
@@ -635,30 +932,9 @@ Server::Server(Panel& panel, ServerOptions options) : impl_(std::make_unique<Imp
     m.files[e.path().filename().string()] = std::string(std::istreambuf_iterator<char>(in), {});
   }
   if (!m.files.count("index.html")) throw InputError(root, 0, "no index.html: the panel's page is incomplete");
-
-  mg_init_library(0);
-  const std::string ports = fmt::format("{}:{}", m.o.bind, m.o.port);
-  const std::string threads = std::to_string(m.o.threads);
-  const char* opts[] = {"listening_ports", ports.c_str(), "num_threads", threads.c_str(), "request_timeout_ms", "10000",
-                        "websocket_timeout_ms", "86400000", "enable_keep_alive", "no", nullptr};
-  mg_callbacks cb{};
-  cb.log_message = [](const mg_connection*, const char*) { return 1; };  // civetweb's own log: quiet
-  m.ctx = mg_start(&cb, &m, opts);
-  if (!m.ctx) throw InputError::field("port", fmt::format("cannot listen on {}:{} (in use, or not an address of this machine)", m.o.bind, m.o.port));
-  mg_server_port sp[4];
-  const int n = mg_get_server_ports(m.ctx, 4, sp);
-  m.port = n > 0 ? sp[0].port : m.o.port;
-
-  const auto handler = [](mg_connection* c, void* data) { return static_cast<Impl*>(data)->handle(c); };
-  mg_set_request_handler(m.ctx, "/", handler, &m);
-  mg_set_request_handler(m.ctx, "/api", handler, &m);
-  for (const auto& [name, bytes] : m.files) mg_set_request_handler(m.ctx, ("/" + name).c_str(), handler, &m);
-  mg_set_websocket_handler(
-      m.ctx, "/api/live",
-      [](const mg_connection* c, void* data) { return static_cast<Impl*>(data)->ws_connect(const_cast<mg_connection*>(c)); },
-      [](mg_connection* c, void* data) { static_cast<Impl*>(data)->ws_ready(c); },
-      [](mg_connection*, int, char*, size_t, void*) { return 1; },  // what viewers send is ignored
-      [](const mg_connection* c, void* data) { static_cast<Impl*>(data)->ws_close(c); }, &m);
+  m.listen();
+  m.accept();
+  m.io_thread = std::thread([&m] { m.ioc.run(); });
   m.streamer = std::thread([&m] { m.stream(); });
 }
 
@@ -666,18 +942,25 @@ Server::~Server() {
   Impl& m = *impl_;
   m.streaming = false;
   if (m.streamer.joinable()) m.streamer.join();
-  {
-    const std::lock_guard<std::mutex> lock(m.viewers_mutex);
-    for (const auto& v : m.viewers) {
-      const std::lock_guard<std::mutex> vl(v->m);
-      v->closing = true;
-      v->cv.notify_one();
+  // Stop accepting and close every viewer on the I/O thread, then stop it: the handlers left
+  // (and the connections they hold) go with the io_context.
+  asio::post(m.ioc, [&m] {
+    beast::error_code ignored;
+    m.acceptor.close(ignored);
+    m.accept_pause.cancel();
+    std::list<std::shared_ptr<Viewer>> viewers;
+    {
+      const std::lock_guard<std::mutex> lock(m.viewers_mutex);
+      viewers = m.viewers;
     }
-  }
-  if (m.ctx) mg_stop(m.ctx);  // closes every connection; ws_close joins each writer
-  const std::lock_guard<std::mutex> lock(m.viewers_mutex);
-  for (const auto& v : m.viewers)
-    if (v->writer.joinable()) v->writer.join();
+    for (const auto& v : viewers) v->close();
+    m.ioc.stop();
+  });
+  if (m.io_thread.joinable()) m.io_thread.join();
+  // Requests under way finish (their answers go nowhere).
+  m.workers.join();
+  m.estop_lane.join();
+  m.status_lane.join();
 }
 
 int Server::port() const { return impl_->port; }
@@ -689,6 +972,8 @@ Server::Counters Server::counters() const {
   c.frames = impl_->frames.load();
   c.skipped = impl_->skipped_gone.load();
   c.sent = impl_->sent_gone.load();
+  c.evicted = impl_->evicted.load();
+  c.refused = impl_->refused.load();
   const std::lock_guard<std::mutex> lock(impl_->viewers_mutex);
   for (const auto& v : impl_->viewers) c.skipped += v->skipped.load(), c.sent += v->sent.load();
   c.viewers = static_cast<int>(impl_->viewers.size());

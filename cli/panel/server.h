@@ -1,5 +1,5 @@
-// The panel's front end: HTTP, the JSON API and the WebSocket live stream (civetweb), in
-// front of a Panel (cli/panel/panel.h). docs/panel.md is the API's manual.
+// The panel's front end: HTTP, the JSON API and the WebSocket live stream (Boost.Beast on
+// Boost.Asio), in front of a Panel (cli/panel/panel.h). docs/panel.md is the API's manual.
 //
 // Security, on by default:
 //   * it binds 127.0.0.1 unless told otherwise (ServerOptions::bind; `serve` needs
@@ -19,11 +19,17 @@
 //     413 before reading; bad JSON or a wrong type is 400 with a message; unknown routes 404;
 //     nothing a client sends reaches the tick except through the Panel's operator inputs;
 //   * live frames go to each viewer through a mailbox of one frame: a slow viewer skips
-//     frames (they are counted), it never holds the others back; at most max_viewers.
+//     frames (they are counted), it never holds the others back; at most max_viewers;
+//   * slow or many clients cannot stall it: a request's head must arrive within
+//     head_timeout_s and its body within body_timeout_s; a peer (an IP address) holds at most
+//     max_connections_per_peer connections and the server max_connections (at the limit the
+//     oldest connection still sending its head is closed to make room); reading costs no
+//     thread, so clients that send slowly hold none.
 //
-// Threading: civetweb's worker threads serve requests; one thread of ours reads the Panel's
-// live state at frame_hz, hands the frame to every viewer and calls Panel::service(); each
-// viewer has a writer thread of its own.
+// Threading: one I/O thread runs every socket and never blocks; requests run on `threads`
+// workers, except the E-stop and the status, which have a thread each so that no other request
+// is ever ahead of them; one more thread reads the Panel's live state at frame_hz, hands the
+// frame to every viewer and calls Panel::service().
 #pragma once
 
 #include <cstdint>
@@ -42,7 +48,11 @@ struct ServerOptions {
   std::string web_root;            // "" : found (web_root_folder())
   double frame_hz = 50.0;          // live stream, 30 .. 200
   int max_viewers = 64;            // WebSocket clients at once
-  int threads = 160;               // civetweb workers: viewers + requests
+  int threads = 8;                 // workers for requests (the E-stop and the status have their own)
+  double head_timeout_s = 5.0;     // a request's head must arrive within this
+  double body_timeout_s = 60.0;    // and its body within this after the head
+  int max_connections = 1024;      // open at once (within the process's file limit)
+  int max_connections_per_peer = 64;
   std::size_t max_body_bytes = 64 * 1024;
   std::size_t max_job_bytes = 32 * 1024 * 1024;  // POST /api/job (a program's text)
   void validate() const;           // InputError::field naming the field
@@ -68,9 +78,10 @@ class Server {
   // http://HOST:PORT/?token=TOKEN (the page logs in from it).
   std::string url() const;
 
-  // Live stream counters: frames handed over, frames a viewer skipped, viewers now.
+  // Live stream counters: frames handed over, frames a viewer skipped, viewers now; connections
+  // closed to make room for another (evicted) and connections refused at the limits.
   struct Counters {
-    std::uint64_t frames = 0, skipped = 0, sent = 0;
+    std::uint64_t frames = 0, skipped = 0, sent = 0, evicted = 0, refused = 0;
     int viewers = 0;
   };
   Counters counters() const;

@@ -27,9 +27,11 @@ struct PanelRig {
   std::string token;
 
   // `speed`: simulated seconds per wall second (0: unpaced, as fast as it goes). `adjust`
-  // changes the panel's options last (a paper mode, an injected fault).
+  // changes the panel's options last (a paper mode, an injected fault), `adjust_server` the
+  // server's (its limits).
   explicit PanelRig(double speed = 8.0, const std::string& machine = "thermal_gantry",
-                    const std::function<void(panel::PanelOptions&)>& adjust = {}) {
+                    const std::function<void(panel::PanelOptions&)>& adjust = {},
+                    const std::function<void(panel::ServerOptions&)>& adjust_server = {}) {
     panel::PanelOptions po;
     po.session.machine = machine;
     po.pace = speed > 0;
@@ -39,6 +41,7 @@ struct PanelRig {
     panel = std::make_unique<panel::Panel>(po);
     panel::ServerOptions so;
     so.port = 0;
+    if (adjust_server) adjust_server(so);
     server = std::make_unique<panel::Server>(*panel, so);
     port = server->port();
     token = server->token();

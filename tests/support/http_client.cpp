@@ -3,11 +3,14 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <random>
 
@@ -114,6 +117,23 @@ StalledClient::StalledClient(int port, const std::string& bytes) {
 
 StalledClient::~StalledClient() {
   if (fd_ >= 0) ::close(fd_);
+}
+
+bool StalledClient::send(const std::string& bytes) { return fd_ >= 0 && send_all(fd_, bytes); }
+
+bool StalledClient::closed_within(double timeout_s) {
+  if (fd_ < 0) return true;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  char buf[4096];
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(until - std::chrono::steady_clock::now()).count();
+    pollfd p{fd_, POLLIN, 0};
+    const int n = ::poll(&p, 1, static_cast<int>(std::max<long long>(left, 0)));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;  // nothing within the time
+    const ssize_t got = ::recv(fd_, buf, sizeof buf, MSG_DONTWAIT);
+    if (got == 0 || (got < 0 && errno != EAGAIN && errno != EINTR)) return true;
+  }
 }
 
 WsClient::WsClient(int port, const std::string& path, const Headers& headers, double timeout_s) {

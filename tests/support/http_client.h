@@ -37,6 +37,11 @@ class StalledClient {
   StalledClient(const StalledClient&) = delete;
   StalledClient& operator=(const StalledClient&) = delete;
   bool connected() const { return fd_ >= 0; }
+  // Sends more bytes: false when the connection is gone.
+  bool send(const std::string& bytes);
+  // Whether the server closes the connection within `timeout_s` (whatever it sends first, an
+  // answer say, is read and dropped).
+  bool closed_within(double timeout_s);
 
  private:
   int fd_ = -1;
