@@ -32,12 +32,6 @@
 namespace machplan::cli {
 namespace {
 
-double number_of(const char* flag, const std::string& text) {
-  const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(text)));
-  return *v;
-}
-
 int repeats_of(const std::string& text) {
   std::size_t used = 0;
   int r = 0;
@@ -96,11 +90,11 @@ void add_calibrate(CLI::App& app) {
       std::size_t pos = 0;
       while (pos <= r->speeds.size()) {
         const std::size_t comma = std::min(r->speeds.find(',', pos), r->speeds.size());
-        o.speed_fractions.push_back(number_of("--speeds", r->speeds.substr(pos, comma - pos)));
+        o.speed_fractions.push_back(number_flag("--speeds", r->speeds.substr(pos, comma - pos)));
         pos = comma + 1;
       }
     }
-    if (!r->hold.empty()) o.stroke_hold_s = number_of("--hold", r->hold);
+    if (!r->hold.empty()) o.stroke_hold_s = number_flag("--hold", r->hold);
     o.validate();
     // SIGINT, SIGTERM and SIGHUP stop the axes and end the session (cancelled: exit 3).
     const StopOnSignals signals;
@@ -209,7 +203,7 @@ void add_store_commands(CLI::App& app) {
   show->add_option("--feed", a->feed, "feed, mm/s: print the open-loop factor for `run --mode paper-open --calibration`");
   field_flags(show, {{"db_path", "--db"}, {"feed_mm_per_s", "--feed"}, {"calibration", "--db"}});
   show->callback([a, db_path] {
-    const double feed = a->feed.empty() ? 0.0 : number_of("--feed", a->feed);  // a bad flag first: exit 2
+    const double feed = a->feed.empty() ? 0.0 : number_flag("--feed", a->feed);  // a bad flag first: exit 2
     calibration::CalibrationStore store(db_path());
     const auto c = store.active(a->machine);
     if (!c) throw Infeasible(fmt::format("no active calibration for '{}' in {}", a->machine, db_path()));

@@ -1,8 +1,13 @@
 #include "cli/field_flags.h"
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
+
+#include "engine/common/internal/parse.h"
 
 namespace machplan::cli {
 namespace {
@@ -59,6 +64,12 @@ Infeasible for_user(const Infeasible& e, const CLI::App& app) {
   if (e.option().empty()) return e;
   const std::string flag = flag_of(e.option(), app);
   return flag.empty() ? e : Infeasible(e.message(), flag);
+}
+
+double number_flag(const std::string& flag, const std::string& text) {
+  const std::optional<double> v = parse_finite(text);
+  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(text)));
+  return *v;
 }
 
 }  // namespace machplan::cli

@@ -34,6 +34,9 @@ struct FieldFlag {
 // Declares `cmd`'s table. Call it after the options: every flag must be one of cmd's
 // (checked: a table naming a flag the command does not have is a bug, MACHPLAN_ASSERT).
 void field_flags(CLI::App* cmd, std::span<const FieldFlag> table);
+
+// The finite number `text` given to `flag`; InputError naming the flag and quoting the text.
+double number_flag(const std::string& flag, const std::string& text);
 inline void field_flags(CLI::App* cmd, std::initializer_list<FieldFlag> table) {
   field_flags(cmd, std::span<const FieldFlag>(table.begin(), table.size()));
 }

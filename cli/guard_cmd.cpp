@@ -23,12 +23,6 @@
 namespace machplan::cli {
 namespace {
 
-double number_in(const std::string& flag, const std::string& text) {
-  const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(text)));
-  return *v;
-}
-
 struct GuardArgs {
   std::string profile, side, tool_radius, tolerance, op, feed, latency_ms, strategy = "predictive", plot, seed, machine = "xy_table",
                                                                   offset = "robust", finish_feed, finish_allowance, backend = "sim";
@@ -80,15 +74,15 @@ void add_guard(CLI::App& app) {
     o.backend = a->backend;
     o.region.side = accept(parse_machining_side(a->side), "--side");
     o.region.method = accept(parse_offset_method(a->offset), "--offset");
-    o.region.tool_radius_mm = number_in("--tool-radius", a->tool_radius);
-    o.guard.tolerance_mm = number_in("--tolerance", a->tolerance);
+    o.region.tool_radius_mm = number_flag("--tool-radius", a->tool_radius);
+    o.guard.tolerance_mm = number_flag("--tolerance", a->tolerance);
     o.guard.strategy = accept(executor::parse_guard_strategy(a->strategy), "--strategy");
-    if (!a->latency_ms.empty()) o.guard.latency_s = number_in("--latency-ms", a->latency_ms) / 1000.0;
-    if (!a->feed.empty()) o.feed_mm_per_s = number_in("--feed", a->feed);
+    if (!a->latency_ms.empty()) o.guard.latency_s = number_flag("--latency-ms", a->latency_ms) / 1000.0;
+    if (!a->feed.empty()) o.feed_mm_per_s = number_flag("--feed", a->feed);
     o.op = guard::operator_from_string(a->op);
     o.finish = a->finish;
-    if (!a->finish_feed.empty()) o.finish_feed_mm_per_s = number_in("--finish-feed", a->finish_feed);
-    if (!a->finish_allowance.empty()) o.finish_allowance_mm = number_in("--finish-allowance", a->finish_allowance);
+    if (!a->finish_feed.empty()) o.finish_feed_mm_per_s = number_flag("--finish-feed", a->finish_feed);
+    if (!a->finish_allowance.empty()) o.finish_allowance_mm = number_flag("--finish-allowance", a->finish_allowance);
     if ((!a->finish_feed.empty() || !a->finish_allowance.empty()) && !a->finish)
       throw InputError(!a->finish_feed.empty() ? "--finish-feed" : "--finish-allowance", 0, "applies with --finish only");
     if (!a->seed.empty()) o.seed = seed_of(a->seed);

@@ -29,9 +29,7 @@ std::vector<double> parse_list(const std::string& text, const std::string& flag,
   std::stringstream ss(text);
   std::string item;
   while (std::getline(ss, item, ',')) {
-    const std::optional<double> v = parse_finite(item);
-    if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(item)));
-    out.push_back(*v);
+    out.push_back(number_flag(flag, item));
   }
   if (count && out.size() != count)
     throw InputError(flag, 0, fmt::format("expects {} comma-separated numbers, got '{}'", count, excerpt(text)));

@@ -33,13 +33,6 @@
 namespace machplan::cli {
 namespace {
 
-// A number given to `flag`; the message names the flag and the text.
-double number_of(const std::string& flag, const std::string& text) {
-  const std::optional<double> v = parse_finite(text);
-  if (!v) throw InputError(flag, 0, fmt::format("'{}' is not a number", excerpt(text)));
-  return *v;
-}
-
 // run's modes: every executor mode but jog (the guard's).
 executor::Mode mode_of(const std::string& text) {
   const executor::Mode m = accept(executor::parse_mode(text), "--mode");
@@ -131,21 +124,21 @@ motion::RunOptions run_options(const RunArgs& a) {
   so.executor.mode = mode_of(a.mode);
   // The rules between options (the paper modes' settings, what only the simulator does) are
   // the options' own validate(): the panel and a library caller meet them too.
-  if (!a.blu.empty()) so.executor.blu_mm = number_of("--blu", a.blu);
+  if (!a.blu.empty()) so.executor.blu_mm = number_flag("--blu", a.blu);
   if (a.calibration == "active") {
     // Paper modes: the open-loop factor for the feed; planned mode: the whole fit, applied to
     // the executor's setup (the machine session does both).
     so.active_calibration = true;
   } else if (!a.calibration.empty()) {
-    so.executor.calibration_factor = number_of("--calibration", a.calibration);
+    so.executor.calibration_factor = number_flag("--calibration", a.calibration);
   }
   so.store_path = a.db;
   if (a.kerf == "material") o.kerf_from_materials = true;
-  else if (!a.kerf.empty()) o.kerf_mm = number_of("--kerf", a.kerf);
+  else if (!a.kerf.empty()) o.kerf_mm = number_flag("--kerf", a.kerf);
   o.materials_path = a.materials;
   o.default_material = a.material;
   if (!a.feed.empty()) {
-    o.feed_override_mm_per_s = number_of("--feed", a.feed);
+    o.feed_override_mm_per_s = number_flag("--feed", a.feed);
     if (!(o.feed_override_mm_per_s > 0)) throw InputError("--feed", 0, fmt::format("{} must be > 0 mm/s", a.feed));
   }
   if (!a.seed.empty()) so.backend.sim.seed = seed_of(a.seed);
@@ -157,8 +150,8 @@ motion::RunOptions run_options(const RunArgs& a) {
     const auto comma = a.sheet_warp.find(',');
     if (comma == std::string::npos)
       throw InputError("--sheet-warp", 0, fmt::format("'{}' is not AMPLITUDE_MM,WAVELENGTH_MM", a.sheet_warp));
-    so.backend.sim.sheet_warp_mm = std::make_pair(number_of("--sheet-warp", a.sheet_warp.substr(0, comma)),
-                                                  number_of("--sheet-warp", a.sheet_warp.substr(comma + 1)));
+    so.backend.sim.sheet_warp_mm = std::make_pair(number_flag("--sheet-warp", a.sheet_warp.substr(0, comma)),
+                                                  number_flag("--sheet-warp", a.sheet_warp.substr(comma + 1)));
   }
   so.controller = a.controller.empty() || a.controller == "tuned"
                       ? a.controller
@@ -174,7 +167,7 @@ motion::RunOptions run_options(const RunArgs& a) {
   if (!a.origin.empty()) {
     const auto comma = a.origin.find(',');
     if (comma == std::string::npos) throw InputError("--origin", 0, fmt::format("'{}' is not X,Y (mm)", a.origin));
-    o.origin_mm = Eigen::Vector2d(number_of("--origin", a.origin.substr(0, comma)), number_of("--origin", a.origin.substr(comma + 1)));
+    o.origin_mm = Eigen::Vector2d(number_flag("--origin", a.origin.substr(0, comma)), number_flag("--origin", a.origin.substr(comma + 1)));
   }
   so.executor.record_trace = !a.plot.empty();
   so.trace_csv_path = a.trace;  // streamed during the run
@@ -184,7 +177,7 @@ motion::RunOptions run_options(const RunArgs& a) {
 }
 
 void run_command(const RunArgs& a) {
-  const double magnify = number_of("--magnify", a.magnify);
+  const double magnify = number_flag("--magnify", a.magnify);
   if (!(magnify > 0 && magnify <= 1e6)) throw InputError("--magnify", 0, fmt::format("{} must be > 0 and <= 1e6", a.magnify));
   if (!a.plot.empty() && !is_picture_path(a.plot))
     throw InputError("--plot", 0, fmt::format("'{}' must end in .png or .svg", a.plot));
