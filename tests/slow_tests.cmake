@@ -6,7 +6,6 @@
 # not in this build (the HAL tests without MACHPLAN_HAL) is passed over.
 set_tests_properties(install_headers PROPERTIES COST 200)
 set_tests_properties(Reproduction.PaperSearchAndOptimumAgreeWithThePaperAndPassADenseRecheck PROPERTIES COST 150)
-set_tests_properties(SceneFrame.PadsTooThinForAPassBelowThePartAreRuledOutEverywhere PROPERTIES COST 100)
 set_tests_properties(Rotations.AnyIsNeverWorseThanEachRotationOnItsOwnAndItsClaimIsFree PROPERTIES COST 90)
 set_tests_properties(Threads.ChecksGiveTheSameFiguresOnOneAndSeveralThreads PROPERTIES COST 60)
 set_tests_properties(Threads.TheHexapodSearchGivesTheSameAnswerOnOneAndSeveralThreads PROPERTIES COST 50)
