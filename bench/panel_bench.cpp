@@ -21,7 +21,8 @@
 //                        ends every second, and reconnect when the server closes them, for T
 //                        seconds. Meanwhile a client polls GET /api/status ten times a second
 //                        and presses the E-stop (then reset) every 2 s: status_p50_ms,
-//                        status_p99_ms, status_max_ms, failed (answers other than 200),
+//                        status_p99_ms, status_p99.9_ms, status_max_ms and requests (as the
+//                        tick's percentiles are counted), failed (answers other than 200),
 //                        estop_max_ms (request to answer: the E-stop is applied before it is
 //                        answered), reconnects and evicted (slow heads closed to make room).
 //
@@ -213,12 +214,7 @@ void BM_SlowClients(benchmark::State& state) {
     }
     reconnects = slow.reconnects.load();
   }
-  std::sort(status_ms.begin(), status_ms.end());
-  const auto at = [&](double q) { return status_ms.empty() ? 0.0 : status_ms[static_cast<std::size_t>(q * static_cast<double>(status_ms.size() - 1))]; };
-  state.counters["status_p50_ms"] = at(0.5);
-  state.counters["status_p99_ms"] = at(0.99);
-  state.counters["status_max_ms"] = at(1.0);
-  state.counters["requests"] = static_cast<double>(status_ms.size());
+  bench::report_percentiles(state, status_ms, "status_", "_ms", "requests");
   state.counters["failed"] = static_cast<double>(failed);
   state.counters["estop_max_ms"] = estop_max_ms;
   state.counters["reconnects"] = static_cast<double>(reconnects);

@@ -1,23 +1,31 @@
-// The tail of a run's tick times, as the benches report it: the counters p50_us, p99_us,
-// p99.9_us, max_us and ticks of `us` (one duration per tick, microseconds; sorted here).
+// The tail of a series of durations, as the benches report it: the counters p50, p99, p99.9
+// and max of `values` (sorted here), each named PREFIX + that + UNIT, and their number as
+// `count`. A run's tick times: p50_us, p99_us, p99.9_us, max_us and ticks.
 #pragma once
 
 #include <algorithm>
+#include <string>
 #include <vector>
 
 #include <benchmark/benchmark.h>
 
 namespace machplan::bench {
 
+inline void report_percentiles(benchmark::State& state, std::vector<double>& values, const std::string& prefix,
+                               const std::string& unit, const std::string& count) {
+  if (values.empty()) return;
+  std::sort(values.begin(), values.end());
+  const auto at = [&](double q) { return values[std::min(values.size() - 1, static_cast<std::size_t>(q * values.size()))]; };
+  state.counters[prefix + "p50" + unit] = at(0.5);
+  state.counters[prefix + "p99" + unit] = at(0.99);
+  state.counters[prefix + "p99.9" + unit] = at(0.999);
+  state.counters[prefix + "max" + unit] = values.back();
+  state.counters[count] = static_cast<double>(values.size());
+}
+
+// One duration per tick, in microseconds.
 inline void report_tick_percentiles(benchmark::State& state, std::vector<double>& us) {
-  if (us.empty()) return;
-  std::sort(us.begin(), us.end());
-  const auto at = [&](double q) { return us[std::min(us.size() - 1, static_cast<std::size_t>(q * us.size()))]; };
-  state.counters["p50_us"] = at(0.5);
-  state.counters["p99_us"] = at(0.99);
-  state.counters["p99.9_us"] = at(0.999);
-  state.counters["max_us"] = us.back();
-  state.counters["ticks"] = static_cast<double>(us.size());
+  report_percentiles(state, us, "", "_us", "ticks");
 }
 
 }  // namespace machplan::bench

@@ -20,7 +20,6 @@
 #include "cli/output.h"
 #include "engine/calibration/session_log.h"
 #include "engine/common/error.h"
-#include "engine/common/internal/parse.h"
 #include "engine/common/output_file.h"
 #include "solvers/session/machine_session.h"
 #include "models/cutting/machine_config.h"

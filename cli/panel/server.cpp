@@ -140,9 +140,10 @@ class Connection : public std::enable_shared_from_this<Connection> {
   Connection(Server::Impl& s, tcp::socket socket, std::string peer) : s_(s), stream_(std::move(socket)), peer_(std::move(peer)) {}
   ~Connection() { release(); }
 
-  // Counts the connection for its peer and lists it as sending its head (connections_mutex held).
+  // Counted for its peer and listed as sending its head at `at` (admit, connections_mutex held):
+  // release() undoes both.
   void enlist(std::list<std::weak_ptr<Connection>>::iterator at) {
-    listed_ = true;
+    counted_ = listed_ = true;
     in_heading_ = at;
   }
   const std::string& peer() const { return peer_; }
@@ -180,7 +181,6 @@ class Connection : public std::enable_shared_from_this<Connection> {
     if (--s_.per_peer[peer_] <= 0) s_.per_peer.erase(peer_);
     --s_.open_connections;
   }
-  void counted() { counted_ = true; }
 
  private:
   static constexpr std::uint32_t kHeadBytes = 16 * 1024;
@@ -453,7 +453,9 @@ void Server::Impl::admit(tcp::socket socket) {
   std::shared_ptr<Connection> c;
   {
     const std::lock_guard<std::mutex> lock(connections_mutex);
-    const bool peer_full = per_peer[peer] >= o.max_connections_per_peer, all_full = open_connections >= o.max_connections;
+    const auto held = per_peer.find(peer);
+    const bool peer_full = held != per_peer.end() && held->second >= o.max_connections_per_peer;
+    const bool all_full = open_connections >= o.max_connections;
     if (peer_full || all_full) {
       for (const auto& w : heading) {
         auto h = w.lock();
@@ -463,7 +465,6 @@ void Server::Impl::admit(tcp::socket socket) {
         }
       }
       if (!victim) {
-        if (per_peer[peer] == 0) per_peer.erase(peer);
         ++refused;
         return;  // the socket closes here
       }
@@ -471,7 +472,6 @@ void Server::Impl::admit(tcp::socket socket) {
     c = std::make_shared<Connection>(*this, std::move(socket), peer);
     ++per_peer[peer];
     ++open_connections;
-    c->counted();
     c->enlist(heading.insert(heading.end(), c));
   }
   if (victim) {
