@@ -322,14 +322,17 @@ class Viewer : public std::enable_shared_from_this<Viewer> {
     ws_.read_message_max(4096);
     ws_.async_accept(upgrade_request, [self = shared_from_this()](beast::error_code ec) {
       if (ec) return self->close();
+      self->accepted_ = true;
       self->read();
+      if (self->waiting_) self->write(std::exchange(self->waiting_, nullptr));
     });
   }
 
-  // A new frame (I/O thread).
+  // A new frame (I/O thread). Until the handshake is done it waits in the mailbox: a frame
+  // written before it would go out as a client's (masked), which browsers refuse.
   void offer(std::shared_ptr<const std::string> frame) {
     if (closed_) return;
-    if (writing_) {
+    if (writing_ || !accepted_) {
       if (waiting_) ++skipped;
       waiting_ = std::move(frame);
       return;
@@ -379,7 +382,7 @@ class Viewer : public std::enable_shared_from_this<Viewer> {
   websocket::stream<beast::tcp_stream> ws_;
   beast::flat_buffer in_;
   std::shared_ptr<const std::string> writing_, waiting_;
-  bool closed_ = false;
+  bool accepted_ = false, closed_ = false;
 };
 
 void Connection::upgrade() {

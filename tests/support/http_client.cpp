@@ -179,6 +179,9 @@ std::string WsClient::next_text() {
   for (int frames = 0; frames < 10000; ++frames) {
     unsigned char h[2];
     if (!read_exact(reinterpret_cast<char*>(h), 2)) return {};
+    // A server never masks its frames (RFC 6455, 5.1): a masked one ends the connection, as a
+    // browser ends it.
+    if (h[1] & 0x80) return {};
     const int opcode = h[0] & 0x0f;
     std::uint64_t len = h[1] & 0x7f;
     if (len == 126) {

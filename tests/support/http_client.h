@@ -57,7 +57,8 @@ class WsClient {
   WsClient& operator=(const WsClient&) = delete;
   bool ok() const { return ok_; }
   const std::string& response() const { return response_; }
-  // The next text frame (pings are answered); "" on timeout or when the connection closed.
+  // The next text frame (pings are answered); "" on timeout, when the connection closed, or
+  // when the server sent a masked frame (which no browser accepts).
   std::string next_text();
   // The socket: a test of slow clients stops reading it.
   int fd() const { return fd_; }
