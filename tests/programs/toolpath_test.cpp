@@ -378,7 +378,7 @@ TEST(Files, FormatByExtensionOrContent) {
   EXPECT_THAT(error_of([] { read_toolpath_file("/nonexistent/path.cl"); }), HasSubstr("/nonexistent/path.cl: "));
 }
 
-TEST(Summary, FiguresFollowThePoses) {
+TEST(ToolPathSummary, FiguresFollowThePoses) {
   const ToolPath p = read_apt("GOTO/0,0,0\nGOTO/3,4,0,0,1,1\nRAPID\nGOTO/3,4,10,1,0,0\nGOTO/3,5,10\n", "s.cl");
   const ToolPathSummary s = summarize(p);
   EXPECT_EQ(s.poses, 4u);
