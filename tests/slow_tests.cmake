@@ -7,6 +7,7 @@
 set_tests_properties(install_headers PROPERTIES COST 200)
 set_tests_properties(Reproduction PROPERTIES COST 150)
 set_tests_properties(Threads PROPERTIES COST 120)
+set_tests_properties(Programs/GcodeConformance PROPERTIES COST 100)
 set_tests_properties(Rotations PROPERTIES COST 90)
 set_tests_properties(PanelApi PROPERTIES COST 80)
 set_tests_properties(panel_browser PROPERTIES COST 40)
