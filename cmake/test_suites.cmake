@@ -31,13 +31,15 @@ function(machplan_add_test_suites target)
   # Read by ctest (script mode) each time it starts. A program that cannot list its tests
   # becomes one failing test that says so, rather than a run that silently lacks its suites.
   file(GENERATE OUTPUT "${script}" CONTENT "\
+# A test that fails with MESSAGE as its output (echo succeeds, so WILL_FAIL fails it).
+function(machplan_failing_test name message)
+  add_test(\"\${name}\" [==[${CMAKE_COMMAND}]==] -E echo \"\${message}\")
+  set_tests_properties(\"\${name}\" PROPERTIES WILL_FAIL TRUE)
+endfunction()
 execute_process(COMMAND ${command} --gtest_list_tests
                 OUTPUT_VARIABLE listing ERROR_VARIABLE errors RESULT_VARIABLE status TIMEOUT 60)
 if(NOT status EQUAL 0)
-  add_test([==[${target}_lists_its_tests]==] [==[${CMAKE_COMMAND}]==] -E echo
-           [==[${target} --gtest_list_tests failed: ]==] \"\${status} \${errors}\")
-  # echo succeeds, so WILL_FAIL fails the test, with the message as its output
-  set_tests_properties([==[${target}_lists_its_tests]==] PROPERTIES WILL_FAIL TRUE)
+  machplan_failing_test([==[${target}_lists_its_tests]==] \"${target} --gtest_list_tests failed: \${status} \${errors}\")
   return()
 endif()
 # A suite is a line that starts in the first column and ends its name with a dot (typed suites
@@ -51,9 +53,8 @@ foreach(line IN LISTS lines)
     # ctest keeps one test a name: a suite of the same name in another program would hide one
     list(FIND machplan_listed_suites \"\${suite}\" seen)  # (ctest's scripts lack IN_LIST)
     if(NOT seen EQUAL -1)
-      add_test(\"\${suite}_is_in_two_programs\" [==[${CMAKE_COMMAND}]==] -E echo
-               \"suite \${suite} of ${target} has the name of another program's suite: rename one\")
-      set_tests_properties(\"\${suite}_is_in_two_programs\" PROPERTIES WILL_FAIL TRUE)
+      machplan_failing_test(\"\${suite}_is_in_two_programs\"
+                            \"suite \${suite} of ${target} has the name of another program's suite: rename one\")
       continue()
     endif()
     list(APPEND machplan_listed_suites \"\${suite}\")
