@@ -7,12 +7,12 @@
 set_tests_properties(install_headers PROPERTIES COST 200)
 set_tests_properties(Reproduction PROPERTIES COST 150)
 set_tests_properties(Threads PROPERTIES COST 120)
-set_tests_properties(Programs/GcodeConformance PROPERTIES COST 100)
+set_tests_properties(install_downstream PROPERTIES COST 100)
 set_tests_properties(Rotations PROPERTIES COST 90)
 set_tests_properties(PanelApi PROPERTIES COST 80)
 set_tests_properties(panel_browser PROPERTIES COST 40)
 set_tests_properties(Trunnion PROPERTIES COST 40)
-set_tests_properties(Checker Class1Parts Invasion PROPERTIES COST 35)
+set_tests_properties(Checker Class1Parts Invasion Programs/GcodeConformance PROPERTIES COST 35)
 # The HAL suites run one at a time (RESOURCE_LOCK hal), about three minutes in all: started
 # early, that chain runs beside the others instead of after them.
 set_tests_properties(HalRun PROPERTIES COST 170)

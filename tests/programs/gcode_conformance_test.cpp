@@ -1,11 +1,14 @@
 // Conformance of machplan's G-code reader with LinuxCNC's interpreter.
 //
 // For every program in datasets/programs/conformance/ and every sample LinuxCNC installs under
-// /usr/share/linuxcnc/ncfiles/, this runs `machplan program FILE --json` and `rs274 -g FILE`,
-// turns rs274's canonical calls into moves, and requires:
+// /usr/share/linuxcnc/ncfiles/, this reads the program with machplan's reader (in this process,
+// as `machplan program FILE` does: a sanitized command-line run per program and dialect cost
+// more than the rest of the test) and runs `rs274 -g FILE`, turns rs274's canonical calls into
+// moves, and requires:
 //   * both accept: the same sequence of moves (kind, end point and arc centre within the
 //     tolerance below, feed, direction, turns, dwell seconds, spindle speed);
-//   * rs274 rejects: machplan rejects too (exit 2, "FILE:LINE: message");
+//   * rs274 rejects: machplan rejects too (InputError, "FILE:LINE: message": exit 2 on the
+//     command line);
 //   * rs274 accepts and machplan refuses: only for a feature machplan does not support, so the
 //     message must say "not supported".
 // Our own programs state what they expect on their first line:
@@ -30,9 +33,10 @@
 #include <unistd.h>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include <fmt/format.h>
 
-#include "tests/support/cli_run.h"
+#include "engine/common/error.h"
+#include "engine/programs/gcode.h"
 
 namespace {
 
@@ -190,22 +194,55 @@ Rs274Program parse_rs274(const std::string& out) {
   return p;
 }
 
-std::vector<Expected> from_json(const nlohmann::json& j) {
+Expected from_move(const machplan::Move& m) {
+  Expected e;
+  e.kind = machplan::to_string(m.kind);
+  e.end = {m.end.x(), m.end.y(), m.end.z()};
+  e.center = {m.center.x(), m.center.y()};
+  e.feed = m.feed_mm_per_min;
+  e.clockwise = m.clockwise;
+  e.turns = m.turns;
+  e.seconds = m.seconds;
+  e.speed = m.spindle_speed;
+  e.text = fmt::format("line {}: {} to ({}, {}, {}) F {} centre ({}, {}) {} turns {} dwell {} S {}", m.line, e.kind,
+                       e.end[0], e.end[1], e.end[2], e.feed, e.center[0], e.center[1], m.clockwise ? "cw" : "ccw",
+                       m.turns, m.seconds, m.spindle_speed);
+  return e;
+}
+
+// machplan's reading of a program in one dialect: what `machplan program FILE --dialect D`
+// would print or refuse.
+struct Reading {
+  int exit_code = 0;  // the command line's: 0 read, 2 refused (InputError)
+  std::string error;  // the refusal, "FILE:LINE: message"
   std::vector<Expected> moves;
-  for (const auto& m : j.at("moves")) {
-    Expected e;
-    e.kind = m.at("kind");
-    if (m.contains("end")) e.end = {m["end"][0], m["end"][1], m["end"][2]};
-    if (m.contains("center")) e.center = {m["center"][0], m["center"][1]};
-    if (m.contains("feed")) e.feed = m["feed"];
-    if (m.contains("clockwise")) e.clockwise = m["clockwise"];
-    if (m.contains("turns")) e.turns = m["turns"];
-    if (m.contains("seconds")) e.seconds = m["seconds"];
-    if (m.contains("spindle_speed")) e.speed = m["spindle_speed"];
-    e.text = m.dump();
-    moves.push_back(e);
+  std::string all;  // everything the reader reports, exactly (doubles in shortest round-trip form)
+};
+
+Reading read_ours(const fs::path& file, machplan::GcodeDialect dialect) {
+  machplan::GcodeOptions o;
+  o.dialect = dialect;
+  Reading r;
+  machplan::Program program;
+  try {
+    program = machplan::read_gcode_file(file.string(), o);
+  } catch (const machplan::InputError& e) {
+    r.exit_code = 2;
+    r.error = e.what();
+    return r;
   }
-  return moves;
+  r.all = fmt::format("dialect {}, start ({}, {}, {}), ends with program end {}\n", machplan::to_string(program.dialect),
+                      program.start.x(), program.start.y(), program.start.z(), program.ends_with_program_end);
+  for (const std::string& w : program.warnings) r.all += "warning: " + w + "\n";
+  for (const machplan::ProgramEvent& e : program.events)
+    r.all += fmt::format("event {} line {} before move {}: {} {} {} {} {} '{}'\n", machplan::to_string(e.kind), e.line,
+                         e.before_move, e.number, e.value, e.value2, e.mode, e.synchronized, e.text);
+  for (const machplan::Move& m : program.moves) {
+    r.moves.push_back(from_move(m));
+    r.all += fmt::format("{} plane {} spindle {} path {} {}\n", r.moves.back().text, static_cast<int>(m.plane), m.spindle,
+                         machplan::to_string(m.path_mode), m.path_tolerance_mm);
+  }
+  return r;
 }
 
 std::vector<fs::path> programs() {
@@ -271,11 +308,8 @@ TEST_P(GcodeConformance, MatchesRs274) {
                             dir);
   // The reference reading is LinuxCNC's dialect; the default (auto) must read every program
   // rs274 reads exactly as it (checked below), and may read as GRBL's what rs274 refuses.
-  const machplan::test::CliResult mine =
-      machplan::test::Cli().run({"program", file.string(), "--json", "--dialect", "linuxcnc"});
-  const RunResult ours{mine.code, mine.out, mine.err};
-  const machplan::test::CliResult mine_auto = machplan::test::Cli().run({"program", file.string(), "--json"});
-  const RunResult ours_auto{mine_auto.code, mine_auto.out, mine_auto.err};
+  const Reading ours = read_ours(file, machplan::GcodeDialect::linuxcnc);
+  const Reading ours_auto = read_ours(file, machplan::GcodeDialect::automatic);
   fs::remove_all(dir);
 
   const bool ref_ok = ref.exit_code == 0;
@@ -288,10 +322,10 @@ TEST_P(GcodeConformance, MatchesRs274) {
   }
   SCOPED_TRACE("file: " + file.string() + "\nrs274 exit " + std::to_string(ref.exit_code) +
                (ref_error.empty() ? "" : " (" + ref_error + ")") + "\nmachplan exit " +
-               std::to_string(ours.exit_code) + ": " + ours.err);
+               std::to_string(ours.exit_code) + ": " + ours.error);
   ASSERT_TRUE(ours.exit_code == 0 || ours.exit_code == 2) << "machplan must accept (0) or refuse (2)";
   if (ours.exit_code == 2) {
-    EXPECT_NE(ours.err.find(file.string() + ":"), std::string::npos) << "the message must name the file";
+    EXPECT_NE(ours.error.find(file.string() + ":"), std::string::npos) << "the message must name the file";
   }
 
   if (expect == "match") {
@@ -300,12 +334,12 @@ TEST_P(GcodeConformance, MatchesRs274) {
   } else if (expect == "refuse") {
     ASSERT_TRUE(ref_ok) << "this program is meant to be accepted by rs274 (a feature machplan refuses)";
     ASSERT_EQ(ours.exit_code, 2);
-    EXPECT_NE(ours.err.find(expect_text), std::string::npos) << "expected the message to name: " << expect_text;
+    EXPECT_NE(ours.error.find(expect_text), std::string::npos) << "expected the message to name: " << expect_text;
     return;
   } else if (expect == "error") {
     ASSERT_FALSE(ref_ok) << "this program is meant to be rejected by rs274";
     ASSERT_EQ(ours.exit_code, 2);
-    EXPECT_NE(ours.err.find(expect_text), std::string::npos) << "expected the message to contain: " << expect_text;
+    EXPECT_NE(ours.error.find(expect_text), std::string::npos) << "expected the message to contain: " << expect_text;
     return;
   }
 
@@ -314,21 +348,18 @@ TEST_P(GcodeConformance, MatchesRs274) {
     return;
   }
   if (ours.exit_code == 2) {
-    EXPECT_NE(ours.err.find("not supported"), std::string::npos)
+    EXPECT_NE(ours.error.find("not supported"), std::string::npos)
         << "rs274 accepts this program; machplan may refuse it only for an unsupported feature, named";
     return;
   }
 
   // Both accept: compare the moves. The default dialect reads it identically.
   EXPECT_EQ(ours_auto.exit_code, ours.exit_code);
-  EXPECT_EQ(ours_auto.out, ours.out) << "the automatic dialect must read a program rs274 reads as LinuxCNC does";
+  EXPECT_EQ(ours_auto.all, ours.all) << "the automatic dialect must read a program rs274 reads as LinuxCNC does";
   const Rs274Program expected = parse_rs274(ref.out);
   EXPECT_TRUE(expected.unmodelled.empty()) << "rs274 issues calls machplan does not model, yet machplan accepted: "
                                           << expected.unmodelled.front();
-  nlohmann::json j;
-  ASSERT_NO_THROW(j = nlohmann::json::parse(ours.out));
-  EXPECT_EQ(j.at("units"), "mm");
-  const std::vector<Expected> got = from_json(j);
+  const std::vector<Expected>& got = ours.moves;
   // rs274 prints 4 decimals in program units: in inches that is 0.00127 mm of rounding.
   const double tol_mm = expected.inches_seen ? 1.6e-3 : 1e-3;
   ASSERT_EQ(got.size(), expected.moves.size()) << "number of moves";
