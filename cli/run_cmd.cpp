@@ -25,6 +25,7 @@
 #include "engine/common/error.h"
 #include "engine/common/internal/parse.h"
 #include "engine/hardware/operator_events.h"
+#include "engine/motion/frame.h"
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
 #include "solvers/motion/run_plot.h"
@@ -86,6 +87,8 @@ struct RunArgs {
   int from_line = 0;
   std::string materials;
   int material = -1;
+  bool frame = false;
+  double frame_feed_mm_per_s = 0.0, frame_margin_mm = 0.0;  // feed 0: the machine's rapid speed
 };
 
 // Which flag sets which field of RunOptions and of its machine session, for the error path
@@ -176,7 +179,36 @@ motion::RunOptions run_options(const RunArgs& a) {
   return o;
 }
 
+// --frame: instead of the job, its outline traced with the torch off (engine/motion/frame.h),
+// planned like any job (travel, no-go zones); what it frames is told on stderr.
+motion::PlannedRun frame_plan(const motion::PlannedRun& job, motion::RunOptions o, const RunArgs& a, Termination& stop,
+                              Progress& planning, nlohmann::json& report) {
+  motion::FrameOptions fo;
+  fo.rapid_feed_mm_per_s = job.machine.limits.rapid_mm_per_s;
+  fo.feed_mm_per_s = a.frame_feed_mm_per_s > 0 ? a.frame_feed_mm_per_s : fo.rapid_feed_mm_per_s;
+  fo.margin_mm = a.frame_margin_mm;
+  motion::Frame frame = motion::frame_job(job.job, fo);
+  const Eigen::AlignedBox2d& b = frame.outline;
+  report = {{"x_mm", {b.min().x(), b.max().x()}}, {"y_mm", {b.min().y(), b.max().y()}}, {"from_cuts", frame.from_cuts},
+            {"feed_mm_per_s", fo.feed_mm_per_s}, {"margin_mm", fo.margin_mm}};
+  std::fprintf(stderr, "machplan run: framing %s: X %.3f .. %.3f, Y %.3f .. %.3f mm (%.1f x %.1f mm%s) at %.1f mm/s, torch off\n",
+               a.program.c_str(), b.min().x(), b.max().x(), b.min().y(), b.max().y(), b.sizes().x(), b.sizes().y(),
+               frame.from_cuts ? "" : "; the job cuts nothing: its feed moves", fo.feed_mm_per_s);
+  // The frame is the job's path as it will run: kerf and cut order are in it already.
+  o.kerf_mm = 0.0;
+  o.kerf_from_materials = false;
+  o.from_line = 0;
+  o.feed_override_mm_per_s = 0.0;
+  motion::PlannedRun plan = motion::plan_job(std::move(frame.job), o, job.machine, {&stop, &planning, nullptr});
+  if (!plan.summary.done()) throw Infeasible(plan.summary.message, plan.limit_field);
+  return plan;
+}
+
 void run_command(const RunArgs& a) {
+  if (!a.frame && (a.frame_feed_mm_per_s > 0 || a.frame_margin_mm > 0))
+    throw InputError(a.frame_feed_mm_per_s > 0 ? "--frame-feed" : "--frame-margin", 0, "is for --frame");
+  if (a.frame && mode_of(a.mode) != executor::Mode::planned)
+    throw InputError("--frame", 0, "frames in planned mode only (the paper modes run cuts, not a frame)");
   const double magnify = number_flag("--magnify", a.magnify);
   if (!(magnify > 0 && magnify <= 1e6)) throw InputError("--magnify", 0, fmt::format("{} must be > 0 and <= 1e6", a.magnify));
   if (!a.plot.empty() && !is_picture_path(a.plot))
@@ -191,6 +223,7 @@ void run_command(const RunArgs& a) {
   const StopOnSignals signals;
   Termination stop(StopOnSignals::stop_token());
   Progress planning, running;
+  nlohmann::json frame;  // --frame: the outline traced
   const motion::RunOutcome run = [&] {
     const motion::RunOptions o = run_options(a);
     // Rapid planning can take seconds on a long job, and the run itself long: a bar for each
@@ -200,6 +233,7 @@ void run_command(const RunArgs& a) {
     motion::PlannedRun plan = motion::plan_program(a.program, o, session.machine(), {&stop, &planning, nullptr});
     // Refused before the run (outside the travel, too long, stopped while planning): exit 3.
     if (!plan.summary.done()) throw Infeasible(plan.summary.message, plan.limit_field);
+    if (a.frame) plan = frame_plan(plan, o, a, stop, planning, frame);
     watch.emplace("running", !a.json, running);
     return motion::execute(session, std::move(plan), o, {&stop, nullptr, &running});
   }();
@@ -208,6 +242,7 @@ void run_command(const RunArgs& a) {
   if (a.json) {
     nlohmann::json j = to_json(run);
     j["cut_order"] = cut_order_json(run.cut_order);
+    if (a.frame) j["frame"] = frame;
     if (!a.trace.empty()) j["trace"] = a.trace;
     if (!a.plot.empty()) j["plot"] = a.plot;
     print_json(j);
@@ -285,6 +320,13 @@ void add_run(CLI::App& app) {
   cmd->add_option("--inject", a->inject,
                   "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "
                   "lost-backend, arc-loss, arc-start-failure, watchdog); may be repeated");
+  cmd->add_flag("--frame", a->frame,
+                "trace the job's outline with the torch off instead of cutting it (the rectangle round its cuts, as "
+                "they will run), from the job's start and back, so that the operator sees where it lies on the sheet");
+  cmd->add_option("--frame-feed", a->frame_feed_mm_per_s, "--frame: speed along the outline, mm/s (default: the machine's rapid speed)")
+      ->check(kFinitePositive);
+  cmd->add_option("--frame-margin", a->frame_margin_mm, "--frame: grow the outline by this much on every side, mm (default 0)")
+      ->check(CLI::Range(0.0, 1000.0));
   field_flags(cmd, kRunFields);
   cmd->callback([a] { run_command(*a); });
 }

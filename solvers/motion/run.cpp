@@ -119,18 +119,19 @@ std::string leaves_travel(const Job& job, const cutting::MachineConfig& m, const
 }
 
 // Names the first cut that enters (or touches) a declared no-go zone ("" when none does):
-// the zones are clamps and the like, which the torch must never burn.
+// the zones are clamps and the like, which the torch must never burn. A feed move with the
+// torch off (a frame, a marking pass) is not re-routed as a rapid is, so it must stay out too.
 std::string cut_in_zone(const Job& job, const std::vector<NoGoZone>& zones, const std::string& zones_path) {
   for (const Stretch& s : job.stretches) {
-    if (!s.cutting || s.rapid) continue;
+    if (s.rapid) continue;
     for (std::size_t i = 0; i < s.segments.size(); ++i) {
       const Segment& g = s.segments[i];
       for (const NoGoZone& z : zones) {
         bool enters = contains(z.contour, g.start);
         for (std::size_t k = 0; !enters && k < z.contour.size(); ++k) enters = !intersect(g, z.contour.span(k)).empty();
         if (enters)
-          return fmt::format("{}:{}: the cut enters the no-go zone '{}' declared at {}:{}", job.source, s.source_lines[i],
-                             z.name, zones_path, z.line);
+          return fmt::format("{}:{}: the {} enters the no-go zone '{}' declared at {}:{}", job.source, s.source_lines[i],
+                             s.cutting ? "cut" : "move (torch off)", z.name, zones_path, z.line);
       }
     }
   }

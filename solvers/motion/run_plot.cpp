@@ -137,6 +137,14 @@ void draw(Canvas& cr, double W, double H, const RunOutcome& run, double K) {
       cr.stroke();
     }
   cr.set_dash(nullptr, 0, 0);
+  // Feed moves with the torch off (a frame, a marking pass): green.
+  cr.set_source_rgb(0.1, 0.6, 0.2);
+  cr.set_line_width(1.5);
+  for (const Stretch& st : job.stretches)
+    if (!st.cutting && !st.rapid) {
+      trace_stretch(cr, v, st);
+      cr.stroke();
+    }
   cr.set_source_rgb(0, 0, 0);
   cr.set_line_width(1.0);
   for (const Stretch& st : job.stretches)
@@ -203,6 +211,8 @@ void draw(Canvas& cr, double W, double H, const RunOutcome& run, double K) {
   lx = legend_item(cr, lx, ly, 0, 0, 0, false, "programmed torch path (o: pierce)", 1.0);
   lx = legend_item(cr, lx, ly, 0.85, 0.1, 0.1, false, fmt::format("executed, torch on (error x{:g})", K), 1.3);
   lx = legend_item(cr, lx, ly, 0.2, 0.4, 0.85, true, "rapids as planned", 1.0);
+  if (std::any_of(job.stretches.begin(), job.stretches.end(), [](const Stretch& st) { return !st.cutting && !st.rapid; }))
+    lx = legend_item(cr, lx, ly, 0.1, 0.6, 0.2, false, "feed, torch off", 1.5);
   if (run.kerf)
     lx = legend_item(cr, lx, ly, 0.6, 0.6, 0.6, false, fmt::format("outline before kerf ({:g} mm)", run.kerf->kerf_width_mm),
                      0.8);

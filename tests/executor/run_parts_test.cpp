@@ -289,6 +289,38 @@ TEST(RunCommand, JobsTheMachineCannotDoExitWithThree) {
   EXPECT_THAT(on_clamp.err, HasSubstr("triangle_45.ngc:9: the cut enters the no-go zone 'clamp' declared at " + clamp + ":2"));
 }
 
+// --frame: the triangle's outline traced with the torch off, from and back to the start; a
+// clamp on the outline (clear of the cut) refuses the frame, not the job.
+TEST(RunCommand, FrameTracesTheJobsOutlineWithTheTorchOff) {
+  const CliRun r = machplan(fmt::format("run '{}' --machine thermal_gantry --frame --frame-feed 50 --json", part("triangle_45.ngc")));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["status"], "done");
+  EXPECT_EQ(j["frame"]["x_mm"], nlohmann::json({200.0, 300.0}));
+  EXPECT_EQ(j["frame"]["y_mm"], nlohmann::json({200.0, 300.0}));
+  EXPECT_EQ(j["frame"]["feed_mm_per_s"], 50.0);
+  EXPECT_EQ(j["torch_on_s"], 0.0);
+  EXPECT_TRUE(j["cuts"].empty());
+  // 400 mm of outline at 50 mm/s, and the rapids there and back.
+  EXPECT_GT(j["cycle_time_s"].get<double>(), 8.0);
+  EXPECT_THAT(r.err, HasSubstr("framing"));
+
+  test::TempDir dir;
+  const std::string clamp =
+      dir.write("clamp.yaml", "no_go:\n  - name: clamp\n    polygon: [[240, 295], [260, 295], [260, 305], [240, 305]]\n");
+  EXPECT_EQ(machplan(fmt::format("run '{}' --machine thermal_gantry --no-go '{}'", part("triangle_45.ngc"), clamp)).code, 0);
+  const CliRun framed = machplan(fmt::format("run '{}' --machine thermal_gantry --no-go '{}' --frame", part("triangle_45.ngc"), clamp));
+  EXPECT_EQ(framed.code, 3) << framed.err;
+  EXPECT_THAT(framed.err, HasSubstr("the move (torch off) enters the no-go zone 'clamp'"));
+
+  const CliRun stray = machplan(fmt::format("run '{}' --machine thermal_gantry --frame-margin 5", part("triangle_45.ngc")));
+  EXPECT_EQ(stray.code, 2);
+  EXPECT_THAT(stray.err, HasSubstr("--frame-margin: is for --frame"));
+  const CliRun paper = machplan(fmt::format("run '{}' --machine thermal_gantry --frame --mode paper-open", part("triangle_45.ngc")));
+  EXPECT_EQ(paper.code, 2);
+  EXPECT_THAT(paper.err, HasSubstr("--frame"));
+}
+
 // A fence of clamps round the triangle: no rapid can reach its pierce point, and the
 // programmed one runs through a clamp.
 TEST(RunParts, RapidWithNoClearRouteThroughAClampIsRefused) {
