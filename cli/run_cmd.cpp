@@ -25,7 +25,6 @@
 #include "engine/common/error.h"
 #include "engine/common/internal/parse.h"
 #include "engine/hardware/operator_events.h"
-#include "engine/motion/frame.h"
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
 #include "solvers/motion/run_plot.h"
@@ -179,29 +178,21 @@ motion::RunOptions run_options(const RunArgs& a) {
   return o;
 }
 
-// --frame: instead of the job, its outline traced with the torch off (engine/motion/frame.h),
-// planned like any job (travel, no-go zones); what it frames is told on stderr.
-motion::PlannedRun frame_plan(const motion::PlannedRun& job, motion::RunOptions o, const RunArgs& a, Termination& stop,
-                              Progress& planning, nlohmann::json& report) {
+// --frame: instead of the job, its outline traced with the torch off (solvers/motion/run.h,
+// plan_frame); what it frames is told on stderr.
+motion::PlannedRun frame_plan(const motion::PlannedRun& job, const motion::RunOptions& o, const RunArgs& a,
+                              Termination& stop, Progress& planning, nlohmann::json& report) {
   motion::FrameOptions fo;
-  fo.rapid_feed_mm_per_s = job.machine.limits.rapid_mm_per_s;
-  fo.feed_mm_per_s = a.frame_feed_mm_per_s > 0 ? a.frame_feed_mm_per_s : fo.rapid_feed_mm_per_s;
+  fo.feed_mm_per_s = a.frame_feed_mm_per_s;
   fo.margin_mm = a.frame_margin_mm;
-  motion::Frame frame = motion::frame_job(job.job, fo);
+  motion::FramePlan frame = motion::plan_frame(job.job, o, fo, job.machine, {&stop, &planning, nullptr});
   const Eigen::AlignedBox2d& b = frame.outline;
-  report = {{"x_mm", {b.min().x(), b.max().x()}}, {"y_mm", {b.min().y(), b.max().y()}}, {"from_cuts", frame.from_cuts},
-            {"feed_mm_per_s", fo.feed_mm_per_s}, {"margin_mm", fo.margin_mm}};
   std::fprintf(stderr, "machplan run: framing %s: X %.3f .. %.3f, Y %.3f .. %.3f mm (%.1f x %.1f mm%s) at %.1f mm/s, torch off\n",
                a.program.c_str(), b.min().x(), b.max().x(), b.min().y(), b.max().y(), b.sizes().x(), b.sizes().y(),
-               frame.from_cuts ? "" : "; the job cuts nothing: its feed moves", fo.feed_mm_per_s);
-  // The frame is the job's path as it will run: kerf and cut order are in it already.
-  o.kerf_mm = 0.0;
-  o.kerf_from_materials = false;
-  o.from_line = 0;
-  o.feed_override_mm_per_s = 0.0;
-  motion::PlannedRun plan = motion::plan_job(std::move(frame.job), o, job.machine, {&stop, &planning, nullptr});
-  if (!plan.summary.done()) throw Infeasible(plan.summary.message, plan.limit_field);
-  return plan;
+               frame.from_cuts ? "" : "; the job cuts nothing: its feed moves", frame.options.feed_mm_per_s);
+  report = frame_json(frame);
+  if (!frame.plan.summary.done()) throw Infeasible(frame.plan.summary.message, frame.plan.limit_field);
+  return std::move(frame.plan);
 }
 
 void run_command(const RunArgs& a) {

@@ -94,4 +94,13 @@ nlohmann::json to_json(const motion::RunOutcome& run) {
   return j;
 }
 
+nlohmann::json frame_json(const motion::FramePlan& f) {
+  const Eigen::AlignedBox2d& b = f.outline;
+  return {{"x_mm", {b.min().x(), b.max().x()}},
+          {"y_mm", {b.min().y(), b.max().y()}},
+          {"from_cuts", f.from_cuts},
+          {"feed_mm_per_s", f.options.feed_mm_per_s},
+          {"margin_mm", f.options.margin_mm}};
+}
+
 }  // namespace machplan::cli

@@ -18,5 +18,8 @@ namespace machplan::cli {
 // "reason"}]}, and with kerf compensation "kerf": {"width_mm", "loops", "compensated",
 // "issues": [{"kind", "source_line", "message"}]}.
 nlohmann::json to_json(const motion::RunOutcome& run);
+// A frame's outline and settings (`run --json`'s and the panel's `frame`): x_mm and y_mm as
+// [min, max], from_cuts, feed_mm_per_s, margin_mm.
+nlohmann::json frame_json(const motion::FramePlan& frame);
 
 }  // namespace machplan::cli

@@ -289,10 +289,14 @@ std::shared_ptr<const std::string> Panel::guard_drawing() const {
   return guard_drawing_;
 }
 
-void Panel::run(std::optional<int> from_line) {
-  const std::lock_guard<std::mutex> lock(cmd_mutex_);
+void Panel::require_idle() const {
   if (activity_.load() != Activity::idle || cmd_ != Command::none) throw Busy("the machine is busy: a job, a jog or a guard session runs");
   if (estop_.load()) throw Busy("the E-stop is latched: reset it first (POST /api/reset)");
+}
+
+void Panel::run(std::optional<int> from_line) {
+  const std::lock_guard<std::mutex> lock(cmd_mutex_);
+  require_idle();
   {
     const std::lock_guard<std::mutex> jl(job_mutex_);
     if (job_path_.empty()) throw Busy("no job is loaded (POST /api/job)");
@@ -305,6 +309,79 @@ void Panel::run(std::optional<int> from_line) {
   cmd_ = Command::run;
   cmd_from_line_ = from_line;
   cmd_cv_.notify_all();
+}
+
+json Panel::frame(std::optional<double> feed_mm_per_s, std::optional<double> margin_mm) {
+  {
+    const std::lock_guard<std::mutex> lock(cmd_mutex_);
+    require_idle();
+  }
+  motion::FrameOptions fo;
+  if (feed_mm_per_s) {
+    if (!(std::isfinite(*feed_mm_per_s) && *feed_mm_per_s > 0.0))
+      throw InputError::field("feed", fmt::format("{} must be a speed > 0, mm/s", *feed_mm_per_s));
+    fo.feed_mm_per_s = *feed_mm_per_s;
+  }
+  if (margin_mm) {
+    if (!(std::isfinite(*margin_mm) && *margin_mm >= 0.0 && *margin_mm <= 1000.0))
+      throw InputError::field("margin", fmt::format("{} must be 0 .. 1000 mm", *margin_mm));
+    fo.margin_mm = *margin_mm;
+  }
+  std::unique_lock<std::mutex> planning(plan_mutex_, std::try_to_lock);
+  if (!planning.owns_lock()) throw Busy("another job is being planned");
+  std::optional<motion::Job> job;  // as it will run: kerf and rapids planned
+  std::string path;
+  JobRequest request;
+  {
+    const std::lock_guard<std::mutex> lock(job_mutex_);
+    if (job_path_.empty()) throw Busy("no job is loaded (POST /api/job)");
+    if (plan_) job = plan_->job;
+    path = job_path_;
+    request = job_request_;
+  }
+  const motion::RunOptions options = job_options(request.origin_mm, request.materials, request.material);
+  // The E-stop stops this planning as it stops a job's (the job is planned again when it has run).
+  Termination t;
+  struct StopWhilePlanning {
+    Panel& p;
+    StopWhilePlanning(Panel& panel, Termination& t) : p(panel) {
+      const std::lock_guard<std::mutex> lock(p.stop_mutex_);
+      p.current_stop_ = &t;
+      p.planning_ = true;
+    }
+    ~StopWhilePlanning() {
+      const std::lock_guard<std::mutex> lock(p.stop_mutex_);
+      p.current_stop_ = nullptr;
+      p.planning_ = false;
+    }
+  };
+  std::optional<motion::PlannedRun> replanned;  // the job has run: planned again
+  std::optional<motion::FramePlan> f;
+  {
+    const StopWhilePlanning scope(*this, t);
+    if (!job) {
+      replanned.emplace(motion::plan_program(path, options, session_->machine(), {&t, nullptr, nullptr}));
+      if (replanned->summary.done()) job = replanned->job;
+    }
+    if (job) f.emplace(motion::plan_frame(*job, options, fo, session_->machine(), {&t, nullptr, nullptr}));
+  }
+  const motion::PlannedRun& refused = f ? f->plan : *replanned;
+  if (!refused.summary.done()) {
+    if (refused.summary.status == Status::infeasible) throw Infeasible(clean(refused.summary.message), refused.limit_field);
+    throw Cancelled(refused.summary.message);
+  }
+  json j = cli::frame_json(*f);
+  const std::lock_guard<std::mutex> lock(cmd_mutex_);
+  require_idle();
+  {
+    const std::lock_guard<std::mutex> jl(job_mutex_);
+    frame_plan_ = std::move(f->plan);
+    frame_json_ = j;
+  }
+  activity_ = Activity::running;
+  cmd_ = Command::frame;
+  cmd_cv_.notify_all();
+  return j;
 }
 
 // ---- the operator -----------------------------------------------------------------------------
@@ -541,6 +618,7 @@ void Panel::runner_loop() {
     try {
       switch (c) {
         case Command::run: run_job(from_line); break;
+        case Command::frame: run_frame(); break;
         case Command::jog: run_jog(); break;
         case Command::guard: run_guard_session(); break;
         case Command::none:
@@ -566,7 +644,7 @@ void Panel::runner_loop() {
       if (cmd_ != Command::quit) cmd_ = Command::none;
       activity_ = Activity::idle;
     }
-    if (c == Command::run) ++runs_finished_;
+    if (c == Command::run || c == Command::frame) ++runs_finished_;
   }
 }
 
@@ -606,16 +684,43 @@ void Panel::run_job(std::optional<int> from_line) {
     }
     planning_ = false;
   }
+  run_plan(std::move(*plan), options, t, json());
+}
+
+void Panel::run_frame() {
+  Termination t;
+  {
+    const std::lock_guard<std::mutex> lock(stop_mutex_);
+    current_stop_ = &t;
+  }
+  std::optional<motion::PlannedRun> plan;
+  json frame;
+  JobRequest request;
+  {
+    const std::lock_guard<std::mutex> lock(job_mutex_);
+    plan = std::move(frame_plan_);
+    frame_plan_.reset();
+    frame = frame_json_;
+    request = job_request_;
+    last_fault_json_ = json::array();
+    last_end_ = "running";
+  }
+  if (!plan) return;
+  run_plan(std::move(*plan), job_options(request.origin_mm, request.materials, request.material), t, frame);
+}
+
+void Panel::run_plan(motion::PlannedRun plan, const motion::RunOptions& options, Termination& t, const json& frame) {
   if (session_->backend_open()) {
     // Where the machine stands: the last setpoint, which the servo holds. The measured position
     // differs from it by the servo's error at rest, and after a job that ends at the travel's
     // corner it may lie a hundredth of a millimetre outside the travel, where no rapid starts.
     const Eigen::Vector2d at = session_->live().read().commanded_mm;
-    if ((plan->job.start_mm - at).norm() > 0.01 && !move_to(at, plan->job.start_mm, t)) return;
+    if ((plan.job.start_mm - at).norm() > 0.01 && !move_to(at, plan.job.start_mm, t)) return;
   }
-  motion::RunOutcome outcome = motion::execute(*session_, std::move(*plan), options, {&t, nullptr, nullptr});
+  motion::RunOutcome outcome = motion::execute(*session_, std::move(plan), options, {&t, nullptr, nullptr});
   json j = cli::to_json(outcome);
   j["cut_order"] = cli::cut_order_json(outcome.cut_order);
+  if (!frame.is_null()) j["frame"] = frame;
   auto text = std::make_shared<const std::string>(j.dump(-1, ' ', false, json::error_handler_t::replace));
   {
     const std::lock_guard<std::mutex> lock(job_mutex_);

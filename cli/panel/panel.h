@@ -119,6 +119,13 @@ class Panel {
   // Starts the loaded job (from `from_line` when given). Busy when something runs, no job is
   // loaded or the E-stop is latched; InputError for a line the program does not have.
   void run(std::optional<int> from_line);
+  // Frames the loaded job (POST /api/frame): its outline traced with the torch off
+  // (solvers/motion/run.h, plan_frame: `feed_mm_per_s` along it, default the machine's rapid
+  // speed; the outline grown by `margin_mm`), planned on the calling thread so that errors
+  // answer the request, then run by the runner from wherever the machine stands. Returns the
+  // outline (cli/json/run.h, frame_json). Busy as run(); InputError::field (feed, margin) for a
+  // bad value; Infeasible when the frame leaves the travel or enters a declared no-go zone.
+  nlohmann::json frame(std::optional<double> feed_mm_per_s, std::optional<double> margin_mm);
   // Buttons (HTTP hold, resume, stop).
   // A paper-mode session has no hold, resume, override or recovery: those throw InputError
   // with the rule a run's options give (session::kPaperModesLack).
@@ -168,9 +175,15 @@ class Panel {
   std::string clean(const std::string& text) const;
 
  private:
-  enum class Command { none, run, jog, guard, quit };
+  enum class Command { none, run, frame, jog, guard, quit };
   void runner_loop();
   void run_job(std::optional<int> from_line);
+  void run_frame();
+  // Runs `plan` from where the machine stands (a rapid to its start first) and keeps its report.
+  void run_plan(motion::PlannedRun plan, const motion::RunOptions& options, Termination& t, const nlohmann::json& frame);
+  // Busy unless the machine is idle with no command pending and the E-stop closed; under
+  // cmd_mutex_.
+  void require_idle() const;
   void run_jog();
   void run_guard_session();
   // The rapid to a job's start; false (the fault recorded) when it did not get there.
@@ -214,6 +227,8 @@ class Panel {
   JobRequest job_request_;
   motion::Job programmed_;  // the loaded job before kerf and rapids (run from line trims it)
   std::optional<motion::PlannedRun> plan_;
+  std::optional<motion::PlannedRun> frame_plan_;  // frame() to the runner
+  nlohmann::json frame_json_;
   std::shared_ptr<const std::string> drawing_, report_, guard_drawing_;
   std::string tmp_dir_;
   std::vector<std::string> read_folders_;  // canonical: the job folder, the datasets, tmp_dir_

@@ -82,7 +82,7 @@ constexpr ApiRoute kApiRoutes[] = {
     {"/resume", false, true, true},   {"/stop", false, true, true},     {"/estop", false, true, false},
     {"/reset", false, true, true},    {"/override", false, true, true}, {"/recover", false, true, true},
     {"/thc", false, true, true},      {"/jog", false, true, true},      {"/report", true, false, false},
-    {"/guard", true, true, true},     {"/history", true, false, false}};
+    {"/guard", true, true, true},     {"/history", true, false, false}, {"/frame", false, true, true}};
 
 const ApiRoute* find_api_route(const std::string& path) {
   for (const ApiRoute& r : kApiRoutes)
@@ -271,6 +271,7 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
     panel.run(whole_number(body, "from_line", 1, 10000000, "line number"));
     return ok({{"ok", true}});
   }
+  if (path == "/frame") return ok({{"ok", true}, {"frame", panel.frame(number(body, "feed"), number(body, "margin"))}});
   if (path == "/hold") return panel.hold(), ok({{"ok", true}});
   if (path == "/resume") return panel.resume(), ok({{"ok", true}});
   if (path == "/stop") return panel.stop(), ok({{"ok", true}});

@@ -24,10 +24,11 @@
 namespace machplan::motion {
 
 struct FrameOptions {
-  // Speed along the outline, mm/s (> 0).
-  double feed_mm_per_s = 4910.0 / 60.0;
-  // Speed of the rapids to and from the outline, mm/s (> 0).
-  double rapid_feed_mm_per_s = 4910.0 / 60.0;
+  // Speed along the outline, mm/s (> 0; plan_frame in solvers/motion/run.h puts the machine's
+  // rapid speed in place of 0).
+  double feed_mm_per_s = 0.0;
+  // Speed of the rapids to and from the outline, mm/s (> 0; plan_frame: the machine's).
+  double rapid_feed_mm_per_s = 0.0;
   // Added round the cut path's rectangle on every side, mm (>= 0, at most 1000).
   double margin_mm = 0.0;
 };
@@ -38,6 +39,6 @@ struct Frame {
   Job job;                      // start, rapid, the outline, rapid back; the torch never on
 };
 
-Frame frame_job(const Job& job, const FrameOptions& options = {});
+Frame frame_job(const Job& job, const FrameOptions& options);
 
 }  // namespace machplan::motion

@@ -512,6 +512,24 @@ PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::Ma
   return o;
 }
 
+FramePlan plan_frame(const Job& job, RunOptions options, FrameOptions frame, const cutting::MachineConfig& machine,
+                     const RunControl& control) {
+  const double rapid = machine.limits.rapid_mm_per_s;
+  if (frame.rapid_feed_mm_per_s == 0.0) frame.rapid_feed_mm_per_s = rapid;
+  if (frame.feed_mm_per_s == 0.0) frame.feed_mm_per_s = rapid;
+  Frame f = frame_job(job, frame);
+  options.kerf_mm = 0.0;
+  options.kerf_from_materials = false;
+  options.from_line = 0;
+  options.feed_override_mm_per_s = 0.0;
+  FramePlan out;
+  out.outline = f.outline;
+  out.from_cuts = f.from_cuts;
+  out.options = frame;
+  out.plan = plan_job(std::move(f.job), options, machine, control);
+  return out;
+}
+
 namespace {
 
 // Torch height control over the cuts, the figures --json gives per cut (cuts[].thc), from the

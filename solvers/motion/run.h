@@ -66,6 +66,7 @@
 #include "engine/common/termination.h"
 #include "engine/executor/executor.h"
 #include "engine/motion/feed_planner.h"
+#include "engine/motion/frame.h"
 #include "engine/motion/job.h"
 #include "engine/motion/kerf.h"
 #include "engine/motion/time_optimal.h"
@@ -224,6 +225,20 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
 // build or trim jobs themselves, such as the paper reproduction in bench/.
 PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::MachineConfig& machine,
                     const RunControl& control = {});
+// The frame of a planned job (PlannedRun::job; engine/motion/frame.h: its outline traced with
+// the torch off, from and back to its start), planned for `machine` like any job: the travel and the
+// declared no-go zones of `options` apply; kerf, cut order and run-from-line are in the job's
+// path already and are not applied again, nor is the feed override. Feeds of 0 in `frame` take
+// the machine's rapid speed. Throws InputError as frame_job does.
+struct FramePlan {
+  PlannedRun plan;
+  Eigen::AlignedBox2d outline;
+  bool from_cuts = true;
+  FrameOptions options;  // as used
+};
+FramePlan plan_frame(const Job& job, RunOptions options, FrameOptions frame, const cutting::MachineConfig& machine,
+                     const RunControl& control = {});
+
 // Runs a planned job on `session` (whose machine it was planned for); a plan whose summary is
 // not done is not run (the outcome keeps its summary).
 RunOutcome execute(session::MachineSession& session, PlannedRun plan, const RunOptions& options,

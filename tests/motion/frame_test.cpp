@@ -21,6 +21,14 @@ using Eigen::Vector2d;
 
 Job gcode_job(const std::string& gcode) { return make_job(read_gcode(gcode, "part.ngc")); }
 
+// Valid options: 25 mm/s along the outline, rapids at 200 mm/s.
+FrameOptions valid() {
+  FrameOptions o;
+  o.feed_mm_per_s = 25;
+  o.rapid_feed_mm_per_s = 200;
+  return o;
+}
+
 // A square 100..150 x 100..150 and a circle of radius 20 about (300, 120): the circle's
 // extent (280 .. 320, 100 .. 140) is wider than its end points (320, 120).
 const char* kTwoParts =
@@ -32,13 +40,13 @@ const char* kTwoParts =
 
 TEST(Frame, TheOutlineIsTheRectangleRoundTheCutsArcsByTheirExtent) {
   const Job job = gcode_job(kTwoParts);
-  const Frame f = frame_job(job);
+  const Frame f = frame_job(job, valid());
   EXPECT_TRUE(f.from_cuts);
   EXPECT_NEAR(f.outline.min().x(), 100.0, 1e-9);
   EXPECT_NEAR(f.outline.min().y(), 100.0, 1e-9);
   EXPECT_NEAR(f.outline.max().x(), 320.0, 1e-9);
   EXPECT_NEAR(f.outline.max().y(), 150.0, 1e-9);  // the circle reaches 140 only
-  FrameOptions o;
+  FrameOptions o = valid();
   o.margin_mm = 5;
   const Frame grown = frame_job(job, o);
   EXPECT_NEAR(grown.outline.min().x(), 95.0, 1e-9);
@@ -47,10 +55,7 @@ TEST(Frame, TheOutlineIsTheRectangleRoundTheCutsArcsByTheirExtent) {
 
 TEST(Frame, StartsAndEndsAtTheJobsStartTorchOffTracingTheOutlineOnce) {
   const Job job = gcode_job(kTwoParts);
-  FrameOptions o;
-  o.feed_mm_per_s = 25;
-  o.rapid_feed_mm_per_s = 200;
-  const Frame f = frame_job(job, o);
+  const Frame f = frame_job(job, valid());
   EXPECT_EQ(f.job.start_mm, job.start_mm);
   ASSERT_EQ(f.job.steps.size(), 3u);
   double traced = 0;
@@ -81,12 +86,12 @@ TEST(Frame, StartsAndEndsAtTheJobsStartTorchOffTracingTheOutlineOnce) {
 }
 
 TEST(Frame, AJobThatCutsNothingIsFramedByItsFeedMovesOneWithoutIsRefused) {
-  const Frame marking = frame_job(gcode_job("G21 G90\nG0 X0 Y0\nG1 X40 Y10 F600\nG1 X60 Y-5\nM2\n"));
+  const Frame marking = frame_job(gcode_job("G21 G90\nG0 X0 Y0\nG1 X40 Y10 F600\nG1 X60 Y-5\nM2\n"), valid());
   EXPECT_FALSE(marking.from_cuts);
   EXPECT_NEAR(marking.outline.min().y(), -5.0, 1e-9);
   EXPECT_NEAR(marking.outline.max().x(), 60.0, 1e-9);
   try {
-    frame_job(gcode_job("G21 G90\nG0 X0 Y0\nG0 X50 Y50\nM2\n"));
+    frame_job(gcode_job("G21 G90\nG0 X0 Y0\nG0 X50 Y50\nM2\n"), valid());
     FAIL() << "a job of rapids only has no outline";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("part.ngc"), std::string::npos) << e.what();
@@ -104,13 +109,14 @@ TEST(Frame, BadOptionsNameTheirField) {
     }
     return std::string("accepted");
   };
-  FrameOptions o;
-  o.feed_mm_per_s = 0;
+  EXPECT_EQ(field_of(valid()), "accepted");
+  FrameOptions o = valid();
+  o.feed_mm_per_s = 0;  // plan_frame's "the machine's rapid speed"; frame_job needs a speed
   EXPECT_EQ(field_of(o), "feed_mm_per_s");
-  o = {};
+  o = valid();
   o.rapid_feed_mm_per_s = NAN;
   EXPECT_EQ(field_of(o), "rapid_feed_mm_per_s");
-  o = {};
+  o = valid();
   o.margin_mm = -1;
   EXPECT_EQ(field_of(o), "margin_mm");
   o.margin_mm = 2000;

@@ -38,7 +38,7 @@ const Route kRoutes[] = {{"GET", "/api/status"},   {"POST", "/api/login"},    {"
                          {"POST", "/api/stop"},    {"POST", "/api/estop"},    {"POST", "/api/reset"},   {"POST", "/api/override"},
                          {"POST", "/api/recover"}, {"POST", "/api/thc"},
                          {"POST", "/api/jog"},     {"GET", "/api/report"},    {"POST", "/api/guard"},   {"GET", "/api/guard"},
-                         {"GET", "/api/history"}};
+                         {"GET", "/api/history"},  {"POST", "/api/frame"}};
 
 TEST(PanelApi, EveryRouteWantsTheTokenAndAnswers401AndNothingElse) {
   PanelRig rig(0);
@@ -572,6 +572,37 @@ TEST(PanelApi, RunFromALineRunsTheTailOfTheJob) {
   EXPECT_EQ(r["status"], "done") << r.dump();
   ASSERT_EQ(r["cuts"].size(), 1u);
   EXPECT_EQ(r["cuts"][0]["source_line"], 11) << "the cut starts at the line asked for";
+}
+
+// Framing: the loaded job's outline traced with the torch off, answered with the outline and
+// reported as a run; the job then runs from where the frame left the machine (its start).
+TEST(PanelApi, TheFrameTracesTheLoadedJobsOutlineWithTheTorchOff) {
+  PanelRig rig(0);
+  rig.take_control();
+  EXPECT_EQ(rig.post("/api/frame", json::object()).status, 409) << "no job is loaded";
+  rig.load({{"program", kTriangle}});
+  const HttpResponse slow = rig.post("/api/frame", {{"feed", -1}});
+  EXPECT_EQ(slow.status, 400);
+  EXPECT_NE(slow.body.find("feed"), std::string::npos) << slow.body;
+  EXPECT_EQ(rig.post("/api/frame", {{"margin", 5000}}).status, 400);
+  const HttpResponse f = rig.post("/api/frame", {{"feed", 60}, {"margin", 2}});
+  ASSERT_EQ(f.status, 200) << f.body;
+  const json frame = json::parse(f.body)["frame"];
+  EXPECT_EQ(frame["x_mm"], json({198.0, 302.0}));
+  EXPECT_EQ(frame["y_mm"], json({198.0, 302.0}));
+  EXPECT_EQ(frame["feed_mm_per_s"], 60.0);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 1; }));
+  const json r = json::parse(rig.get("/api/report").body);
+  EXPECT_EQ(r["status"], "done") << r.dump();
+  EXPECT_EQ(r["frame"], frame);
+  EXPECT_TRUE(r["cuts"].empty());
+  EXPECT_EQ(r["torch_on_s"], 0.0);
+  ASSERT_EQ(rig.post("/api/run", json::object()).status, 200);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 2; }));
+  const json cut = json::parse(rig.get("/api/report").body);
+  EXPECT_EQ(cut["status"], "done") << cut.dump();
+  EXPECT_EQ(cut["cuts"].size(), 1u);
+  EXPECT_FALSE(cut.contains("frame"));
 }
 
 // A job takes a QtPlasmaC material file (a path, or its text from the page) and the material in

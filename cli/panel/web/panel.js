@@ -294,7 +294,7 @@ async function poll() {
     const c = $('control');
     c.textContent = s.control.yours ? 'You have control' : s.control.held ? 'Take control (another client has it)' : 'Take control';
     c.classList.toggle('yours', s.control.yours);
-    for (const id of ['load', 'run', 'hold', 'resume', 'stop', 'reset', 'g-start', 'g-end']) $(id).disabled = !s.control.yours;
+    for (const id of ['load', 'run', 'frame', 'hold', 'resume', 'stop', 'reset', 'g-start', 'g-end']) $(id).disabled = !s.control.yours;
     // Greyed-out buttons say why, next to them.
     const why = s.control.yours ? ''
       : s.control.held ? 'Another client has control: Take control (top right) to load and run from here.'
@@ -370,6 +370,13 @@ async function loadGuard() {
 function wire() {
   $('estop').onclick = () => act('POST', '/estop');
   $('control').onclick = () => act('POST', '/control', { take: true });
+  $('frame').onclick = async () => {
+    const r = await act('POST', '/frame', {});
+    if (r && r.frame) {
+      const f = r.frame, mm = (v) => v.toFixed(1);
+      say(`framing X ${mm(f.x_mm[0])} .. ${mm(f.x_mm[1])}, Y ${mm(f.y_mm[0])} .. ${mm(f.y_mm[1])} mm at ${mm(f.feed_mm_per_s)} mm/s, torch off`);
+    }
+  };
   $('run').onclick = () => { const l = parseInt($('from-line').value, 10); act('POST', '/run', l > 0 ? { from_line: l } : {}); };
   $('hold').onclick = () => act('POST', '/hold');
   $('resume').onclick = () => act('POST', '/resume');
