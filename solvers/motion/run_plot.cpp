@@ -70,6 +70,36 @@ double legend_item(Canvas& cr, double x, double y, double r, double g, double b,
   return x + 34 + cr.text_advance(label) + 24;
 }
 
+// The job as planned: rapids dashed blue, feed moves with the torch off (a frame, a marking
+// pass) green, the cutting path black with its pierce points.
+void draw_planned(Canvas& cr, const View& v, const Job& job) {
+  const double dash[] = {6.0, 4.0};
+  const auto draw_stretches = [&](auto take) {
+    for (const Stretch& st : job.stretches)
+      if (take(st)) {
+        trace_stretch(cr, v, st);
+        cr.stroke();
+      }
+  };
+  cr.set_line_width(1.0);
+  cr.set_source_rgb(0.2, 0.4, 0.85);
+  cr.set_dash(dash, 2, 0);
+  draw_stretches([](const Stretch& st) { return st.rapid; });
+  cr.set_dash(nullptr, 0, 0);
+  cr.set_source_rgb(0.1, 0.6, 0.2);
+  cr.set_line_width(1.5);
+  draw_stretches([](const Stretch& st) { return !st.cutting && !st.rapid; });
+  cr.set_source_rgb(0, 0, 0);
+  cr.set_line_width(1.0);
+  draw_stretches([](const Stretch& st) { return st.cutting && !st.rapid; });
+  for (const Stretch& st : job.stretches)
+    if (st.cutting && !st.rapid) {
+      const Vector2d p = st.segments.front().start;
+      cr.arc(v.sx(p.x()), v.sy(p.y()), 3.0, 0, 2 * M_PI);
+      cr.stroke();
+    }
+}
+
 void draw(Canvas& cr, double W, double H, const RunOutcome& run, double K) {
   const Job& job = run.job;
   const executor::ExecutionResult& res = run.result;
@@ -126,35 +156,7 @@ void draw(Canvas& cr, double W, double H, const RunOutcome& run, double K) {
       }
   }
 
-  // Rapids as planned, dashed; programmed cutting path, black; pierce points.
-  const double dash[] = {6.0, 4.0};
-  cr.set_line_width(1.0);
-  cr.set_source_rgb(0.2, 0.4, 0.85);
-  cr.set_dash(dash, 2, 0);
-  for (const Stretch& st : job.stretches)
-    if (st.rapid) {
-      trace_stretch(cr, v, st);
-      cr.stroke();
-    }
-  cr.set_dash(nullptr, 0, 0);
-  // Feed moves with the torch off (a frame, a marking pass): green.
-  cr.set_source_rgb(0.1, 0.6, 0.2);
-  cr.set_line_width(1.5);
-  for (const Stretch& st : job.stretches)
-    if (!st.cutting && !st.rapid) {
-      trace_stretch(cr, v, st);
-      cr.stroke();
-    }
-  cr.set_source_rgb(0, 0, 0);
-  cr.set_line_width(1.0);
-  for (const Stretch& st : job.stretches)
-    if (st.cutting && !st.rapid) {
-      trace_stretch(cr, v, st);
-      cr.stroke();
-      const Vector2d p = st.segments.front().start;
-      cr.arc(v.sx(p.x()), v.sy(p.y()), 3.0, 0, 2 * M_PI);
-      cr.stroke();
-    }
+  draw_planned(cr, v, job);
 
   // Executed path while the torch burned, error magnified K times.
   cr.set_source_rgb(0.85, 0.1, 0.1);
