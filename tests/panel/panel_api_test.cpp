@@ -715,13 +715,18 @@ TEST(PanelApi, TheBracketHeldAndResumedMidCutMatchesMachplanRun) {
   rig.take_control();
   rig.load({{"program", test::source_path("datasets/parts/bracket_l.ngc")}, {"origin", {150, 120}}});
   ASSERT_EQ(rig.post("/api/run").status, 200);
-  // Mid-cut: the torch burns on the outline (the last cut, lines 40 on).
+  // Mid-cut: the torch burns on the outline (the last cut, lines 40 on). A run that faults on
+  // the way ends the wait at once.
+  json seen;
   ASSERT_TRUE(rig.wait_for(
-      [](const json& s) {
-        return s["torch"]["arc_ok"] == true && s["line"].get<int>() >= 40 && s["feed_mm_per_s"].get<double>() > 10;
+      [&](const json& s) {
+        seen = s;
+        return s["state"] == "faulted" ||
+               (s["torch"]["arc_ok"] == true && s["line"].get<int>() >= 40 && s["feed_mm_per_s"].get<double>() > 10);
       },
       300))
       << rig.status().dump();
+  ASSERT_NE(seen["state"], "faulted") << seen.dump();
   ASSERT_EQ(rig.post("/api/hold").status, 200);
   ASSERT_TRUE(rig.wait_for([](const json& s) { return s["state"] == "held"; }));
   ASSERT_EQ(rig.post("/api/resume").status, 200);

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <chrono>
+#include <algorithm>
+#include <cmath>
 #include <functional>
 #include <memory>
 #include <string>
@@ -36,6 +38,11 @@ struct PanelRig {
     po.session.machine = machine;
     po.pace = speed > 0;
     po.sim_speed = speed > 0 ? speed : 1.0;
+    // The simulator's watchdog counts machine periods; paced at `speed` times the wall clock,
+    // its 50 would trip after 50 / speed ms of a stalled test process (6 ms at 8x, which a
+    // loaded two-core CI machine gives now and then). The rig keeps 50 ms of wall time, as a
+    // real machine's watchdog has.
+    po.session.backend.sim.watchdog_periods = static_cast<int>(std::ceil(50.0 * std::max(1.0, po.sim_speed)));
     po.store_path = (dir.path() / "store.db").string();
     if (adjust) adjust(po);
     panel = std::make_unique<panel::Panel>(po);
