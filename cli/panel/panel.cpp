@@ -46,6 +46,10 @@ const char* to_string(Panel::Activity a) {
   return "?";
 }
 
+std::int64_t Panel::now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
+}
+
 void PanelOptions::validate() const {
   require_field(std::isfinite(jog_deadman_s) && jog_deadman_s >= 0.05 && jog_deadman_s <= 5, "jog_deadman_s", jog_deadman_s,
                 "s must be in [0.05, 5]");
@@ -58,16 +62,6 @@ void PanelOptions::validate() const {
 
 namespace {
 
-// How a run ended, in Summary's spelling: the one place the panel reads it from a run.
-std::string ending_of(const motion::RunOutcome& r) { return to_string(r.summary.status); }
-
-// A stop asked for (the stop button, a stop request) ends a run as cancelled: it is the run's
-// ending, not a fault of the machine to show in the fault banner.
-bool a_stop(executor::FaultKind k) { return k == executor::FaultKind::stop_requested || k == executor::FaultKind::operator_stop; }
-
-std::int64_t now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
-}
 
 // A file name safe to create in the panel's folder: letters, digits, '.', '-', '_' only.
 std::string safe_name(const std::string& name) {
@@ -202,6 +196,18 @@ std::string Panel::clean(const std::string& text) const {
 
 // ---- jobs -------------------------------------------------------------------------------------
 
+Panel::PlanningScope::PlanningScope(Panel& panel, Termination& t) : p(panel) {
+  const std::lock_guard<std::mutex> lock(p.stop_mutex_);
+  p.current_stop_ = &t;
+  p.planning_ = true;
+}
+
+Panel::PlanningScope::~PlanningScope() {
+  const std::lock_guard<std::mutex> lock(p.stop_mutex_);
+  p.current_stop_ = nullptr;
+  p.planning_ = false;
+}
+
 motion::RunOptions Panel::job_options(const std::optional<Eigen::Vector2d>& origin_mm, const std::string& materials_path,
                                       int material) const {
   motion::RunOptions options = o_.run;
@@ -224,33 +230,16 @@ json Panel::load_job(const JobRequest& request) {
   if (!materials.empty()) materials = readable_file(materials, "materials", FileKind::materials);
   const motion::RunOptions options = job_options(request.origin_mm, materials, request.material);
   Termination t;
-  {
-    const std::lock_guard<std::mutex> lock(stop_mutex_);
-    current_stop_ = &t;
-  }
-  planning_ = true;
   std::optional<motion::PlannedRun> plan;
   try {
+    const PlanningScope scope(*this, t);
     plan.emplace(motion::plan_program(path, options, session_->machine(), {&t, nullptr, nullptr}));
     if (!plan->summary.done()) {  // refused: the same replies as before (409 cancelled, 422 infeasible)
       if (plan->summary.status == Status::infeasible) throw Infeasible(plan->summary.message, plan->limit_field);
       throw Cancelled(plan->summary.message);
     }
   } catch (const InputError& e) {
-    planning_ = false;
-    const std::lock_guard<std::mutex> lock(stop_mutex_);
-    current_stop_ = nullptr;
     throw InputError(clean(e.where()), e.line(), clean(e.message()));
-  } catch (...) {
-    planning_ = false;
-    const std::lock_guard<std::mutex> lock(stop_mutex_);
-    current_stop_ = nullptr;
-    throw;
-  }
-  planning_ = false;
-  {
-    const std::lock_guard<std::mutex> lock(stop_mutex_);
-    current_stop_ = nullptr;
   }
   json summary;
   const std::lock_guard<std::mutex> lock(job_mutex_);
@@ -342,23 +331,10 @@ json Panel::frame(std::optional<double> feed_mm_per_s, std::optional<double> mar
   const motion::RunOptions options = job_options(request.origin_mm, request.materials, request.material);
   // The E-stop stops this planning as it stops a job's (the job is planned again when it has run).
   Termination t;
-  struct StopWhilePlanning {
-    Panel& p;
-    StopWhilePlanning(Panel& panel, Termination& t) : p(panel) {
-      const std::lock_guard<std::mutex> lock(p.stop_mutex_);
-      p.current_stop_ = &t;
-      p.planning_ = true;
-    }
-    ~StopWhilePlanning() {
-      const std::lock_guard<std::mutex> lock(p.stop_mutex_);
-      p.current_stop_ = nullptr;
-      p.planning_ = false;
-    }
-  };
   std::optional<motion::PlannedRun> replanned;  // the job has run: planned again
   std::optional<motion::FramePlan> f;
   {
-    const StopWhilePlanning scope(*this, t);
+    const PlanningScope scope(*this, t);
     if (!job) {
       replanned.emplace(motion::plan_program(path, options, session_->machine(), {&t, nullptr, nullptr}));
       if (replanned->summary.done()) job = replanned->job;
@@ -600,234 +576,6 @@ void Panel::service() {
     }
   }
   if (changed) publish_inputs();
-}
-
-// ---- the runner -------------------------------------------------------------------------------
-
-void Panel::runner_loop() {
-  for (;;) {
-    Command c;
-    std::optional<int> from_line;
-    {
-      std::unique_lock<std::mutex> lock(cmd_mutex_);
-      cmd_cv_.wait(lock, [&] { return cmd_ != Command::none; });
-      c = cmd_;
-      from_line = cmd_from_line_;
-      if (c == Command::quit) return;
-    }
-    try {
-      switch (c) {
-        case Command::run: run_job(from_line); break;
-        case Command::frame: run_frame(); break;
-        case Command::jog: run_jog(); break;
-        case Command::guard: run_guard_session(); break;
-        case Command::none:
-        case Command::quit: break;
-      }
-    } catch (const std::exception& e) {
-      // Planning a job again (a run from a line, a run after a change of origin) can be
-      // stopped (the E-stop, the stop button) or find the job cannot be done.
-      const bool cancelled = dynamic_cast<const Cancelled*>(&e) != nullptr;
-      const bool infeasible = !cancelled && dynamic_cast<const Infeasible*>(&e) != nullptr;
-      const std::lock_guard<std::mutex> lock(job_mutex_);
-      last_end_ = to_string(cancelled ? Status::cancelled : infeasible ? Status::infeasible : Status::faulted);
-      last_fault_json_ = cancelled ? json::array()
-                                   : json::array({{{"kind", "error"}, {"message", clean(e.what())}, {"line", 0}}});
-    }
-    {
-      const std::lock_guard<std::mutex> lock(stop_mutex_);
-      current_stop_ = nullptr;
-    }
-    planning_ = false;
-    {
-      const std::lock_guard<std::mutex> lock(cmd_mutex_);
-      if (cmd_ != Command::quit) cmd_ = Command::none;
-      activity_ = Activity::idle;
-    }
-    if (c == Command::run || c == Command::frame) ++runs_finished_;
-  }
-}
-
-bool Panel::quitting() {
-  const std::lock_guard<std::mutex> lock(cmd_mutex_);
-  return cmd_ == Command::quit;
-}
-
-void Panel::run_job(std::optional<int> from_line) {
-  Termination t;
-  {
-    const std::lock_guard<std::mutex> lock(stop_mutex_);
-    current_stop_ = &t;
-  }
-  std::optional<motion::PlannedRun> plan;
-  motion::Job programmed;
-  std::string path;
-  JobRequest request;
-  {
-    const std::lock_guard<std::mutex> lock(job_mutex_);
-    if (!from_line && plan_) plan = std::move(plan_);
-    plan_.reset();
-    programmed = programmed_;
-    path = job_path_;
-    request = job_request_;
-    last_fault_json_ = json::array();
-    last_end_ = "running";
-  }
-  const motion::RunOptions options = job_options(request.origin_mm, request.materials, request.material);
-  if (!plan) {
-    // Again (a job runs more than once), or from a line.
-    planning_ = true;
-    if (from_line) {
-      plan.emplace(motion::plan_job(job_from_line(programmed, *from_line), options, session_->machine(), {&t, nullptr, nullptr}));
-    } else {
-      plan.emplace(motion::plan_program(path, options, session_->machine(), {&t, nullptr, nullptr}));
-    }
-    planning_ = false;
-  }
-  run_plan(std::move(*plan), options, t, json());
-}
-
-void Panel::run_frame() {
-  Termination t;
-  {
-    const std::lock_guard<std::mutex> lock(stop_mutex_);
-    current_stop_ = &t;
-  }
-  std::optional<motion::PlannedRun> plan;
-  json frame;
-  JobRequest request;
-  {
-    const std::lock_guard<std::mutex> lock(job_mutex_);
-    plan = std::move(frame_plan_);
-    frame_plan_.reset();
-    frame = frame_json_;
-    request = job_request_;
-    last_fault_json_ = json::array();
-    last_end_ = "running";
-  }
-  if (!plan) return;
-  run_plan(std::move(*plan), job_options(request.origin_mm, request.materials, request.material), t, frame);
-}
-
-void Panel::run_plan(motion::PlannedRun plan, const motion::RunOptions& options, Termination& t, const json& frame) {
-  if (session_->backend_open()) {
-    // Where the machine stands: the last setpoint, which the servo holds. The measured position
-    // differs from it by the servo's error at rest, and after a job that ends at the travel's
-    // corner it may lie a hundredth of a millimetre outside the travel, where no rapid starts.
-    const Eigen::Vector2d at = session_->live().read().commanded_mm;
-    if ((plan.job.start_mm - at).norm() > 0.01 && !move_to(at, plan.job.start_mm, t)) return;
-  }
-  motion::RunOutcome outcome = motion::execute(*session_, std::move(plan), options, {&t, nullptr, nullptr});
-  json j = cli::to_json(outcome);
-  j["cut_order"] = cli::cut_order_json(outcome.cut_order);
-  if (!frame.is_null()) j["frame"] = frame;
-  auto text = std::make_shared<const std::string>(j.dump(-1, ' ', false, json::error_handler_t::replace));
-  {
-    const std::lock_guard<std::mutex> lock(job_mutex_);
-    report_ = std::move(text);
-  }
-  record_end(ending_of(outcome), outcome.result.faults);
-}
-
-void Panel::record_end(const std::string& ending, const std::vector<executor::FaultReport>& faults) {
-  const std::lock_guard<std::mutex> lock(job_mutex_);
-  last_end_ = ending;
-  last_fault_json_ = json::array();
-  for (const executor::FaultReport& f : faults)
-    if (!a_stop(f.kind))
-      last_fault_json_.push_back({{"kind", executor::to_string(f.kind)}, {"message", clean(f.message)}, {"line", f.source_line}});
-}
-
-bool Panel::move_to(const Eigen::Vector2d& from, const Eigen::Vector2d& target, Termination& t) {
-  // The rapid a run from a line starts with (solvers/motion/from_line.h), planned and run as
-  // `machplan run` plans and runs a job: round the declared no-go zones, no kerf.
-  motion::RunOptions options = o_.run;
-  options.kerf_mm = 0.0;
-  options.kerf_from_materials = false;
-  planning_ = true;
-  motion::PlannedRun plan =
-      motion::plan_job(motion::rapid_job(from, target, session_->machine().limits.rapid_mm_per_s, "panel: rapid to the job's start"),
-                       options, session_->machine(), {&t, nullptr, nullptr});
-  planning_ = false;
-  const motion::RunOutcome r = motion::execute(*session_, std::move(plan), options, {&t, nullptr, nullptr});
-  if (r.summary.done()) return true;
-  record_end(ending_of(r), r.result.faults);
-  return false;
-}
-
-void Panel::run_jog() {
-  Termination t;
-  {
-    const std::lock_guard<std::mutex> lock(stop_mutex_);
-    current_stop_ = &t;
-  }
-  motion::Job job;
-  job.source = "jog";
-  job.start_mm = session_->backend_open() ? session_->live().read().measured_mm : Eigen::Vector2d::Zero();
-  executor::JogSource source(session_->executor_options().jog);
-  session::MachineSession::RunHooks hooks;
-  hooks.source = &source;
-  hooks.termination = &t;
-  const std::unique_ptr<executor::Session> s = session_->start(job, {}, hooks);
-  // The simulator unpaced (tests): the loop paces itself, outside the tick, as a jog is a
-  // person's and only makes sense in real time.
-  const bool self_paced = !session_->backend(job.start_mm).realtime();
-  const auto period = std::chrono::duration<double>(session_->setup().servo_period_s);
-  auto next = Clock::now();
-  while (s->tick()) {
-    if (!t.ended()) {
-      const double centred_s = (now_ns() - last_deflection_ns_.load()) * 1e-9;
-      if (centred_s > o_.jog_idle_end_s || quitting()) t.request_stop();
-    }
-    if (self_paced) {
-      next += std::chrono::duration_cast<Clock::duration>(period);
-      std::this_thread::sleep_until(next);
-    }
-  }
-  const executor::ExecutionResult r = s->finish();
-  // A jog ends by its own stop request (or the stop button); only a fault is an ending worth
-  // showing.
-  for (const executor::FaultReport& f : r.faults)
-    if (!a_stop(f.kind)) return record_end(to_string(Status::faulted), r.faults);
-}
-
-void Panel::run_guard_session() {
-  Termination t;
-  {
-    const std::lock_guard<std::mutex> lock(stop_mutex_);
-    current_stop_ = &t;
-  }
-  GuardRequest request;
-  {
-    const std::lock_guard<std::mutex> lock(job_mutex_);
-    request = *guard_request_;
-  }
-  guard::GuardLink link;
-  link.stick = &stick_;
-  link.estop = &estop_;
-  link.live = &guard_live_;
-  link.paced_finish = o_.pace;
-  guard_live_valid_ = true;
-  const guard::GuardRunResult r = guard::run_guard_file(request.profile, request.options, t, nullptr, &link);
-  json d = json::parse(*guard_drawing());
-  d["result"] = cli::to_json(r);
-  d["report"] = r.summary.full_report();
-  json passes = json::array();
-  for (const guard::FinishPass& f : r.finish) {
-    json pts = json::array();
-    for (const Eigen::Vector2d& p : f.path_mm) pts.push_back(p.x()), pts.push_back(p.y());
-    passes.push_back({{"allowance_mm", f.allowance_mm}, {"completed", f.completed}, {"points", pts}});
-  }
-  d["finish_paths"] = passes;
-  json strokes = json::array();
-  for (const guard::Attempt& a : r.attempts) {
-    json pts = json::array();
-    for (const Eigen::Vector2d& p : a.path_mm) pts.push_back(p.x()), pts.push_back(p.y());
-    strokes.push_back({{"success", a.success}, {"closest_mm", a.closest_mm}, {"points", pts}});
-  }
-  d["attempts"] = strokes;
-  const std::lock_guard<std::mutex> lock(job_mutex_);
-  guard_drawing_ = std::make_shared<const std::string>(d.dump(-1, ' ', false, json::error_handler_t::replace));
 }
 
 // ---- what the clients read --------------------------------------------------------------------

@@ -184,6 +184,14 @@ class Panel {
   // Busy unless the machine is idle with no command pending and the E-stop closed; under
   // cmd_mutex_.
   void require_idle() const;
+  // While a request plans on its own thread: `t` is what the E-stop and the stop button stop,
+  // and the status says planning.
+  static std::int64_t now_ns();  // steady clock
+  struct PlanningScope {
+    Panel& p;
+    PlanningScope(Panel& panel, Termination& t);
+    ~PlanningScope();
+  };
   void run_jog();
   void run_guard_session();
   // The rapid to a job's start; false (the fault recorded) when it did not get there.
