@@ -82,7 +82,13 @@ struct Outputs {
   std::array<double, kAxes> position_command_mm{};   // position: where each axis must be
   bool drives_enabled = false;                        // power relays / drive enable
   bool torch_fire = false;     // plasma: start and hold the arc; oxy-fuel: cutting oxygen
-  double torch_height_target_mm = 0.0;                // height of the torch above the plate
+  // Where the torch height axis must be, mm in the machine's height frame: 0 is the sheet's
+  // nominal surface (a flat sheet on the slats), up is positive. The executor adds the heights
+  // above the plate to the surface its last probe found (engine/executor/torch_sequencer.h).
+  double torch_height_target_mm = 0.0;
+  // Ohmic sensing on: the torch's shield is energised so that touching the plate closes
+  // `Inputs::ohmic_sense` (QtPlasmaC's ohmic-enable; on only while probing).
+  bool ohmic_enable = false;
 };
 
 struct Inputs {
@@ -92,11 +98,18 @@ struct Inputs {
   bool arc_ok = false;             // plasma source reports a transferred arc
   bool estop = false;              // the E-stop chain is open
   bool watchdog_tripped = false;   // the backend stopped the machine: exchanges came too late
-  double torch_height_mm = 0.0;    // torch height axis position
+  double torch_height_mm = 0.0;    // torch height axis position, mm in the frame of Outputs::torch_height_target_mm
   double arc_voltage_v = 0.0;      // plasma: the arc's voltage while it burns (0: not measured)
   // The torch's breakaway switch is open: the torch met something (the plate, a tipped-up
   // part) and its mount gave way, QtPlasmaC's "breakaway". A collision: the executor stops.
   bool torch_breakaway = false;
+  // The float switch is closed: the torch rests on something and its floating mount has risen
+  // by the switch's travel (QtPlasmaC's float-switch). Probing looks for it; while the torch
+  // fires it is a breakaway.
+  bool float_switch = false;
+  // The ohmic contact is made: with Outputs::ohmic_enable on, the torch's shield touches the
+  // plate (QtPlasmaC's ohmic-sense-in). A dirty or painted plate may never close it.
+  bool ohmic_sense = false;
   OperatorInputs op;
 };
 
