@@ -310,7 +310,7 @@ void add_run(CLI::App& app) {
                   "LinuxCNC's HAL, scripts/hal-sim for a simulated one: docs/hal.md)");
   cmd->add_option("--inject", a->inject,
                   "simulator: inject a fault, KIND@SECONDS[:x|y] (jam, encoder-glitch, counter-misread, estop, "
-                  "lost-backend, arc-loss, arc-start-failure, watchdog); may be repeated");
+                  "lost-backend, arc-loss, arc-start-failure, watchdog, probe-miss, switch-stuck, breakaway, ohmic-miss); may be repeated");
   cmd->add_flag("--frame", a->frame,
                 "trace the job's outline with the torch off instead of cutting it (the rectangle round its cuts, as "
                 "they will run), from the job's start and back, so that the operator sees where it lies on the sheet");

@@ -51,11 +51,22 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
                            {"time_s", f.time_s},
                            {"step", f.step},
                            {"source_line", f.source_line},
-                           {"axis", f.axis < 0 ? json(nullptr) : json(f.axis == 0 ? "x" : "y")},
+                           {"axis", f.axis < 0 ? json(nullptr) : json(f.axis == 0 ? "x" : f.axis == 1 ? "y" : "z")},
                            {"last_known_mm", {f.last_known_mm.x(), f.last_known_mm.y()}},
                            {"commanded_mm", {f.commanded_mm.x(), f.commanded_mm.y()}},
                            {"value", f.value},
                            {"message", f.message}});
+  j["probes"] = json::array();
+  for (const ProbeReport& p : r.probes)
+    j["probes"].push_back({{"t_s", p.t_s},
+                           {"source_line", p.source_line},
+                           {"position_mm", {p.position_mm.x(), p.position_mm.y()}},
+                           {"sensor", p.skipped ? json(nullptr) : json(p.sensor)},
+                           {"skipped", p.skipped},
+                           {"surface_mm", p.surface_mm},
+                           {"duration_s", p.duration_s},
+                           {"pierce_height_error_mm", num(p.pierce_height_error_mm)}});
+  j["probes_dropped"] = r.probes_dropped;
   j["holds"] = json::array();
   for (const executor::HoldReport& h : r.holds)
     j["holds"].push_back({{"t_s", h.t_s},

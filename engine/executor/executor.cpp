@@ -27,6 +27,46 @@ void Session::Impl::raise(FK kind, int axis, double value) noexcept {
   sup.raise(kind, axis, value, w);
 }
 
+FaultKind Session::Impl::torch_fault(TorchSequencer::Failure f) noexcept {
+  switch (f) {
+    case TorchSequencer::Failure::arc_start_failed: return FK::arc_start_failed;
+    case TorchSequencer::Failure::probe_miss: return FK::probe_miss;
+    case TorchSequencer::Failure::switch_stuck: return FK::probe_switch_stuck;
+    case TorchSequencer::Failure::none:
+    case TorchSequencer::Failure::torch_height_timeout: break;
+  }
+  return FK::torch_height_timeout;
+}
+
+// The probes the torch sequencer finished, and the height over the plate each pierce fired at.
+void Session::Impl::record_probes(bool was_firing) noexcept {
+  TorchSequencer::Probe p;
+  if (torch.take_probe(p)) {
+    if (result.probes.size() < result.probes.capacity()) {
+      ProbeReport& r = result.probes.emplace_back();
+      r.t_s = t;
+      r.step = step < job.steps.size() ? static_cast<int>(step) : -1;
+      r.source_line = step < job.steps.size() ? job.steps[step].source_line : 0;
+      r.position_mm = p.at_mm;
+      r.sensor = p.sensor == TorchSequencer::Probe::Sensor::ohmic          ? "ohmic"
+                 : p.sensor == TorchSequencer::Probe::Sensor::float_switch ? "float_switch"
+                                                                           : "";
+      r.skipped = p.skipped;
+      r.surface_mm = p.surface_mm;
+      r.duration_s = p.duration_s;
+      awaiting_pierce = true;
+    } else {
+      ++result.probes_dropped;
+    }
+  }
+  double gap = 0.0;
+  if (awaiting_pierce && out.torch_fire && !was_firing) {
+    awaiting_pierce = false;
+    if (be.true_torch_gap(gap)) result.probes.back().pierce_height_error_mm = gap - torch.pierce_height_mm();
+  }
+  if (!torch.lighting()) awaiting_pierce = false;  // stopped before it fired
+}
+
 void Session::Impl::begin_step() noexcept {
   phase_t = 0.0;
   if (step >= job.steps.size()) {
@@ -61,6 +101,7 @@ void Session::Impl::begin_step() noexcept {
       const motion::CutParameters* m = material >= 0 ? &job.materials[static_cast<std::size_t>(material)] : nullptr;
       torch.use_material(m);
       thc.reset(m ? m->cut_volts : 0.0);
+      torch.set_position(adapter.position_mm());
       torch.start_on(programmed, out);
       phase = Phase::torch;
       break;
@@ -138,7 +179,7 @@ void Session::Impl::thc_tick() noexcept {
   // The speed the cut should run at: its feed, as the override and the machine allow.
   ti.feed_mm_per_s = std::min(s.feed_mm_per_s[seg] * std::min(feed_rate, 1.0), ms.max_velocity_mm_per_s);
   ti.allowed = (!m || m->thc) && (s.thc_off.empty() || !s.thc_off[seg]) && in.op.thc_enabled;
-  out.torch_height_target_mm = torch.cut_height_mm() + thc.update(ti);
+  out.torch_height_target_mm = torch.surface_mm() + torch.cut_height_mm() + thc.update(ti);
   thc_acting = thc.active();
 
   // Figures, from the backend's truth.
@@ -281,6 +322,7 @@ void Session::Impl::follow_hold() noexcept {
   }
   if (cut_off) {
     // Re-pierce where the cut stopped (an oxy-fuel preheat flame kept burning).
+    torch.set_position(adapter.position_mm());
     torch.start_on(false, out, ms.torch.kind == TorchSetup::Kind::oxy_fuel);
     repiercing = true;
     phase = Phase::torch;
@@ -334,11 +376,7 @@ void Session::Impl::sequence() noexcept {
             next_step();
           }
           break;
-        case TorchSequencer::Tick::failed:
-          raise(torch.failure() == TorchSequencer::Failure::arc_start_failed ? FK::arc_start_failed
-                                                                               : FK::torch_height_timeout,
-                -1, torch.failure_value());
-          break;
+        case TorchSequencer::Tick::failed: raise(torch_fault(torch.failure()), -1, torch.failure_value()); break;
         case TorchSequencer::Tick::idle:
         case TorchSequencer::Tick::busy: break;
       }
@@ -446,6 +484,10 @@ bool Session::Impl::tick() noexcept {
   // A torch that met the plate: torch off in this period and a controlled stop, as for the
   // E-stop; the axes cannot drag it on through the sheet.
   if (in.torch_breakaway) raise(FK::torch_breakaway, -1, in.torch_height_mm);
+  // The float switch closing while the torch fires: something pushed the torch up (a tipped
+  // part, a dive into the plate); QtPlasmaC treats it as a breakaway.
+  float_closed = ms.torch.probe.float_switch && out.torch_fire && in.float_switch ? float_closed + 1 : 0;
+  if (float_closed >= ms.torch.probe.debounce_periods) raise(FK::torch_breakaway, 2, in.torch_height_mm);
   if (parts.termination && parts.termination->should_end()) raise(FK::stop_requested, -1, 0.0);
   if (sup.arc_lost(moving_cut() && ms.torch.kind == TorchSetup::Kind::plasma, in.arc_ok)) arc_lost();
 
@@ -454,7 +496,9 @@ bool Session::Impl::tick() noexcept {
       contour.account(job.steps[step].stretch, adapter.position_mm(), has_truth, true_mm);
     else
       contour.clear_last();
+    const bool was_firing = out.torch_fire;
     sequence();
+    record_probes(was_firing);
     thc_tick();
   }
   if (sup.faulted() && !sup.stopping()) sup.begin_stop(u, torch, out);

@@ -135,7 +135,9 @@ struct FaultReport {
   double time_s = 0.0;        // since the start of the run
   int step = -1;              // index into Job::steps (-1: before the first step)
   int source_line = 0;        // program line of that step (or of the segment being cut)
-  int axis = -1;              // 0 = X, 1 = Y, -1 = not axis-specific
+  // 0 = X, 1 = Y, 2 = the torch height axis (torch_breakaway: its float switch closed while the
+  // torch fired, not the breakaway switch), -1 = not axis-specific
+  int axis = -1;
   Eigen::Vector2d last_known_mm = Eigen::Vector2d::Zero();  // last trusted measured position
   Eigen::Vector2d commanded_mm = Eigen::Vector2d::Zero();   // setpoint at the fault
   double value = 0.0;         // following error mm, jump counts, timeout s ... per kind
@@ -174,6 +176,21 @@ struct HoldReport {
   // The jerk-limited stopping distance from the state at the input (S-curve with the limits
   // above), mm: the shortest stop the limits allow.
   double jerk_limited_stop_mm() const;
+};
+
+// One initial height sense before a pierce (engine/executor/torch_sequencer.h): a probe, or the
+// skip rule keeping the last probe's surface.
+struct ProbeReport {
+  double t_s = 0.0;                 // when the surface was known
+  int step = -1, source_line = 0;
+  Eigen::Vector2d position_mm = Eigen::Vector2d::Zero();  // where the torch stood
+  const char* sensor = "";          // "ohmic", "float_switch", or "" when skipped (static text)
+  bool skipped = false;
+  double surface_mm = 0.0;          // the surface found (or kept), height frame (0: nominal)
+  double duration_s = 0.0;          // the probe's own time (0 when skipped)
+  // The torch's true height over the plate when it fired, minus the pierce height, mm, when the
+  // backend knows the truth (a simulator); NaN otherwise, or when the torch never fired.
+  double pierce_height_error_mm = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Torch height control over one cut, from the backend's truth (the torch's distance to the
@@ -223,6 +240,8 @@ struct ExecutionResult {
   std::vector<FaultReport> faults;    // empty when done; the first one stopped the run
   std::vector<HoldReport> holds;      // every feed hold, in order (at most kMaxHolds are kept)
   std::size_t holds_dropped = 0;
+  std::vector<ProbeReport> probes;    // every probe, in order (at most kMaxProbes are kept)
+  std::size_t probes_dropped = 0;
   std::vector<TraceSample> trace;
   bool trace_truncated = false;
   std::size_t trace_streamed = 0;     // samples written to a TraceStream
@@ -266,6 +285,7 @@ struct RunParts {
 };
 
 inline constexpr std::size_t kMaxHolds = 1024;
+inline constexpr std::size_t kMaxProbes = 4096;
 
 class Executor;
 

@@ -10,8 +10,25 @@
 namespace machplan::executor {
 
 namespace {
-void require(bool ok, const std::string& field, double value, const char* rule) { require_field(ok, field, value, rule); }
+void require(bool ok, const std::string& field, double value, std::string_view rule) { require_field(ok, field, value, rule); }
 }  // namespace
+
+void ProbeSetup::validate() const {
+  if (!fitted()) return;
+  require(std::isfinite(probe_height_mm) && probe_height_mm > 0 && probe_height_mm <= 100, "probe_height_mm", probe_height_mm,
+          "must be in (0, 100] mm");
+  require(std::isfinite(probe_speed_mm_per_s) && probe_speed_mm_per_s > 0 && probe_speed_mm_per_s <= 100, "probe_speed_mm_per_s",
+          probe_speed_mm_per_s, "must be in (0, 100] mm/s");
+  require(std::isfinite(float_travel_mm) && float_travel_mm >= 0 && float_travel_mm <= 20, "float_travel_mm", float_travel_mm,
+          "must be in [0, 20] mm");
+  require(std::isfinite(ohmic_offset_mm) && std::abs(ohmic_offset_mm) <= 5, "ohmic_offset_mm", ohmic_offset_mm,
+          "must be in [-5, 5] mm");
+  require(std::isfinite(max_depth_mm) && max_depth_mm > 0 && max_depth_mm <= 100, "max_depth_mm", max_depth_mm,
+          "must be in (0, 100] mm");
+  require(std::isfinite(skip_distance_mm) && skip_distance_mm >= 0 && skip_distance_mm <= 1000, "skip_distance_mm",
+          skip_distance_mm, "must be in [0, 1000] mm");
+  require(debounce_periods >= 1 && debounce_periods <= 100, "debounce_periods", debounce_periods, "must be 1 .. 100");
+}
 
 void TorchSetup::validate() const {
   require(std::isfinite(arc_ok_timeout_s) && arc_ok_timeout_s > 0, "arc_ok_timeout_s", arc_ok_timeout_s, "must be > 0");
@@ -24,6 +41,14 @@ void TorchSetup::validate() const {
   require(std::isfinite(spin_down_s) && spin_down_s >= 0 && spin_down_s <= 600, "spin_down_s", spin_down_s,
           "must be in [0, 600] s");
   require(std::isfinite(height_timeout_s) && height_timeout_s > 0, "height_timeout_s", height_timeout_s, "must be > 0");
+  require(std::isfinite(height_speed_mm_per_s) && height_speed_mm_per_s > 0, "height_speed_mm_per_s", height_speed_mm_per_s,
+          "must be > 0");
+  validate_member("probe", probe);
+  if (probe.fitted()) {
+    require(height_axis, "probe", 1, "needs a torch height axis");
+    require(probe.probe_height_mm < retract_height_mm, "probe.probe_height_mm", probe.probe_height_mm,
+            fmt::format("must be below the retract height ({} mm): the probe starts from there", retract_height_mm));
+  }
 }
 
 void MachineSetup::validate() const {

@@ -15,6 +15,28 @@ struct ControllerPlant;
 
 namespace machplan::executor {
 
+// How the torch finds the sheet before a pierce (initial height sensing), as QtPlasmaC probes:
+// down at the height axis' speed to `probe_height_mm` over the expected surface, then at
+// `probe_speed_mm_per_s` until a sensor closes; the surface is where it closed (ohmic: the
+// shield touched the plate; float switch: the torch has floated up by `float_travel_mm` since).
+// Heights are in the machine's height frame (engine/hardware/backend.h: 0 is the sheet's
+// nominal surface). Neither sensor: no probing, the heights are taken from the nominal surface.
+struct ProbeSetup {
+  bool float_switch = false;          // a float switch is fitted
+  bool ohmic = false;                 // ohmic sensing is fitted, tried first (the float switch backs it up)
+  double probe_height_mm = 5.0;       // over the expected surface: where the slow probe starts
+  double probe_speed_mm_per_s = 10.0;
+  double float_travel_mm = 1.5;       // the float's rise before its switch closes
+  double ohmic_offset_mm = 0.0;       // added to the surface an ohmic contact finds (QtPlasmaC's ohmic-probe-offset)
+  double max_depth_mm = 5.0;          // below the expected surface: no contact by there is a probe miss
+  // A pierce within this distance (mm, in x and y) of the last probed point takes that probe's
+  // surface without probing again (QtPlasmaC's skip IHS); 0: every pierce probes.
+  double skip_distance_mm = 0.0;
+  int debounce_periods = 3;           // a sensor counts once it reads closed this many periods in a row
+  bool fitted() const { return float_switch || ohmic; }
+  void validate() const;  // throws InputError naming field, value and rule
+};
+
 struct TorchSetup {
   // The machine's process: a plasma or oxy-fuel torch, or a spindle (a milling table: M3/M4
   // start it, M5 stops it; it keeps turning through a feed hold).
@@ -32,6 +54,8 @@ struct TorchSetup {
   double retract_height_mm = 15.0;
   double height_tolerance_mm = 0.05;
   double height_timeout_s = 3.0;       // the height axis must reach its target within this
+  double height_speed_mm_per_s = 50.0; // the height axis' top speed (the probe's time limits)
+  ProbeSetup probe;                    // initial height sensing (height axis only)
   // Plasma: a lost arc holds the job for the operator's cut recovery instead of ending it.
   bool recover_on_arc_loss = false;
   double volts_per_mm = 10.0;          // the arc's voltage per mm of torch-to-plate distance

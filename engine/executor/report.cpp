@@ -58,9 +58,19 @@ std::string Session::Impl::fault_message(const FaultReport& f) const {
                             f.value, ms.contour_error_limit_mm);
       break;
     case FK::torch_breakaway:
-      message = fmt::format("the torch touched the plate (breakaway switch open) at a torch height of {:.2f} mm: a "
-                            "collision; torch off and a controlled stop",
+      message = fmt::format("the torch touched the plate ({}) at a torch height of {:.2f} mm: a collision; torch off and "
+                            "a controlled stop",
+                            f.axis == 2 ? "float switch closed while the torch fired" : "breakaway switch open", f.value);
+      break;
+    case FK::probe_miss:
+      message = fmt::format("the probe found no sheet: no contact by {} mm under the expected surface; the torch was "
+                            "never lit",
                             f.value);
+      break;
+    case FK::probe_switch_stuck:
+      message = fmt::format("the {} was closed before the probe went down (stuck, or shorted to the plate); the torch "
+                            "was never lit",
+                            f.value == 1.0 ? "float switch" : "ohmic sense");
       break;
     case FK::operator_stop: message = "stopped by the operator"; break;
     case FK::stop_requested:

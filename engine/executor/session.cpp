@@ -150,6 +150,8 @@ void Session::Impl::prepare(double machine_period_s) {
   // At most: every torch step waits out its timeouts (engine/motion/process_time.h).
   motion::TorchTimes longest;
   longest.torch_on_s = 2 * ts.height_timeout_s + ts.arc_ok_timeout_s + ts.preheat_s + 0.1;
+  if (ts.probe.fitted())
+    longest.torch_on_s += 2 * ts.height_timeout_s + (ts.probe.probe_height_mm + ts.probe.max_depth_mm) / ts.probe.probe_speed_mm_per_s;
   longest.pierce_s = ts.pierce_delay_s;
   longest.torch_off_s = ts.height_timeout_s;
   double est_s = 1.0 + motion::process_time_s(job, longest) + source->estimate_s();
@@ -168,6 +170,7 @@ void Session::Impl::prepare(double machine_period_s) {
   for (std::size_t k = 0; k < job.stretches.size(); ++k) stretch_len[k] = stretch_length(job.stretches[k]);
   trace_out = &result.trace;
   result.holds.reserve(kMaxHolds);
+  result.probes.reserve(kMaxProbes);
   if (opt.record_trace) {
     const double samples = source->runs_job() ? est_s / dt / opt.trace_every_ticks * 1.1 + 1000 : 1e9;
     recorder.prepare(result.trace, static_cast<std::size_t>(std::min(samples, 1e12)));

@@ -36,6 +36,8 @@ struct Session::Impl {
   void next_step() noexcept;
   void torch_off_and_retract(bool resume, double height_mm = 0.0) noexcept;
   void raise(FaultKind kind, int axis, double value) noexcept;
+  static FaultKind torch_fault(TorchSequencer::Failure f) noexcept;
+  void record_probes(bool was_firing) noexcept;
   bool moving_cut() const noexcept {
     return phase == Phase::move && !sup.stopping() && !cut_off && source->travelling() && step < job.steps.size() &&
            job.stretches[job.steps[step].stretch].cutting;
@@ -129,6 +131,8 @@ struct Session::Impl {
   bool velocity_locked = false, void_locked = false;
   bool thc_acting = false;        // THC moved the height this period
   double velocity_lock_h = 0.0, void_lock_h = 0.0;  // the height when the lock began
+  bool awaiting_pierce = false;   // a probe was recorded and its pierce has not fired yet
+  int float_closed = 0;           // periods in a row the float switch read closed while the torch fired
   Eigen::Vector2d last_loss_mm = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
 };
 

@@ -21,6 +21,8 @@ const char* to_string(FaultKind k) {
     case FaultKind::axis_stalled: return "axis_stalled";
     case FaultKind::drive_saturated: return "drive_saturated";
     case FaultKind::torch_breakaway: return "torch_breakaway";
+    case FaultKind::probe_miss: return "probe_miss";
+    case FaultKind::probe_switch_stuck: return "probe_switch_stuck";
     case FaultKind::stop_requested: return "stop_requested";
     case FaultKind::operator_stop: return "operator_stop";
   }

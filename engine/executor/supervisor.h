@@ -52,7 +52,9 @@ enum class FaultKind {
   torch_height_timeout,
   axis_stalled,
   drive_saturated,
-  torch_breakaway,  // the torch touched the plate (its breakaway switch opened): a collision
+  torch_breakaway,  // the torch touched the plate (its breakaway switch opened, or the float switch closed while it fired): a collision
+  probe_miss,       // the probe found no sheet within its travel
+  probe_switch_stuck,  // a probe sensor was closed before the torch went down
   stop_requested,
   operator_stop   // the operator's stop button (or a `stop` event): the job ends, not a machine fault
 };

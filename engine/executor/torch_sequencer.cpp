@@ -5,6 +5,9 @@
 
 namespace machplan::executor {
 
+// The surface map's reach: probes farther than this from a point say nothing about it, mm.
+constexpr double kMapRadiusMm = 200.0;
+
 using Kind = TorchSetup::Kind;
 
 void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated) noexcept {
@@ -13,10 +16,18 @@ void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bo
   if (t_.kind == Kind::spindle) {
     out.torch_fire = true;  // the spindle runs; the spin-up is its "pierce"
     enter(Phase::pierce);
+  } else if (t_.height_axis && t_.probe.fitted()) {
+    begin_probe(out);
   } else if (t_.height_axis) {
-    out.torch_height_target_mm = t_.pierce_height_mm;
+    aim(out, t_.pierce_height_mm);
     enter(Phase::height_pierce);
-  } else if (t_.kind == Kind::oxy_fuel && !preheated_) {
+  } else {
+    light(out);
+  }
+}
+
+void TorchSequencer::light(hardware::Outputs& out) noexcept {
+  if (t_.kind == Kind::oxy_fuel && !preheated_) {
     enter(Phase::preheat);
   } else if (t_.kind == Kind::oxy_fuel) {
     out.torch_fire = true;
@@ -27,10 +38,109 @@ void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bo
   }
 }
 
+void TorchSequencer::begin_probe(hardware::Outputs& out) noexcept {
+  const ProbeSetup& p = t_.probe;
+  probe_ = Probe{};
+  probe_.at_mm = at_mm_;
+  probe_t_ = 0.0;
+  expected_mm_ = 0.0;
+  map_.estimate(at_mm_, kMapRadiusMm, expected_mm_);
+  if (probed_ && p.skip_distance_mm > 0 && (at_mm_ - probed_at_mm_).cwiseAbs().maxCoeff() <= p.skip_distance_mm) {
+    surface_mm_ = expected_mm_;
+    probe_.skipped = true;
+    probe_.surface_mm = surface_mm_;
+    probe_ready_ = true;
+    aim(out, t_.pierce_height_mm);
+    enter(Phase::height_pierce);
+    return;
+  }
+  ohmic_run_ = float_run_ = 0;
+  sensor_seen_ = false;
+  out.ohmic_enable = p.ohmic;
+  out.torch_height_target_mm = expected_mm_ + p.probe_height_mm;
+  enter(Phase::probe_fast);
+}
+
+bool TorchSequencer::sensed(const hardware::Inputs& in) noexcept {
+  const ProbeSetup& p = t_.probe;
+  const bool ohmic = p.ohmic && in.ohmic_sense, flt = p.float_switch && in.float_switch;
+  if (ohmic && ohmic_run_++ == 0) ohmic_z_ = in.torch_height_mm;
+  if (!ohmic) ohmic_run_ = 0;
+  if (flt && float_run_++ == 0) float_z_ = in.torch_height_mm;
+  if (!flt) float_run_ = 0;
+  sensor_seen_ = sensor_seen_ || ohmic || flt;
+  return ohmic_run_ >= p.debounce_periods || float_run_ >= p.debounce_periods;
+}
+
+void TorchSequencer::found(double surface_mm, Probe::Sensor s, hardware::Outputs& out) noexcept {
+  out.ohmic_enable = false;
+  surface_mm_ = surface_mm;
+  probed_ = true;
+  probed_at_mm_ = at_mm_;
+  map_.add(at_mm_, surface_mm);
+  probe_.sensor = s;
+  probe_.surface_mm = surface_mm;
+  probe_.duration_s = probe_t_;
+  probe_ready_ = true;
+  aim(out, t_.pierce_height_mm);  // up by the float's travel and on to pierce height
+  enter(Phase::height_pierce);
+}
+
+TorchSequencer::Tick TorchSequencer::probe_tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept {
+  const ProbeSetup& p = t_.probe;
+  probe_t_ += dt_;
+  const bool contact = sensed(in);
+  switch (phase_) {
+    case Phase::probe_fast:
+      // A sensor closed from the first period on, with the torch still up: stuck or shorted.
+      if (sensor_seen_ && probe_t_ <= (p.debounce_periods + 0.5) * dt_ && contact) {
+        out.ohmic_enable = false;
+        return fail(Failure::switch_stuck, in.float_switch ? 1.0 : 0.0);
+      }
+      if (contact) {
+        // The sheet stands higher than expected: back up over it and probe slowly from there.
+        const double z = ohmic_run_ >= p.debounce_periods ? ohmic_z_ + p.ohmic_offset_mm : float_z_ + p.float_travel_mm;
+        out.torch_height_target_mm = probe_target_mm_ = z + 1.0;
+        enter(Phase::probe_back);
+      } else if (std::abs(in.torch_height_mm - (expected_mm_ + p.probe_height_mm)) <= t_.height_tolerance_mm) {
+        probe_target_mm_ = expected_mm_ + p.probe_height_mm;
+        enter(Phase::probe_slow);
+      } else if (pt_ > t_.height_timeout_s) {
+        out.ohmic_enable = false;
+        return fail(Failure::torch_height_timeout, t_.height_timeout_s);
+      }
+      return Tick::busy;
+    case Phase::probe_back:
+      if (std::abs(in.torch_height_mm - probe_target_mm_) <= t_.height_tolerance_mm && !in.float_switch) {
+        ohmic_run_ = float_run_ = 0;
+        enter(Phase::probe_slow);
+      } else if (pt_ > t_.height_timeout_s) {
+        out.ohmic_enable = false;
+        return fail(Failure::torch_height_timeout, t_.height_timeout_s);
+      }
+      return Tick::busy;
+    default: break;  // probe_slow
+  }
+  if (ohmic_run_ >= p.debounce_periods) {
+    found(ohmic_z_ + p.ohmic_offset_mm, Probe::Sensor::ohmic, out);
+  } else if (float_run_ >= p.debounce_periods) {
+    found(float_z_ + p.float_travel_mm, Probe::Sensor::float_switch, out);
+  } else {
+    const double floor = expected_mm_ - p.max_depth_mm;
+    probe_target_mm_ = std::max(floor, probe_target_mm_ - p.probe_speed_mm_per_s * dt_);
+    out.torch_height_target_mm = probe_target_mm_;
+    if (probe_target_mm_ <= floor && in.torch_height_mm <= floor + t_.height_tolerance_mm) {
+      out.ohmic_enable = false;
+      return fail(Failure::probe_miss, p.max_depth_mm);
+    }
+  }
+  return Tick::busy;
+}
+
 void TorchSequencer::start_off(hardware::Outputs& out, double height_mm) noexcept {
   kill(out);
   retract_mm_ = std::max(t_.retract_height_mm, height_mm);
-  out.torch_height_target_mm = retract_mm_;
+  aim(out, retract_mm_);
   enter(Phase::off_retract);
 }
 
@@ -45,13 +155,14 @@ void TorchSequencer::end_cut(hardware::Outputs& out, double height_mm) noexcept 
 
 void TorchSequencer::kill(hardware::Outputs& out) noexcept {
   out.torch_fire = false;
-  out.torch_height_target_mm = t_.retract_height_mm;
+  out.ohmic_enable = false;
+  aim(out, t_.retract_height_mm);
   lit_ = false;
   phase_ = Phase::idle;
 }
 
 void TorchSequencer::lower_to_cut_height(hardware::Outputs& out) noexcept {
-  out.torch_height_target_mm = t_.cut_height_mm;
+  aim(out, t_.cut_height_mm);
   enter(Phase::height_cut);
 }
 
@@ -59,17 +170,12 @@ TorchSequencer::Tick TorchSequencer::tick(const hardware::Inputs& in, hardware::
   pt_ += dt_;
   switch (phase_) {
     case Phase::idle: return Tick::idle;
+    case Phase::probe_fast:
+    case Phase::probe_back:
+    case Phase::probe_slow: return probe_tick(in, out);
     case Phase::height_pierce:
       if (at(in, t_.pierce_height_mm)) {
-        if (t_.kind == Kind::oxy_fuel && !preheated_) {
-          enter(Phase::preheat);
-        } else if (t_.kind == Kind::oxy_fuel) {
-          out.torch_fire = true;
-          enter(Phase::pierce);
-        } else {
-          out.torch_fire = true;
-          enter(Phase::wait_arc);
-        }
+        light(out);
       } else if (pt_ > t_.height_timeout_s) {
         return fail(Failure::torch_height_timeout, t_.height_timeout_s);
       }
@@ -91,7 +197,7 @@ TorchSequencer::Tick TorchSequencer::tick(const hardware::Inputs& in, hardware::
       if (programmed_ || pt_ >= (t_.kind == Kind::spindle ? t_.spin_up_s : t_.pierce_delay_s)) {
         lit_ = true;
         if (t_.height_axis && !programmed_ && puddle_mm_ > 0.0) {
-          out.torch_height_target_mm = puddle_mm_;
+          aim(out, puddle_mm_);
           enter(Phase::puddle_jump);
           return Tick::busy;
         }
@@ -115,7 +221,7 @@ TorchSequencer::Tick TorchSequencer::tick(const hardware::Inputs& in, hardware::
         const double h = retract_mm_;
         kill(out);
         retract_mm_ = h;
-        out.torch_height_target_mm = h;
+        aim(out, h);
         enter(Phase::off_retract);
       }
       return Tick::busy;

@@ -3,22 +3,37 @@
 // programmed pierce dwell) and calls tick() every period until it is done or fails; while a
 // sequence runs the axes hold still.
 //
-//   torch on (plasma, height axis):  height to pierce height -> fire -> wait for arc OK (at
-//       most arc_ok_timeout_s) -> pierce delay -> height to cut height
+//   torch on (plasma, height axis):  [probe] -> height to pierce height -> fire -> wait for
+//       arc OK (at most arc_ok_timeout_s) -> pierce delay -> height to cut height
+//   probe (TorchSetup::probe fitted):  sensors open? (closed before the torch moved: switch
+//       stuck) -> down at the axis' speed to the probe height over the expected surface (a
+//       contact on the way: back up 1 mm over it) -> down at the probe speed until the ohmic
+//       contact or the float switch has read closed debounce_periods in a row (none by
+//       max_depth_mm under the expected surface: probe miss) -> the surface is where it first
+//       read closed (+ the float's travel for the float switch). The expected surface is the
+//       one the earlier probes' surface map (engine/executor/surface_map.h) estimates there
+//       (the nominal 0 before any). A pierce within skip_distance_mm of the last probed point
+//       does not probe: its surface is the map's estimate.
 //   torch on (oxy-fuel):  [height to pierce height] -> preheat -> cutting oxygen -> pierce delay
 //       -> [height to cut height]
 //   a dwell step right after the torch_on IS the pierce delay (G4): the sequence then ends at
 //       the pierce, and lower_to_cut_height() follows the dwell
 //   torch off:  stop firing, height to retract height (or the step's higher travel height)
 //
+// Heights: the torch heights (pierce, cut, retract, puddle jump) are over the surface the last
+// probe found; the outputs add that surface (0 until a probe: the sheet's nominal surface).
+//
 // Every wait on the height axis fails after height_timeout_s (torch_height_timeout); a missing
-// arc OK fails the start (arc_start_failed). kill() turns the torch off and retracts in the
+// arc OK fails the start (arc_start_failed); a probe fails as probe_miss or switch_stuck. kill() turns the torch off and retracts in the
 // same period, whatever runs: the supervisor calls it on every fault.
 //
 // Real time: tick() is O(1), allocates nothing and never throws.
 #pragma once
 
+#include <Eigen/Core>
+
 #include "engine/executor/machine_setup.h"
+#include "engine/executor/surface_map.h"
 #include "engine/hardware/backend.h"
 #include "engine/motion/job.h"
 
@@ -29,14 +44,31 @@ class TorchSequencer {
   // What one period of the sequence did: nothing to do, still stepping, finished, or failed
   // (failure_value() says how). How the run ended is the run's Summary, not this.
   enum class Tick { idle, busy, done, failed };
-  enum class Failure { none, arc_start_failed, torch_height_timeout };
+  enum class Failure { none, arc_start_failed, torch_height_timeout, probe_miss, switch_stuck };
+
+  // One probe, or one skipped by the skip rule.
+  struct Probe {
+    enum class Sensor { none, ohmic, float_switch };
+    Eigen::Vector2d at_mm = Eigen::Vector2d::Zero();  // where the torch stood
+    Sensor sensor = Sensor::none;                      // the sensor that found the surface (none: skipped)
+    bool skipped = false;
+    double surface_mm = 0.0;     // the surface found (or kept), height frame
+    double duration_s = 0.0;     // from the start of the torch-on to the surface found
+  };
 
   void configure(const TorchSetup& t, double period_s) {
     t_ = base_ = t;
     dt_ = period_s;
     phase_ = Phase::idle;
     lit_ = false;
+    surface_mm_ = 0.0;
+    probed_ = probe_ready_ = false;
+    map_.clear();
   }
+
+  // Where the torch stands for the next start_on(): the skip rule's distance and the probe's
+  // record. Real time.
+  void set_position(const Eigen::Vector2d& at_mm) noexcept { at_mm_ = at_mm; }
 
   // A torch_on step; `programmed_pierce` when a dwell step follows it. `preheated`: an
   // oxy-fuel torch whose preheat flame kept burning (a re-pierce after a hold) goes straight
@@ -67,6 +99,18 @@ class TorchSequencer {
     pause_end_s_ = m->pause_at_end_s;
   }
   double cut_height_mm() const noexcept { return t_.cut_height_mm; }
+  double pierce_height_mm() const noexcept { return t_.pierce_height_mm; }
+  // The surface the heights are measured from, height frame (0: not probed).
+  double surface_mm() const noexcept { return surface_mm_; }
+  // The probes of this run as a surface (the estimates of skipped probes are not in it).
+  const SurfaceMap& surface_map() const noexcept { return map_; }
+  // A probe finished (or was skipped) since the last call: copies it to `p` once.
+  bool take_probe(Probe& p) noexcept {
+    if (!probe_ready_) return false;
+    probe_ready_ = false;
+    p = probe_;
+    return true;
+  }
   // Torch off and retract now (faults, stops); the sequence in progress is abandoned.
   void kill(hardware::Outputs& out) noexcept;
 
@@ -81,7 +125,10 @@ class TorchSequencer {
   double failure_value() const noexcept { return failure_value_; }
 
  private:
-  enum class Phase { idle, height_pierce, preheat, wait_arc, pierce, puddle_jump, puddle_wait, height_cut, pause_end, off_retract };
+  enum class Phase {
+    idle, probe_fast, probe_back, probe_slow, height_pierce, preheat, wait_arc, pierce, puddle_jump, puddle_wait, height_cut,
+    pause_end, off_retract
+  };
   void enter(Phase p) noexcept {
     phase_ = p;
     pt_ = 0.0;
@@ -92,9 +139,18 @@ class TorchSequencer {
     phase_ = Phase::idle;
     return Tick::failed;
   }
+  // At height `h` over the surface.
   bool at(const hardware::Inputs& in, double h) const noexcept {
-    return std::abs(in.torch_height_mm - h) <= t_.height_tolerance_mm;
+    return std::abs(in.torch_height_mm - (surface_mm_ + h)) <= t_.height_tolerance_mm;
   }
+  void aim(hardware::Outputs& out, double h) const noexcept { out.torch_height_target_mm = surface_mm_ + h; }
+  // The start of a torch-on once the torch is at pierce height (or without a height axis).
+  void light(hardware::Outputs& out) noexcept;
+  void begin_probe(hardware::Outputs& out) noexcept;
+  // Debounced sensors this period; true when one has read closed debounce_periods in a row.
+  bool sensed(const hardware::Inputs& in) noexcept;
+  Tick probe_tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept;
+  void found(double surface_mm, Probe::Sensor s, hardware::Outputs& out) noexcept;
 
   TorchSetup t_, base_;  // the cuts' settings now, and the machine's
   double puddle_mm_ = 0.0, puddle_s_ = 0.0, pause_end_s_ = 0.0;  // the material's (0: none)
@@ -105,6 +161,20 @@ class TorchSequencer {
   double retract_mm_ = 0.0;  // the height of the retract in progress
   Failure failure_ = Failure::none;
   double failure_value_ = 0.0;
+  // Probing.
+  Eigen::Vector2d at_mm_ = Eigen::Vector2d::Zero();
+  double surface_mm_ = 0.0;              // the surface the heights are over
+  bool probed_ = false;                  // a probe found a surface in this run
+  Eigen::Vector2d probed_at_mm_ = Eigen::Vector2d::Zero();
+  Probe probe_;                          // the one under way or last finished
+  bool probe_ready_ = false;
+  double probe_t_ = 0.0;                 // since the probe began
+  double probe_target_mm_ = 0.0;         // the slow probe's moving target
+  double expected_mm_ = 0.0;             // the surface expected under the probe
+  SurfaceMap map_;
+  int ohmic_run_ = 0, float_run_ = 0;    // consecutive closed reads
+  double ohmic_z_ = 0.0, float_z_ = 0.0; // the height at the first read of each run
+  bool sensor_seen_ = false;             // a sensor read closed since the probe began
 };
 
 }  // namespace machplan::executor

@@ -174,6 +174,9 @@ struct HalBackend::Impl {
   std::array<bool, kAxes> dir_negative{};
   bool ruler = false;               // velocity mode with pos-fb linked: an independent measurement
   Eigen::Vector2d ruler_mm = Eigen::Vector2d::Zero();  // pos-fb of the last sample returned
+  // Cut recovery: the pin's value when the session opened, and the distance asked since then
+  // in the last sample whose pin was a number.
+  double recovery_base_mm = 0.0, recovery_mm = 0.0;
   HalTiming timing;
   JitterHistogram jitter;
 
@@ -216,7 +219,8 @@ void HalBackend::Impl::write_command(std::uint32_t period, const Outputs& out) n
   __atomic_thread_fence(__ATOMIC_RELEASE);
   slot.period = period;
   slot.session = session;
-  slot.flags = (out.drives_enabled ? MACHPLAN_CMD_ENABLE : 0u) | (out.torch_fire ? MACHPLAN_CMD_TORCH : 0u);
+  slot.flags = (out.drives_enabled ? MACHPLAN_CMD_ENABLE : 0u) | (out.torch_fire ? MACHPLAN_CMD_TORCH : 0u) |
+               (out.ohmic_enable ? MACHPLAN_CMD_OHMIC : 0u);
   for (int i = 0; i < kAxes; ++i) {
     slot.pos_mm[i] = out.position_command_mm[i];
     const AxisSignals& s = o.signals[i];
@@ -250,7 +254,12 @@ void HalBackend::Impl::fill(const machplan_sample& s, std::uint32_t newest_flags
     }
     in.op.jog[i] = s.jog_deflection[i];
   }
-  const std::uint32_t f = s.flags | (newest_flags & (MACHPLAN_IN_ESTOP | MACHPLAN_IN_WATCHDOG));
+  // The safety flags from the newest sample as well, so that they are reported in the next
+  // exchange however far behind the program runs: the E-stop chain, the watchdog, the
+  // operator's E-stop and a breakaway (a collision). The float switch and the ohmic contact
+  // stay those of the sample's own period, where the torch height they go with was measured.
+  constexpr std::uint32_t kUrgent = MACHPLAN_IN_ESTOP | MACHPLAN_IN_WATCHDOG | MACHPLAN_IN_OP_ESTOP | MACHPLAN_IN_BREAKAWAY;
+  const std::uint32_t f = s.flags | (newest_flags & kUrgent);
   in.arc_ok = (f & MACHPLAN_IN_ARC_OK) != 0;
   in.estop = (f & MACHPLAN_IN_ESTOP) != 0;
   in.watchdog_tripped = (f & MACHPLAN_IN_WATCHDOG) != 0;
@@ -259,6 +268,19 @@ void HalBackend::Impl::fill(const machplan_sample& s, std::uint32_t newest_flags
   in.op.feed_hold = (f & MACHPLAN_IN_FEED_HOLD) != 0;
   in.op.cycle_start = (f & MACHPLAN_IN_CYCLE_START) != 0;
   in.op.feed_override_pct = std::isfinite(s.feed_override_pct) ? std::clamp(s.feed_override_pct, 0.0, 200.0) : 100.0;
+  in.float_switch = (f & MACHPLAN_IN_FLOAT) != 0;
+  in.ohmic_sense = (f & MACHPLAN_IN_OHMIC) != 0;
+  in.torch_breakaway = (f & MACHPLAN_IN_BREAKAWAY) != 0;
+  in.op.stop = (f & MACHPLAN_IN_STOP) != 0;
+  in.op.thc_enabled = (f & MACHPLAN_IN_THC) != 0;
+  in.op.estop = (f & MACHPLAN_IN_OP_ESTOP) != 0;
+  in.op.rapid_override_pct =
+      std::isfinite(s.rapid_override_pct) ? std::clamp(s.rapid_override_pct, 1.0, 100.0) : 100.0;
+  // A counter, reported from where it stood when the session opened, so that a value left on
+  // the pin by an earlier job is no request. A value that is not a number is no request either:
+  // the last good one stands.
+  if (std::isfinite(s.recovery_mm)) recovery_mm = s.recovery_mm - recovery_base_mm;
+  in.op.recover_mm = recovery_mm;
 }
 
 // ---- opening ------------------------------------------------------------------------------
@@ -462,6 +484,7 @@ void HalBackend::Impl::open() {
     usleep(500);
   }
   if (!newest(s)) fail("cannot read the machplan component's samples");
+  recovery_base_mm = std::isfinite(s.recovery_mm) ? s.recovery_mm : 0.0;
   if (!velocity) {
     const Eigen::Vector2d at(s.fb_mm[0], s.fb_mm[1]);
     if ((at - o.start_mm).cwiseAbs().maxCoeff() > o.start_tolerance_mm)

@@ -65,6 +65,15 @@
 // Velocity mode has no absolute position: the machine is taken to stand at the job's start, as
 // the paper's machine stood at its work reference point.
 //
+// Torch and operator signals. Every command carries torch-on and ohmic-enable
+// (Outputs::ohmic_enable), which the component gates with the E-stop chain, the operator's
+// E-stop and the watchdog in the same period. Every sample carries the torch height, arc-ok,
+// the arc voltage, the float switch, the ohmic contact and the breakaway (Inputs), and the
+// operator's pins (OperatorInputs: jog, feed hold, cycle start, stop, the two overrides, cut
+// recovery, THC allowed, the operator's E-stop). The overrides are clamped to their ranges
+// (not a number: 100 %); cut recovery, a counter, is reported from where it stood when the
+// session opened. docs/hal.md lists the pins and the plasmac pins they stand for.
+//
 // Real time on the program's side. When the process may (root or CAP_SYS_NICE, and
 // RLIMIT_MEMLOCK), opening locks its memory (mlockall) and moves the calling thread, the one
 // that then runs the executor, to SCHED_FIFO at `fifo_priority`; when it may not, it says so

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace machplan::motion {
 
@@ -15,11 +16,19 @@ const CutParameters* material_of(const Job& job, const Step& s) {
   return &job.materials[static_cast<std::size_t>(s.material)];
 }
 
-// The torch height moves of a torch_on from `waiting_mm`: down to pierce height, after the
-// pierce up or down to the puddle jump height (when the material has one) and to cut height.
-double torch_on_heights_s(double waiting_mm, TorchTimes::Height h, const CutParameters* m) {
+// The probe from `waiting_mm` to the surface, and on to pierce height.
+double probe_s(double waiting_mm, double pierce_mm, const TorchTimes::Height& h, const TorchTimes::Probe& p) {
+  const double debounce_mm = p.debounce_s * p.speed_mm_per_s;
+  return height_move_s(waiting_mm, p.height_mm, h) + (p.height_mm + p.contact_below_mm) / p.speed_mm_per_s + p.debounce_s +
+         height_move_s(-p.contact_below_mm - debounce_mm, pierce_mm, h);
+}
+
+// The torch height moves of a torch_on from `waiting_mm`: down to pierce height (by the probe
+// when one runs), after the pierce up or down to the puddle jump height (when the material has
+// one) and to cut height.
+double torch_on_heights_s(double waiting_mm, TorchTimes::Height h, const TorchTimes::Probe* probe, const CutParameters* m) {
   if (m) h.pierce_mm = m->pierce_height_mm, h.cut_mm = m->cut_height_mm;
-  double t = h.sense_s + height_move_s(waiting_mm, h.pierce_mm, h);
+  double t = probe ? probe_s(waiting_mm, h.pierce_mm, h, *probe) : height_move_s(waiting_mm, h.pierce_mm, h);
   if (m && m->puddle_jump_height_pct > 0.0) {
     const double jump_mm = h.pierce_mm * m->puddle_jump_height_pct / 100.0;
     return t + height_move_s(h.pierce_mm, jump_mm, h) + height_move_s(jump_mm, h.cut_mm, h);
@@ -33,13 +42,18 @@ double process_time_s(const Job& job, const TorchTimes& times) {
   double waiting_mm = times.height ? times.height->retract_mm : 0.0;  // where the torch waits between cuts
   const CutParameters* material = nullptr;                           // of the cut in progress
   bool lit = false;  // a torch_off after another (a second M5) finds the torch up already
+  Eigen::Vector2d at = job.start_mm, probed_at = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   for (std::size_t i = 0; i < job.steps.size(); ++i) {
     const Step& s = job.steps[i];
     switch (s.kind) {
       case Step::Kind::torch_on: {
         material = times.use_materials ? material_of(job, s) : nullptr;
         lit = true;
-        if (const auto& h = times.height) t += torch_on_heights_s(waiting_mm, *h, material);
+        const TorchTimes::Probe* probe = times.probe ? &*times.probe : nullptr;
+        if (probe && probe->skip_distance_mm > 0 && (at - probed_at).cwiseAbs().maxCoeff() <= probe->skip_distance_mm)
+          probe = nullptr;  // skipped
+        if (probe) probed_at = at;
+        if (const auto& h = times.height) t += torch_on_heights_s(waiting_mm, *h, probe, material);
         else t += times.torch_on_s;
         t += times.start_s;
         const bool programmed = i + 1 < job.steps.size() && job.steps[i + 1].kind == Step::Kind::dwell;
@@ -60,7 +74,11 @@ double process_time_s(const Job& job, const TorchTimes& times) {
         lit = false;
         break;
       case Step::Kind::dwell: t += s.seconds; break;
-      case Step::Kind::move: break;
+      case Step::Kind::move: {
+        const auto& seg = job.stretches[s.stretch].segments;
+        if (!seg.empty()) at = seg.back().end;
+        break;
+      }
     }
   }
   return t;

@@ -96,6 +96,28 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 }
 
 // The plasma process beyond the torch: torch height control and the simulated sheet's warp.
+// The torch_height block's probe block: how the torch finds the sheet.
+executor::ProbeSetup read_probe(const Yaml& p, const TorchHeightConfig& th) {
+  p.reject_unknown_keys({"float_switch", "ohmic", "probe_height_mm", "probe_speed_mm_per_s", "float_travel_mm",
+                         "ohmic_offset_mm", "max_depth_mm", "skip_distance_mm", "debounce_periods"});
+  executor::ProbeSetup s;
+  s.float_switch = p.boolean_or("float_switch", false);
+  s.ohmic = p.boolean_or("ohmic", false);
+  if (!s.fitted()) p.fail("names no sensor: set float_switch, ohmic or both to true");
+  s.probe_height_mm = p.number_or("probe_height_mm", s.probe_height_mm, {.min = 0.0, .max = 100.0, .min_exclusive = true});
+  if (s.probe_height_mm >= th.retract_height_mm)
+    p.at("probe_height_mm").fail(fmt::format("must be below retract_height_mm ({:g} mm): the probe starts from there", th.retract_height_mm));
+  s.probe_speed_mm_per_s = p.number_or("probe_speed_mm_per_s", s.probe_speed_mm_per_s, {.min = 0.0, .max = 100.0, .min_exclusive = true});
+  if (s.probe_speed_mm_per_s > th.speed_mm_per_s)
+    p.at("probe_speed_mm_per_s").fail(fmt::format("must not exceed the height axis' speed_mm_per_s ({:g})", th.speed_mm_per_s));
+  s.float_travel_mm = p.number_or("float_travel_mm", s.float_travel_mm, {.min = 0.0, .max = 20.0});
+  s.ohmic_offset_mm = p.number_or("ohmic_offset_mm", s.ohmic_offset_mm, {.min = -5.0, .max = 5.0});
+  s.max_depth_mm = p.number_or("max_depth_mm", s.max_depth_mm, {.min = 0.0, .max = 100.0, .min_exclusive = true});
+  s.skip_distance_mm = p.number_or("skip_distance_mm", s.skip_distance_mm, {.min = 0.0, .max = 1000.0});
+  if (const auto d = p.get("debounce_periods")) s.debounce_periods = d->integer(1, 100);
+  return s;
+}
+
 void read_plasma_process(const Yaml& root, MachineConfig& m) {
   if (const auto th = root.get("thc")) {
     th->reject_unknown_keys({"enabled", "delay_s", "sample_s", "threshold_v", "speed_mm_per_s_per_v", "max_speed_mm_per_s",
@@ -112,9 +134,10 @@ void read_plasma_process(const Yaml& root, MachineConfig& m) {
     c.max_correction_mm = th->number_or("max_correction_mm", c.max_correction_mm, {.min = 0.0, .max = 50.0});
   }
   if (const auto sh = root.get("sheet")) {
-    sh->reject_unknown_keys({"warp_amplitude_mm", "warp_wavelength_mm"});
+    sh->reject_unknown_keys({"warp_amplitude_mm", "warp_wavelength_mm", "ohmic_miss_probability"});
     m.sheet_warp_amplitude_mm = sh->number_or("warp_amplitude_mm", 0.0, {.min = 0.0, .max = 50.0});
     m.sheet_warp_wavelength_mm = sh->number_or("warp_wavelength_mm", 500.0, {.min = 1.0, .max = 1e5});
+    m.sheet_ohmic_miss_probability = sh->number_or("ohmic_miss_probability", 0.0, {.min = 0.0, .max = 1.0});
   }
 }
 
@@ -250,11 +273,13 @@ MachineConfig machine_from_yaml(const Yaml& root) {
     m.torch.kind = executor::TorchSetup::Kind::spindle;
   }
   if (const auto h = root.get("torch_height")) {
-    h->reject_unknown_keys({"initial_height_sense_s", "pierce_height_mm", "cut_height_mm", "retract_height_mm",
-                            "speed_mm_per_s", "timeout_s", "travel_height_over_cut_mm"});
+    if (h->has("initial_height_sense_s"))
+      h->at("initial_height_sense_s")
+          .fail("is no longer read: the torch finds the sheet by probing (a `probe` block with float_switch and/or ohmic)");
+    h->reject_unknown_keys({"pierce_height_mm", "cut_height_mm", "retract_height_mm", "speed_mm_per_s", "timeout_s",
+                            "travel_height_over_cut_mm", "probe"});
     TorchHeightConfig& th = m.torch_height;
     th.fitted = true;
-    th.initial_height_sense_s = h->number("initial_height_sense_s", kNonNegative);
     th.pierce_height_mm = h->number("pierce_height_mm", kPositive);
     th.cut_height_mm = h->number("cut_height_mm", kPositive);
     th.retract_height_mm = h->number("retract_height_mm", kPositive);
@@ -262,14 +287,15 @@ MachineConfig machine_from_yaml(const Yaml& root) {
     th.timeout_s = h->number("timeout_s", kPositive);
     if (th.retract_height_mm < th.pierce_height_mm)
       h->at("retract_height_mm").fail("must be at least pierce_height_mm");
-    const double worst = th.initial_height_sense_s + th.retract_height_mm / th.speed_mm_per_s;
+    const double worst = th.retract_height_mm / th.speed_mm_per_s;
     if (th.timeout_s <= worst)
-      h->at("timeout_s").fail(fmt::format("must exceed the sense time plus a full stroke ({:.3f} s)", worst));
+      h->at("timeout_s").fail(fmt::format("must exceed a full stroke from the retract height ({:.3f} s)", worst));
+    if (const auto p = h->get("probe")) th.probe = read_probe(*p, th);
     th.travel_height_over_cut_mm = h->number_or("travel_height_over_cut_mm", 0.0, {.min = 0.0, .max = 1000.0});
     if (th.travel_height_over_cut_mm > 0.0) {
       if (th.travel_height_over_cut_mm < th.retract_height_mm)
         h->at("travel_height_over_cut_mm").fail("must be at least retract_height_mm (or 0: the retract height)");
-      const double stroke = th.initial_height_sense_s + th.travel_height_over_cut_mm / th.speed_mm_per_s;
+      const double stroke = th.travel_height_over_cut_mm / th.speed_mm_per_s;
       if (th.timeout_s <= stroke)
         h->at("travel_height_over_cut_mm")
             .fail(fmt::format("is a stroke of {:.3f} s, beyond the height axis' timeout_s {:g} s", stroke, th.timeout_s));
@@ -311,6 +337,8 @@ executor::MachineSetup MachineConfig::setup() const {
   s.torch.cut_height_mm = torch_height.cut_height_mm;
   s.torch.retract_height_mm = torch_height.retract_height_mm;
   s.torch.height_timeout_s = torch_height.timeout_s;
+  s.torch.height_speed_mm_per_s = torch_height.speed_mm_per_s;
+  s.torch.probe = torch_height.probe;
   s.torch.recover_on_arc_loss = torch.kind == executor::TorchSetup::Kind::plasma && torch.plasma.recover_on_arc_loss;
   s.torch.volts_per_mm = torch.plasma.volts_per_mm;
   s.torch.thc = thc;

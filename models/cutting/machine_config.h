@@ -88,7 +88,9 @@ struct TorchConfig {
 
 struct TorchHeightConfig {
   bool fitted = false;
-  double initial_height_sense_s = 0.4;
+  // Initial height sensing (engine/executor/machine_setup.h): the `probe` block of the
+  // torch_height block; without one the torch does not probe.
+  executor::ProbeSetup probe;
   double pierce_height_mm = 3.8;
   double cut_height_mm = 1.5;
   double retract_height_mm = 15.0;
@@ -122,8 +124,10 @@ struct MachineConfig {
   TorchHeightConfig torch_height;
   // Torch height control (engine/executor/thc.h): the `thc` block; its defaults without one.
   executor::ThcSettings thc;
-  // The simulated sheet (models/sim): a warp of this amplitude and wavelength, mm (0: flat).
+  // The simulated sheet (models/sim): a warp of this amplitude and wavelength, mm (0: flat), and
+  // the chance that its surface is too dirty for an ohmic contact at one probe.
   double sheet_warp_amplitude_mm = 0.0, sheet_warp_wavelength_mm = 500.0;
+  double sheet_ohmic_miss_probability = 0.0;
   // Where programs' zero sits on this machine (X, Y mm), as an operator touching off the
   // sheet corner sets G54; `origin_mm: [x, y]` in the file. `machplan run --origin` overrides it.
   std::optional<std::array<double, 2>> origin_mm;

@@ -13,7 +13,12 @@ namespace machplan::sim {
 namespace {
 // In FaultInjection::Kind's order.
 constexpr Spelling kFaultNames[] = {{"encoder-glitch"}, {"counter-misread"}, {"estop"},             {"lost-backend"},
-                                    {"jam"},            {"arc-loss"},        {"arc-start-failure"}, {"watchdog"}};
+                                    {"jam"},            {"arc-loss"},        {"arc-start-failure"}, {"watchdog"},
+                                    {"probe-miss"},     {"switch-stuck"},    {"breakaway"},         {"ohmic-miss"}};
+// How long an injected breakaway holds the float switch closed (a part passing under the torch).
+constexpr double kBreakawayKnockS = 0.5;
+// The float's overtravel past its switch: pushed further, the torch's breakaway mount gives.
+constexpr double kFloatOvertravelMm = 2.0;
 }  // namespace
 
 const char* to_string(FaultInjection::Kind k) { return kFaultNames[static_cast<std::size_t>(k)].name.data(); }
@@ -105,6 +110,8 @@ hardware::Inputs SimBackend::sample() {
   in.torch_height_mm = height_mm_;
   in.arc_voltage_v = arc_voltage_v_;
   in.torch_breakaway = breakaway_;
+  in.float_switch = float_switch_;
+  in.ohmic_sense = ohmic_sense_;
   return in;
 }
 
@@ -126,6 +133,10 @@ void SimBackend::advance(const hardware::Outputs& out) {
       case FaultInjection::Kind::arc_loss: arc_loss_pending_ = true; break;
       case FaultInjection::Kind::arc_start_failure: arc_start_fails_ = true; break;
       case FaultInjection::Kind::watchdog: watchdog_ = true; break;
+      case FaultInjection::Kind::probe_miss: sheet_gone_ = true; break;
+      case FaultInjection::Kind::switch_stuck: float_stuck_ = true; break;
+      case FaultInjection::Kind::breakaway: knock_left_s_ = kBreakawayKnockS; break;
+      case FaultInjection::Kind::ohmic_miss: ohmic_dead_ = true; break;
     }
   }
   while (next_op_ < opt_.operator_events.size() && opt_.operator_events[next_op_].at_s <= time_s_ + 0.5 * dt)
@@ -144,6 +155,8 @@ void SimBackend::advance(const hardware::Outputs& out) {
     const FaultInjection::Kind kind = pending_[k].kind;
     if (kind == FaultInjection::Kind::arc_start_failure) effective_[k] = starting;
     else if (kind == FaultInjection::Kind::arc_loss) effective_[k] = fire;
+    else if (kind == FaultInjection::Kind::ohmic_miss) effective_[k] = alive && out.ohmic_enable;
+    else if (kind == FaultInjection::Kind::breakaway) effective_[k] = fire;
     else effective_[k] = 1;
   }
   if (starting) {
@@ -170,32 +183,31 @@ void SimBackend::advance(const hardware::Outputs& out) {
     arc_burning_ = true;
   }
 
-  // Torch height axis.
+  // Torch height axis and the sensors that find the plate.
   if (m_.torch_height.fitted) {
-    const double target = alive ? out.torch_height_target_mm : m_.torch_height.retract_height_mm;
-    if (target < height_target_mm_ - 1e-9 && height_retracted_) {
-      ihs_left_s_ = m_.torch_height.initial_height_sense_s;
-      height_retracted_ = false;
-    }
-    if (target >= m_.torch_height.retract_height_mm - 1e-9) height_retracted_ = true;
-    height_target_mm_ = target;
-    if (ihs_left_s_ > 0) {
-      ihs_left_s_ -= dt;
-      if (ihs_left_s_ <= 0) {  // the sense touched the plate here: the axis' zero from now on
-        Eigen::Vector2d p;
-        true_position(p);
-        ihs_plate_z_mm_ = plate_z_mm(p.x(), p.y());
-      }
-    } else {
-      const double step = m_.torch_height.speed_mm_per_s * dt;
-      height_mm_ += std::clamp(height_target_mm_ - height_mm_, -step, step);
-    }
-    double gap = 0.0;
-    breakaway_ = true_torch_gap(gap) && gap <= 0.0;
+    height_target_mm_ = alive ? out.torch_height_target_mm : m_.torch_height.retract_height_mm;
+    const double step = m_.torch_height.speed_mm_per_s * dt;
+    height_mm_ += std::clamp(height_target_mm_ - height_mm_, -step, step);
+    sense_plate(alive && out.ohmic_enable, dt);
   }
   burn_and_measure(dt);
   time_s_ += dt;
   ++ticks_;
+}
+
+void SimBackend::sense_plate(bool ohmic_on, double dt) noexcept {
+  const executor::ProbeSetup& p = m_.torch_height.probe;
+  // A dirty plate: drawn once per probe, as the ohmic sensing switches on.
+  if (ohmic_on && !ohmic_on_) ohmic_dirty_ = m_.sheet_ohmic_miss_probability > 0 && axis::uniform01(process_rng_) < m_.sheet_ohmic_miss_probability;
+  ohmic_on_ = ohmic_on;
+  double gap = 0.0;
+  const bool plate = true_torch_gap(gap);  // false: no sheet under the torch
+  knock_left_s_ = std::max(0.0, knock_left_s_ - dt);
+  float_switch_ = p.float_switch && (float_stuck_ || knock_left_s_ > 0 || (plate && gap <= -p.float_travel_mm));
+  ohmic_sense_ = p.ohmic && ohmic_on && !ohmic_dirty_ && !ohmic_dead_ && plate && gap <= 0.0;
+  // A torch that probes rides on a floating mount, with a switch or not; it gives past the
+  // float's overtravel. A torch that does not probe is held rigidly: it gives as it touches.
+  breakaway_ = plate && gap <= (p.fitted() ? -(p.float_travel_mm + kFloatOvertravelMm) : 0.0);
 }
 
 double SimBackend::plate_z_mm(double x, double y) const noexcept {
@@ -205,10 +217,10 @@ double SimBackend::plate_z_mm(double x, double y) const noexcept {
 }
 
 bool SimBackend::true_torch_gap(double& gap_mm) const noexcept {
-  if (!m_.torch_height.fitted) return false;
+  if (!m_.torch_height.fitted || sheet_gone_) return false;
   Eigen::Vector2d p;
   true_position(p);
-  gap_mm = height_mm_ + ihs_plate_z_mm_ - plate_z_mm(p.x(), p.y());
+  gap_mm = height_mm_ - plate_z_mm(p.x(), p.y());
   return true;
 }
 
@@ -280,6 +292,7 @@ std::vector<std::string> SimBackend::notes() const {
     else if (!effective_[k])
       out.push_back(fmt::format("the injected fault {}@{:g} s never took effect: {}", to_string(f.kind), f.at_s,
                                 f.kind == FaultInjection::Kind::arc_start_failure ? "no arc was started after it"
+                                : f.kind == FaultInjection::Kind::ohmic_miss      ? "no probe used ohmic sensing after it"
                                                                                   : "no arc burned after it"));
   }
   return out;

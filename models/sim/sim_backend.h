@@ -6,9 +6,18 @@
 // unless the start fails (probability `arc_start_failure_probability`, drawn from the seeded
 // RNG), and `arc_ok` is reported while the arc burns; dropping `torch_fire` ends the arc at
 // once. Oxy-fuel: the cutting oxygen follows `torch_fire`; there is no arc-OK signal (the
-// input reads true while firing). The height axis moves to its target at `speed_mm_per_s`;
-// the first descent after a retract starts with an initial height sense of
-// `initial_height_sense_s` during which it does not move.
+// input reads true while firing). The height axis moves to its target at `speed_mm_per_s`, in
+// the height frame of engine/hardware/backend.h (0: the sheet's nominal surface).
+//
+// The sheet and its sensors: the plate's surface is flat at 0 or warped (plate_z_mm); the
+// torch's gap is its height minus the surface under it. With the machine's probe sensors
+// (torch_height.probe): the float switch reads closed once the gap is -float_travel_mm or less
+// (the torch rests on the plate and its float has risen by the travel); the ohmic sense, while
+// Outputs::ohmic_enable is on, once the gap is 0 or less, unless the plate is dirty at that
+// probe (chance `sheet.ohmic_miss_probability`, drawn as the ohmic sensing switches on). The
+// executor debounces both. The torch's breakaway switch opens past the float's overtravel (2 mm
+// beyond where its switch closes) on a machine that probes, and as soon as the gap is 0 or less
+// on one that does not (its torch is held rigidly).
 //
 // Watchdog: once the link is lost (injected) the simulated hardware disables the drives and
 // the torch by itself, as a real controller's watchdog must; `coast()` lets a test run the
@@ -19,10 +28,9 @@
 // reports it. A gap after an exchange that disabled the drives (a session between two jobs) is
 // the machine waiting, not a fault.
 //
-// Collision: with a height axis, a torch whose true gap to the (warped) plate is zero or less
-// has touched it; the torch's breakaway switch opens (`Inputs::torch_breakaway`) for as long as
-// it stays there, as QtPlasmaC's breakaway input does. The simulator does not stop anything by
-// itself: that is the executor's job.
+// Collision: the breakaway switch (`Inputs::torch_breakaway`) stays open as long as the torch
+// presses on the plate as said above, as QtPlasmaC's breakaway input does. The simulator does
+// not stop anything by itself: that is the executor's job.
 //
 // Operator inputs: `operator_events` (time-stamped states of the joystick, feed hold and cycle
 // start) are applied at their times; set_operator() changes them at once.
@@ -37,6 +45,13 @@
 //   arc_loss             the plasma arc goes out from then on
 //   arc_start_failure    every arc start fails from then on
 //   watchdog             the controller misses exchanges for longer than the watchdog allows
+//   probe_miss           the sheet is gone from under the torch: no sensor finds it, nothing
+//                        touches it (a probe runs to its depth limit)
+//   switch_stuck         the float switch reads closed from then on
+//   breakaway            the float switch is pushed closed for 0.5 s (a part tipped up under a
+//                        torch that fires: QtPlasmaC reads it as a breakaway)
+//   ohmic_miss           the ohmic contact never closes from then on (the float switch must
+//                        take over)
 //
 // Determinism: one std::mt19937_64 seeded from SimOptions::seed drives all randomness.
 // Real time: exchange() allocates nothing. With `realtime`, it sleeps until the period's
@@ -61,14 +76,18 @@
 namespace machplan::sim {
 
 struct FaultInjection {
-  enum class Kind { encoder_glitch, counter_wrap_misread, estop, lost_backend, stuck_axis, arc_loss, arc_start_failure, watchdog };
+  enum class Kind {
+    encoder_glitch, counter_wrap_misread, estop, lost_backend, stuck_axis, arc_loss, arc_start_failure, watchdog,
+    probe_miss, switch_stuck, breakaway, ohmic_miss
+  };
   Kind kind = Kind::estop;
   double at_s = 0.0;
   int axis = 0;
   std::int32_t counts = 100;  // encoder_glitch only
 };
 // "jam", "encoder-glitch", "counter-misread", "estop", "lost-backend", "arc-loss",
-// "arc-start-failure", "watchdog" (what `machplan run --inject` takes).
+// "arc-start-failure", "watchdog", "probe-miss", "switch-stuck", "breakaway", "ohmic-miss"
+// (what `machplan run --inject` takes).
 const char* to_string(FaultInjection::Kind k);
 // The inverse of to_string; InputError::field("faults", ...) listing the kinds otherwise.
 Parsed<FaultInjection::Kind> parse_fault_kind(std::string_view text);
@@ -153,9 +172,13 @@ class SimBackend final : public hardware::Backend {
        arc_loss_pending_ = false;
   double arc_timer_s_ = 0.0;
   int arc_starts_ = 0;
-  double height_mm_ = 0.0, height_target_mm_ = 0.0, ihs_left_s_ = 0.0;
-  bool height_retracted_ = true;
-  bool breakaway_ = false;              // the torch touches the plate (gap <= 0)
+  double height_mm_ = 0.0, height_target_mm_ = 0.0;
+  bool breakaway_ = false;              // the torch presses on the plate past what its mount takes
+  bool float_switch_ = false, ohmic_sense_ = false;
+  bool ohmic_on_ = false, ohmic_dirty_ = false;  // ohmic sensing on; this probe's plate too dirty
+  bool sheet_gone_ = false, float_stuck_ = false, ohmic_dead_ = false;  // injected
+  double knock_left_s_ = 0.0;           // an injected breakaway still pushing the float
+  void sense_plate(bool ohmic_on, double dt) noexcept;
   bool estop_ = false, lost_ = false, watchdog_ = false, arc_start_fails_ = false;
   hardware::OperatorInputs op_{};
   hardware::Outputs last_out_{};
@@ -165,7 +188,6 @@ class SimBackend final : public hardware::Backend {
   // The plasma process: the warped plate, the arc's voltage, the kerfs cut so far.
   std::mt19937_64 process_rng_;         // its own stream: the axes' noise draws stay as they were
   double warp_amplitude_mm_ = 0.0, warp_wavelength_mm_ = 500.0, warp_phase_x_ = 0.0, warp_phase_y_ = 0.0;
-  double ihs_plate_z_mm_ = 0.0;         // the plate where the last height sense touched it
   double arc_voltage_v_ = 0.0;
   std::vector<std::uint16_t> kerf_cells_;  // the cut that burned each 2 mm cell (0: none)
   long kerf_nx_ = 0, kerf_ny_ = 0;

@@ -227,8 +227,12 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
   const bool oxy = m.torch.kind == executor::TorchSetup::Kind::oxy_fuel;
   TorchTimes times;
   if (th.fitted)
-    times.height = TorchTimes::Height{th.initial_height_sense_s, th.retract_height_mm, th.pierce_height_mm, th.cut_height_mm,
-                                      th.speed_mm_per_s, tol};
+    times.height = TorchTimes::Height{th.retract_height_mm, th.pierce_height_mm, th.cut_height_mm, th.speed_mm_per_s, tol};
+  if (th.fitted && th.probe.fitted()) {
+    const auto& p = th.probe;
+    times.probe = TorchTimes::Probe{p.probe_height_mm, p.probe_speed_mm_per_s, p.ohmic ? -p.ohmic_offset_mm : p.float_travel_mm,
+                                    p.debounce_periods * m.servo_period_s, p.skip_distance_mm};
+  }
   if (plasma) times.start_s = m.torch.plasma.arc_start_delay_s;
   if (oxy) times.start_s = m.torch.oxy_fuel.preheat_s;
   times.pierce_s = oxy ? m.torch.oxy_fuel.pierce_delay_s : m.torch.plasma.pierce_delay_s;
@@ -532,6 +536,28 @@ FramePlan plan_frame(const Job& job, RunOptions options, FrameOptions frame, con
 
 namespace {
 
+// The probes for the sheet: how many, by which sensor, the surface they found and, with the
+// backend's truth, how far from its pierce height each pierce fired (--json: probes).
+std::string probes_line(const executor::ExecutionResult& r) {
+  std::size_t skipped = 0, ohmic = 0, known = 0;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo, worst = 0.0, time_s = 0.0;
+  for (const executor::ProbeReport& p : r.probes) {
+    skipped += p.skipped;
+    ohmic += !p.skipped && std::string_view(p.sensor) == "ohmic";
+    lo = std::min(lo, p.surface_mm);
+    hi = std::max(hi, p.surface_mm);
+    time_s += p.duration_s;
+    if (!std::isnan(p.pierce_height_error_mm)) ++known, worst = std::max(worst, std::abs(p.pierce_height_error_mm));
+  }
+  const std::size_t probed = r.probes.size() - skipped;
+  std::string s = fmt::format("  probes           {} ({} skipped; {} by the ohmic contact, {} by the float switch), {:.3f} s; "
+                              "surface {:+.3f} .. {:+.3f} mm\n",
+                              r.probes.size(), skipped, ohmic, probed - ohmic, time_s, lo, hi);
+  if (known > 0)
+    s += fmt::format("                   pierce height within {:.3f} mm of the true surface's over {} pierces\n", worst, known);
+  return s;
+}
+
 // Torch height control over the cuts, the figures --json gives per cut (cuts[].thc), from the
 // backend's truth: how far the torch was from its cut height while THC held it. Empty when no
 // cut has them (no height axis, a machine without truth, THC never took hold).
@@ -583,6 +609,7 @@ std::string full_report(const RunOutcome& o, const session::MachineSession& sess
   for (const std::string& n : o.notes) s += fmt::format("  note: {}\n", n);
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
   s += fmt::format("  {:<16} {:9.3f} s\n", o.machine.spindle ? "spindle on" : "torch on", r.torch_on_s);
+  if (!r.probes.empty()) s += probes_line(r);
   s += fmt::format("  rapid distance   {:9.1f} mm  (straight {:.1f} mm; {} detours, +{:.1f} mm)\n", r.rapid_distance_mm,
                    o.rapids.straight_length_mm, o.rapids.detours, o.rapids.detour_extra_mm);
   for (const RapidReport& d : o.rapids.rapids)

@@ -126,6 +126,34 @@ TEST(MachineConfig, RefusesBadValuesNamingTheKey) {
   EXPECT_NE(missing.find("missing required key 'axes.x.servo.kp_per_s'"), std::string::npos) << missing;
 }
 
+TEST(MachineConfig, TheProbeBlockIsReadAndItsBadValuesRefusedWithTheirLine) {
+  const MachineConfig m = load_machine(bundled("thermal_gantry"));
+  const auto& p = m.torch_height.probe;
+  EXPECT_TRUE(p.ohmic && p.float_switch);
+  EXPECT_DOUBLE_EQ(p.probe_height_mm, 5.0);
+  EXPECT_DOUBLE_EQ(p.float_travel_mm, 1.5);
+  EXPECT_EQ(m.setup().torch.probe.skip_distance_mm, p.skip_distance_mm);
+  const std::string height = error_after("    probe_height_mm: 5.0", "    probe_height_mm: 20");
+  EXPECT_NE(height.find(fmt::format("m.yaml:{}: key 'torch_height.probe.probe_height_mm' must be below retract_height_mm (15 mm)",
+                                    line_of("    probe_height_mm: 5.0"))),
+            std::string::npos)
+      << height;
+  EXPECT_NE(error_after("    probe_speed_mm_per_s: 10.0", "    probe_speed_mm_per_s: 80")
+                .find("key 'torch_height.probe.probe_speed_mm_per_s' must not exceed the height axis' speed_mm_per_s (50)"),
+            std::string::npos);
+  const std::string neither = error_after("    ohmic: true                       # the shield touches the plate: tried first\n"
+                                          "    float_switch: true",
+                                          "    ohmic: false\n    float_switch: false");
+  EXPECT_NE(neither.find("key 'torch_height.probe' names no sensor: set float_switch, ohmic or both to true"), std::string::npos)
+      << neither;
+  EXPECT_NE(error_after("    debounce_periods: 3", "    debounce_periods: 0").find("key 'torch_height.probe.debounce_periods'"),
+            std::string::npos);
+  const std::string old = error_after("  probe:   ", "  initial_height_sense_s: 0.4\n  probe:   ");
+  EXPECT_NE(old.find("key 'torch_height.initial_height_sense_s' is no longer read: the torch finds the sheet by probing"),
+            std::string::npos)
+      << old;
+}
+
 TEST(MachineConfig, ASpindleMachineHasNoTorch) {
   // The gantry's file with a spindle block besides its torch: one or the other.
   const std::string both = error_after("name: thermal_gantry\n", "name: thermal_gantry\nspindle: {spin_up_s: 1, spin_down_s: 1}\n");

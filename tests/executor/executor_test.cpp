@@ -52,10 +52,16 @@ TEST(Executor, TorchSequenceRunsInOrder) {
   const long move = first(t, [](auto& s) { return s.step == 1; });
   const long off = first(t, [](auto& s) { return s.step == 2; });
   ASSERT_GT(fire, 0);
-  // Firing waits for the height axis to come down from retract (15 mm) to pierce height.
-  const double ihs_and_travel = m.torch_height.initial_height_sense_s +
-                                (m.torch_height.retract_height_mm - m.torch_height.pierce_height_mm) / m.torch_height.speed_mm_per_s;
-  EXPECT_GE(t[fire].t_s, ihs_and_travel - 0.01);
+  // Firing waits for the probe: down from retract (15 mm) to the probe height at the axis'
+  // speed, on at the probe speed to the plate, and up to pierce height.
+  const auto& th = m.torch_height;
+  const double probe_s = (th.retract_height_mm - th.probe.probe_height_mm) / th.speed_mm_per_s +
+                         th.probe.probe_height_mm / th.probe.probe_speed_mm_per_s + th.pierce_height_mm / th.speed_mm_per_s;
+  EXPECT_GE(t[fire].t_s, probe_s - 0.01);
+  ASSERT_EQ(r.probes.size(), 1u);
+  EXPECT_STREQ(r.probes[0].sensor, "ohmic");
+  EXPECT_NEAR(r.probes[0].surface_mm, 0.0, 0.02) << "a flat sheet at the nominal surface";
+  EXPECT_NEAR(r.probes[0].pierce_height_error_mm, 0.0, 0.06);
   // Arc OK comes after the arc start delay; the move starts after the pierce delay and the
   // descent to cut height.
   EXPECT_NEAR(t[arc].t_s - t[fire].t_s, m.torch.plasma.arc_start_delay_s, 0.003);

@@ -66,18 +66,37 @@ TEST(Thc, HoldsTheCutHeightWithinAThirdOfAMillimetreOnASheetWarpedThreeMillimetr
   EXPECT_LT(w.velocity_change_mm, 0.2);  // no dive at corners and small holes ...
   EXPECT_GT(w.velocity_locked_s, 0.1);    // ... where the velocity lock did hold the height
 
-  // The operator's THC switch off: the torch rides the warp at its 1.5 mm cut height, and where
-  // the sheet rises more than that it meets the plate: a collision (the breakaway switch), the
-  // run ends faulted with the torch off. (Before the simulator had a breakaway switch, the
-  // torch went on through the plate and the run completed.)
-  const RunOutcome without = run_on(part("nested_sheet.ngc"), gantry(), "t_s,event,value\n0,thc,0\n", warp);
+  // The operator's THC switch off: the torch rides the warp at its 1.5 mm cut height over the
+  // surface its probe found, and where the sheet rises more than that it meets the plate. With
+  // the gantry's float switch the torch floats up and rides on the plate (a cut that scrapes):
+  // the run completes, but the height is lost. A rigid torch that does not probe (its heights
+  // are over the nominal surface) gives at once: a collision (the breakaway switch), the run
+  // ends faulted with the torch off. (Before the simulator had a breakaway switch, the torch went on through the
+  // plate and the run completed.)
+  const std::string thc_off = "t_s,event,value\n0,thc,0\n";
+  const RunOutcome floating = run_on(part("nested_sheet.ngc"), gantry(), thc_off, warp);
+  ASSERT_TRUE(floating.summary.done()) << floating.summary.full_report();
+  double lowest_gap = 1e9;
+  for (const auto& t : floating.result.trace)
+    if (t.torch_fire && t.arc_ok && !std::isnan(t.torch_gap_mm)) lowest_gap = std::min(lowest_gap, t.torch_gap_mm);
+  EXPECT_LT(lowest_gap, 0.0) << "the torch rode on the plate";
+  EXPECT_GT(lowest_gap, -gantry().torch_height.probe.float_travel_mm) << "but never closed the float switch";
+  std::printf("THC off, +-3 mm warp, float switch: the torch rode %.3f mm into its float\n", -lowest_gap);
+
+  cutting::MachineConfig rigid = gantry();
+  rigid.torch_height.probe = {};
+  const RunOutcome without = run_on(part("nested_sheet.ngc"), rigid, thc_off, warp);
   ASSERT_EQ(without.summary.status, Status::faulted) << without.summary.full_report();
   ASSERT_EQ(without.result.faults.size(), 1u);
   EXPECT_EQ(without.result.faults.front().kind, executor::FaultKind::torch_breakaway);
-  EXPECT_DOUBLE_EQ(without.result.faults.front().value, gantry().torch_height.cut_height_mm);  // at cut height, no THC
+  EXPECT_EQ(without.result.faults.front().axis, -1) << "the breakaway switch";
+  EXPECT_TRUE(without.result.probes.empty());
+  // Between its pierce and cut heights over the nominal surface: no probe, no THC.
+  EXPECT_GE(without.result.faults.front().value, gantry().torch_height.cut_height_mm - 0.05);
+  EXPECT_LE(without.result.faults.front().value, gantry().torch_height.pierce_height_mm + 0.05);
   EXPECT_TRUE(without.result.torch_off_at_end);
   EXPECT_TRUE(without.result.stopped_at_rest);
-  std::printf("THC off, +-3 mm warp: the torch met the plate at %.3f s\n", without.result.faults.front().time_s);
+  std::printf("THC off, +-3 mm warp, a rigid torch without probing: the torch met the plate at %.3f s\n", without.result.faults.front().time_s);
 }
 
 // Two long cuts at right angles, the second crossing the first's kerf on a flat sheet.

@@ -166,12 +166,14 @@ TEST(Inject, BadValuesExitTwoNamingTheFlag) {
 // (QtPlasmaC's breakaway): the torch goes off in the period the breakaway switch opens, the
 // machine stops under control, the run ends faulted with the fault named, exit 3. Before the
 // breakaway input a run on a sheet warped 50 mm "completed" with the torch 63 mm below the
-// plate's surface and the arc on.
+// plate's surface and the arc on. With a float switch fitted (the gantry's), the torch floats
+// up as it meets the plate and its switch closing while the torch fires is the breakaway.
 TEST(TorchCollision, ATorchThatTouchesTheWarpedPlateIsAFaultWithTheTorchOff) {
   test::Cli cli;
   const std::string trace = (cli.dir() / "collision.csv").string();
-  // 8 mm over 40 mm: THC cannot follow, and the plate meets the torch in the first cut.
-  const CliRun r = cli.run({"run", part("nested_sheet.ngc"), "--machine", "thermal_gantry", "--sheet-warp", "8,40",
+  // 4 mm over 40 mm: within the probe's reach (5 mm under the nominal surface), but too steep
+  // for THC, and the plate meets the torch in the first cut.
+  const CliRun r = cli.run({"run", part("nested_sheet.ngc"), "--machine", "thermal_gantry", "--sheet-warp", "4,40",
                             "--json", "--trace", trace});
   ASSERT_EQ(r.code, 3) << r.err;
   const auto j = nlohmann::json::parse(r.out);
@@ -182,37 +184,35 @@ TEST(TorchCollision, ATorchThatTouchesTheWarpedPlateIsAFaultWithTheTorchOff) {
   EXPECT_TRUE(j["torch_off_at_end"].get<bool>());
   EXPECT_TRUE(j["stopped_at_rest"].get<bool>());
   EXPECT_THAT(r.err, HasSubstr("fault: "));
-  // The trace: from the first period the torch is at or below the plate, the torch is off
-  // (torch_fire, column 11) and never fires again, and the run ends with the drives off.
+  // The trace: the torch fired with the arc on and below the plate (riding on its float, gap
+  // under 0) in the period before the fault; from the fault on it is off (torch_fire, column
+  // 11) and never fires again, and the run ends with the drives off. (The probes touch the
+  // plate too, with the torch off.)
+  const double fault_s = j["faults"][0]["time_s"].get<double>();
   std::ifstream in(trace);
   std::string line;
   std::getline(in, line);  // header
-  bool touched = false, cutting_before = false;
+  bool cutting_before = false;
   std::size_t rows = 0, fired_after = 0;
-  std::vector<std::string> cols, before;
+  std::vector<std::string> cols;
   while (std::getline(in, line)) {
-    before = cols;
     cols.clear();
     std::stringstream ss(line);
     for (std::string c; std::getline(ss, c, ',');) cols.push_back(c);
     ASSERT_EQ(cols.size(), 16u) << line;
     ++rows;
-    const double gap = std::stod(cols[14]);
-    if (gap <= 0.0 && !touched) {
-      touched = true;
-      cutting_before = !before.empty() && before[11] == "1" && before[12] == "1";  // torch firing, arc OK
-    }
-    if (touched && cols[11] != "0") ++fired_after;
+    const double t = std::stod(cols[0]), gap = std::stod(cols[14]);
+    if (std::abs(t - (fault_s - 0.001)) < 0.0005)
+      cutting_before = cols[11] == "1" && cols[12] == "1" && gap < 0.0;  // torch firing, arc OK, on the plate
+    if (t > fault_s + 0.0005 && cols[11] != "0") ++fired_after;
   }
-  EXPECT_TRUE(touched);
   EXPECT_TRUE(cutting_before) << "the collision is expected mid-cut, with the arc on";
   EXPECT_GT(rows, 1000u);
   EXPECT_EQ(fired_after, 0u);
   EXPECT_EQ(cols[10], "0");  // drives disabled at the end
 
-  // The run of the report: 50 mm over 1 mm. The report for people names the fault and the
-  // state the machine was left in.
-  const CliRun text = cli.run({"run", part("nested_sheet.ngc"), "--machine", "thermal_gantry", "--sheet-warp", "50,1"});
+  // The report for people names the fault and the state the machine was left in.
+  const CliRun text = cli.run({"run", part("nested_sheet.ngc"), "--machine", "thermal_gantry", "--sheet-warp", "4,40"});
   EXPECT_EQ(text.code, 3);
   EXPECT_THAT(text.out, HasSubstr("FAULT torch_breakaway: "));
   EXPECT_THAT(text.out, HasSubstr("torch off at the end; machine stopped at rest"));

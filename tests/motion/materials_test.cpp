@@ -380,7 +380,7 @@ TEST(PlasmaWords, ProcessTimeTakesEachCutsMaterialWhenAsked) {
   const MaterialTable t = read_materials(kFile, "mats.cfg");
   const Job j = plasma_job("M190 P7\nG0 X10\nM3 $0 S1\nG1 X50 F1000\nM5 $0\nM190 P2\nG0 Y10\nM3 $0 S1\nG1 X10\nM5 $0\nM2\n", &t);
   TorchTimes times;
-  times.height = TorchTimes::Height{0.0, 10.0, 4.0, 2.0, 10.0, 0.0};
+  times.height = TorchTimes::Height{10.0, 4.0, 2.0, 10.0, 0.0};
   times.pierce_s = 2.0;
   // Machine settings: 10 -> 4 -> 2 mm (0.8 s), 2 s pierce, 2 -> 10 mm (0.8 s), twice.
   EXPECT_NEAR(process_time_s(j, times), 2 * (0.8 + 2.0 + 0.8), 1e-12);

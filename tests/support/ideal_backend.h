@@ -40,6 +40,9 @@ class IdealBackendBase : public hardware::Backend {
     in_.estop = estop_;
     in_.watchdog_tripped = watchdog_;
     in_.torch_height_mm = o.torch_height_target_mm;
+    // A flat sheet at the nominal surface, with the gantry's probe sensors (1.5 mm of float).
+    in_.ohmic_sense = o.ohmic_enable && in_.torch_height_mm <= 0.0;
+    in_.float_switch = in_.torch_height_mm <= -1.5;
     in_.arc_ok = o.torch_fire && !estop_ && !watchdog_;
     fill(in_);
     in = in_;

@@ -25,13 +25,14 @@
 
 #define MACHPLAN_EXCHANGE_KEY 0x4d504c48 /* "MPLH" */
 #define MACHPLAN_EXCHANGE_MAGIC 0x6d706c68u
-#define MACHPLAN_EXCHANGE_VERSION 1u
+#define MACHPLAN_EXCHANGE_VERSION 2u /* 2: the probing inputs, ohmic-enable and the operator's other pins */
 #define MACHPLAN_RING 256u /* slots per ring: a power of two, more than any watchdog allows */
 #define MACHPLAN_HAL_AXES 2
 
 /* Command flags */
 #define MACHPLAN_CMD_ENABLE 0x1u /* drives enabled */
 #define MACHPLAN_CMD_TORCH 0x2u  /* torch on */
+#define MACHPLAN_CMD_OHMIC 0x4u  /* ohmic sensing on (ohmic-enable) */
 
 /* Sample flags */
 #define MACHPLAN_IN_ARC_OK 0x1u
@@ -40,6 +41,12 @@
 #define MACHPLAN_IN_FEED_HOLD 0x8u
 #define MACHPLAN_IN_CYCLE_START 0x10u
 #define MACHPLAN_IN_FRESH 0x20u     /* this period's command arrived in time */
+#define MACHPLAN_IN_FLOAT 0x40u     /* the float switch is closed */
+#define MACHPLAN_IN_OHMIC 0x80u     /* the ohmic contact is made */
+#define MACHPLAN_IN_BREAKAWAY 0x100u /* the torch's breakaway switch is open */
+#define MACHPLAN_IN_STOP 0x200u     /* the stop button */
+#define MACHPLAN_IN_THC 0x400u      /* torch height control allowed (thc-enable) */
+#define MACHPLAN_IN_OP_ESTOP 0x800u /* the operator's E-stop is open, or opened during this session */
 
 /* Component states (also the `machplan.state` pin) */
 #define MACHPLAN_STATE_IDLE 0    /* no session: outputs off, position commands follow pos-fb */
@@ -67,6 +74,8 @@ typedef struct {
   double fb_mm[MACHPLAN_HAL_AXES];
   double jog_deflection[MACHPLAN_HAL_AXES];
   double height_fb_mm, arc_volts, feed_override_pct;
+  double rapid_override_pct; /* rapid-override as the pin reads, percent */
+  double recovery_mm;        /* cut-recovery-distance as the pin reads: a counter, mm */
   int64_t time_ns;  /* rtapi_get_time() when sampled */
 } machplan_sample;
 

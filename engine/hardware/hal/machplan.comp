@@ -12,9 +12,11 @@
 // Every period the function (1) opens or closes a session when the program asks, (2) takes the
 // command the program wrote for this period, or counts the period as missed and coasts, (3)
 // trips the watchdog after more than `watchdog-periods` missed periods in a row while the
-// drives or the torch are on, (4) gates the outputs with the E-stop chain and the watchdog, and
-// (5) publishes the input pins as this period's sample. It never waits for the program. See
-// docs/hal.md for the whole protocol and the wiring.
+// drives or the torch are on, (4) gates the outputs with the E-stop chain, the operator's
+// E-stop and the watchdog, and (5) publishes the input pins as this period's sample. It never
+// waits for the program. See docs/hal.md for the whole protocol, the wiring, and which of
+// QtPlasmaC's plasmac pins each pin stands for (the probing and operator pins take plasmac's
+// names where it has one).
 component machplan "machplan's exchange with the servo thread, and its watchdog";
 option singleton yes;
 option extra_setup yes;
@@ -28,14 +30,23 @@ pin in s32 axis.#.counts [2] "raw encoder counts, up for positive motion (veloci
 pin out bit enable "drives on";
 pin out bit torch-on "torch on (plasma: start and hold the arc; oxy-fuel: cutting oxygen)";
 pin in bit arc-ok "the plasma source reports a transferred arc";
-pin out float torch-height-cmd "torch height above the plate, mm";
-pin in float torch-height-fb "torch height, mm";
+pin out float torch-height-cmd "where the torch height axis must be, mm in the machine's height frame (0: the sheet's nominal surface, up positive)";
+pin in float torch-height-fb "the torch height axis's position, mm in the same frame";
 pin in float arc-voltage "arc voltage, V (for THC; passed through the exchange)";
-pin in bit estop-ok "the E-stop chain is closed; FALSE drops torch-on and enable in the same period";
+pin in bit estop-ok "the E-stop chain is closed; FALSE drops torch-on, ohmic-enable and enable in the same period";
+pin out bit ohmic-enable "ohmic sensing on: energise the torch's shield so that touching the plate closes ohmic-sense-in (gated like torch-on by the E-stop chain, the operator's E-stop and the watchdog)";
+pin in bit ohmic-sense-in "the ohmic contact is made: with ohmic-enable on, the torch's shield touches the plate";
+pin in bit float-switch "the float switch is closed: the torch rests on something and its floating mount has risen by the switch's travel";
+pin in bit breakaway "the torch's breakaway switch is open: the torch met something and its mount gave way (a collision)";
 pin in float jog.# [2] "joystick deflection per axis, -1 .. 1";
 pin in bit feed-hold "feed hold button";
 pin in bit cycle-start "cycle start button";
 pin in float feed-override = 100.0 "feed override, percent";
+pin in bit stop "stop button: end the job with a controlled stop, torch off (rising edge)";
+pin in float rapid-override = 100.0 "rapid override, percent of the planned speed, 1 .. 100";
+pin in float cut-recovery-distance "cut recovery: the total distance asked along the executed path, mm (negative: backwards); a counter, each change is a request of that many mm";
+pin in bit thc-enable = TRUE "torch height control allowed";
+pin in bit operator-estop "the operator's E-stop (a panel's, a pendant's) is open, a level; TRUE drops torch-on, ohmic-enable and enable in the same period like estop-ok FALSE";
 pin out bit watchdog-ok = TRUE "FALSE from a watchdog trip until watchdog-reset or the next session";
 pin out u32 period-count "periods this function has run";
 pin out u32 missed-periods "periods in a row without a command in time";
@@ -59,7 +70,7 @@ author "machplan";
 static machplan_exchange_block *X;
 static int shmem_id = -1;
 static uint32_t count_, session_, missed_, flags_;
-static int state_ = MACHPLAN_STATE_IDLE, estop_latched_, reset_prev_;
+static int state_ = MACHPLAN_STATE_IDLE, estop_latched_, op_estop_latched_, reset_prev_;
 static double pos_[MACHPLAN_HAL_AXES], vel_[MACHPLAN_HAL_AXES], height_;
 
 EXTRA_SETUP() {
@@ -113,7 +124,7 @@ FUNCTION(_) {
   machplan_sample *s;
   const uint32_t watchdog = watchdog_periods < 1 ? 1 : watchdog_periods > 200 ? 200 : watchdog_periods;
   uint32_t p = ++count_, flags = 0, q, sess;
-  int i, fresh = 0, on, torch;
+  int i, fresh = 0, on, torch, ohmic;
 
   // 1. sessions
   sess = x ? __atomic_load_n(&x->session, __ATOMIC_ACQUIRE) : session_;
@@ -122,6 +133,7 @@ FUNCTION(_) {
     state_ = MACHPLAN_STATE_ARMED;
     missed_ = 0;
     estop_latched_ = 0;
+    op_estop_latched_ = 0;
     if (x) __atomic_store_n(&x->session_ack, sess, __ATOMIC_RELEASE);
   }
   if ((state_ == MACHPLAN_STATE_ARMED || state_ == MACHPLAN_STATE_RUNNING) && x &&
@@ -130,7 +142,11 @@ FUNCTION(_) {
   if (watchdog_reset && !reset_prev_ && state_ == MACHPLAN_STATE_TRIPPED) state_ = MACHPLAN_STATE_IDLE;
   reset_prev_ = watchdog_reset;
   if (!estop_ok) estop_latched_ = 1;
-  if (state_ == MACHPLAN_STATE_IDLE) estop_latched_ = !estop_ok;
+  if (operator_estop) op_estop_latched_ = 1;
+  if (state_ == MACHPLAN_STATE_IDLE) {
+    estop_latched_ = !estop_ok;
+    op_estop_latched_ = operator_estop;
+  }
 
   // 2. this period's command, 3. the watchdog
   if (x && (state_ == MACHPLAN_STATE_ARMED || state_ == MACHPLAN_STATE_RUNNING))
@@ -169,9 +185,11 @@ FUNCTION(_) {
     flags_ = 0;
   }
 
-  // 4. outputs, gated by the E-stop chain and the watchdog
-  on = state_ == MACHPLAN_STATE_RUNNING && !estop_latched_ && (flags_ & MACHPLAN_CMD_ENABLE);
-  torch = state_ == MACHPLAN_STATE_RUNNING && !estop_latched_ && (flags_ & MACHPLAN_CMD_TORCH);
+  // 4. outputs, gated by the E-stop chain, the operator's E-stop and the watchdog (a trip
+  // leaves the state, and flags_ is cleared)
+  on = state_ == MACHPLAN_STATE_RUNNING && !estop_latched_ && !op_estop_latched_ && (flags_ & MACHPLAN_CMD_ENABLE);
+  torch = state_ == MACHPLAN_STATE_RUNNING && !estop_latched_ && !op_estop_latched_ && (flags_ & MACHPLAN_CMD_TORCH);
+  ohmic = state_ == MACHPLAN_STATE_RUNNING && !estop_latched_ && !op_estop_latched_ && (flags_ & MACHPLAN_CMD_OHMIC);
   for (i = 0; i < MACHPLAN_HAL_AXES; ++i) {
     axis_pos_cmd(i) = velocity ? axis_pos_fb(i) : pos_[i];
     axis_vel_cmd(i) = velocity && (state_ == MACHPLAN_STATE_RUNNING || state_ == MACHPLAN_STATE_TRIPPED) ? vel_[i] : 0.0;
@@ -179,6 +197,7 @@ FUNCTION(_) {
   }
   enable = on;
   torch_on = torch;
+  ohmic_enable = ohmic;
   torch_height_cmd = height_;
   watchdog_ok = state_ != MACHPLAN_STATE_TRIPPED;
   period_count = p;
@@ -193,6 +212,12 @@ FUNCTION(_) {
   if (feed_hold) flags |= MACHPLAN_IN_FEED_HOLD;
   if (cycle_start) flags |= MACHPLAN_IN_CYCLE_START;
   if (fresh) flags |= MACHPLAN_IN_FRESH;
+  if (float_switch) flags |= MACHPLAN_IN_FLOAT;
+  if (ohmic_sense_in) flags |= MACHPLAN_IN_OHMIC;
+  if (breakaway) flags |= MACHPLAN_IN_BREAKAWAY;
+  if (stop) flags |= MACHPLAN_IN_STOP;
+  if (thc_enable) flags |= MACHPLAN_IN_THC;
+  if (op_estop_latched_) flags |= MACHPLAN_IN_OP_ESTOP;
   s = &x->sample[p % MACHPLAN_RING];
   q = s->seq;
   __atomic_store_n(&s->seq, q + 1u, __ATOMIC_RELAXED);
@@ -209,6 +234,8 @@ FUNCTION(_) {
   s->height_fb_mm = torch_height_fb;
   s->arc_volts = arc_voltage;
   s->feed_override_pct = feed_override;
+  s->rapid_override_pct = rapid_override;
+  s->recovery_mm = cut_recovery_distance;
   s->time_ns = rtapi_get_time();
   __atomic_store_n(&s->seq, q + 2u, __ATOMIC_RELEASE);
   x->period_ns = (uint32_t)period;

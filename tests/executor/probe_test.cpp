@@ -1,0 +1,256 @@
+// Initial height sensing alone: the torch sequencer's probe against a hand-made plate and its
+// sensors, and the surface map the probes build.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <optional>
+
+#include "engine/executor/surface_map.h"
+#include "engine/executor/torch_sequencer.h"
+
+namespace machplan::executor {
+namespace {
+
+using S = TorchSequencer::Tick;
+using Sensor = TorchSequencer::Probe::Sensor;
+
+TorchSetup probing_torch(bool ohmic, bool float_switch) {
+  TorchSetup t;
+  t.kind = TorchSetup::Kind::plasma;
+  t.height_axis = true;
+  t.pierce_height_mm = 3.8;
+  t.cut_height_mm = 1.5;
+  t.retract_height_mm = 15.0;
+  t.height_tolerance_mm = 0.05;
+  t.height_timeout_s = 1.0;
+  t.arc_ok_timeout_s = 0.5;
+  t.pierce_delay_s = 0.2;
+  t.probe.ohmic = ohmic;
+  t.probe.float_switch = float_switch;
+  t.probe.probe_height_mm = 5.0;
+  t.probe.probe_speed_mm_per_s = 10.0;
+  t.probe.float_travel_mm = 1.5;
+  t.probe.max_depth_mm = 5.0;
+  t.probe.debounce_periods = 3;
+  return t;
+}
+
+// A height axis at 50 mm/s over a plate at `plate` (none: no sheet), with a float switch that
+// closes once the torch is `travel` under the surface and an ohmic contact at the surface.
+struct Plate {
+  std::optional<double> plate = 0.0;
+  double height = 15.0, travel = 1.5, fired_for = 0.0;
+  bool dirty = false, float_stuck = false;
+  double lowest = 15.0, height_at_fire = NAN;
+  int glitch_at = -1, period = 0;  // one period in which the float switch reads closed
+  void step(const hardware::Outputs& o, hardware::Inputs& in, double dt) {
+    const double d = o.torch_height_target_mm - height;
+    height += std::clamp(d, -50.0 * dt, 50.0 * dt);
+    lowest = std::min(lowest, height);
+    if (o.torch_fire && fired_for == 0.0) height_at_fire = height;
+    fired_for = o.torch_fire ? fired_for + dt : 0.0;
+    in.torch_height_mm = height;
+    in.arc_ok = o.torch_fire && fired_for >= 0.1;
+    const double gap = plate ? height - *plate : 1e9;
+    in.float_switch = float_stuck || gap <= -travel || period == glitch_at;
+    in.ohmic_sense = o.ohmic_enable && !dirty && gap <= 0.0;
+    ++period;
+  }
+};
+
+std::pair<S, double> run_probe(TorchSequencer& seq, Plate& p, hardware::Outputs& out, double limit_s = 10) {
+  hardware::Inputs in;
+  const double dt = 0.001;
+  for (double t = 0; t < limit_s; t += dt) {
+    p.step(out, in, dt);
+    const S s = seq.tick(in, out);
+    if (s != S::busy) return {s, t + dt};
+  }
+  return {S::busy, limit_s};
+}
+
+struct Probed {
+  S status;
+  TorchSequencer::Probe probe;
+  bool reported;
+};
+
+Probed probe_at(TorchSequencer& seq, Plate& p, hardware::Outputs& out, Eigen::Vector2d at = {0, 0}) {
+  seq.set_position(at);
+  seq.start_on(false, out);
+  const S s = run_probe(seq, p, out).first;
+  TorchSequencer::Probe r;
+  const bool reported = seq.take_probe(r);
+  return {s, r, reported};
+}
+
+TEST(Probe, TheOhmicContactFindsTheSurfaceAndThePierceFiresAtPierceHeightOverIt) {
+  TorchSequencer seq;
+  seq.configure(probing_torch(true, true), 0.001);
+  hardware::Outputs out;
+  Plate p;
+  p.plate = -2.3;  // the sheet lies lower than the nominal surface
+  const Probed r = probe_at(seq, p, out);
+  ASSERT_EQ(r.status, S::done);
+  ASSERT_TRUE(r.reported);
+  EXPECT_EQ(r.probe.sensor, Sensor::ohmic);
+  EXPECT_FALSE(r.probe.skipped);
+  EXPECT_NEAR(r.probe.surface_mm, -2.3, 0.02);
+  EXPECT_NEAR(seq.surface_mm(), -2.3, 0.02);
+  EXPECT_NEAR(p.height_at_fire - *p.plate, 3.8, 0.06);
+  EXPECT_NEAR(p.height - *p.plate, 1.5, 0.06) << "at cut height over the plate found";
+  EXPECT_FALSE(out.ohmic_enable) << "ohmic sensing is on only while probing";
+  EXPECT_GT(p.lowest, *p.plate - 0.1) << "the ohmic contact stops the torch at the surface";
+  // Fast to 5 mm over the nominal surface, then 7.3 mm at 10 mm/s.
+  EXPECT_NEAR(r.probe.duration_s, 10.0 / 50 + 7.3 / 10, 0.02);
+}
+
+TEST(Probe, TheFloatSwitchFindsTheSurfaceOneTravelAboveWhereItClosed) {
+  TorchSequencer seq;
+  seq.configure(probing_torch(false, true), 0.001);
+  hardware::Outputs out;
+  Plate p;
+  p.plate = 1.7;
+  const Probed r = probe_at(seq, p, out);
+  ASSERT_EQ(r.status, S::done);
+  EXPECT_EQ(r.probe.sensor, Sensor::float_switch);
+  EXPECT_NEAR(r.probe.surface_mm, 1.7, 0.02);
+  EXPECT_LT(p.lowest, 1.7 - 1.5 + 0.01) << "the float switch closes once the torch has floated its travel";
+  EXPECT_NEAR(p.height_at_fire - *p.plate, 3.8, 0.06);
+}
+
+TEST(Probe, ADirtyPlateLeavesTheOhmicContactOpenAndTheFloatSwitchTakesOver) {
+  TorchSequencer seq;
+  seq.configure(probing_torch(true, true), 0.001);
+  hardware::Outputs out;
+  Plate p;
+  p.dirty = true;
+  const Probed r = probe_at(seq, p, out);
+  ASSERT_EQ(r.status, S::done);
+  EXPECT_EQ(r.probe.sensor, Sensor::float_switch);
+  EXPECT_NEAR(r.probe.surface_mm, 0.0, 0.02);
+}
+
+TEST(Probe, ASheetAboveTheProbeHeightIsFoundOnTheWayDownAndProbedAgainSlowly) {
+  TorchSequencer seq;
+  seq.configure(probing_torch(true, true), 0.001);
+  hardware::Outputs out;
+  Plate p;
+  p.plate = 6.0;  // above the probe height over the nominal surface
+  const Probed r = probe_at(seq, p, out);
+  ASSERT_EQ(r.status, S::done);
+  EXPECT_NEAR(r.probe.surface_mm, 6.0, 0.02) << "found again at the probe speed";
+  EXPECT_NEAR(p.height_at_fire - *p.plate, 3.8, 0.06);
+}
+
+TEST(Probe, NoSheetWithinTheProbeDepthIsAProbeMissAndTheTorchNeverFires) {
+  TorchSequencer seq;
+  seq.configure(probing_torch(true, true), 0.001);
+  hardware::Outputs out;
+  Plate p;
+  p.plate.reset();
+  const Probed r = probe_at(seq, p, out);
+  ASSERT_EQ(r.status, S::failed);
+  EXPECT_EQ(seq.failure(), TorchSequencer::Failure::probe_miss);
+  EXPECT_DOUBLE_EQ(seq.failure_value(), 5.0);
+  EXPECT_FALSE(r.reported);
+  EXPECT_TRUE(std::isnan(p.height_at_fire)) << "never fired";
+  EXPECT_FALSE(out.ohmic_enable);
+  EXPECT_NEAR(p.lowest, -5.0, 0.06) << "down to the probe's depth limit and no further";
+}
+
+TEST(Probe, AFloatSwitchClosedBeforeTheProbeIsStuckAndTheTorchDoesNotGoDown) {
+  TorchSequencer seq;
+  seq.configure(probing_torch(true, true), 0.001);
+  hardware::Outputs out;
+  Plate p;
+  p.float_stuck = true;
+  const Probed r = probe_at(seq, p, out);
+  ASSERT_EQ(r.status, S::failed);
+  EXPECT_EQ(seq.failure(), TorchSequencer::Failure::switch_stuck);
+  EXPECT_DOUBLE_EQ(seq.failure_value(), 1.0) << "the float switch, not the ohmic sense";
+  EXPECT_GT(p.lowest, 14.0) << "stopped within the debounce, near the retract height";
+  EXPECT_TRUE(std::isnan(p.height_at_fire));
+}
+
+TEST(Probe, OnePeriodOfAClosedSwitchIsNoContact) {
+  TorchSequencer seq;
+  seq.configure(probing_torch(false, true), 0.001);
+  hardware::Outputs out;
+  Plate p;
+  p.plate = -1.0;
+  p.glitch_at = 600;  // during the slow descent, well above the plate
+  const Probed r = probe_at(seq, p, out);
+  ASSERT_EQ(r.status, S::done);
+  EXPECT_NEAR(r.probe.surface_mm, -1.0, 0.02);
+}
+
+TEST(Probe, APierceNearTheLastProbeSkipsItAndTakesTheSurfaceThere) {
+  TorchSetup t = probing_torch(true, true);
+  t.probe.skip_distance_mm = 10.0;
+  TorchSequencer seq;
+  seq.configure(t, 0.001);
+  hardware::Outputs out;
+  Plate p;
+  p.plate = 1.0;
+  ASSERT_EQ(probe_at(seq, p, out, {100, 100}).status, S::done);
+  seq.start_off(out);
+  ASSERT_EQ(run_probe(seq, p, out).first, S::done);
+  // 8 mm away: within the skip distance.
+  p.lowest = p.height;
+  p.height_at_fire = NAN;
+  const Probed near = probe_at(seq, p, out, {108, 100});
+  ASSERT_EQ(near.status, S::done);
+  ASSERT_TRUE(near.reported);
+  EXPECT_TRUE(near.probe.skipped);
+  EXPECT_EQ(near.probe.sensor, Sensor::none);
+  EXPECT_NEAR(near.probe.surface_mm, 1.0, 0.02);
+  EXPECT_GT(p.lowest, 1.0 + 1.5 - 0.06) << "no probe: never below the cut height, after the pierce";
+  EXPECT_EQ(near.probe.duration_s, 0.0);
+  EXPECT_NEAR(p.height_at_fire - *p.plate, 3.8, 0.06);
+  seq.start_off(out);
+  ASSERT_EQ(run_probe(seq, p, out).first, S::done);
+  // 12 mm from the last probed point (skipped pierces do not move it): probed again.
+  const Probed far = probe_at(seq, p, out, {112, 100});
+  ASSERT_EQ(far.status, S::done);
+  EXPECT_FALSE(far.probe.skipped);
+  EXPECT_EQ(far.probe.sensor, Sensor::ohmic);
+}
+
+TEST(SurfaceMap, APlaneIsRecoveredExactlyFromThreeOrMorePoints) {
+  SurfaceMap m;
+  auto plane = [](double x, double y) { return 1.0 + 0.01 * x - 0.02 * y; };
+  for (const Eigen::Vector2d& p : {Eigen::Vector2d(0, 0), Eigen::Vector2d(50, 0), Eigen::Vector2d(0, 60), Eigen::Vector2d(40, 40)})
+    m.add(p, plane(p.x(), p.y()));
+  double z = 0.0;
+  ASSERT_TRUE(m.estimate({20, 25}, 200, z));
+  EXPECT_NEAR(z, plane(20, 25), 1e-9);
+  ASSERT_TRUE(m.estimate({90, -30}, 200, z));
+  EXPECT_NEAR(z, plane(90, -30), 1e-9) << "outside the points too (the plane goes on)";
+}
+
+TEST(SurfaceMap, PointsOnALineGiveTheirWeightedMeanAndFarPointsNothing) {
+  SurfaceMap m;
+  double z = 0.0;
+  EXPECT_FALSE(m.estimate({0, 0}, 100, z)) << "empty";
+  m.add({0, 0}, 1.0);
+  m.add({10, 0}, 2.0);
+  m.add({20, 0}, 3.0);
+  ASSERT_TRUE(m.estimate({10, 30}, 100, z));
+  EXPECT_NEAR(z, 2.0, 1e-9) << "collinear points: no slope across the line, the symmetric mean";
+  EXPECT_FALSE(m.estimate({500, 500}, 100, z)) << "no point within the radius";
+}
+
+TEST(SurfaceMap, KeepsTheNewestPointsWhenFull) {
+  SurfaceMap m;
+  auto grid = [](std::size_t i) { return Eigen::Vector2d(10.0 * (i % 8), 10.0 * (i / 8)); };
+  for (std::size_t i = 0; i < SurfaceMap::kCapacity; ++i) m.add(grid(i), 9.0);
+  for (std::size_t i = 0; i < SurfaceMap::kCapacity; ++i) m.add(grid(i), -1.0);
+  EXPECT_EQ(m.size(), SurfaceMap::kCapacity);
+  double z = 0.0;
+  ASSERT_TRUE(m.estimate({35, 35}, 200, z));
+  EXPECT_NEAR(z, -1.0, 1e-9) << "the older measurements of the same points are gone";
+}
+
+}  // namespace
+}  // namespace machplan::executor
