@@ -55,6 +55,7 @@ void Session::Impl::record_probes(bool was_firing) noexcept {
       r.surface_mm = p.surface_mm;
       r.duration_s = p.duration_s;
       awaiting_pierce = true;
+      if (!p.skipped) surface.add(p.at_mm, p.surface_mm);
     } else {
       ++result.probes_dropped;
     }
@@ -101,8 +102,7 @@ void Session::Impl::begin_step() noexcept {
       const motion::CutParameters* m = material >= 0 ? &job.materials[static_cast<std::size_t>(material)] : nullptr;
       torch.use_material(m);
       thc.reset(m ? m->cut_volts : 0.0);
-      torch.set_position(adapter.position_mm());
-      torch.start_on(programmed, out);
+      start_torch(programmed, false);
       phase = Phase::torch;
       break;
     }
@@ -179,7 +179,9 @@ void Session::Impl::thc_tick() noexcept {
   // The speed the cut should run at: its feed, as the override and the machine allow.
   ti.feed_mm_per_s = std::min(s.feed_mm_per_s[seg] * std::min(feed_rate, 1.0), ms.max_velocity_mm_per_s);
   ti.allowed = (!m || m->thc) && (s.thc_off.empty() || !s.thc_off[seg]) && in.op.thc_enabled;
-  out.torch_height_target_mm = torch.surface_mm() + torch.cut_height_mm() + thc.update(ti);
+  thc.update(ti);
+  follow_surface(ti.allowed);
+  out.torch_height_target_mm = torch.surface_mm() + torch.cut_height_mm() + thc.correction_mm() + surface_ff;
   thc_acting = thc.active();
 
   // Figures, from the backend's truth.
@@ -207,6 +209,51 @@ void Session::Impl::thc_tick() noexcept {
     if (thc.active()) ++acc.active;
     acc.target_v = thc.target_v();
   }
+}
+
+// Feed-forward from the surface map, and the map's points from THC. While THC acts, every
+// kSurfaceStepMm of the cut adds the surface under the torch to the map (its height less the
+// cut height and the gap the voltage's error shows, where that error is within THC's
+// threshold). Where THC may act but does not (before it
+// arms after the pierce, under an anti-dive lock), the torch follows the change of the
+// surface the map estimates since THC stopped acting (not over a kerf); when THC acts again it takes that change
+// into its correction, so the height does not jump.
+constexpr double kSurfaceStepMm = 5.0;
+
+void Session::Impl::follow_surface(bool allowed) noexcept {
+  SurfaceMap& map = surface;
+  const Eigen::Vector2d xy = adapter.position_mm();
+  if (thc.active()) {
+    if (surface_ff != 0.0) thc.shift(surface_ff);
+    surface_ff = 0.0;
+    surface_following = false;
+    // Only where the voltage is steady at its target: a rise over a kerf is not the surface.
+    const double error_v = thc.filtered_v() - thc.target_v();
+    if (thc.holding() && thc.target_v() > 0.0 && std::abs(error_v) <= ms.torch.thc.threshold_v &&
+        (xy - surface_last_xy).norm() >= kSurfaceStepMm) {
+      const double gap_error = error_v / ms.torch.volts_per_mm;
+      map.add(xy, in.torch_height_mm - torch.cut_height_mm() - gap_error);
+      surface_last_xy = xy;
+    }
+    return;
+  }
+  // Over a kerf (the void lock) the height holds: the crossing is short, and the surface there
+  // is where the torch just was.
+  double est = 0.0;
+  if (!allowed || thc.void_locked() || !map.estimate(xy, est)) return;
+  if (!surface_following) {
+    surface_base = est - surface_ff;  // from the height the torch has now
+    surface_following = true;
+  }
+  surface_ff = std::clamp(est - surface_base, -ms.torch.thc.max_correction_mm, ms.torch.thc.max_correction_mm);
+}
+
+// A new cut, or a cut pierced again: the feed-forward starts over from the surface found.
+void Session::Impl::start_torch(bool programmed, bool preheated) noexcept {
+  surface_ff = 0.0;
+  surface_following = false;
+  torch.set_position(adapter.position_mm());
+  torch.start_on(programmed, out, preheated);
 }
 
 // How close to rest the torch goes off in a held cut, mm of travel left (follow_hold).
@@ -322,8 +369,7 @@ void Session::Impl::follow_hold() noexcept {
   }
   if (cut_off) {
     // Re-pierce where the cut stopped (an oxy-fuel preheat flame kept burning).
-    torch.set_position(adapter.position_mm());
-    torch.start_on(false, out, ms.torch.kind == TorchSetup::Kind::oxy_fuel);
+    start_torch(false, ms.torch.kind == TorchSetup::Kind::oxy_fuel);
     repiercing = true;
     phase = Phase::torch;
     return;

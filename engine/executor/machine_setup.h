@@ -28,7 +28,7 @@ struct ProbeSetup {
   double probe_speed_mm_per_s = 10.0;
   double float_travel_mm = 1.5;       // the float's rise before its switch closes
   double ohmic_offset_mm = 0.0;       // added to the surface an ohmic contact finds (QtPlasmaC's ohmic-probe-offset)
-  double max_depth_mm = 5.0;          // below the expected surface: no contact by there is a probe miss
+  double max_depth_mm = 5.0;          // below the expected and the nominal surface: no contact by there is a probe miss
   // A pierce within this distance (mm, in x and y) of the last probed point takes that probe's
   // surface without probing again (QtPlasmaC's skip IHS); 0: every pierce probes.
   double skip_distance_mm = 0.0;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "engine/executor/executor.h"
+#include "engine/executor/surface_map.h"
 
 namespace machplan::executor {
 
@@ -51,6 +52,8 @@ struct Session::Impl {
   void arc_lost() noexcept;
   // Torch height control in a cut, and its figures.
   void thc_tick() noexcept;
+  void follow_surface(bool thc_allowed) noexcept;
+  void start_torch(bool programmed, bool preheated) noexcept;
   bool move_is_rapid() const noexcept {
     return step < job.steps.size() && job.steps[step].kind == motion::Step::Kind::move && job.stretches[job.steps[step].stretch].rapid;
   }
@@ -131,6 +134,12 @@ struct Session::Impl {
   bool velocity_locked = false, void_locked = false;
   bool thc_acting = false;        // THC moved the height this period
   double velocity_lock_h = 0.0, void_lock_h = 0.0;  // the height when the lock began
+  // Feed-forward from the surface map (follow_surface): the probes and the heights THC held,
+  // dense along the cuts, so a narrower reach than the probes' own map.
+  SurfaceMap surface{100.0};
+  double surface_ff = 0.0, surface_base = 0.0;
+  bool surface_following = false;
+  Eigen::Vector2d surface_last_xy = Eigen::Vector2d::Constant(1e9);
   bool awaiting_pierce = false;   // a probe was recorded and its pierce has not fired yet
   int float_closed = 0;           // periods in a row the float switch read closed while the torch fired
   Eigen::Vector2d last_loss_mm = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());

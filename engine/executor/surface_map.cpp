@@ -12,8 +12,8 @@ void SurfaceMap::add(const Eigen::Vector2d& at_mm, double z_mm) noexcept {
   if (size_ < kCapacity) ++size_;
 }
 
-bool SurfaceMap::estimate(const Eigen::Vector2d& at_mm, double radius_mm, double& z_mm) const noexcept {
-  const double s2 = (radius_mm / 8.0) * (radius_mm / 8.0);
+bool SurfaceMap::estimate(const Eigen::Vector2d& at_mm, double& z_mm) const noexcept {
+  const double s2 = (radius_mm_ / 8.0) * (radius_mm_ / 8.0);
   Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
   Eigen::Vector3d b = Eigen::Vector3d::Zero();
   double w_sum = 0.0, wz_sum = 0.0;
@@ -21,7 +21,7 @@ bool SurfaceMap::estimate(const Eigen::Vector2d& at_mm, double radius_mm, double
   for (std::size_t i = 0; i < size_; ++i) {
     const Eigen::Vector2d d = points_[i].head<2>() - at_mm;
     const double d2 = d.squaredNorm();
-    if (d2 > radius_mm * radius_mm) continue;
+    if (d2 > radius_mm_ * radius_mm_) continue;
     const double w = 1.0 / (d2 + s2);
     const Eigen::Vector3d row(1.0, d.x(), d.y());
     a.noalias() += w * row * row.transpose();
@@ -33,13 +33,8 @@ bool SurfaceMap::estimate(const Eigen::Vector2d& at_mm, double radius_mm, double
   if (n == 0) return false;
   z_mm = wz_sum / w_sum;
   if (n < 3) return true;
-  // Points on a line leave the slope across it unknown: the mean then. The smallest spread of
-  // the points' positions (the weighted covariance's smaller eigenvalue) tells.
-  const Eigen::Vector2d mean = a.block<2, 1>(1, 0) / w_sum;
-  const Eigen::Matrix2d cov = a.bottomRightCorner<2, 2>() / w_sum - mean * mean.transpose();
-  const double half = 0.5 * (cov(0, 0) + cov(1, 1)), diff = 0.5 * (cov(0, 0) - cov(1, 1));
-  const double smallest = half - std::sqrt(diff * diff + cov(0, 1) * cov(0, 1));
-  if (!(smallest > 1e-4 * radius_mm * radius_mm)) return true;
+  a(1, 1) += kRidgeMm * kRidgeMm * w_sum;
+  a(2, 2) += kRidgeMm * kRidgeMm * w_sum;
   const Eigen::Vector3d x = a.ldlt().solve(b);
   if (std::isfinite(x.x())) z_mm = x.x();
   return true;

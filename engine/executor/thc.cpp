@@ -35,6 +35,10 @@ void ThcController::reset(double target_v) noexcept {
   armed_ = active_ = velocity_lock_ = primed_ = holding_ = false;
 }
 
+void ThcController::shift(double dz) noexcept {
+  if (std::isfinite(dz)) z_ = std::clamp(z_ + dz, -s_.max_correction_mm, s_.max_correction_mm);
+}
+
 double ThcController::update(const Input& in) noexcept {
   // The voltage's rise rate, filtered over about 10 ms, for the void anti-dive.
   const double a = std::min(1.0, dt_ / 0.01);

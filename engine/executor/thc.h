@@ -5,6 +5,10 @@
 // sense at the pierce drifts as the torch moves; THC moves the height axis to hold the voltage,
 // and so the distance, where the cut began.
 //
+// Where THC may not act, the executor moves the height by the sheet's surface map instead
+// (engine/executor/surface_map.h; Session::Impl::follow_surface) and hands the change over with
+// shift() when THC acts again.
+//
 // The law, per servo period T, while THC acts (armed, not locked, allowed):
 //
 //     e = V - V*                                   (V: the arc voltage, V*: the target)
@@ -69,6 +73,11 @@ class ThcController {
   double update(const Input& in) noexcept;
 
   double correction_mm() const noexcept { return z_; }
+  // Moves the correction by `dz` (clamped as the law clamps it): the executor's feed-forward
+  // hands over the height it reached while THC could not act. Real time.
+  void shift(double dz) noexcept;
+  // The arc voltage filtered over about 10 ms.
+  double filtered_v() const noexcept { return v_filtered_; }
   double target_v() const noexcept { return target_v_; }
   bool armed() const noexcept { return armed_; }
   bool holding() const noexcept { return holding_; }

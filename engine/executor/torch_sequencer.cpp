@@ -5,9 +5,6 @@
 
 namespace machplan::executor {
 
-// The surface map's reach: probes farther than this from a point say nothing about it, mm.
-constexpr double kMapRadiusMm = 200.0;
-
 using Kind = TorchSetup::Kind;
 
 void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated) noexcept {
@@ -43,8 +40,11 @@ void TorchSequencer::begin_probe(hardware::Outputs& out) noexcept {
   probe_ = Probe{};
   probe_.at_mm = at_mm_;
   probe_t_ = 0.0;
+  // The surface expected here: the map's estimate, within the probe's reach of the nominal
+  // surface (an estimate far out is an extrapolation gone wrong, not the sheet).
   expected_mm_ = 0.0;
-  map_.estimate(at_mm_, kMapRadiusMm, expected_mm_);
+  map_.estimate(at_mm_, expected_mm_);
+  expected_mm_ = std::clamp(expected_mm_, -p.max_depth_mm, p.max_depth_mm);
   if (probed_ && p.skip_distance_mm > 0 && (at_mm_ - probed_at_mm_).cwiseAbs().maxCoeff() <= p.skip_distance_mm) {
     surface_mm_ = expected_mm_;
     probe_.skipped = true;
@@ -126,7 +126,8 @@ TorchSequencer::Tick TorchSequencer::probe_tick(const hardware::Inputs& in, hard
   } else if (float_run_ >= p.debounce_periods) {
     found(float_z_ + p.float_travel_mm, Probe::Sensor::float_switch, out);
   } else {
-    const double floor = expected_mm_ - p.max_depth_mm;
+    // At least max_depth_mm under the nominal surface, and under the expected one.
+    const double floor = std::min(expected_mm_, 0.0) - p.max_depth_mm;
     probe_target_mm_ = std::max(floor, probe_target_mm_ - p.probe_speed_mm_per_s * dt_);
     out.torch_height_target_mm = probe_target_mm_;
     if (probe_target_mm_ <= floor && in.torch_height_mm <= floor + t_.height_tolerance_mm) {

@@ -9,7 +9,7 @@
 //       stuck) -> down at the axis' speed to the probe height over the expected surface (a
 //       contact on the way: back up 1 mm over it) -> down at the probe speed until the ohmic
 //       contact or the float switch has read closed debounce_periods in a row (none by
-//       max_depth_mm under the expected surface: probe miss) -> the surface is where it first
+//       max_depth_mm under the expected surface and the nominal one: probe miss) -> the surface is where it first
 //       read closed (+ the float's travel for the float switch). The expected surface is the
 //       one the earlier probes' surface map (engine/executor/surface_map.h) estimates there
 //       (the nominal 0 before any). A pierce within skip_distance_mm of the last probed point
@@ -103,7 +103,7 @@ class TorchSequencer {
   // The surface the heights are measured from, height frame (0: not probed).
   double surface_mm() const noexcept { return surface_mm_; }
   // The probes of this run as a surface (the estimates of skipped probes are not in it).
-  const SurfaceMap& surface_map() const noexcept { return map_; }
+  const SurfaceMap& probe_map() const noexcept { return map_; }
   // A probe finished (or was skipped) since the last call: copies it to `p` once.
   bool take_probe(Probe& p) noexcept {
     if (!probe_ready_) return false;
@@ -171,7 +171,7 @@ class TorchSequencer {
   double probe_t_ = 0.0;                 // since the probe began
   double probe_target_mm_ = 0.0;         // the slow probe's moving target
   double expected_mm_ = 0.0;             // the surface expected under the probe
-  SurfaceMap map_;
+  SurfaceMap map_{200.0};  // probes lie tens of mm apart: a wide reach
   int ohmic_run_ = 0, float_run_ = 0;    // consecutive closed reads
   double ohmic_z_ = 0.0, float_z_ = 0.0; // the height at the first read of each run
   bool sensor_seen_ = false;             // a sensor read closed since the probe began

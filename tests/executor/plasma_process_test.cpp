@@ -63,7 +63,9 @@ TEST(Thc, HoldsTheCutHeightWithinAThirdOfAMillimetreOnASheetWarpedThreeMillimetr
   std::printf("THC on, +-3 mm warp: torch height within %.3f mm of the cut height; height change under velocity "
               "anti-dive at most %.3f mm over %.2f s of velocity lock\n", w.max_mm, w.velocity_change_mm, w.velocity_locked_s);
   EXPECT_LT(w.max_mm, 0.3);
-  EXPECT_LT(w.velocity_change_mm, 0.2);  // no dive at corners and small holes ...
+  // No dive at corners and small holes: under the velocity lock the torch follows the surface
+  // the map estimates (the warp's own change, a few tenths over a corner), not the voltage.
+  EXPECT_LT(w.velocity_change_mm, 0.3);
   EXPECT_GT(w.velocity_locked_s, 0.1);    // ... where the velocity lock did hold the height
 
   // The operator's THC switch off: the torch rides the warp at its 1.5 mm cut height over the
@@ -97,6 +99,20 @@ TEST(Thc, HoldsTheCutHeightWithinAThirdOfAMillimetreOnASheetWarpedThreeMillimetr
   EXPECT_TRUE(without.result.torch_off_at_end);
   EXPECT_TRUE(without.result.stopped_at_rest);
   std::printf("THC off, +-3 mm warp, a rigid torch without probing: the torch met the plate at %.3f s\n", without.result.faults.front().time_s);
+}
+
+// A steeper warp, +-3 mm over 400 mm, on the bracket: THC alone loses height where it may not
+// act (after the pierce until it arms, at corners under the velocity lock); the surface map of
+// the probes and of the heights THC held carries the torch over those stretches.
+TEST(Thc, TheSurfaceMapHoldsTheBracketWithinThreeTenthsOnASteepWarp) {
+  for (const double wavelength : {1000.0, 600.0, 400.0}) {
+    const RunOutcome r = run_on(part("bracket_l.ngc"), gantry(), "", std::make_pair(3.0, wavelength));
+    ASSERT_TRUE(r.summary.done()) << r.summary.full_report();
+    const ThcWorst w = worst_thc(r.result.cuts);
+    ASSERT_EQ(w.cuts, 5);
+    std::printf("bracket, +-3 mm over %.0f mm: torch height within %.3f mm of the cut height\n", wavelength, w.max_mm);
+    EXPECT_LT(w.max_mm, 0.3) << wavelength;
+  }
 }
 
 // Two long cuts at right angles, the second crossing the first's kerf on a flat sheet.
