@@ -305,7 +305,7 @@ void add_run(CLI::App& app) {
                   "file's sheet block, else flat): what torch height control must follow");
   cmd->add_option("--operator-events", a->operator_events,
                   "simulator: the operator's inputs on a timeline, a CSV 't_s,event,value' (hold, start, stop, "
-                  "feed_override, rapid_override, recover, thc)");
+                  "feed_override, rapid_override, paused_motion, paused_motion_speed, thc)");
   cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default) or hal (a machine through "
                   "LinuxCNC's HAL, scripts/hal-sim for a simulated one: docs/hal.md)");
   cmd->add_option("--inject", a->inject,

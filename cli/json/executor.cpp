@@ -105,6 +105,18 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
                                  {"moved_along_path_mm", h.recovered_mm},
                                  {"resumed_at_s", num(h.resumed_at_s)},
                                  {"repierce_s", h.repierce_s}});
+  // Paused motions: each move along the path while held, with the distance moved.
+  j["paused_motions"] = json::array();
+  for (const executor::PausedMotionReport& p : r.paused_motions)
+    j["paused_motions"].push_back({{"t_s", p.t_s},
+                                   {"end_s", p.end_s},
+                                   {"from_line", p.from_line},
+                                   {"to_line", p.to_line},
+                                   {"from_mm", {p.from_mm.x(), p.from_mm.y()}},
+                                   {"to_mm", {p.to_mm.x(), p.to_mm.y()}},
+                                   {"moved_mm", p.moved_mm},
+                                   {"by_arc_loss", p.by_arc_loss}});
+  j["paused_motions_dropped"] = r.paused_motions_dropped;
   if (include_trace) {
     json t = json::array();
     for (const TraceSample& s : r.trace)

@@ -451,14 +451,20 @@ void Panel::set_overrides(std::optional<double> feed_pct, std::optional<double> 
   publish_inputs();
 }
 
-void Panel::recover(double mm) {
-  if (!(std::isfinite(mm) && std::abs(mm) <= 1000 && mm != 0))
-    throw InputError::field("mm", fmt::format("{} mm: a recovery moves -1000 .. 1000 mm along the path, not 0", mm));
+void Panel::paused_motion(std::optional<double> mm, std::optional<double> speed) {
+  if (mm.has_value() == speed.has_value())
+    throw InputError::field("mm", "takes {\"mm\": N} (millimetres along the path, negative: back) or {\"speed\": F} (-1 .. 1)");
+  if (mm && !(std::isfinite(*mm) && std::abs(*mm) <= 1000 && *mm != 0))
+    throw InputError::field("mm", fmt::format("{} mm: a paused motion moves -1000 .. 1000 mm along the path, not 0", *mm));
+  if (speed && !(std::isfinite(*speed) && std::abs(*speed) <= 1))
+    throw InputError::field("speed", fmt::format("{}: the paused-motion speed is a fraction -1 .. 1", *speed));
   hardware::OperatorInputs asked;
-  asked.recover_mm = mm;
+  asked.paused_motion_mm = mm.value_or(0.0);
+  asked.paused_motion_speed = speed.value_or(0.0);
   refuse_in_paper_mode(asked);
   const std::lock_guard<std::mutex> lock(op_mutex_);
-  op_.recover_mm += mm;
+  if (mm) op_.paused_motion_mm += *mm;
+  if (speed) op_.paused_motion_speed = *speed, paused_speed_time_ = Clock::now();
   publish_inputs();
 }
 
@@ -563,6 +569,10 @@ void Panel::service() {
       op_.feed_hold = op_.cycle_start = op_.stop = false;
       changed = true;
     }
+  }
+  if (op_.paused_motion_speed != 0.0 && now - paused_speed_time_ > std::chrono::duration<double>(o_.jog_deadman_s)) {
+    op_.paused_motion_speed = 0.0;
+    changed = true;
   }
   if (now - jog_time_ > std::chrono::duration<double>(o_.jog_deadman_s)) {
     if (op_.jog[0] != 0.0 || op_.jog[1] != 0.0) {

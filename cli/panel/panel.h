@@ -139,10 +139,13 @@ class Panel {
   void reset();
   // Levels; InputError::field for a value out of range (feed 0 .. 200 %, rapid 1 .. 100 %).
   void set_overrides(std::optional<double> feed_pct, std::optional<double> rapid_pct);
-  // Cut recovery: while a cut is held with its torch off (a lost arc, or a hold), move `mm`
-  // along the cut's path (negative: back over what was cut), at most 1000 mm a request; the
-  // executor takes it at rest and re-pierces where the machine stands on resume.
-  void recover(double mm);
+  // Paused motion: while a job is held with its torch off (a lost arc, or a hold), move along
+  // the program's path (negative: back over what was cut, across moves and earlier cuts):
+  // `mm`, at most 1000 mm a request, or at `speed` (-1 .. 1 of the machine's paused-motion
+  // speed; a level with the jog's dead man: it falls back to 0 when no request came for
+  // jog_deadman_s). The executor takes it at rest; the resume pierces where the machine
+  // stands when that is in a cut.
+  void paused_motion(std::optional<double> mm, std::optional<double> speed);
   // The operator's THC switch (plasma): torch height control allowed or not.
   void set_thc(bool enabled);
   // The stick, each axis -1 .. 1. An idle machine starts a jog session; a hybrid session
@@ -224,7 +227,7 @@ class Panel {
   mutable std::mutex op_mutex_;
   hardware::OperatorInputs op_{};
   std::uint64_t press_tick_ = 0;
-  std::chrono::steady_clock::time_point press_time_{}, jog_time_{};
+  std::chrono::steady_clock::time_point press_time_{}, jog_time_{}, paused_speed_time_{};
   std::atomic<bool> estop_{false};
   std::atomic<std::uint64_t> stick_{0};  // hardware::LiveOperator::pack()ed, for the guard
   std::atomic<std::int64_t> last_deflection_ns_{0};

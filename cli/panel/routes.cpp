@@ -80,9 +80,10 @@ constexpr ApiRoute kApiRoutes[] = {
     {"/status", true, false, false},  {"/login", false, true, false},   {"/control", false, true, false},
     {"/job", true, true, true},       {"/run", false, true, true},      {"/hold", false, true, true},
     {"/resume", false, true, true},   {"/stop", false, true, true},     {"/estop", false, true, false},
-    {"/reset", false, true, true},    {"/override", false, true, true}, {"/recover", false, true, true},
+    {"/reset", false, true, true},    {"/override", false, true, true}, {"/paused_motion", false, true, true},
     {"/thc", false, true, true},      {"/jog", false, true, true},      {"/report", true, false, false},
-    {"/guard", true, true, true},     {"/history", true, false, false}, {"/frame", false, true, true}};
+    {"/guard", true, true, true},     {"/history", true, false, false}, {"/frame", false, true, true},
+    {"/recover", false, true, true}};  // the older name of /paused_motion
 
 const ApiRoute* find_api_route(const std::string& path) {
   for (const ApiRoute& r : kApiRoutes)
@@ -280,10 +281,8 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
     panel.set_overrides(number(body, "feed"), number(body, "rapid"));
     return ok({{"ok", true}});
   }
-  if (path == "/recover") {
-    const std::optional<double> mm = number(body, "mm");
-    if (!mm) throw InputError::field("mm", "takes {\"mm\": N}: millimetres along the cut's path (negative: back)");
-    panel.recover(*mm);
+  if (path == "/paused_motion" || path == "/recover") {
+    panel.paused_motion(number(body, "mm"), number(body, "speed"));
     return ok({{"ok", true}});
   }
   if (path == "/thc") {

@@ -5,6 +5,16 @@
 
 namespace machplan::executor {
 
+void ContourMonitor::seek(std::size_t k, const Eigen::Vector2d& p) noexcept {
+  const std::vector<Segment>& segs = job_->stretches[k].segments;
+  double best = std::numeric_limits<double>::infinity();
+  cursor_ = 0;
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    const double d = (closest_point(segs[i], p) - p).squaredNorm();
+    if (d < best) best = d, cursor_ = i;
+  }
+}
+
 double ContourMonitor::account(std::size_t k, const Eigen::Vector2d& meas, bool has_truth,
                                const Eigen::Vector2d& truth) noexcept {
   const std::vector<Segment>& segs = job_->stretches[k].segments;

@@ -40,6 +40,10 @@ class ContourMonitor {
     acc_[k].touched = true;
   }
   void complete(std::size_t k) noexcept { acc_[k].complete = true; }
+  // The tool was moved along stretch k by other means (a paused motion, either way): the
+  // cursor goes to the segment nearest `p`, the first of equals (the whole stretch is searched,
+  // once).
+  void seek(std::size_t k, const Eigen::Vector2d& p) noexcept;
   // One sample on stretch k; `true_mm` is used when `has_truth`. Returns the measured distance.
   double account(std::size_t k, const Eigen::Vector2d& measured_mm, bool has_truth, const Eigen::Vector2d& true_mm) noexcept;
   // The last measured distance (0 outside cuts).

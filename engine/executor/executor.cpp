@@ -98,10 +98,8 @@ void Session::Impl::begin_step() noexcept {
     case Step::Kind::torch_on: {
       // A dwell step right after torch_on is the programmed pierce delay (G4).
       const bool programmed = step + 1 < job.steps.size() && job.steps[step + 1].kind == Step::Kind::dwell;
-      material = st.material;
-      const motion::CutParameters* m = material >= 0 ? &job.materials[static_cast<std::size_t>(material)] : nullptr;
-      torch.use_material(m);
-      thc.reset(m ? m->cut_volts : 0.0);
+      use_material(st.material);
+      cut_begin = step;
       start_torch(programmed, false);
       phase = Phase::torch;
       break;
@@ -128,7 +126,7 @@ void Session::Impl::operate() noexcept {
   const bool hold_edge = op.feed_hold && !prev_op.feed_hold;
   const bool start_edge = op.cycle_start && !prev_op.cycle_start;
   const bool stop_edge = op.stop && !prev_op.stop;
-  const double recover_mm = op.recover_mm - prev_op.recover_mm;
+  const double paused_mm = op.paused_motion_mm - prev_op.paused_motion_mm;
   prev_op = op;
   if (stop_edge && phase != Phase::jog) {
     raise(FK::operator_stop, -1, 0.0);
@@ -141,8 +139,9 @@ void Session::Impl::operate() noexcept {
   const bool zero_feed = feed_rate == 0.0 && phase == Phase::move && !move_is_rapid();
   if (!held && (hold_edge || zero_feed)) begin_hold(!hold_edge);
   if (held && (held_by_override ? feed_rate > 0.0 : start_edge)) resume_asked = true;
-  // Cut recovery: along the path of a held cut whose torch is off.
-  if (held && cut_off && phase == Phase::move && std::isfinite(recover_mm) && recover_mm != 0.0) source->recover(recover_mm);
+  // Paused motion: asked while a move is held; follow_hold hands it to the source once the
+  // machine stands with its torch off.
+  if (held && phase == Phase::move && pauses_along_path() && std::isfinite(paused_mm)) paused_pending_mm += paused_mm;
 }
 
 void Session::Impl::arc_lost() noexcept {
@@ -263,6 +262,7 @@ void Session::Impl::begin_hold(bool by_override) noexcept {
   held = true;
   held_by_override = by_override;
   resume_asked = false;
+  paused_pending_mm = 0.0;
   const bool cutting = ms.torch.kind != TorchSetup::Kind::spindle && (out.torch_fire || torch.lit() || torch.lighting());
   if (result.holds.size() < result.holds.capacity()) {
     HoldReport& h = result.holds.emplace_back();
@@ -354,19 +354,24 @@ void Session::Impl::follow_hold() noexcept {
       hold->stop_s = t - hold->t_s;
       hold->stop_mm = sp_mm;
       // After a lost arc the machine goes back along the path to where the arc went out (the
-      // braking, and the debounce before it was called lost); the operator may go further.
-      if (hold->by_arc_loss)
-        source->recover(-(hold->distance_to_stop_mm + hold->speed_mm_per_s * ms.torch.arc_loss_debounce_s));
+      // braking, and the debounce before it was called lost), within the cut; the operator may
+      // go further.
+      if (hold->by_arc_loss) {
+        source->pause_move(-(hold->distance_to_stop_mm + hold->speed_mm_per_s * ms.torch.arc_loss_debounce_s), true);
+        paused_by_arc_loss = true;
+      }
     }
   }
   last_sp = sp_mm;
-  if (!resume_asked || !at_rest || torch_off_running || source->recovering()) return;
+  const bool ready = at_rest && !torch_off_running;
+  if (ready && paused_pending_mm != 0.0) source->pause_move(paused_pending_mm, false);
+  if (ready) paused_pending_mm = 0.0;
+  const double jog = in.op.paused_motion_speed;
+  source->pause_jog(ready && pauses_along_path() && std::isfinite(jog) ? jog : 0.0);
+  follow_paused_motion();
+  if (!resume_asked || !ready || source->pause_moving()) return;
   resume_asked = false;
-  const double recovered = source->take_recovered_mm();
-  if (hold) {
-    hold->resumed_at_s = t;
-    hold->recovered_mm = recovered;
-  }
+  if (hold) hold->resumed_at_s = t;
   if (cut_off) {
     // Re-pierce where the cut stopped (an oxy-fuel preheat flame kept burning).
     start_torch(false, ms.torch.kind == TorchSetup::Kind::oxy_fuel);
@@ -376,6 +381,66 @@ void Session::Impl::follow_hold() noexcept {
   }
   held = false;
   hold = nullptr;
+}
+
+// A paused motion: its record, and the step the machine is on as it crosses moves.
+void Session::Impl::follow_paused_motion() noexcept {
+  const bool moving = source->pause_moving();
+  if (moving && !paused_moving) {
+    paused = nullptr;
+    if (result.paused_motions.size() < result.paused_motions.capacity()) {
+      paused = &result.paused_motions.emplace_back();
+      paused->t_s = t;
+      paused->from_step = static_cast<int>(step);
+      paused->from_line = source->source_line();
+      paused->from_mm = sp_mm;
+      paused->by_arc_loss = paused_by_arc_loss;
+    } else {
+      ++result.paused_motions_dropped;
+    }
+    paused_by_arc_loss = false;
+  }
+  const std::size_t j = source->move_step();
+  if (j != step && j < job.steps.size()) enter_paused_step(j);
+  if (!moving && paused_moving) {
+    const double moved = source->take_paused_mm();
+    if (hold) hold->recovered_mm += moved;
+    if (paused) {
+      paused->end_s = t;
+      paused->to_step = static_cast<int>(step);
+      paused->to_line = source->source_line();
+      paused->to_mm = sp_mm;
+      paused->moved_mm = moved;
+    }
+    paused = nullptr;
+    // The contour's cursor only moves on: find where the machine now stands.
+    contour.seek(job.steps[step].stretch, sp_mm);
+  }
+  paused_moving = moving;
+}
+
+// The paused motion reached the move of step j: a cut there is one whose torch is off (the
+// resume pierces), in its own material.
+void Session::Impl::enter_paused_step(std::size_t j) noexcept {
+  step = j;
+  const std::size_t k = job.steps[j].stretch;
+  contour.begin(k);
+  cut_off = job.stretches[k].cutting;
+  if (!cut_off) return;
+  std::size_t on = j;
+  while (on > 0 && job.steps[on].kind != Step::Kind::torch_on) --on;
+  if (job.steps[on].kind == Step::Kind::torch_on && on != cut_begin) {
+    cut_begin = on;
+    use_material(job.steps[on].material);
+  }
+  thc_acc[k].material = material;
+}
+
+void Session::Impl::use_material(int index) noexcept {
+  material = index;
+  const motion::CutParameters* m = material >= 0 ? &job.materials[static_cast<std::size_t>(material)] : nullptr;
+  torch.use_material(m);
+  thc.reset(m ? m->cut_volts : 0.0);
 }
 
 void Session::Impl::next_step() noexcept {
@@ -397,7 +462,8 @@ void Session::Impl::sequence() noexcept {
     case Phase::dispatch:
     case Phase::done: break;
     case Phase::move:
-      if (source->move_done()) {
+      // (A paused motion crossing into the previous move stands at its end for a period.)
+      if (source->move_done() && !source->pause_moving()) {
         const std::size_t k = job.steps[step].stretch;
         contour.complete(k);
         if (job.stretches[k].rapid) rapid_mm += stretch_len[k];

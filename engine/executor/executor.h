@@ -38,6 +38,11 @@
 //                          (above 100 % only while the plan cruises, within the axes'
 //                          speeds); 0 % holds like the button and lets go when it rises
 //   rapid override         1 .. 100 % on rapids
+//   paused motion          while a plasma or oxy-fuel job is held at rest with its torch off:
+//                          along the program's path, back or on, across moves and cuts (a
+//                          distance, or a speed held), at the machine's paused-motion speed;
+//                          the resume pierces where it stands when that is in a cut. Each is
+//                          in ExecutionResult::paused_motions
 //   stop (rising edge)     the job ends: operator_stop, torch off, controlled stop
 // The paper modes' vector sources run at their one speed and take no hold or override.
 //
@@ -156,8 +161,8 @@ struct HoldReport {
   bool in_rapid = false;
   bool by_override = false;         // a 0 % feed override, not the button
   bool by_arc_loss = false;         // the arc went out in a cut (machine's on_arc_loss: recover)
-  // Cut recovery: how far the operator moved the machine along the path while held, mm
-  // (negative: back along the cut), before the re-pierce.
+  // Paused motion: how far the machine moved along the path while held, mm (negative: back
+  // along the cut), before the re-pierce; the sum of the hold's PausedMotionReports.
   double recovered_mm = 0.0;
   Eigen::Vector2d position_mm = Eigen::Vector2d::Zero();  // commanded point at the input
   double speed_mm_per_s = 0.0;      // commanded path speed at the input
@@ -176,6 +181,18 @@ struct HoldReport {
   // The jerk-limited stopping distance from the state at the input (S-curve with the limits
   // above), mm: the shortest stop the limits allow.
   double jerk_limited_stop_mm() const;
+};
+
+// One paused motion: while a job was held at rest, the machine moved along the program's path
+// with the torch off (the operator's request, or the automatic backing up after a lost arc),
+// from its start until it came to rest again.
+struct PausedMotionReport {
+  double t_s = 0.0, end_s = 0.0;    // its start and its end, since the start of the run
+  int from_step = -1, to_step = -1; // the steps of the moves it started and ended on
+  int from_line = 0, to_line = 0;   // and their program lines (the segment's)
+  Eigen::Vector2d from_mm = Eigen::Vector2d::Zero(), to_mm = Eigen::Vector2d::Zero();  // commanded
+  double moved_mm = 0.0;            // along the path, signed (negative: back)
+  bool by_arc_loss = false;         // the automatic backing up to where the arc went out
 };
 
 // One initial height sense before a pierce (engine/executor/torch_sequencer.h): a probe, or the
@@ -242,6 +259,8 @@ struct ExecutionResult {
   std::size_t holds_dropped = 0;
   std::vector<ProbeReport> probes;    // every probe, in order (at most kMaxProbes are kept)
   std::size_t probes_dropped = 0;
+  std::vector<PausedMotionReport> paused_motions;  // in order (at most kMaxPausedMotions are kept)
+  std::size_t paused_motions_dropped = 0;
   std::vector<TraceSample> trace;
   bool trace_truncated = false;
   std::size_t trace_streamed = 0;     // samples written to a TraceStream
@@ -286,6 +305,7 @@ struct RunParts {
 
 inline constexpr std::size_t kMaxHolds = 1024;
 inline constexpr std::size_t kMaxProbes = 4096;
+inline constexpr std::size_t kMaxPausedMotions = 1024;
 
 class Executor;
 

@@ -44,6 +44,8 @@ void TorchSetup::validate() const {
   require(std::isfinite(height_speed_mm_per_s) && height_speed_mm_per_s > 0, "height_speed_mm_per_s", height_speed_mm_per_s,
           "must be > 0");
   validate_member("probe", probe);
+  require(std::isfinite(paused_motion_speed_mm_per_s) && paused_motion_speed_mm_per_s > 0 && paused_motion_speed_mm_per_s <= 1000,
+          "paused_motion_speed_mm_per_s", paused_motion_speed_mm_per_s, "must be in (0, 1000] mm/s");
   if (probe.fitted()) {
     require(height_axis, "probe", 1, "needs a torch height axis");
     require(probe.probe_height_mm < retract_height_mm, "probe.probe_height_mm", probe.probe_height_mm,

@@ -58,6 +58,9 @@ struct TorchSetup {
   ProbeSetup probe;                    // initial height sensing (height axis only)
   // Plasma: a lost arc holds the job for the operator's cut recovery instead of ending it.
   bool recover_on_arc_loss = false;
+  // Paused motion (a held cut, torch off: the machine moves along the program's path, back or
+  // on): its top speed along the path, mm/s (QtPlasmaC's paused-motion speed at 100 %).
+  double paused_motion_speed_mm_per_s = 10.0;
   double volts_per_mm = 10.0;          // the arc's voltage per mm of torch-to-plate distance
   ThcSettings thc;                     // torch height control (height axis and plasma)
   void validate() const;  // throws InputError naming field, value and rule

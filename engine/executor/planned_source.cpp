@@ -112,25 +112,17 @@ bool PlannedSource::motion_left_s(double feed_rate, double rapid_rate, double& f
 
 void PlannedSource::begin_move(std::size_t step, const Eigen::Vector2d& measured_mm) noexcept {
   measured_mm_ = measured_mm;
-  step_ = step;
-  cur_ = (*ctx_.trajectories)[step].get();
-  // The path the setpoints follow: the planner's executed path (its corners blended within
-  // the path tolerance) when the trajectory has one. Given the programmed corner instead, a
-  // contour controller would pull the tool off the blend the setpoint is on, towards the
-  // sharp corner.
-  const motion::Stretch* followed = cur_ ? cur_->followed_path() : nullptr;
-  stretch_ = followed ? followed : &ctx_.job->stretches[ctx_.job->steps[step].stretch];
-  segment_ = 0;
+  enter_move(step);
   t_ = 0.0;
-  recover_left_mm_ = recover_v_ = recovered_mm_ = 0.0;
+  pause_left_mm_ = pause_v_ = paused_mm_ = 0.0;
   scale_.reset(target_);  // the plan starts at rest: the rate takes its target at no cost
 }
 
 void PlannedSource::advance(const Eigen::Vector2d& measured_mm, const hardware::OperatorInputs&) noexcept {
   measured_mm_ = measured_mm;
   if (!cur_) return;
-  if (recovering() && target_ == 0.0 && scale_.k() == 0.0) {
-    step_recovery();
+  if (pause_moving() && target_ == 0.0 && scale_.k() == 0.0) {
+    step_paused();
     return;
   }
   if (target_ == 1.0 && scale_.k() == 1.0 && scale_.k_dot() == 0.0) {
@@ -140,23 +132,76 @@ void PlannedSource::advance(const Eigen::Vector2d& measured_mm, const hardware::
   t_ += scale_.step(target_, *cur_, t_);
 }
 
-void PlannedSource::step_recovery() noexcept {
-  const double dt = ctx_.period_s;
-  const double left = std::abs(recover_left_mm_), dir = recover_left_mm_ > 0 ? 1.0 : -1.0;
-  const double a = kRecoverAcceleration;
-  recover_v_ = std::min({recover_v_ + a * dt, kRecoverSpeed, std::sqrt(2.0 * a * left)});
-  const double ds = std::min(recover_v_ * dt, left);
+void PlannedSource::step_paused() noexcept {
+  const double dt = ctx_.period_s, a = kPausedAcceleration;
+  const double top = ctx_.machine->torch.paused_motion_speed_mm_per_s;
+  // The speed wanted: towards the distance asked, braking to be at rest where it ends; else
+  // the operator's speed.
+  double want = pause_jog_ * top;
+  if (pause_left_mm_ != 0.0)
+    want = std::copysign(std::min(top, std::sqrt(2.0 * a * std::abs(pause_left_mm_))), pause_left_mm_);
+  pause_v_ += std::clamp(want - pause_v_, -a * dt, a * dt);
+  if (pause_v_ == 0.0) return;
+  const double dir = pause_v_ > 0 ? 1.0 : -1.0;
+  double ds = std::abs(pause_v_) * dt;
+  const bool to_distance = pause_left_mm_ != 0.0 && (pause_left_mm_ > 0) == (dir > 0);
+  if (to_distance) ds = std::min(ds, std::abs(pause_left_mm_));
+  bool crossed = false;
+  const double moved = slide(dir, ds, crossed);
+  paused_mm_ += dir * moved;
+  if (pause_left_mm_ != 0.0) pause_left_mm_ -= dir * moved;
+  // Done: the distance asked (within a micrometre), or the end of the path it may follow.
+  const bool arrived = to_distance && std::abs(pause_left_mm_) <= 1e-6;
+  const bool stuck = moved == 0.0 && !crossed;
+  if (arrived || stuck) pause_left_mm_ = pause_v_ = 0.0;
+  if (stuck) pause_jog_ = 0.0;  // at the end of the path: a held joystick must be let go
+}
+
+// Moves the path time `ds` mm along the path (dir: +1 on, -1 back) and into the neighbouring
+// move at an end (`crossed`). Returns the distance moved.
+double PlannedSource::slide(double dir, double ds, bool& crossed) noexcept {
   motion::Setpoint now, next;
   cur_->sample(t_, now);
   // Path time per mm: the plan's speed here (at least 1 mm/s: near the move's ends, where the
-  // plan is at rest, the recovery crawls there rather than jumping).
+  // plan is at rest, the motion crawls there rather than jumping).
   const double t_new = std::clamp(t_ + dir * ds / std::max(now.velocity_mm_per_s.norm(), 1.0), 0.0, cur_->duration_s());
   cur_->sample(t_new, next);
-  recovered_mm_ += dir * (next.position_mm - now.position_mm).norm();
+  const double moved = (next.position_mm - now.position_mm).norm();
   t_ = t_new;
-  recover_left_mm_ -= dir * ds;
-  // Done: the distance asked for, or the end of the move (the history kept is the move's).
-  if (left - ds <= 1e-9 || t_new == 0.0 || t_new == cur_->duration_s()) recover_left_mm_ = recover_v_ = 0.0;
+  const bool at_end = dir < 0 ? t_new == 0.0 : t_new == cur_->duration_s();
+  if (at_end && moved < 1e-9) crossed = enter_neighbour(dir);
+  return moved;
+}
+
+// At an end of the move: go on into the previous (dir < 0) or next move step, skipping the
+// torch and dwell steps between. Within a cut, no further than its own moves.
+bool PlannedSource::enter_neighbour(double dir) noexcept {
+  const motion::Job& job = *ctx_.job;
+  std::size_t j = step_;
+  while (dir < 0 ? j > 0 : j + 1 < job.steps.size()) {
+    j = dir < 0 ? j - 1 : j + 1;
+    const motion::Step& st = job.steps[j];
+    if (st.kind == motion::Step::Kind::move) {
+      if (pause_within_cut_ && !job.stretches[st.stretch].cutting) return false;
+      enter_move(j);
+      t_ = dir < 0 ? cur_->duration_s() : 0.0;
+      if (dir < 0) segment_ = stretch_->segments.empty() ? 0 : stretch_->segments.size() - 1;
+      return true;
+    }
+    if (pause_within_cut_ && st.kind != motion::Step::Kind::dwell) return false;
+  }
+  return false;
+}
+
+// The path the setpoints follow: the planner's executed path (its corners blended within the
+// path tolerance) when the trajectory has one. Given the programmed corner instead, a contour
+// controller would pull the tool off the blend the setpoint is on, towards the sharp corner.
+void PlannedSource::enter_move(std::size_t step) noexcept {
+  step_ = step;
+  cur_ = (*ctx_.trajectories)[step].get();
+  const motion::Stretch* followed = cur_ ? cur_->followed_path() : nullptr;
+  stretch_ = followed ? followed : &ctx_.job->stretches[ctx_.job->steps[step].stretch];
+  segment_ = 0;
 }
 
 void PlannedSource::motion_now(Eigen::Vector2d& v, Eigen::Vector2d& a) const noexcept {
@@ -242,6 +287,8 @@ void PlannedSource::demand(Demand& d) const noexcept {
   };
   for (int n = 0; n < 8 && segment_ + 1 < segs.size() && (dist(segment_ + 1) < dist(segment_) || reversed(segment_)); ++n)
     ++segment_;
+  // A paused motion back along the path: the cursor follows it back the same way.
+  for (int n = 0; n < 8 && pause_v_ < 0.0 && segment_ > 0 && dist(segment_ - 1) < dist(segment_); ++n) --segment_;
   d.track.path = &segs[segment_];
 }
 

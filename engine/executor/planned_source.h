@@ -16,6 +16,7 @@
 // ControllerInput::kMaxPreviewTicks setpoints ahead of r.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -40,17 +41,22 @@ class PlannedSource final : public SetpointSource {
   bool motion_left_s(double feed_rate, double rapid_rate, double& feed_s, double& rapid_s) const noexcept override;
   double path_distance_mm(const Eigen::Vector2d& p) const noexcept override;
   void motion_now(Eigen::Vector2d& v_mm_per_s, Eigen::Vector2d& a_mm_per_s2) const noexcept override;
-  // Cut recovery moves the path time back (or on) at kRecoverSpeed along the path, ramped at
-  // kRecoverAcceleration: the setpoints stay on the planned path.
-  void recover(double delta_mm) noexcept override { recover_left_mm_ += delta_mm; }
-  bool recovering() const noexcept override { return recover_left_mm_ != 0.0 || recover_v_ > 0.0; }
-  double take_recovered_mm() noexcept override {
-    const double r = recovered_mm_;
-    recovered_mm_ = 0.0;
+  // Paused motion moves the path time back (or on) along the planned path at the machine's
+  // paused-motion speed, ramped at kPausedAcceleration, and on into the neighbouring moves'
+  // trajectories: the setpoints stay on the planned path.
+  void pause_move(double delta_mm, bool within_cut) noexcept override {
+    pause_left_mm_ += delta_mm;
+    pause_within_cut_ = within_cut;
+  }
+  void pause_jog(double speed_fraction) noexcept override { pause_jog_ = std::clamp(speed_fraction, -1.0, 1.0); }
+  bool pause_moving() const noexcept override { return pause_left_mm_ != 0.0 || pause_jog_ != 0.0 || pause_v_ != 0.0; }
+  double take_paused_mm() noexcept override {
+    const double r = paused_mm_;
+    paused_mm_ = 0.0;
     return r;
   }
-  static constexpr double kRecoverSpeed = 10.0;           // mm/s
-  static constexpr double kRecoverAcceleration = 200.0;   // mm/s^2
+  std::size_t move_step() const noexcept override { return cur_ ? step_ : kNoStep; }
+  static constexpr double kPausedAcceleration = 200.0;  // mm/s^2
 
  private:
   SourceContext ctx_;
@@ -64,8 +70,15 @@ class PlannedSource final : public SetpointSource {
   TimeScale scale_;                            // how fast t_ runs (hold, overrides)
   double target_ = 1.0;
   double estimate_s_ = 0.0;
-  double recover_left_mm_ = 0.0, recover_v_ = 0.0, recovered_mm_ = 0.0;
-  void step_recovery() noexcept;
+  // Paused motion: the distance asked and not yet moved, the speed asked (a fraction), the
+  // signed speed now (mm/s), what was moved since take_paused_mm, and whether it may leave the
+  // cut it is in.
+  double pause_left_mm_ = 0.0, pause_jog_ = 0.0, pause_v_ = 0.0, paused_mm_ = 0.0;
+  bool pause_within_cut_ = false;
+  void step_paused() noexcept;
+  double slide(double dir, double ds, bool& crossed) noexcept;
+  bool enter_neighbour(double dir) noexcept;
+  void enter_move(std::size_t step) noexcept;
 
   // For motion_left_s, the motion from each step to the job's end: its rapids' time, its feed
   // moves' time and, of that, the time they cruise by the rate the axes allow there

@@ -171,6 +171,7 @@ void Session::Impl::prepare(double machine_period_s) {
   trace_out = &result.trace;
   result.holds.reserve(kMaxHolds);
   result.probes.reserve(kMaxProbes);
+  result.paused_motions.reserve(kMaxPausedMotions);
   if (opt.record_trace) {
     const double samples = source->runs_job() ? est_s / dt / opt.trace_every_ticks * 1.1 + 1000 : 1e9;
     recorder.prepare(result.trace, static_cast<std::size_t>(std::min(samples, 1e12)));

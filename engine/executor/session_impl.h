@@ -47,6 +47,13 @@ struct Session::Impl {
   void operate() noexcept;
   void begin_hold(bool by_override) noexcept;
   void follow_hold() noexcept;
+  void follow_paused_motion() noexcept;
+  void enter_paused_step(std::size_t j) noexcept;
+  void use_material(int index) noexcept;
+  // Paused motion is for the torches (a held spindle cut has no re-pierce to resume with).
+  bool pauses_along_path() const noexcept {
+    return ms.torch.kind == TorchSetup::Kind::plasma || ms.torch.kind == TorchSetup::Kind::oxy_fuel;
+  }
   // The arc went out in a cut: a fault, or (the machine's on_arc_loss: recover) a hold the
   // operator recovers from.
   void arc_lost() noexcept;
@@ -119,6 +126,13 @@ struct Session::Impl {
   bool repiercing = false;
   bool restart_step = false;      // the hold interrupted a torch-on step: it runs again on resume
   HoldReport* hold = nullptr;     // the hold being recorded (in result.holds)
+  // Paused motion: the distance asked and not yet handed to the source, the motion being
+  // recorded (in result.paused_motions), whether one was under way last period, and whether
+  // the next is the automatic backing up after a lost arc.
+  double paused_pending_mm = 0.0;
+  PausedMotionReport* paused = nullptr;
+  bool paused_moving = false, paused_by_arc_loss = false;
+  std::size_t cut_begin = static_cast<std::size_t>(-1);  // the torch_on step of the cut under way
   Eigen::Vector2d last_sp = Eigen::Vector2d::Zero();
   double progress_s = 0.0;        // the job's expected time done: path time in moves, else machine time
   bool be_realtime = true;

@@ -102,14 +102,23 @@ class SetpointSource {
     (void)p;
     return 0.0;
   }
-  // Cut recovery, while a move is held at rest (rate 0): move `delta_mm` along the move's
-  // path (negative: back along what was cut), no further than the move's start or end; the
-  // requests add up. A source without it ignores them.
-  virtual void recover(double delta_mm) noexcept { (void)delta_mm; }
-  // A recovery motion is under way or asked for.
-  virtual bool recovering() const noexcept { return false; }
-  // How far along the path the recoveries moved since the last call, mm (signed).
-  virtual double take_recovered_mm() noexcept { return 0.0; }
+  // Paused motion, while a move is held at rest (rate 0): the machine moves along the
+  // program's path with the torch off, back (negative) or on, across the moves of the job
+  // (rapids included; `within_cut`: only over the cut's own moves, as the automatic backing up
+  // after a lost arc does), no further than the job's first or last move. Two ways to ask:
+  // a distance (requests add up) and a speed, a fraction -1 .. 1 of the machine's paused-
+  // motion speed that holds while it is not 0 (a joystick, a pair of buttons). A source
+  // without it ignores both.
+  virtual void pause_move(double delta_mm, bool within_cut) noexcept { (void)delta_mm, (void)within_cut; }
+  virtual void pause_jog(double speed_fraction) noexcept { (void)speed_fraction; }
+  // A paused motion is under way or asked for.
+  virtual bool pause_moving() const noexcept { return false; }
+  // How far along the path the paused motions moved since the last call, mm (signed).
+  virtual double take_paused_mm() noexcept { return 0.0; }
+  // The step whose move the source is on: the one begin_move gave, or the one a paused motion
+  // reached.
+  virtual std::size_t move_step() const noexcept { return kNoStep; }
+  static constexpr std::size_t kNoStep = static_cast<std::size_t>(-1);
 };
 
 // Sits between a source and the controller and may change the demand (the hybrid guard keeps

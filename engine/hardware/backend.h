@@ -66,10 +66,13 @@ struct OperatorInputs {
   bool stop = false;                // button: end the job with a controlled stop, torch off
   double feed_override_pct = 100.0;   // feed moves' speed, 0 .. 200 % of the programmed (0: as a hold)
   double rapid_override_pct = 100.0;  // rapids' speed, 1 .. 100 % of the planned
-  // Cut recovery: the total distance asked along the executed path so far, mm (negative:
-  // backwards). A counter, so that no request is lost between two samples: each change is a
-  // request of that many millimetres.
-  double recover_mm = 0.0;
+  // Paused motion (while a job is held: along the program's path, torch off), two ways:
+  // - the total distance asked so far, mm (negative: back along the path). A counter, so that
+  //   no request is lost between two samples: each change is a request of that many mm;
+  // - a speed held while it is not 0, a fraction -1 .. 1 of the machine's paused-motion speed
+  //   (QtPlasmaC's paused-motion-speed; negative: back).
+  double paused_motion_mm = 0.0;
+  double paused_motion_speed = 0.0;
   bool thc_enabled = true;          // torch height control allowed (plasma)
   // A level, not a button: the operator's E-stop (a panel's, a pendant's) is open. The
   // executor treats it as the E-stop chain opening (Inputs::estop): fault estop, torch off in

@@ -280,7 +280,9 @@ void HalBackend::Impl::fill(const machplan_sample& s, std::uint32_t newest_flags
   // the pin by an earlier job is no request. A value that is not a number is no request either:
   // the last good one stands.
   if (std::isfinite(s.recovery_mm)) recovery_mm = s.recovery_mm - recovery_base_mm;
-  in.op.recover_mm = recovery_mm;
+  in.op.paused_motion_mm = recovery_mm;
+  // Out of range: clamped; not a number: no motion.
+  in.op.paused_motion_speed = std::isfinite(s.paused_speed) ? std::clamp(s.paused_speed, -1.0, 1.0) : 0.0;
 }
 
 // ---- opening ------------------------------------------------------------------------------

@@ -27,7 +27,8 @@ OperatorInputs OperatorMerger::merge(const OperatorInputs& backend, const Operat
   last_backend_.thc_enabled = backend.thc_enabled;
   last_channel_.thc_enabled = channel.thc_enabled;
   m.thc_enabled = levels_.thc_enabled;
-  m.recover_mm = backend.recover_mm + channel.recover_mm;
+  m.paused_motion_mm = backend.paused_motion_mm + channel.paused_motion_mm;
+  if (channel.paused_motion_speed != 0.0) m.paused_motion_speed = channel.paused_motion_speed;
   return m;
 }
 

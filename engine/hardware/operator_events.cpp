@@ -20,7 +20,8 @@ const char* to_string(OperatorEventRow::Kind k) {
     case K::stop: return "stop";
     case K::feed_override: return "feed_override";
     case K::rapid_override: return "rapid_override";
-    case K::recover: return "recover";
+    case K::paused_motion: return "paused_motion";
+    case K::paused_motion_speed: return "paused_motion_speed";
     case K::thc: return "thc";
   }
   return "?";
@@ -56,12 +57,14 @@ OperatorEventRow row_of(const std::vector<std::string_view>& f, const std::strin
   if (!t) throw InputError(source, line, fmt::format("time '{}' is not a number", printable(f[0])));
   if (*t < 0 || *t > 1e7) throw InputError(source, line, fmt::format("time {} s must be in [0, 1e7]", *t));
   r.t_s = *t;
-  bool known = false;
-  for (K k : {K::hold, K::start, K::stop, K::feed_override, K::rapid_override, K::recover, K::thc})
+  bool known = f[1] == "recover";  // the older name of paused_motion
+  if (known) r.kind = K::paused_motion;
+  for (K k : {K::hold, K::start, K::stop, K::feed_override, K::rapid_override, K::paused_motion, K::paused_motion_speed, K::thc})
     if (f[1] == to_string(k)) r.kind = k, known = true;
   if (!known)
     throw InputError(source, line,
-                     fmt::format("unknown event '{}' (events: hold, start, stop, feed_override, rapid_override, recover, thc)",
+                     fmt::format("unknown event '{}' (events: hold, start, stop, feed_override, rapid_override, paused_motion, "
+                                 "paused_motion_speed, thc)",
                                  printable(f[1])));
   const char* name = to_string(r.kind);
   if (is_button(r.kind)) {
@@ -78,10 +81,11 @@ OperatorEventRow row_of(const std::vector<std::string_view>& f, const std::strin
   switch (r.kind) {
     case K::feed_override: range(0, 200, " %"); break;
     case K::rapid_override: range(1, 100, " %"); break;
-    case K::recover:
+    case K::paused_motion:
       range(-1000, 1000, " mm");
-      if (r.value == 0) throw InputError(source, line, "recover 0 mm asks for nothing");
+      if (r.value == 0) throw InputError(source, line, "paused_motion 0 mm asks for nothing");
       break;
+    case K::paused_motion_speed: range(-1, 1, ""); break;
     case K::thc:
       if (r.value != 0 && r.value != 1) throw InputError(source, line, fmt::format("thc {} must be 1 (on) or 0 (off)", r.value));
       break;
@@ -112,7 +116,8 @@ std::vector<OperatorEvent> states_of(const std::vector<OperatorEventRow>& rows) 
       case K::stop: s.stop = c.press; break;
       case K::feed_override: s.feed_override_pct = c.row->value; break;
       case K::rapid_override: s.rapid_override_pct = c.row->value; break;
-      case K::recover: s.recover_mm += c.row->value; break;
+      case K::paused_motion: s.paused_motion_mm += c.row->value; break;
+      case K::paused_motion_speed: s.paused_motion_speed = c.row->value; break;
       case K::thc: s.thc_enabled = c.row->value != 0; break;
     }
     if (!out.empty() && out.back().at_s == c.t) out.back().inputs = s;

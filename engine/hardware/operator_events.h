@@ -10,7 +10,10 @@
 //     15.0,start,               cycle start: resume (re-pierce first when a cut was held)
 //     18.0,feed_override,50     feed moves at 50 % (0 .. 200; 0 behaves as a hold)
 //     20.0,rapid_override,25    rapids at 25 % (1 .. 100)
-//     22.0,recover,-5           cut recovery: move 5 mm back along the executed path
+//     22.0,paused_motion,-30    while held: move 30 mm back along the program's path (torch
+//                               off; -1000 .. 1000, not 0); `recover` is an older name
+//     23.0,paused_motion_speed,0.5   while held: move on along the path at half the machine's
+//                               paused-motion speed until it is set to 0 again (-1 .. 1)
 //     24.0,thc,0                torch height control off (1: on)
 //     30.0,stop,                end the job: controlled stop, torch off
 //
@@ -40,7 +43,7 @@ inline constexpr double kPress_s = 0.01;
 
 // One row as written, for reports.
 struct OperatorEventRow {
-  enum class Kind { hold, start, stop, feed_override, rapid_override, recover, thc };
+  enum class Kind { hold, start, stop, feed_override, rapid_override, paused_motion, paused_motion_speed, thc };
   Kind kind = Kind::hold;
   double t_s = 0.0;
   double value = 0.0;

@@ -220,7 +220,10 @@ MachineConfig machine_from_yaml(const Yaml& root) {
   }
 
   if (const auto t = root.get("torch")) {
-    t->reject_unknown_keys({"kind", "plasma", "oxy_fuel"});
+    t->reject_unknown_keys({"kind", "plasma", "oxy_fuel", "paused_motion_speed_mm_per_s"});
+    m.torch.paused_motion_speed_mm_per_s =
+        t->number_or("paused_motion_speed_mm_per_s", m.torch.paused_motion_speed_mm_per_s,
+                     {.min = 0.0, .max = m.limits.velocity_mm_per_s, .min_exclusive = true});
     if (const auto p = t->get("plasma")) {
       p->reject_unknown_keys({"arc_start_delay_s", "arc_ok_timeout_s", "pierce_delay_s", "arc_start_failure_probability",
                               "on_arc_loss", "arc_volts_base_v", "volts_per_mm", "arc_voltage_noise_v", "kerf_crossing_rise_v"});
@@ -341,6 +344,7 @@ executor::MachineSetup MachineConfig::setup() const {
   s.torch.probe = torch_height.probe;
   s.torch.recover_on_arc_loss = torch.kind == executor::TorchSetup::Kind::plasma && torch.plasma.recover_on_arc_loss;
   s.torch.volts_per_mm = torch.plasma.volts_per_mm;
+  s.torch.paused_motion_speed_mm_per_s = torch.paused_motion_speed_mm_per_s;
   s.torch.thc = thc;
   return s;
 }

@@ -84,6 +84,9 @@ struct TorchConfig {
   bool has_plasma = false, has_oxy_fuel = false;
   PlasmaConfig plasma;
   OxyFuelConfig oxy_fuel;
+  // Paused motion along the path while a cut is held (`paused_motion_speed_mm_per_s` in the
+  // torch block): its top speed, mm/s.
+  double paused_motion_speed_mm_per_s = 10.0;
 };
 
 struct TorchHeightConfig {

@@ -558,6 +558,23 @@ std::string probes_line(const executor::ExecutionResult& r) {
   return s;
 }
 
+// Each paused motion along the path while the job was held (--json: paused_motions), the
+// first kShown of them.
+std::string paused_motion_lines(const executor::ExecutionResult& r) {
+  constexpr std::size_t kShown = 20;
+  std::string s;
+  for (std::size_t i = 0; i < std::min(kShown, r.paused_motions.size()); ++i) {
+    const executor::PausedMotionReport& p = r.paused_motions[i];
+    s += fmt::format("  paused motion    {:+.3f} mm along the path at {:.2f} s, from line {} ({:.3f}, {:.3f}) to line {} "
+                     "({:.3f}, {:.3f}){}\n",
+                     p.moved_mm, p.t_s, p.from_line, p.from_mm.x(), p.from_mm.y(), p.to_line, p.to_mm.x(), p.to_mm.y(),
+                     p.by_arc_loss ? ", back to where the arc went out" : "");
+  }
+  const std::size_t more = r.paused_motions.size() - std::min(kShown, r.paused_motions.size()) + r.paused_motions_dropped;
+  if (more > 0) s += fmt::format("                   and {} more\n", more);
+  return s;
+}
+
 // Torch height control over the cuts, the figures --json gives per cut (cuts[].thc), from the
 // backend's truth: how far the torch was from its cut height while THC held it. Empty when no
 // cut has them (no height axis, a machine without truth, THC never took hold).
@@ -610,6 +627,7 @@ std::string full_report(const RunOutcome& o, const session::MachineSession& sess
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
   s += fmt::format("  {:<16} {:9.3f} s\n", o.machine.spindle ? "spindle on" : "torch on", r.torch_on_s);
   if (!r.probes.empty()) s += probes_line(r);
+  s += paused_motion_lines(r);
   s += fmt::format("  rapid distance   {:9.1f} mm  (straight {:.1f} mm; {} detours, +{:.1f} mm)\n", r.rapid_distance_mm,
                    o.rapids.straight_length_mm, o.rapids.detours, o.rapids.detour_extra_mm);
   for (const RapidReport& d : o.rapids.rapids)

@@ -19,7 +19,8 @@ std::string paper_mode_lacks(const hardware::OperatorInputs& in) {
   if (in.cycle_start) return "a cycle start";
   if (in.feed_override_pct != 100.0) return fmt::format("a feed override of {:g} %", in.feed_override_pct);
   if (in.rapid_override_pct != 100.0) return fmt::format("a rapid override of {:g} %", in.rapid_override_pct);
-  if (in.recover_mm != 0.0) return fmt::format("a cut recovery of {:g} mm", in.recover_mm);
+  if (in.paused_motion_mm != 0.0) return fmt::format("a paused motion of {:g} mm", in.paused_motion_mm);
+  if (in.paused_motion_speed != 0.0) return fmt::format("a paused motion at {:g} of its speed", in.paused_motion_speed);
   return {};
 }
 

@@ -108,7 +108,7 @@ TEST(HalSignals, OperatorPinsReachTheOperatorInputs) {
   // The pins' defaults are the operator's neutral ones.
   EXPECT_FALSE(idle.op.stop);
   EXPECT_EQ(idle.op.rapid_override_pct, 100.0);
-  EXPECT_EQ(idle.op.recover_mm, 0.0);
+  EXPECT_EQ(idle.op.paused_motion_mm, 0.0);
   EXPECT_TRUE(idle.op.thc_enabled);
   EXPECT_FALSE(idle.op.estop);
   EXPECT_FALSE(idle.estop);
@@ -137,11 +137,21 @@ TEST(HalSignals, OperatorPinsReachTheOperatorInputs) {
 
   // Cut recovery is a counter: the distance asked since the session opened.
   pins.set_pin("machplan.cut-recovery-distance", 7.5);
-  EXPECT_EQ(s.catch_up(pins).op.recover_mm, 7.5);
+  EXPECT_EQ(s.catch_up(pins).op.paused_motion_mm, 7.5);
   pins.set_pin("machplan.cut-recovery-distance", 2.0);  // 5.5 mm backwards
-  EXPECT_EQ(s.catch_up(pins).op.recover_mm, 2.0);
+  EXPECT_EQ(s.catch_up(pins).op.paused_motion_mm, 2.0);
   pins.set_pin("machplan.cut-recovery-distance", std::numeric_limits<double>::quiet_NaN());
-  EXPECT_EQ(s.catch_up(pins).op.recover_mm, 2.0);  // no request: the last good value stands
+  EXPECT_EQ(s.catch_up(pins).op.paused_motion_mm, 2.0);  // no request: the last good value stands
+
+  // The paused-motion speed is a level, -1 .. 1: clamped; not a number: no motion.
+  EXPECT_EQ(idle.op.paused_motion_speed, 0.0);
+  pins.set_pin("machplan.paused-motion-speed", -0.5);
+  EXPECT_EQ(s.catch_up(pins).op.paused_motion_speed, -0.5);
+  pins.set_pin("machplan.paused-motion-speed", 3.0);
+  EXPECT_EQ(s.catch_up(pins).op.paused_motion_speed, 1.0);
+  pins.set_pin("machplan.paused-motion-speed", std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(s.catch_up(pins).op.paused_motion_speed, 0.0);
+  pins.set_pin("machplan.paused-motion-speed", 0.0);
 
   // The operator's E-stop: reported as the operator's, not as the chain's, and it drops the
   // drives in the component at once; latched for the rest of the session.
@@ -164,11 +174,11 @@ TEST(HalSignals, CutRecoveryCountsFromWhereThePinStoodWhenTheSessionOpened) {
   pins.set_pin("machplan.operator-estop", 0);  // released before the session: no E-stop in it
   Session s({0, 0});
   const Inputs& first = s.catch_up(pins);
-  EXPECT_EQ(first.op.recover_mm, 0.0);
+  EXPECT_EQ(first.op.paused_motion_mm, 0.0);
   EXPECT_FALSE(first.op.estop);
   EXPECT_TRUE(s.until_pin(pins, "machplan.enable", true));  // the drives come on: no E-stop latched
   pins.set_pin("machplan.cut-recovery-distance", 15.0);
-  EXPECT_EQ(s.catch_up(pins).op.recover_mm, 3.0);
+  EXPECT_EQ(s.catch_up(pins).op.paused_motion_mm, 3.0);
 }
 
 // Down onto the flat plate at the sheet's nominal surface (0): the ohmic contact at 0 with

@@ -36,7 +36,7 @@ struct Route {
 const Route kRoutes[] = {{"GET", "/api/status"},   {"POST", "/api/login"},    {"POST", "/api/control"}, {"POST", "/api/job"},
                          {"GET", "/api/job"},      {"POST", "/api/run"},      {"POST", "/api/hold"},    {"POST", "/api/resume"},
                          {"POST", "/api/stop"},    {"POST", "/api/estop"},    {"POST", "/api/reset"},   {"POST", "/api/override"},
-                         {"POST", "/api/recover"}, {"POST", "/api/thc"},
+                         {"POST", "/api/paused_motion"}, {"POST", "/api/recover"}, {"POST", "/api/thc"},
                          {"POST", "/api/jog"},     {"GET", "/api/report"},    {"POST", "/api/guard"},   {"GET", "/api/guard"},
                          {"GET", "/api/history"},  {"POST", "/api/frame"}};
 
@@ -118,10 +118,13 @@ TEST(PanelApi, CutRecoveryAndTheThcSwitchTakeTheirValuesAndRefuseOthers) {
   EXPECT_EQ(rig.post("/api/thc", {{"enabled", "no"}}).status, 400);
   EXPECT_EQ(rig.post("/api/thc", json::object()).status, 400);
   EXPECT_EQ(rig.status()["thc_enabled"], false);
-  EXPECT_EQ(rig.post("/api/recover", {{"mm", -3.5}}).status, 200);
-  for (const json& bad : {json{{"mm", 0}}, json{{"mm", 5000}}, json{{"mm", "back"}}, json::object()})
-    EXPECT_EQ(rig.post("/api/recover", bad).status, 400) << bad.dump();
-  EXPECT_EQ(rig.post("/api/recover", {{"mm", -1}}, "client-two").status, 409) << "needs control";
+  EXPECT_EQ(rig.post("/api/paused_motion", {{"mm", -3.5}}).status, 200);
+  EXPECT_EQ(rig.post("/api/paused_motion", {{"speed", -0.5}}).status, 200);
+  EXPECT_EQ(rig.post("/api/recover", {{"mm", 2}}).status, 200) << "the older name";
+  for (const json& bad : {json{{"mm", 0}}, json{{"mm", 5000}}, json{{"mm", "back"}}, json::object(), json{{"speed", 1.5}},
+                          json{{"mm", -1}, {"speed", 0.5}}})
+    EXPECT_EQ(rig.post("/api/paused_motion", bad).status, 400) << bad.dump();
+  EXPECT_EQ(rig.post("/api/paused_motion", {{"mm", -1}}, "client-two").status, 409) << "needs control";
 }
 
 TEST(PanelApi, ControlIsTakenExplicitlyAndTheEstopIsEveryones) {

@@ -113,7 +113,8 @@ TEST(PanelRules, APaperModePanelRefusesHoldsOverridesAndRecoveryAsTheCommandLine
       {"start,", "/api/resume", json::object()},
       {"feed_override,50", "/api/override", {{"feed", 50}}},
       {"rapid_override,25", "/api/override", {{"rapid", 25}}},
-      {"recover,-5", "/api/recover", {{"mm", -5}}},
+      {"paused_motion,-5", "/api/paused_motion", {{"mm", -5}}},
+      {"paused_motion_speed,-0.5", "/api/paused_motion", {{"speed", -0.5}}},
   };
   const std::string rule = session::kPaperModesLack;
   for (const auto& c : cases) {

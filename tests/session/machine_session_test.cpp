@@ -198,8 +198,8 @@ TEST(MachineSession, ThePaperModesLackHoldsOverridesAndRecoveryOnly) {
   a.rapid_override_pct = 25;
   EXPECT_EQ(paper_mode_lacks(a), "a rapid override of 25 %");
   a = {};
-  a.recover_mm = -5;
-  EXPECT_EQ(paper_mode_lacks(a), "a cut recovery of -5 mm");
+  a.paused_motion_mm = -5;
+  EXPECT_EQ(paper_mode_lacks(a), "a paused motion of -5 mm");
 }
 
 TEST(MachineSession, OperatorInputsReachTheExecutorThroughTheBackend) {
@@ -264,9 +264,9 @@ TEST(OperatorMerger, TheLevelThatChangedLastWinsAndRecoveryRequestsAdd) {
   EXPECT_EQ(merger.merge(pin, panel).feed_override_pct, 120.0) << "then the pin moved";
   panel.thc_enabled = false;
   EXPECT_FALSE(merger.merge(pin, panel).thc_enabled);
-  pin.recover_mm = -5;
-  panel.recover_mm = 2;
-  EXPECT_EQ(merger.merge(pin, panel).recover_mm, -3.0);
+  pin.paused_motion_mm = -5;
+  panel.paused_motion_mm = 2;
+  EXPECT_EQ(merger.merge(pin, panel).paused_motion_mm, -3.0);
 }
 
 TEST(RunOnASession, TheDeadlineInMachineTimeStopsTheRunTorchOff) {

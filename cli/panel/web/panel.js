@@ -382,7 +382,14 @@ function wire() {
   $('resume').onclick = () => act('POST', '/resume');
   $('stop').onclick = () => act('POST', '/stop');
   $('reset').onclick = () => act('POST', '/reset');
-  for (const b of document.querySelectorAll('.recover')) b.onclick = () => act('POST', '/recover', { mm: Number(b.dataset.mm) });
+  for (const b of document.querySelectorAll('.paused')) b.onclick = () => act('POST', '/paused_motion', { mm: Number(b.dataset.mm) });
+  // Held: the speed every 100 ms while pressed (the server falls back to 0 300 ms after the last), 0 on release.
+  for (const b of document.querySelectorAll('.paused-hold')) {
+    let timer = null;
+    const send = (speed) => act('POST', '/paused_motion', { speed });
+    b.onpointerdown = () => { send(Number(b.dataset.speed)); clearInterval(timer); timer = setInterval(() => send(Number(b.dataset.speed)), 100); };
+    b.onpointerup = b.onpointerleave = () => { if (timer) { clearInterval(timer); timer = null; send(0); } };
+  }
   $('thc').onchange = () => act('POST', '/thc', { enabled: $('thc').checked });
   $('feed').oninput = () => { $('feed-val').textContent = $('feed').value + ' %'; };
   $('feed').onchange = () => act('POST', '/override', { feed: Number($('feed').value) });

@@ -25,7 +25,7 @@
 
 #define MACHPLAN_EXCHANGE_KEY 0x4d504c48 /* "MPLH" */
 #define MACHPLAN_EXCHANGE_MAGIC 0x6d706c68u
-#define MACHPLAN_EXCHANGE_VERSION 2u /* 2: the probing inputs, ohmic-enable and the operator's other pins */
+#define MACHPLAN_EXCHANGE_VERSION 3u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed */
 #define MACHPLAN_RING 256u /* slots per ring: a power of two, more than any watchdog allows */
 #define MACHPLAN_HAL_AXES 2
 
@@ -76,6 +76,7 @@ typedef struct {
   double height_fb_mm, arc_volts, feed_override_pct;
   double rapid_override_pct; /* rapid-override as the pin reads, percent */
   double recovery_mm;        /* cut-recovery-distance as the pin reads: a counter, mm */
+  double paused_speed;       /* paused-motion-speed as the pin reads: -1 .. 1 */
   int64_t time_ns;  /* rtapi_get_time() when sampled */
 } machplan_sample;
 

@@ -45,6 +45,7 @@ pin in float feed-override = 100.0 "feed override, percent";
 pin in bit stop "stop button: end the job with a controlled stop, torch off (rising edge)";
 pin in float rapid-override = 100.0 "rapid override, percent of the planned speed, 1 .. 100";
 pin in float cut-recovery-distance "cut recovery: the total distance asked along the executed path, mm (negative: backwards); a counter, each change is a request of that many mm";
+pin in float paused-motion-speed "paused motion while the job is held: move along the program's path at this fraction (-1 .. 1, negative: back) of the machine's paused-motion speed, until it is 0 again";
 pin in bit thc-enable = TRUE "torch height control allowed";
 pin in bit operator-estop "the operator's E-stop (a panel's, a pendant's) is open, a level; TRUE drops torch-on, ohmic-enable and enable in the same period like estop-ok FALSE";
 pin out bit watchdog-ok = TRUE "FALSE from a watchdog trip until watchdog-reset or the next session";
@@ -236,6 +237,7 @@ FUNCTION(_) {
   s->feed_override_pct = feed_override;
   s->rapid_override_pct = rapid_override;
   s->recovery_mm = cut_recovery_distance;
+  s->paused_speed = paused_motion_speed;
   s->time_ns = rtapi_get_time();
   __atomic_store_n(&s->seq, q + 2u, __ATOMIC_RELEASE);
   x->period_ns = (uint32_t)period;
