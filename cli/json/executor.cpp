@@ -15,6 +15,7 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
   j["status"] = to_string(r.summary.status);
   j["cycle_time_s"] = r.cycle_time_s;
   j["torch_on_s"] = r.torch_on_s;
+  j["ramp_pierces"] = r.ramp_pierces;
   j["rapid_distance_mm"] = r.rapid_distance_mm;
   j["steps_completed"] = r.steps_completed;
   j["stopped_at_rest"] = r.stopped_at_rest;

@@ -100,7 +100,12 @@ void Session::Impl::begin_step() noexcept {
       const bool programmed = step + 1 < job.steps.size() && job.steps[step + 1].kind == Step::Kind::dwell;
       use_material(st.material);
       cut_begin = step;
-      start_torch(programmed, false);
+      // A ramp pierce moves along the cut that follows (after the dwell, which is then its delay).
+      const std::size_t cut = step + (programmed ? 2 : 1);
+      const bool ramp = torch.ramp() && cut < job.steps.size() && job.steps[cut].kind == Step::Kind::move &&
+                        job.stretches[job.steps[cut].stretch].cutting;
+      start_torch(programmed, false, !ramp ? -1.0 : programmed ? job.steps[step + 1].seconds : torch.ramp()->pierce_delay_s);
+      ramp_cut_step = ramp ? cut : kNoRamp;
       phase = Phase::torch;
       break;
     }
@@ -153,9 +158,7 @@ void Session::Impl::arc_lost() noexcept {
   last_loss_mm = adapter.position_mm();
   begin_hold(false);
   // The arc is out: the torch goes off now, not just before rest; the resume re-pierces.
-  torch.start_off(out);
-  torch_off_running = true;
-  cut_off = true;
+  cut_torch_off();
   if (hold) hold->by_arc_loss = hold->in_cut = hold->torch_off = hold->torch_off_before_rest = true;
 }
 
@@ -248,11 +251,37 @@ void Session::Impl::follow_surface(bool allowed) noexcept {
 }
 
 // A new cut, or a cut pierced again: the feed-forward starts over from the surface found.
-void Session::Impl::start_torch(bool programmed, bool preheated) noexcept {
+void Session::Impl::start_torch(bool programmed, bool preheated, double moving_delay_s) noexcept {
   surface_ff = 0.0;
   surface_following = false;
+  ramp_cut_step = kNoRamp;
+  ramp_on = pierce_moving = false;
   torch.set_position(adapter.position_mm());
-  torch.start_on(programmed, out, preheated);
+  torch.start_on(programmed, out, preheated, moving_delay_s);
+}
+
+// A ramp pierce whose motion delay has passed: on to its cut's move (past the dwell that was
+// its delay), the torch sequence running on beside the motion (sequence()).
+void Session::Impl::start_ramp() noexcept {
+  steps_completed += static_cast<int>(ramp_cut_step - step);
+  step = ramp_cut_step;
+  ramp_cut_step = kNoRamp;
+  pierce_moving = ramp_on = true;
+  ramp_mm = 0.0;
+  ramp_last_mm = sp_mm;
+  ++result.ramp_pierces;
+  phase = Phase::dispatch;
+}
+
+// The ramp's speed cap on the cut's first millimetres, as a rate of the plan there: the gouge
+// speed, then the creep speed, then none.
+double Session::Impl::ramp_rate() const noexcept {
+  const motion::CutParameters* r = torch.ramp();
+  if (!ramp_on || !r || phase != Phase::move) return 1.0;
+  const motion::Stretch& s = job.stretches[job.steps[step].stretch];
+  const double feed = s.feed_mm_per_s[std::min(contour.segment(), s.feed_mm_per_s.size() - 1)];
+  const double v = ramp_mm < r->gouge_distance_mm ? r->gouge_speed_mm_per_s : r->creep_speed_mm_per_s;
+  return feed > 0.0 ? std::min(1.0, v / feed) : 1.0;
 }
 
 // How close to rest the torch goes off in a held cut, mm of travel left (follow_hold).
@@ -329,9 +358,7 @@ void Session::Impl::follow_hold() noexcept {
     const double u = Eigen::Vector2d(demand.track.v_ff_mm_per_s[0], demand.track.v_ff_mm_per_s[1]).norm();
     const double left_mm = u * u / (2.0 * ms.max_acceleration_mm_per_s2) + 0.5 * u * ms.max_acceleration_mm_per_s2 / ms.max_jerk_mm_per_s3;
     if (left_mm < kTorchOffBeforeRestMm || source->rate() == 0.0) {
-      torch.start_off(out);
-      torch_off_running = true;
-      cut_off = true;
+      cut_torch_off();
       if (hold) {
         hold->in_cut = hold->torch_off = true;
         hold->torch_off_before_rest = source->rate() > 0.0 || hold->speed_mm_per_s == 0.0;
@@ -381,6 +408,33 @@ void Session::Impl::follow_hold() noexcept {
   }
   held = false;
   hold = nullptr;
+}
+
+// The torch off in a held cut, beside the braking (follow_hold runs its sequence); the resume
+// pierces again (standing: a ramp pierce under way is abandoned).
+void Session::Impl::cut_torch_off() noexcept {
+  torch.start_off(out);
+  torch_off_running = true;
+  cut_off = true;
+  pierce_moving = ramp_on = false;
+}
+
+// A ramp pierce under way in a move: its torch sequence (the descent to cut height), and the
+// distance along the cut for its speeds.
+void Session::Impl::follow_ramp() noexcept {
+  if (pierce_moving) {
+    switch (torch.tick(in, out)) {
+      case TorchSequencer::Tick::done: pierce_moving = false; break;
+      case TorchSequencer::Tick::failed: raise(torch_fault(torch.failure()), -1, torch.failure_value()); break;
+      case TorchSequencer::Tick::idle: pierce_moving = false; break;  // turned off (a hold)
+      case TorchSequencer::Tick::busy: break;
+    }
+  }
+  if (!ramp_on) return;
+  ramp_mm += (sp_mm - ramp_last_mm).norm();  // along the commanded path: smooth, unlike the encoders
+  ramp_last_mm = sp_mm;
+  const motion::CutParameters* r = torch.ramp();
+  if (held || !r || ramp_mm >= r->gouge_distance_mm + r->creep_distance_mm) ramp_on = false;
 }
 
 // A paused motion: its record, and the step the machine is on as it crosses moves.
@@ -462,6 +516,7 @@ void Session::Impl::sequence() noexcept {
     case Phase::dispatch:
     case Phase::done: break;
     case Phase::move:
+      follow_ramp();
       // (A paused motion crossing into the previous move stands at its end for a period.)
       if (source->move_done() && !source->pause_moving()) {
         const std::size_t k = job.steps[step].stretch;
@@ -471,6 +526,10 @@ void Session::Impl::sequence() noexcept {
       }
       break;
     case Phase::torch:
+      if (ramp_cut_step != kNoRamp && torch.motion_allowed()) {
+        start_ramp();
+        break;
+      }
       switch (torch.tick(in, out)) {
         case TorchSequencer::Tick::done:
           if (repiercing) {

@@ -251,6 +251,7 @@ struct ExecutionResult {
   Mode mode = Mode::planned;
   double cycle_time_s = 0.0;
   double torch_on_s = 0.0;            // time the torch burned (arc OK / oxygen on)
+  int ramp_pierces = 0;               // pierces that moved along their cut (a material's ramp pierce)
   double rapid_distance_mm = 0.0;     // programmed length of the rapid stretches completed
   int steps_completed = 0;
   std::vector<CutError> cuts;

@@ -60,11 +60,15 @@ struct Session::Impl {
   // Torch height control in a cut, and its figures.
   void thc_tick() noexcept;
   void follow_surface(bool thc_allowed) noexcept;
-  void start_torch(bool programmed, bool preheated) noexcept;
+  void start_torch(bool programmed, bool preheated, double moving_delay_s = -1.0) noexcept;
+  void start_ramp() noexcept;
+  void cut_torch_off() noexcept;
+  void follow_ramp() noexcept;
+  double ramp_rate() const noexcept;
   bool move_is_rapid() const noexcept {
     return step < job.steps.size() && job.steps[step].kind == motion::Step::Kind::move && job.stretches[job.steps[step].stretch].rapid;
   }
-  double move_rate() const noexcept { return held ? 0.0 : move_is_rapid() ? rapid_rate : feed_rate; }
+  double move_rate() const noexcept { return held ? 0.0 : move_is_rapid() ? rapid_rate : feed_rate * ramp_rate(); }
   void record_trace() noexcept;
   void publish_live() noexcept;
 
@@ -133,6 +137,13 @@ struct Session::Impl {
   PausedMotionReport* paused = nullptr;
   bool paused_moving = false, paused_by_arc_loss = false;
   std::size_t cut_begin = static_cast<std::size_t>(-1);  // the torch_on step of the cut under way
+  // A ramp pierce: the move it starts (kNoRamp: none pending), its torch sequence running in
+  // the move, its speed cap in force, and the distance moved since the motion began.
+  static constexpr std::size_t kNoRamp = static_cast<std::size_t>(-1);
+  std::size_t ramp_cut_step = kNoRamp;
+  bool pierce_moving = false, ramp_on = false;
+  double ramp_mm = 0.0;
+  Eigen::Vector2d ramp_last_mm = Eigen::Vector2d::Zero();
   Eigen::Vector2d last_sp = Eigen::Vector2d::Zero();
   double progress_s = 0.0;        // the job's expected time done: path time in moves, else machine time
   bool be_realtime = true;

@@ -7,9 +7,15 @@ namespace machplan::executor {
 
 using Kind = TorchSetup::Kind;
 
-void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated) noexcept {
+void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated, double moving_delay_s) noexcept {
   programmed_ = programmed_pierce && t_.kind != Kind::spindle;  // a spindle spins up whatever follows
   preheated_ = preheated;
+  moving_ = moving_delay_s >= 0.0 && ramp_ && t_.kind == Kind::plasma && t_.height_axis;
+  motion_ok_ = false;
+  if (moving_) {
+    programmed_ = false;  // the dwell's time is the ramp's pierce delay
+    t_.pierce_delay_s = moving_delay_s;
+  }
   if (t_.kind == Kind::spindle) {
     out.torch_fire = true;  // the spindle runs; the spin-up is its "pierce"
     enter(Phase::pierce);
@@ -55,7 +61,6 @@ void TorchSequencer::begin_probe(hardware::Outputs& out) noexcept {
     return;
   }
   ohmic_run_ = float_run_ = 0;
-  sensor_seen_ = false;
   out.ohmic_enable = p.ohmic;
   out.torch_height_target_mm = expected_mm_ + p.probe_height_mm;
   enter(Phase::probe_fast);
@@ -68,7 +73,6 @@ bool TorchSequencer::sensed(const hardware::Inputs& in) noexcept {
   if (!ohmic) ohmic_run_ = 0;
   if (flt && float_run_++ == 0) float_z_ = in.torch_height_mm;
   if (!flt) float_run_ = 0;
-  sensor_seen_ = sensor_seen_ || ohmic || flt;
   return ohmic_run_ >= p.debounce_periods || float_run_ >= p.debounce_periods;
 }
 
@@ -92,11 +96,9 @@ TorchSequencer::Tick TorchSequencer::probe_tick(const hardware::Inputs& in, hard
   const bool contact = sensed(in);
   switch (phase_) {
     case Phase::probe_fast:
-      // A sensor closed from the first period on, with the torch still up: stuck or shorted.
-      if (sensor_seen_ && probe_t_ <= (p.debounce_periods + 0.5) * dt_ && contact) {
-        out.ohmic_enable = false;
-        return fail(Failure::switch_stuck, in.float_switch ? 1.0 : 0.0);
-      }
+      // A sensor closed from the first period on (debounced by the probe's first periods),
+      // with the torch still up: stuck or shorted.
+      if (contact && probe_t_ <= (p.debounce_periods + 0.5) * dt_) return fail_probe(Failure::switch_stuck, in.float_switch ? 1.0 : 0.0, out);
       if (contact) {
         // The sheet stands higher than expected: back up over it and probe slowly from there.
         const double z = ohmic_run_ >= p.debounce_periods ? ohmic_z_ + p.ohmic_offset_mm : float_z_ + p.float_travel_mm;
@@ -106,8 +108,7 @@ TorchSequencer::Tick TorchSequencer::probe_tick(const hardware::Inputs& in, hard
         probe_target_mm_ = expected_mm_ + p.probe_height_mm;
         enter(Phase::probe_slow);
       } else if (pt_ > t_.height_timeout_s) {
-        out.ohmic_enable = false;
-        return fail(Failure::torch_height_timeout, t_.height_timeout_s);
+        return fail_probe(Failure::torch_height_timeout, t_.height_timeout_s, out);
       }
       return Tick::busy;
     case Phase::probe_back:
@@ -115,8 +116,7 @@ TorchSequencer::Tick TorchSequencer::probe_tick(const hardware::Inputs& in, hard
         ohmic_run_ = float_run_ = 0;
         enter(Phase::probe_slow);
       } else if (pt_ > t_.height_timeout_s) {
-        out.ohmic_enable = false;
-        return fail(Failure::torch_height_timeout, t_.height_timeout_s);
+        return fail_probe(Failure::torch_height_timeout, t_.height_timeout_s, out);
       }
       return Tick::busy;
     default: break;  // probe_slow
@@ -130,10 +130,8 @@ TorchSequencer::Tick TorchSequencer::probe_tick(const hardware::Inputs& in, hard
     const double floor = std::min(expected_mm_, 0.0) - p.max_depth_mm;
     probe_target_mm_ = std::max(floor, probe_target_mm_ - p.probe_speed_mm_per_s * dt_);
     out.torch_height_target_mm = probe_target_mm_;
-    if (probe_target_mm_ <= floor && in.torch_height_mm <= floor + t_.height_tolerance_mm) {
-      out.ohmic_enable = false;
-      return fail(Failure::probe_miss, p.max_depth_mm);
-    }
+    if (probe_target_mm_ <= floor && in.torch_height_mm <= floor + t_.height_tolerance_mm)
+      return fail_probe(Failure::probe_miss, p.max_depth_mm, out);
   }
   return Tick::busy;
 }
@@ -155,6 +153,7 @@ void TorchSequencer::end_cut(hardware::Outputs& out, double height_mm) noexcept 
 }
 
 void TorchSequencer::kill(hardware::Outputs& out) noexcept {
+  moving_ = motion_ok_ = false;
   out.torch_fire = false;
   out.ohmic_enable = false;
   aim(out, t_.retract_height_mm);
@@ -165,6 +164,37 @@ void TorchSequencer::kill(hardware::Outputs& out) noexcept {
 void TorchSequencer::lower_to_cut_height(hardware::Outputs& out) noexcept {
   aim(out, t_.cut_height_mm);
   enter(Phase::height_cut);
+}
+
+// The pierce delay. A ramp pierce: from the motion delay on the axes may move, and the height
+// goes from the pierce height to the end height by the end of the delay, then waits there the
+// cut height delay (pierce_end).
+TorchSequencer::Tick TorchSequencer::pierce_tick(const hardware::Inputs&, hardware::Outputs& out) noexcept {
+  const double delay = t_.kind == Kind::spindle ? t_.spin_up_s : t_.pierce_delay_s;
+  if (moving_) {
+    const double t0 = delay * ramp_->pierce_motion_delay_pct / 100.0;
+    const double end = ramp_->pierce_end_height_mm > 0.0 ? ramp_->pierce_end_height_mm : t_.cut_height_mm;
+    motion_ok_ = pt_ >= t0;
+    if (motion_ok_) aim(out, t_.pierce_height_mm + (end - t_.pierce_height_mm) * std::min(1.0, (pt_ - t0) / std::max(delay - t0, dt_)));
+    if (pt_ >= delay) {
+      lit_ = true;
+      enter(Phase::pierce_end);
+    }
+    return Tick::busy;
+  }
+  if (!programmed_ && pt_ < delay) return Tick::busy;
+  lit_ = true;
+  if (t_.height_axis && !programmed_ && puddle_mm_ > 0.0) {
+    aim(out, puddle_mm_);
+    enter(Phase::puddle_jump);
+    return Tick::busy;
+  }
+  if (t_.height_axis && !programmed_) {
+    lower_to_cut_height(out);
+    return Tick::busy;
+  }
+  phase_ = Phase::idle;
+  return Tick::done;
 }
 
 TorchSequencer::Tick TorchSequencer::tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept {
@@ -194,21 +224,9 @@ TorchSequencer::Tick TorchSequencer::tick(const hardware::Inputs& in, hardware::
         return fail(Failure::arc_start_failed, t_.arc_ok_timeout_s);
       }
       return Tick::busy;
-    case Phase::pierce:
-      if (programmed_ || pt_ >= (t_.kind == Kind::spindle ? t_.spin_up_s : t_.pierce_delay_s)) {
-        lit_ = true;
-        if (t_.height_axis && !programmed_ && puddle_mm_ > 0.0) {
-          aim(out, puddle_mm_);
-          enter(Phase::puddle_jump);
-          return Tick::busy;
-        }
-        if (t_.height_axis && !programmed_) {
-          lower_to_cut_height(out);
-          return Tick::busy;
-        }
-        phase_ = Phase::idle;
-        return Tick::done;
-      }
+    case Phase::pierce: return pierce_tick(in, out);
+    case Phase::pierce_end:
+      if (pt_ >= ramp_->cut_height_delay_s) lower_to_cut_height(out);
       return Tick::busy;
     case Phase::puddle_jump:
       if (at(in, puddle_mm_)) enter(Phase::puddle_wait);
@@ -229,6 +247,7 @@ TorchSequencer::Tick TorchSequencer::tick(const hardware::Inputs& in, hardware::
     case Phase::height_cut:
       if (at(in, t_.cut_height_mm)) {
         phase_ = Phase::idle;
+        moving_ = motion_ok_ = false;
         return Tick::done;
       }
       if (pt_ > t_.height_timeout_s) return fail(Failure::torch_height_timeout, t_.height_timeout_s);

@@ -72,8 +72,15 @@ class TorchSequencer {
 
   // A torch_on step; `programmed_pierce` when a dwell step follows it. `preheated`: an
   // oxy-fuel torch whose preheat flame kept burning (a re-pierce after a hold) goes straight
-  // to the cutting oxygen.
-  void start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated = false) noexcept;
+  // to the cutting oxygen. `moving_delay_s` >= 0: a ramp pierce of that delay when the
+  // material has one (plasma with a height axis): motion_allowed() from its motion delay on.
+  void start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated = false, double moving_delay_s = -1.0) noexcept;
+  // A ramp pierce may move along the cut now: the arc is on and the material's motion delay
+  // has passed; the sequence goes on (the descent to the pierce end height, cut height) while
+  // the axes move. tick() it until done.
+  bool motion_allowed() const noexcept { return moving_ && motion_ok_; }
+  // The material's ramp pierce (null: none).
+  const motion::CutParameters* ramp() const noexcept { return ramp_; }
   // A torch_off step: the torch retracts to the retract height, or to `height_mm` when that
   // is higher (a rapid over parts already cut follows).
   void start_off(hardware::Outputs& out, double height_mm = 0.0) noexcept;
@@ -88,6 +95,7 @@ class TorchSequencer {
   void use_material(const motion::CutParameters* m) noexcept {
     t_ = base_;
     puddle_mm_ = puddle_s_ = pause_end_s_ = 0.0;
+    ramp_ = m && m->ramp_pierce ? m : nullptr;
     if (!m) return;
     t_.pierce_height_mm = m->pierce_height_mm;
     t_.pierce_delay_s = m->pierce_delay_s;
@@ -126,8 +134,8 @@ class TorchSequencer {
 
  private:
   enum class Phase {
-    idle, probe_fast, probe_back, probe_slow, height_pierce, preheat, wait_arc, pierce, puddle_jump, puddle_wait, height_cut,
-    pause_end, off_retract
+    idle, probe_fast, probe_back, probe_slow, height_pierce, preheat, wait_arc, pierce, puddle_jump, puddle_wait, pierce_end,
+    height_cut, pause_end, off_retract
   };
   void enter(Phase p) noexcept {
     phase_ = p;
@@ -138,6 +146,11 @@ class TorchSequencer {
     failure_value_ = v;
     phase_ = Phase::idle;
     return Tick::failed;
+  }
+  // A probe's failure: ohmic sensing off with it.
+  Tick fail_probe(Failure f, double v, hardware::Outputs& out) noexcept {
+    out.ohmic_enable = false;
+    return fail(f, v);
   }
   // At height `h` over the surface.
   bool at(const hardware::Inputs& in, double h) const noexcept {
@@ -150,6 +163,7 @@ class TorchSequencer {
   // Debounced sensors this period; true when one has read closed debounce_periods in a row.
   bool sensed(const hardware::Inputs& in) noexcept;
   Tick probe_tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept;
+  Tick pierce_tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept;
   void found(double surface_mm, Probe::Sensor s, hardware::Outputs& out) noexcept;
 
   TorchSetup t_, base_;  // the cuts' settings now, and the machine's
@@ -158,6 +172,8 @@ class TorchSequencer {
   Phase phase_ = Phase::idle;
   double pt_ = 0.0;  // time in the phase
   bool programmed_ = false, lit_ = false, preheated_ = false;
+  const motion::CutParameters* ramp_ = nullptr;  // the material's ramp pierce
+  bool moving_ = false, motion_ok_ = false;      // this pierce is a ramp; the axes may move
   double retract_mm_ = 0.0;  // the height of the retract in progress
   Failure failure_ = Failure::none;
   double failure_value_ = 0.0;
@@ -174,7 +190,6 @@ class TorchSequencer {
   SurfaceMap map_{200.0};  // probes lie tens of mm apart: a wide reach
   int ohmic_run_ = 0, float_run_ = 0;    // consecutive closed reads
   double ohmic_z_ = 0.0, float_z_ = 0.0; // the height at the first read of each run
-  bool sensor_seen_ = false;             // a sensor read closed since the probe began
 };
 
 }  // namespace machplan::executor

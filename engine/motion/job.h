@@ -94,6 +94,15 @@ struct CutParameters {
   double puddle_jump_delay_s = 0.0;
   double cut_amps = 0.0, cut_volts = 0.0;  // cut_volts 0: THC samples its target
   double pause_at_end_s = 0.0;       // at the end of each cut, torch on, before it goes off
+  // A moving pierce for thick plate (ramp; PIERCE_TYPE 2): `pierce_motion_delay_pct` of the
+  // pierce delay after the arc the torch starts along the cut at the gouge speed for the gouge
+  // distance, then at the creep speed for the creep distance, then at the cut's feed; its
+  // height goes from the pierce height to the pierce end height (0: the cut height) over the
+  // rest of the delay and stays there `cut_height_delay_s` before going to cut height. The
+  // molten metal is blown back along the kerf instead of up into the nozzle.
+  bool ramp_pierce = false;
+  double pierce_motion_delay_pct = 0.0, pierce_end_height_mm = 0.0, cut_height_delay_s = 0.0;
+  double gouge_speed_mm_per_s = 0.0, gouge_distance_mm = 0.0, creep_speed_mm_per_s = 0.0, creep_distance_mm = 0.0;
 };
 
 // One thing the executor does, in order.

@@ -21,7 +21,8 @@ using text_scan::trim;
 
 // What a key sets.
 enum class Field { name, pierce_height, pierce_delay, cut_height, cut_speed, kerf, thc, jump_height, jump_delay, amps, volts,
-                   pause, ignored };
+                   pause, pierce_type, motion_delay, end_height, cut_height_delay, gouge_speed, gouge_distance, creep_speed,
+                   creep_distance, ignored };
 constexpr std::size_t kMandatory = 4;  // the first four fields after name
 
 struct Key {
@@ -29,7 +30,7 @@ struct Key {
   const char* comment;  // the material comment's key
   Field field;
 };
-constexpr std::array<Key, 15> kKeys{{
+constexpr std::array<Key, 23> kKeys{{
     {"NAME", "na", Field::name},
     {"PIERCE_HEIGHT", "ph", Field::pierce_height},
     {"PIERCE_DELAY", "pd", Field::pierce_delay},
@@ -42,6 +43,14 @@ constexpr std::array<Key, 15> kKeys{{
     {"CUT_AMPS", "ca", Field::amps},
     {"CUT_VOLTS", "cv", Field::volts},
     {"PAUSE_AT_END", "pe", Field::pause},
+    {"PIERCE_TYPE", "pt", Field::pierce_type},
+    {"PIERCE_MOTION_DELAY", "md", Field::motion_delay},
+    {"PIERCE_END_HEIGHT", "eh", Field::end_height},
+    {"CUT_HEIGHT_DELAY", "hd", Field::cut_height_delay},
+    {"GOUGE_SPEED", "gs", Field::gouge_speed},
+    {"GOUGE_SPEED_DISTANCE", "gd", Field::gouge_distance},
+    {"CREEP_SPEED", "cs", Field::creep_speed},
+    {"CREEP_SPEED_DISTANCE", "cd", Field::creep_distance},
     {"GAS_PRESSURE", "gp", Field::ignored},
     {"CUT_MODE", "cm", Field::ignored},
     {"THICKNESS", "mt", Field::ignored},
@@ -109,6 +118,18 @@ void set(CutParameters& c, const Key& key, std::string_view value, double mm_per
     case Field::amps: c.cut_amps = in(v, 0.0, 1000.0, " A"); break;
     case Field::volts: c.cut_volts = in(v, 0.0, 1000.0, " V"); break;
     case Field::pause: c.pause_at_end_s = in(v, 0.0, 60.0, " s"); break;
+    case Field::pierce_type:
+      if (v == 1.0) refuse(source, line, fmt::format("{} = 1 (a wiggle pierce) is not supported: 0 (standing) or 2 (ramp)", name));
+      if (v != 0.0 && v != 2.0) refuse(source, line, fmt::format("{} must be 0 (standing) or 2 (ramp), got {:g}", name, v));
+      c.ramp_pierce = v == 2.0;
+      break;
+    case Field::motion_delay: c.pierce_motion_delay_pct = in(v, 0.0, 100.0, " %"); break;
+    case Field::end_height: c.pierce_end_height_mm = in(mm, 0.0, 100.0, " mm"); break;
+    case Field::cut_height_delay: c.cut_height_delay_s = in(v, 0.0, 60.0, " s"); break;
+    case Field::gouge_speed: c.gouge_speed_mm_per_s = in(mm, 0.0, 100'000.0, " mm/min") / 60.0; break;
+    case Field::gouge_distance: c.gouge_distance_mm = in(mm, 0.0, 1000.0, " mm"); break;
+    case Field::creep_speed: c.creep_speed_mm_per_s = in(mm, 0.0, 100'000.0, " mm/min") / 60.0; break;
+    case Field::creep_distance: c.creep_distance_mm = in(mm, 0.0, 1000.0, " mm"); break;
     case Field::name:
     case Field::ignored: break;
   }
@@ -130,6 +151,32 @@ void require_mandatory(const std::array<bool, kKeys.size()>& seen, const std::st
   for (std::size_t k = 1; k <= kMandatory; ++k)
     if (!seen[k])
       refuse(source, line, fmt::format("{} has no {}: it is mandatory", what, comment ? kKeys[k].comment : kKeys[k].file));
+}
+
+// A ramp pierce's settings fit together: a speed for each distance, below the cut speed; no
+// puddle jump beside it; and without a ramp, none of its settings.
+void check_pierce(const CutParameters& c, const std::string& source, int line, const char* what, bool comment) {
+  const auto key = [&](Field f) {
+    for (const Key& k : kKeys)
+      if (k.field == f) return comment ? k.comment : k.file;
+    return "?";
+  };
+  const auto speed_for = [&](double speed, double distance, Field s, Field d) {
+    if (distance > 0.0 && !(speed > 0.0))
+      refuse(source, line, fmt::format("{}: {} needs {} > 0", what, key(d), key(s)));
+    if (distance > 0.0 && speed > c.cut_feed_mm_per_s)
+      refuse(source, line, fmt::format("{}: {} is above {}: a ramp pierce starts slower than the cut", what, key(s), key(Field::cut_speed)));
+  };
+  if (!c.ramp_pierce) {
+    if (c.gouge_distance_mm > 0.0 || c.creep_distance_mm > 0.0 || c.pierce_motion_delay_pct > 0.0 || c.pierce_end_height_mm > 0.0)
+      refuse(source, line, fmt::format("{}: ramp pierce settings without {} = 2", what, key(Field::pierce_type)));
+    return;
+  }
+  if (c.puddle_jump_height_pct > 0.0)
+    refuse(source, line, fmt::format("{}: a ramp pierce and a puddle jump: choose one ({} = 0, or {} = 0)", what,
+                                     key(Field::jump_height), key(Field::pierce_type)));
+  speed_for(c.gouge_speed_mm_per_s, c.gouge_distance_mm, Field::gouge_speed, Field::gouge_distance);
+  speed_for(c.creep_speed_mm_per_s, c.creep_distance_mm, Field::creep_speed, Field::creep_distance);
 }
 
 class FileReader {
@@ -195,8 +242,9 @@ class FileReader {
   void close() {
     if (!open_) return;
     open_ = false;
-    require_mandatory(seen_, t_.source, t_.lines.back(),
-                      fmt::format("material {}", t_.materials.back().number).c_str(), false);
+    const std::string what = fmt::format("material {}", t_.materials.back().number);
+    require_mandatory(seen_, t_.source, t_.lines.back(), what.c_str(), false);
+    check_pierce(t_.materials.back(), t_.source, t_.lines.back(), what.c_str(), false);
   }
 
   const MaterialReadOptions& options_;
@@ -265,6 +313,7 @@ MaterialComment read_material_comment(std::string_view text, const std::string& 
   if (out.option != 0 && !have_number) refuse(source, line, "material comment: o=1 and o=2 need nu= (the material number)");
   if (out.option == 0) out.material.number = 0;
   require_mandatory(seen, source, line, "material comment", true);
+  check_pierce(out.material, source, line, "material comment", true);
   return out;
 }
 

@@ -24,6 +24,15 @@
 //   * KERF_WIDTH, PUDDLE_JUMP_HEIGHT, PUDDLE_JUMP_DELAY, CUT_AMPS, CUT_VOLTS, PAUSE_AT_END are
 //     optional: absent or with no value they are 0, as in QtPlasmaC. THC absent or empty leaves
 //     THC on (the machine's THC decides); THC = 0 turns it off for the material.
+//   * A ramp pierce for thick plate (machplan's, after a plasmac extension's names; QtPlasmaC
+//     itself pierces standing): PIERCE_TYPE = 2 (0: standing, the default; 1, a wiggle, is
+//     refused), PIERCE_MOTION_DELAY (% of the pierce delay before the torch moves),
+//     PIERCE_END_HEIGHT (the height at the end of the delay; 0: the cut height),
+//     CUT_HEIGHT_DELAY (s there before cut height), GOUGE_SPEED and CREEP_SPEED (per minute,
+//     at most CUT_SPEED) with GOUGE_SPEED_DISTANCE and CREEP_SPEED_DISTANCE: the first stretch
+//     of the cut at each speed (CutParameters). Refused: a distance without its speed, a ramp
+//     beside a puddle jump, ramp settings without PIERCE_TYPE = 2. Material comments take them
+//     as pt, md, eh, hd, gs, gd, cs, cd.
 //   * NAME is free text (at most 100 characters); GAS_PRESSURE, CUT_MODE and THICKNESS (used by
 //     QtPlasmaC for PowerMax communication and display) are accepted and ignored. Any other key
 //     is ignored with one warning (MaterialTable::warnings) naming its first line.

@@ -26,14 +26,36 @@ double probe_s(double waiting_mm, double pierce_mm, const TorchTimes::Height& h,
 // The torch height moves of a torch_on from `waiting_mm`: down to pierce height (by the probe
 // when one runs), after the pierce up or down to the puddle jump height (when the material has
 // one) and to cut height.
-double torch_on_heights_s(double waiting_mm, TorchTimes::Height h, const TorchTimes::Probe* probe, const CutParameters* m) {
+// A ramp pierce (`ramp`) goes down to cut height while it moves: not counted.
+double torch_on_heights_s(double waiting_mm, TorchTimes::Height h, const TorchTimes::Probe* probe, const CutParameters* m,
+                          bool ramp) {
   if (m) h.pierce_mm = m->pierce_height_mm, h.cut_mm = m->cut_height_mm;
   double t = probe ? probe_s(waiting_mm, h.pierce_mm, h, *probe) : height_move_s(waiting_mm, h.pierce_mm, h);
+  if (ramp) return t;
   if (m && m->puddle_jump_height_pct > 0.0) {
     const double jump_mm = h.pierce_mm * m->puddle_jump_height_pct / 100.0;
     return t + height_move_s(h.pierce_mm, jump_mm, h) + height_move_s(jump_mm, h.cut_mm, h);
   }
   return t + height_move_s(h.pierce_mm, h.cut_mm, h);
+}
+// A ramp pierce: the part of its delay before the torch moves, and what its slow start costs
+// the cut beyond the plan's time there (at least d/v - d/F for each distance d at speed v
+// under the feed F: the plan takes at least d/F over d).
+double ramp_pierce_s(const Job& job, std::size_t cut, double delay_s, const CutParameters& m) {
+  double t = delay_s * m.pierce_motion_delay_pct / 100.0;
+  const Stretch& s = job.stretches[job.steps[cut].stretch];
+  const double feed = s.feed_mm_per_s.empty() ? 0.0 : s.feed_mm_per_s.front();
+  if (!(feed > 0.0)) return t;
+  for (const auto& [d, v] : {std::pair{m.gouge_distance_mm, m.gouge_speed_mm_per_s}, std::pair{m.creep_distance_mm, m.creep_speed_mm_per_s}})
+    if (d > 0.0 && v > 0.0 && v < feed) t += d / v - d / feed;
+  return t;
+}
+
+// The move a ramp pierce at torch_on step i starts (past a dwell), or 0 when none follows.
+std::size_t ramp_cut(const Job& job, std::size_t i) {
+  const std::size_t cut = i + (i + 1 < job.steps.size() && job.steps[i + 1].kind == Step::Kind::dwell ? 2 : 1);
+  const bool ok = cut < job.steps.size() && job.steps[cut].kind == Step::Kind::move && job.stretches[job.steps[cut].stretch].cutting;
+  return ok ? cut : 0;
 }
 }  // namespace
 
@@ -42,6 +64,7 @@ double process_time_s(const Job& job, const TorchTimes& times) {
   double waiting_mm = times.height ? times.height->retract_mm : 0.0;  // where the torch waits between cuts
   const CutParameters* material = nullptr;                           // of the cut in progress
   bool lit = false;  // a torch_off after another (a second M5) finds the torch up already
+  bool skip_dwell = false;  // the dwell after a ramp pierce's torch_on is its delay, counted there
   Eigen::Vector2d at = job.start_mm, probed_at = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   for (std::size_t i = 0; i < job.steps.size(); ++i) {
     const Step& s = job.steps[i];
@@ -53,10 +76,16 @@ double process_time_s(const Job& job, const TorchTimes& times) {
         if (probe && probe->skip_distance_mm > 0 && (at - probed_at).cwiseAbs().maxCoeff() <= probe->skip_distance_mm)
           probe = nullptr;  // skipped
         if (probe) probed_at = at;
-        if (const auto& h = times.height) t += torch_on_heights_s(waiting_mm, *h, probe, material);
+        const bool programmed = i + 1 < job.steps.size() && job.steps[i + 1].kind == Step::Kind::dwell;
+        const std::size_t cut = material && material->ramp_pierce && times.height ? ramp_cut(job, i) : 0;
+        if (const auto& h = times.height) t += torch_on_heights_s(waiting_mm, *h, probe, material, cut > 0);
         else t += times.torch_on_s;
         t += times.start_s;
-        const bool programmed = i + 1 < job.steps.size() && job.steps[i + 1].kind == Step::Kind::dwell;
+        if (cut > 0) {
+          t += ramp_pierce_s(job, cut, programmed ? job.steps[i + 1].seconds : material->pierce_delay_s, *material);
+          skip_dwell = programmed;
+          break;
+        }
         // A following G4 is counted as a dwell.
         if (!programmed) t += material ? material->pierce_delay_s + material->puddle_jump_delay_s : times.pierce_s;
         break;
@@ -73,7 +102,10 @@ double process_time_s(const Job& job, const TorchTimes& times) {
         material = nullptr;
         lit = false;
         break;
-      case Step::Kind::dwell: t += s.seconds; break;
+      case Step::Kind::dwell:
+        if (!skip_dwell) t += s.seconds;
+        skip_dwell = false;
+        break;
       case Step::Kind::move: {
         const auto& seg = job.stretches[s.stretch].segments;
         if (!seg.empty()) at = seg.back().end;

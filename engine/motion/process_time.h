@@ -8,7 +8,9 @@
 // retract); each dwell: its seconds. With `use_materials`, a torch_on with a material
 // (Step::material) takes the material's pierce and cut heights, its pierce delay plus puddle
 // jump delay instead of `pierce_s` (and the puddle jump height move), and its cut's torch_off
-// first waits its pause at end.
+// first waits its pause at end; a ramp pierce (with a height axis, a cut following) counts the
+// part of its delay (the G4's, when one follows) before the torch moves and what its gouge and
+// creep speeds cost over the plan, not its descent to cut height, which overlaps the motion.
 //
 // One function, two callers with their own numbers: the run's expected time takes the machine
 // file's nominal delays and speeds (solvers/motion/run.h), the executor's upper estimate (for

@@ -7,6 +7,7 @@
 
 #include "engine/executor/surface_map.h"
 #include "engine/executor/torch_sequencer.h"
+#include "tests/support/torch_plant.h"
 
 namespace machplan::executor {
 namespace {
@@ -14,60 +15,8 @@ namespace {
 using S = TorchSequencer::Tick;
 using Sensor = TorchSequencer::Probe::Sensor;
 
-TorchSetup probing_torch(bool ohmic, bool float_switch) {
-  TorchSetup t;
-  t.kind = TorchSetup::Kind::plasma;
-  t.height_axis = true;
-  t.pierce_height_mm = 3.8;
-  t.cut_height_mm = 1.5;
-  t.retract_height_mm = 15.0;
-  t.height_tolerance_mm = 0.05;
-  t.height_timeout_s = 1.0;
-  t.arc_ok_timeout_s = 0.5;
-  t.pierce_delay_s = 0.2;
-  t.probe.ohmic = ohmic;
-  t.probe.float_switch = float_switch;
-  t.probe.probe_height_mm = 5.0;
-  t.probe.probe_speed_mm_per_s = 10.0;
-  t.probe.float_travel_mm = 1.5;
-  t.probe.max_depth_mm = 5.0;
-  t.probe.debounce_periods = 3;
-  return t;
-}
-
-// A height axis at 50 mm/s over a plate at `plate` (none: no sheet), with a float switch that
-// closes once the torch is `travel` under the surface and an ohmic contact at the surface.
-struct Plate {
-  std::optional<double> plate = 0.0;
-  double height = 15.0, travel = 1.5, fired_for = 0.0;
-  bool dirty = false, float_stuck = false;
-  double lowest = 15.0, height_at_fire = NAN;
-  int glitch_at = -1, period = 0;  // one period in which the float switch reads closed
-  void step(const hardware::Outputs& o, hardware::Inputs& in, double dt) {
-    const double d = o.torch_height_target_mm - height;
-    height += std::clamp(d, -50.0 * dt, 50.0 * dt);
-    lowest = std::min(lowest, height);
-    if (o.torch_fire && fired_for == 0.0) height_at_fire = height;
-    fired_for = o.torch_fire ? fired_for + dt : 0.0;
-    in.torch_height_mm = height;
-    in.arc_ok = o.torch_fire && fired_for >= 0.1;
-    const double gap = plate ? height - *plate : 1e9;
-    in.float_switch = float_stuck || gap <= -travel || period == glitch_at;
-    in.ohmic_sense = o.ohmic_enable && !dirty && gap <= 0.0;
-    ++period;
-  }
-};
-
-std::pair<S, double> run_probe(TorchSequencer& seq, Plate& p, hardware::Outputs& out, double limit_s = 10) {
-  hardware::Inputs in;
-  const double dt = 0.001;
-  for (double t = 0; t < limit_s; t += dt) {
-    p.step(out, in, dt);
-    const S s = seq.tick(in, out);
-    if (s != S::busy) return {s, t + dt};
-  }
-  return {S::busy, limit_s};
-}
+using test::probing_torch;
+using Plate = test::TorchPlant;
 
 struct Probed {
   S status;
@@ -78,7 +27,7 @@ struct Probed {
 Probed probe_at(TorchSequencer& seq, Plate& p, hardware::Outputs& out, Eigen::Vector2d at = {0, 0}) {
   seq.set_position(at);
   seq.start_on(false, out);
-  const S s = run_probe(seq, p, out).first;
+  const S s = test::run_torch(seq, p, out).first;
   TorchSequencer::Probe r;
   const bool reported = seq.take_probe(r);
   return {s, r, reported};
@@ -195,7 +144,7 @@ TEST(Probe, APierceNearTheLastProbeSkipsItAndTakesTheSurfaceThere) {
   p.plate = 1.0;
   ASSERT_EQ(probe_at(seq, p, out, {100, 100}).status, S::done);
   seq.start_off(out);
-  ASSERT_EQ(run_probe(seq, p, out).first, S::done);
+  ASSERT_EQ(test::run_torch(seq, p, out).first, S::done);
   // 8 mm away: within the skip distance.
   p.lowest = p.height;
   p.height_at_fire = NAN;
@@ -209,7 +158,7 @@ TEST(Probe, APierceNearTheLastProbeSkipsItAndTakesTheSurfaceThere) {
   EXPECT_EQ(near.probe.duration_s, 0.0);
   EXPECT_NEAR(p.height_at_fire - *p.plate, 3.8, 0.06);
   seq.start_off(out);
-  ASSERT_EQ(run_probe(seq, p, out).first, S::done);
+  ASSERT_EQ(test::run_torch(seq, p, out).first, S::done);
   // 12 mm from the last probed point (skipped pierces do not move it): probed again.
   const Probed far = probe_at(seq, p, out, {112, 100});
   ASSERT_EQ(far.status, S::done);

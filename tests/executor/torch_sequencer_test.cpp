@@ -3,50 +3,18 @@
 #include <gtest/gtest.h>
 
 #include "engine/executor/torch_sequencer.h"
+#include "tests/support/torch_plant.h"
 
 namespace machplan::executor {
 namespace {
 
 using S = TorchSequencer::Tick;
 
-TorchSetup plasma_with_height() {
-  TorchSetup t;
-  t.kind = TorchSetup::Kind::plasma;
-  t.height_axis = true;
-  t.pierce_height_mm = 3.8;
-  t.cut_height_mm = 1.5;
-  t.retract_height_mm = 15.0;
-  t.height_tolerance_mm = 0.05;
-  t.height_timeout_s = 1.0;
-  t.arc_ok_timeout_s = 0.5;
-  t.pierce_delay_s = 0.2;
-  return t;
-}
-
-// A height axis that moves at `speed` toward its target, an arc that lights `arc_delay` after
-// firing (never, if negative).
-struct Plant {
-  double height = 15.0, speed = 50.0, arc_delay = 0.1, fired_for = 0.0;
-  void step(const hardware::Outputs& o, hardware::Inputs& in, double dt) {
-    const double d = o.torch_height_target_mm - height;
-    height += std::clamp(d, -speed * dt, speed * dt);
-    fired_for = o.torch_fire ? fired_for + dt : 0.0;
-    in.torch_height_mm = height;
-    in.arc_ok = o.torch_fire && arc_delay >= 0 && fired_for >= arc_delay;
-  }
+using test::plasma_with_height;
+// Without a plate under it: no sensor closes.
+struct Plant : test::TorchPlant {
+  Plant() { plate.reset(); }
 };
-
-// Runs until the sequencer is no longer busy; returns its status and the time taken.
-std::pair<S, double> run(TorchSequencer& seq, Plant& p, hardware::Outputs& out, double limit_s = 10) {
-  hardware::Inputs in;
-  const double dt = 0.001;
-  for (double t = 0; t < limit_s; t += dt) {
-    p.step(out, in, dt);
-    const S s = seq.tick(in, out);
-    if (s != S::busy) return {s, t + dt};
-  }
-  return {S::busy, limit_s};
-}
 
 TEST(TorchSequencer, PlasmaOnGoesDownFiresWaitsPiercesAndLowersToCutHeight) {
   TorchSequencer seq;
@@ -58,7 +26,7 @@ TEST(TorchSequencer, PlasmaOnGoesDownFiresWaitsPiercesAndLowersToCutHeight) {
   EXPECT_TRUE(seq.busy());
   EXPECT_FALSE(out.torch_fire);  // not before the pierce height is reached
   EXPECT_DOUBLE_EQ(out.torch_height_target_mm, 3.8);
-  const auto [s, t] = run(seq, p, out);
+  const auto [s, t] = test::run_torch(seq, p, out);
   EXPECT_EQ(s, S::done);
   EXPECT_TRUE(out.torch_fire);
   EXPECT_TRUE(seq.lit());
@@ -74,12 +42,12 @@ TEST(TorchSequencer, ProgrammedPierceEndsAtThePierceAndLowersOnRequest) {
   hardware::Outputs out;
   Plant p;
   seq.start_on(true, out);
-  auto [s, t] = run(seq, p, out);
+  auto [s, t] = test::run_torch(seq, p, out);
   EXPECT_EQ(s, S::done);
   EXPECT_TRUE(seq.lit());
   EXPECT_DOUBLE_EQ(out.torch_height_target_mm, 3.8);  // still at pierce height: the G4 dwell runs next
   seq.lower_to_cut_height(out);
-  std::tie(s, t) = run(seq, p, out);
+  std::tie(s, t) = test::run_torch(seq, p, out);
   EXPECT_EQ(s, S::done);
   EXPECT_NEAR(p.height, 1.5, 0.05);
 }
@@ -91,7 +59,7 @@ TEST(TorchSequencer, NoArcOkFailsTheStartAfterTheTimeout) {
   Plant p;
   p.arc_delay = -1;
   seq.start_on(false, out);
-  const auto [s, t] = run(seq, p, out);
+  const auto [s, t] = test::run_torch(seq, p, out);
   EXPECT_EQ(s, S::failed);
   EXPECT_EQ(seq.failure(), TorchSequencer::Failure::arc_start_failed);
   EXPECT_NEAR(t, 11.15 / 50 + 0.5, 0.01);
@@ -105,7 +73,7 @@ TEST(TorchSequencer, StuckHeightAxisTimesOut) {
   Plant p;
   p.speed = 0.0;
   seq.start_on(false, out);
-  const auto [s, t] = run(seq, p, out);
+  const auto [s, t] = test::run_torch(seq, p, out);
   EXPECT_EQ(s, S::failed);
   EXPECT_EQ(seq.failure(), TorchSequencer::Failure::torch_height_timeout);
   EXPECT_NEAR(t, 1.0, 0.002);
@@ -123,7 +91,7 @@ TEST(TorchSequencer, OxyFuelPreheatsThenOpensTheOxygen) {
   Plant p;
   seq.start_on(false, out);
   EXPECT_FALSE(out.torch_fire);
-  const auto [s, t] = run(seq, p, out);
+  const auto [s, t] = test::run_torch(seq, p, out);
   EXPECT_EQ(s, S::done);
   EXPECT_TRUE(out.torch_fire);
   EXPECT_NEAR(t, 0.3 + 0.2, 0.003);
@@ -135,11 +103,11 @@ TEST(TorchSequencer, OffRetractsAndKillWorksFromAnyPhase) {
   hardware::Outputs out;
   Plant p;
   seq.start_on(false, out);
-  run(seq, p, out);
+  test::run_torch(seq, p, out);
   seq.start_off(out);
   EXPECT_FALSE(out.torch_fire);  // off in the same period
   EXPECT_FALSE(seq.lit());
-  const auto [s, t] = run(seq, p, out);
+  const auto [s, t] = test::run_torch(seq, p, out);
   EXPECT_EQ(s, S::done);
   EXPECT_NEAR(p.height, 15.0, 0.05);
   // Kill in the middle of the arc wait.
@@ -166,21 +134,71 @@ TEST(TorchSequencer, OffRetractsToAHigherTravelHeightWhenAsked) {
   hardware::Outputs out;
   Plant p;
   seq.start_on(false, out);
-  run(seq, p, out);
+  test::run_torch(seq, p, out);
   seq.start_off(out, 40.0);
   EXPECT_FALSE(out.torch_fire);
   EXPECT_DOUBLE_EQ(out.torch_height_target_mm, 40.0);
-  const auto [s, up] = run(seq, p, out);
+  const auto [s, up] = test::run_torch(seq, p, out);
   EXPECT_EQ(s, S::done);
   EXPECT_NEAR(p.height, 40.0, 0.05);
   EXPECT_NEAR(up, (40.0 - 1.5) / 50, 0.01);  // from cut height at 50 mm/s
   // A height below the retract height changes nothing.
   seq.start_on(false, out);
-  run(seq, p, out);
+  test::run_torch(seq, p, out);
   seq.start_off(out, 5.0);
   EXPECT_DOUBLE_EQ(out.torch_height_target_mm, 15.0);
-  run(seq, p, out);
+  test::run_torch(seq, p, out);
   EXPECT_NEAR(p.height, 15.0, 0.05);
+}
+
+// A ramp pierce: motion allowed from its motion delay on, the height going from the pierce
+// height to the end height over the rest of the delay, a wait there, then cut height.
+TEST(TorchSequencer, RampPierceAllowsMotionFromItsDelayAndDescendsToItsEndHeight) {
+  TorchSequencer seq;
+  seq.configure(plasma_with_height(), 0.001);
+  motion::CutParameters m;
+  m.pierce_height_mm = 6.0;
+  m.pierce_delay_s = 1.0;
+  m.cut_height_mm = 2.0;
+  m.ramp_pierce = true;
+  m.pierce_motion_delay_pct = 40;
+  m.pierce_end_height_mm = 3.0;
+  m.cut_height_delay_s = 0.1;
+  seq.use_material(&m);
+  ASSERT_EQ(seq.ramp(), &m);
+  hardware::Outputs out;
+  out.torch_height_target_mm = 15.0;
+  Plant p;
+  seq.start_on(false, out, false, 1.0);
+  hardware::Inputs in;
+  double arc_s = NAN, motion_s = NAN, end_s = NAN, done_s = NAN, height_at_delay_end = NAN;
+  for (double t = 0; t < 5 && std::isnan(done_s); t += 0.001) {
+    p.step(out, in, 0.001);
+    const S s = seq.tick(in, out);
+    if (std::isnan(arc_s) && in.arc_ok) arc_s = t;
+    if (std::isnan(motion_s) && seq.motion_allowed()) motion_s = t;
+    if (std::isnan(end_s) && seq.lit()) end_s = t, height_at_delay_end = p.height;
+    if (s == S::done) done_s = t;
+    ASSERT_NE(s, S::failed);
+  }
+  EXPECT_NEAR(motion_s - arc_s, 0.4, 0.003);
+  EXPECT_NEAR(end_s - arc_s, 1.0, 0.003);
+  EXPECT_NEAR(height_at_delay_end, 3.0, 0.1);  // followed the end height down
+  EXPECT_GT(done_s - end_s, 0.1);              // the cut height delay, then down 1 mm
+  EXPECT_NEAR(p.height, 2.0, 0.05);
+  EXPECT_FALSE(seq.motion_allowed());          // the sequence is over
+  // Without a moving delay (a re-pierce) the same material pierces standing.
+  seq.start_off(out);
+  test::run_torch(seq, p, out);
+  seq.start_on(false, out);
+  hardware::Inputs in2;
+  bool moved = false;
+  for (double t = 0; t < 5 && seq.busy(); t += 0.001) {
+    p.step(out, in2, 0.001);
+    seq.tick(in2, out);
+    moved = moved || seq.motion_allowed();
+  }
+  EXPECT_FALSE(moved);
 }
 
 }  // namespace

@@ -125,6 +125,58 @@ TEST(MaterialFile, BadFilesNameFileAndLine) {
               HasSubstr("mats.cfg:6: more than 1 materials with max_materials"));
 }
 
+// A ramp pierce for thick plate: its keys (lengths and speeds in the file's units), and the
+// settings that do not fit together refused with the material's line.
+TEST(MaterialFile, RampPierceKeysAndTheirRules) {
+  const std::string ok = "PIERCE_HEIGHT=6\nPIERCE_DELAY=1.5\nCUT_HEIGHT=2\nCUT_SPEED=1200\n";
+  const std::string ramp = "PIERCE_TYPE=2\nPIERCE_MOTION_DELAY=40\nPIERCE_END_HEIGHT=3\nCUT_HEIGHT_DELAY=0.1\n"
+                           "GOUGE_SPEED=300\nGOUGE_SPEED_DISTANCE=4\nCREEP_SPEED=600\nCREEP_SPEED_DISTANCE=5\n";
+  const MaterialTable t = read_materials("[MATERIAL_NUMBER_5]\n" + ok + ramp, "m.cfg");
+  const CutParameters* m = t.find(5);
+  ASSERT_NE(m, nullptr);
+  EXPECT_TRUE(m->ramp_pierce);
+  EXPECT_DOUBLE_EQ(m->pierce_motion_delay_pct, 40);
+  EXPECT_DOUBLE_EQ(m->pierce_end_height_mm, 3);
+  EXPECT_DOUBLE_EQ(m->cut_height_delay_s, 0.1);
+  EXPECT_DOUBLE_EQ(m->gouge_speed_mm_per_s, 5);
+  EXPECT_DOUBLE_EQ(m->gouge_distance_mm, 4);
+  EXPECT_DOUBLE_EQ(m->creep_speed_mm_per_s, 10);
+  EXPECT_DOUBLE_EQ(m->creep_distance_mm, 5);
+  MaterialReadOptions inch;
+  inch.mm_per_unit = 25.4;
+  const std::string in_inch = "[MATERIAL_NUMBER_5]\nPIERCE_HEIGHT=0.2\nPIERCE_DELAY=1\nCUT_HEIGHT=0.1\nCUT_SPEED=60\n"
+                              "PIERCE_TYPE=2\nGOUGE_SPEED=10\nGOUGE_SPEED_DISTANCE=0.25\n";
+  const MaterialTable ti = read_materials(in_inch, "m.cfg", inch);
+  const CutParameters* mi = ti.find(5);
+  ASSERT_NE(mi, nullptr);
+  EXPECT_NEAR(mi->gouge_distance_mm, 6.35, 1e-9);
+  EXPECT_NEAR(mi->gouge_speed_mm_per_s, 254.0 / 60.0, 1e-9);
+  EXPECT_FALSE(read_materials("[MATERIAL_NUMBER_5]\n" + ok + "PIERCE_TYPE=0\n", "m.cfg").find(5)->ramp_pierce);
+  const std::string head = "[MATERIAL_NUMBER_5]\n" + ok;
+  EXPECT_THAT(error_of(head + "PIERCE_TYPE=1\n"), HasSubstr("mats.cfg:6: PIERCE_TYPE = 1 (a wiggle pierce) is not supported"));
+  EXPECT_THAT(error_of(head + "PIERCE_TYPE=3\n"), HasSubstr("mats.cfg:6: PIERCE_TYPE must be 0 (standing) or 2 (ramp)"));
+  EXPECT_THAT(error_of(head + "PIERCE_TYPE=2\nGOUGE_SPEED_DISTANCE=4\n"),
+              HasSubstr("mats.cfg:1: material 5: GOUGE_SPEED_DISTANCE needs GOUGE_SPEED > 0"));
+  EXPECT_THAT(error_of(head + "PIERCE_TYPE=2\nCREEP_SPEED=2000\nCREEP_SPEED_DISTANCE=4\n"),
+              HasSubstr("mats.cfg:1: material 5: CREEP_SPEED is above CUT_SPEED"));
+  EXPECT_THAT(error_of(head + "PIERCE_TYPE=2\nPUDDLE_JUMP_HEIGHT=150\n"),
+              HasSubstr("mats.cfg:1: material 5: a ramp pierce and a puddle jump: choose one"));
+  EXPECT_THAT(error_of(head + "GOUGE_SPEED=300\nGOUGE_SPEED_DISTANCE=4\n"),
+              HasSubstr("mats.cfg:1: material 5: ramp pierce settings without PIERCE_TYPE = 2"));
+  EXPECT_THAT(error_of(head + "PIERCE_TYPE=2\nPIERCE_MOTION_DELAY=120\n"), HasSubstr("mats.cfg:7: PIERCE_MOTION_DELAY = 120 is out of range"));
+  // In a material comment, by their short keys.
+  const MaterialComment c =
+      read_material_comment("o=0, ph=6, pd=1.5, ch=2, fr=1200, pt=2, md=40, eh=3, hd=0.1, gs=300, gd=4, cs=600, cd=5", "p.ngc", 3, 1.0);
+  EXPECT_TRUE(c.material.ramp_pierce);
+  EXPECT_DOUBLE_EQ(c.material.creep_speed_mm_per_s, 10);
+  try {
+    read_material_comment("o=0, ph=6, pd=1.5, ch=2, fr=1200, pt=2, gd=4", "p.ngc", 3, 1.0);
+    ADD_FAILURE() << "a gouge distance without its speed was accepted";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("p.ngc:3: material comment: gd needs gs > 0"));
+  }
+}
+
 TEST(MaterialComment, ReadsTemporaryAndNumberedMaterials) {
   const MaterialComment t = read_material_comment("o=0, na=Plate 6, ph=3.1, pd=0.4, ch=1.5, fr=2100, kw=1.6, th=0, cv=120, pe=0.2, "
                                                   "jh=40, jd=0.3, mt=6, gp=5, cm=1",
