@@ -21,6 +21,7 @@
 #include "cli/gcode_flags.h"
 #include "cli/json/cut_order_json.h"
 #include "models/cutting/machine_config.h"
+#include "models/sim/sheet_map.h"
 #include "solvers/calibration/store.h"
 #include "engine/common/error.h"
 #include "engine/common/internal/parse.h"
@@ -82,7 +83,7 @@ struct RunArgs {
   std::string order;
   double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
   std::string operator_events;
-  std::string sheet_warp;
+  std::string sheet_warp, sheet_map;
   int from_line = 0;
   std::string materials;
   int material = -1;
@@ -111,6 +112,7 @@ const FieldFlag kRunFields[] = {
     {"backend.sim.faults", "--inject"},
     {"backend.sim.operator_events", "--operator-events"},
     {"backend.sim.sheet_warp_mm", "--sheet-warp"},
+    {"backend.sim.sheet_map", "--sheet-map"},
     {"gcode.spindle_count", "--spindles"},
     {"max_machine_time_s", "--max-machine-time"},
     {"magnify", "--magnify"},
@@ -155,6 +157,7 @@ motion::RunOptions run_options(const RunArgs& a) {
     so.backend.sim.sheet_warp_mm = std::make_pair(number_flag("--sheet-warp", a.sheet_warp.substr(0, comma)),
                                                   number_flag("--sheet-warp", a.sheet_warp.substr(comma + 1)));
   }
+  if (!a.sheet_map.empty()) so.backend.sim.sheet_map = std::make_shared<const sim::SheetMap>(sim::read_sheet_map(a.sheet_map));
   so.controller = a.controller.empty() || a.controller == "tuned"
                       ? a.controller
                       : accept(control::parse_controller_kind(a.controller), "--controller");
@@ -303,6 +306,9 @@ void add_run(CLI::App& app) {
   cmd->add_option("--sheet-warp", a->sheet_warp,
                   "simulator: the sheet warped AMPLITUDE_MM,WAVELENGTH_MM (a seeded sine in x and y; default: the machine "
                   "file's sheet block, else flat): what torch height control must follow");
+  cmd->add_option("--sheet-map", a->sheet_map,
+                  "simulator: the sheet's surface as a height map, a CSV grid 'x_mm,y_mm,z_mm' (bilinear between its "
+                  "points; in place of --sheet-warp)");
   cmd->add_option("--operator-events", a->operator_events,
                   "simulator: the operator's inputs on a timeline, a CSV 't_s,event,value' (hold, start, stop, "
                   "feed_override, rapid_override, paused_motion, paused_motion_speed, thc)");

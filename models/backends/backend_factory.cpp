@@ -63,6 +63,7 @@ void BackendOptions::validate() const {
     if (sim.sheet_warp_mm)
       refuse("sim.sheet_warp_mm", fmt::format("{:g} mm over {:g} mm", sim.sheet_warp_mm->first, sim.sheet_warp_mm->second),
              "the sheet's warp is simulated");
+    if (sim.sheet_map) refuse("sim.sheet_map", sim.sheet_map->source, "the sheet's height map is simulated");
   }
 }
 

@@ -39,6 +39,8 @@ void SimOptions::validate() const {
     if (!(std::isfinite(l) && l >= 1 && l <= 1e5))
       throw InputError::field("sheet_warp_mm", fmt::format("wavelength {} mm must be in [1, 100000]", l));
   }
+  if (sheet_warp_mm && sheet_map)
+    throw InputError::field("sheet_map", "a height map and a warp both describe the sheet: give one");
   if (!(std::isfinite(realtime_speed) && realtime_speed > 0 && realtime_speed <= 1000))
     throw InputError::field("realtime_speed", fmt::format("{} must be in (0, 1000]", realtime_speed));
   for (const FaultInjection& f : faults) {
@@ -211,6 +213,7 @@ void SimBackend::sense_plate(bool ohmic_on, double dt) noexcept {
 }
 
 double SimBackend::plate_z_mm(double x, double y) const noexcept {
+  if (opt_.sheet_map) return opt_.sheet_map->z_mm(x, y);
   if (warp_amplitude_mm_ == 0.0) return 0.0;
   const double k = 2 * M_PI / warp_wavelength_mm_;
   return warp_amplitude_mm_ * std::sin(k * x + warp_phase_x_) * std::sin(k * y + warp_phase_y_);

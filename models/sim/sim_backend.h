@@ -72,6 +72,7 @@
 #include "engine/hardware/operator_events.h"
 #include "models/axis/plant.h"
 #include "models/cutting/machine_config.h"
+#include "models/sim/sheet_map.h"
 
 namespace machplan::sim {
 
@@ -107,6 +108,8 @@ struct SimOptions {
   std::vector<OperatorEvent> operator_events;
   // The sheet's warp, amplitude and wavelength, mm; unset: the machine file's (sheet block).
   std::optional<std::pair<double, double>> sheet_warp_mm;
+  // The sheet as a measured height map (models/sim/sheet_map.h); in place of any warp.
+  std::shared_ptr<const SheetMap> sheet_map;
   void validate() const;                  // throws InputError naming the field
 };
 

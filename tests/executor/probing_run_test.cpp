@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "models/cutting/machine_config.h"
+#include "models/sim/sheet_map.h"
 #include "models/sim/sim_backend.h"
 #include "solvers/motion/run.h"
 #include "tests/support/datasets.h"
@@ -166,6 +168,31 @@ TEST(Probing, ADirtyPlateMissesSomeOhmicContactsAndTheFloatSwitchFindsThoseSurfa
   }
   EXPECT_GT(by_float, 5u);
   EXPECT_LT(by_float, r.result.probes.size() - 5);
+  EXPECT_LT(worst, 0.1);
+}
+
+// A sheet given as a measured height map (--sheet-map): tilted 2 mm over the table and with a
+// 1.5 mm bump; every probe finds the map's surface and every pierce fires at its height over it.
+TEST(Probing, OnASheetGivenAsAHeightMapEveryPierceIsAtItsHeight) {
+  std::string csv = "x_mm,y_mm,z_mm\n";
+  const auto z = [](double x, double y) { return 0.0016 * x - 0.0008 * y + 1.5 * std::exp(-(std::pow(x - 300, 2) + std::pow(y - 250, 2)) / 2e4); };
+  for (int i = 0; i <= 30; ++i)
+    for (int j = 0; j <= 25; ++j) csv += std::to_string(i * 50) + "," + std::to_string(j * 50) + "," + std::to_string(z(i * 50, j * 50)) + "\n";
+  auto map = std::make_shared<const sim::SheetMap>(sim::parse_sheet_map(csv, "sheet.csv"));
+  RunOptions o;
+  o.session.machine_config = gantry();
+  o.session.backend.sim.sheet_map = map;
+  const RunOutcome r = run_program(part("bracket_l.ngc"), o);
+  ASSERT_TRUE(r.summary.done()) << r.summary.full_report();
+  ASSERT_FALSE(r.result.probes.empty());
+  double worst = 0.0, worst_surface = 0.0;
+  for (const ProbeReport& p : r.result.probes) {
+    worst = std::max(worst, std::abs(p.pierce_height_error_mm));
+    if (!p.skipped) worst_surface = std::max(worst_surface, std::abs(p.surface_mm - map->z_mm(p.position_mm.x(), p.position_mm.y())));
+  }
+  std::printf("height map: %zu probes, surface within %.3f mm of the map, pierces within %.3f mm\n", r.result.probes.size(),
+              worst_surface, worst);
+  EXPECT_LT(worst_surface, 0.06);
   EXPECT_LT(worst, 0.1);
 }
 

@@ -12,6 +12,7 @@
 #include <memory>
 #include <numbers>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -130,6 +131,37 @@ TEST(HalSignals, OperatorPinsReachTheOperatorInputs) {
   pins.set_pin("machplan.rapid-override", std::numeric_limits<double>::quiet_NaN());
   EXPECT_EQ(s.catch_up(pins).op.rapid_override_pct, 100.0);
 
+  // The buttons, as the component samples them.
+  pins.set_pin("machplan.feed-hold", 1);
+  EXPECT_TRUE(s.catch_up(pins).op.feed_hold);
+  pins.set_pin("machplan.feed-hold", 0);
+  EXPECT_FALSE(s.catch_up(pins).op.feed_hold);
+  pins.set_pin("machplan.cycle-start", 1);
+  EXPECT_TRUE(s.catch_up(pins).op.cycle_start);
+  pins.set_pin("machplan.cycle-start", 0);
+  EXPECT_FALSE(s.catch_up(pins).op.cycle_start);
+  // The feed override: 0 .. 200 %, clamped; not a number: 100 %.
+  pins.set_pin("machplan.feed-override", 35);
+  EXPECT_EQ(s.catch_up(pins).op.feed_override_pct, 35.0);
+  pins.set_pin("machplan.feed-override", 250);
+  EXPECT_EQ(s.catch_up(pins).op.feed_override_pct, 200.0);
+  pins.set_pin("machplan.feed-override", std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(s.catch_up(pins).op.feed_override_pct, 100.0);
+  pins.set_pin("machplan.feed-override", 100);
+  // The joystick, per axis.
+  pins.set_pin("machplan.jog.0", 0.25);
+  pins.set_pin("machplan.jog.1", -0.5);
+  const Inputs& jogged = s.catch_up(pins);
+  EXPECT_EQ(jogged.op.jog[0], 0.25);
+  EXPECT_EQ(jogged.op.jog[1], -0.5);
+  pins.set_pin("machplan.jog.0", 0);
+  pins.set_pin("machplan.jog.1", 0);
+  // The arc voltage (unlinked in the simulation): volts; 0 or less reads as not measured.
+  pins.set_pin("machplan.arc-voltage", 121.5);
+  EXPECT_EQ(s.catch_up(pins).arc_voltage_v, 121.5);
+  pins.set_pin("machplan.arc-voltage", -3);
+  EXPECT_EQ(s.catch_up(pins).arc_voltage_v, 0.0);
+
   pins.set_pin("machplan.thc-enable", 0);
   EXPECT_FALSE(s.catch_up(pins).op.thc_enabled);
   pins.set_pin("machplan.thc-enable", 1);
@@ -164,6 +196,23 @@ TEST(HalSignals, OperatorPinsReachTheOperatorInputs) {
   pins.set_pin("machplan.operator-estop", 0);
   EXPECT_TRUE(s.catch_up(pins).op.estop);
   EXPECT_FALSE(pins.bit("machplan.enable"));
+}
+
+// watchdog-reset: a session that stops exchanging trips the component's watchdog (drives off,
+// watchdog-ok FALSE, latched); a rising edge of watchdog-reset clears it.
+TEST(HalSignals, WatchdogResetClearsATrip) {
+  test::HalSim sim;
+  test::HalPins pins;
+  Session s({0, 0});
+  ASSERT_TRUE(s.until_pin(pins, "machplan.enable", true));
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));  // no exchange: more than the 200-period watchdog
+  ASSERT_TRUE(pins.wait_bit("machplan.watchdog-ok", false, std::chrono::milliseconds(1000)));
+  EXPECT_FALSE(pins.bit("machplan.enable"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_FALSE(pins.bit("machplan.watchdog-ok")) << "latched";
+  pins.set_pin("machplan.watchdog-reset", 1);
+  EXPECT_TRUE(pins.wait_bit("machplan.watchdog-ok", true, std::chrono::milliseconds(1000)));
+  pins.set_pin("machplan.watchdog-reset", 0);
 }
 
 TEST(HalSignals, CutRecoveryCountsFromWhereThePinStoodWhenTheSessionOpened) {
