@@ -311,7 +311,7 @@ void add_run(CLI::App& app) {
                   "points; in place of --sheet-warp)");
   cmd->add_option("--operator-events", a->operator_events,
                   "simulator: the operator's inputs on a timeline, a CSV 't_s,event,value' (hold, start, stop, "
-                  "feed_override, rapid_override, paused_motion, paused_motion_speed, thc)");
+                  "feed_override, rapid_override, paused_motion, paused_motion_speed, thc, torch)");
   cmd->add_option("--backend", a->backend, "the machine behind the executor: sim (the simulated machine; default) or hal (a machine through "
                   "LinuxCNC's HAL, scripts/hal-sim for a simulated one: docs/hal.md)");
   cmd->add_option("--inject", a->inject,

@@ -16,6 +16,7 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
   j["cycle_time_s"] = r.cycle_time_s;
   j["torch_on_s"] = r.torch_on_s;
   j["ramp_pierces"] = r.ramp_pierces;
+  j["dry_pierces"] = r.dry_pierces;
   j["rapid_distance_mm"] = r.rapid_distance_mm;
   j["steps_completed"] = r.steps_completed;
   j["stopped_at_rest"] = r.stopped_at_rest;
@@ -77,6 +78,7 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
                           {"in_rapid", h.in_rapid},
                           {"by_override", h.by_override},
                           {"by_arc_loss", h.by_arc_loss},
+                          {"by_torch_disable", h.by_torch_disable},
                           {"recovered_mm", h.recovered_mm},
                           {"position_mm", {h.position_mm.x(), h.position_mm.y()}},
                           {"speed_mm_per_s", h.speed_mm_per_s},

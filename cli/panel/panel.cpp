@@ -474,6 +474,12 @@ void Panel::set_thc(bool enabled) {
   publish_inputs();
 }
 
+void Panel::set_torch(bool enabled) {
+  const std::lock_guard<std::mutex> lock(op_mutex_);
+  op_.torch_enabled = enabled;
+  publish_inputs();
+}
+
 void Panel::jog(double x, double y) {
   if (!(std::isfinite(x) && std::isfinite(y) && std::abs(x) <= 1 && std::abs(y) <= 1))
     throw InputError::field("x", "the jog is two numbers x, y in -1 .. 1");
@@ -630,6 +636,7 @@ json Panel::status() {
     s["overrides"] = {{"feed_pct", op_.feed_override_pct}, {"rapid_pct", op_.rapid_override_pct}};
     s["overrides"]["feed_effective_pct"] = l.feed_effective_pct;  // what the machine makes of it
     s["thc_enabled"] = op_.thc_enabled;
+    s["torch_enabled"] = op_.torch_enabled;
   }
   s["torch"] = {{"fire", l.torch_fire},       {"arc_ok", l.arc_ok},     {"height_mm", l.torch_height_mm},
                 {"thc_active", l.thc_active}, {"arc_voltage_v", l.arc_voltage_v}};

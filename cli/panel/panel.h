@@ -148,6 +148,9 @@ class Panel {
   void paused_motion(std::optional<double> mm, std::optional<double> speed);
   // The operator's THC switch (plasma): torch height control allowed or not.
   void set_thc(bool enabled);
+  // The operator's torch switch (plasma, oxy-fuel): off, the job runs dry, and a cut under way
+  // is held with the torch off (the resume goes on dry).
+  void set_torch(bool enabled);
   // The stick, each axis -1 .. 1. An idle machine starts a jog session; a hybrid session
   // steers with it. Busy while a job runs.
   void jog(double x, double y);

@@ -83,7 +83,7 @@ constexpr ApiRoute kApiRoutes[] = {
     {"/reset", false, true, true},    {"/override", false, true, true}, {"/paused_motion", false, true, true},
     {"/thc", false, true, true},      {"/jog", false, true, true},      {"/report", true, false, false},
     {"/guard", true, true, true},     {"/history", true, false, false}, {"/frame", false, true, true},
-    {"/recover", false, true, true}};  // the older name of /paused_motion
+    {"/torch", false, true, true},    {"/recover", false, true, true}};  // the older name of /paused_motion
 
 const ApiRoute* find_api_route(const std::string& path) {
   for (const ApiRoute& r : kApiRoutes)
@@ -285,10 +285,10 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
     panel.paused_motion(number(body, "mm"), number(body, "speed"));
     return ok({{"ok", true}});
   }
-  if (path == "/thc") {
+  if (path == "/thc" || path == "/torch") {
     const auto it = body.find("enabled");
     if (it == body.end() || !it->is_boolean()) throw InputError::field("enabled", "takes {\"enabled\": true|false}");
-    panel.set_thc(it->get<bool>());
+    (path == "/thc" ? panel.set_thc(it->get<bool>()) : panel.set_torch(it->get<bool>()));
     return ok({{"ok", true}});
   }
   if (path == "/jog") {

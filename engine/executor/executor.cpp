@@ -100,6 +100,13 @@ void Session::Impl::begin_step() noexcept {
       const bool programmed = step + 1 < job.steps.size() && job.steps[step + 1].kind == Step::Kind::dwell;
       use_material(st.material);
       cut_begin = step;
+      // The operator's torch switch off: this cut runs dry.
+      dry = pauses_along_path() && !in.op.torch_enabled;
+      if (dry) {
+        ++result.dry_pierces;
+        next_step();
+        break;
+      }
       // A ramp pierce moves along the cut that follows (after the dwell, which is then its delay).
       const std::size_t cut = step + (programmed ? 2 : 1);
       const bool ramp = torch.ramp() && cut < job.steps.size() && job.steps[cut].kind == Step::Kind::move &&
@@ -110,6 +117,7 @@ void Session::Impl::begin_step() noexcept {
       break;
     }
     case Step::Kind::torch_off:
+      dry = false;
       torch.end_cut(out, st.height_mm);
       resume_after_torch_off = false;
       phase = Phase::torch;
@@ -132,6 +140,7 @@ void Session::Impl::operate() noexcept {
   const bool start_edge = op.cycle_start && !prev_op.cycle_start;
   const bool stop_edge = op.stop && !prev_op.stop;
   const double paused_mm = op.paused_motion_mm - prev_op.paused_motion_mm;
+  const bool torch_disabled = !op.torch_enabled && prev_op.torch_enabled;
   prev_op = op;
   if (stop_edge && phase != Phase::jog) {
     raise(FK::operator_stop, -1, 0.0);
@@ -142,6 +151,14 @@ void Session::Impl::operate() noexcept {
   if (!source->supports_rate() || phase == Phase::jog || phase == Phase::end_hold || phase == Phase::done) return;
   // A 0 % feed override holds a feed move like the button, and lets go when it rises again.
   const bool zero_feed = feed_rate == 0.0 && phase == Phase::move && !move_is_rapid();
+  // The torch switched off while it fires (or pierces): off now, and a hold; the resume goes on
+  // dry.
+  const bool firing = pauses_along_path() && (out.torch_fire || torch.lighting()) && (phase == Phase::move || phase == Phase::torch);
+  if (!held && torch_disabled && firing) {
+    begin_hold(false);
+    if (phase == Phase::move) cut_torch_off();
+    if (hold) hold->by_torch_disable = hold->in_cut = hold->torch_off = true;
+  }
   if (!held && (hold_edge || zero_feed)) begin_hold(!hold_edge);
   if (held && (held_by_override ? feed_rate > 0.0 : start_edge)) resume_asked = true;
   // Paused motion: asked while a move is held; follow_hold hands it to the source once the
@@ -399,6 +416,11 @@ void Session::Impl::follow_hold() noexcept {
   if (!resume_asked || !ready || source->pause_moving()) return;
   resume_asked = false;
   if (hold) hold->resumed_at_s = t;
+  if (cut_off && !in.op.torch_enabled) {
+    // The torch switched off: the cut goes on dry from here.
+    dry = true;
+    cut_off = false;
+  }
   if (cut_off) {
     // Re-pierce where the cut stopped (an oxy-fuel preheat flame kept burning).
     start_torch(false, ms.torch.kind == TorchSetup::Kind::oxy_fuel);

@@ -38,6 +38,9 @@
 //                          (above 100 % only while the plan cruises, within the axes'
 //                          speeds); 0 % holds like the button and lets go when it rises
 //   rapid override         1 .. 100 % on rapids
+//   torch enable (a level) off: the torch_on steps are skipped, the cuts run dry; turned off
+//                          while the torch fires (or pierces), it holds the job, and the resume
+//                          goes on dry
 //   paused motion          while a plasma or oxy-fuel job is held at rest with its torch off:
 //                          along the program's path, back or on, across moves and cuts (a
 //                          distance, or a speed held), at the machine's paused-motion speed;
@@ -161,6 +164,7 @@ struct HoldReport {
   bool in_rapid = false;
   bool by_override = false;         // a 0 % feed override, not the button
   bool by_arc_loss = false;         // the arc went out in a cut (machine's on_arc_loss: recover)
+  bool by_torch_disable = false;    // the operator switched the torch off while it fired
   // Paused motion: how far the machine moved along the path while held, mm (negative: back
   // along the cut), before the re-pierce; the sum of the hold's PausedMotionReports.
   double recovered_mm = 0.0;
@@ -252,6 +256,7 @@ struct ExecutionResult {
   double cycle_time_s = 0.0;
   double torch_on_s = 0.0;            // time the torch burned (arc OK / oxygen on)
   int ramp_pierces = 0;               // pierces that moved along their cut (a material's ramp pierce)
+  int dry_pierces = 0;                // torch_on steps skipped: the operator's torch switch was off
   double rapid_distance_mm = 0.0;     // programmed length of the rapid stretches completed
   int steps_completed = 0;
   std::vector<CutError> cuts;

@@ -40,7 +40,7 @@ struct Session::Impl {
   static FaultKind torch_fault(TorchSequencer::Failure f) noexcept;
   void record_probes(bool was_firing) noexcept;
   bool moving_cut() const noexcept {
-    return phase == Phase::move && !sup.stopping() && !cut_off && source->travelling() && step < job.steps.size() &&
+    return phase == Phase::move && !sup.stopping() && !cut_off && !dry && source->travelling() && step < job.steps.size() &&
            job.stretches[job.steps[step].stretch].cutting;
   }
   // The operator's buttons and overrides (feed hold, resume, stop).
@@ -128,6 +128,7 @@ struct Session::Impl {
   bool cut_off = false;           // the hold turned the torch off in a cut: the resume re-pierces
   bool torch_off_running = false; // that torch-off sequence runs beside the braking
   bool repiercing = false;
+  bool dry = false;               // the cut under way runs without the torch (the operator's torch switch)
   bool restart_step = false;      // the hold interrupted a torch-on step: it runs again on resume
   HoldReport* hold = nullptr;     // the hold being recorded (in result.holds)
   // Paused motion: the distance asked and not yet handed to the source, the motion being

@@ -74,6 +74,10 @@ struct OperatorInputs {
   double paused_motion_mm = 0.0;
   double paused_motion_speed = 0.0;
   bool thc_enabled = true;          // torch height control allowed (plasma)
+  // The torch may fire (QtPlasmaC's torch-enable; a level). Off: the job runs its motion dry,
+  // its pierces skipped; turned off while the torch fires, it holds the job (the torch goes off
+  // before rest) and the resume goes on dry.
+  bool torch_enabled = true;
   // A level, not a button: the operator's E-stop (a panel's, a pendant's) is open. The
   // executor treats it as the E-stop chain opening (Inputs::estop): fault estop, torch off in
   // the same period, controlled stop. It stays open until the operator resets it.

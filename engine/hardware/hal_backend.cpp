@@ -273,6 +273,7 @@ void HalBackend::Impl::fill(const machplan_sample& s, std::uint32_t newest_flags
   in.torch_breakaway = (f & MACHPLAN_IN_BREAKAWAY) != 0;
   in.op.stop = (f & MACHPLAN_IN_STOP) != 0;
   in.op.thc_enabled = (f & MACHPLAN_IN_THC) != 0;
+  in.op.torch_enabled = (f & MACHPLAN_IN_TORCH_ENABLE) != 0;
   in.op.estop = (f & MACHPLAN_IN_OP_ESTOP) != 0;
   in.op.rapid_override_pct =
       std::isfinite(s.rapid_override_pct) ? std::clamp(s.rapid_override_pct, 1.0, 100.0) : 100.0;

@@ -22,11 +22,15 @@ OperatorInputs OperatorMerger::merge(const OperatorInputs& backend, const Operat
                               last_channel_.feed_override_pct, levels_.feed_override_pct);
   m.rapid_override_pct = level(backend.rapid_override_pct, channel.rapid_override_pct, last_backend_.rapid_override_pct,
                                last_channel_.rapid_override_pct, levels_.rapid_override_pct);
-  if (backend.thc_enabled != last_backend_.thc_enabled) levels_.thc_enabled = backend.thc_enabled;
-  if (channel.thc_enabled != last_channel_.thc_enabled) levels_.thc_enabled = channel.thc_enabled;
-  last_backend_.thc_enabled = backend.thc_enabled;
-  last_channel_.thc_enabled = channel.thc_enabled;
-  m.thc_enabled = levels_.thc_enabled;
+  const auto switch_level = [&](bool OperatorInputs::*f) {
+    if (backend.*f != last_backend_.*f) levels_.*f = backend.*f;
+    if (channel.*f != last_channel_.*f) levels_.*f = channel.*f;
+    last_backend_.*f = backend.*f;
+    last_channel_.*f = channel.*f;
+    m.*f = levels_.*f;
+  };
+  switch_level(&OperatorInputs::thc_enabled);
+  switch_level(&OperatorInputs::torch_enabled);
   m.paused_motion_mm = backend.paused_motion_mm + channel.paused_motion_mm;
   if (channel.paused_motion_speed != 0.0) m.paused_motion_speed = channel.paused_motion_speed;
   return m;

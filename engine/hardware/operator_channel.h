@@ -11,7 +11,7 @@
 // Merge rule (OperatorMerger): buttons (feed hold, cycle start, stop) are pressed when either
 // side presses them, and the operator's E-stop is open when either side opens it; the jog is
 // the channel's while the channel deflects any axis, else the backend's own (a pendant, a HAL
-// pin, the simulator's timeline), and so is the paused-motion speed; a level (the overrides, THC on/off) is the one that changed
+// pin, the simulator's timeline), and so is the paused-motion speed; a level (the overrides, THC and torch on/off) is the one that changed
 // last, as when a panel's knob and a HAL pin both set the same override; paused-motion distances
 // of both sides add up.
 #pragma once

@@ -23,6 +23,7 @@ const char* to_string(OperatorEventRow::Kind k) {
     case K::paused_motion: return "paused_motion";
     case K::paused_motion_speed: return "paused_motion_speed";
     case K::thc: return "thc";
+    case K::torch: return "torch";
   }
   return "?";
 }
@@ -59,12 +60,13 @@ OperatorEventRow row_of(const std::vector<std::string_view>& f, const std::strin
   r.t_s = *t;
   bool known = f[1] == "recover";  // the older name of paused_motion
   if (known) r.kind = K::paused_motion;
-  for (K k : {K::hold, K::start, K::stop, K::feed_override, K::rapid_override, K::paused_motion, K::paused_motion_speed, K::thc})
+  for (K k : {K::hold, K::start, K::stop, K::feed_override, K::rapid_override, K::paused_motion, K::paused_motion_speed, K::thc,
+              K::torch})
     if (f[1] == to_string(k)) r.kind = k, known = true;
   if (!known)
     throw InputError(source, line,
                      fmt::format("unknown event '{}' (events: hold, start, stop, feed_override, rapid_override, paused_motion, "
-                                 "paused_motion_speed, thc)",
+                                 "paused_motion_speed, thc, torch)",
                                  printable(f[1])));
   const char* name = to_string(r.kind);
   if (is_button(r.kind)) {
@@ -87,7 +89,8 @@ OperatorEventRow row_of(const std::vector<std::string_view>& f, const std::strin
       break;
     case K::paused_motion_speed: range(-1, 1, ""); break;
     case K::thc:
-      if (r.value != 0 && r.value != 1) throw InputError(source, line, fmt::format("thc {} must be 1 (on) or 0 (off)", r.value));
+    case K::torch:
+      if (r.value != 0 && r.value != 1) throw InputError(source, line, fmt::format("{} {} must be 1 (on) or 0 (off)", name, r.value));
       break;
     default: break;
   }
@@ -119,6 +122,7 @@ std::vector<OperatorEvent> states_of(const std::vector<OperatorEventRow>& rows) 
       case K::paused_motion: s.paused_motion_mm += c.row->value; break;
       case K::paused_motion_speed: s.paused_motion_speed = c.row->value; break;
       case K::thc: s.thc_enabled = c.row->value != 0; break;
+      case K::torch: s.torch_enabled = c.row->value != 0; break;
     }
     if (!out.empty() && out.back().at_s == c.t) out.back().inputs = s;
     else out.push_back({c.t, s});

@@ -15,6 +15,7 @@
 //     23.0,paused_motion_speed,0.5   while held: move on along the path at half the machine's
 //                               paused-motion speed until it is set to 0 again (-1 .. 1)
 //     24.0,thc,0                torch height control off (1: on)
+//     26.0,torch,0              torch disabled: the job runs dry (1: enabled again)
 //     30.0,stop,                end the job: controlled stop, torch off
 //
 // `value` is empty for hold, start and stop and required for the others. A button (hold,
@@ -43,7 +44,7 @@ inline constexpr double kPress_s = 0.01;
 
 // One row as written, for reports.
 struct OperatorEventRow {
-  enum class Kind { hold, start, stop, feed_override, rapid_override, paused_motion, paused_motion_speed, thc };
+  enum class Kind { hold, start, stop, feed_override, rapid_override, paused_motion, paused_motion_speed, thc, torch };
   Kind kind = Kind::hold;
   double t_s = 0.0;
   double value = 0.0;

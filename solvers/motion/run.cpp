@@ -627,6 +627,8 @@ std::string full_report(const RunOutcome& o, const session::MachineSession& sess
   s += fmt::format("  cycle time       {:9.3f} s\n", r.cycle_time_s);
   s += fmt::format("  {:<16} {:9.3f} s{}\n", o.machine.spindle ? "spindle on" : "torch on", r.torch_on_s,
                    r.ramp_pierces > 0 ? fmt::format("  ({} ramp pierces, moving along the cut)", r.ramp_pierces) : "");
+  if (r.dry_pierces > 0)
+    s += fmt::format("  torch disabled   {} pierces skipped by the operator's torch switch: those cuts ran dry\n", r.dry_pierces);
   if (!r.probes.empty()) s += probes_line(r);
   s += paused_motion_lines(r);
   s += fmt::format("  rapid distance   {:9.1f} mm  (straight {:.1f} mm; {} detours, +{:.1f} mm)\n", r.rapid_distance_mm,

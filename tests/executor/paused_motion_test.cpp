@@ -1,6 +1,7 @@
 // Paused motion on the simulated gantry: a cut held, the machine moved along the program's path
 // with the torch off (across a corner, back into an earlier cut, at a speed held), and resumed:
-// where the arc burned, pass by pass, from the simulator's truth.
+// where the arc burned, pass by pass, from the simulator's truth. And the operator's torch
+// switch: a job run dry, a cut held by switching the torch off.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -193,6 +194,37 @@ TEST_F(PausedMotion, StopsAtTheStartOfTheJob) {
   const Stretch& first = rapid_to(r.job, {100.0, 100.0});
   EXPECT_LT((p.to_mm - first.segments.front().start).norm(), 0.05);
   EXPECT_NEAR(p.moved_mm, -(p.from_mm.x() - 100.0 + path_mm(first)), 0.1);
+}
+
+// The torch switched off before the job: it runs dry, never fires, never probes.
+TEST_F(PausedMotion, TheTorchSwitchedOffRunsTheJobDry) {
+  const PausedRun r = run("0.0,torch,0\n");
+  const executor::ExecutionResult& x = r.out.result;
+  ASSERT_TRUE(r.out.summary.done()) << r.out.summary.full_report();
+  EXPECT_EQ(x.dry_pierces, 2);
+  EXPECT_TRUE(x.probes.empty());
+  for (const TraceSample& s : x.trace) ASSERT_FALSE(s.torch_fire) << "the torch fired at " << s.t_s << " s";
+  EXPECT_LT(x.cycle_time_s, plain_.out.result.cycle_time_s);  // no pierces
+}
+
+// Switched off mid-cut: the torch goes out at once and the job holds; the resume goes on dry
+// (the rest of that cut and the next); switched on again before the next cut, that one is cut.
+TEST_F(PausedMotion, TheTorchSwitchedOffMidCutHoldsAndTheResumeGoesOnDry) {
+  const double t = time_at(plain_.out.result.trace, {200.0, 100.0});
+  for (const bool again : {false, true}) {
+    SCOPED_TRACE(again ? "switched on again" : "left off");
+    const PausedRun r = run(fmt::format("{:.3f},torch,0\n{:.3f},start,\n", t, t + 2.0) +
+                            (again ? fmt::format("{:.3f},torch,1\n", t + 2.5) : std::string()));
+    const executor::ExecutionResult& x = r.out.result;
+    ASSERT_TRUE(r.out.summary.done()) << r.out.summary.full_report();
+    ASSERT_EQ(x.holds.size(), 1u);
+    EXPECT_TRUE(x.holds.front().by_torch_disable);
+    // Out within two periods of the switch, and not lit again in that cut.
+    for (const TraceSample& s : x.trace)
+      if (s.t_s > t + 0.002 && s.torch_fire) ASSERT_GT(s.commanded_mm.x(), 350.0) << "fired on the first cut at " << s.t_s << " s";
+    EXPECT_EQ(x.dry_pierces, again ? 0 : 1);
+    EXPECT_EQ(x.probes.size(), again ? 2u : 1u);
+  }
 }
 
 }  // namespace

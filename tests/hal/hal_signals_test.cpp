@@ -162,6 +162,12 @@ TEST(HalSignals, OperatorPinsReachTheOperatorInputs) {
   pins.set_pin("machplan.arc-voltage", -3);
   EXPECT_EQ(s.catch_up(pins).arc_voltage_v, 0.0);
 
+  EXPECT_TRUE(idle.op.torch_enabled);
+  pins.set_pin("machplan.torch-enable", 0);
+  EXPECT_FALSE(s.catch_up(pins).op.torch_enabled);
+  pins.set_pin("machplan.torch-enable", 1);
+  EXPECT_TRUE(s.catch_up(pins).op.torch_enabled);
+
   pins.set_pin("machplan.thc-enable", 0);
   EXPECT_FALSE(s.catch_up(pins).op.thc_enabled);
   pins.set_pin("machplan.thc-enable", 1);

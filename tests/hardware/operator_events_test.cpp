@@ -22,9 +22,9 @@ TEST(OperatorEvents, ButtonsArePressedAndReleasedAndLevelsLast) {
   const OperatorTimeline tl = parse_operator_events(
       "t_s,event,value\n# comment\n\n1.0,hold,\n2.0,start,\n3.0,feed_override,50\n4.0,rapid_override,25\n"
       "5.0,paused_motion,-5\n5.5,recover,2\n5.7,paused_motion_speed,-0.5\n5.9,paused_motion_speed,0\n6.0,thc,0\n"
-      "7.0,stop,\n",
+      "6.5,torch,0\n7.0,stop,\n",
       "ev.csv");
-  ASSERT_EQ(tl.rows.size(), 10u);
+  ASSERT_EQ(tl.rows.size(), 11u);
   EXPECT_EQ(tl.rows[5].kind, OperatorEventRow::Kind::paused_motion);  // `recover`, the older name
   EXPECT_EQ(tl.rows[0].line, 4);
   const auto at = [&](double t) {
@@ -45,6 +45,8 @@ TEST(OperatorEvents, ButtonsArePressedAndReleasedAndLevelsLast) {
   EXPECT_EQ(at(5.8).paused_motion_speed, -0.5);  // a level, held
   EXPECT_EQ(at(5.95).paused_motion_speed, 0.0);
   EXPECT_FALSE(at(6.5).thc_enabled);
+  EXPECT_TRUE(at(6.4).torch_enabled);
+  EXPECT_FALSE(at(6.6).torch_enabled);
   EXPECT_TRUE(at(7.0).stop);
   EXPECT_FALSE(at(8.0).stop);
 }
@@ -53,12 +55,13 @@ TEST(OperatorEvents, BadRowsNameTheFileAndLine) {
   EXPECT_EQ(error_of("0,hold,\n"), "ev.csv:1: the first line must be the header 't_s,event,value', found '0,hold,'");
   EXPECT_EQ(error_of("t_s,event,value\n1,jump,\n"),
             "ev.csv:2: unknown event 'jump' (events: hold, start, stop, feed_override, rapid_override, paused_motion, "
-            "paused_motion_speed, thc)");
+            "paused_motion_speed, thc, torch)");
   EXPECT_EQ(error_of("t_s,event,value\n1,hold,3\n"), "ev.csv:2: 'hold' takes no value, found '3'");
   EXPECT_EQ(error_of("t_s,event,value\n1,feed_override,\n"), "ev.csv:2: 'feed_override' needs a value");
   EXPECT_EQ(error_of("t_s,event,value\n1,feed_override,201\n"), "ev.csv:2: feed_override 201 % must be in [0, 200]");
   EXPECT_EQ(error_of("t_s,event,value\n1,rapid_override,0\n"), "ev.csv:2: rapid_override 0 % must be in [1, 100]");
   EXPECT_EQ(error_of("t_s,event,value\n1,thc,2\n"), "ev.csv:2: thc 2 must be 1 (on) or 0 (off)");
+  EXPECT_EQ(error_of("t_s,event,value\n1,torch,0.5\n"), "ev.csv:2: torch 0.5 must be 1 (on) or 0 (off)");
   EXPECT_EQ(error_of("t_s,event,value\n1,recover,0\n"), "ev.csv:2: paused_motion 0 mm asks for nothing");
   EXPECT_EQ(error_of("t_s,event,value\n1,paused_motion,1001\n"), "ev.csv:2: paused_motion 1001 mm must be in [-1000, 1000]");
   EXPECT_EQ(error_of("t_s,event,value\n1,paused_motion_speed,-1.5\n"), "ev.csv:2: paused_motion_speed -1.5 must be in [-1, 1]");

@@ -36,7 +36,7 @@ struct Route {
 const Route kRoutes[] = {{"GET", "/api/status"},   {"POST", "/api/login"},    {"POST", "/api/control"}, {"POST", "/api/job"},
                          {"GET", "/api/job"},      {"POST", "/api/run"},      {"POST", "/api/hold"},    {"POST", "/api/resume"},
                          {"POST", "/api/stop"},    {"POST", "/api/estop"},    {"POST", "/api/reset"},   {"POST", "/api/override"},
-                         {"POST", "/api/paused_motion"}, {"POST", "/api/recover"}, {"POST", "/api/thc"},
+                         {"POST", "/api/paused_motion"}, {"POST", "/api/recover"}, {"POST", "/api/thc"}, {"POST", "/api/torch"},
                          {"POST", "/api/jog"},     {"GET", "/api/report"},    {"POST", "/api/guard"},   {"GET", "/api/guard"},
                          {"GET", "/api/history"},  {"POST", "/api/frame"}};
 
@@ -118,6 +118,12 @@ TEST(PanelApi, CutRecoveryAndTheThcSwitchTakeTheirValuesAndRefuseOthers) {
   EXPECT_EQ(rig.post("/api/thc", {{"enabled", "no"}}).status, 400);
   EXPECT_EQ(rig.post("/api/thc", json::object()).status, 400);
   EXPECT_EQ(rig.status()["thc_enabled"], false);
+  EXPECT_EQ(rig.status()["torch_enabled"], true);
+  EXPECT_EQ(rig.post("/api/torch", {{"enabled", false}}).status, 200);
+  EXPECT_EQ(rig.status()["torch_enabled"], false);
+  EXPECT_EQ(rig.post("/api/torch", {{"enabled", 0}}).status, 400);
+  EXPECT_EQ(rig.post("/api/torch", {{"enabled", true}}).status, 200);
+  EXPECT_EQ(rig.status()["torch_enabled"], true);
   EXPECT_EQ(rig.post("/api/paused_motion", {{"mm", -3.5}}).status, 200);
   EXPECT_EQ(rig.post("/api/paused_motion", {{"speed", -0.5}}).status, 200);
   EXPECT_EQ(rig.post("/api/recover", {{"mm", 2}}).status, 200) << "the older name";

@@ -391,6 +391,7 @@ function wire() {
     b.onpointerup = b.onpointerleave = () => { if (timer) { clearInterval(timer); timer = null; send(0); } };
   }
   $('thc').onchange = () => act('POST', '/thc', { enabled: $('thc').checked });
+  $('torch-enable').onchange = () => act('POST', '/torch', { enabled: $('torch-enable').checked });
   $('feed').oninput = () => { $('feed-val').textContent = $('feed').value + ' %'; };
   $('feed').onchange = () => act('POST', '/override', { feed: Number($('feed').value) });
   for (const b of document.querySelectorAll('.rapid')) b.onclick = () => { $('rapid-val').textContent = b.dataset.v + ' %'; act('POST', '/override', { rapid: Number(b.dataset.v) }); };

@@ -25,7 +25,7 @@
 
 #define MACHPLAN_EXCHANGE_KEY 0x4d504c48 /* "MPLH" */
 #define MACHPLAN_EXCHANGE_MAGIC 0x6d706c68u
-#define MACHPLAN_EXCHANGE_VERSION 3u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed */
+#define MACHPLAN_EXCHANGE_VERSION 3u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed, torch-enable */
 #define MACHPLAN_RING 256u /* slots per ring: a power of two, more than any watchdog allows */
 #define MACHPLAN_HAL_AXES 2
 
@@ -47,6 +47,7 @@
 #define MACHPLAN_IN_STOP 0x200u     /* the stop button */
 #define MACHPLAN_IN_THC 0x400u      /* torch height control allowed (thc-enable) */
 #define MACHPLAN_IN_OP_ESTOP 0x800u /* the operator's E-stop is open, or opened during this session */
+#define MACHPLAN_IN_TORCH_ENABLE 0x1000u /* the torch may fire (torch-enable) */
 
 /* Component states (also the `machplan.state` pin) */
 #define MACHPLAN_STATE_IDLE 0    /* no session: outputs off, position commands follow pos-fb */

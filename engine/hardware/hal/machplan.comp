@@ -47,6 +47,7 @@ pin in float rapid-override = 100.0 "rapid override, percent of the planned spee
 pin in float cut-recovery-distance "cut recovery: the total distance asked along the executed path, mm (negative: backwards); a counter, each change is a request of that many mm";
 pin in float paused-motion-speed "paused motion while the job is held: move along the program's path at this fraction (-1 .. 1, negative: back) of the machine's paused-motion speed, until it is 0 again";
 pin in bit thc-enable = TRUE "torch height control allowed";
+pin in bit torch-enable = TRUE "the torch may fire: FALSE runs the job dry (pierces skipped), and holds a cut under way";
 pin in bit operator-estop "the operator's E-stop (a panel's, a pendant's) is open, a level; TRUE drops torch-on, ohmic-enable and enable in the same period like estop-ok FALSE";
 pin out bit watchdog-ok = TRUE "FALSE from a watchdog trip until watchdog-reset or the next session";
 pin out u32 period-count "periods this function has run";
@@ -218,6 +219,7 @@ FUNCTION(_) {
   if (breakaway) flags |= MACHPLAN_IN_BREAKAWAY;
   if (stop) flags |= MACHPLAN_IN_STOP;
   if (thc_enable) flags |= MACHPLAN_IN_THC;
+  if (torch_enable) flags |= MACHPLAN_IN_TORCH_ENABLE;
   if (op_estop_latched_) flags |= MACHPLAN_IN_OP_ESTOP;
   s = &x->sample[p % MACHPLAN_RING];
   q = s->seq;
