@@ -4,71 +4,14 @@
 
 namespace machplan::cli {
 
-nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
+namespace {
+
+nlohmann::json num(double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); }
+
+// The holds, the cut recoveries among them, and the paused motions.
+void add_holds(nlohmann::json& j, const executor::ExecutionResult& r) {
   using nlohmann::json;
   using namespace executor;
-  json j;
-  j["source"] = r.source;
-  j["machine"] = r.machine;
-  j["mode"] = to_string(r.mode);
-  j["backend"] = r.backend;
-  j["status"] = to_string(r.summary.status);
-  j["cycle_time_s"] = r.cycle_time_s;
-  j["torch_on_s"] = r.torch_on_s;
-  j["ramp_pierces"] = r.ramp_pierces;
-  j["dry_pierces"] = r.dry_pierces;
-  j["rapid_distance_mm"] = r.rapid_distance_mm;
-  j["steps_completed"] = r.steps_completed;
-  j["stopped_at_rest"] = r.stopped_at_rest;
-  j["torch_off_at_end"] = r.torch_off_at_end;
-  j["backend_notes"] = r.backend_notes;
-  j["truth_available"] = r.truth_available;
-  auto num = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
-  j["cuts"] = json::array();
-  for (const CutError& c : r.cuts) {
-    json cut = {{"stretch", c.stretch},
-                {"source_line", c.source_line},
-                {"samples", c.samples},
-                {"complete", c.complete},
-                {"max_contour_error_mm", c.max_mm},
-                {"rms_contour_error_mm", c.rms_mm},
-                {"max_true_contour_error_mm", num(c.max_true_mm)},
-                {"rms_true_contour_error_mm", num(c.rms_true_mm)}};
-    // The torch height while THC held it (null: no height axis, or THC never took hold).
-    cut["thc"] = c.thc.samples == 0 ? json(nullptr)
-                                    : json{{"samples", c.thc.samples},
-                                           {"max_height_error_mm", num(c.thc.max_mm)},
-                                           {"rms_height_error_mm", num(c.thc.rms_mm)},
-                                           {"active_share", c.thc.active_share},
-                                           {"target_v", c.thc.target_v},
-                                           {"velocity_lock_height_change_mm", c.thc.velocity_lock_change_mm},
-                                           {"void_lock_height_change_mm", c.thc.void_lock_change_mm},
-                                           {"velocity_locked_s", c.thc.velocity_locked_s},
-                                           {"void_locked_s", c.thc.void_locked_s}};
-    j["cuts"].push_back(cut);
-  }
-  j["faults"] = json::array();
-  for (const FaultReport& f : r.faults)
-    j["faults"].push_back({{"kind", to_string(f.kind)},
-                           {"time_s", f.time_s},
-                           {"step", f.step},
-                           {"source_line", f.source_line},
-                           {"axis", f.axis < 0 ? json(nullptr) : json(f.axis == 0 ? "x" : f.axis == 1 ? "y" : "z")},
-                           {"last_known_mm", {f.last_known_mm.x(), f.last_known_mm.y()}},
-                           {"commanded_mm", {f.commanded_mm.x(), f.commanded_mm.y()}},
-                           {"value", f.value},
-                           {"message", f.message}});
-  j["probes"] = json::array();
-  for (const ProbeReport& p : r.probes)
-    j["probes"].push_back({{"t_s", p.t_s},
-                           {"source_line", p.source_line},
-                           {"position_mm", {p.position_mm.x(), p.position_mm.y()}},
-                           {"sensor", p.skipped ? json(nullptr) : json(p.sensor)},
-                           {"skipped", p.skipped},
-                           {"surface_mm", p.surface_mm},
-                           {"duration_s", p.duration_s},
-                           {"pierce_height_error_mm", num(p.pierce_height_error_mm)}});
-  j["probes_dropped"] = r.probes_dropped;
   j["holds"] = json::array();
   for (const executor::HoldReport& h : r.holds)
     j["holds"].push_back({{"t_s", h.t_s},
@@ -120,6 +63,75 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
                                    {"moved_mm", p.moved_mm},
                                    {"by_arc_loss", p.by_arc_loss}});
   j["paused_motions_dropped"] = r.paused_motions_dropped;
+}
+
+}  // namespace
+
+nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
+  using nlohmann::json;
+  using namespace executor;
+  json j;
+  j["source"] = r.source;
+  j["machine"] = r.machine;
+  j["mode"] = to_string(r.mode);
+  j["backend"] = r.backend;
+  j["status"] = to_string(r.summary.status);
+  j["cycle_time_s"] = r.cycle_time_s;
+  j["torch_on_s"] = r.torch_on_s;
+  j["ramp_pierces"] = r.ramp_pierces;
+  j["dry_pierces"] = r.dry_pierces;
+  j["rapid_distance_mm"] = r.rapid_distance_mm;
+  j["steps_completed"] = r.steps_completed;
+  j["stopped_at_rest"] = r.stopped_at_rest;
+  j["torch_off_at_end"] = r.torch_off_at_end;
+  j["backend_notes"] = r.backend_notes;
+  j["truth_available"] = r.truth_available;
+  j["cuts"] = json::array();
+  for (const CutError& c : r.cuts) {
+    json cut = {{"stretch", c.stretch},
+                {"source_line", c.source_line},
+                {"samples", c.samples},
+                {"complete", c.complete},
+                {"max_contour_error_mm", c.max_mm},
+                {"rms_contour_error_mm", c.rms_mm},
+                {"max_true_contour_error_mm", num(c.max_true_mm)},
+                {"rms_true_contour_error_mm", num(c.rms_true_mm)}};
+    // The torch height while THC held it (null: no height axis, or THC never took hold).
+    cut["thc"] = c.thc.samples == 0 ? json(nullptr)
+                                    : json{{"samples", c.thc.samples},
+                                           {"max_height_error_mm", num(c.thc.max_mm)},
+                                           {"rms_height_error_mm", num(c.thc.rms_mm)},
+                                           {"active_share", c.thc.active_share},
+                                           {"target_v", c.thc.target_v},
+                                           {"velocity_lock_height_change_mm", c.thc.velocity_lock_change_mm},
+                                           {"void_lock_height_change_mm", c.thc.void_lock_change_mm},
+                                           {"velocity_locked_s", c.thc.velocity_locked_s},
+                                           {"void_locked_s", c.thc.void_locked_s}};
+    j["cuts"].push_back(cut);
+  }
+  j["faults"] = json::array();
+  for (const FaultReport& f : r.faults)
+    j["faults"].push_back({{"kind", to_string(f.kind)},
+                           {"time_s", f.time_s},
+                           {"step", f.step},
+                           {"source_line", f.source_line},
+                           {"axis", f.axis < 0 ? json(nullptr) : json(f.axis == 0 ? "x" : f.axis == 1 ? "y" : "z")},
+                           {"last_known_mm", {f.last_known_mm.x(), f.last_known_mm.y()}},
+                           {"commanded_mm", {f.commanded_mm.x(), f.commanded_mm.y()}},
+                           {"value", f.value},
+                           {"message", f.message}});
+  j["probes"] = json::array();
+  for (const ProbeReport& p : r.probes)
+    j["probes"].push_back({{"t_s", p.t_s},
+                           {"source_line", p.source_line},
+                           {"position_mm", {p.position_mm.x(), p.position_mm.y()}},
+                           {"sensor", p.skipped ? json(nullptr) : json(p.sensor)},
+                           {"skipped", p.skipped},
+                           {"surface_mm", p.surface_mm},
+                           {"duration_s", p.duration_s},
+                           {"pierce_height_error_mm", num(p.pierce_height_error_mm)}});
+  j["probes_dropped"] = r.probes_dropped;
+  add_holds(j, r);
   if (include_trace) {
     json t = json::array();
     for (const TraceSample& s : r.trace)
