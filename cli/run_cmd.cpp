@@ -87,7 +87,7 @@ struct RunArgs {
   int from_line = 0;
   std::string materials;
   int material = -1;
-  bool frame = false;
+  bool frame = false, laser = false;
   double frame_feed_mm_per_s = 0.0, frame_margin_mm = 0.0;  // feed 0: the machine's rapid speed
 };
 
@@ -126,6 +126,7 @@ motion::RunOptions run_options(const RunArgs& a) {
   session::MachineSessionOptions& so = o.session;
   so.machine = a.machine;
   so.executor.mode = mode_of(a.mode);
+  so.executor.laser_pointer = a.frame && a.laser;
   // The rules between options (the paper modes' settings, what only the simulator does) are
   // the options' own validate(): the panel and a library caller meet them too.
   if (!a.blu.empty()) so.executor.blu_mm = number_flag("--blu", a.blu);
@@ -188,19 +189,26 @@ motion::PlannedRun frame_plan(const motion::PlannedRun& job, const motion::RunOp
   motion::FrameOptions fo;
   fo.feed_mm_per_s = a.frame_feed_mm_per_s;
   fo.margin_mm = a.frame_margin_mm;
+  if (a.laser) {
+    if (!job.machine.laser_offset_mm)
+      throw InputError("--laser", 0, fmt::format("machine '{}' has no laser pointer (a `laser: {{offset_mm: [x, y]}}` block)",
+                                                 job.machine.name));
+    fo.pointer_offset_mm = {(*job.machine.laser_offset_mm)[0], (*job.machine.laser_offset_mm)[1]};
+  }
   motion::FramePlan frame = motion::plan_frame(job.job, o, fo, job.machine, {&stop, &planning, nullptr});
   const Eigen::AlignedBox2d& b = frame.outline;
-  std::fprintf(stderr, "machplan run: framing %s: X %.3f .. %.3f, Y %.3f .. %.3f mm (%.1f x %.1f mm%s) at %.1f mm/s, torch off\n",
+  std::fprintf(stderr, "machplan run: framing %s: X %.3f .. %.3f, Y %.3f .. %.3f mm (%.1f x %.1f mm%s) at %.1f mm/s, torch off%s\n",
                a.program.c_str(), b.min().x(), b.max().x(), b.min().y(), b.max().y(), b.sizes().x(), b.sizes().y(),
-               frame.from_cuts ? "" : "; the job cuts nothing: its feed moves", frame.options.feed_mm_per_s);
+               frame.from_cuts ? "" : "; the job cuts nothing: its feed moves", frame.options.feed_mm_per_s,
+               a.laser ? ", traced by the laser pointer" : "");
   report = frame_json(frame);
   if (!frame.plan.summary.done()) throw Infeasible(frame.plan.summary.message, frame.plan.limit_field);
   return std::move(frame.plan);
 }
 
 void run_command(const RunArgs& a) {
-  if (!a.frame && (a.frame_feed_mm_per_s > 0 || a.frame_margin_mm > 0))
-    throw InputError(a.frame_feed_mm_per_s > 0 ? "--frame-feed" : "--frame-margin", 0, "is for --frame");
+  if (!a.frame && (a.frame_feed_mm_per_s > 0 || a.frame_margin_mm > 0 || a.laser))
+    throw InputError(a.laser ? "--laser" : a.frame_feed_mm_per_s > 0 ? "--frame-feed" : "--frame-margin", 0, "is for --frame");
   if (a.frame && mode_of(a.mode) != executor::Mode::planned)
     throw InputError("--frame", 0, "frames in planned mode only (the paper modes run cuts, not a frame)");
   const double magnify = number_flag("--magnify", a.magnify);
@@ -324,6 +332,9 @@ void add_run(CLI::App& app) {
       ->check(kFinitePositive);
   cmd->add_option("--frame-margin", a->frame_margin_mm, "--frame: grow the outline by this much on every side, mm (default 0)")
       ->check(CLI::Range(0.0, 1000.0));
+  cmd->add_flag("--laser", a->laser,
+                "--frame: trace the outline with the laser pointer (the machine file's laser block: its offset from the "
+                "torch), the laser-on output on while the frame runs");
   field_flags(cmd, kRunFields);
   cmd->callback([a] { run_command(*a); });
 }

@@ -100,7 +100,8 @@ nlohmann::json frame_json(const motion::FramePlan& f) {
           {"y_mm", {b.min().y(), b.max().y()}},
           {"from_cuts", f.from_cuts},
           {"feed_mm_per_s", f.options.feed_mm_per_s},
-          {"margin_mm", f.options.margin_mm}};
+          {"margin_mm", f.options.margin_mm},
+          {"pointer_offset_mm", {f.options.pointer_offset_mm.x(), f.options.pointer_offset_mm.y()}}};
 }
 
 }  // namespace machplan::cli

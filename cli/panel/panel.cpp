@@ -639,7 +639,7 @@ json Panel::status() {
     s["torch_enabled"] = op_.torch_enabled;
   }
   s["torch"] = {{"fire", l.torch_fire},       {"arc_ok", l.arc_ok},     {"height_mm", l.torch_height_mm},
-                {"thc_active", l.thc_active}, {"arc_voltage_v", l.arc_voltage_v}};
+                {"thc_active", l.thc_active}, {"arc_voltage_v", l.arc_voltage_v}, {"laser_on", l.laser_on}};
   // The tick's progress stops short of 1 until the job's end is seen; a job that ended done is
   // all done.
   s["progress"] = a == Activity::idle && state == to_string(Status::done) ? 1.0 : l.progress;

@@ -647,7 +647,7 @@ bool Session::Impl::tick() noexcept {
     // Nothing more can be commanded; the backend's watchdog stops the machine.
     raise(FK::lost_backend, -1, 0.0);
     sup.set_not_at_rest();
-    out.torch_fire = false;
+    out.torch_fire = out.laser_on = false;
     out.dac_code.fill(0);
     out.drives_enabled = false;
     phase = Phase::done;
@@ -742,6 +742,8 @@ bool Session::Impl::tick() noexcept {
     if (sup.faulted()) sup.begin_stop(u, torch, out);
   }
   if (sup.stopping()) out.torch_fire = false;
+  // The laser pointer of a frame: on while its moves run.
+  out.laser_on = opt.laser_pointer && phase == Phase::move && !sup.faulted() && !sup.stopping();
   record_trace();
   publish_live();
   return true;
@@ -770,6 +772,7 @@ void Session::Impl::publish_live() noexcept {
   l.rapid_override_pct = 100.0 * rapid_rate;
   l.drives_enabled = out.drives_enabled;
   l.torch_fire = out.torch_fire;
+  l.laser_on = out.laser_on;
   l.arc_ok = in.arc_ok;
   l.torch_height_mm = in.torch_height_mm;
   l.thc_active = thc_acting;

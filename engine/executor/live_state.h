@@ -26,6 +26,7 @@ struct LiveState {
   // is asked); the asked one when the source cannot say.
   double feed_effective_pct = 100.0;
   bool drives_enabled = false, torch_fire = false, arc_ok = false;
+  bool laser_on = false;            // the laser pointer (a frame traced with it)
   double torch_height_mm = 0.0;
   bool thc_active = false;          // torch height control is holding the height (plasma)
   double arc_voltage_v = 0.0;       // when the backend reports it

@@ -96,6 +96,8 @@ struct Outputs {
   // Ohmic sensing on: the torch's shield is energised so that touching the plate closes
   // `Inputs::ohmic_sense` (QtPlasmaC's ohmic-enable; on only while probing).
   bool ohmic_enable = false;
+  // The laser pointer on (framing with it: ExecutorOptions::laser_pointer).
+  bool laser_on = false;
 };
 
 struct Inputs {

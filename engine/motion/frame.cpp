@@ -50,6 +50,8 @@ Frame frame_job(const Job& job, const FrameOptions& o) {
   positive(o.rapid_feed_mm_per_s, "rapid_feed_mm_per_s");
   if (!(std::isfinite(o.margin_mm) && o.margin_mm >= 0.0 && o.margin_mm <= 1000.0))
     throw InputError::field("margin_mm", fmt::format("{} must be 0 .. 1000 mm", o.margin_mm));
+  if (!(o.pointer_offset_mm.allFinite() && o.pointer_offset_mm.cwiseAbs().maxCoeff() <= 1000.0))
+    throw InputError::field("pointer_offset_mm", "must be finite, within 1000 mm of the torch");
 
   Frame f;
   f.outline = extent(job, [](const Stretch& s) { return s.cutting; });
@@ -62,7 +64,7 @@ Frame frame_job(const Job& job, const FrameOptions& o) {
   const Eigen::Vector2d grow = Eigen::Vector2d::Constant(o.margin_mm);
   f.outline = Eigen::AlignedBox2d(f.outline.min() - grow, f.outline.max() + grow);
 
-  const Eigen::Vector2d lo = f.outline.min(), hi = f.outline.max();
+  const Eigen::Vector2d lo = f.outline.min() - o.pointer_offset_mm, hi = f.outline.max() - o.pointer_offset_mm;
   const Eigen::Vector2d lr(hi.x(), lo.y()), ul(lo.x(), hi.y());
   f.job.source = job.source.empty() ? std::string("frame") : "frame of " + job.source;
   f.job.start_mm = job.start_mm;

@@ -31,10 +31,13 @@ struct FrameOptions {
   double rapid_feed_mm_per_s = 0.0;
   // Added round the cut path's rectangle on every side, mm (>= 0, at most 1000).
   double margin_mm = 0.0;
+  // Where the point that traces lies from the torch, mm: a laser pointer's offset (0: the
+  // torch itself). The axes trace the outline less this, so that the point traces it.
+  Eigen::Vector2d pointer_offset_mm = Eigen::Vector2d::Zero();
 };
 
 struct Frame {
-  Eigen::AlignedBox2d outline;  // the rectangle traced, mm
+  Eigen::AlignedBox2d outline;  // the rectangle traced (by the pointer), mm
   bool from_cuts = true;        // false: the job cuts nothing, its feed moves were framed
   Job job;                      // start, rapid, the outline, rapid back; the torch never on
 };

@@ -168,7 +168,8 @@ MachineConfig machine_from_yaml(const Yaml& root) {
                                  excerpt(root.string_or("name", std::filesystem::path(root.file()).stem().string()), 60),
                                  root.has("kind") ? "kind " + excerpt(root.string("kind"), 40) : "a hexapod"));
   root.reject_unknown_keys({"name", "description", "servo_period_s", "limits", "axes", "torch", "torch_height",
-                           "slug_tip_size_mm", "origin_mm", "gcode", "cut_order", "spindle", "thc", "sheet"});
+                           "slug_tip_size_mm", "origin_mm", "gcode", "cut_order", "spindle", "thc", "sheet",
+                           "laser"});
   MachineConfig m;
   m.source = root.file();
   m.name = root.string("name");
@@ -182,6 +183,11 @@ MachineConfig machine_from_yaml(const Yaml& root) {
   if (const auto o = root.get("origin_mm")) {
     const std::vector<double> xy = o->numbers(2, {.min = -1e6, .max = 1e6});
     m.origin_mm = std::array<double, 2>{xy[0], xy[1]};
+  }
+  if (const auto l = root.get("laser")) {
+    l->reject_unknown_keys({"offset_mm"});
+    const std::vector<double> xy = l->at("offset_mm").numbers(2, {.min = -1000, .max = 1000});
+    m.laser_offset_mm = std::array<double, 2>{xy[0], xy[1]};
   }
   if (const auto g = root.get("gcode")) {
     g->reject_unknown_keys({"spindles", "params"});

@@ -134,6 +134,9 @@ struct MachineConfig {
   // Where programs' zero sits on this machine (X, Y mm), as an operator touching off the
   // sheet corner sets G54; `origin_mm: [x, y]` in the file. `machplan run --origin` overrides it.
   std::optional<std::array<double, 2>> origin_mm;
+  // A laser pointer beside the torch (`laser: {offset_mm: [x, y]}`): its dot lies this far from
+  // the torch, mm. Framing with it (run --frame --laser) traces the outline with the dot.
+  std::optional<std::array<double, 2>> laser_offset_mm;
   // What the G-code reader takes from the machine (`gcode:` in the file): the spindles $n may
   // name (QtPlasmaC: torch, scribe, spotting), and values of parameters programs read from the
   // machine, such as QtPlasmaC's _hal[plasmac.cut-feed-rate] (the material's cut feed).

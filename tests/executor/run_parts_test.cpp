@@ -319,6 +319,18 @@ TEST(RunCommand, FrameTracesTheJobsOutlineWithTheTorchOff) {
   const CliRun paper = machplan(fmt::format("run '{}' --machine thermal_gantry --frame --mode paper-open", part("triangle_45.ngc")));
   EXPECT_EQ(paper.code, 2);
   EXPECT_THAT(paper.err, HasSubstr("--frame"));
+  // With the laser pointer (60 mm along +X from the torch): the same outline, traced by the dot.
+  const CliRun laser = machplan(fmt::format("run '{}' --machine thermal_gantry --frame --laser --json", part("triangle_45.ngc")));
+  ASSERT_EQ(laser.code, 0) << laser.err;
+  const auto jl = nlohmann::json::parse(laser.out);
+  EXPECT_EQ(jl["frame"]["x_mm"], nlohmann::json({200.0, 300.0}));
+  EXPECT_EQ(jl["frame"]["pointer_offset_mm"], nlohmann::json({60.0, 0.0}));
+  EXPECT_THAT(laser.err, HasSubstr("traced by the laser pointer"));
+  EXPECT_THAT(machplan(fmt::format("run '{}' --machine thermal_gantry --laser", part("triangle_45.ngc"))).err,
+              HasSubstr("--laser: is for --frame"));
+  const CliRun no_laser = machplan(fmt::format("run '{}' --machine xy_table --frame --laser", part("triangle_45.ngc")));
+  EXPECT_EQ(no_laser.code, 2);
+  EXPECT_THAT(no_laser.err, HasSubstr("--laser: machine 'xy_table' has no laser pointer"));
 }
 
 // A fence of clamps round the triangle: no rapid can reach its pierce point, and the

@@ -123,5 +123,26 @@ TEST(Frame, BadOptionsNameTheirField) {
   EXPECT_EQ(field_of(o), "margin_mm");
 }
 
+// A laser pointer's offset: the outline stays the cuts' rectangle, the axes trace it less the
+// offset (so that the dot traces it), from the job's start and back.
+TEST(Frame, APointerOffsetShiftsTheTracedPathNotTheOutline) {
+  const Job job = gcode_job(kTwoParts);
+  FrameOptions o = valid();
+  const Frame plain = frame_job(job, o);
+  o.pointer_offset_mm = {60.0, -5.0};
+  const Frame laser = frame_job(job, o);
+  EXPECT_TRUE(laser.outline.isApprox(plain.outline));
+  ASSERT_EQ(laser.job.stretches.size(), 3u);
+  const Stretch& traced = laser.job.stretches[1];
+  EXPECT_TRUE(traced.segments.front().start.isApprox(plain.outline.min() - o.pointer_offset_mm));
+  for (std::size_t k = 0; k < traced.segments.size(); ++k)
+    EXPECT_TRUE((traced.segments[k].end + o.pointer_offset_mm).isApprox(plain.job.stretches[1].segments[k].end));
+  EXPECT_TRUE(laser.job.stretches.back().segments.back().end.isApprox(job.start_mm));
+  o.pointer_offset_mm = {NAN, 0.0};
+  EXPECT_THROW(frame_job(job, o), InputError);
+  o.pointer_offset_mm = {2000.0, 0.0};
+  EXPECT_THROW(frame_job(job, o), InputError);
+}
+
 }  // namespace
 }  // namespace machplan::motion

@@ -25,7 +25,7 @@
 
 #define MACHPLAN_EXCHANGE_KEY 0x4d504c48 /* "MPLH" */
 #define MACHPLAN_EXCHANGE_MAGIC 0x6d706c68u
-#define MACHPLAN_EXCHANGE_VERSION 3u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed, torch-enable */
+#define MACHPLAN_EXCHANGE_VERSION 3u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed, torch-enable, laser-on */
 #define MACHPLAN_RING 256u /* slots per ring: a power of two, more than any watchdog allows */
 #define MACHPLAN_HAL_AXES 2
 
@@ -33,6 +33,7 @@
 #define MACHPLAN_CMD_ENABLE 0x1u /* drives enabled */
 #define MACHPLAN_CMD_TORCH 0x2u  /* torch on */
 #define MACHPLAN_CMD_OHMIC 0x4u  /* ohmic sensing on (ohmic-enable) */
+#define MACHPLAN_CMD_LASER 0x8u  /* the laser pointer on (laser-on) */
 
 /* Sample flags */
 #define MACHPLAN_IN_ARC_OK 0x1u
