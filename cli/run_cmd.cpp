@@ -83,7 +83,7 @@ struct RunArgs {
   std::string order;
   double max_machine_time_s = motion::RunOptions{}.max_machine_time_s;
   std::string operator_events;
-  std::string sheet_warp, sheet_map;
+  std::string sheet_warp, sheet_map, align;
   int from_line = 0;
   std::string materials;
   int material = -1;
@@ -105,6 +105,7 @@ const FieldFlag kRunFields[] = {
     {"active_calibration", "--calibration"},
     {"db_path", "--db"},
     {"origin_mm", "--origin"},
+    {"align_mm", "--align"},
     {"controller", "--controller"},
     {"gains", "--gain"},
     {"backend.name", "--backend"},
@@ -174,6 +175,18 @@ motion::RunOptions run_options(const RunArgs& a) {
     const auto comma = a.origin.find(',');
     if (comma == std::string::npos) throw InputError("--origin", 0, fmt::format("'{}' is not X,Y (mm)", a.origin));
     o.origin_mm = Eigen::Vector2d(number_flag("--origin", a.origin.substr(0, comma)), number_flag("--origin", a.origin.substr(comma + 1)));
+  }
+  if (!a.align.empty()) {
+    std::vector<double> v;
+    std::size_t from = 0;
+    for (;;) {
+      const std::size_t comma = a.align.find(',', from);
+      v.push_back(number_flag("--align", a.align.substr(from, comma == std::string::npos ? std::string::npos : comma - from)));
+      if (comma == std::string::npos || v.size() > 4) break;
+      from = comma + 1;
+    }
+    if (v.size() != 4) throw InputError("--align", 0, fmt::format("'{}' is not X1,Y1,X2,Y2 (mm)", a.align));
+    o.align_mm = std::make_pair(Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]));
   }
   so.executor.record_trace = !a.plot.empty();
   so.trace_csv_path = a.trace;  // streamed during the run
@@ -289,6 +302,9 @@ void add_run(CLI::App& app) {
   cmd->add_option("--plot", a->plot, "write a top view, programmed against executed path (.png or .svg)");
   cmd->add_option("--magnify", a->magnify, "draw the contour error this many times larger in the plot (default 1)");
   cmd->add_option("--seed", a->seed, "seed of the simulated machine's noise and faults (default 1)");
+  cmd->add_option("--align", a->align,
+                  "X1,Y1,X2,Y2: sheet alignment, two points on the sheet's edge (machine mm): the program's zero at the "
+                  "first, its X axis along the edge to the second (the program turned by that angle; in place of --origin)");
   cmd->add_option("--origin", a->origin,
                   "X,Y: where the program's zero sits on the machine, mm (default: the machine file's origin_mm, "
                   "else 0,0)");

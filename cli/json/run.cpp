@@ -34,6 +34,7 @@ nlohmann::json to_json(const motion::RunOutcome& run) {
   j["optimum_ratio"] = run.optimum_ratio;
   j["origin_mm"] = {run.origin_mm.x(), run.origin_mm.y()};
   j["origin_from"] = run.origin_from;
+  j["rotation_deg"] = run.rotation_deg;
   j["warnings"] = run.warnings;
   j["notes"] = run.notes;
   j["rapids"] = {{"count", run.rapids.rapids.size()},

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <map>
 #include <string>
 #include <utility>
 
+#include <Eigen/Geometry>
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
@@ -193,6 +195,18 @@ void RunOptions::validate() const {
     check_range("origin_mm", origin_mm->x(), -1e6, 1e6, false, " mm");
     check_range("origin_mm", origin_mm->y(), -1e6, 1e6, false, " mm");
   }
+  if (align_mm) {
+    if (origin_mm) throw InputError::field("align_mm", "a sheet alignment sets the program's zero: give it or origin_mm, not both");
+    for (const Eigen::Vector2d& p : {align_mm->first, align_mm->second}) {
+      check_range("align_mm", p.x(), -1e6, 1e6, false, " mm");
+      check_range("align_mm", p.y(), -1e6, 1e6, false, " mm");
+    }
+    const double d = (align_mm->second - align_mm->first).norm();
+    if (d < kMinAlignEdgeMm)
+      throw InputError::field("align_mm", fmt::format("the two points are {:.3f} mm apart: at least {:g} mm along the edge, for "
+                                                      "its angle to be known",
+                                                      d, kMinAlignEdgeMm));
+  }
   validate_member("gcode", gcode);
   check_range("max_machine_time_s", max_machine_time_s, 0.0, 365 * 24 * 3600.0, true, " s");
   require_field(from_line >= 0 && from_line <= 100000000, "from_line", from_line, "must be a line number >= 1 (0: from the start)");
@@ -286,13 +300,25 @@ void flatten_z(Program& program, const std::string& machine, std::vector<std::st
 // Where the program's zero sits on the machine, and who said so: "given" (RunOptions),
 // "machine file" or "none" (machine zero).
 std::pair<Eigen::Vector2d, std::string> program_origin(const RunOptions& options, const cutting::MachineConfig& machine) {
+  if (options.align_mm) return {options.align_mm->first, "sheet alignment"};
   if (options.origin_mm) return {*options.origin_mm, "given"};
   if (machine.origin_mm) return {Eigen::Vector2d((*machine.origin_mm)[0], (*machine.origin_mm)[1]), "machine file"};
   return {Eigen::Vector2d::Zero(), "none"};
 }
 
-// Moves the program's zero to `origin` on the machine.
-void place_program(Program& program, const Eigen::Vector2d& origin) {
+// Moves the program's zero to `origin` on the machine, turned by `rotation_rad` about it (an
+// arc keeps its sense; one outside the XY plane cannot turn).
+void place_program(Program& program, const Eigen::Vector2d& origin, double rotation_rad = 0.0) {
+  if (rotation_rad != 0.0) {
+    const Eigen::Rotation2Dd r(rotation_rad);
+    program.start.head<2>() = r * Eigen::Vector2d(program.start.head<2>());
+    for (Move& m : program.moves) {
+      if (m.kind == Move::Kind::arc && m.plane != Move::Plane::xy)
+        throw InputError(program.source, m.line, "an arc outside the XY plane cannot be turned by the sheet alignment");
+      m.end.head<2>() = r * Eigen::Vector2d(m.end.head<2>());
+      if (m.kind == Move::Kind::arc) m.center = r * m.center;
+    }
+  }
   if (origin == Eigen::Vector2d::Zero()) return;
   program.start.head<2>() += origin;
   for (Move& m : program.moves) {
@@ -452,11 +478,15 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
   program = std::move(ordered.program);
   warnings.insert(warnings.end(), ordered.report.warnings.begin(), ordered.report.warnings.end());
   const auto [origin, from] = program_origin(options, machine);
-  place_program(program, origin);
+  const double rotation = options.align_mm ? std::atan2(options.align_mm->second.y() - options.align_mm->first.y(),
+                                                        options.align_mm->second.x() - options.align_mm->first.x())
+                                           : 0.0;
+  place_program(program, origin, rotation);
   jo.rapid_feed_mm_per_s = machine.limits.rapid_mm_per_s;
   PlannedRun o = plan_job(make_job(program, jo), options, machine, control);
   o.origin_mm = origin;
   o.origin_from = from;
+  o.rotation_deg = rotation * 180.0 / std::numbers::pi;
   o.warnings = std::move(warnings);
   o.notes = std::move(notes);
   for (const CutParameters& c : o.programmed.materials)
@@ -615,8 +645,9 @@ std::string full_report(const RunOutcome& o, const session::MachineSession& sess
   s += fmt::format("{} on {} ({} mode): {}\n", r.source, r.machine, executor::to_string(r.mode),
                    o.summary.done() ? "completed" : o.faulted() && o.summary.status == Status::faulted ? "FAULTED"
                                                                                                          : to_string(o.summary.status));
-  s += fmt::format("  program origin   X {:.3f} Y {:.3f} mm on the machine ({})\n", o.origin_mm.x(), o.origin_mm.y(),
-                   o.origin_from == "none" ? "none given: program zero is machine zero" : o.origin_from);
+  s += fmt::format("  program origin   X {:.3f} Y {:.3f} mm on the machine ({}){}\n", o.origin_mm.x(), o.origin_mm.y(),
+                   o.origin_from == "none" ? "none given: program zero is machine zero" : o.origin_from,
+                   o.rotation_deg != 0.0 ? fmt::format(", the program turned {:+.3f} deg about it", o.rotation_deg) : "");
   if (o.controller != "pid_ff") s += fmt::format("  servo controller {}\n", o.controller);
   if (o.from_line)
     s += fmt::format("  from line        {} at ({:.3f}, {:.3f}){}\n", o.from_line->line, o.from_line->at_mm.x(),

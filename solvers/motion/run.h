@@ -117,6 +117,12 @@ struct RunOptions {
   // Where the program's zero sits on the machine, mm; unset: the machine file's origin_mm,
   // else (0, 0).
   std::optional<Eigen::Vector2d> origin_mm;
+  // Sheet alignment: two points on the sheet's edge, machine coordinates, mm. The first is the
+  // program's zero (in place of origin_mm), the edge from it to the second is the program's X
+  // axis: the program runs rotated by that edge's angle (counter-clockwise positive) about its
+  // zero, checked against the travel like any job. Arcs in the XZ or YZ plane cannot rotate.
+  std::optional<std::pair<Eigen::Vector2d, Eigen::Vector2d>> align_mm;
+  static constexpr double kMinAlignEdgeMm = 20.0;  // the points' least distance apart
   // Refuse a program whose Z moves (true) instead of dropping its Z words with a warning.
   bool strict_z = false;
   // QtPlasmaC material file (engine/motion/materials.h, in mm) the program's M190 words select
@@ -167,7 +173,8 @@ struct PlannedRun {
   std::vector<Contour> cut_zones;    // the closed cuts, as plan_rapids saw them
   executor::Trajectories trajectories;  // one per step (null for non-moves)
   Eigen::Vector2d origin_mm = Eigen::Vector2d::Zero();  // where the program's zero sat
-  std::string origin_from = "none";                     // "given" (RunOptions), "machine file" or "none"
+  std::string origin_from = "none";                     // "given" (RunOptions), "machine file", "sheet alignment" or "none"
+  double rotation_deg = 0.0;                            // the sheet alignment's rotation (0: none)
   std::vector<std::string> warnings;                    // from reading and placing the program
   std::vector<std::string> notes;                       // program words the machine ignores (M8, M52, ...)
   CutOrderReport cut_order;                             // the order the cuts were made in
