@@ -82,7 +82,8 @@ constexpr ApiRoute kApiRoutes[] = {
     {"/resume", false, true, true},   {"/stop", false, true, true},     {"/estop", false, true, false},
     {"/reset", false, true, true},    {"/override", false, true, true}, {"/recover", false, true, true},
     {"/thc", false, true, true},      {"/jog", false, true, true},      {"/report", true, false, false},
-    {"/guard", true, true, true},     {"/history", true, false, false}, {"/frame", false, true, true}};
+    {"/guard", true, true, true},     {"/history", true, false, false}, {"/frame", false, true, true},
+    {"/statistics", true, false, false}, {"/consumables", false, true, true}};
 
 const ApiRoute* find_api_route(const std::string& path) {
   for (const ApiRoute& r : kApiRoutes)
@@ -239,6 +240,7 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
     return g ? Reply{200, *g} : error(404, "no guard session has started");
   }
   if (get && path == "/history") return ok(panel.history());
+  if (get && path == "/statistics") return ok(panel.statistics());
   if (path == "/control") {
     const std::string id = q.header("X-Machplan-Client");
     if (id.size() < 8 || id.size() > 64 ||
@@ -272,6 +274,14 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
     return ok({{"ok", true}});
   }
   if (path == "/frame") return ok({{"ok", true}, {"frame", panel.frame(number(body, "feed"), number(body, "margin"))}});
+  if (path == "/consumables") {
+    // Who changed them: the body's "who", else the panel.
+    const auto it = body.find("who");
+    if (it != body.end() && (!it->is_string() || it->get<std::string>().empty() || it->get<std::string>().size() > 64))
+      throw InputError::field("who", "takes {\"who\": NAME}: 1 to 64 characters");
+    panel.consumables_changed(it != body.end() ? it->get<std::string>() : "panel");
+    return ok({{"ok", true}, {"statistics", panel.statistics()}});
+  }
   if (path == "/hold") return panel.hold(), ok({{"ok", true}});
   if (path == "/resume") return panel.resume(), ok({{"ok", true}});
   if (path == "/stop") return panel.stop(), ok({{"ok", true}});
