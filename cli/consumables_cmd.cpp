@@ -19,22 +19,26 @@
 namespace machplan::cli {
 namespace {
 
-std::string figures_line(const char* label, const stats::Figures& f) {
-  return fmt::format("{:<22} {:>6} jobs  {:>7} pierces  arc on {:>9.1f} s  cycle {:>9.1f} s  rapids {:>10.1f} mm  "
+// A job's figures, after `head` (a label and the job count for totals).
+std::string figures_line(const std::string& head, const stats::Figures& f) {
+  return fmt::format("{}{:>7} pierces  arc on {:>9.1f} s  cycle {:>9.1f} s  rapids {:>10.1f} mm  "
                      "probes {:>6} ({} skipped, {:.1f} s)  faults {}\n",
-                     label, f.jobs, f.pierces, f.arc_on_s, f.cycle_s, f.rapid_mm, f.probes, f.probes_skipped, f.probe_s,
-                     f.faults);
+                     head, f.pierces, f.arc_on_s, f.cycle_s, f.rapid_mm, f.probes, f.probes_skipped, f.probe_s, f.faults);
+}
+
+std::string totals_line(const char* label, const stats::Figures& f) {
+  return figures_line(fmt::format("{:<18} {:>6} jobs", label, f.jobs), f);
 }
 
 std::string totals_report(const stats::MachineTotals& t, const std::vector<stats::JobRecord>& jobs) {
   std::string out = fmt::format("machine {}\n", t.machine);
   out += t.last_change_utc ? fmt::format("consumables changed {} by {}\n", *t.last_change_utc, t.last_change_who.value_or(""))
                            : "consumables never changed (since the first job)\n";
-  out += figures_line("since the change:", t.since_change);
-  out += figures_line("lifetime:", t.lifetime);
+  out += totals_line("since the change:", t.since_change);
+  out += totals_line("lifetime:", t.lifetime);
   for (const stats::JobRecord& j : jobs)
-    out += fmt::format("job {} {} {} {}{}\n  {}", j.id, j.started_utc, j.program, j.status, j.fault.empty() ? "" : " (" + j.fault + ")",
-                       figures_line("", j.figures).substr(23));
+    out += fmt::format("job {} {} {} {}{}\n", j.id, j.started_utc, j.program, j.status, j.fault.empty() ? "" : " (" + j.fault + ")") +
+           figures_line("  ", j.figures);
   return out;
 }
 

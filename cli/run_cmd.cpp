@@ -3,6 +3,7 @@
 // rapids, contour error per cut, faults and the cycle time against its lower bound.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -238,7 +239,7 @@ void run_command(const RunArgs& a) {
   }();
   if (!a.plot.empty()) motion::write_run_plot(a.plot, run, magnify);
   std::int64_t job_id = 0;
-  if (recorder) job_id = recorder->record(stats::job_record(run.result, a.program, read_text_file(a.program)));
+  if (recorder) job_id = recorder->record(stats::job_record(run.result, std::filesystem::absolute(a.program).string(), read_text_file(a.program)));
 
   if (a.json) {
     nlohmann::json j = to_json(run);
