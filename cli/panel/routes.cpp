@@ -70,6 +70,15 @@ std::optional<double> number(const json& body, const char* key) {
   return body[key].get<double>();
 }
 
+// POST /api/consumables: who changed them is the body's "who", else the panel.
+Reply consumables_changed(Panel& panel, const json& body) {
+  const auto it = body.find("who");
+  if (it != body.end() && (!it->is_string() || it->get<std::string>().empty() || it->get<std::string>().size() > 64))
+    throw InputError::field("who", "takes {\"who\": NAME}: 1 to 64 characters");
+  panel.consumables_changed(it != body.end() ? it->get<std::string>() : "panel");
+  return ok({{"ok", true}, {"statistics", panel.statistics()}});
+}
+
 // Every API route with the methods it takes (docs/panel.md's table; any other method is 405)
 // and whether a POST needs the client in control.
 struct ApiRoute {
@@ -274,14 +283,7 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
     return ok({{"ok", true}});
   }
   if (path == "/frame") return ok({{"ok", true}, {"frame", panel.frame(number(body, "feed"), number(body, "margin"))}});
-  if (path == "/consumables") {
-    // Who changed them: the body's "who", else the panel.
-    const auto it = body.find("who");
-    if (it != body.end() && (!it->is_string() || it->get<std::string>().empty() || it->get<std::string>().size() > 64))
-      throw InputError::field("who", "takes {\"who\": NAME}: 1 to 64 characters");
-    panel.consumables_changed(it != body.end() ? it->get<std::string>() : "panel");
-    return ok({{"ok", true}, {"statistics", panel.statistics()}});
-  }
+  if (path == "/consumables") return consumables_changed(panel, body);
   if (path == "/hold") return panel.hold(), ok({{"ok", true}});
   if (path == "/resume") return panel.resume(), ok({{"ok", true}});
   if (path == "/stop") return panel.stop(), ok({{"ok", true}});
