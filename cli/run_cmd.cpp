@@ -3,6 +3,7 @@
 // rapids, contour error per cut, faults and the cycle time against its lower bound.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -25,10 +26,12 @@
 #include "solvers/calibration/store.h"
 #include "engine/common/error.h"
 #include "engine/common/internal/parse.h"
+#include "engine/common/text_file.h"
 #include "engine/hardware/operator_events.h"
 #include "solvers/common/picture.h"
 #include "solvers/motion/run.h"
 #include "solvers/motion/run_plot.h"
+#include "solvers/session/job_stats.h"
 #include "solvers/session/tuning_store.h"
 
 namespace machplan::cli {
@@ -76,7 +79,7 @@ struct RunArgs {
   std::vector<std::string> inject;
   std::string controller;
   std::vector<std::string> gains;
-  bool json = false, realtime = false;
+  bool json = false, realtime = false, record = false;
   std::string origin;
   GcodeFlags gcode;
   bool strict_z = false;
@@ -234,6 +237,12 @@ void run_command(const RunArgs& a) {
     refuse_overwriting_input(flag, path, {a.program, a.no_go, a.machine, a.operator_events});
     check_output_folder(flag, path);
   }
+  // --record: the run's figures join the machine's statistics (a framing run is no job). The
+  // store is opened before the run, so that a bad --db stops nothing halfway.
+  if (a.record && a.frame) throw InputError("--record", 0, "records jobs, not a --frame run");
+  const std::string db = a.record ? (a.db.empty() ? store::default_store_path() : a.db) : "";
+  std::optional<stats::StatsStore> recorder;
+  if (a.record) recorder.emplace(db);
   // SIGINT, SIGTERM and SIGHUP stop the machine in a controlled way (exit 3), not the process.
   const StopOnSignals signals;
   Termination stop(StopOnSignals::stop_token());
@@ -253,6 +262,8 @@ void run_command(const RunArgs& a) {
     return motion::execute(session, std::move(plan), o, {&stop, nullptr, &running});
   }();
   if (!a.plot.empty()) motion::write_run_plot(a.plot, run, magnify);
+  std::int64_t job_id = 0;
+  if (recorder) job_id = recorder->record(stats::job_record(run.result, std::filesystem::absolute(a.program).string(), read_text_file(a.program)));
 
   if (a.json) {
     nlohmann::json j = to_json(run);
@@ -260,11 +271,13 @@ void run_command(const RunArgs& a) {
     if (a.frame) j["frame"] = frame;
     if (!a.trace.empty()) j["trace"] = a.trace;
     if (!a.plot.empty()) j["plot"] = a.plot;
+    if (job_id) j["recorded"] = {{"db", db}, {"job_id", job_id}};
     print_json(j);
   } else {
     std::printf("%s", run.summary.full_report().c_str());
     if (!a.trace.empty()) std::printf("trace: %s (%zu samples)\n", a.trace.c_str(), run.result.trace_streamed);
     if (!a.plot.empty()) std::printf("picture: %s\n", a.plot.c_str());
+    if (job_id) std::printf("recorded as job %lld in %s\n", static_cast<long long>(job_id), db.c_str());
   }
   if (!run.summary.done()) {
     for (const auto& f : run.result.faults) std::fprintf(stderr, "machplan run: fault: %s\n", f.message.c_str());
@@ -320,6 +333,8 @@ void add_run(CLI::App& app) {
   add_gcode_options(*cmd, a->gcode);
   cmd->add_flag("--json", a->json, "machine-readable output");
   cmd->add_flag("--realtime", a->realtime, "pace the simulation to the wall clock");
+  cmd->add_flag("--record", a->record,
+                "add the run to the machine's job statistics in --db (machplan consumables show), however it ended");
   cmd->add_option("--max-machine-time", a->max_machine_time_s,
                   "refuse, before it starts, a run whose estimate exceeds this many seconds of machine time "
                   "(default 14400: 4 h)")

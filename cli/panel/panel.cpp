@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 
@@ -15,12 +16,14 @@
 #include "cli/json/cut_order_json.h"
 #include "cli/json/guard.h"
 #include "cli/json/run.h"
+#include "cli/json/stats.h"
 #include "cli/panel/job_drawing.h"
 #include "engine/common/error.h"
 #include "engine/common/internal/text_scan.h"
 #include "engine/common/output_file.h"
 #include "engine/common/stop.h"
 #include "engine/common/summary.h"
+#include "engine/common/text_file.h"
 #include "engine/executor/jog_source.h"
 #include "engine/executor/supervisor.h"
 #include "engine/geometry/region.h"
@@ -28,6 +31,7 @@
 #include "models/cutting/machine_config.h"
 #include "solvers/calibration/store.h"
 #include "solvers/motion/from_line.h"
+#include "solvers/session/job_stats.h"
 #include "solvers/session/tuning_store.h"
 
 namespace machplan::panel {
@@ -689,7 +693,7 @@ json Panel::history() const {
   json h;
   h["calibrations"] = json::array();
   h["tunings"] = json::array();
-  const std::string path = o_.store_path.empty() ? calibration::default_store_path() : o_.store_path;
+  const std::string path = store_file();
   std::error_code ec;
   h["store"] = path;
   if (!fs::is_regular_file(path, ec)) return h;  // nothing stored yet; never create the store here
@@ -703,6 +707,36 @@ json Panel::history() const {
                             {"active", t.active},
                             {"gains", t.gains}});
   return h;
+}
+
+std::string Panel::store_file() const { return o_.store_path.empty() ? store::default_store_path() : o_.store_path; }
+
+json Panel::statistics() const {
+  const std::string path = store_file();
+  const std::string& machine = session_->machine().name;
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {  // nothing stored yet; never create the store here
+    json j = cli::to_json(stats::MachineTotals{machine, {}, {}, std::nullopt, std::nullopt});
+    j["jobs"] = json::array();
+    return j;
+  }
+  const stats::StatsStore store(path);
+  json j = cli::to_json(store.totals(machine));
+  j["jobs"] = json::array();
+  for (const stats::JobRecord& r : store.jobs(machine, 10)) j["jobs"].push_back(cli::to_json(r));
+  return j;
+}
+
+void Panel::consumables_changed(const std::string& who) {
+  stats::StatsStore(store_file()).consumables_changed(session_->machine().name, who);
+}
+
+void Panel::record_job(const executor::ExecutionResult& result, const std::string& program) {
+  try {
+    stats::StatsStore(store_file()).record(stats::job_record(result, program, read_text_file(program)));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "machplan serve: the job's statistics were not stored: %s\n", e.what());
+  }
 }
 
 }  // namespace machplan::panel

@@ -74,7 +74,8 @@ struct PanelOptions {
   double jog_deadman_s = 0.3;
   // A jog session of an idle machine ends when the stick has been centred for this long, s.
   double jog_idle_end_s = 2.0;
-  // Where calibrations and tunings are read from (read-only); "" for the default store.
+  // Where calibrations and tunings are read from (read-only) and where each job the panel runs
+  // is recorded (machplan consumables); "" for the default store.
   std::string store_path;
   // The job folder: programs, material files and guard profiles named by path are read from
   // here, the bundled datasets (datasets/ beside the machines machplan ships) and the panel's
@@ -167,6 +168,12 @@ class Panel {
   std::shared_ptr<const std::string> report() const;
   // Stored calibrations and tunings, read-only (GET /api/history).
   nlohmann::json history() const;
+  // The machine's job statistics (GET /api/statistics): `machplan consumables show --json`'s
+  // document; zeros before the first job is stored.
+  nlohmann::json statistics() const;
+  // The operator changed the consumables (POST /api/consumables): the counters since the change
+  // start again; the lifetime totals stay.
+  void consumables_changed(const std::string& who);
 
   // Housekeeping, called 30 to 100 times a second by one thread (the live stream's): lets go
   // of buttons the tick has seen and centres a jog whose dead man ran out.
@@ -186,7 +193,14 @@ class Panel {
   void run_job(std::optional<int> from_line);
   void run_frame();
   // Runs `plan` from where the machine stands (a rapid to its start first) and keeps its report.
-  void run_plan(motion::PlannedRun plan, const motion::RunOptions& options, Termination& t, const nlohmann::json& frame);
+  // `record_program`: the job's program file, whose run joins the machine's statistics in the
+  // store; "" for a run that is no job (a frame).
+  void run_plan(motion::PlannedRun plan, const motion::RunOptions& options, Termination& t, const nlohmann::json& frame,
+                const std::string& record_program = {});
+  // Adds a job's run to the store; a store that cannot take it is told on stderr (the run
+  // itself is over and reported).
+  void record_job(const executor::ExecutionResult& result, const std::string& program);
+  std::string store_file() const;
   // Busy unless the machine is idle with no command pending and the E-stop closed; under
   // cmd_mutex_.
   void require_idle() const;

@@ -70,6 +70,15 @@ std::optional<double> number(const json& body, const char* key) {
   return body[key].get<double>();
 }
 
+// POST /api/consumables: who changed them is the body's "who", else the panel.
+Reply consumables_changed(Panel& panel, const json& body) {
+  const auto it = body.find("who");
+  if (it != body.end() && (!it->is_string() || it->get<std::string>().empty() || it->get<std::string>().size() > 64))
+    throw InputError::field("who", "takes {\"who\": NAME}: 1 to 64 characters");
+  panel.consumables_changed(it != body.end() ? it->get<std::string>() : "panel");
+  return ok({{"ok", true}, {"statistics", panel.statistics()}});
+}
+
 // Every API route with the methods it takes (docs/panel.md's table; any other method is 405)
 // and whether a POST needs the client in control.
 struct ApiRoute {
@@ -83,7 +92,8 @@ constexpr ApiRoute kApiRoutes[] = {
     {"/reset", false, true, true},    {"/override", false, true, true}, {"/paused_motion", false, true, true},
     {"/thc", false, true, true},      {"/jog", false, true, true},      {"/report", true, false, false},
     {"/guard", true, true, true},     {"/history", true, false, false}, {"/frame", false, true, true},
-    {"/torch", false, true, true},    {"/recover", false, true, true}};  // the older name of /paused_motion
+    {"/torch", false, true, true},    {"/statistics", true, false, false}, {"/consumables", false, true, true},
+    {"/recover", false, true, true}};  // the older name of /paused_motion
 
 const ApiRoute* find_api_route(const std::string& path) {
   for (const ApiRoute& r : kApiRoutes)
@@ -240,6 +250,7 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
     return g ? Reply{200, *g} : error(404, "no guard session has started");
   }
   if (get && path == "/history") return ok(panel.history());
+  if (get && path == "/statistics") return ok(panel.statistics());
   if (path == "/control") {
     const std::string id = q.header("X-Machplan-Client");
     if (id.size() < 8 || id.size() > 64 ||
@@ -273,6 +284,7 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
     return ok({{"ok", true}});
   }
   if (path == "/frame") return ok({{"ok", true}, {"frame", panel.frame(number(body, "feed"), number(body, "margin"))}});
+  if (path == "/consumables") return consumables_changed(panel, body);
   if (path == "/hold") return panel.hold(), ok({{"ok", true}});
   if (path == "/resume") return panel.resume(), ok({{"ok", true}});
   if (path == "/stop") return panel.stop(), ok({{"ok", true}});

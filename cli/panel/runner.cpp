@@ -113,7 +113,7 @@ void Panel::run_job(std::optional<int> from_line) {
     }
     planning_ = false;
   }
-  run_plan(std::move(*plan), options, t, json());
+  run_plan(std::move(*plan), options, t, json(), path);
 }
 
 void Panel::run_frame() {
@@ -138,7 +138,8 @@ void Panel::run_frame() {
   run_plan(std::move(*plan), job_options(request.origin_mm, request.materials, request.material), t, frame);
 }
 
-void Panel::run_plan(motion::PlannedRun plan, const motion::RunOptions& options, Termination& t, const json& frame) {
+void Panel::run_plan(motion::PlannedRun plan, const motion::RunOptions& options, Termination& t, const json& frame,
+                     const std::string& record_program) {
   if (session_->backend_open()) {
     // Where the machine stands: the last setpoint, which the servo holds. The measured position
     // differs from it by the servo's error at rest, and after a job that ends at the travel's
@@ -156,6 +157,7 @@ void Panel::run_plan(motion::PlannedRun plan, const motion::RunOptions& options,
     report_ = std::move(text);
   }
   record_end(ending_of(outcome), outcome.result.faults);
+  if (!record_program.empty()) record_job(outcome.result, record_program);
 }
 
 void Panel::record_end(const std::string& ending, const std::vector<executor::FaultReport>& faults) {

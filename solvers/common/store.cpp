@@ -12,7 +12,9 @@ namespace machplan::store {
 namespace {
 
 // Every kind's tables. Calibrations: the sessions recorded, the fits made of them, the active
-// fit per machine. Tunings: the tuned gains, the active tuning per machine.
+// fit per machine. Tunings: the tuned gains, the active tuning per machine. Job statistics
+// (solvers/session/job_stats.h): one row per run, and the consumable changes. New tables need
+// no version step: CREATE TABLE IF NOT EXISTS adds them to an older file when it is opened.
 constexpr const char* kSchema = R"sql(
 CREATE TABLE IF NOT EXISTS sessions (
   id INTEGER PRIMARY KEY,
@@ -48,6 +50,31 @@ CREATE TABLE IF NOT EXISTS tunings (
 CREATE TABLE IF NOT EXISTS active_tuning (
   machine TEXT PRIMARY KEY,
   tuning_id INTEGER NOT NULL REFERENCES tunings(id)
+);
+CREATE TABLE IF NOT EXISTS jobs (
+  id INTEGER PRIMARY KEY,
+  machine TEXT NOT NULL,
+  program TEXT NOT NULL,
+  program_hash TEXT NOT NULL,
+  started_utc TEXT NOT NULL,
+  status TEXT NOT NULL,
+  fault TEXT NOT NULL,
+  pierces INTEGER NOT NULL,
+  arc_on_s REAL NOT NULL,
+  cycle_s REAL NOT NULL,
+  rapid_mm REAL NOT NULL,
+  probes INTEGER NOT NULL,
+  probes_skipped INTEGER NOT NULL,
+  probe_s REAL NOT NULL,
+  faults INTEGER NOT NULL
+);
+CREATE INDEX IF NOT EXISTS jobs_machine ON jobs(machine, id);
+CREATE TABLE IF NOT EXISTS consumable_changes (
+  id INTEGER PRIMARY KEY,
+  machine TEXT NOT NULL,
+  who TEXT NOT NULL,
+  changed_utc TEXT NOT NULL,
+  after_job_id INTEGER NOT NULL
 );
 )sql";
 

@@ -1,6 +1,7 @@
 // machplan's store: one SQLite file (default $XDG_DATA_HOME/machplan/calibration.db) that keeps,
 // per machine, records of each kind (calibration fits: solvers/calibration/store.h; tuned gains:
-// solvers/session/tuning_store.h) and which record of each kind is the machine's active one.
+// solvers/session/tuning_store.h) and which record of each kind is the machine's active one, and
+// its job statistics (solvers/session/job_stats.h: no active record, so no Kind).
 //
 // Store is the one type that opens the file. It creates every kind's tables, brings a file
 // written by an older machplan up to date, and does what every kind does the same way: make a

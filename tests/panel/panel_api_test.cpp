@@ -754,5 +754,33 @@ TEST(PanelApi, TheBracketHeldAndResumedMidCutMatchesMachplanRun) {
   EXPECT_NEAR(rms_panel, rms_cli, 0.25 * rms_cli);
 }
 
+// Every job the panel runs joins the machine's statistics in its store, with the figures of its
+// own report; the consumables button restarts the counters since the change, not the lifetime.
+TEST(PanelApi, AJobIsRecordedAndTheConsumablesButtonRestartsItsCounters) {
+  PanelRig rig(0);
+  const json before = json::parse(rig.get("/api/statistics").body);
+  EXPECT_EQ(before["lifetime"]["jobs"], 0);
+  EXPECT_EQ(rig.post("/api/consumables").status, 409) << "changing consumables needs control";
+  rig.take_control();
+  rig.load({{"program", kTriangle}});
+  ASSERT_EQ(rig.post("/api/run").status, 200);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 1; }));
+  const json r = json::parse(rig.get("/api/report").body);
+  const json s = json::parse(rig.get("/api/statistics").body);
+  ASSERT_EQ(s["jobs"].size(), 1u) << s.dump();
+  EXPECT_EQ(s["jobs"][0]["status"], r["status"]);
+  EXPECT_EQ(s["jobs"][0]["figures"]["pierces"].get<std::size_t>(), r["cuts"].size());
+  EXPECT_GT(s["lifetime"]["pierces"].get<int>(), 0);
+  EXPECT_DOUBLE_EQ(s["lifetime"]["arc_on_s"].get<double>(), r["torch_on_s"].get<double>());
+  EXPECT_EQ(rig.post("/api/consumables", {{"who", 5}}).status, 400);
+  const HttpResponse changed = rig.post("/api/consumables", {{"who", "ana"}});
+  ASSERT_EQ(changed.status, 200) << changed.body;
+  const json after = json::parse(changed.body)["statistics"];
+  EXPECT_EQ(after["since_change"]["jobs"], 0);
+  EXPECT_EQ(after["since_change"]["pierces"], 0);
+  EXPECT_EQ(after["lifetime"]["pierces"], s["lifetime"]["pierces"]);
+  EXPECT_EQ(after["last_change"]["who"], "ana");
+}
+
 }  // namespace
 }  // namespace machplan

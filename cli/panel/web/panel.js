@@ -369,6 +369,11 @@ async function loadGuard() {
 // ---- commands ----------------------------------------------------------------------------------
 function wire() {
   $('estop').onclick = () => act('POST', '/estop');
+  $('consumables').onclick = async () => {
+    if (!confirm('Consumables changed: start the counters since the change again?')) return;
+    const r = await act('POST', '/consumables', {});
+    if (r) showStatistics(r.statistics);
+  };
   $('control').onclick = () => act('POST', '/control', { take: true });
   $('frame').onclick = async () => {
     const r = await act('POST', '/frame', {});
@@ -483,6 +488,20 @@ async function loadHistory() {
   fill('h-cal', h.calibrations.map((c) => [c.fit_id, c.machine, c.created_utc, c.feed_factor.map((v) => v.toFixed(3)).join(' / '), c.backlash_mm.map((v) => v.toFixed(3)).join(' / '), c.active ? 'active' : '']));
   fill('h-tun', h.tunings.map((t) => [t.id, t.machine, t.controller, t.created_utc, t.active ? 'active' : '']));
   $('h-store').textContent = 'store: ' + h.store + (h.calibrations.length + h.tunings.length ? '' : ' (nothing stored)');
+  showStatistics(await act('GET', '/statistics'));
+}
+
+// The machine's counters: the last job, since the last consumable change, lifetime.
+function showStatistics(s) {
+  if (!s) return;
+  const row = (label, f) => [label, f.jobs, f.pierces, f.arc_on_s.toFixed(1), f.cycle_s.toFixed(1), (f.rapid_mm / 1000).toFixed(2), `${f.probes} (${f.probes_skipped})`, f.faults];
+  const rows = [];
+  if (s.jobs.length) rows.push(row('last job: ' + s.jobs[0].status, s.jobs[0].figures));
+  rows.push(row('since change', s.since_change), row('lifetime', s.lifetime));
+  const tb = $('h-stats').querySelector('tbody');
+  tb.innerHTML = '';
+  for (const r of rows) { const tr = document.createElement('tr'); for (const c of r) { const td = document.createElement('td'); td.textContent = c; tr.appendChild(td); } tb.appendChild(tr); }
+  $('h-change').textContent = s.last_change ? `consumables changed ${s.last_change.utc} by ${s.last_change.who}` : 'consumables never changed';
 }
 
 (async () => {

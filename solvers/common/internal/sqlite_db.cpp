@@ -117,6 +117,7 @@ Statement::~Statement() = default;
 
 void Statement::bind(int i, const std::string& v) { sqlite3_bind_text(prepared_->s, i, v.c_str(), -1, SQLITE_TRANSIENT); }
 void Statement::bind(int i, std::int64_t v) { sqlite3_bind_int64(prepared_->s, i, v); }
+void Statement::bind(int i, double v) { sqlite3_bind_double(prepared_->s, i, v); }
 
 bool Statement::step() {
   const int rc = sqlite3_step(prepared_->s);
@@ -131,6 +132,7 @@ std::string Statement::text(int column) const {
 }
 
 std::int64_t Statement::int64(int column) const { return sqlite3_column_int64(prepared_->s, column); }
+double Statement::real(int column) const { return sqlite3_column_double(prepared_->s, column); }
 
 std::string now_utc() {
   const std::time_t t = std::time(nullptr);

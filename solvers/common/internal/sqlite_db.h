@@ -63,6 +63,7 @@ class Statement {
 
   void bind(int i, const std::string& v);
   void bind(int i, std::int64_t v);
+  void bind(int i, double v);
   // Steps once: true when a row is ready, false when done.
   bool step();
   // Steps a statement that returns no rows.
@@ -72,6 +73,7 @@ class Statement {
   }
   std::string text(int column) const;
   std::int64_t int64(int column) const;
+  double real(int column) const;
 
  private:
   struct Prepared;  // the prepared SQLite statement
