@@ -157,6 +157,56 @@ MachineUse machine_use(const Yaml& root) {
   return root.has("kind") || root.has("struts") ? MachineUse::placement : MachineUse::cutting;
 }
 
+namespace {
+
+// The `torch` block: the process (plasma or oxy-fuel) and its settings, the paused-motion speed.
+void read_torch(const Yaml& t, MachineConfig& m) {
+  t.reject_unknown_keys({"kind", "plasma", "oxy_fuel", "paused_motion_speed_mm_per_s"});
+  m.torch.paused_motion_speed_mm_per_s =
+      t.number_or("paused_motion_speed_mm_per_s", m.torch.paused_motion_speed_mm_per_s,
+                   {.min = 0.0, .max = m.limits.velocity_mm_per_s, .min_exclusive = true});
+  if (const auto p = t.get("plasma")) {
+    p->reject_unknown_keys({"arc_start_delay_s", "arc_ok_timeout_s", "pierce_delay_s", "arc_start_failure_probability",
+                            "on_arc_loss", "arc_volts_base_v", "volts_per_mm", "arc_voltage_noise_v", "kerf_crossing_rise_v"});
+    m.torch.has_plasma = true;
+    m.torch.plasma.arc_start_delay_s = p->number("arc_start_delay_s", kNonNegative);
+    m.torch.plasma.arc_ok_timeout_s = p->number("arc_ok_timeout_s", kPositive);
+    m.torch.plasma.pierce_delay_s = p->number("pierce_delay_s", kNonNegative);
+    m.torch.plasma.arc_start_failure_probability =
+        p->number_or("arc_start_failure_probability", 0.0, {.min = 0, .max = 1});
+    if (const auto loss = p->get("on_arc_loss")) {
+      const std::string v = loss->string();
+      if (v != "stop" && v != "recover") loss->fail("must be 'stop' or 'recover', got '" + excerpt(v) + "'");
+      m.torch.plasma.recover_on_arc_loss = v == "recover";
+    }
+    PlasmaConfig& pc = m.torch.plasma;
+    pc.arc_volts_base_v = p->number_or("arc_volts_base_v", pc.arc_volts_base_v, {.min = 0.0, .max = 1000.0});
+    pc.volts_per_mm = p->number_or("volts_per_mm", pc.volts_per_mm, {.min = 0.0, .max = 1000.0, .min_exclusive = true});
+    pc.arc_voltage_noise_v = p->number_or("arc_voltage_noise_v", pc.arc_voltage_noise_v, {.min = 0.0, .max = 100.0});
+    pc.kerf_crossing_rise_v = p->number_or("kerf_crossing_rise_v", pc.kerf_crossing_rise_v, {.min = 0.0, .max = 1000.0});
+    if (m.torch.plasma.arc_start_delay_s >= m.torch.plasma.arc_ok_timeout_s)
+      p->at("arc_ok_timeout_s").fail("must be longer than arc_start_delay_s, or no arc could ever start in time");
+  }
+  if (const auto o = t.get("oxy_fuel")) {
+    o->reject_unknown_keys({"preheat_s", "pierce_delay_s"});
+    m.torch.has_oxy_fuel = true;
+    m.torch.oxy_fuel.preheat_s = o->number("preheat_s", kNonNegative);
+    m.torch.oxy_fuel.pierce_delay_s = o->number("pierce_delay_s", kNonNegative);
+  }
+  const std::string kind = t.string("kind");
+  if (kind == "plasma") {
+    if (!m.torch.has_plasma) t.at("kind").fail("is 'plasma' but there is no 'torch.plasma' section");
+    m.torch.kind = executor::TorchSetup::Kind::plasma;
+  } else if (kind == "oxy_fuel") {
+    if (!m.torch.has_oxy_fuel) t.at("kind").fail("is 'oxy_fuel' but there is no 'torch.oxy_fuel' section");
+    m.torch.kind = executor::TorchSetup::Kind::oxy_fuel;
+  } else {
+    t.at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + excerpt(kind) + "'");
+  }
+}
+
+}  // namespace
+
 MachineConfig machine_from_yaml(const Yaml& root) {
   // A placement machine would otherwise be refused on its first key this reader does not
   // know, which tells a user nothing about what went wrong.
@@ -225,50 +275,7 @@ MachineConfig machine_from_yaml(const Yaml& root) {
                                               ax.name, top));
   }
 
-  if (const auto t = root.get("torch")) {
-    t->reject_unknown_keys({"kind", "plasma", "oxy_fuel", "paused_motion_speed_mm_per_s"});
-    m.torch.paused_motion_speed_mm_per_s =
-        t->number_or("paused_motion_speed_mm_per_s", m.torch.paused_motion_speed_mm_per_s,
-                     {.min = 0.0, .max = m.limits.velocity_mm_per_s, .min_exclusive = true});
-    if (const auto p = t->get("plasma")) {
-      p->reject_unknown_keys({"arc_start_delay_s", "arc_ok_timeout_s", "pierce_delay_s", "arc_start_failure_probability",
-                              "on_arc_loss", "arc_volts_base_v", "volts_per_mm", "arc_voltage_noise_v", "kerf_crossing_rise_v"});
-      m.torch.has_plasma = true;
-      m.torch.plasma.arc_start_delay_s = p->number("arc_start_delay_s", kNonNegative);
-      m.torch.plasma.arc_ok_timeout_s = p->number("arc_ok_timeout_s", kPositive);
-      m.torch.plasma.pierce_delay_s = p->number("pierce_delay_s", kNonNegative);
-      m.torch.plasma.arc_start_failure_probability =
-          p->number_or("arc_start_failure_probability", 0.0, {.min = 0, .max = 1});
-      if (const auto loss = p->get("on_arc_loss")) {
-        const std::string v = loss->string();
-        if (v != "stop" && v != "recover") loss->fail("must be 'stop' or 'recover', got '" + excerpt(v) + "'");
-        m.torch.plasma.recover_on_arc_loss = v == "recover";
-      }
-      PlasmaConfig& pc = m.torch.plasma;
-      pc.arc_volts_base_v = p->number_or("arc_volts_base_v", pc.arc_volts_base_v, {.min = 0.0, .max = 1000.0});
-      pc.volts_per_mm = p->number_or("volts_per_mm", pc.volts_per_mm, {.min = 0.0, .max = 1000.0, .min_exclusive = true});
-      pc.arc_voltage_noise_v = p->number_or("arc_voltage_noise_v", pc.arc_voltage_noise_v, {.min = 0.0, .max = 100.0});
-      pc.kerf_crossing_rise_v = p->number_or("kerf_crossing_rise_v", pc.kerf_crossing_rise_v, {.min = 0.0, .max = 1000.0});
-      if (m.torch.plasma.arc_start_delay_s >= m.torch.plasma.arc_ok_timeout_s)
-        p->at("arc_ok_timeout_s").fail("must be longer than arc_start_delay_s, or no arc could ever start in time");
-    }
-    if (const auto o = t->get("oxy_fuel")) {
-      o->reject_unknown_keys({"preheat_s", "pierce_delay_s"});
-      m.torch.has_oxy_fuel = true;
-      m.torch.oxy_fuel.preheat_s = o->number("preheat_s", kNonNegative);
-      m.torch.oxy_fuel.pierce_delay_s = o->number("pierce_delay_s", kNonNegative);
-    }
-    const std::string kind = t->string("kind");
-    if (kind == "plasma") {
-      if (!m.torch.has_plasma) t->at("kind").fail("is 'plasma' but there is no 'torch.plasma' section");
-      m.torch.kind = executor::TorchSetup::Kind::plasma;
-    } else if (kind == "oxy_fuel") {
-      if (!m.torch.has_oxy_fuel) t->at("kind").fail("is 'oxy_fuel' but there is no 'torch.oxy_fuel' section");
-      m.torch.kind = executor::TorchSetup::Kind::oxy_fuel;
-    } else {
-      t->at("kind").fail("must be 'plasma' or 'oxy_fuel', got '" + excerpt(kind) + "'");
-    }
-  }
+  if (const auto t = root.get("torch")) read_torch(*t, m);
   read_plasma_process(root, m);
   if (const auto sp = root.get("spindle")) {
     if (root.has("torch")) sp->fail("a machine has a torch or a spindle, not both");
