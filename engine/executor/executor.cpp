@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "engine/executor/session_impl.h"
+#include "engine/motion/process_time.h"
 
 namespace machplan::executor {
 
@@ -108,9 +109,8 @@ void Session::Impl::begin_step() noexcept {
         break;
       }
       // A ramp pierce moves along the cut that follows (after the dwell, which is then its delay).
-      const std::size_t cut = step + (programmed ? 2 : 1);
-      const bool ramp = torch.ramp() && cut < job.steps.size() && job.steps[cut].kind == Step::Kind::move &&
-                        job.stretches[job.steps[cut].stretch].cutting;
+      const std::size_t cut = torch.ramp() ? motion::ramp_cut(job, step) : 0;
+      const bool ramp = cut > 0;
       start_torch(programmed, false, !ramp ? -1.0 : programmed ? job.steps[step + 1].seconds : torch.ramp()->pierce_delay_s);
       ramp_cut_step = ramp ? cut : kNoRamp;
       phase = Phase::torch;

@@ -50,14 +50,13 @@ double ramp_pierce_s(const Job& job, std::size_t cut, double delay_s, const CutP
     if (d > 0.0 && v > 0.0 && v < feed) t += d / v - d / feed;
   return t;
 }
+}  // namespace
 
-// The move a ramp pierce at torch_on step i starts (past a dwell), or 0 when none follows.
 std::size_t ramp_cut(const Job& job, std::size_t i) {
   const std::size_t cut = i + (i + 1 < job.steps.size() && job.steps[i + 1].kind == Step::Kind::dwell ? 2 : 1);
   const bool ok = cut < job.steps.size() && job.steps[cut].kind == Step::Kind::move && job.stretches[job.steps[cut].stretch].cutting;
   return ok ? cut : 0;
 }
-}  // namespace
 
 double process_time_s(const Job& job, const TorchTimes& times) {
   double t = 0.0;

@@ -17,6 +17,7 @@
 // its trace buffer) takes the timeouts it would wait at most.
 #pragma once
 
+#include <cstddef>
 #include <optional>
 
 #include "engine/motion/job.h"
@@ -53,5 +54,10 @@ struct TorchTimes {
 };
 
 double process_time_s(const Job& job, const TorchTimes& times);
+
+// The cutting move a ramp pierce at torch_on step `i` moves along: the step after it, or after
+// the dwell that follows it (the pierce delay); 0 when that is not a cutting move. The
+// executor and process_time_s take the same one.
+std::size_t ramp_cut(const Job& job, std::size_t i);
 
 }  // namespace machplan::motion
