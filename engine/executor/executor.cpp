@@ -726,6 +726,11 @@ bool Session::Impl::tick() noexcept {
     u.setZero();
   }
   clipped = adapter.write(u, sp_mm, sup.stopping(), out);
+  // The plan ahead, for a backend that plays it when a command comes late: only where the
+  // command is the source's own setpoint (not a stop's law, not a guard's correction).
+  const bool own_setpoint = !sup.stopping() && sup.state() != Supervisor::State::disable && !parts.filter &&
+                           demand.kind == Demand::Kind::track && adapter.position_commands();
+  out.ahead_count = ahead_periods > 0 && own_setpoint ? source->plan_ahead(out.ahead_mm.data(), ahead_periods) : 0;
   if (!sup.stopping() && adapter.trusted()) {
     // Progress and saturation, under every source.
     // Under a tracking source the setpoint's own speed is what the axis is asked to do (the

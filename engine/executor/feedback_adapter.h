@@ -48,6 +48,8 @@ class FeedbackAdapter {
   // command was clipped to its range.
   bool write(const Eigen::Vector2d& u_mm_per_s, const Eigen::Vector2d& setpoint_mm, bool integrate,
              hardware::Outputs& out) noexcept;
+  // The backend takes position commands (and so positions planned ahead).
+  bool position_commands() const noexcept { return kind_ != hardware::CommandKind::speed_dac; }
 
   bool trusted() const noexcept { return trusted_; }
   const Eigen::Vector2d& position_mm() const noexcept { return pos_; }

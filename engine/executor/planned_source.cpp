@@ -125,11 +125,12 @@ void PlannedSource::advance(const Eigen::Vector2d& measured_mm, const hardware::
     step_paused();
     return;
   }
-  if (target_ == 1.0 && scale_.k() == 1.0 && scale_.k_dot() == 0.0) {
-    t_ += ctx_.period_s;  // as planned
-    return;
-  }
-  t_ += scale_.step(target_, *cur_, t_);
+  t_ = next_time(scale_, t_);
+}
+
+double PlannedSource::next_time(TimeScale& scale, double t) const noexcept {
+  if (target_ == 1.0 && scale.k() == 1.0 && scale.k_dot() == 0.0) return t + ctx_.period_s;  // as planned
+  return t + scale.step(target_, *cur_, t);
 }
 
 void PlannedSource::step_paused() noexcept {
@@ -225,6 +226,25 @@ double PlannedSource::path_distance_mm(const Eigen::Vector2d& p) const noexcept 
   for (std::size_t k = segment_ > 0 ? segment_ - 1 : 0; k < std::min(n, segment_ + 3); ++k)
     best = std::min(best, (closest_point(stretch_->segments[k], p) - p).norm());
   return best;
+}
+
+int PlannedSource::plan_ahead(std::array<double, hardware::kAxes>* mm, int n) const noexcept {
+  if (pause_moving()) return 0;  // the paused motion's own law: no plan
+  if (!cur_) {
+    for (int j = 0; j < n; ++j) mm[j] = {hold_mm_[0], hold_mm_[1]};
+    return n;
+  }
+  // The periods to come as advance() will run them while the rate asked for stays as it is: a
+  // copy of the time scale takes the same steps.
+  TimeScale scale = scale_;
+  double t = t_;
+  motion::Setpoint s;
+  for (int j = 0; j < n; ++j) {
+    t = next_time(scale, t);
+    cur_->sample(std::min(t, cur_->duration_s()), s);
+    mm[j] = {s.position_mm[0], s.position_mm[1]};
+  }
+  return n;
 }
 
 bool PlannedSource::move_done() const noexcept { return !cur_ || t_ >= cur_->duration_s(); }

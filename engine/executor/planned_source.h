@@ -56,6 +56,7 @@ class PlannedSource final : public SetpointSource {
     return r;
   }
   std::size_t move_step() const noexcept override { return cur_ ? step_ : kNoStep; }
+  int plan_ahead(std::array<double, hardware::kAxes>* mm, int n) const noexcept override;
   static constexpr double kPausedAcceleration = 200.0;  // mm/s^2
 
  private:
@@ -76,6 +77,8 @@ class PlannedSource final : public SetpointSource {
   double pause_left_mm_ = 0.0, pause_jog_ = 0.0, pause_v_ = 0.0, paused_mm_ = 0.0;
   bool pause_within_cut_ = false;
   void step_paused() noexcept;
+  // The path time one period after `t` at the rate asked for, `scale` stepped along.
+  double next_time(TimeScale& scale, double t) const noexcept;
   double slide(double dir, double ds, bool& crossed) noexcept;
   bool enter_neighbour(double dir) noexcept;
   void enter_move(std::size_t step) noexcept;

@@ -83,6 +83,7 @@ void check_backend(const MachineSetup& m, double machine_period_s, hardware::Bac
 void Session::Impl::prepare(double machine_period_s) {
   check_backend(ms, machine_period_s, be);
   be_realtime = be.realtime();
+  ahead_periods = std::clamp(be.plays_ahead_periods(), 0, hardware::Outputs::kMaxAhead);
   const auto fail = [&](int line, const std::string& what) { throw InputError(job.source, line, what); };
 
   // The source.

@@ -148,6 +148,7 @@ struct Session::Impl {
   Eigen::Vector2d last_sp = Eigen::Vector2d::Zero();
   double progress_s = 0.0;        // the job's expected time done: path time in moves, else machine time
   bool be_realtime = true;
+  int ahead_periods = 0;  // positions planned ahead the backend plays (Backend::plays_ahead_periods)
   // The plasma process: the material of the cut under way, THC, cut recovery.
   int material = -1;              // index into job.materials (-1: the machine's settings)
   bool thc_fitted = false;        // plasma, a height axis and THC enabled

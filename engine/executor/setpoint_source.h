@@ -20,6 +20,7 @@
 // throw InputError naming the job's file and line.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -115,6 +116,13 @@ class SetpointSource {
   virtual bool pause_moving() const noexcept { return false; }
   // How far along the path the paused motions moved since the last call, mm (signed).
   virtual double take_paused_mm() noexcept { return 0.0; }
+  // Where the commanded point will be 1 .. n periods after this one's, if nothing changes
+  // but what the rate is already doing (for a backend that plays them when a command comes
+  // late: hardware::Outputs::ahead_mm). Returns how many it wrote; 0: no plan to offer.
+  virtual int plan_ahead(std::array<double, hardware::kAxes>* mm, int n) const noexcept {
+    (void)mm, (void)n;
+    return 0;
+  }
   // The step whose move the source is on: the one begin_move gave, or the one a paused motion
   // reached.
   virtual std::size_t move_step() const noexcept { return kNoStep; }

@@ -98,6 +98,14 @@ struct Outputs {
   bool ohmic_enable = false;
   // The laser pointer on (framing with it: ExecutorOptions::laser_pointer).
   bool laser_on = false;
+  // Position mode: where the plan puts the axes 1 .. ahead_count periods after this command,
+  // for a backend whose hardware runs on without waiting for the program (HAL): when a command
+  // comes late, the machine takes the planned position instead of coasting off the path. 0
+  // whenever the executor cannot say (stopping, holding by its own law, a source without a
+  // plan); a backend that waits for every command ignores them.
+  static constexpr int kMaxAhead = 100;
+  std::array<std::array<double, kAxes>, kMaxAhead> ahead_mm{};
+  int ahead_count = 0;
 };
 
 struct Inputs {
@@ -148,6 +156,9 @@ class Backend {
   // simulator). False for a simulator running as fast as it can: then nothing depends on the
   // loop's timing, and the executor may wait inside a tick (for its trace writer) without harm.
   virtual bool realtime() const { return true; }
+  // How many periods of positions planned ahead (Outputs::ahead_mm) the backend plays when a
+  // command comes late; 0: it waits for every command, and the executor does not plan them.
+  virtual int plays_ahead_periods() const { return 0; }
 
   // The inputs before the first period (counters or positions as they stand), to set the
   // feedback adapter. Makes no exchange.

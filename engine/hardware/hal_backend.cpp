@@ -149,8 +149,9 @@ void HalOptions::validate() const {
 std::string HalTiming::summary() const {
   return fmt::format(
       "HAL exchange: {} exchanges, jitter |interval - period| p50 {:.0f} us, p99 {:.0f} us, p99.9 {:.0f} us, max {:.0f} "
-      "us; {} late (the component coasted in their place){}; {}",
-      exchanges, jitter_p50_s * 1e6, jitter_p99_s * 1e6, jitter_p999_s * 1e6, jitter_max_s * 1e6, late,
+      "us; {} late (the component played the positions planned ahead in {} periods, coasted in {}){}; {}",
+      exchanges, jitter_p50_s * 1e6, jitter_p99_s * 1e6, jitter_p999_s * 1e6, jitter_max_s * 1e6, late, played_ahead,
+      coasted,
       samples_skipped > 0 ? fmt::format(", {} samples lost to a stall", samples_skipped) : std::string(), realtime_note);
 }
 
@@ -168,6 +169,7 @@ struct HalBackend::Impl {
   bool started = false, lost = false;
   std::uint32_t next = 0;  // the sample the next exchange returns
   std::uint32_t last = 0;  // the sample the last exchange returned
+  std::uint32_t ahead_end = 0;  // slots up to this period may hold positions planned ahead
   std::int64_t last_return_ns = 0;
   std::array<std::int32_t, kAxes> raw_base{};   // velocity mode: raw counts of the last sample used
   std::array<std::uint32_t, kAxes> down{};      // the emulated down counters
@@ -193,6 +195,7 @@ struct HalBackend::Impl {
   bool newest(machplan_sample& s) const noexcept;
   bool read_sample(std::uint32_t p, machplan_sample& s) const noexcept;
   void write_command(std::uint32_t period, const Outputs& out) noexcept;
+  void write_ahead(std::uint32_t period, const Outputs& out) noexcept;
   void fill(const machplan_sample& s, std::uint32_t newest_flags, Inputs& in) noexcept;
 };
 
@@ -229,6 +232,33 @@ void HalBackend::Impl::write_command(std::uint32_t period, const Outputs& out) n
   }
   slot.height_mm = out.torch_height_target_mm;
   __atomic_store_n(&slot.seq, q + 2u, __ATOMIC_RELEASE);
+}
+
+static_assert(Outputs::kMaxAhead <= static_cast<int>(MACHPLAN_AHEAD_MAX) && MACHPLAN_AHEAD_MAX + 50 < MACHPLAN_RING,
+              "the positions planned ahead, with the largest command queue, must stay clear of the slots being read");
+
+// The positions planned for the periods after `period`'s command, each in its own slot; the
+// slots a previous exchange filled beyond them are cleared (a period number the component never
+// asks of that slot), so that a plan given up (a stop, a hold) is never played.
+void HalBackend::Impl::write_ahead(std::uint32_t period, const Outputs& out) noexcept {
+  const int n = velocity ? 0 : std::clamp(out.ahead_count, 0, Outputs::kMaxAhead);
+  const std::uint32_t end = period + static_cast<std::uint32_t>(n);
+  const std::uint32_t stale_end =
+      static_cast<std::int32_t>(ahead_end - end) > 0 ? ahead_end : end;
+  for (std::uint32_t p = period + 1; static_cast<std::int32_t>(stale_end - p) >= 0; ++p) {
+    machplan_command& slot = x->command[p % MACHPLAN_RING];
+    const std::uint32_t q = slot.seq;
+    __atomic_store_n(&slot.seq, q + 1u, __ATOMIC_RELAXED);
+    __atomic_thread_fence(__ATOMIC_RELEASE);
+    const bool planned = static_cast<std::int32_t>(end - p) >= 0;
+    slot.period = planned ? p : p - MACHPLAN_RING;
+    slot.session = session;
+    slot.flags = MACHPLAN_CMD_AHEAD;
+    if (planned)
+      for (int i = 0; i < kAxes; ++i) slot.pos_mm[i] = out.ahead_mm[p - period - 1][i];
+    __atomic_store_n(&slot.seq, q + 2u, __ATOMIC_RELEASE);
+  }
+  ahead_end = end;
 }
 
 void HalBackend::Impl::fill(const machplan_sample& s, std::uint32_t newest_flags, Inputs& in) noexcept {
@@ -532,6 +562,7 @@ HalBackend::~HalBackend() { impl_->close(); }
 CommandKind HalBackend::command_kind() const { return impl_->velocity ? CommandKind::speed_dac : CommandKind::position; }
 double HalBackend::period_s() const { return impl_->period_s; }
 int HalBackend::watchdog_periods() const { return impl_->watchdog; }
+int HalBackend::plays_ahead_periods() const { return impl_->velocity ? 0 : Outputs::kMaxAhead; }
 std::uint32_t HalBackend::last_period() const { return impl_->last; }
 
 AxisSignals HalBackend::axis_signals(int axis) const {
@@ -562,6 +593,7 @@ Health HalBackend::exchange(const Outputs& out, Inputs& in) noexcept {
   }
   const std::uint32_t s = m.next, tag = s + static_cast<std::uint32_t>(m.queue);
   m.write_command(tag, out);
+  m.write_ahead(tag, out);
   if (static_cast<std::int32_t>(load(x->count) - tag) >= 0) ++m.timing.late;
 
   // Wait for sample s: sleep until it is due, then in short steps; lost after lost_after_s
@@ -610,6 +642,10 @@ Health HalBackend::exchange(const Outputs& out, Inputs& in) noexcept {
   }
   m.last = m.next;
   m.next = m.last + 1;
+  if (got.flags & MACHPLAN_IN_AHEAD)
+    ++m.timing.played_ahead;
+  else if (got.missed > 0 && got.comp_state == MACHPLAN_STATE_RUNNING)
+    ++m.timing.coasted;
   machplan_sample latest{};
   const std::uint32_t latest_flags = m.read_sample(load(x->count), latest) ? latest.flags : got.flags;
   m.fill(got, latest_flags, in);

@@ -30,13 +30,16 @@
 //
 // What happens when machplan is late. A command written after its period began is too late:
 // it is counted (`timing().late`), and the component has already filled that period by itself
-// - the position commands go on at their last speed (less `stop-decel`), a speed command is
-// held, the torch and the drives stay as they were. The program then finds the samples it
-// missed waiting, returns them one after the other without sleeping, and is back in step after
-// a few exchanges; its late commands in the meantime are dropped by the component, which keeps
-// coasting until one arrives in time. When no command arrives in time for more than
-// `watchdog_periods()` periods in a row while the drives or the torch are on (machplan killed,
-// hung, or far too slow), the component trips by itself: torch-on and enable FALSE in that
+// - the position commands take the positions the executor planned for those periods
+// (Outputs::ahead_mm, written into those periods' slots with each command, up to
+// Outputs::kMaxAhead periods ahead) and, beyond them or without a plan, go on at their last
+// speed (less `stop-decel`); a speed command is held; the torch and the drives stay as they
+// were. The program then finds the samples it missed waiting, returns them one after the
+// other without sleeping, and is back in step after a few exchanges; its late commands in the
+// meantime are dropped by the component, which goes on as above until one arrives in time.
+// When no command arrives in time for more than `watchdog_periods()` periods in a row while
+// the drives or the torch are on (machplan killed, hung, or far too slow; a period played from
+// the plan counts as missed), the component trips by itself: torch-on and enable FALSE in that
 // period, the position commands held (or ramped to rest at `stop-decel`), watchdog-ok FALSE
 // until watchdog-reset or the next session. Late exchanges are thus counted and absorbed up to
 // the watchdog, and only the watchdog ends a run.
@@ -132,6 +135,8 @@ struct HalOptions {
 struct HalTiming {
   long exchanges = 0;
   long late = 0;              // commands written after their period had begun
+  long played_ahead = 0;      // periods without a command in time where the axes took the planned position
+  long coasted = 0;           // periods without a command in time, and without a plan: the axes coasted
   long samples_skipped = 0;   // samples the program fell so far behind that the ring overwrote them
   double jitter_p50_s = 0.0, jitter_p99_s = 0.0, jitter_p999_s = 0.0, jitter_max_s = 0.0;
   bool realtime = false;      // SCHED_FIFO and locked memory in force
@@ -153,7 +158,8 @@ class HalBackend final : public Backend {
   CommandKind command_kind() const override;
   double period_s() const override;  // the HAL thread's, as the component measured it
   AxisSignals axis_signals(int axis) const override;
-  int watchdog_periods() const override;  // the component's watchdog-periods parameter
+  int watchdog_periods() const override;
+  int plays_ahead_periods() const override;  // Outputs::kMaxAhead in position mode  // the component's watchdog-periods parameter
   Inputs initial_inputs() override;
   Health exchange(const Outputs& out, Inputs& in) noexcept override;
   // Velocity mode with pos-fb linked: pos-fb of the last sample returned. False otherwise.

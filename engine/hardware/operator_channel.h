@@ -61,6 +61,7 @@ class OperatorMerge final : public Backend {
   AxisSignals axis_signals(int axis) const override { return inner_.axis_signals(axis); }
   int watchdog_periods() const override { return inner_.watchdog_periods(); }
   bool realtime() const override { return inner_.realtime(); }
+  int plays_ahead_periods() const override { return inner_.plays_ahead_periods(); }
   Inputs initial_inputs() override;
   Health exchange(const Outputs& out, Inputs& in) noexcept override;
   bool true_position(Eigen::Vector2d& out_mm) const noexcept override { return inner_.true_position(out_mm); }

@@ -2,6 +2,8 @@
 // in memory and streamed), a stop requested from another thread, a position-command backend
 // and an operator's jog session driven through the same loop.
 #include <algorithm>
+#include <array>
+#include <cstdio>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -264,6 +266,73 @@ TEST(PositionBackend, EstopStopsItToo) {
   EXPECT_EQ(r.faults[0].kind, FaultKind::estop);
   EXPECT_TRUE(r.torch_off_at_end);
   EXPECT_FALSE(inner.drives_enabled());
+}
+
+// A position backend that plays positions planned ahead (as the HAL component does when a
+// command comes late): what the executor plans for the periods ahead is where it then commands
+// the axes, exactly, through a feed hold and its resume too; and from the period a stop begins
+// it plans nothing (a stop is the stop's law, not the path).
+struct AheadRecorder final : test::ForwardingBackend {
+  test::IdealPositionBackend& p;
+  long n = 0, hold_at = -1, resume_at = -1, stop_at = -1;
+  std::vector<Eigen::Vector2d> cmd;
+  std::vector<std::vector<std::array<double, 2>>> ahead;
+  explicit AheadRecorder(test::IdealPositionBackend& i) : ForwardingBackend(i), p(i) {}
+  int plays_ahead_periods() const override { return hardware::Outputs::kMaxAhead; }
+  hardware::Health exchange(const hardware::Outputs& o, hardware::Inputs& in) noexcept override {
+    hardware::OperatorInputs op;
+    op.feed_hold = hold_at >= 0 && n >= hold_at && n < resume_at;
+    op.cycle_start = n >= resume_at && n < resume_at + 5;
+    op.stop = stop_at >= 0 && n >= stop_at;
+    p.set_operator(op);
+    ++n;
+    cmd.emplace_back(o.position_command_mm[0], o.position_command_mm[1]);
+    ahead.emplace_back(o.ahead_mm.begin(), o.ahead_mm.begin() + o.ahead_count);
+    return ForwardingBackend::exchange(o, in);
+  }
+  // The largest distance between a period's plan and the commands that followed it, planned and
+  // commanded within the periods [from, to), planned while the axes moved. (At rest the plan says rest: a move that starts
+  // within the horizon, after a pierce or a hold, is the program's to start.)
+  double worst(std::size_t from, std::size_t to) const {
+    double w = 0.0;
+    for (std::size_t k = std::max<std::size_t>(from, 1); k < to && k < cmd.size(); ++k)
+      if (cmd[k] != cmd[k - 1])
+      for (std::size_t j = 0; j < ahead[k].size() && k + j + 1 < std::min(to, cmd.size()); ++j)
+        w = std::max(w, (Eigen::Vector2d(ahead[k][j][0], ahead[k][j][1]) - cmd[k + j + 1]).norm());
+    return w;
+  }
+};
+
+TEST(PositionBackend, PlansAheadWhereItWillCommandAndNothingOnceItStops) {
+  const auto m = cutting::load_machine(cutting::find_machine("thermal_gantry"));
+  const Eigen::Vector2d a(100, 100), b(400, 250);
+  auto cut = test::one_cut(test::make_stretch(test::polyline_segments({a, b}, false), 80, true),
+                           std::make_unique<test::LineTrajectory>(a, b, 80, 500));
+  Executor ex(m.setup(), {});
+  {
+    test::IdealPositionBackend inner(m, a);
+    AheadRecorder be(inner);
+    be.hold_at = 2000;
+    be.resume_at = 3000;
+    const ExecutionResult r = ex.run(cut.job, cut.trajectories, be);
+    ASSERT_EQ(r.summary.status, Status::done) << r.report();
+    ASSERT_EQ(be.ahead[1500].size(), static_cast<std::size_t>(hardware::Outputs::kMaxAhead));
+    // Nothing could foresee the operator's hold: the plans made before the executor saw it are
+    // checked up to the press. The others, through the stop along the path and the resume, are
+    // the time scale's own steps, so exact.
+    const double w = std::max(be.worst(0, 2000), be.worst(2002, be.cmd.size()));
+    std::printf("planned ahead against commanded, through a hold and a resume: %.2g mm at most\n", w);
+    EXPECT_LT(w, 1e-9);
+  }
+  {
+    test::IdealPositionBackend inner(m, a);
+    AheadRecorder be(inner);
+    be.stop_at = 2000;
+    const ExecutionResult r = ex.run(cut.job, cut.trajectories, be);
+    ASSERT_FALSE(r.summary.done());
+    EXPECT_FALSE(be.ahead[1999].empty());
+    for (std::size_t k = 2003; k < be.ahead.size(); ++k) ASSERT_TRUE(be.ahead[k].empty()) << "period " << k;
+  }
 }
 
 TEST(JogSession, FollowsTheOperatorAndEndsOnCycleStart) {

@@ -4,6 +4,7 @@
 // velocity-mode simulation. Each test starts HAL and stops it again (HalSim), and runs in
 // machine time: the servo thread paces every run.
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -107,6 +108,40 @@ TEST(HalRun, TheReportSaysTheTrueErrorIsUnavailable) {
 // On a plate warped 1.5 mm over 1000 mm along X: each of its five pierces probes a different
 // height (gentle enough for a cut without THC: the HAL simulation has no arc voltage).
 TEST(HalRun, BracketWithHolesIsCutWithinATenthOfAMillimetreFromPosFb) { expect_cut_within_a_tenth("bracket_l.ngc", 1.5, 1000.0); }
+
+// The program side stalled again and again (SIGSTOP for 60 ms every 300 ms, as a loaded machine
+// or a page fault would stall it): the component plays the positions the program planned ahead
+// (machplan.comp), so the cut stays on its path and no following error trips, where coasting
+// at the last speed overshot the ends of moves by a millimetre or more.
+TEST(HalRun, StalledProgramTheComponentPlaysThePlannedPositionsAndTheCutStaysOnThePath) {
+  test::HalSim sim;
+  test::TempDir dir;
+  const std::string out = (dir.path() / "out").string(), err = (dir.path() / "err").string();
+  test::Child run(
+      fmt::format("'{}' run datasets/parts/triangle_45.ngc --machine thermal_gantry --backend hal --json", MACHPLAN_CLI),
+      out, err);
+  int stalls = 0;
+  for (auto end = std::chrono::steady_clock::now() + 120s; !run.exited() && std::chrono::steady_clock::now() < end;) {
+    std::this_thread::sleep_for(240ms);
+    if (::kill(run.pid(), SIGSTOP) != 0) break;
+    std::this_thread::sleep_for(60ms);
+    ::kill(run.pid(), SIGCONT);
+    ++stalls;
+  }
+  ASSERT_EQ(run.wait(60s), 0) << slurp(err);
+  const json j = json::parse(slurp(out));
+  EXPECT_EQ(j["status"], "done");
+  const double e = j["max_contour_error_mm"].get<double>();
+  EXPECT_LE(e, 0.1);
+  ASSERT_FALSE(j["backend_notes"].empty());
+  const std::string note = j["backend_notes"][0].get<std::string>();
+  // The note counts the periods the component played from the plan: the stalls made some.
+  const std::size_t at = note.find("planned ahead in ");
+  ASSERT_NE(at, std::string::npos) << note;
+  EXPECT_GT(std::stol(note.substr(at + 17)), 100) << note;
+  EXPECT_GT(stalls, 20);
+  std::printf("triangle_45.ngc stalled %d times: max contour error %.4f mm; %s\n", stalls, e, note.c_str());
+}
 
 // machplan cutting, with the torch lit; returns when the arc has burned a while.
 void start_cutting(test::HalPins& pins, test::Child& run, const std::string& err_path) {

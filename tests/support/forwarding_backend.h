@@ -16,6 +16,7 @@ class ForwardingBackend : public hardware::Backend {
   hardware::AxisSignals axis_signals(int a) const override { return inner_.axis_signals(a); }
   int watchdog_periods() const override { return inner_.watchdog_periods(); }
   bool realtime() const override { return inner_.realtime(); }
+  int plays_ahead_periods() const override { return inner_.plays_ahead_periods(); }
   hardware::Inputs initial_inputs() override { return inner_.initial_inputs(); }
   hardware::Health exchange(const hardware::Outputs& o, hardware::Inputs& i) noexcept override {
     return inner_.exchange(o, i);

@@ -164,14 +164,14 @@ Child::~Child() {
   }
 }
 
+bool Child::exited() {
+  if (!done_ && waitpid(pid_, &status_, WNOHANG) == pid_) done_ = true;
+  return done_;
+}
+
 int Child::wait(std::chrono::seconds timeout) {
   const auto end = std::chrono::steady_clock::now() + timeout;
-  while (!done_) {
-    const pid_t r = waitpid(pid_, &status_, WNOHANG);
-    if (r == pid_) {
-      done_ = true;
-      break;
-    }
+  while (!exited()) {
     if (std::chrono::steady_clock::now() > end) {
       kill_now();
       throw std::runtime_error(fmt::format("process {} did not end within {} s: killed", pid_, timeout.count()));

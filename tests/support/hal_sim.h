@@ -63,6 +63,7 @@ class Child {
   pid_t pid() const { return pid_; }
   // Waits for the exit; returns the exit code, -(signal) when killed, or throws after `timeout`.
   int wait(std::chrono::seconds timeout);
+  bool exited();    // has it ended (without waiting)?
   void kill_now();  // SIGKILL
 
  private:

@@ -11,6 +11,11 @@
  *   commands  written by the program, one slot per servo period it is meant for (slot
  *             period % MACHPLAN_RING); the component takes the slot of the period it is running
  *             when its `period` and `session` match, and otherwise counts the period as missed.
+ *             With each command the program also writes the positions it has planned for up to
+ *             MACHPLAN_AHEAD_MAX periods after it, flagged MACHPLAN_CMD_AHEAD, into those
+ *             periods' slots (each overwritten by the real command when that comes in time, and
+ *             cleared when the program has no plan to offer): a late program leaves the axes on
+ *             the planned path instead of coasting off it. Such a period still counts as missed.
  *   samples   written by the component every period (slot period % MACHPLAN_RING): the input
  *             pins as they were at the start of that period and what the component did.
  *
@@ -25,8 +30,9 @@
 
 #define MACHPLAN_EXCHANGE_KEY 0x4d504c48 /* "MPLH" */
 #define MACHPLAN_EXCHANGE_MAGIC 0x6d706c68u
-#define MACHPLAN_EXCHANGE_VERSION 3u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed, torch-enable, laser-on */
+#define MACHPLAN_EXCHANGE_VERSION 4u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed, torch-enable, laser-on; 4: positions planned ahead */
 #define MACHPLAN_RING 256u /* slots per ring: a power of two, more than any watchdog allows */
+#define MACHPLAN_AHEAD_MAX 100u /* periods the program may write ahead of a command */
 #define MACHPLAN_HAL_AXES 2
 
 /* Command flags */
@@ -34,6 +40,8 @@
 #define MACHPLAN_CMD_TORCH 0x2u  /* torch on */
 #define MACHPLAN_CMD_OHMIC 0x4u  /* ohmic sensing on (ohmic-enable) */
 #define MACHPLAN_CMD_LASER 0x8u  /* the laser pointer on (laser-on) */
+#define MACHPLAN_CMD_AHEAD 0x10u /* not a command: where the program planned the axes for this period, played when its
+                                    command is late (position mode only; the other flags are ignored) */
 
 /* Sample flags */
 #define MACHPLAN_IN_ARC_OK 0x1u
@@ -49,6 +57,7 @@
 #define MACHPLAN_IN_THC 0x400u      /* torch height control allowed (thc-enable) */
 #define MACHPLAN_IN_OP_ESTOP 0x800u /* the operator's E-stop is open, or opened during this session */
 #define MACHPLAN_IN_TORCH_ENABLE 0x1000u /* the torch may fire (torch-enable) */
+#define MACHPLAN_IN_AHEAD 0x2000u   /* no command in time: the axes took the position planned ahead */
 
 /* Component states (also the `machplan.state` pin) */
 #define MACHPLAN_STATE_IDLE 0    /* no session: outputs off, position commands follow pos-fb */

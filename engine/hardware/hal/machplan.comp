@@ -10,7 +10,8 @@
 //     addf machplan servo-thread      # after the hardware's read functions, before its writes
 //
 // Every period the function (1) opens or closes a session when the program asks, (2) takes the
-// command the program wrote for this period, or counts the period as missed and coasts, (3)
+// command the program wrote for this period, or counts the period as missed and plays the
+// position the program planned for it (when it wrote one ahead) or coasts, (3)
 // trips the watchdog after more than `watchdog-periods` missed periods in a row while the
 // drives or the torch are on, (4) gates the outputs with the E-stop chain, the operator's
 // E-stop and the watchdog, and (5) publishes the input pins as this period's sample. It never
@@ -127,7 +128,7 @@ FUNCTION(_) {
   machplan_sample *s;
   const uint32_t watchdog = watchdog_periods < 1 ? 1 : watchdog_periods > 200 ? 200 : watchdog_periods;
   uint32_t p = ++count_, flags = 0, q, sess;
-  int i, fresh = 0, on, torch, ohmic, laser;
+  int i, fresh = 0, ahead = 0, on, torch, ohmic, laser;
 
   // 1. sessions
   sess = x ? __atomic_load_n(&x->session, __ATOMIC_ACQUIRE) : session_;
@@ -155,6 +156,20 @@ FUNCTION(_) {
   if (x && (state_ == MACHPLAN_STATE_ARMED || state_ == MACHPLAN_STATE_RUNNING))
     fresh = take_command(x, p, session_, &c);
   if (state_ == MACHPLAN_STATE_ARMED && fresh) state_ = MACHPLAN_STATE_RUNNING;
+  if (state_ == MACHPLAN_STATE_RUNNING && fresh && (c.flags & MACHPLAN_CMD_AHEAD)) {
+    // The program is late, but planned this period: the axes go where it planned them; the
+    // outputs, the torch height and the watchdog take it as a missed period.
+    fresh = 0;
+    if (velocity) {
+      ahead = 0;  /* never written in velocity mode: coast as below */
+    } else {
+      for (i = 0; i < MACHPLAN_HAL_AXES; ++i) {
+        vel_[i] = (c.pos_mm[i] - pos_[i]) / dt;
+        pos_[i] = c.pos_mm[i];
+      }
+      ahead = 1;
+    }
+  }
   if (state_ == MACHPLAN_STATE_RUNNING) {
     if (fresh) {
       for (i = 0; i < MACHPLAN_HAL_AXES; ++i) {
@@ -170,7 +185,7 @@ FUNCTION(_) {
       missed_ = 0;
     } else {
       ++missed_;
-      coast(stop_decel, dt, 0);
+      if (!ahead) coast(stop_decel, dt, 0);
       if (missed_ > watchdog && (flags_ & (MACHPLAN_CMD_ENABLE | MACHPLAN_CMD_TORCH))) {
         state_ = MACHPLAN_STATE_TRIPPED;
         flags_ = 0;
@@ -217,6 +232,7 @@ FUNCTION(_) {
   if (feed_hold) flags |= MACHPLAN_IN_FEED_HOLD;
   if (cycle_start) flags |= MACHPLAN_IN_CYCLE_START;
   if (fresh) flags |= MACHPLAN_IN_FRESH;
+  if (ahead) flags |= MACHPLAN_IN_AHEAD;
   if (float_switch) flags |= MACHPLAN_IN_FLOAT;
   if (ohmic_sense_in) flags |= MACHPLAN_IN_OHMIC;
   if (breakaway) flags |= MACHPLAN_IN_BREAKAWAY;
