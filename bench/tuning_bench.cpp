@@ -247,7 +247,8 @@ int main(int argc, char** argv) {
   bool report_only = false, bench_only = false;
   for (int i = 1; i < argc; ++i) {
     report_only = report_only || std::string(argv[i]) == "--report-only";
-    bench_only = bench_only || std::string(argv[i]) == "--bench-only";
+    bench_only = bench_only || std::string(argv[i]) == "--bench-only" ||
+                 std::string(argv[i]).starts_with("--benchmark_list_tests");  // listing: no report
   }
   if (!bench_only) report();
   if (report_only) return 0;

@@ -113,7 +113,10 @@ AccStudy acc_study(const AccTuningOptions& base, AccLaws laws, Termination& term
   for (const AccSettled& a : st.settled(st.koren))
     s.full += fmt::format("  t {:5.1f} s  depth {:4.1f} mm  feed {:.3f} mm/rev  force {:7.1f} N\n", a.t_s, a.depth_mm,
                           a.feed_mm_per_rev, a.force_n);
-  for (const AccTuningResult& r : st.tunings) s.full += "\n" + r.report();
+  for (const AccTuningResult& r : st.tunings) {
+    s.full += '\n';  // (not "\n" + report(): g++ 12 warns falsely of an overlapping copy there)
+    s.full += r.report();
+  }
   return st;
 }
 
