@@ -21,9 +21,9 @@ namespace {
 
 // A job's figures, after `head` (a label and the job count for totals).
 std::string figures_line(const std::string& head, const stats::Figures& f) {
-  return fmt::format("{}{:>7} pierces  arc on {:>9.1f} s  cycle {:>9.1f} s  rapids {:>10.1f} mm  "
+  return fmt::format("{}{:>7} pierces  arc on {:>9.1f} s  cycle {:>9.1f} s  cut {:>10.1f} mm  rapids {:>10.1f} mm  "
                      "probes {:>6} ({} skipped, {:.1f} s)  faults {}\n",
-                     head, f.pierces, f.arc_on_s, f.cycle_s, f.rapid_mm, f.probes, f.probes_skipped, f.probe_s, f.faults);
+                     head, f.pierces, f.arc_on_s, f.cycle_s, f.cut_mm, f.rapid_mm, f.probes, f.probes_skipped, f.probe_s, f.faults);
 }
 
 std::string totals_line(const char* label, const stats::Figures& f) {

@@ -81,6 +81,7 @@ nlohmann::json to_json(const executor::ExecutionResult& r, bool include_trace) {
   j["ramp_pierces"] = r.ramp_pierces;
   j["dry_pierces"] = r.dry_pierces;
   j["rapid_distance_mm"] = r.rapid_distance_mm;
+  j["cut_distance_mm"] = r.cut_distance_mm;
   j["steps_completed"] = r.steps_completed;
   j["stopped_at_rest"] = r.stopped_at_rest;
   j["torch_off_at_end"] = r.torch_off_at_end;

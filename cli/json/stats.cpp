@@ -4,7 +4,7 @@ namespace machplan::cli {
 
 nlohmann::json to_json(const stats::Figures& f) {
   return {{"jobs", f.jobs},         {"pierces", f.pierces}, {"arc_on_s", f.arc_on_s},
-          {"cycle_s", f.cycle_s},   {"rapid_mm", f.rapid_mm}, {"probes", f.probes},
+          {"cycle_s", f.cycle_s},   {"cut_mm", f.cut_mm},     {"rapid_mm", f.rapid_mm}, {"probes", f.probes},
           {"probes_skipped", f.probes_skipped}, {"probe_s", f.probe_s}, {"faults", f.faults}};
 }
 

@@ -8,7 +8,7 @@
 
 namespace machplan::cli {
 
-// {"jobs", "pierces", "arc_on_s", "cycle_s", "rapid_mm", "probes", "probes_skipped", "probe_s",
+// {"jobs", "pierces", "arc_on_s", "cycle_s", "cut_mm", "rapid_mm", "probes", "probes_skipped", "probe_s",
 //  "faults"}
 nlohmann::json to_json(const stats::Figures& f);
 // {"id", "machine", "program", "program_hash", "started_utc", "status", "fault", "figures"}

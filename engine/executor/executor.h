@@ -261,6 +261,7 @@ struct ExecutionResult {
   int ramp_pierces = 0;               // pierces that moved along their cut (a material's ramp pierce)
   int dry_pierces = 0;                // torch_on steps skipped: the operator's torch switch was off
   double rapid_distance_mm = 0.0;     // programmed length of the rapid stretches completed
+  double cut_distance_mm = 0.0;       // programmed length of the cut stretches completed (counted after the run)
   int steps_completed = 0;
   std::vector<CutError> cuts;
   std::vector<FaultReport> faults;    // empty when done; the first one stopped the run

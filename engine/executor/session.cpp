@@ -248,6 +248,7 @@ ExecutionResult Session::Impl::finish() {
       c.thc.velocity_locked_s = static_cast<double>(h.velocity_locked) * dt;
       c.thc.void_locked_s = static_cast<double>(h.void_locked) * dt;
     }
+    if (c.complete) r.cut_distance_mm += stretch_len[c.stretch];
     r.cuts.push_back(c);
   }
   if (sup.faulted()) {

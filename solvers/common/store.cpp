@@ -62,6 +62,7 @@ CREATE TABLE IF NOT EXISTS jobs (
   pierces INTEGER NOT NULL,
   arc_on_s REAL NOT NULL,
   cycle_s REAL NOT NULL,
+  cut_mm REAL NOT NULL,
   rapid_mm REAL NOT NULL,
   probes INTEGER NOT NULL,
   probes_skipped INTEGER NOT NULL,
@@ -79,8 +80,8 @@ CREATE TABLE IF NOT EXISTS consumable_changes (
 )sql";
 
 // The file's layout version (PRAGMA user_version): 0 before statuses were kept in Summary's
-// spelling, 1 since.
-constexpr int kVersion = 1;
+// spelling, 1 since, 2 since the jobs' cut length is kept.
+constexpr int kVersion = 2;
 
 std::int64_t one_number(const SqliteDb& db, const char* sql) {
   Statement s(db, sql);
@@ -102,6 +103,12 @@ UPDATE fits SET fit_json = json_set(fit_json, '$.status',
 UPDATE tunings SET result_json = json_set(result_json, '$.status', 'done')
   WHERE json_valid(result_json) AND json_extract(result_json, '$.status') = 'ok';
 )sql");
+}
+
+// Version 1 -> 2: the jobs gain their cut length (the jobs recorded before: 0, not known).
+void add_cut_length(const SqliteDb& db) {
+  if (one_number(db, "SELECT COUNT(*) FROM pragma_table_info('jobs') WHERE name = 'cut_mm'") == 0)
+    db.exec("ALTER TABLE jobs ADD COLUMN cut_mm REAL NOT NULL DEFAULT 0;");
 }
 
 }  // namespace
@@ -126,9 +133,11 @@ std::string default_store_path() {
 }
 
 Store::Store(const std::string& path) : db_(std::make_unique<SqliteDb>(path, kSchema)) {
-  if (one_number(*db_, "PRAGMA user_version") >= kVersion) return;
+  const std::int64_t version = one_number(*db_, "PRAGMA user_version");
+  if (version >= kVersion) return;
   db_->transaction([&] {
-    to_summary_spelling(*db_);
+    if (version < 1) to_summary_spelling(*db_);
+    add_cut_length(*db_);
     db_->exec(fmt::format("PRAGMA user_version = {};", kVersion).c_str());
     return 0;
   });

@@ -11,9 +11,9 @@ namespace {
 constexpr const char* kSums =
     "COUNT(*), COALESCE(SUM(pierces),0), COALESCE(SUM(probes),0), COALESCE(SUM(probes_skipped),0), "
     "COALESCE(SUM(faults),0), COALESCE(SUM(arc_on_s),0), COALESCE(SUM(cycle_s),0), COALESCE(SUM(rapid_mm),0), "
-    "COALESCE(SUM(probe_s),0)";
+    "COALESCE(SUM(probe_s),0), COALESCE(SUM(cut_mm),0)";
 
-// Reads kSums' nine columns starting at `first`.
+// Reads kSums' ten columns starting at `first`.
 Figures figures_at(const store::Statement& s, int first) {
   Figures f;
   f.jobs = s.int64(first);
@@ -25,6 +25,7 @@ Figures figures_at(const store::Statement& s, int first) {
   f.cycle_s = s.real(first + 6);
   f.rapid_mm = s.real(first + 7);
   f.probe_s = s.real(first + 8);
+  f.cut_mm = s.real(first + 9);
   return f;
 }
 
@@ -47,6 +48,7 @@ Figures& Figures::operator+=(const Figures& o) {
   arc_on_s += o.arc_on_s;
   cycle_s += o.cycle_s;
   rapid_mm += o.rapid_mm;
+  cut_mm += o.cut_mm;
   probe_s += o.probe_s;
   return *this;
 }
@@ -74,6 +76,7 @@ JobRecord job_record(const executor::ExecutionResult& result, const std::string&
   f.arc_on_s = result.torch_on_s;
   f.cycle_s = result.cycle_time_s;
   f.rapid_mm = result.rapid_distance_mm;
+  f.cut_mm = result.cut_distance_mm;
   return r;
 }
 
@@ -88,7 +91,7 @@ std::int64_t StatsStore::record(const JobRecord& job) {
   return db.transaction([&] {
     store::Statement s(db,
                        "INSERT INTO jobs(machine, program, program_hash, started_utc, status, fault, pierces, arc_on_s, "
-                       "cycle_s, rapid_mm, probes, probes_skipped, probe_s, faults) VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+                       "cycle_s, rapid_mm, probes, probes_skipped, probe_s, faults, cut_mm) VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
     const Figures& f = job.figures;
     s.bind(1, job.machine);
     s.bind(2, job.program);
@@ -104,6 +107,7 @@ std::int64_t StatsStore::record(const JobRecord& job) {
     s.bind(12, f.probes_skipped);
     s.bind(13, f.probe_s);
     s.bind(14, f.faults);
+    s.bind(15, f.cut_mm);
     s.run();
     return db.last_insert_id();
   });
@@ -112,7 +116,7 @@ std::int64_t StatsStore::record(const JobRecord& job) {
 std::vector<JobRecord> StatsStore::jobs(const std::string& machine, std::int64_t limit) const {
   store::Statement s(store_->db(),
                      "SELECT id, machine, program, program_hash, started_utc, status, fault, 1, pierces, probes, "
-                     "probes_skipped, faults, arc_on_s, cycle_s, rapid_mm, probe_s FROM jobs "
+                     "probes_skipped, faults, arc_on_s, cycle_s, rapid_mm, probe_s, cut_mm FROM jobs "
                      "WHERE (?1 = '' OR machine = ?1) ORDER BY id DESC LIMIT ?2");
   s.bind(1, machine);
   s.bind(2, limit);

@@ -4,7 +4,7 @@
 //
 // Tables: `jobs` (machine, program path and its FNV-1a hash, when the run started, how it
 // ended: Summary's status and the first fault's kind, and its figures: pierces, arc-on time,
-// cycle time, rapid length, probes, skipped probes, probe time, faults) and
+// cycle time, cut length (the cuts completed), rapid length, probes, skipped probes, probe time, faults) and
 // `consumable_changes` (machine, who, when, the newest job id it follows). A consumable change
 // erases nothing: the counters "since the last change" are the sums over the jobs recorded after
 // the machine's newest change row; the lifetime totals are the sums over all its jobs.
@@ -28,7 +28,7 @@ namespace machplan::stats {
 // The figures one run adds to its machine's counters.
 struct Figures {
   std::int64_t jobs = 0, pierces = 0, probes = 0, probes_skipped = 0, faults = 0;
-  double arc_on_s = 0.0, cycle_s = 0.0, rapid_mm = 0.0, probe_s = 0.0;
+  double arc_on_s = 0.0, cycle_s = 0.0, cut_mm = 0.0, rapid_mm = 0.0, probe_s = 0.0;
   Figures& operator+=(const Figures& o);
 };
 

@@ -36,6 +36,8 @@ TEST(ConsumablesCli, ARecordedRunCountsWhatItsReportSays) {
   EXPECT_DOUBLE_EQ(f["arc_on_s"].get<double>(), r["torch_on_s"].get<double>());
   EXPECT_DOUBLE_EQ(f["cycle_s"].get<double>(), r["cycle_time_s"].get<double>());
   EXPECT_DOUBLE_EQ(f["rapid_mm"].get<double>(), r["rapid_distance_mm"].get<double>());
+  EXPECT_GT(f["cut_mm"].get<double>(), 100.0);
+  EXPECT_DOUBLE_EQ(f["cut_mm"].get<double>(), r["cut_distance_mm"].get<double>());
   EXPECT_EQ(s["lifetime"]["pierces"], f["pierces"]);
   EXPECT_EQ(s["since_change"]["pierces"], f["pierces"]);
 

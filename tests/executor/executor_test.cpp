@@ -134,6 +134,7 @@ TEST(Executor, TorchIsTurnedOffBeforeARapidEvenWithoutATorchOffStep) {
   for (const auto& s : r.trace)
     if (s.step == 2) { ASSERT_FALSE(s.torch_fire); }
   EXPECT_NEAR(r.rapid_distance_mm, 60.0, 1e-9);
+  EXPECT_NEAR(r.cut_distance_mm, 30.0, 1e-9) << "the cut, not the rapid after it";
 }
 
 TEST(Executor, RefusesJobsThatDoNotFitTheirTrajectories) {

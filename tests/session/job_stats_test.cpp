@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/error.h"
+#include "solvers/common/internal/sqlite_db.h"
 #include "solvers/session/job_stats.h"
 #include "tests/support/temp_dir.h"
 
@@ -24,7 +25,7 @@ JobRecord stats_job(const std::string& machine, std::int64_t pierces, double arc
   j.started_utc = "2026-11-28T08:00:00Z";
   j.status = "done";
   j.figures = {.jobs = 1, .pierces = pierces, .probes = pierces, .probes_skipped = 1, .faults = 0,
-               .arc_on_s = arc_on_s, .cycle_s = 2 * arc_on_s, .rapid_mm = 100.0, .probe_s = 0.5};
+               .arc_on_s = arc_on_s, .cycle_s = 2 * arc_on_s, .cut_mm = 10 * arc_on_s, .rapid_mm = 100.0, .probe_s = 0.5};
   return j;
 }
 
@@ -54,6 +55,7 @@ TEST(JobStats, AJobReadsBackAsRecorded) {
   EXPECT_DOUBLE_EQ(r.figures.arc_on_s, 12.5);
   EXPECT_DOUBLE_EQ(r.figures.cycle_s, 25.0);
   EXPECT_DOUBLE_EQ(r.figures.rapid_mm, 100.0);
+  EXPECT_DOUBLE_EQ(r.figures.cut_mm, 125.0);
   EXPECT_DOUBLE_EQ(r.figures.probe_s, 0.5);
 }
 
@@ -68,6 +70,7 @@ TEST(JobStats, TotalsSumOneMachinesJobs) {
   EXPECT_EQ(t.lifetime.pierces, 7);
   EXPECT_DOUBLE_EQ(t.lifetime.arc_on_s, 15.0);
   EXPECT_DOUBLE_EQ(t.lifetime.rapid_mm, 200.0);
+  EXPECT_DOUBLE_EQ(t.lifetime.cut_mm, 150.0);
   EXPECT_EQ(t.lifetime.probes_skipped, 2);
   // Never changed: since the change is the lifetime.
   EXPECT_FALSE(t.last_change_utc);
@@ -117,6 +120,33 @@ TEST(JobStats, AFileThatIsNotAStoreIsRefusedNamingTheDb) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("db_path"), std::string::npos) << e.what();
   }
+}
+
+// A store written before the jobs kept their cut length (layout 1): it opens, its job counts with
+// a cut length of 0 (not known), and new jobs add theirs.
+TEST(JobStats, AStoreFromBeforeTheCutLengthGainsIt) {
+  const test::TempDir dir;
+  {
+    const store::SqliteDb old(stats_db(dir), R"sql(
+CREATE TABLE jobs (id INTEGER PRIMARY KEY, machine TEXT NOT NULL, program TEXT NOT NULL,
+  program_hash TEXT NOT NULL, started_utc TEXT NOT NULL, status TEXT NOT NULL, fault TEXT NOT NULL,
+  pierces INTEGER NOT NULL, arc_on_s REAL NOT NULL, cycle_s REAL NOT NULL, rapid_mm REAL NOT NULL,
+  probes INTEGER NOT NULL, probes_skipped INTEGER NOT NULL, probe_s REAL NOT NULL, faults INTEGER NOT NULL);
+INSERT INTO jobs VALUES (1, 'gantry', '/parts/a.ngc', 'ff', '2026-11-27T08:00:00Z', 'done', '', 3, 4.0, 9.0, 50.0,
+  3, 0, 0.3, 0);
+PRAGMA user_version = 1;
+)sql");
+  }
+  StatsStore store(stats_db(dir));
+  store.record(stats_job("gantry", 2, 5.0));
+  const MachineTotals t = store.totals("gantry");
+  EXPECT_EQ(t.lifetime.jobs, 2);
+  EXPECT_EQ(t.lifetime.pierces, 5);
+  EXPECT_DOUBLE_EQ(t.lifetime.cut_mm, 50.0);  // the new job's 10 x 5.0; the old one's unknown
+  const std::vector<JobRecord> rows = store.jobs("gantry");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(rows[1].figures.cut_mm, 0.0);
+  EXPECT_DOUBLE_EQ(rows[1].figures.rapid_mm, 50.0);
 }
 
 }  // namespace
