@@ -212,12 +212,12 @@ Panel::PlanningScope::~PlanningScope() {
   p.planning_ = false;
 }
 
-motion::RunOptions Panel::job_options(const std::optional<Eigen::Vector2d>& origin_mm, const std::string& materials_path,
-                                      int material) const {
+motion::RunOptions Panel::job_options(const JobRequest& request, const std::string& materials_path) const {
   motion::RunOptions options = o_.run;
-  options.origin_mm = origin_mm;
+  options.origin_mm = request.origin_mm;
+  options.align_mm = request.align_mm;
   options.materials_path = materials_path;
-  options.default_material = material;  // plan_program validates the whole
+  options.default_material = request.material;  // plan_program validates the whole
   return options;
 }
 
@@ -228,11 +228,23 @@ json Panel::load_job(const JobRequest& request) {
   if (request.program.empty()) throw InputError::field("program", "is empty: give a path or the program's text");
   if (request.origin_mm && !(request.origin_mm->allFinite() && request.origin_mm->cwiseAbs().maxCoeff() <= 1e6))
     throw InputError::field("origin", "must be two finite numbers within 1e6 mm");
+  if (request.align_mm) {
+    if (request.origin_mm)
+      throw InputError::field("align", "the sheet alignment sets the program's zero: give the origin or the alignment, not both");
+    for (const Eigen::Vector2d& p : {request.align_mm->first, request.align_mm->second})
+      if (!(p.allFinite() && p.cwiseAbs().maxCoeff() <= 1e6))
+        throw InputError::field("align", "each point must be two finite numbers within 1e6 mm");
+    const double apart = (request.align_mm->second - request.align_mm->first).norm();
+    if (apart < motion::RunOptions::kMinAlignEdgeMm)
+      throw InputError::field("align", fmt::format("the two edge points are {:.3f} mm apart: take them at least {:g} mm apart "
+                                                   "along the edge",
+                                                   apart, motion::RunOptions::kMinAlignEdgeMm));
+  }
   const std::string path =
       readable_file(stored(request.program, tmp_dir_ + "/" + safe_name(request.name)), "program", FileKind::program);
   std::string materials = stored(request.materials, tmp_dir_ + "/materials.cfg");
   if (!materials.empty()) materials = readable_file(materials, "materials", FileKind::materials);
-  const motion::RunOptions options = job_options(request.origin_mm, materials, request.material);
+  const motion::RunOptions options = job_options(request, materials);
   Termination t;
   std::optional<motion::PlannedRun> plan;
   try {
@@ -253,6 +265,7 @@ json Panel::load_job(const JobRequest& request) {
              {"source", clean(plan->job.source)},
              {"origin_mm", vec(plan->origin_mm)},
              {"origin_from", plan->origin_from},
+             {"rotation_deg", plan->rotation_deg},
              {"steps", plan->job.steps.size()},
              {"estimate_s", plan->expected_s()},
              {"lower_bound_s", plan->lower_bound_s},
@@ -332,7 +345,7 @@ json Panel::frame(std::optional<double> feed_mm_per_s, std::optional<double> mar
     path = job_path_;
     request = job_request_;
   }
-  const motion::RunOptions options = job_options(request.origin_mm, request.materials, request.material);
+  const motion::RunOptions options = job_options(request, request.materials);
   // The E-stop stops this planning as it stops a job's (the job is planned again when it has run).
   Termination t;
   std::optional<motion::PlannedRun> replanned;  // the job has run: planned again

@@ -90,6 +90,9 @@ struct JobRequest {
   std::string program;       // a path, or the program's text (it has a newline)
   std::string name;          // the text's file name, for messages ("upload.ngc" when empty)
   std::optional<Eigen::Vector2d> origin_mm;
+  // A sheet alignment in place of the origin: two points on the sheet's edge, machine mm (the
+  // panel takes them where the operator jogged the torch), as `run --align`.
+  std::optional<std::pair<Eigen::Vector2d, Eigen::Vector2d>> align_mm;
   // A QtPlasmaC material file: a path, or the file's text (it has a newline), as `run
   // --materials`; empty for none. `material`: the number in force when the program selects
   // none (`run --material`), -1 for the machine file's cut data.
@@ -233,9 +236,9 @@ class Panel {
   // nothing is read from a file of another kind, so no answer quotes it.
   enum class FileKind { program, materials, profile };
   std::string readable_file(const std::string& path, const char* field, FileKind kind) const;
-  // The run's options for a job: the panel's, with the job's origin and materials.
-  motion::RunOptions job_options(const std::optional<Eigen::Vector2d>& origin_mm, const std::string& materials_path,
-                                 int material) const;
+  // The run's options for a job: the panel's, with the job's origin (or alignment), materials
+  // (`materials_path`: the request's, stored) and material.
+  motion::RunOptions job_options(const JobRequest& request, const std::string& materials_path) const;
 
   PanelOptions o_;
   std::unique_ptr<session::MachineSession> session_;

@@ -205,6 +205,7 @@ Reply Server::Impl::after_body(const Request& q) {
   } catch (const Infeasible& e) {
     // A refusal the request's origin can lift names the page's fields for it.
     if (e.option() == "origin_mm") return error(422, panel.clean(Infeasible(e.message(), "the origin X, Y fields").what()));
+    if (e.option() == "align_mm") return error(422, panel.clean(Infeasible(e.message(), "the sheet edge's points").what()));
     return error(422, panel.clean(e.what()));
   } catch (const json::exception& e) {
     return error(400, fmt::format("wrong type in the request: {}", excerpt(e.what(), 200)));
@@ -274,6 +275,16 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
       if (!o.is_array() || o.size() != 2 || !o[0].is_number() || !o[1].is_number())
         throw InputError::field("origin", "must be [x, y] in mm");
       r.origin_mm = Eigen::Vector2d(o[0].get<double>(), o[1].get<double>());
+    }
+    if (body.contains("align") && !body.at("align").is_null()) {
+      const json& a = body.at("align");
+      const auto point = [](const json& p) {
+        return p.is_array() && p.size() == 2 && p[0].is_number() && p[1].is_number();
+      };
+      if (!a.is_array() || a.size() != 2 || !point(a[0]) || !point(a[1]))
+        throw InputError::field("align", "must be [[x1, y1], [x2, y2]]: two points on the sheet's edge, mm");
+      r.align_mm = std::make_pair(Eigen::Vector2d(a[0][0].get<double>(), a[0][1].get<double>()),
+                                  Eigen::Vector2d(a[1][0].get<double>(), a[1][1].get<double>()));
     }
     if (body.contains("materials") && !body.at("materials").is_null()) r.materials = body.at("materials").get<std::string>();
     r.material = whole_number(body, "material", 0, 999999, "material number").value_or(-1);

@@ -102,7 +102,7 @@ void Panel::run_job(std::optional<int> from_line) {
     last_fault_json_ = json::array();
     last_end_ = "running";
   }
-  const motion::RunOptions options = job_options(request.origin_mm, request.materials, request.material);
+  const motion::RunOptions options = job_options(request, request.materials);
   if (!plan) {
     // Again (a job runs more than once), or from a line.
     planning_ = true;
@@ -135,7 +135,7 @@ void Panel::run_frame() {
     last_end_ = "running";
   }
   if (!plan) return;
-  run_plan(std::move(*plan), job_options(request.origin_mm, request.materials, request.material), t, frame);
+  run_plan(std::move(*plan), job_options(request, request.materials), t, frame);
 }
 
 void Panel::run_plan(motion::PlannedRun plan, const motion::RunOptions& options, Termination& t, const json& frame,

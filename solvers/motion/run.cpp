@@ -67,10 +67,11 @@ std::string ends_crossed(const Eigen::AlignedBox2d& b, const Eigen::AlignedBox2d
 
 // A job outside the travel: names the ends `crossing` crosses, and where the program's zero
 // would have to sit on the machine for the whole job to fit (setting `field` to the option that
-// moves it), or that no place fits a job larger than the travel.
+// moves it: the origin, or under a sheet alignment the alignment points), or that no place fits a
+// job larger than the travel.
 std::string outside_travel(const std::string& where, const std::string& what, const Eigen::AlignedBox2d& crossing,
-                                 const Job& job, const Eigen::AlignedBox2d& box, const Eigen::Vector2d& origin,
-                                 const std::string& machine, double tol, std::string& field) {
+                           const Job& job, const Eigen::AlignedBox2d& box, const Eigen::Vector2d& origin, bool aligned,
+                           const std::string& machine, double tol, std::string& field) {
   Eigen::AlignedBox2d all(job.start_mm, job.start_mm);
   for (const Stretch& s : job.stretches)
     for (const Segment& g : s.segments) all.extend(bounding_box(g));
@@ -87,18 +88,25 @@ std::string outside_travel(const std::string& where, const std::string& what, co
   for (int a = 0; a < 2; ++a) {
     if (all.min()[a] < box.min()[a]) shift[a] = box.min()[a] - all.min()[a];
     else if (all.max()[a] > box.max()[a]) shift[a] = box.max()[a] - all.max()[a];
+    // Away from zero to the printed thousandth, so that the figures as read move it inside.
+    shift[a] = std::copysign(std::ceil(std::abs(shift[a]) * 1000.0 - 1e-9) / 1000.0, shift[a]);
   }
   const Eigen::Vector2d fits = origin + shift;
-  field = "origin_mm";
+  field = aligned ? "align_mm" : "origin_mm";
+  if (aligned)
+    return fmt::format("{}; it fits with the program's zero, the first alignment point, at X {:.3f}, Y {:.3f} on the "
+                       "machine (it is at X {:.3f}, Y {:.3f}): move the sheet by X {:.3f}, Y {:.3f} and take the points "
+                       "again",
+                       head, fits.x(), fits.y(), origin.x(), origin.y(), shift.x(), shift.y());
   return fmt::format("{}; it fits with the program's zero at X {:.3f}, Y {:.3f} on the machine (it is at X {:.3f}, "
                      "Y {:.3f}): move the zero there",
                      head, fits.x(), fits.y(), origin.x(), origin.y());
 }
 
 // Why the job leaves the travel, naming the first program line whose motion does ("" when it
-// stays inside); `origin` is where the program's zero sits on the machine, `field` is set to
-// the option that would move the job inside.
-std::string leaves_travel(const Job& job, const cutting::MachineConfig& m, const Eigen::Vector2d& origin,
+// stays inside); `origin` is where the program's zero sits on the machine (`aligned`: set by a
+// sheet alignment), `field` is set to the option that would move the job inside.
+std::string leaves_travel(const Job& job, const cutting::MachineConfig& m, const Eigen::Vector2d& origin, bool aligned,
                           std::string& field) {
   const Eigen::AlignedBox2d box = travel_box(m);
   const double tol = 1e-6;
@@ -107,7 +115,8 @@ std::string leaves_travel(const Job& job, const cutting::MachineConfig& m, const
            b.max().y() <= box.max().y() + tol;
   };
   const Eigen::AlignedBox2d start(job.start_mm, job.start_mm);
-  if (!inside(start)) return outside_travel(job.source, "the start position lies", start, job, box, origin, m.name, tol, field);
+  if (!inside(start))
+    return outside_travel(job.source, "the start position lies", start, job, box, origin, aligned, m.name, tol, field);
   for (const Stretch& s : job.stretches)
     for (std::size_t i = 0; i < s.segments.size(); ++i) {
       const Eigen::AlignedBox2d b = bounding_box(s.segments[i]);
@@ -115,7 +124,7 @@ std::string leaves_travel(const Job& job, const cutting::MachineConfig& m, const
       return outside_travel(fmt::format("{}:{}", job.source, s.source_lines[i]),
                             fmt::format("the move (X {:.3f} .. {:.3f}, Y {:.3f} .. {:.3f} mm) goes", b.min().x(), b.max().x(),
                                         b.min().y(), b.max().y()),
-                            b, job, box, origin, m.name, tol, field);
+                            b, job, box, origin, aligned, m.name, tol, field);
     }
   return {};
 }
@@ -525,7 +534,9 @@ PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::Ma
     o.from_line = start;
   }
   std::string travel_field;
-  if (std::string why = leaves_travel(o.job, o.machine, program_origin(options, machine).first, travel_field); !why.empty()) {
+  if (std::string why = leaves_travel(o.job, o.machine, program_origin(options, machine).first,
+                                      options.align_mm.has_value(), travel_field);
+      !why.empty()) {
     refuse(o, Status::infeasible, std::move(why), std::move(travel_field));
     return o;
   }

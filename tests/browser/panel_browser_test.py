@@ -26,6 +26,7 @@ always stopped, whatever happens.
 """
 import argparse
 import json
+import math
 import os
 import re
 import shutil
@@ -39,6 +40,7 @@ import urllib.request
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 
 PART = "datasets/parts/triangle_45.ngc"
@@ -280,6 +282,32 @@ def stopped_then_estop(d, out_dir, port, token):
     wait_until(lambda: not visible(d, "fault"), "Reset: the banner clears")
 
 
+def jog_and_take(d, port, token, direction, point):
+    # Hold a jog button as an operator does (the page repeats the stick every 100 ms), let go,
+    # wait for rest, then take the position as an edge point.
+    button = d.find_element(By.CSS_SELECTOR, f'.jog button[data-j="{direction}"]')
+    ActionChains(d).click_and_hold(button).pause(1.2).release().perform()
+    wait_until(lambda: server_status(port, token)["activity"] == "idle", f"jog {direction}: the machine comes to rest")
+    time.sleep(0.5)  # a live frame or two at rest
+    at = dro(d)
+    d.find_element(By.ID, f"edge-{point}").click()
+    shown = text(d, f"edge-{point}-at")
+    check(shown == f"{at[0]:.3f}, {at[1]:.3f}", f"edge point {point} taken where the DRO stands: {shown} (DRO {at})")
+    return at
+
+
+def align_by_jogging(d, out_dir, port, token):
+    first = jog_and_take(d, port, token, "1,0", 1)
+    second = jog_and_take(d, port, token, "1,1", 2)
+    d.find_element(By.ID, "load").click()
+    msg = wait_until(lambda: (lambda m: m if "aligned to the sheet's edge" in m else None)(text(d, "message")),
+                     "the job loads aligned to the sheet's edge")
+    turned = float(re.search(r"turned (-?[0-9.]+) deg", msg).group(1))
+    expect = math.degrees(math.atan2(second[1] - first[1], second[0] - first[0]))
+    check(abs(turned - expect) < 0.01 and 30 < turned < 60, f"turned by the edge's angle: {turned} deg against {expect:.3f}")
+    d.save_screenshot(os.path.join(out_dir, "panel_aligned.png"))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--machplan", required=True)
@@ -299,6 +327,7 @@ def main():
         run_job(d, a.out, port, token)
         estop_mid_cut(d, a.out, port, token)
         stopped_then_estop(d, a.out, port, token)
+        align_by_jogging(d, a.out, port, token)
         logs = [e for e in d.get_log("browser") if e.get("level") == "SEVERE" and "401" not in e.get("message", "")]
         check(not logs, f"no errors in the page's console: {logs[:3]}")
     except Failure as e:

@@ -2,6 +2,7 @@
 // program's zero and turn the program by the edge's angle; the turned job runs within the
 // contour limits, is checked against the travel, and bad points are refused by their field.
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include <Eigen/Geometry>
@@ -63,6 +64,18 @@ TEST(SheetAlignment, ATurnedJobRunsWithinTheContourLimitsAndOneOffTheTableIsRefu
   const PlannedRun off = plan_program(part("bracket_l.ngc"), o, gantry());
   EXPECT_FALSE(off.summary.done());
   EXPECT_NE(off.summary.message.find("outside the travel"), std::string::npos) << off.summary.message;
+  // The advice is about the sheet and its points, not an origin (which an alignment replaces),
+  // and taken, it fits.
+  EXPECT_EQ(off.limit_field, "align_mm");
+  const std::size_t at = off.summary.message.find("move the sheet by X ");
+  ASSERT_NE(at, std::string::npos) << off.summary.message;
+  double dx = 0, dy = 0;
+  ASSERT_EQ(std::sscanf(off.summary.message.c_str() + at, "move the sheet by X %lf, Y %lf", &dx, &dy), 2);
+  o.align_mm->first += Eigen::Vector2d(dx, dy);
+  o.align_mm->second += Eigen::Vector2d(dx, dy);
+  const PlannedRun moved = plan_program(part("bracket_l.ngc"), o, gantry());
+  EXPECT_TRUE(moved.summary.done() || moved.summary.message.find("outside the travel") == std::string::npos)
+      << moved.summary.message;
 }
 
 TEST(SheetAlignment, BadPointsAreRefusedNamingTheField) {

@@ -177,6 +177,13 @@ TEST(PanelApi, BadRequestsGet4xxWithAMessageAndChangeNothing) {
   bad("/api/job", json{{"program", kTriangle}, {"origin", {1e9, 0}}}.dump(), 400, "origin");
   // A job off the machine: the refusal names the origin fields that move it on.
   bad("/api/job", json{{"program", kTriangle}, {"origin", {-500, 0}}}.dump(), 422, "move the zero there with the origin X, Y fields");
+  // A sheet alignment: two points, apart, not beside an origin; one that puts the job off the
+  // machine names the points that move it on.
+  bad("/api/job", json{{"program", kTriangle}, {"align", {{1, 2}}}}.dump(), 400, "[[x1, y1], [x2, y2]]");
+  bad("/api/job", json{{"program", kTriangle}, {"align", {{1, 2}, {3, "a"}}}}.dump(), 400, "align");
+  bad("/api/job", json{{"program", kTriangle}, {"align", {{100, 100}, {110, 100}}}}.dump(), 400, "10.000 mm apart");
+  bad("/api/job", json{{"program", kTriangle}, {"align", {{100, 100}, {200, 100}}}, {"origin", {5, 5}}}.dump(), 400, "not both");
+  bad("/api/job", json{{"program", kTriangle}, {"align", {{-400, 100}, {-300, 100}}}}.dump(), 422, "with the sheet edge's points");
   bad("/api/override", "{\"feed\": 250}", 400, "0 .. 200");
   bad("/api/override", "{\"rapid\": 0}", 400, "1 .. 100");
   bad("/api/override", "{\"feed\": \"fast\"}", 400, "number");
@@ -566,6 +573,32 @@ TEST(PanelApi, TheJogMovesAnIdleMachineAndStopsWhenTheStickIsLetGo) {
   EXPECT_TRUE(s["faults"].empty()) << s.dump();
   EXPECT_EQ(rig.post("/api/jog", {{"x", 0.0}, {"y", 0.0}}).status, 200) << "a centred stick starts nothing";
   EXPECT_EQ(rig.status()["activity"], "idle");
+}
+
+// Sheet alignment as the page does it: jog to a point on the edge and take the position, jog
+// along the edge and take the second; the job loaded with them has its zero at the first and
+// turns by the edge's angle.
+TEST(PanelApi, AJobIsAlignedToTwoEdgePointsTakenByJogging) {
+  PanelRig rig(1.0);
+  rig.take_control();
+  const auto jog_and_take = [&](double x, double y) {
+    for (int i = 0; i < 12; ++i) {
+      EXPECT_EQ(rig.post("/api/jog", {{"x", x}, {"y", y}}).status, 200);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    EXPECT_TRUE(rig.wait_idle(30));
+    const json p = rig.status()["position_mm"];
+    return Eigen::Vector2d(p[0].get<double>(), p[1].get<double>());
+  };
+  const Eigen::Vector2d first = jog_and_take(1.0, 0.0), second = jog_and_take(1.0, 0.5);
+  ASSERT_GT((second - first).norm(), 20.0);
+  const json r = rig.load({{"program", kTriangle}, {"align", {{first.x(), first.y()}, {second.x(), second.y()}}}});
+  EXPECT_EQ(r["origin_from"], "sheet alignment") << r.dump();
+  EXPECT_NEAR(r["origin_mm"][0].get<double>(), first.x(), 1e-9);
+  EXPECT_NEAR(r["origin_mm"][1].get<double>(), first.y(), 1e-9);
+  const double angle = std::atan2(second.y() - first.y(), second.x() - first.x()) * 180.0 / M_PI;
+  EXPECT_GT(angle, 5.0);
+  EXPECT_NEAR(r["rotation_deg"].get<double>(), angle, 1e-9);
 }
 
 TEST(PanelApi, RunFromALineRunsTheTailOfTheJob) {

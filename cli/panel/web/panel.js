@@ -79,6 +79,7 @@ const view = { job: null, guard: null, box: null, scale: 1, ox: 0, oy: 0, w: 0, 
 const trail = [];          // the cut so far: [x, y] or null for a break
 let trailDrawn = 0;
 let live = null;           // the newest frame
+const edge = [null, null]; // the sheet edge's two points as taken, machine mm
 let liveDirty = true;
 
 function fit() {
@@ -400,6 +401,16 @@ function wire() {
   $('feed').oninput = () => { $('feed-val').textContent = $('feed').value + ' %'; };
   $('feed').onchange = () => act('POST', '/override', { feed: Number($('feed').value) });
   for (const b of document.querySelectorAll('.rapid')) b.onclick = () => { $('rapid-val').textContent = b.dataset.v + ' %'; act('POST', '/override', { rapid: Number(b.dataset.v) }); };
+  // Sheet alignment: the two edge points are where the machine stands when taken (after a jog).
+  const showEdge = () => {
+    for (const i of [0, 1]) $('edge-' + (i + 1) + '-at').textContent = edge[i] ? `${fmt(edge[i][0], 3)}, ${fmt(edge[i][1], 3)}` : '-';
+  };
+  for (const i of [0, 1]) $('edge-' + (i + 1)).onclick = () => {
+    if (!live) return say('no position yet: the machine has not reported one');
+    edge[i] = [live.position_mm[0], live.position_mm[1]];
+    showEdge();
+  };
+  $('edge-clear').onclick = () => { edge[0] = edge[1] = null; showEdge(); };
   $('load').onclick = async () => {
     const body = {};
     const f = $('file').files[0];
@@ -407,11 +418,16 @@ function wire() {
     else body.program = $('path').value.trim();
     const x = $('origin-x').value, y = $('origin-y').value;
     if (x !== '' && y !== '') body.origin = [Number(x), Number(y)];
+    if (edge[0] && edge[1]) body.align = [edge[0], edge[1]];  // the server refuses it beside an origin
     const m = $('materials').files[0];
     if (m) body.materials = await m.text();  // a QtPlasmaC material file, as run --materials
     if ($('material').value !== '') body.material = parseInt($('material').value, 10);
     const r = await act('POST', '/job', body);
-    if (r) { say(`loaded ${r.source}: ${r.steps} steps, about ${fmtTime(r.estimate_s)}`); await loadDrawing(); }
+    if (r) {
+      const turned = r.origin_from === 'sheet alignment' ? `, aligned to the sheet's edge (turned ${fmt(r.rotation_deg, 3)} deg)` : '';
+      say(`loaded ${r.source}: ${r.steps} steps, about ${fmtTime(r.estimate_s)}${turned}`);
+      await loadDrawing();
+    }
   };
   for (const t of document.querySelectorAll('.tab')) t.onclick = () => {
     for (const o of document.querySelectorAll('.tab')) o.classList.toggle('active', o === t);
@@ -494,7 +510,7 @@ async function loadHistory() {
 // The machine's counters: the last job, since the last consumable change, lifetime.
 function showStatistics(s) {
   if (!s) return;
-  const row = (label, f) => [label, f.jobs, f.pierces, f.arc_on_s.toFixed(1), f.cycle_s.toFixed(1), (f.rapid_mm / 1000).toFixed(2), `${f.probes} (${f.probes_skipped})`, f.faults];
+  const row = (label, f) => [label, f.jobs, f.pierces, f.arc_on_s.toFixed(1), f.cycle_s.toFixed(1), (f.cut_mm / 1000).toFixed(2), (f.rapid_mm / 1000).toFixed(2), `${f.probes} (${f.probes_skipped})`, f.faults];
   const rows = [];
   if (s.jobs.length) rows.push(row('last job: ' + s.jobs[0].status, s.jobs[0].figures));
   rows.push(row('since change', s.since_change), row('lifetime', s.lifetime));
