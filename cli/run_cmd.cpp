@@ -130,7 +130,6 @@ motion::RunOptions run_options(const RunArgs& a) {
   session::MachineSessionOptions& so = o.session;
   so.machine = a.machine;
   so.executor.mode = mode_of(a.mode);
-  so.executor.laser_pointer = a.frame && a.laser;
   // The rules between options (the paper modes' settings, what only the simulator does) are
   // the options' own validate(): the panel and a library caller meet them too.
   if (!a.blu.empty()) so.executor.blu_mm = number_flag("--blu", a.blu);
@@ -210,6 +209,7 @@ motion::PlannedRun frame_plan(const motion::PlannedRun& job, const motion::RunOp
       throw InputError("--laser", 0, fmt::format("machine '{}' has no laser pointer (a `laser: {{offset_mm: [x, y]}}` block)",
                                                  job.machine.name));
     fo.pointer_offset_mm = {(*job.machine.laser_offset_mm)[0], (*job.machine.laser_offset_mm)[1]};
+    fo.laser = true;
   }
   motion::FramePlan frame = motion::plan_frame(job.job, o, fo, job.machine, {&stop, &planning, nullptr});
   const Eigen::AlignedBox2d& b = frame.outline;

@@ -317,7 +317,7 @@ void Panel::run(std::optional<int> from_line) {
   cmd_cv_.notify_all();
 }
 
-json Panel::frame(std::optional<double> feed_mm_per_s, std::optional<double> margin_mm) {
+json Panel::frame(std::optional<double> feed_mm_per_s, std::optional<double> margin_mm, bool laser) {
   {
     const std::lock_guard<std::mutex> lock(cmd_mutex_);
     require_idle();
@@ -332,6 +332,14 @@ json Panel::frame(std::optional<double> feed_mm_per_s, std::optional<double> mar
     if (!(std::isfinite(*margin_mm) && *margin_mm >= 0.0 && *margin_mm <= 1000.0))
       throw InputError::field("margin", fmt::format("{} must be 0 .. 1000 mm", *margin_mm));
     fo.margin_mm = *margin_mm;
+  }
+  if (laser) {
+    const cutting::MachineConfig& m = session_->machine();
+    if (!m.laser_offset_mm)
+      throw InputError::field("laser", fmt::format("machine '{}' has no laser pointer (a `laser: {{offset_mm: [x, y]}}` block)",
+                                                   m.name));
+    fo.pointer_offset_mm = {(*m.laser_offset_mm)[0], (*m.laser_offset_mm)[1]};
+    fo.laser = true;
   }
   std::unique_lock<std::mutex> planning(plan_mutex_, std::try_to_lock);
   if (!planning.owns_lock()) throw Busy("another job is being planned");

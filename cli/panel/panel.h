@@ -129,7 +129,7 @@ class Panel {
   // answer the request, then run by the runner from wherever the machine stands. Returns the
   // outline (cli/json/run.h, frame_json). Busy as run(); InputError::field (feed, margin) for a
   // bad value; Infeasible when the frame leaves the travel or enters a declared no-go zone.
-  nlohmann::json frame(std::optional<double> feed_mm_per_s, std::optional<double> margin_mm);
+  nlohmann::json frame(std::optional<double> feed_mm_per_s, std::optional<double> margin_mm, bool laser = false);
   // Buttons (HTTP hold, resume, stop).
   // A paper-mode session has no hold, resume, override or recovery: those throw InputError
   // with the rule a run's options give (session::kPaperModesLack).

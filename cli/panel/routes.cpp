@@ -294,7 +294,10 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
     panel.run(whole_number(body, "from_line", 1, 10000000, "line number"));
     return ok({{"ok", true}});
   }
-  if (path == "/frame") return ok({{"ok", true}, {"frame", panel.frame(number(body, "feed"), number(body, "margin"))}});
+  if (path == "/frame") {
+    const bool laser = body.contains("laser") && body.at("laser").get<bool>();
+    return ok({{"ok", true}, {"frame", panel.frame(number(body, "feed"), number(body, "margin"), laser)}});
+  }
   if (path == "/consumables") return consumables_changed(panel, body);
   if (path == "/hold") return panel.hold(), ok({{"ok", true}});
   if (path == "/resume") return panel.resume(), ok({{"ok", true}});

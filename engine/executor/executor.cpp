@@ -748,7 +748,7 @@ bool Session::Impl::tick() noexcept {
   }
   if (sup.stopping()) out.torch_fire = false;
   // The laser pointer of a frame: on while its moves run.
-  out.laser_on = opt.laser_pointer && phase == Phase::move && !sup.faulted() && !sup.stopping();
+  out.laser_on = job.laser_pointer && phase == Phase::move && !sup.faulted() && !sup.stopping();
   record_trace();
   publish_live();
   return true;

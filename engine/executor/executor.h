@@ -112,9 +112,6 @@ Parsed<Mode> parse_mode(std::string_view text);
 
 struct ExecutorOptions {
   Mode mode = Mode::planned;
-  // The job is a frame traced by the laser pointer: Outputs::laser_on while its moves run (off
-  // at rest, at the end and on any fault).
-  bool laser_pointer = false;
   // Paper modes: vector length, mm (the paper's BLU; it found 3 to 5 mm best at 4 mm/s).
   double blu_mm = 3.0;
   // Paper modes: commanded speed = calibration_factor x programmed speed. 1 is uncalibrated;

@@ -96,7 +96,7 @@ struct Outputs {
   // Ohmic sensing on: the torch's shield is energised so that touching the plate closes
   // `Inputs::ohmic_sense` (QtPlasmaC's ohmic-enable; on only while probing).
   bool ohmic_enable = false;
-  // The laser pointer on (framing with it: ExecutorOptions::laser_pointer).
+  // The laser pointer on (framing with it: motion::Job::laser_pointer).
   bool laser_on = false;
   // Position mode: where the plan puts the axes 1 .. ahead_count periods after this command,
   // for a backend whose hardware runs on without waiting for the program (HAL): when a command

@@ -68,6 +68,7 @@ Frame frame_job(const Job& job, const FrameOptions& o) {
   const Eigen::Vector2d lr(hi.x(), lo.y()), ul(lo.x(), hi.y());
   f.job.source = job.source.empty() ? std::string("frame") : "frame of " + job.source;
   f.job.start_mm = job.start_mm;
+  f.job.laser_pointer = o.laser;
   add_move(f.job, {line(job.start_mm, lo)}, o.rapid_feed_mm_per_s, true);
   add_move(f.job, {line(lo, lr), line(lr, hi), line(hi, ul), line(ul, lo)}, o.feed_mm_per_s, false);
   add_move(f.job, {line(lo, job.start_mm)}, o.rapid_feed_mm_per_s, true);

@@ -34,6 +34,8 @@ struct FrameOptions {
   // Where the point that traces lies from the torch, mm: a laser pointer's offset (0: the
   // torch itself). The axes trace the outline less this, so that the point traces it.
   Eigen::Vector2d pointer_offset_mm = Eigen::Vector2d::Zero();
+  // The laser pointer traces it (Job::laser_pointer: its output on while the frame moves).
+  bool laser = false;
 };
 
 struct Frame {

@@ -126,6 +126,9 @@ struct Job {
   std::vector<Stretch> stretches;
   std::vector<Step> steps;
   std::vector<CutParameters> materials;             // those the job's cuts use (Step::material)
+  // A frame traced by the laser pointer (engine/motion/frame.h): its output is on while the
+  // job's moves run.
+  bool laser_pointer = false;
 };
 
 }  // namespace machplan::motion

@@ -19,12 +19,12 @@ TEST(FrameLaser, TheDotTracesTheOutlineAndTheLaserIsOnOnlyWhileTheFrameMoves) {
   const Eigen::Vector2d offset((*m.laser_offset_mm)[0], (*m.laser_offset_mm)[1]);
   RunOptions o;
   o.session.machine_config = m;
-  o.session.executor.laser_pointer = true;
   const PlannedRun job = plan_program(test::part("triangle_45.ngc"), o, m);
   ASSERT_TRUE(job.summary.done()) << job.summary.full_report();
   FrameOptions fo;
   fo.feed_mm_per_s = 40.0;
   fo.pointer_offset_mm = offset;
+  fo.laser = true;
   const FramePlan frame = plan_frame(job.job, o, fo, m);
   ASSERT_TRUE(frame.plan.summary.done()) << frame.plan.summary.full_report();
 

@@ -639,8 +639,20 @@ TEST(PanelApi, TheFrameTracesTheLoadedJobsOutlineWithTheTorchOff) {
   EXPECT_EQ(r["frame"], frame);
   EXPECT_TRUE(r["cuts"].empty());
   EXPECT_EQ(r["torch_on_s"], 0.0);
-  ASSERT_EQ(rig.post("/api/run", json::object()).status, 200);
+  // Again with the laser pointer: the axes trace the outline less its offset (the gantry's
+  // laser block), the same outline for the dot.
+  const HttpResponse lf = rig.post("/api/frame", {{"feed", 60}, {"margin", 2}, {"laser", true}});
+  ASSERT_EQ(lf.status, 200) << lf.body;
+  const json laser_frame = json::parse(lf.body)["frame"];
+  EXPECT_EQ(laser_frame["pointer_offset_mm"], json({60.0, 0.0}));
+  EXPECT_EQ(laser_frame["x_mm"], frame["x_mm"]);
   ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 2; }));
+  const json lr = json::parse(rig.get("/api/report").body);
+  EXPECT_EQ(lr["status"], "done") << lr.dump();
+  EXPECT_EQ(lr["frame"], laser_frame);
+  EXPECT_EQ(lr["torch_on_s"], 0.0);
+  ASSERT_EQ(rig.post("/api/run", json::object()).status, 200);
+  ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 3; }));
   const json cut = json::parse(rig.get("/api/report").body);
   EXPECT_EQ(cut["status"], "done") << cut.dump();
   EXPECT_EQ(cut["cuts"].size(), 1u);

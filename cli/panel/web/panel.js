@@ -377,10 +377,11 @@ function wire() {
   };
   $('control').onclick = () => act('POST', '/control', { take: true });
   $('frame').onclick = async () => {
-    const r = await act('POST', '/frame', {});
+    const laser = $('frame-laser').checked;
+    const r = await act('POST', '/frame', laser ? { laser: true } : {});
     if (r && r.frame) {
       const f = r.frame, mm = (v) => v.toFixed(1);
-      say(`framing X ${mm(f.x_mm[0])} .. ${mm(f.x_mm[1])}, Y ${mm(f.y_mm[0])} .. ${mm(f.y_mm[1])} mm at ${mm(f.feed_mm_per_s)} mm/s, torch off`);
+      say(`framing X ${mm(f.x_mm[0])} .. ${mm(f.x_mm[1])}, Y ${mm(f.y_mm[0])} .. ${mm(f.y_mm[1])} mm at ${mm(f.feed_mm_per_s)} mm/s, torch off${laser ? ', traced by the laser pointer' : ''}`);
     }
   };
   $('run').onclick = () => { const l = parseInt($('from-line').value, 10); act('POST', '/run', l > 0 ? { from_line: l } : {}); };
