@@ -306,6 +306,16 @@ def align_by_jogging(d, out_dir, port, token):
     expect = math.degrees(math.atan2(second[1] - first[1], second[0] - first[0]))
     check(abs(turned - expect) < 0.01 and 30 < turned < 60, f"turned by the edge's angle: {turned} deg against {expect:.3f}")
     d.save_screenshot(os.path.join(out_dir, "panel_aligned.png"))
+    # The aligned job framed by the laser pointer: the box beside Frame.
+    d.find_element(By.ID, "frame-laser").click()
+    d.find_element(By.ID, "frame").click()
+    wait_until(lambda: "traced by the laser pointer" in text(d, "message"), "Frame with the laser box: the page says so")
+    wait_until(lambda: server_status(port, token)["activity"] == "idle" and state(d) == "done", "the laser frame ends done",
+               timeout_s=60)
+    report = json.loads(urllib.request.urlopen(urllib.request.Request(
+        f"http://127.0.0.1:{port}/api/report", headers={"Authorization": f"Bearer {token}"}), timeout=10).read())
+    check(report["frame"]["pointer_offset_mm"] == [60.0, 0.0] and report["torch_on_s"] == 0.0,
+          f"the report: a frame traced by the laser (offset {report['frame'].get('pointer_offset_mm')}), torch never on")
 
 
 def main():
