@@ -70,6 +70,34 @@ std::optional<double> number(const json& body, const char* key) {
   return body[key].get<double>();
 }
 
+// A point [x, y] in mm, or none when `p` is not one.
+std::optional<Eigen::Vector2d> xy(const json& p) {
+  if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number()) return std::nullopt;
+  return Eigen::Vector2d(p[0].get<double>(), p[1].get<double>());
+}
+
+// POST /api/job's body (Panel::load_job checks the values).
+JobRequest job_request(const json& body) {
+  JobRequest r;
+  r.program = body.at("program").get<std::string>();
+  if (body.contains("name")) r.name = body.at("name").get<std::string>();
+  if (body.contains("origin") && !body.at("origin").is_null()) {
+    r.origin_mm = xy(body.at("origin"));
+    if (!r.origin_mm) throw InputError::field("origin", "must be [x, y] in mm");
+  }
+  if (body.contains("align") && !body.at("align").is_null()) {
+    const json& a = body.at("align");
+    const std::optional<Eigen::Vector2d> first = a.is_array() && a.size() == 2 ? xy(a[0]) : std::nullopt,
+                                         second = a.is_array() && a.size() == 2 ? xy(a[1]) : std::nullopt;
+    if (!first || !second)
+      throw InputError::field("align", "must be [[x1, y1], [x2, y2]]: two points on the sheet's edge, mm");
+    r.align_mm = std::make_pair(*first, *second);
+  }
+  if (body.contains("materials") && !body.at("materials").is_null()) r.materials = body.at("materials").get<std::string>();
+  r.material = whole_number(body, "material", 0, 999999, "material number").value_or(-1);
+  return r;
+}
+
 // POST /api/consumables: who changed them is the body's "who", else the panel.
 Reply consumables_changed(Panel& panel, const json& body) {
   const auto it = body.find("who");
@@ -266,30 +294,7 @@ Reply Server::Impl::api(const Request& q, const std::string& path, const json& b
 
   // The rest changes the machine: the client must hold control.
   if (!holds_control(q)) return error(409, kTakeControlFirst);
-  if (path == "/job") {
-    JobRequest r;
-    r.program = body.at("program").get<std::string>();
-    if (body.contains("name")) r.name = body.at("name").get<std::string>();
-    if (body.contains("origin") && !body.at("origin").is_null()) {
-      const json& o = body.at("origin");
-      if (!o.is_array() || o.size() != 2 || !o[0].is_number() || !o[1].is_number())
-        throw InputError::field("origin", "must be [x, y] in mm");
-      r.origin_mm = Eigen::Vector2d(o[0].get<double>(), o[1].get<double>());
-    }
-    if (body.contains("align") && !body.at("align").is_null()) {
-      const json& a = body.at("align");
-      const auto point = [](const json& p) {
-        return p.is_array() && p.size() == 2 && p[0].is_number() && p[1].is_number();
-      };
-      if (!a.is_array() || a.size() != 2 || !point(a[0]) || !point(a[1]))
-        throw InputError::field("align", "must be [[x1, y1], [x2, y2]]: two points on the sheet's edge, mm");
-      r.align_mm = std::make_pair(Eigen::Vector2d(a[0][0].get<double>(), a[0][1].get<double>()),
-                                  Eigen::Vector2d(a[1][0].get<double>(), a[1][1].get<double>()));
-    }
-    if (body.contains("materials") && !body.at("materials").is_null()) r.materials = body.at("materials").get<std::string>();
-    r.material = whole_number(body, "material", 0, 999999, "material number").value_or(-1);
-    return ok(panel.load_job(r));
-  }
+  if (path == "/job") return ok(panel.load_job(job_request(body)));
   if (path == "/run") {
     panel.run(whole_number(body, "from_line", 1, 10000000, "line number"));
     return ok({{"ok", true}});

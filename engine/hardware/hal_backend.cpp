@@ -215,23 +215,34 @@ bool HalBackend::Impl::newest(machplan_sample& s) const noexcept {
   return false;
 }
 
-void HalBackend::Impl::write_command(std::uint32_t period, const Outputs& out) noexcept {
-  machplan_command& slot = x->command[period % MACHPLAN_RING];
+namespace {
+
+// A command slot written under its sequence number (exchange_block.h): odd while `fill` writes it.
+template <class Fill>
+void write_slot(machplan_command& slot, Fill&& fill) noexcept {
   const std::uint32_t q = slot.seq;
   __atomic_store_n(&slot.seq, q + 1u, __ATOMIC_RELAXED);
   __atomic_thread_fence(__ATOMIC_RELEASE);
-  slot.period = period;
-  slot.session = session;
-  slot.flags = (out.drives_enabled ? MACHPLAN_CMD_ENABLE : 0u) | (out.torch_fire ? MACHPLAN_CMD_TORCH : 0u) |
-               (out.ohmic_enable ? MACHPLAN_CMD_OHMIC : 0u) | (out.laser_on ? MACHPLAN_CMD_LASER : 0u);
-  for (int i = 0; i < kAxes; ++i) {
-    slot.pos_mm[i] = out.position_command_mm[i];
-    const AxisSignals& s = o.signals[i];
-    const double full = static_cast<double>(std::int64_t{1} << (std::max(s.dac_bits, 1) - 1));
-    slot.vel_mm_per_s[i] = velocity ? out.dac_code[i] / full * s.dac_full_scale_mm_per_s : 0.0;
-  }
-  slot.height_mm = out.torch_height_target_mm;
+  fill(slot);
   __atomic_store_n(&slot.seq, q + 2u, __ATOMIC_RELEASE);
+}
+
+}  // namespace
+
+void HalBackend::Impl::write_command(std::uint32_t period, const Outputs& out) noexcept {
+  write_slot(x->command[period % MACHPLAN_RING], [&](machplan_command& slot) {
+    slot.period = period;
+    slot.session = session;
+    slot.flags = (out.drives_enabled ? MACHPLAN_CMD_ENABLE : 0u) | (out.torch_fire ? MACHPLAN_CMD_TORCH : 0u) |
+                 (out.ohmic_enable ? MACHPLAN_CMD_OHMIC : 0u) | (out.laser_on ? MACHPLAN_CMD_LASER : 0u);
+    for (int i = 0; i < kAxes; ++i) {
+      slot.pos_mm[i] = out.position_command_mm[i];
+      const AxisSignals& s = o.signals[i];
+      const double full = static_cast<double>(std::int64_t{1} << (std::max(s.dac_bits, 1) - 1));
+      slot.vel_mm_per_s[i] = velocity ? out.dac_code[i] / full * s.dac_full_scale_mm_per_s : 0.0;
+    }
+    slot.height_mm = out.torch_height_target_mm;
+  });
 }
 
 static_assert(Outputs::kMaxAhead <= static_cast<int>(MACHPLAN_AHEAD_MAX) && MACHPLAN_AHEAD_MAX + 50 < MACHPLAN_RING,
@@ -243,21 +254,16 @@ static_assert(Outputs::kMaxAhead <= static_cast<int>(MACHPLAN_AHEAD_MAX) && MACH
 void HalBackend::Impl::write_ahead(std::uint32_t period, const Outputs& out) noexcept {
   const int n = velocity ? 0 : std::clamp(out.ahead_count, 0, Outputs::kMaxAhead);
   const std::uint32_t end = period + static_cast<std::uint32_t>(n);
-  const std::uint32_t stale_end =
-      static_cast<std::int32_t>(ahead_end - end) > 0 ? ahead_end : end;
-  for (std::uint32_t p = period + 1; static_cast<std::int32_t>(stale_end - p) >= 0; ++p) {
-    machplan_command& slot = x->command[p % MACHPLAN_RING];
-    const std::uint32_t q = slot.seq;
-    __atomic_store_n(&slot.seq, q + 1u, __ATOMIC_RELAXED);
-    __atomic_thread_fence(__ATOMIC_RELEASE);
-    const bool planned = static_cast<std::int32_t>(end - p) >= 0;
-    slot.period = planned ? p : p - MACHPLAN_RING;
-    slot.session = session;
-    slot.flags = MACHPLAN_CMD_AHEAD;
-    if (planned)
-      for (int i = 0; i < kAxes; ++i) slot.pos_mm[i] = out.ahead_mm[p - period - 1][i];
-    __atomic_store_n(&slot.seq, q + 2u, __ATOMIC_RELEASE);
-  }
+  const std::uint32_t stale_end = static_cast<std::int32_t>(ahead_end - end) > 0 ? ahead_end : end;
+  for (std::uint32_t p = period + 1; static_cast<std::int32_t>(stale_end - p) >= 0; ++p)
+    write_slot(x->command[p % MACHPLAN_RING], [&](machplan_command& slot) {
+      const bool planned = static_cast<std::int32_t>(end - p) >= 0;
+      slot.period = planned ? p : p - MACHPLAN_RING;
+      slot.session = session;
+      slot.flags = MACHPLAN_CMD_AHEAD;
+      if (planned)
+        for (int i = 0; i < kAxes; ++i) slot.pos_mm[i] = out.ahead_mm[p - period - 1][i];
+    });
   ahead_end = end;
 }
 
