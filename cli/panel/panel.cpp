@@ -311,9 +311,20 @@ void Panel::run(std::optional<int> from_line) {
       job_from_line(programmed_, *from_line);  // throws when the program has no such line
     }
   }
-  activity_ = Activity::running;
-  cmd_ = Command::run;
   cmd_from_line_ = from_line;
+  begin(Activity::running, Command::run);
+}
+
+void Panel::begin(Activity a, Command c) {
+  {
+    const std::lock_guard<std::mutex> lock(op_mutex_);
+    if (op_.stop) {
+      op_.stop = false;
+      publish_inputs();
+    }
+  }
+  activity_ = a;
+  cmd_ = c;
   cmd_cv_.notify_all();
 }
 
@@ -379,9 +390,7 @@ json Panel::frame(std::optional<double> feed_mm_per_s, std::optional<double> mar
     frame_plan_ = std::move(f->plan);
     frame_json_ = j;
   }
-  activity_ = Activity::running;
-  cmd_ = Command::frame;
-  cmd_cv_.notify_all();
+  begin(Activity::running, Command::frame);
   return j;
 }
 
@@ -423,16 +432,19 @@ void Panel::resume() {
 }
 
 void Panel::stop() {
-  if (activity_.load() == Activity::guarding) {
-    const std::lock_guard<std::mutex> lock(stop_mutex_);
-    if (current_stop_) current_stop_.load()->request_stop();
-    return;
-  }
+  const Activity a = activity_.load();
+  if (a == Activity::idle) return;  // nothing to stop, and nothing left to stop the next run
   {
     const std::lock_guard<std::mutex> lock(stop_mutex_);
-    if (planning_.load() && current_stop_) current_stop_.load()->request_stop();
+    if (current_stop_ && (a != Activity::running || planning_.load())) current_stop_.load()->request_stop();
   }
-  press(&hardware::OperatorInputs::stop);
+  if (a == Activity::guarding) return;
+  // The button stays pressed until the activity ends (the runner lets go of it): a run that
+  // has not read its inputs yet (still planning, or between the rapid to the start and the
+  // job) stops at its first period, which a pulse could miss.
+  const std::lock_guard<std::mutex> lock(op_mutex_);
+  op_.stop = true;
+  publish_inputs();
 }
 
 void Panel::estop() {
@@ -528,11 +540,7 @@ void Panel::jog(double x, double y) {
   }
   if (a == Activity::idle && deflected) {
     const std::lock_guard<std::mutex> lock(cmd_mutex_);
-    if (activity_.load() == Activity::idle && cmd_ == Command::none) {
-      activity_ = Activity::jogging;
-      cmd_ = Command::jog;
-      cmd_cv_.notify_all();
-    }
+    if (activity_.load() == Activity::idle && cmd_ == Command::none) begin(Activity::jogging, Command::jog);
   }
 }
 
@@ -584,20 +592,18 @@ void Panel::start_guard(GuardRequest request) {
   }
   stick_.store(hardware::LiveOperator::pack({0.0, 0.0, guard_request_->options.feed_mm_per_s, false}));
   guard_live_valid_ = false;
-  activity_ = Activity::guarding;
-  cmd_ = Command::guard;
-  cmd_cv_.notify_all();
+  begin(Activity::guarding, Command::guard);
 }
 
 void Panel::service() {
   const auto now = Clock::now();
   const std::lock_guard<std::mutex> lock(op_mutex_);
   bool changed = false;
-  if (op_.feed_hold || op_.cycle_start || op_.stop) {
+  if (op_.feed_hold || op_.cycle_start) {
     const std::uint64_t tick = session_->live().read().tick;
     const bool seen = activity_.load() == Activity::running && tick >= press_tick_ + 2;
     if (seen || now - press_time_ > std::chrono::milliseconds(250)) {
-      op_.feed_hold = op_.cycle_start = op_.stop = false;
+      op_.feed_hold = op_.cycle_start = false;
       changed = true;
     }
   }

@@ -207,6 +207,9 @@ class Panel {
   // Busy unless the machine is idle with no command pending and the E-stop closed; under
   // cmd_mutex_.
   void require_idle() const;
+  // The runner takes `c` and the machine is `a` from now; a stop left over from the last
+  // activity is dropped. Under cmd_mutex_.
+  void begin(Activity a, Command c);
   // While a request plans on its own thread: `t` is what the E-stop and the stop button stop,
   // and the status says planning.
   static std::int64_t now_ns();  // steady clock

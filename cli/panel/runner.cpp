@@ -69,6 +69,11 @@ void Panel::runner_loop() {
     }
     planning_ = false;
     {
+      const std::lock_guard<std::mutex> lock(op_mutex_);
+      op_.stop = false;  // the stop button, held since it was pressed, is let go
+      publish_inputs();
+    }
+    {
       const std::lock_guard<std::mutex> lock(cmd_mutex_);
       if (cmd_ != Command::quit) cmd_ = Command::none;
       activity_ = Activity::idle;

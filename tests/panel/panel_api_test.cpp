@@ -518,6 +518,30 @@ TEST(PanelApi, OverridesAndStopReachTheRun) {
   EXPECT_EQ(rig.status()["state"], "cancelled");
 }
 
+TEST(PanelApi, AStopPressedAsARunStartsIsNeverLost) {
+  // The first run takes the plan made at loading; each later one plans the job again, and a stop
+  // can land before, during or after that planning, or before the run's first period: every
+  // one must end the run, and none may be left for the next run.
+  PanelRig rig(8.0);
+  rig.take_control();
+  rig.load({{"program", kTriangle}});
+  for (int i = 0; i < 8; ++i) {
+    ASSERT_EQ(rig.post("/api/run").status, 200);
+    if (i % 2 == 1) std::this_thread::sleep_for(std::chrono::milliseconds(5 * i));
+    ASSERT_EQ(rig.post("/api/stop").status, 200);
+    ASSERT_TRUE(rig.wait_idle());
+    const json s = rig.status();
+    EXPECT_EQ(s["state"], "cancelled") << "stop " << i << ": " << s.dump();
+    EXPECT_TRUE(s["faults"].empty()) << s.dump();
+  }
+  // A stop pressed on an idle machine stops nothing later.
+  ASSERT_EQ(rig.post("/api/stop").status, 200);
+  ASSERT_EQ(rig.post("/api/run").status, 200);
+  ASSERT_TRUE(rig.wait_idle());
+  EXPECT_EQ(rig.status()["state"], "done");
+  EXPECT_EQ(json::parse(rig.get("/api/report").body)["torch_off_at_end"], true);
+}
+
 TEST(PanelApi, TheLiveStreamWantsTheTokenAndThisOriginAndSendsTheState) {
   PanelRig rig(0);
   {
