@@ -51,6 +51,7 @@ void Session::Impl::record_probes(bool was_firing) noexcept {
       r.position_mm = p.at_mm;
       r.sensor = p.sensor == TorchSequencer::Probe::Sensor::ohmic          ? "ohmic"
                  : p.sensor == TorchSequencer::Probe::Sensor::float_switch ? "float_switch"
+                 : p.sensor == TorchSequencer::Probe::Sensor::offset_probe ? "offset_probe"
                                                                            : "";
       r.skipped = p.skipped;
       r.surface_mm = p.surface_mm;
@@ -66,7 +67,7 @@ void Session::Impl::record_probes(bool was_firing) noexcept {
     awaiting_pierce = false;
     if (be.true_torch_gap(gap)) result.probes.back().pierce_height_error_mm = gap - torch.pierce_height_mm();
   }
-  if (!torch.lighting()) awaiting_pierce = false;  // stopped before it fired
+  if (!torch.lighting() && !torch.probing_for_pierce()) awaiting_pierce = false;  // stopped before it fired
 }
 
 void Session::Impl::begin_step() noexcept {
@@ -123,6 +124,12 @@ void Session::Impl::begin_step() noexcept {
       phase = Phase::torch;
       break;
     case Step::Kind::dwell: phase = Phase::dwell; break;
+    case Step::Kind::probe:
+      torch.set_position(adapter.position_mm());
+      torch.start_probe(out);
+      if (torch.busy()) phase = Phase::torch;
+      else next_step();  // no offset probe on this machine: the torch on probes as it can
+      break;
   }
 }
 

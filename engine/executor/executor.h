@@ -204,8 +204,8 @@ struct PausedMotionReport {
 struct ProbeReport {
   double t_s = 0.0;                 // when the surface was known
   int step = -1, source_line = 0;
-  Eigen::Vector2d position_mm = Eigen::Vector2d::Zero();  // where the torch stood
-  const char* sensor = "";          // "ohmic", "float_switch", or "" when skipped (static text)
+  Eigen::Vector2d position_mm = Eigen::Vector2d::Zero();  // where the surface was found (under the torch or the offset probe)
+  const char* sensor = "";          // "ohmic", "float_switch", "offset_probe", or "" when skipped (static text)
   bool skipped = false;
   double surface_mm = 0.0;          // the surface found (or kept), height frame (0: nominal)
   double duration_s = 0.0;          // the probe's own time (0 when skipped)

@@ -28,6 +28,14 @@ void ProbeSetup::validate() const {
   require(std::isfinite(skip_distance_mm) && skip_distance_mm >= 0 && skip_distance_mm <= 1000, "skip_distance_mm",
           skip_distance_mm, "must be in [0, 1000] mm");
   require(debounce_periods >= 1 && debounce_periods <= 100, "debounce_periods", debounce_periods, "must be 1 .. 100");
+  require(std::isfinite(offset_x_mm) && std::abs(offset_x_mm) <= 1000, "offset_x_mm", offset_x_mm, "must be in [-1000, 1000] mm");
+  require(std::isfinite(offset_y_mm) && std::abs(offset_y_mm) <= 1000, "offset_y_mm", offset_y_mm, "must be in [-1000, 1000] mm");
+  require(std::isfinite(offset_delay_s) && offset_delay_s >= 0 && offset_delay_s <= 10, "offset_delay_s", offset_delay_s,
+          "must be in [0, 10] s");
+  if (offset()) {
+    require(float_switch, "float_switch", 0, "must be true with an offset probe: the probe closes the float-switch input");
+    require(!ohmic, "ohmic", 1, "must be false with an offset probe: ohmic sensing needs the torch over the pierce point");
+  }
 }
 
 void TorchSetup::validate() const {

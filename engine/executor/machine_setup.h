@@ -33,7 +33,16 @@ struct ProbeSetup {
   // surface without probing again (QtPlasmaC's skip IHS); 0: every pierce probes.
   double skip_distance_mm = 0.0;
   int debounce_periods = 3;           // a sensor counts once it reads closed this many periods in a row
+  // An offset probe (QtPlasmaC's offset-probe-x/-y/-delay): a probe mounted beside the torch,
+  // at this x, y offset from the torch's centre, deployed by Outputs::offset_probe and read on
+  // the float-switch input (its own travel is float_travel_mm). Before each pierce that probes,
+  // the planner moves the torch so the probe stands over the pierce point, the probe is
+  // deployed (offset_delay_s), probes, is stowed, and the torch moves back to pierce
+  // (engine/motion/offset_probe.h). 0, 0: no offset probe, the torch probes where it stands.
+  double offset_x_mm = 0.0, offset_y_mm = 0.0;
+  double offset_delay_s = 0.5;        // the probe's deployment (and its stowing) takes this long
   bool fitted() const { return float_switch || ohmic; }
+  bool offset() const { return fitted() && (offset_x_mm != 0.0 || offset_y_mm != 0.0); }
   void validate() const;  // throws InputError naming field, value and rule
 };
 

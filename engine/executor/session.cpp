@@ -107,6 +107,7 @@ void Session::Impl::prepare(double machine_period_s) {
   // The job, independent of the source.
   Eigen::Vector2d at = job.start_mm;
   bool torch_on = false;
+  std::size_t probe_steps = 0;
   const TorchSetup& ts = ms.torch;
   for (std::size_t i = 0; i < job.steps.size(); ++i) {
     const Step& st = job.steps[i];
@@ -145,6 +146,12 @@ void Session::Impl::prepare(double machine_period_s) {
         if (!(std::isfinite(st.seconds) && st.seconds >= 0 && st.seconds <= 3600))
           fail(st.source_line, fmt::format("dwell of {} s (must be 0 .. 3600)", st.seconds));
         break;
+      case Step::Kind::probe:
+        if (!ts.height_axis || !ts.probe.offset())
+          fail(st.source_line, fmt::format("a probe step, but machine '{}' has no offset probe", ms.name));
+        if (torch_on) fail(st.source_line, "a probe step with the torch on (no torch_off step before it)");
+        ++probe_steps;
+        break;
     }
   }
   source->prepare(ctx, job.start_mm);
@@ -156,6 +163,9 @@ void Session::Impl::prepare(double machine_period_s) {
   longest.pierce_s = ts.pierce_delay_s;
   longest.torch_off_s = ts.height_timeout_s;
   double est_s = 1.0 + motion::process_time_s(job, longest) + source->estimate_s();
+  if (probe_steps > 0)
+    est_s += static_cast<double>(probe_steps) * (2 * ts.probe.offset_delay_s + 2 * ts.height_timeout_s +
+                                                 (ts.probe.probe_height_mm + ts.probe.max_depth_mm) / ts.probe.probe_speed_mm_per_s);
   expected_s = std::max(parts.expected_s > 0 ? parts.expected_s : est_s, dt);
   // Stop: ramp from the top speed, settle, margins.
   double vmax = 0;

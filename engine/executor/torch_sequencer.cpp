@@ -19,8 +19,12 @@ void TorchSequencer::start_on(bool programmed_pierce, hardware::Outputs& out, bo
   if (t_.kind == Kind::spindle) {
     out.torch_fire = true;  // the spindle runs; the spin-up is its "pierce"
     enter(Phase::pierce);
+  } else if (t_.height_axis && t_.probe.fitted() && offset_ready_) {
+    offset_ready_ = false;  // the probe step before it found the surface here
+    aim(out, t_.pierce_height_mm);
+    enter(Phase::height_pierce);
   } else if (t_.height_axis && t_.probe.fitted()) {
-    begin_probe(out);
+    begin_probe(out, false);
   } else if (t_.height_axis) {
     aim(out, t_.pierce_height_mm);
     enter(Phase::height_pierce);
@@ -41,17 +45,30 @@ void TorchSequencer::light(hardware::Outputs& out) noexcept {
   }
 }
 
-void TorchSequencer::begin_probe(hardware::Outputs& out) noexcept {
+void TorchSequencer::start_probe(hardware::Outputs& out) noexcept {
+  offset_ready_ = false;
+  if (!t_.height_axis || !t_.probe.offset()) {
+    phase_ = Phase::idle;  // nothing to probe with: the torch on will say how it found the sheet
+    return;
+  }
+  begin_probe(out, true);
+}
+
+void TorchSequencer::begin_probe(hardware::Outputs& out, bool offset_step) noexcept {
   const ProbeSetup& p = t_.probe;
+  const Eigen::Vector2d where = offset_step ? Eigen::Vector2d(at_mm_.x() + p.offset_x_mm, at_mm_.y() + p.offset_y_mm) : at_mm_;
   probe_ = Probe{};
-  probe_.at_mm = at_mm_;
+  probe_.at_mm = where;
   probe_t_ = 0.0;
+  offset_step_ = offset_step;
   // The surface expected here: the map's estimate, within the probe's reach of the nominal
   // surface (an estimate far out is an extrapolation gone wrong, not the sheet).
   expected_mm_ = 0.0;
-  map_.estimate(at_mm_, expected_mm_);
+  map_.estimate(where, expected_mm_);
   expected_mm_ = std::clamp(expected_mm_, -p.max_depth_mm, p.max_depth_mm);
-  if (probed_ && p.skip_distance_mm > 0 && (at_mm_ - probed_at_mm_).cwiseAbs().maxCoeff() <= p.skip_distance_mm) {
+  // An offset probe probes in its own steps only: a torch on without one takes the estimate.
+  const bool skip = probed_ && p.skip_distance_mm > 0 && (where - probed_at_mm_).cwiseAbs().maxCoeff() <= p.skip_distance_mm;
+  if (!offset_step && (skip || p.offset())) {
     surface_mm_ = expected_mm_;
     probe_.skipped = true;
     probe_.surface_mm = surface_mm_;
@@ -61,6 +78,11 @@ void TorchSequencer::begin_probe(hardware::Outputs& out) noexcept {
     return;
   }
   ohmic_run_ = float_run_ = 0;
+  if (offset_step) {
+    out.offset_probe = true;  // deployed where the torch stands, then down
+    enter(Phase::probe_deploy);
+    return;
+  }
   out.ohmic_enable = p.ohmic;
   out.torch_height_target_mm = expected_mm_ + p.probe_height_mm;
   enter(Phase::probe_fast);
@@ -80,12 +102,18 @@ void TorchSequencer::found(double surface_mm, Probe::Sensor s, hardware::Outputs
   out.ohmic_enable = false;
   surface_mm_ = surface_mm;
   probed_ = true;
-  probed_at_mm_ = at_mm_;
-  map_.add(at_mm_, surface_mm);
-  probe_.sensor = s;
+  probed_at_mm_ = probe_.at_mm;
+  map_.add(probe_.at_mm, surface_mm);
+  probe_.sensor = offset_step_ ? Probe::Sensor::offset_probe : s;
   probe_.surface_mm = surface_mm;
   probe_.duration_s = probe_t_;
   probe_ready_ = true;
+  if (offset_step_) {
+    out.offset_probe = false;  // stowed on the way up, clear of the sheet before the torch moves
+    aim(out, t_.probe.probe_height_mm);
+    enter(Phase::probe_stow);
+    return;
+  }
   aim(out, t_.pierce_height_mm);  // up by the float's travel and on to pierce height
   enter(Phase::height_pierce);
 }
@@ -95,10 +123,27 @@ TorchSequencer::Tick TorchSequencer::probe_tick(const hardware::Inputs& in, hard
   probe_t_ += dt_;
   const bool contact = sensed(in);
   switch (phase_) {
+    case Phase::probe_deploy:
+      // A contact as the probe comes down, the torch still up: stuck, or deployed onto something.
+      if (contact) return fail_probe(Failure::switch_stuck, 1.0, out);
+      if (pt_ >= p.offset_delay_s) {
+        out.torch_height_target_mm = expected_mm_ + p.probe_height_mm;
+        enter(Phase::probe_fast);
+      }
+      return Tick::busy;
+    case Phase::probe_stow:
+      if (pt_ >= p.offset_delay_s && at(in, p.probe_height_mm)) {
+        offset_step_ = false;
+        offset_ready_ = true;
+        phase_ = Phase::idle;
+        return Tick::done;
+      }
+      if (pt_ > std::max(t_.height_timeout_s, p.offset_delay_s)) return fail_probe(Failure::torch_height_timeout, t_.height_timeout_s, out);
+      return Tick::busy;
     case Phase::probe_fast:
       // A sensor closed from the first period on (debounced by the probe's first periods),
       // with the torch still up: stuck or shorted.
-      if (contact && probe_t_ <= (p.debounce_periods + 0.5) * dt_) return fail_probe(Failure::switch_stuck, in.float_switch ? 1.0 : 0.0, out);
+      if (contact && pt_ <= (p.debounce_periods + 0.5) * dt_) return fail_probe(Failure::switch_stuck, in.float_switch ? 1.0 : 0.0, out);
       if (contact) {
         // The sheet stands higher than expected: back up over it and probe slowly from there.
         const double z = ohmic_run_ >= p.debounce_periods ? ohmic_z_ + p.ohmic_offset_mm : float_z_ + p.float_travel_mm;
@@ -153,9 +198,9 @@ void TorchSequencer::end_cut(hardware::Outputs& out, double height_mm) noexcept 
 }
 
 void TorchSequencer::kill(hardware::Outputs& out) noexcept {
-  moving_ = motion_ok_ = false;
+  moving_ = motion_ok_ = offset_step_ = offset_ready_ = false;
   out.torch_fire = false;
-  out.ohmic_enable = false;
+  out.ohmic_enable = out.offset_probe = false;
   aim(out, t_.retract_height_mm);
   lit_ = false;
   phase_ = Phase::idle;
@@ -201,9 +246,11 @@ TorchSequencer::Tick TorchSequencer::tick(const hardware::Inputs& in, hardware::
   pt_ += dt_;
   switch (phase_) {
     case Phase::idle: return Tick::idle;
+    case Phase::probe_deploy:
     case Phase::probe_fast:
     case Phase::probe_back:
-    case Phase::probe_slow: return probe_tick(in, out);
+    case Phase::probe_slow:
+    case Phase::probe_stow: return probe_tick(in, out);
     case Phase::height_pierce:
       if (at(in, t_.pierce_height_mm)) {
         light(out);

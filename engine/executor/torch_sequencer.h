@@ -14,6 +14,12 @@
 //       one the earlier probes' surface map (engine/executor/surface_map.h) estimates there
 //       (the nominal 0 before any). A pierce within skip_distance_mm of the last probed point
 //       does not probe: its surface is the map's estimate.
+//   probe step (an offset probe, ProbeSetup::offset_x_mm): deploy the probe (offset_probe on,
+//       offset_delay_s) -> the probe above, under the probe's position (where the torch stands
+//       plus the offset), its contact read on the float-switch input -> stow (offset_probe off)
+//       and up to the probe height over the surface found, at least offset_delay_s. The next
+//       torch on pierces over that surface without probing; a torch on that no probe step
+//       prepared (a re-pierce after a hold) takes the map's estimate, as a skipped probe does.
 //   torch on (oxy-fuel):  [height to pierce height] -> preheat -> cutting oxygen -> pierce delay
 //       -> [height to cut height]
 //   a dwell step right after the torch_on IS the pierce delay (G4): the sequence then ends at
@@ -48,8 +54,8 @@ class TorchSequencer {
 
   // One probe, or one skipped by the skip rule.
   struct Probe {
-    enum class Sensor { none, ohmic, float_switch };
-    Eigen::Vector2d at_mm = Eigen::Vector2d::Zero();  // where the torch stood
+    enum class Sensor { none, ohmic, float_switch, offset_probe };
+    Eigen::Vector2d at_mm = Eigen::Vector2d::Zero();  // where the surface was found (the torch, or the offset probe)
     Sensor sensor = Sensor::none;                      // the sensor that found the surface (none: skipped)
     bool skipped = false;
     double surface_mm = 0.0;     // the surface found (or kept), height frame
@@ -62,7 +68,7 @@ class TorchSequencer {
     phase_ = Phase::idle;
     lit_ = false;
     surface_mm_ = 0.0;
-    probed_ = probe_ready_ = false;
+    probed_ = probe_ready_ = offset_step_ = offset_ready_ = false;
     map_.clear();
   }
 
@@ -75,6 +81,10 @@ class TorchSequencer {
   // to the cutting oxygen. `moving_delay_s` >= 0: a ramp pierce of that delay when the
   // material has one (plasma with a height axis): motion_allowed() from its motion delay on.
   void start_on(bool programmed_pierce, hardware::Outputs& out, bool preheated = false, double moving_delay_s = -1.0) noexcept;
+  // A probe step: the offset probe finds the surface under it (see the file comment).
+  void start_probe(hardware::Outputs& out) noexcept;
+  // A probe step ran or runs whose surface the next start_on() pierces over.
+  bool probing_for_pierce() const noexcept { return offset_step_ || offset_ready_; }
   // A ramp pierce may move along the cut now: the arc is on and the material's motion delay
   // has passed; the sequence goes on (the descent to the pierce end height, cut height) while
   // the axes move. tick() it until done.
@@ -126,7 +136,7 @@ class TorchSequencer {
 
   bool busy() const noexcept { return phase_ != Phase::idle; }
   // A torch-on sequence is under way (not the retract).
-  bool lighting() const noexcept { return busy() && phase_ != Phase::off_retract; }
+  bool lighting() const noexcept { return busy() && phase_ != Phase::off_retract && !offset_step_; }
   // The torch-on sequence completed and the torch has not been turned off since.
   bool lit() const noexcept { return lit_; }
   Failure failure() const noexcept { return failure_; }
@@ -134,7 +144,7 @@ class TorchSequencer {
 
  private:
   enum class Phase {
-    idle, probe_fast, probe_back, probe_slow, height_pierce, preheat, wait_arc, pierce, puddle_jump, puddle_wait, pierce_end,
+    idle, probe_deploy, probe_fast, probe_back, probe_slow, probe_stow, height_pierce, preheat, wait_arc, pierce, puddle_jump, puddle_wait, pierce_end,
     height_cut, pause_end, off_retract
   };
   void enter(Phase p) noexcept {
@@ -149,7 +159,8 @@ class TorchSequencer {
   }
   // A probe's failure: ohmic sensing off with it.
   Tick fail_probe(Failure f, double v, hardware::Outputs& out) noexcept {
-    out.ohmic_enable = false;
+    out.ohmic_enable = out.offset_probe = false;
+    offset_step_ = false;
     return fail(f, v);
   }
   // At height `h` over the surface.
@@ -159,7 +170,8 @@ class TorchSequencer {
   void aim(hardware::Outputs& out, double h) const noexcept { out.torch_height_target_mm = surface_mm_ + h; }
   // The start of a torch-on once the torch is at pierce height (or without a height axis).
   void light(hardware::Outputs& out) noexcept;
-  void begin_probe(hardware::Outputs& out) noexcept;
+  // A probe under the torch (a torch on) or under the offset probe (`offset_step`).
+  void begin_probe(hardware::Outputs& out, bool offset_step) noexcept;
   // Debounced sensors this period; true when one has read closed debounce_periods in a row.
   bool sensed(const hardware::Inputs& in) noexcept;
   Tick probe_tick(const hardware::Inputs& in, hardware::Outputs& out) noexcept;
@@ -184,6 +196,8 @@ class TorchSequencer {
   Eigen::Vector2d probed_at_mm_ = Eigen::Vector2d::Zero();
   Probe probe_;                          // the one under way or last finished
   bool probe_ready_ = false;
+  bool offset_step_ = false;             // the probe under way is a probe step's
+  bool offset_ready_ = false;            // a probe step found the surface the next pierce takes
   double probe_t_ = 0.0;                 // since the probe began
   double probe_target_mm_ = 0.0;         // the slow probe's moving target
   double expected_mm_ = 0.0;             // the surface expected under the probe

@@ -96,6 +96,9 @@ struct Outputs {
   // Ohmic sensing on: the torch's shield is energised so that touching the plate closes
   // `Inputs::ohmic_sense` (QtPlasmaC's ohmic-enable; on only while probing).
   bool ohmic_enable = false;
+  // The offset probe deployed (ProbeSetup::offset_x_mm): down beside the torch, its contact
+  // read on `Inputs::float_switch`; stowed otherwise.
+  bool offset_probe = false;
   // The laser pointer on (framing with it: motion::Job::laser_pointer).
   bool laser_on = false;
   // Position mode: where the plan puts the axes 1 .. ahead_count periods after this command,

@@ -234,7 +234,8 @@ void HalBackend::Impl::write_command(std::uint32_t period, const Outputs& out) n
     slot.period = period;
     slot.session = session;
     slot.flags = (out.drives_enabled ? MACHPLAN_CMD_ENABLE : 0u) | (out.torch_fire ? MACHPLAN_CMD_TORCH : 0u) |
-                 (out.ohmic_enable ? MACHPLAN_CMD_OHMIC : 0u) | (out.laser_on ? MACHPLAN_CMD_LASER : 0u);
+                 (out.ohmic_enable ? MACHPLAN_CMD_OHMIC : 0u) | (out.laser_on ? MACHPLAN_CMD_LASER : 0u) |
+                 (out.offset_probe ? MACHPLAN_CMD_PROBE : 0u);
     for (int i = 0; i < kAxes; ++i) {
       slot.pos_mm[i] = out.position_command_mm[i];
       const AxisSignals& s = o.signals[i];

@@ -107,7 +107,10 @@ struct CutParameters {
 
 // One thing the executor does, in order.
 struct Step {
-  enum class Kind { move, torch_on, torch_off, dwell };
+  // probe: the offset probe finds the sheet under the probe, where the torch stands plus the
+  // probe's offset (engine/motion/offset_probe.h inserts it); the next torch_on takes that
+  // surface.
+  enum class Kind { move, torch_on, torch_off, dwell, probe };
   Kind kind = Kind::move;
   int source_line = 0;
   std::size_t stretch = 0;  // move: index into Job::stretches

@@ -16,11 +16,26 @@ const CutParameters* material_of(const Job& job, const Step& s) {
   return &job.materials[static_cast<std::size_t>(s.material)];
 }
 
+// The probe from `waiting_mm` down to the contact, debounced; `rest_mm` is where the torch
+// stands then, under the surface.
+double probe_down_s(double waiting_mm, const TorchTimes::Height& h, const TorchTimes::Probe& p, double& rest_mm) {
+  rest_mm = -p.contact_below_mm - p.debounce_s * p.speed_mm_per_s;
+  return height_move_s(waiting_mm, p.height_mm, h) + (p.height_mm + p.contact_below_mm) / p.speed_mm_per_s + p.debounce_s;
+}
+
 // The probe from `waiting_mm` to the surface, and on to pierce height.
 double probe_s(double waiting_mm, double pierce_mm, const TorchTimes::Height& h, const TorchTimes::Probe& p) {
-  const double debounce_mm = p.debounce_s * p.speed_mm_per_s;
-  return height_move_s(waiting_mm, p.height_mm, h) + (p.height_mm + p.contact_below_mm) / p.speed_mm_per_s + p.debounce_s +
-         height_move_s(-p.contact_below_mm - debounce_mm, pierce_mm, h);
+  double rest_mm = 0.0;
+  const double down_s = probe_down_s(waiting_mm, h, p, rest_mm);
+  return down_s + height_move_s(rest_mm, pierce_mm, h);
+}
+
+// An offset probe's step from `waiting_mm`: deploy, probe, and up to the probe height while it
+// is stowed.
+double offset_probe_s(double waiting_mm, const TorchTimes::Height& h, const TorchTimes::Probe& p) {
+  double rest_mm = 0.0;
+  const double down_s = probe_down_s(waiting_mm, h, p, rest_mm);
+  return p.offset_delay_s + down_s + std::max(p.offset_delay_s, height_move_s(rest_mm, p.height_mm, h));
 }
 
 // The torch height moves of a torch_on from `waiting_mm`: down to pierce height (by the probe
@@ -71,7 +86,7 @@ double process_time_s(const Job& job, const TorchTimes& times) {
       case Step::Kind::torch_on: {
         material = times.use_materials ? material_of(job, s) : nullptr;
         lit = true;
-        const TorchTimes::Probe* probe = times.probe ? &*times.probe : nullptr;
+        const TorchTimes::Probe* probe = times.probe && !times.probe->offset ? &*times.probe : nullptr;
         if (probe && probe->skip_distance_mm > 0 && (at - probed_at).cwiseAbs().maxCoeff() <= probe->skip_distance_mm)
           probe = nullptr;  // skipped
         if (probe) probed_at = at;
@@ -104,6 +119,12 @@ double process_time_s(const Job& job, const TorchTimes& times) {
       case Step::Kind::dwell:
         if (!skip_dwell) t += s.seconds;
         skip_dwell = false;
+        break;
+      case Step::Kind::probe:
+        if (times.height && times.probe && times.probe->offset) {
+          t += offset_probe_s(waiting_mm, *times.height, *times.probe);
+          waiting_mm = times.probe->height_mm;
+        }
         break;
       case Step::Kind::move: {
         const auto& seg = job.stretches[s.stretch].segments;

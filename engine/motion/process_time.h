@@ -40,8 +40,14 @@ struct TorchTimes {
   // the contact (the surface for an ohmic contact, `contact_below_mm` under it for a float
   // switch alone) and `debounce_s` on, then at the axis' speed up to the pierce height. A
   // torch_on within `skip_distance_mm` (in x and y) of the last probed point does not probe.
+  // An offset probe (`offset`) probes in the job's probe steps instead: `offset_delay_s` to
+  // deploy, the probe down as above, then up to `height_mm` over the surface while it is stowed
+  // (at least `offset_delay_s`); the torch_on after it goes from there to pierce height, and a
+  // torch_on without one does not probe.
   struct Probe {
     double height_mm = 5.0, speed_mm_per_s = 10.0, contact_below_mm = 0.0, debounce_s = 0.0, skip_distance_mm = 0.0;
+    bool offset = false;
+    double offset_delay_s = 0.0;
   };
   std::optional<Probe> probe;  // with `height` only
   double torch_on_s = 0.0;   // a torch_on step's own time without a height axis (the executor: timeouts)

@@ -99,7 +99,8 @@ AxisConfig read_axis(const Yaml& a, const std::string& name) {
 // The torch_height block's probe block: how the torch finds the sheet.
 executor::ProbeSetup read_probe(const Yaml& p, const TorchHeightConfig& th) {
   p.reject_unknown_keys({"float_switch", "ohmic", "probe_height_mm", "probe_speed_mm_per_s", "float_travel_mm",
-                         "ohmic_offset_mm", "max_depth_mm", "skip_distance_mm", "debounce_periods"});
+                         "ohmic_offset_mm", "max_depth_mm", "skip_distance_mm", "debounce_periods", "offset_x_mm",
+                         "offset_y_mm", "offset_delay_s"});
   executor::ProbeSetup s;
   s.float_switch = p.boolean_or("float_switch", false);
   s.ohmic = p.boolean_or("ohmic", false);
@@ -115,6 +116,13 @@ executor::ProbeSetup read_probe(const Yaml& p, const TorchHeightConfig& th) {
   s.max_depth_mm = p.number_or("max_depth_mm", s.max_depth_mm, {.min = 0.0, .max = 100.0, .min_exclusive = true});
   s.skip_distance_mm = p.number_or("skip_distance_mm", s.skip_distance_mm, {.min = 0.0, .max = 1000.0});
   if (const auto d = p.get("debounce_periods")) s.debounce_periods = d->integer(1, 100);
+  s.offset_x_mm = p.number_or("offset_x_mm", 0.0, {.min = -1000.0, .max = 1000.0});
+  s.offset_y_mm = p.number_or("offset_y_mm", 0.0, {.min = -1000.0, .max = 1000.0});
+  s.offset_delay_s = p.number_or("offset_delay_s", s.offset_delay_s, {.min = 0.0, .max = 10.0});
+  if (s.offset()) {
+    if (!s.float_switch) p.fail("has an offset probe (offset_x_mm, offset_y_mm): set float_switch to true, the input it closes");
+    if (s.ohmic) p.at("ohmic").fail("must be false with an offset probe: ohmic sensing needs the torch over the pierce point");
+  }
   return s;
 }
 

@@ -190,14 +190,14 @@ void SimBackend::advance(const hardware::Outputs& out) {
     height_target_mm_ = alive ? out.torch_height_target_mm : m_.torch_height.retract_height_mm;
     const double step = m_.torch_height.speed_mm_per_s * dt;
     height_mm_ += std::clamp(height_target_mm_ - height_mm_, -step, step);
-    sense_plate(alive && out.ohmic_enable, dt);
+    sense_plate(alive && out.ohmic_enable, alive && out.offset_probe, dt);
   }
   burn_and_measure(dt);
   time_s_ += dt;
   ++ticks_;
 }
 
-void SimBackend::sense_plate(bool ohmic_on, double dt) noexcept {
+void SimBackend::sense_plate(bool ohmic_on, bool offset_probe, double dt) noexcept {
   const executor::ProbeSetup& p = m_.torch_height.probe;
   // A dirty plate: drawn once per probe, as the ohmic sensing switches on.
   if (ohmic_on && !ohmic_on_) ohmic_dirty_ = m_.sheet_ohmic_miss_probability > 0 && axis::uniform01(process_rng_) < m_.sheet_ohmic_miss_probability;
@@ -205,7 +205,16 @@ void SimBackend::sense_plate(bool ohmic_on, double dt) noexcept {
   double gap = 0.0;
   const bool plate = true_torch_gap(gap);  // false: no sheet under the torch
   knock_left_s_ = std::max(0.0, knock_left_s_ - dt);
-  float_switch_ = p.float_switch && (float_stuck_ || knock_left_s_ > 0 || (plate && gap <= -p.float_travel_mm));
+  // The offset probe, deployed, closes the same input over the plate beside the torch: its
+  // tip level with the torch's, at the probe's offset.
+  double probe_gap = gap;
+  if (offset_probe && plate) {
+    Eigen::Vector2d at;
+    true_position(at);
+    probe_gap = height_mm_ - plate_z_mm(at.x() + p.offset_x_mm, at.y() + p.offset_y_mm);
+  }
+  const bool float_contact = plate && (offset_probe ? probe_gap : gap) <= -p.float_travel_mm;
+  float_switch_ = p.float_switch && (float_stuck_ || knock_left_s_ > 0 || float_contact);
   ohmic_sense_ = p.ohmic && ohmic_on && !ohmic_dirty_ && !ohmic_dead_ && plate && gap <= 0.0;
   // A torch that probes rides on a floating mount, with a switch or not; it gives past the
   // float's overtravel. A torch that does not probe is held rigidly: it gives as it touches.

@@ -43,17 +43,25 @@ void add_move(Job& job, Stretch s, int line) {
   job.steps.push_back(st);
 }
 
-// A straight rapid from `from` to `to`, at program line `line`; the rapid planner routes it.
 void add_rapid(Job& job, const Eigen::Vector2d& from, const Eigen::Vector2d& to, double rapid_feed_mm_per_s, int line) {
+  job.steps.push_back(new_rapid(job, from, to, rapid_feed_mm_per_s, line));
+}
+
+}  // namespace
+
+Step new_rapid(Job& job, const Eigen::Vector2d& from, const Eigen::Vector2d& to, double rapid_feed_mm_per_s, int line) {
   Stretch r;
   r.rapid = true;
   r.segments.push_back(make_segment(from, to, 0.0));
   r.feed_mm_per_s.push_back(rapid_feed_mm_per_s);
   r.source_lines.push_back(line);
-  add_move(job, std::move(r), line);
+  job.stretches.push_back(std::move(r));
+  Step st;
+  st.kind = Step::Kind::move;
+  st.source_line = line;
+  st.stretch = job.stretches.size() - 1;
+  return st;
 }
-
-}  // namespace
 
 Job rapid_job(const Eigen::Vector2d& from_mm, const Eigen::Vector2d& to_mm, double rapid_feed_mm_per_s, std::string source) {
   Job job;

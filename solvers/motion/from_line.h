@@ -40,6 +40,10 @@ struct LineStart {
 // InputError::field("from_line", ...) when no step of the job is at or after the line.
 Job start_at_line(const Job& job, int line, double rapid_feed_mm_per_s, LineStart& start);
 
+// A straight rapid from `from` to `to` at program line `line`, added to job.stretches; returns
+// the move step that runs it, for the caller to put in place. The rapid planner routes it.
+Step new_rapid(Job& job, const Eigen::Vector2d& from, const Eigen::Vector2d& to, double rapid_feed_mm_per_s, int line);
+
 // A job of one rapid from `from_mm` to `to_mm`, made as the rapid a run from a line starts
 // with: how the panel brings the machine to a job's start. Planned as any job (plan_job), its
 // rapid is routed round the declared no-go zones.

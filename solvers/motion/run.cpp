@@ -254,7 +254,7 @@ double process_time_s(const Job& job, const cutting::MachineConfig& m, double to
   if (th.fitted && th.probe.fitted()) {
     const auto& p = th.probe;
     times.probe = TorchTimes::Probe{p.probe_height_mm, p.probe_speed_mm_per_s, p.ohmic ? -p.ohmic_offset_mm : p.float_travel_mm,
-                                    p.debounce_periods * m.servo_period_s, p.skip_distance_mm};
+                                    p.debounce_periods * m.servo_period_s, p.skip_distance_mm, p.offset(), p.offset_delay_s};
   }
   if (plasma) times.start_s = m.torch.plasma.arc_start_delay_s;
   if (oxy) times.start_s = m.torch.oxy_fuel.preheat_s;
@@ -533,6 +533,9 @@ PlannedRun plan_job(Job programmed, const RunOptions& options, const cutting::Ma
     o.job = start_at_line(o.job, options.from_line, o.machine.limits.rapid_mm_per_s, start);
     o.from_line = start;
   }
+  if (o.machine.torch_height.fitted)
+    o.offset_probes = insert_offset_probes(o.job, o.machine.torch_height.probe, o.machine.limits.rapid_mm_per_s,
+                                           o.from_line ? o.from_line->prefix_steps : 0);
   std::string travel_field;
   if (std::string why = leaves_travel(o.job, o.machine, program_origin(options, machine).first,
                                       options.align_mm.has_value(), travel_field);
@@ -580,20 +583,22 @@ namespace {
 // The probes for the sheet: how many, by which sensor, the surface they found and, with the
 // backend's truth, how far from its pierce height each pierce fired (--json: probes).
 std::string probes_line(const executor::ExecutionResult& r) {
-  std::size_t skipped = 0, ohmic = 0, known = 0;
+  std::size_t skipped = 0, ohmic = 0, offset = 0, known = 0;
   double lo = std::numeric_limits<double>::infinity(), hi = -lo, worst = 0.0, time_s = 0.0;
   for (const executor::ProbeReport& p : r.probes) {
     skipped += p.skipped;
     ohmic += !p.skipped && std::string_view(p.sensor) == "ohmic";
+    offset += !p.skipped && std::string_view(p.sensor) == "offset_probe";
     lo = std::min(lo, p.surface_mm);
     hi = std::max(hi, p.surface_mm);
     time_s += p.duration_s;
     if (!std::isnan(p.pierce_height_error_mm)) ++known, worst = std::max(worst, std::abs(p.pierce_height_error_mm));
   }
   const std::size_t probed = r.probes.size() - skipped;
-  std::string s = fmt::format("  probes           {} ({} skipped; {} by the ohmic contact, {} by the float switch), {:.3f} s; "
-                              "surface {:+.3f} .. {:+.3f} mm\n",
-                              r.probes.size(), skipped, ohmic, probed - ohmic, time_s, lo, hi);
+  const std::string by = offset > 0 ? fmt::format("{} by the offset probe", offset)
+                                    : fmt::format("{} by the ohmic contact, {} by the float switch", ohmic, probed - ohmic);
+  std::string s = fmt::format("  probes           {} ({} skipped; {}), {:.3f} s; surface {:+.3f} .. {:+.3f} mm\n", r.probes.size(),
+                              skipped, by, time_s, lo, hi);
   if (known > 0)
     s += fmt::format("                   pierce height within {:.3f} mm of the true surface's over {} pierces\n", worst, known);
   return s;

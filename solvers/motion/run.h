@@ -75,6 +75,7 @@
 #include "models/cutting/machine_config.h"
 #include "solvers/motion/cut_order.h"
 #include "solvers/motion/from_line.h"
+#include "solvers/motion/offset_probe.h"
 #include "solvers/motion/cut_order.h"
 #include "solvers/motion/rapid_planner.h"
 #include "solvers/motion/rapids.h"
@@ -179,6 +180,7 @@ struct PlannedRun {
   std::vector<std::string> notes;                       // program words the machine ignores (M8, M52, ...)
   CutOrderReport cut_order;                             // the order the cuts were made in
   std::optional<LineStart> from_line;                   // when the run starts at a program line
+  std::size_t offset_probes = 0;     // probe steps the offset probe adds (solvers/motion/offset_probe.h)
   bool paper_x1_decoding = false;    // the encoders are counted x1 (paper modes)
 
   double planned_motion_s = 0.0;     // sum of trajectory durations

@@ -148,6 +148,18 @@ TEST(MachineConfig, TheProbeBlockIsReadAndItsBadValuesRefusedWithTheirLine) {
       << neither;
   EXPECT_NE(error_after("    debounce_periods: 3", "    debounce_periods: 0").find("key 'torch_height.probe.debounce_periods'"),
             std::string::npos);
+  // An offset probe closes the float-switch input, and ohmic sensing cannot be done beside the torch.
+  const std::string offset_ohmic = error_after("    debounce_periods: 3", "    debounce_periods: 3\n    offset_x_mm: -60");
+  EXPECT_NE(offset_ohmic.find("key 'torch_height.probe.ohmic' must be false with an offset probe"), std::string::npos)
+      << offset_ohmic;
+  const std::string offset_alone = error_after("    ohmic: true                       # the shield touches the plate: tried first\n"
+                                               "    float_switch: true",
+                                               "    ohmic: true\n    float_switch: false\n    offset_y_mm: 40");
+  EXPECT_NE(offset_alone.find("has an offset probe (offset_x_mm, offset_y_mm): set float_switch to true"), std::string::npos)
+      << offset_alone;
+  EXPECT_NE(error_after("    debounce_periods: 3", "    debounce_periods: 3\n    offset_delay_s: 20")
+                .find("key 'torch_height.probe.offset_delay_s'"),
+            std::string::npos);
   const std::string old = error_after("  probe:   ", "  initial_height_sense_s: 0.4\n  probe:   ");
   EXPECT_NE(old.find("key 'torch_height.initial_height_sense_s' is no longer read: the torch finds the sheet by probing"),
             std::string::npos)

@@ -109,6 +109,48 @@ TEST(HalRun, TheReportSaysTheTrueErrorIsUnavailable) {
 // height (gentle enough for a cut without THC: the HAL simulation has no arc voltage).
 TEST(HalRun, BracketWithHolesIsCutWithinATenthOfAMillimetreFromPosFb) { expect_cut_within_a_tenth("bracket_l.ngc", 1.5, 1000.0); }
 
+// The gantry with an offset probe 80 mm left of the torch (and 30 mm behind it) instead of its
+// ohmic contact, on the bracket over a plate warped along X: every pierce probed through
+// machplan.offset-probe and the float-switch pin beside the torch, the surface found where the
+// plate model puts it under the pierce (not under the torch as it probed), the cut within a tenth.
+TEST(HalRun, TheOffsetProbeFindsThePlateUnderEachPierceThroughHal) {
+  constexpr double kOffsetX = -80.0, kA = 1.5, kL = 1000.0;
+  test::HalSim sim;
+  test::hal_sim(fmt::format("sheet --warp {},{}", kA, kL));
+  test::HalPins pins;
+  pins.set_pin("probe-shift.in1", kOffsetX);
+  test::TempDir dir;
+  std::string yaml = slurp("datasets/machines/thermal_gantry.yaml");
+  const std::string sensors = "    ohmic: true ";
+  ASSERT_NE(yaml.find(sensors), std::string::npos);
+  yaml.replace(yaml.find(sensors), sensors.size(),
+               fmt::format("    offset_x_mm: {}\n    offset_y_mm: 30\n    offset_delay_s: 0.2\n    ohmic: false", kOffsetX));
+  const std::string machine = (dir.path() / "thermal_gantry.yaml").string();
+  std::ofstream(machine) << yaml;
+  const test::Cli cli;
+  const test::CliResult r =
+      cli.run(fmt::format("run datasets/parts/bracket_l.ngc --machine '{}' --backend hal --json", machine), kNoNamespace);
+  pins.set_pin("probe-shift.in1", 0.0);
+  ASSERT_EQ(r.code, 0) << r.err << r.out.substr(0, 2000);
+  const json j = json::parse(r.out);
+  EXPECT_EQ(j["status"], "done");
+  EXPECT_LE(j["max_contour_error_mm"].get<double>(), 0.1);
+  ASSERT_FALSE(j["probes"].empty());
+  double worst = 0.0, worst_torch = 0.0;
+  for (const json& p : j["probes"]) {
+    EXPECT_EQ(p["sensor"], "offset_probe");
+    const double x = p["position_mm"][0].get<double>();
+    const double surface = p["surface_mm"].get<double>();
+    worst = std::max(worst, std::abs(surface - kA * std::sin(2 * M_PI * x / kL)));
+    worst_torch = std::max(worst_torch, std::abs(surface - kA * std::sin(2 * M_PI * (x - kOffsetX) / kL)));
+  }
+  std::printf("offset probe through HAL: %zu probes, surface within %.3f mm of the plate under the pierce (%.3f mm off the "
+              "plate under the torch as it probed); max contour error %.4f mm\n",
+              j["probes"].size(), worst, worst_torch, j["max_contour_error_mm"].get<double>());
+  EXPECT_LT(worst, 0.1);
+  EXPECT_GT(worst_torch, 0.2) << "the probe, not the torch, met the plate";
+}
+
 // The program side stalled again and again (SIGSTOP for 60 ms every 300 ms, as a loaded machine
 // or a page fault would stall it): the component plays the positions the program planned ahead
 // (machplan.comp), so the cut stays on its path and no following error trips, where coasting

@@ -337,6 +337,41 @@ TEST(HalSignals, AWarpedPlateIsTouchedAtItsSurfaceUnderTheTorch) {
   EXPECT_GT(s.in().torch_height_mm, -kStep);
 }
 
+// The offset probe: machplan.offset-probe follows Outputs::offset_probe and drops with the
+// E-stop chain like torch-on; while it is deployed the simulation's float switch reads the plate
+// under the probe (X plus probe-shift.in1), not under the torch.
+TEST(HalSignals, TheOffsetProbeReadsThePlateBesideTheTorchAndDropsWithTheEstopChain) {
+  test::HalSim sim;
+  test::HalPins pins;
+  constexpr double kA = 2.0, kL = 800.0, kOffsetX = -100.0, kX = 300.0;  // the probe over x 200, a crest
+  test::hal_sim(fmt::format("sheet --warp {},{}", kA, kL));
+  test::hal_sim(fmt::format("home {} 0", kX));
+  pins.set_pin("probe-shift.in1", kOffsetX);
+  const double table = 0.0055 * kA + 1e-6;
+  const double under_probe = kA * std::sin(2 * std::numbers::pi * (kX + kOffsetX) / kL);
+  const double under_torch = kA * std::sin(2 * std::numbers::pi * kX / kL);
+  Session s({kX, 0});
+  ASSERT_TRUE(s.run_until([](const Inputs& in) { return std::abs(in.torch_height_mm - 10.0) < 1e-6; }));
+  EXPECT_FALSE(pins.bit("machplan.offset-probe"));
+  s.out.offset_probe = true;
+  EXPECT_TRUE(s.until_pin(pins, "machplan.offset-probe", true));
+  s.out.torch_height_target_mm = -6.0;
+  ASSERT_TRUE(s.run_until([](const Inputs& in) { return in.float_switch; }));
+  std::printf("offset probe: plate %.4f mm under it, %.4f mm under the torch; contact at %.4f mm\n", under_probe, under_torch,
+              s.in().torch_height_mm);
+  EXPECT_NEAR(s.in().torch_height_mm, under_probe - kFloatTravel, table + kStep);
+  EXPECT_GT(std::abs(s.in().torch_height_mm - (under_torch - kFloatTravel)), 0.5) << "not the plate under the torch";
+  s.out.torch_height_target_mm = 10.0;
+  ASSERT_TRUE(s.run_until([](const Inputs& in) { return std::abs(in.torch_height_mm - 10.0) < 1e-6; }));
+  pins.set_signal("estop-open", 1);
+  ASSERT_TRUE(s.run_until([](const Inputs& in) { return in.estop; }, 50));
+  s.catch_up(pins);
+  EXPECT_FALSE(pins.bit("machplan.offset-probe")) << "gated by the E-stop chain";
+  pins.set_signal("estop-open", 0);
+  pins.set_pin("probe-shift.in1", 0.0);
+  test::hal_sim("sheet --flat");
+}
+
 // ohmic-enable is gated like torch-on: the E-stop chain drops it in the component, whatever
 // machplan goes on commanding.
 TEST(HalSignals, OhmicEnableDropsWithTheEstopChain) {

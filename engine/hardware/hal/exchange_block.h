@@ -30,7 +30,7 @@
 
 #define MACHPLAN_EXCHANGE_KEY 0x4d504c48 /* "MPLH" */
 #define MACHPLAN_EXCHANGE_MAGIC 0x6d706c68u
-#define MACHPLAN_EXCHANGE_VERSION 4u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed, torch-enable, laser-on; 4: positions planned ahead */
+#define MACHPLAN_EXCHANGE_VERSION 5u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed, torch-enable, laser-on; 4: positions planned ahead; 5: offset-probe */
 #define MACHPLAN_RING 256u /* slots per ring: a power of two, more than any watchdog allows */
 #define MACHPLAN_AHEAD_MAX 100u /* periods the program may write ahead of a command */
 #define MACHPLAN_HAL_AXES 2
@@ -40,6 +40,7 @@
 #define MACHPLAN_CMD_TORCH 0x2u  /* torch on */
 #define MACHPLAN_CMD_OHMIC 0x4u  /* ohmic sensing on (ohmic-enable) */
 #define MACHPLAN_CMD_LASER 0x8u  /* the laser pointer on (laser-on) */
+#define MACHPLAN_CMD_PROBE 0x20u /* the offset probe deployed (offset-probe) */
 #define MACHPLAN_CMD_AHEAD 0x10u /* not a command: where the program planned the axes for this period, played when its
                                     command is late (position mode only; the other flags are ignored) */
 

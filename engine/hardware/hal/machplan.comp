@@ -37,6 +37,7 @@ pin in float arc-voltage "arc voltage, V (for THC; passed through the exchange)"
 pin in bit estop-ok "the E-stop chain is closed; FALSE drops torch-on, ohmic-enable and enable in the same period";
 pin out bit ohmic-enable "ohmic sensing on: energise the torch's shield so that touching the plate closes ohmic-sense-in (gated like torch-on by the E-stop chain, the operator's E-stop and the watchdog)";
 pin out bit laser-on "the laser pointer on while machplan frames a job with it (gated like torch-on)";
+pin out bit offset-probe "deploy the offset probe (a probe beside the torch, its contact wired to float-switch) while machplan probes with it (gated like torch-on)";
 pin in bit ohmic-sense-in "the ohmic contact is made: with ohmic-enable on, the torch's shield touches the plate";
 pin in bit float-switch "the float switch is closed: the torch rests on something and its floating mount has risen by the switch's travel";
 pin in bit breakaway "the torch's breakaway switch is open: the torch met something and its mount gave way (a collision)";
@@ -128,7 +129,7 @@ FUNCTION(_) {
   machplan_sample *s;
   const uint32_t watchdog = watchdog_periods < 1 ? 1 : watchdog_periods > 200 ? 200 : watchdog_periods;
   uint32_t p = ++count_, flags = 0, q, sess;
-  int i, fresh = 0, ahead = 0, on, torch, ohmic, laser;
+  int i, fresh = 0, ahead = 0, on, torch, ohmic, laser, probe;
 
   // 1. sessions
   sess = x ? __atomic_load_n(&x->session, __ATOMIC_ACQUIRE) : session_;
@@ -209,6 +210,7 @@ FUNCTION(_) {
   torch = state_ == MACHPLAN_STATE_RUNNING && !estop_latched_ && !op_estop_latched_ && (flags_ & MACHPLAN_CMD_TORCH);
   ohmic = state_ == MACHPLAN_STATE_RUNNING && !estop_latched_ && !op_estop_latched_ && (flags_ & MACHPLAN_CMD_OHMIC);
   laser = state_ == MACHPLAN_STATE_RUNNING && !estop_latched_ && !op_estop_latched_ && (flags_ & MACHPLAN_CMD_LASER);
+  probe = state_ == MACHPLAN_STATE_RUNNING && !estop_latched_ && !op_estop_latched_ && (flags_ & MACHPLAN_CMD_PROBE);
   for (i = 0; i < MACHPLAN_HAL_AXES; ++i) {
     axis_pos_cmd(i) = velocity ? axis_pos_fb(i) : pos_[i];
     axis_vel_cmd(i) = velocity && (state_ == MACHPLAN_STATE_RUNNING || state_ == MACHPLAN_STATE_TRIPPED) ? vel_[i] : 0.0;
@@ -218,6 +220,7 @@ FUNCTION(_) {
   torch_on = torch;
   ohmic_enable = ohmic;
   laser_on = laser;
+  offset_probe = probe;
   torch_height_cmd = height_;
   watchdog_ok = state_ != MACHPLAN_STATE_TRIPPED;
   period_count = p;
