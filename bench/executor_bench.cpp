@@ -5,6 +5,10 @@
 //                        exchange bookkeeping, counter decoding, fault checks, the setpoint
 //                        samples, two servo updates, contour bookkeeping and the trace store.
 //   BM_ExecutorTickNoTrace the same without recording the trace.
+//   BM_ExecutorTickPosition the same move on an ideal position-command backend, without the
+//                        trace; ...PlanAhead: a backend that plays the positions planned ahead
+//                        (as HAL in position mode), so each tick also plans the next 100
+//                        periods (Outputs::ahead_mm).
 //   BM_AxisPlantStep     one axis plant, one 1 ms tick (10 substeps), gantry parameters.
 //   BM_SimBackendExchange the whole simulated gantry (two plants, torch, height), one tick.
 //   BM_TickPercentiles   the nested sheet (65 cuts, about 290 s of machine time) in planned mode
@@ -71,10 +75,47 @@ void run_ticks(benchmark::State& state, bool trace) {
                          benchmark::Counter::kIs1000);
   state.counters["ticks"] = static_cast<double>(ticks) / state.iterations();
 }
+// The same move, position commands, the trace off; `ahead`: the backend plays positions
+// planned ahead.
+void run_position_ticks(benchmark::State& state, bool ahead) {
+  const auto m = gantry();
+  const Eigen::Vector2d a(100, 100), b(400, 250);
+  motion::Job job;
+  job.source = "bench";
+  job.start_mm = a;
+  job.stretches.push_back(test::make_stretch(test::polyline_segments({a, b}, false), 80, false));
+  job.steps.push_back({motion::Step::Kind::move, 1, 0, 0.0});
+  executor::Trajectories tr;
+  tr.push_back(std::make_unique<test::LineTrajectory>(a, b, 80, 500));
+  executor::ExecutorOptions o;
+  o.record_trace = false;
+  struct PlaysAhead final : test::ForwardingBackend {
+    using ForwardingBackend::ForwardingBackend;
+    int n = 0;
+    int plays_ahead_periods() const override { return n; }
+  };
+  std::int64_t ticks = 0;
+  for (auto _ : state) {
+    test::IdealPositionBackend inner(m, a);
+    PlaysAhead be(inner);
+    be.n = ahead ? hardware::Outputs::kMaxAhead : 0;
+    executor::Executor ex(m.setup(), o);
+    const auto r = ex.run(job, tr, be);
+    ticks += static_cast<std::int64_t>(std::llround(r.cycle_time_s / 0.001));
+    benchmark::DoNotOptimize(r.cycle_time_s);
+  }
+  state.counters["ns_per_tick"] =
+      benchmark::Counter(static_cast<double>(ticks), benchmark::Counter::kIsRate | benchmark::Counter::kInvert,
+                         benchmark::Counter::kIs1000);
+}
 void BM_ExecutorTick(benchmark::State& s) { run_ticks(s, true); }
 void BM_ExecutorTickNoTrace(benchmark::State& s) { run_ticks(s, false); }
 BENCHMARK(BM_ExecutorTick)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ExecutorTickNoTrace)->Unit(benchmark::kMillisecond);
+void BM_ExecutorTickPosition(benchmark::State& s) { run_position_ticks(s, false); }
+void BM_ExecutorTickPositionPlanAhead(benchmark::State& s) { run_position_ticks(s, true); }
+BENCHMARK(BM_ExecutorTickPosition)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ExecutorTickPositionPlanAhead)->Unit(benchmark::kMillisecond);
 
 enum class TraceKind { off, memory, stream };
 

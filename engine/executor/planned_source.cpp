@@ -228,7 +228,16 @@ double PlannedSource::path_distance_mm(const Eigen::Vector2d& p) const noexcept 
   return best;
 }
 
+void PlannedSource::plan_slot(AheadSlot& s) const noexcept {
+  s.t = next_time(s.scale, s.t);
+  motion::Setpoint p;
+  cur_->sample(std::min(s.t, cur_->duration_s()), p);
+  s.mm = {p.position_mm[0], p.position_mm[1]};
+}
+
 int PlannedSource::plan_ahead(std::array<double, hardware::kAxes>* mm, int n) const noexcept {
+  n = std::clamp(n, 0, static_cast<int>(ahead_.size()));
+  if (pause_moving() || !cur_) ahead_n_ = 0;
   if (pause_moving()) return 0;  // the paused motion's own law: no plan
   if (!cur_) {
     for (int j = 0; j < n; ++j) mm[j] = {hold_mm_[0], hold_mm_[1]};
@@ -236,14 +245,27 @@ int PlannedSource::plan_ahead(std::array<double, hardware::kAxes>* mm, int n) co
   }
   // The periods to come as advance() will run them while the rate asked for stays as it is: a
   // copy of the time scale takes the same steps.
-  TimeScale scale = scale_;
-  double t = t_;
-  motion::Setpoint s;
-  for (int j = 0; j < n; ++j) {
-    t = next_time(scale, t);
-    cur_->sample(std::min(t, cur_->duration_s()), s);
-    mm[j] = {s.position_mm[0], s.position_mm[1]};
+  const AheadSlot& first = ahead_[static_cast<std::size_t>(ahead_head_)];
+  if (n > 0 && ahead_n_ == n && ahead_move_ == cur_ && ahead_target_ == target_ && first.t == t_ && first.scale.same_state(scale_)) {
+    // The source is where the plan put it one period ago: its first period is now, the rest
+    // holds, and one more follows the last.
+    AheadSlot next = ahead_[static_cast<std::size_t>((ahead_head_ + n - 1) % n)];
+    plan_slot(next);
+    ahead_[static_cast<std::size_t>(ahead_head_)] = next;
+    ahead_head_ = (ahead_head_ + 1) % n;
+  } else {
+    AheadSlot s{{}, t_, scale_};
+    for (int j = 0; j < n; ++j) {
+      plan_slot(s);
+      ahead_[static_cast<std::size_t>(j)] = s;
+    }
+    ahead_head_ = 0;
+    ahead_n_ = n;
+    ahead_move_ = cur_;
+    ahead_target_ = target_;
   }
+  for (int j = ahead_head_; j < n; ++j) *mm++ = ahead_[static_cast<std::size_t>(j)].mm;
+  for (int j = 0; j < ahead_head_; ++j) *mm++ = ahead_[static_cast<std::size_t>(j)].mm;
   return n;
 }
 

@@ -79,6 +79,20 @@ class PlannedSource final : public SetpointSource {
   void step_paused() noexcept;
   // The path time one period after `t` at the rate asked for, `scale` stepped along.
   double next_time(TimeScale& scale, double t) const noexcept;
+  // plan_ahead's periods, a ring from ahead_head_: each with the state the source will be in
+  // then. When the source has taken the first of them as planned (the same move, rate asked
+  // and state), the others still hold and one more is planned at the end: one sample a period
+  // instead of n.
+  struct AheadSlot {
+    std::array<double, hardware::kAxes> mm{};
+    double t = 0.0;
+    TimeScale scale;
+  };
+  mutable std::array<AheadSlot, hardware::Outputs::kMaxAhead> ahead_{};
+  mutable int ahead_head_ = 0, ahead_n_ = 0;
+  mutable const motion::Trajectory* ahead_move_ = nullptr;
+  mutable double ahead_target_ = 0.0;
+  void plan_slot(AheadSlot& s) const noexcept;
   double slide(double dir, double ds, bool& crossed) noexcept;
   bool enter_neighbour(double dir) noexcept;
   void enter_move(std::size_t step) noexcept;

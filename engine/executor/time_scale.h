@@ -78,6 +78,10 @@ class TimeScale {
   double k_dot() const noexcept { return kd_; }
   // The ceiling of k at the last step (1 outside a cruise).
   double ceiling() const noexcept { return ceiling_; }
+  // The same state (the limits aside): from it, the same steps follow.
+  bool same_state(const TimeScale& o) const noexcept {
+    return k_ == o.k_ && kd_ == o.kd_ && ceiling_ == o.ceiling_ && stopping_ == o.stopping_ && u_ == o.u_ && ud_ == o.ud_;
+  }
 
  private:
   double change_step(double target, const motion::Setpoint& at, double cruise_left_s) noexcept;

@@ -256,15 +256,22 @@ void HalBackend::Impl::write_ahead(std::uint32_t period, const Outputs& out) noe
   const int n = velocity ? 0 : std::clamp(out.ahead_count, 0, Outputs::kMaxAhead);
   const std::uint32_t end = period + static_cast<std::uint32_t>(n);
   const std::uint32_t stale_end = static_cast<std::int32_t>(ahead_end - end) > 0 ? ahead_end : end;
-  for (std::uint32_t p = period + 1; static_cast<std::int32_t>(stale_end - p) >= 0; ++p)
-    write_slot(x->command[p % MACHPLAN_RING], [&](machplan_command& slot) {
-      const bool planned = static_cast<std::int32_t>(end - p) >= 0;
+  for (std::uint32_t p = period + 1; static_cast<std::int32_t>(stale_end - p) >= 0; ++p) {
+    machplan_command& slot = x->command[p % MACHPLAN_RING];
+    const bool planned = static_cast<std::int32_t>(end - p) >= 0;
+    // Written the period before with the same position (the executor's plan only moved on by
+    // one period): left as it is. The program is the slots' only writer.
+    if (planned && slot.period == p && slot.session == session && slot.flags == MACHPLAN_CMD_AHEAD &&
+        std::equal(slot.pos_mm, slot.pos_mm + kAxes, out.ahead_mm[p - period - 1].begin()))
+      continue;
+    write_slot(slot, [&](machplan_command& slot) {
       slot.period = planned ? p : p - MACHPLAN_RING;
       slot.session = session;
       slot.flags = MACHPLAN_CMD_AHEAD;
       if (planned)
         for (int i = 0; i < kAxes; ++i) slot.pos_mm[i] = out.ahead_mm[p - period - 1][i];
     });
+  }
   ahead_end = end;
 }
 
