@@ -46,20 +46,30 @@ machplan::cutting::MachineConfig gantry() {
   return cutting::load_machine(std::string(MACHPLAN_SOURCE_DIR) + "/datasets/machines/thermal_gantry.yaml");
 }
 
+// One planned-mode move of 335 mm at 80 mm/s.
+const Eigen::Vector2d kFrom(100, 100), kTo(400, 250);
+struct LineMove {
+  motion::Job job;
+  executor::Trajectories tr;
+  LineMove() {
+    job.source = "bench";
+    job.start_mm = kFrom;
+    job.stretches.push_back(test::make_stretch(test::polyline_segments({kFrom, kTo}, false), 80, false));
+    job.steps.push_back({motion::Step::Kind::move, 1, 0, 0.0});
+    tr.push_back(std::make_unique<test::LineTrajectory>(kFrom, kTo, 80, 500));
+  }
+};
+
 void run_ticks(benchmark::State& state, bool trace) {
   const auto m = gantry();
   auto setup = m.setup();
   for (auto& g : setup.servo) g.following_error_limit_mm = 100;  // the ideal backend has no 0.7 drive
   // Nor the gantry's latencies: the setup must say what the backend does, or the run is refused.
   for (auto& sig : setup.signals) sig.command_latency_ticks = sig.reading_latency_ticks = 0;
-  const Eigen::Vector2d a(100, 100), b(400, 250);
-  motion::Job job;
-  job.source = "bench";
-  job.start_mm = a;
-  job.stretches.push_back(test::make_stretch(test::polyline_segments({a, b}, false), 80, false));
-  job.steps.push_back({motion::Step::Kind::move, 1, 0, 0.0});
-  executor::Trajectories tr;
-  tr.push_back(std::make_unique<test::LineTrajectory>(a, b, 80, 500));
+  const Eigen::Vector2d a = kFrom;
+  const LineMove move;
+  const motion::Job& job = move.job;
+  const executor::Trajectories& tr = move.tr;
   executor::ExecutorOptions o;
   o.record_trace = trace;
   std::int64_t ticks = 0;
@@ -79,14 +89,10 @@ void run_ticks(benchmark::State& state, bool trace) {
 // planned ahead.
 void run_position_ticks(benchmark::State& state, bool ahead) {
   const auto m = gantry();
-  const Eigen::Vector2d a(100, 100), b(400, 250);
-  motion::Job job;
-  job.source = "bench";
-  job.start_mm = a;
-  job.stretches.push_back(test::make_stretch(test::polyline_segments({a, b}, false), 80, false));
-  job.steps.push_back({motion::Step::Kind::move, 1, 0, 0.0});
-  executor::Trajectories tr;
-  tr.push_back(std::make_unique<test::LineTrajectory>(a, b, 80, 500));
+  const Eigen::Vector2d a = kFrom;
+  const LineMove move;
+  const motion::Job& job = move.job;
+  const executor::Trajectories& tr = move.tr;
   executor::ExecutorOptions o;
   o.record_trace = false;
   struct PlaysAhead final : test::ForwardingBackend {
