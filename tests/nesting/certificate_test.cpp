@@ -9,6 +9,7 @@
 #include "engine/common/error.h"
 #include "solvers/nesting/certificate.h"
 #include "solvers/nesting/outline.h"
+#include "tests/nesting/shapes.h"
 #include "solvers/nesting/part.h"
 
 namespace machplan::nesting {
@@ -17,11 +18,11 @@ namespace {
 std::string dxf(const std::string& entities) {
   return "0\nSECTION\n2\nHEADER\n9\n$INSUNITS\n70\n4\n0\nENDSEC\n0\nSECTION\n2\nENTITIES\n" + entities + "0\nENDSEC\n0\nEOF\n";
 }
-std::string circle(double x, double y, double r) {
+std::string dxf_circle(double x, double y, double r) {
   return "0\nCIRCLE\n8\nCUT\n10\n" + std::to_string(x) + "\n20\n" + std::to_string(y) + "\n40\n" + std::to_string(r) + "\n";
 }
 // A closed rectangle as one LWPOLYLINE.
-std::string rect(double x0, double y0, double x1, double y1) {
+std::string dxf_rect(double x0, double y0, double x1, double y1) {
   std::string s = "0\nLWPOLYLINE\n8\nCUT\n90\n4\n70\n1\n";
   for (const auto& [x, y] : {std::pair{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}})
     s += "10\n" + std::to_string(x) + "\n20\n" + std::to_string(y) + "\n";
@@ -32,21 +33,8 @@ std::vector<NestPart> parts_of(const std::string& entities, bool split = false) 
   return nest_parts(read_dxf_profile_text(dxf(entities), "part.dxf"), split);
 }
 
-NestPart square(double side) {
-  NestPart p;
-  p.file = "square";
-  p.outer = Contour({{0, 0}, {side, 0}, {side, side}, {0, side}}, {0, 0, 0, 0});
-  p.area_mm2 = side * side;
-  return p;
-}
-
-NestPart disc(double r) {
-  NestPart p;
-  p.file = "disc";
-  p.outer = Contour::circle({0, 0}, r);
-  p.area_mm2 = M_PI * r * r;
-  return p;
-}
+using test::disc;
+NestPart square(double side) { return test::rect(side, side, "square"); }
 
 Placement at(std::size_t part, double x, double y, double deg = 0.0, bool mirrored = false, int sheet = 0) {
   Placement p;
@@ -61,14 +49,14 @@ Placement at(std::size_t part, double x, double y, double deg = 0.0, bool mirror
 const std::vector<Sheet> kSheet{{1000, 500, 10}};
 
 TEST(NestParts, ADrawingIsItsOuterContourWithItsHolesAndSeveralOutersAreRefusedUnlessSplit) {
-  const std::vector<NestPart> plate = parts_of(rect(0, 0, 100, 60) + circle(30, 30, 10) + circle(70, 30, 10));
+  const std::vector<NestPart> plate = parts_of(dxf_rect(0, 0, 100, 60) + dxf_circle(30, 30, 10) + dxf_circle(70, 30, 10));
   ASSERT_EQ(plate.size(), 1u);
   EXPECT_EQ(plate[0].holes.size(), 2u);
   EXPECT_NEAR(plate[0].area_mm2, 6000 - 2 * M_PI * 100, 1e-6);
   EXPECT_EQ(orientation(plate[0].outer), Orientation::ccw);
   EXPECT_EQ(orientation(plate[0].holes[0]), Orientation::cw);
   // Two plates side by side, and a disc in a plate's hole: three outer contours.
-  const std::string three = rect(0, 0, 100, 60) + circle(50, 30, 20) + circle(50, 30, 5) + rect(200, 0, 260, 40);
+  const std::string three = dxf_rect(0, 0, 100, 60) + dxf_circle(50, 30, 20) + dxf_circle(50, 30, 5) + dxf_rect(200, 0, 260, 40);
   try {
     parts_of(three);
     FAIL() << "several outer contours were taken as one part";
@@ -89,7 +77,7 @@ TEST(NestPlacement, APointOfTheDrawingLandsAtTranslatePlusTheRotatedMirroredPoin
   EXPECT_NEAR(q.x(), 98.0, 1e-12);
   EXPECT_NEAR(q.y(), 40.0, 1e-12);
   // A placed contour keeps its sense and its area, mirror or not; arcs stay arcs.
-  const NestPart plate = parts_of(rect(0, 0, 100, 60) + circle(30, 30, 10))[0];
+  const NestPart plate = parts_of(dxf_rect(0, 0, 100, 60) + dxf_circle(30, 30, 10))[0];
   for (bool mirrored : {false, true}) {
     p.mirrored = mirrored;
     const Contour o = place(plate.outer, p), h = place(plate.holes[0], p);
@@ -122,7 +110,7 @@ TEST(NestCertificate, PartsAtTheSpacingPassAndAHundredthCloserFailsOnTheTrueArcs
 
 TEST(NestCertificate, APartInAHoleKeepsTheSpacingFromTheHolesEdge) {
   // A plate with a 60 mm hole (radius 30) and a disc of radius 20: 10 mm of room all round.
-  std::vector<NestPart> parts = parts_of(rect(0, 0, 120, 120) + circle(60, 60, 30));
+  std::vector<NestPart> parts = parts_of(dxf_rect(0, 0, 120, 120) + dxf_circle(60, 60, 30));
   parts.push_back(disc(20));
   EXPECT_TRUE(certify(parts, {at(0, 100, 100), at(1, 160, 160)}, kSheet, 6.0).certified) << "centred: 10 mm";
   EXPECT_TRUE(certify(parts, {at(0, 100, 100), at(1, 163.9, 160)}, kSheet, 6.0).certified) << "6.1 mm on one side";
@@ -152,7 +140,7 @@ TEST(NestCertificate, APartPastTheMarginIsReportedAndBadIndicesAreRefused) {
 TEST(NestOutline, ThePolygonHoldsTheTrueContourAndStaysWithinTheTolerance) {
   const std::string rounded = "0\nLWPOLYLINE\n8\nCUT\n90\n4\n70\n1\n10\n0\n20\n0\n42\n0\n10\n100\n20\n0\n42\n0.4142136\n"
                               "10\n120\n20\n20\n42\n0\n10\n0\n20\n20\n42\n-0.3\n";
-  const NestPart p = parts_of(rounded + circle(40, 10, 6))[0];
+  const NestPart p = parts_of(rounded + dxf_circle(40, 10, 6))[0];
   for (const double t : {0.5, 0.05, 0.001}) {
     for (const Contour& c : {p.outer, p.holes[0]}) {
       const std::vector<Eigen::Vector2d> poly = outside_polygon(c, t);

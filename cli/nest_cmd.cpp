@@ -1,0 +1,178 @@
+// `machplan nest PART.dxf[:QTY]... --sheet WxH[:COUNT] [--spacing MM] [--margin MM]
+// [--rotations any|none|DEG,DEG,...] [--split] [--json]`: parts from drawings nested on
+// sheets by bottom-left fill (solvers/nesting/bottom_left.h), the nest certified on the true
+// geometry (solvers/nesting/certificate.h). The report gives per sheet the parts, the used
+// length from the left edge, the utilisation of the area used and the remnant; `--json` gives
+// every placed copy's transform: a point (x, y) of the drawing lands on the sheet at
+// translate + R(rotation) * (x, y). Exit 3 when a copy fits on no sheet (each is named with
+// the reason; the rest is still nested) or the certificate fails.
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "cli/command.h"
+#include "cli/interrupt.h"
+#include "cli/output.h"
+#include "engine/common/error.h"
+#include "solvers/nesting/bottom_left.h"
+
+namespace machplan::cli {
+namespace {
+
+using nlohmann::json;
+
+// "FILE" or "FILE:QTY" (the last colon, when digits follow it).
+std::pair<std::string, int> part_spec(const std::string& s) {
+  const std::size_t colon = s.rfind(':');
+  if (colon == std::string::npos || colon + 1 == s.size() || s.find_first_not_of("0123456789", colon + 1) != std::string::npos)
+    return {s, 1};
+  const std::string q = s.substr(colon + 1);
+  if (q.size() > 6 || std::stoi(q) < 1)
+    throw InputError("part", 0, fmt::format("'{}': the quantity after the colon must be 1 .. 100000", excerpt(s)));
+  return {s.substr(0, colon), std::stoi(q)};
+}
+
+// "WxH" or "WxH:COUNT".
+void sheet_spec(const std::string& s, nesting::Sheet& sheet, int& count) {
+  double w = 0, h = 0;
+  int n = 1, used = 0;
+  const bool with_count = std::sscanf(s.c_str(), "%lfx%lf:%d%n", &w, &h, &n, &used) == 3 && used == static_cast<int>(s.size());
+  used = 0;
+  if (!with_count && !(std::sscanf(s.c_str(), "%lfx%lf%n", &w, &h, &used) == 2 && used == static_cast<int>(s.size())))
+    throw InputError("--sheet", 0, fmt::format("'{}' is not WIDTHxHEIGHT[:COUNT] in mm (e.g. 2500x1250:2)", excerpt(s)));
+  if (!(w > 0 && h > 0 && w <= 1e5 && h <= 1e5) || n < 1 || n > 1000)
+    throw InputError("--sheet", 0, fmt::format("'{}': sizes in (0, 100000] mm and 1 .. 1000 sheets", excerpt(s)));
+  sheet.width_mm = w, sheet.height_mm = h;
+  count = n;
+}
+
+std::vector<double> rotation_list(const std::string& s) {
+  if (s == "none") return {0.0};
+  if (s == "any") return {0, 45, 90, 135, 180, 225, 270, 315};
+  std::vector<double> out;
+  std::size_t at = 0;
+  while (at <= s.size()) {
+    const std::size_t comma = std::min(s.find(',', at), s.size());
+    const std::string item = s.substr(at, comma - at);
+    std::size_t used = 0;
+    double d = 0;
+    try {
+      d = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (item.empty() || used != item.size() || !(d >= -360 && d <= 360))
+      throw InputError("--rotations", 0, fmt::format("'{}': any, none, or degrees in [-360, 360] separated by commas", excerpt(s)));
+    out.push_back(d);
+    at = comma + 1;
+  }
+  return out;
+}
+
+json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, const nesting::Certificate& cert, const Termination& t) {
+  json sheets = json::array(), placements = json::array(), unplaced = json::array();
+  std::vector<double> area(static_cast<std::size_t>(n.sheets_used), 0.0);
+  std::vector<int> count(static_cast<std::size_t>(n.sheets_used), 0);
+  for (const nesting::Placement& p : n.placements) {
+    area[static_cast<std::size_t>(p.sheet)] += r.parts[p.part].area_mm2;
+    ++count[static_cast<std::size_t>(p.sheet)];
+    placements.push_back({{"file", r.parts[p.part].file},
+                          {"copy", p.copy + 1},
+                          {"sheet", p.sheet + 1},
+                          {"rotation_deg", p.rotation_deg},
+                          {"mirrored", p.mirrored},
+                          {"translate_mm", {p.translate_mm.x(), p.translate_mm.y()}}});
+  }
+  for (int k = 0; k < n.sheets_used; ++k) {
+    const double used = n.used_length_mm[static_cast<std::size_t>(k)];
+    sheets.push_back({{"sheet", k + 1},
+                      {"width_mm", r.sheet.width_mm},
+                      {"height_mm", r.sheet.height_mm},
+                      {"parts", count[static_cast<std::size_t>(k)]},
+                      {"used_length_mm", used},
+                      {"utilisation", area[static_cast<std::size_t>(k)] / (used * r.sheet.height_mm)},
+                      {"remnant_mm", {r.sheet.width_mm - used, r.sheet.height_mm}}});
+  }
+  for (const nesting::Unplaced& u : n.unplaced)
+    unplaced.push_back({{"file", r.parts[u.part].file}, {"copy", u.copy + 1}, {"reason", u.reason}});
+  return {{"units", "mm"},       {"spacing_mm", r.spacing_mm}, {"margin_mm", r.sheet.margin_mm},
+          {"fills", n.fills},     {"search_s", t.work_s_spent()}, {"search_ended", t.describe()},
+          {"certified", cert.certified}, {"violations", cert.violations}, {"sheets", sheets},
+          {"placements", placements},    {"unplaced", unplaced}};
+}
+
+void print_nest_report(const json& j) {
+  std::printf("nest: %zu copies placed on %zu sheet(s), spacing %g mm, margin %g mm; best of %d bottom-left fills (%s)\n",
+              j["placements"].size(), j["sheets"].size(), j["spacing_mm"].get<double>(), j["margin_mm"].get<double>(),
+              j["fills"].get<int>(), j["search_ended"].get<std::string>().c_str());
+  for (const json& s : j["sheets"])
+    std::printf("  sheet %d: %d parts, used length %.1f mm of %.0f, utilisation %.1f %% of the area used, remnant %.1f x %.1f mm\n",
+                s["sheet"].get<int>(), s["parts"].get<int>(), s["used_length_mm"].get<double>(), s["width_mm"].get<double>(),
+                100.0 * s["utilisation"].get<double>(), s["remnant_mm"][0].get<double>(), s["remnant_mm"][1].get<double>());
+  std::printf("  %s\n", j["certified"].get<bool>() ? "certified: every pair of parts at least the spacing apart on the true "
+                                                      "lines and arcs, every part inside the usable area"
+                                                    : "NOT certified:");
+  for (const json& v : j["violations"]) std::printf("    %s\n", v.get<std::string>().c_str());
+  for (const json& u : j["unplaced"])
+    std::printf("  not placed: %s copy %d: %s\n", u["file"].get<std::string>().c_str(), u["copy"].get<int>(),
+                u["reason"].get<std::string>().c_str());
+}
+
+void add_nest(CLI::App& app) {
+  struct Args {
+    std::vector<std::string> parts;
+    std::string sheet, rotations = "any";
+    double spacing = 6.0, margin = 10.0, time = 2.0;
+    std::uint64_t seed = 1;
+    bool split = false, json = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("nest", "Nest parts from DXF drawings on sheets (bottom-left fill, certified)");
+  cmd->add_option("parts", a->parts, "DXF drawings, each FILE or FILE:QUANTITY")->required();
+  cmd->add_option("--sheet", a->sheet, "the sheets: WIDTHxHEIGHT[:COUNT] in mm, x along the width")->required();
+  cmd->add_option("--spacing", a->spacing, "least distance between parts, mm (the kerf plus a clearance)")->capture_default_str();
+  cmd->add_option("--margin", a->margin, "kept clear along every sheet edge, mm")->capture_default_str();
+  cmd->add_option("--rotations", a->rotations, "any (every 45 deg), none, or degrees separated by commas")->capture_default_str();
+  cmd->add_option("--time", a->time, "search time, s of nominal work (each collision test counts 2 us): the same nest on any machine; 0: one fill")
+      ->capture_default_str();
+  cmd->add_option("--seed", a->seed, "seed of the search's restarts")->capture_default_str();
+  cmd->add_flag("--split", a->split, "a drawing with several outer contours is one part per contour (else refused)");
+  cmd->add_flag("--json", a->json, "print JSON instead of the readable report");
+  cmd->callback([a] {
+    nesting::NestRequest r;
+    sheet_spec(a->sheet, r.sheet, r.sheet_count);
+    if (!(a->margin >= 0 && a->margin <= 1000)) throw InputError("--margin", 0, fmt::format("{} must be in [0, 1000] mm", a->margin));
+    if (!(a->spacing >= 0 && a->spacing <= 1000)) throw InputError("--spacing", 0, fmt::format("{} must be in [0, 1000] mm", a->spacing));
+    r.sheet.margin_mm = a->margin;
+    r.spacing_mm = a->spacing;
+    r.rotations_deg = rotation_list(a->rotations);
+    for (const std::string& s : a->parts) {
+      const auto [file, qty] = part_spec(s);
+      for (nesting::NestPart& p : nesting::read_nest_parts(file, a->split)) {
+        r.parts.push_back(std::move(p));
+        r.quantity.push_back(qty);
+      }
+    }
+    if (!(a->time >= 0 && a->time <= 86400)) throw InputError("--time", 0, fmt::format("{} must be in [0, 86400] s", a->time));
+    Termination t(StopOnSignals::stop_token());
+    if (a->time > 0) t.set_deadline(a->time, "nominal search time");
+    else t.set_budget(1, "fills");
+    const nesting::NestResult n = nesting::bottom_left_nest(r, t, a->seed);
+    const nesting::Certificate cert =
+        nesting::certify(r.parts, n.placements, std::vector<nesting::Sheet>(static_cast<std::size_t>(r.sheet_count), r.sheet),
+                         r.spacing_mm);
+    const json j = nest_json(r, n, cert, t);
+    if (a->json) print_json(j);
+    else print_nest_report(j);
+    if (!n.unplaced.empty() || !cert.certified) set_exit_code(3);
+  });
+}
+
+const Registration reg_nest(16, add_nest);
+
+}  // namespace
+}  // namespace machplan::cli

@@ -1,0 +1,257 @@
+#include "solvers/nesting/bottom_left.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <optional>
+#include <random>
+
+#include <boost/geometry.hpp>
+#include <boost/geometry/geometries/box.hpp>
+#include <boost/geometry/geometries/point_xy.hpp>
+#include <boost/geometry/geometries/polygon.hpp>
+#include <boost/geometry/index/rtree.hpp>
+#include <fmt/format.h>
+
+#include "engine/common/error.h"
+#include "engine/geometry/offset.h"
+#include "solvers/nesting/outline.h"
+
+namespace machplan::nesting {
+
+namespace {
+
+namespace bg = boost::geometry;
+namespace bgi = boost::geometry::index;
+using Pt = bg::model::d2::point_xy<double>;
+using Poly = bg::model::polygon<Pt>;  // clockwise, closed (Boost's default)
+using Box = bg::model::box<Pt>;
+
+// One part turned one way: its grown polygon about the part's reference point, the polygon's
+// box and the true part's box.
+struct Shape {
+  double rotation_deg = 0.0;
+  Poly poly;
+  Box box;
+  Eigen::AlignedBox2d part_box;
+};
+
+constexpr double kExtraMm = 1e-5;
+
+Shape make_shape(const NestPart& part, double deg, double spacing, double tol) {
+  Placement turn;
+  turn.rotation_deg = deg;
+  const Contour outer = place(part.outer, turn);
+  // Grown a little more than half the spacing: the certificate counts parts closer than a
+  // micrometre past the spacing as too close, and so must the search.
+  Contour grown = outer;
+  {
+    const OffsetResult g = offset_contour(outer, spacing / 2 + kExtraMm);
+    grown = *std::max_element(g.contours.begin(), g.contours.end(), [](const Contour& a, const Contour& b) {
+      return std::abs(signed_area(a)) < std::abs(signed_area(b));
+    });
+  }
+  Shape s;
+  s.rotation_deg = deg;
+  for (const Eigen::Vector2d& v : outside_polygon(grown, tol)) s.poly.outer().push_back(Pt(v.x(), v.y()));
+  bg::correct(s.poly);
+  s.box = bg::return_envelope<Box>(s.poly);
+  s.part_box = bounding_box(outer);
+  return s;
+}
+
+// One sheet's parts so far.
+struct SheetLayout {
+  std::vector<Poly> polys;
+  mutable std::int64_t tests = 0;  // collision tests made
+  bgi::rtree<std::pair<Box, std::size_t>, bgi::quadratic<16>> boxes;
+  double right_mm = 0.0;
+
+  bool fits(const Shape& s, double x, double y) const {
+    ++tests;
+    Poly moved;
+    bg::transform(s.poly, moved, bg::strategy::transform::translate_transformer<double, 2, 2>(x, y));
+    const Box b(Pt(s.box.min_corner().x() + x, s.box.min_corner().y() + y),
+                Pt(s.box.max_corner().x() + x, s.box.max_corner().y() + y));
+    for (auto it = boxes.qbegin(bgi::intersects(b)); it != boxes.qend(); ++it)
+      if (bg::intersects(moved, polys[it->second])) return false;
+    return true;
+  }
+  void add(const Shape& s, double x, double y) {
+    Poly moved;
+    bg::transform(s.poly, moved, bg::strategy::transform::translate_transformer<double, 2, 2>(x, y));
+    boxes.insert({bg::return_envelope<Box>(moved), polys.size()});
+    polys.push_back(std::move(moved));
+    right_mm = std::max(right_mm, s.part_box.max().x() + x);
+  }
+};
+
+struct Spot {
+  double x = 0.0, y = 0.0;
+  const Shape* shape = nullptr;
+};
+
+// The smallest v in [lo, at] where fits(v) holds, by bisection from `at` (which fits), assuming
+// the places between fit from some point on; 0.05 mm resolution.
+template <class Fits>
+double slide(double lo, double at, Fits&& fits) {
+  if (fits(lo)) return lo;
+  double bad = lo, good = at;
+  while (good - bad > 0.05) {
+    const double mid = 0.5 * (bad + good);
+    (fits(mid) ? good : bad) = mid;
+  }
+  return good;
+}
+
+// The leftmost place for `s` on `sheet` within `usable`, slid left and down; none when it does not fit.
+std::optional<Spot> leftmost(const SheetLayout& sheet, const Shape& s, const Eigen::AlignedBox2d& usable) {
+  const double xlo = usable.min().x() - s.part_box.min().x(), xhi = usable.max().x() - s.part_box.max().x();
+  const double ylo = usable.min().y() - s.part_box.min().y(), yhi = usable.max().y() - s.part_box.max().y();
+  if (xhi < xlo || yhi < ylo) return std::nullopt;
+  std::vector<double> xs{xlo}, ys{ylo};
+  // Against a box, not on it: polygons that touch count as meeting.
+  constexpr double kClear = 1e-4;
+  for (const auto& [b, i] : sheet.boxes) {
+    xs.push_back(b.max_corner().x() - s.box.min_corner().x() + kClear);
+    ys.push_back(b.max_corner().y() - s.box.min_corner().y() + kClear);
+    ys.push_back(b.min_corner().y() - s.box.max_corner().y() - kClear);
+  }
+  auto clean = [](std::vector<double>& v, double lo, double hi) {
+    v.erase(std::remove_if(v.begin(), v.end(), [&](double a) { return a < lo - 1e-9 || a > hi + 1e-9; }), v.end());
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end(), [](double a, double b) { return std::abs(a - b) < 1e-6; }), v.end());
+  };
+  clean(xs, xlo, xhi);
+  clean(ys, ylo, yhi);
+  for (double x : xs)
+    for (double y : ys) {
+      if (!sheet.fits(s, x, y)) continue;
+      for (int round = 0; round < 3; ++round) {
+        const double nx = slide(xlo, x, [&](double v) { return sheet.fits(s, v, y); });
+        const double ny = slide(ylo, y, [&](double v) { return sheet.fits(s, nx, v); });
+        if (nx == x && ny == y) break;
+        x = nx, y = ny;
+      }
+      return Spot{x, y, &s};
+    }
+  return std::nullopt;
+}
+
+void check(const NestRequest& r) {
+  if (r.parts.empty()) throw InputError::field("parts", "no part to nest");
+  if (r.quantity.size() != r.parts.size()) throw InputError::field("quantity", "one quantity per part");
+  for (int q : r.quantity)
+    if (q < 1 || q > 100000) throw InputError::field("quantity", fmt::format("{} must be 1 .. 100000", q));
+  if (r.rotations_deg.empty()) throw InputError::field("rotations", "at least one rotation (0: as drawn)");
+  const Sheet& s = r.sheet;
+  if (!(s.margin_mm >= 0 && s.width_mm > 2 * s.margin_mm && s.height_mm > 2 * s.margin_mm && std::isfinite(s.width_mm) &&
+        std::isfinite(s.height_mm)))
+    throw InputError::field("sheet", fmt::format("{} x {} mm with a margin of {} mm leaves no usable area", s.width_mm,
+                                                 s.height_mm, s.margin_mm));
+  if (r.sheet_count < 1) throw InputError::field("sheet", fmt::format("{} sheets: at least 1", r.sheet_count));
+  if (!(r.spacing_mm >= 0 && r.spacing_mm <= 1000)) throw InputError::field("spacing_mm", fmt::format("{} must be in [0, 1000] mm", r.spacing_mm));
+  if (!(r.tolerance_mm > 0)) throw InputError::field("tolerance_mm", "must be > 0");
+}
+
+using Copy = std::pair<std::size_t, int>;
+
+// One bottom-left fill of the copies in `order`; `tests` counts its collision tests.
+NestResult fill(const NestRequest& r, const std::vector<std::vector<Shape>>& shapes, const std::vector<Copy>& order,
+                std::int64_t& tests) {
+  const Sheet& sh = r.sheet;
+  const Eigen::AlignedBox2d usable(Eigen::Vector2d::Constant(sh.margin_mm),
+                                   Eigen::Vector2d(sh.width_mm - sh.margin_mm, sh.height_mm - sh.margin_mm));
+  std::vector<SheetLayout> sheets;
+  NestResult out;
+  for (const auto& [p, c] : order) {
+    std::optional<Spot> best;
+    int on = -1;
+    for (int k = 0; k < r.sheet_count && !best; ++k) {
+      if (k == static_cast<int>(sheets.size())) sheets.emplace_back();
+      for (const Shape& s : shapes[p]) {
+        const std::optional<Spot> spot = leftmost(sheets[static_cast<std::size_t>(k)], s, usable);
+        const auto right = [](const Spot& a) { return a.x + a.shape->part_box.max().x(); };
+        if (spot && (!best || right(*spot) < right(*best) - 1e-9 || (right(*spot) <= right(*best) + 1e-9 && spot->y < best->y)))
+          best = spot, on = k;
+      }
+    }
+    if (!best) {
+      const bool larger = std::none_of(shapes[p].begin(), shapes[p].end(), [&](const Shape& s) {
+        return s.part_box.sizes().x() <= usable.sizes().x() && s.part_box.sizes().y() <= usable.sizes().y();
+      });
+      const Eigen::Vector2d size = bounding_box(r.parts[p].outer).sizes();
+      out.unplaced.push_back({p, c, larger ? fmt::format("{:.1f} x {:.1f} mm: larger than the sheet's usable area in every rotation allowed",
+                                                         size.x(), size.y())
+                                           : std::string("no room left on the sheets")});
+      continue;
+    }
+    sheets[static_cast<std::size_t>(on)].add(*best->shape, best->x, best->y);
+    Placement pl;
+    pl.part = p;
+    pl.copy = c;
+    pl.sheet = on;
+    pl.rotation_deg = best->shape->rotation_deg;
+    pl.translate_mm = {best->x, best->y};
+    out.placements.push_back(pl);
+  }
+  for (const SheetLayout& s : sheets) {
+    tests += s.tests;
+    if (s.polys.empty()) continue;
+    ++out.sheets_used;
+    out.used_length_mm.push_back(s.right_mm);
+  }
+  out.fills = 1;
+  return out;
+}
+
+// Better: fewer copies left out, then fewer sheets, then a shorter last sheet.
+bool better(const NestResult& a, const NestResult& b) {
+  if (a.unplaced.size() != b.unplaced.size()) return a.unplaced.size() < b.unplaced.size();
+  if (a.sheets_used != b.sheets_used) return a.sheets_used < b.sheets_used;
+  const double la = a.used_length_mm.empty() ? 0.0 : a.used_length_mm.back();
+  const double lb = b.used_length_mm.empty() ? 0.0 : b.used_length_mm.back();
+  return la < lb - 1e-9;
+}
+
+}  // namespace
+
+NestResult bottom_left_nest(const NestRequest& r) {
+  Termination one;
+  one.set_budget(1, "fills");
+  return bottom_left_nest(r, one, 1);
+}
+
+NestResult bottom_left_nest(const NestRequest& r, Termination& t, std::uint64_t seed) {
+  check(r);
+  std::vector<std::vector<Shape>> shapes(r.parts.size());
+  for (std::size_t p = 0; p < r.parts.size(); ++p)
+    for (double deg : r.rotations_deg) shapes[p].push_back(make_shape(r.parts[p], deg, r.spacing_mm, r.tolerance_mm));
+  // The copies, largest part first (ties: the order given).
+  std::vector<Copy> order;
+  for (std::size_t p = 0; p < r.parts.size(); ++p)
+    for (int c = 0; c < r.quantity[p]; ++c) order.emplace_back(p, c);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](const Copy& a, const Copy& b) { return r.parts[a.first].area_mm2 > r.parts[b.first].area_mm2; });
+  std::int64_t tests = 0;
+  NestResult best = fill(r, shapes, order, tests);
+  t.charge(1, static_cast<double>(tests) * kTestCostS);
+  std::mt19937_64 rng(seed);
+  int fills = 1;
+  while (order.size() > 1 && !t.should_end()) {
+    std::vector<Copy> tried = order;
+    std::uniform_int_distribution<std::size_t> pick(0, tried.size() - 1);
+    const int swaps = 1 + static_cast<int>(rng() % 3);
+    for (int k = 0; k < swaps; ++k) std::swap(tried[pick(rng)], tried[pick(rng)]);
+    tests = 0;
+    NestResult n = fill(r, shapes, tried, tests);
+    t.charge(1, static_cast<double>(tests) * kTestCostS);
+    ++fills;
+    if (better(n, best)) best = std::move(n), order = std::move(tried);
+  }
+  best.fills = fills;
+  return best;
+}
+
+}  // namespace machplan::nesting

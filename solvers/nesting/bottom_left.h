@@ -1,0 +1,68 @@
+// A first nest by bottom-left fill: each copy, largest first, goes to the leftmost place it
+// fits on the first sheet that has one (then as low as it goes there), in the best of the
+// allowed rotations (the one whose right edge stays leftmost), then slides left and down
+// while it fits. Leftmost first because the sheet's used length, along x from its left edge, is
+// what the objective keeps short after the number of sheets (the remnant left is the rest).
+//
+// Collisions are tested on the parts grown by half the spacing and approximated from outside
+// (outline.h), with Boost.Geometry's polygon tests behind an R-tree of their boxes: two parts
+// whose polygons do not meet are at least the spacing apart. Part-in-part (small parts in the
+// holes of large ones) is not tried yet: holes are ignored, as if filled.
+//
+// The places tried: the sheet's lower left corner and the positions that put the copy's box
+// against another part's box (to its right, above it, below it); then the slides find the
+// interlocking positions boxes miss.
+//
+// Restarts: the first fill takes the copies largest first; each further one takes the best
+// order found so far with a few copies swapped (seeded), and is kept when it needs fewer sheets
+// or a shorter last sheet. Until the Termination ends: each collision test is charged as
+// kTestCostS of nominal work, so a deadline (set_deadline) and a seed give the same nest on any
+// machine; a stop returns the best nest found so far. Without a limit, one fill.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "engine/common/termination.h"
+
+#include "solvers/nesting/certificate.h"
+#include "solvers/nesting/part.h"
+#include "solvers/nesting/placement.h"
+
+namespace machplan::nesting {
+
+struct NestRequest {
+  std::vector<NestPart> parts;
+  std::vector<int> quantity;            // per part, >= 1
+  std::vector<double> rotations_deg{0.0};  // tried for every part
+  Sheet sheet;                          // every sheet alike
+  int sheet_count = 1;
+  double spacing_mm = 0.0;
+  double tolerance_mm = 0.05;           // of the outside polygons (more spacing, never less)
+};
+
+struct Unplaced {
+  std::size_t part = 0;
+  int copy = 0;
+  std::string reason;
+};
+
+struct NestResult {
+  std::vector<Placement> placements;
+  std::vector<Unplaced> unplaced;
+  int sheets_used = 0;
+  std::vector<double> used_length_mm;   // per sheet used: the parts' right edge (from x 0)
+  int fills = 0;                        // bottom-left fills made (restarts + 1)
+};
+
+// The nominal work of one collision test (a box query and the polygon tests it leads to).
+constexpr double kTestCostS = 2e-6;
+
+// Throws InputError naming the field for a request it cannot take (no part, a quantity < 1,
+// a sheet without a usable area, a negative spacing, no rotation).
+NestResult bottom_left_nest(const NestRequest& request);
+// With restarts until `t` ends (see the file comment), from `seed`.
+NestResult bottom_left_nest(const NestRequest& request, Termination& t, std::uint64_t seed);
+
+}  // namespace machplan::nesting

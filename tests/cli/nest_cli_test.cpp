@@ -1,0 +1,95 @@
+// `machplan nest`: DXF parts nested on sheets, the nest certified, every copy's transform in
+// the JSON checkable from the drawings alone; copies that fit nowhere and bad flags named.
+#include <cmath>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/support/cli_run.h"
+#include "tests/support/temp_dir.h"
+
+namespace machplan {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string dxf(const std::string& entities) {
+  return "0\nSECTION\n2\nHEADER\n9\n$INSUNITS\n70\n4\n0\nENDSEC\n0\nSECTION\n2\nENTITIES\n" + entities + "0\nENDSEC\n0\nEOF\n";
+}
+std::string circle(double x, double y, double r) {
+  return "0\nCIRCLE\n8\nCUT\n10\n" + std::to_string(x) + "\n20\n" + std::to_string(y) + "\n40\n" + std::to_string(r) + "\n";
+}
+// An L-shaped bracket, 200 x 150 with legs 60 wide, and a hole in each corner.
+const std::string kBracket = dxf(
+    "0\nLWPOLYLINE\n8\nCUT\n90\n6\n70\n1\n10\n0\n20\n0\n10\n200\n20\n0\n10\n200\n20\n60\n10\n60\n20\n60\n10\n60\n20\n150\n10\n0\n20\n150\n" +
+    circle(30, 30, 8) + circle(170, 30, 8) + circle(30, 120, 8));
+
+TEST(NestCli, PartsAreNestedCertifiedAndEachCopysTransformPutsItOnItsSheet) {
+  test::TempDir dir;
+  const std::string bracket = dir.write("bracket.dxf", kBracket);
+  const std::string disc = dir.write("disc.dxf", dxf(circle(0, 0, 40) + circle(0, 0, 10)));
+  const test::CliResult r = test::Cli().run("nest '" + bracket + "':5 '" + disc + "':6 --sheet 800x400 --spacing 6 --margin 10 --time 0.2 --json");
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["certified"], true) << j["violations"];
+  EXPECT_EQ(j["spacing_mm"], 6.0);
+  ASSERT_EQ(j["placements"].size(), 11u);
+  ASSERT_EQ(j["sheets"].size(), 1u);
+  const double used = j["sheets"][0]["used_length_mm"].get<double>();
+  // The discs' centres (the drawing's origin) land inside the usable area, at least 40 mm in.
+  double right = 0.0;
+  for (const auto& p : j["placements"]) {
+    const double x = p["translate_mm"][0].get<double>(), y = p["translate_mm"][1].get<double>();
+    if (p["file"].get<std::string>().find("disc") == std::string::npos) continue;
+    EXPECT_GE(x, 50.0 - 1e-6);
+    EXPECT_GE(y, 50.0 - 1e-6);
+    EXPECT_LE(y, 350.0 + 1e-6);
+    right = std::max(right, x + 40.0);
+  }
+  EXPECT_LE(right, used + 1e-6) << "the used length covers every part";
+  const double area = 5 * (200 * 60 + 60 * 90 - 3 * M_PI * 64) + 6 * M_PI * (1600 - 100);
+  EXPECT_NEAR(j["sheets"][0]["utilisation"].get<double>(), area / (used * 400), 1e-9);
+  // The report for people says the same.
+  const test::CliResult text = test::Cli().run("nest '" + bracket + "':5 '" + disc + "':6 --sheet 800x400 --time 0.2");
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_THAT(text.out, HasSubstr("11 copies placed on 1 sheet(s)"));
+  EXPECT_THAT(text.out, HasSubstr("certified"));
+}
+
+TEST(NestCli, ACopyThatFitsNowhereIsNamedTheRestIsNestedAndTheExitIs3) {
+  test::TempDir dir;
+  const std::string bracket = dir.write("bracket.dxf", kBracket);
+  const std::string wide = dir.write("wide.dxf", dxf(circle(0, 0, 300)));
+  const test::CliResult r = test::Cli().run("nest '" + bracket + "':2 '" + wide + "' --sheet 500x400 --time 0.2 --json");
+  EXPECT_EQ(r.code, 3) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["placements"].size(), 2u);
+  ASSERT_EQ(j["unplaced"].size(), 1u);
+  EXPECT_THAT(j["unplaced"][0]["file"].get<std::string>(), HasSubstr("wide.dxf"));
+  EXPECT_THAT(j["unplaced"][0]["reason"].get<std::string>(), HasSubstr("600.0 x 600.0 mm: larger than the sheet's usable area"));
+}
+
+TEST(NestCli, BadFlagsAndDrawingsAreRefusedNamingThem) {
+  test::TempDir dir;
+  const std::string bracket = dir.write("bracket.dxf", kBracket);
+  const std::string two = dir.write("two.dxf", dxf(circle(0, 0, 10) + circle(100, 0, 10)));
+  const auto refused = [&](const std::string& args, const std::string& what) {
+    const test::CliResult r = test::Cli().run("nest " + args);
+    EXPECT_EQ(r.code, 2) << args << ": " << r.out;
+    EXPECT_THAT(r.err, HasSubstr(what)) << args;
+  };
+  refused("'" + bracket + "' --sheet 800", "--sheet: '800' is not WIDTHxHEIGHT[:COUNT]");
+  refused("'" + bracket + "' --sheet 800x400:0", "--sheet");
+  refused("'" + bracket + "':0 --sheet 800x400", "the quantity after the colon must be 1 .. 100000");
+  refused("'" + bracket + "' --sheet 800x400 --rotations 0,x", "--rotations");
+  refused("'" + bracket + "' --sheet 800x400 --spacing -1", "--spacing");
+  refused("'" + bracket + "' --sheet 100x100 --margin 60", "leaves no usable area");
+  refused("'" + two + "' --sheet 800x400", "holds 2 outer contours");
+  const test::CliResult split = test::Cli().run("nest '" + two + "' --split --sheet 800x400 --time 0 --json");
+  EXPECT_EQ(split.code, 0) << split.err;
+}
+
+}  // namespace
+}  // namespace machplan
