@@ -6,6 +6,7 @@
 // every placed copy's transform: a point (x, y) of the drawing lands on the sheet at
 // translate + R(rotation) * (x, y). Exit 3 when a copy fits on no sheet (each is named with
 // the reason; the rest is still nested) or the certificate fails.
+#include <charconv>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -58,14 +59,9 @@ std::vector<double> rotation_list(const std::string& s) {
   while (at <= s.size()) {
     const std::size_t comma = std::min(s.find(',', at), s.size());
     const std::string item = s.substr(at, comma - at);
-    std::size_t used = 0;
     double d = 0;
-    try {
-      d = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (item.empty() || used != item.size() || !(d >= -360 && d <= 360))
+    const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), d);
+    if (item.empty() || ec != std::errc() || end != item.data() + item.size() || !(d >= -360 && d <= 360))
       throw InputError("--rotations", 0, fmt::format("'{}': any, none, or degrees in [-360, 360] separated by commas", excerpt(s)));
     out.push_back(d);
     at = comma + 1;
