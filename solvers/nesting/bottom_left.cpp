@@ -55,6 +55,16 @@ Shape make_shape(const NestPart& part, double deg, double spacing, double tol) {
   Shape s;
   s.rotation_deg = deg;
   for (const Eigen::Vector2d& v : outside_polygon(grown, tol)) s.poly.outer().push_back(Pt(v.x(), v.y()));
+  // Each hole shrunk by as much (where the grown neighbours may lie), kept clockwise: the
+  // polygon's hole inside it. A hole too small for that is left out: filled.
+  for (const Contour& h : part.holes) {
+    const OffsetResult room = offset_contour(place(h, turn), -(spacing / 2 + kExtraMm));
+    for (const Contour& r : room.contours) {
+      Poly::ring_type ring;
+      for (const Eigen::Vector2d& v : outside_polygon(r, tol)) ring.push_back(Pt(v.x(), v.y()));
+      s.poly.inners().push_back(std::move(ring));
+    }
+  }
   bg::correct(s.poly);
   s.box = bg::return_envelope<Box>(s.poly);
   s.part_box = bounding_box(outer);
@@ -117,6 +127,12 @@ std::optional<Spot> leftmost(const SheetLayout& sheet, const Shape& s, const Eig
     xs.push_back(b.max_corner().x() - s.box.min_corner().x() + kClear);
     ys.push_back(b.max_corner().y() - s.box.min_corner().y() + kClear);
     ys.push_back(b.min_corner().y() - s.box.max_corner().y() - kClear);
+    // Part in part: the lower left corner of each of its holes.
+    for (const auto& ring : sheet.polys[i].inners()) {
+      const Box h = bg::return_envelope<Box>(ring);
+      xs.push_back(h.min_corner().x() - s.box.min_corner().x() + kClear);
+      ys.push_back(h.min_corner().y() - s.box.min_corner().y() + kClear);
+    }
   }
   auto clean = [](std::vector<double>& v, double lo, double hi) {
     v.erase(std::remove_if(v.begin(), v.end(), [&](double a) { return a < lo - 1e-9 || a > hi + 1e-9; }), v.end());

@@ -6,11 +6,13 @@
 //
 // Collisions are tested on the parts grown by half the spacing and approximated from outside
 // (outline.h), with Boost.Geometry's polygon tests behind an R-tree of their boxes: two parts
-// whose polygons do not meet are at least the spacing apart. Part-in-part (small parts in the
-// holes of large ones) is not tried yet: holes are ignored, as if filled.
+// whose polygons do not meet are at least the spacing apart. A part's holes, shrunk by half the
+// spacing and approximated from inside, are holes of its polygon: smaller parts go in them
+// (part in part) when they keep the spacing from the hole's edge.
 //
-// The places tried: the sheet's lower left corner and the positions that put the copy's box
-// against another part's box (to its right, above it, below it); then the slides find the
+// The places tried: the sheet's lower left corner, the positions that put the copy's box
+// against another part's box (to its right, above it, below it) and in the lower left corner of
+// each hole's box; then the slides find the
 // interlocking positions boxes miss.
 //
 // Restarts: the first fill takes the copies largest first; each further one takes the best

@@ -101,6 +101,30 @@ TEST(BottomLeft, RestartsKeepTheBestNestAndTheSameSeedAndWorkGiveTheSameNest) {
   EXPECT_TRUE(certificate_of(r, a).certified);
 }
 
+TEST(BottomLeft, SmallPartsGoInTheHolesOfLargeOnesKeepingTheSpacingFromTheEdge) {
+  // A 200 x 100 frame with a 160 x 60 window, and discs of radius 20 (40 + 2 x 6 < 60).
+  NestPart frame = rect(200, 100, "frame");
+  frame.holes.push_back(Contour({{20, 20}, {20, 80}, {180, 80}, {180, 20}}, {0, 0, 0, 0}));
+  frame.area_mm2 -= 160 * 60;
+  NestRequest r;
+  r.parts = {frame, disc(20)};
+  r.quantity = {1, 3};
+  r.sheet = {1000, 120, 10};
+  r.spacing_mm = 6;
+  const NestResult n = bottom_left_nest(r);
+  ASSERT_EQ(n.placements.size(), 4u);
+  for (const Placement& p : n.placements)
+    if (p.part == 1) {
+      const Eigen::Vector2d at = p.translate_mm - n.placements[0].translate_mm;  // the disc's centre in the frame
+      EXPECT_GT(at.x(), 20 + 26 - 1e-6);
+      EXPECT_LT(at.x(), 180 - 26 + 1e-6);
+      EXPECT_NEAR(at.y(), 50, 4.0 + 1e-6) << "in the window, 6 mm from its edges";
+    }
+  EXPECT_NEAR(n.used_length_mm[0], 210.0, 1e-6) << "the discs add no length";
+  const Certificate c = certificate_of(r, n);
+  EXPECT_TRUE(c.certified) << (c.violations.empty() ? "" : c.violations.front());
+}
+
 TEST(BottomLeft, ARequestItCannotTakeIsRefusedNamingTheField) {
   NestRequest r;
   r.parts = {rect(10, 10)};
