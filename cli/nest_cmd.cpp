@@ -8,6 +8,7 @@
 // the reason; the rest is still nested) or the certificate fails.
 #include <charconv>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,7 +20,11 @@
 #include "cli/interrupt.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
+#include "engine/common/output_file.h"
+#include "engine/programs/gcode_writer.h"
+#include "solvers/motion/cut_order.h"
 #include "solvers/nesting/bottom_left.h"
+#include "solvers/nesting/sheet_program.h"
 
 namespace machplan::cli {
 namespace {
@@ -101,14 +106,41 @@ json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, cons
           {"placements", placements},    {"unplaced", unplaced}};
 }
 
+// Each sheet's cut program, its cuts ordered as `machplan order` orders them, written to
+// DIR/sheet_K.ngc; the paths, per sheet.
+std::vector<std::string> write_programs(const nesting::NestRequest& r, const nesting::NestResult& n, const std::string& dir,
+                                        const nesting::SheetProgramOptions& o) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw OutputError(dir, ec.message());
+  std::vector<std::string> paths;
+  for (int k = 0; k < n.sheets_used; ++k) {
+    const Program p = nesting::sheet_program(r.parts, n.placements, k, o);
+    const motion::OrderedProgram ordered = motion::order_cuts(p, {});
+    std::string header = fmt::format("sheet {} of {}, {:.0f} x {:.0f} mm, nested by machplan nest; spacing {:g} mm\n", k + 1,
+                                     n.sheets_used, r.sheet.width_mm, r.sheet.height_mm, r.spacing_mm);
+    for (const nesting::Placement& pl : n.placements)
+      if (pl.sheet == k)
+        header += fmt::format("{} copy {}: at X {:.3f} Y {:.3f}, turned {:g} deg\n", std::filesystem::path(r.parts[pl.part].file).filename().string(),
+                              pl.copy + 1, pl.translate_mm.x(), pl.translate_mm.y(), pl.rotation_deg);
+    header += "kerf not compensated here: machplan run --kerf WIDTH compensates it\n";
+    header += ordered.report.summary.done() ? ordered.report.summary.brief_report() : "cuts in the nest's order: " + ordered.report.summary.message;
+    paths.push_back((std::filesystem::path(dir) / fmt::format("sheet_{}.ngc", k + 1)).string());
+    write_file_atomically(paths.back(), write_gcode(ordered.report.summary.done() ? ordered.program : p, header));
+  }
+  return paths;
+}
+
 void print_nest_report(const json& j) {
   std::printf("nest: %zu copies placed on %zu sheet(s), spacing %g mm, margin %g mm; best of %d bottom-left fills (%s)\n",
               j["placements"].size(), j["sheets"].size(), j["spacing_mm"].get<double>(), j["margin_mm"].get<double>(),
               j["fills"].get<int>(), j["search_ended"].get<std::string>().c_str());
-  for (const json& s : j["sheets"])
+  for (const json& s : j["sheets"]) {
     std::printf("  sheet %d: %d parts, used length %.1f mm of %.0f, utilisation %.1f %% of the area used, remnant %.1f x %.1f mm\n",
                 s["sheet"].get<int>(), s["parts"].get<int>(), s["used_length_mm"].get<double>(), s["width_mm"].get<double>(),
                 100.0 * s["utilisation"].get<double>(), s["remnant_mm"][0].get<double>(), s["remnant_mm"][1].get<double>());
+    if (s.contains("program")) std::printf("    program: %s\n", s["program"].get<std::string>().c_str());
+  }
   std::printf("  %s\n", j["certified"].get<bool>() ? "certified: every pair of parts at least the spacing apart on the true "
                                                       "lines and arcs, every part inside the usable area"
                                                     : "NOT certified:");
@@ -121,7 +153,8 @@ void print_nest_report(const json& j) {
 void add_nest(CLI::App& app) {
   struct Args {
     std::vector<std::string> parts;
-    std::string sheet, rotations = "any";
+    std::string sheet, rotations = "any", out;
+    double feed = 2000.0, lead_in = 5.0;
     double spacing = 6.0, margin = 10.0, time = 2.0;
     std::uint64_t seed = 1;
     bool split = false, json = false;
@@ -136,6 +169,9 @@ void add_nest(CLI::App& app) {
   cmd->add_option("--time", a->time, "search time, s of nominal work (each collision test counts 2 us): the same nest on any machine; 0: one fill")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the search's restarts")->capture_default_str();
+  cmd->add_option("--out", a->out, "write each sheet's cut program here, as sheet_K.ngc (the folder is made)");
+  cmd->add_option("--feed", a->feed, "the cuts' feed in the programs, mm/min")->capture_default_str();
+  cmd->add_option("--lead-in", a->lead_in, "length of the straight lead-in from the waste side, mm")->capture_default_str();
   cmd->add_flag("--split", a->split, "a drawing with several outer contours is one part per contour (else refused)");
   cmd->add_flag("--json", a->json, "print JSON instead of the readable report");
   cmd->callback([a] {
@@ -161,7 +197,13 @@ void add_nest(CLI::App& app) {
     const nesting::Certificate cert =
         nesting::certify(r.parts, n.placements, std::vector<nesting::Sheet>(static_cast<std::size_t>(r.sheet_count), r.sheet),
                          r.spacing_mm);
-    const json j = nest_json(r, n, cert, t);
+    json j = nest_json(r, n, cert, t);
+    if (!a->out.empty()) {
+      if (!(a->feed > 0 && a->feed <= 100000)) throw InputError("--feed", 0, fmt::format("{} must be in (0, 100000] mm/min", a->feed));
+      if (!(a->lead_in >= 0 && a->lead_in <= 100)) throw InputError("--lead-in", 0, fmt::format("{} must be in [0, 100] mm", a->lead_in));
+      const std::vector<std::string> paths = write_programs(r, n, a->out, {a->feed, a->lead_in});
+      for (std::size_t k = 0; k < paths.size(); ++k) j["sheets"][k]["program"] = paths[k];
+    }
     if (a->json) print_json(j);
     else print_nest_report(j);
     if (!n.unplaced.empty() || !cert.certified) set_exit_code(3);

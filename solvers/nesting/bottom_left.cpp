@@ -127,11 +127,13 @@ std::optional<Spot> leftmost(const SheetLayout& sheet, const Shape& s, const Eig
     xs.push_back(b.max_corner().x() - s.box.min_corner().x() + kClear);
     ys.push_back(b.max_corner().y() - s.box.min_corner().y() + kClear);
     ys.push_back(b.min_corner().y() - s.box.max_corner().y() - kClear);
-    // Part in part: the lower left corner of each of its holes.
+    // Part in part: each of its holes' lower left corner, and its centre (a round hole).
     for (const auto& ring : sheet.polys[i].inners()) {
       const Box h = bg::return_envelope<Box>(ring);
       xs.push_back(h.min_corner().x() - s.box.min_corner().x() + kClear);
       ys.push_back(h.min_corner().y() - s.box.min_corner().y() + kClear);
+      xs.push_back(0.5 * (h.min_corner().x() + h.max_corner().x() - s.box.min_corner().x() - s.box.max_corner().x()));
+      ys.push_back(0.5 * (h.min_corner().y() + h.max_corner().y() - s.box.min_corner().y() - s.box.max_corner().y()));
     }
   }
   auto clean = [](std::vector<double>& v, double lo, double hi) {

@@ -11,8 +11,8 @@
 // (part in part) when they keep the spacing from the hole's edge.
 //
 // The places tried: the sheet's lower left corner, the positions that put the copy's box
-// against another part's box (to its right, above it, below it) and in the lower left corner of
-// each hole's box; then the slides find the
+// against another part's box (to its right, above it, below it), and in each hole's box its
+// lower left corner and its centre; then the slides find the
 // interlocking positions boxes miss.
 //
 // Restarts: the first fill takes the copies largest first; each further one takes the best

@@ -2,6 +2,7 @@
 // the JSON checkable from the drawings alone; copies that fit nowhere and bad flags named.
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -30,7 +31,7 @@ TEST(NestCli, PartsAreNestedCertifiedAndEachCopysTransformPutsItOnItsSheet) {
   test::TempDir dir;
   const std::string bracket = dir.write("bracket.dxf", kBracket);
   const std::string disc = dir.write("disc.dxf", dxf(circle(0, 0, 40) + circle(0, 0, 10)));
-  const test::CliResult r = test::Cli().run("nest '" + bracket + "':5 '" + disc + "':6 --sheet 800x400 --spacing 6 --margin 10 --time 0.2 --json");
+  const test::CliResult r = test::Cli().run("nest '" + bracket + "':5 '" + disc + "':6 --sheet 800x400 --spacing 6 --margin 10 --time 0.05 --json");
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["certified"], true) << j["violations"];
@@ -52,17 +53,59 @@ TEST(NestCli, PartsAreNestedCertifiedAndEachCopysTransformPutsItOnItsSheet) {
   const double area = 5 * (200 * 60 + 60 * 90 - 3 * M_PI * 64) + 6 * M_PI * (1600 - 100);
   EXPECT_NEAR(j["sheets"][0]["utilisation"].get<double>(), area / (used * 400), 1e-9);
   // The report for people says the same.
-  const test::CliResult text = test::Cli().run("nest '" + bracket + "':5 '" + disc + "':6 --sheet 800x400 --time 0.2");
+  const test::CliResult text = test::Cli().run("nest '" + bracket + "':5 '" + disc + "':6 --sheet 800x400 --time 0.05");
   ASSERT_EQ(text.code, 0) << text.err;
   EXPECT_THAT(text.out, HasSubstr("11 copies placed on 1 sheet(s)"));
   EXPECT_THAT(text.out, HasSubstr("certified"));
+}
+
+// The sheet's program: a ring with a disc nested in its hole; the disc is cut before the hole
+// that holds it (or it would drop with the slug), and the program runs on the simulated gantry.
+TEST(NestCli, TheSheetsProgramCutsAPartInAHoleBeforeTheHoleAndRunsOnTheGantry) {
+  test::TempDir dir;
+  const std::string ring = dir.write("ring.dxf", dxf(circle(0, 0, 100) + circle(0, 0, 60)));
+  const std::string disc = dir.write("disc.dxf", dxf(circle(0, 0, 40)));
+  const std::string out = (dir.path() / "programs").string();
+  const test::CliResult r =
+      test::Cli().run("nest '" + ring + "' '" + disc + "' --sheet 600x300 --time 0 --out '" + out + "' --json");
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["sheets"].size(), 1u);
+  const std::string program = j["sheets"][0]["program"];
+  // The disc in the ring's hole: its centre within 14 mm of the ring's (60 - 40 - 6).
+  const auto& p = j["placements"];
+  ASSERT_EQ(p.size(), 2u);
+  const double dx = p[0]["translate_mm"][0].get<double>() - p[1]["translate_mm"][0].get<double>();
+  const double dy = p[0]["translate_mm"][1].get<double>() - p[1]["translate_mm"][1].get<double>();
+  EXPECT_LE(std::hypot(dx, dy), 14.0 + 1e-6) << "the disc went into the hole";
+  // Three cuts: the disc (radius 40), the hole (60), the outline (100), in that order.
+  const test::CliResult read = test::Cli().run("program '" + program + "' --json");
+  ASSERT_EQ(read.code, 0) << read.err;
+  std::vector<double> radii;
+  const nlohmann::json moves = nlohmann::json::parse(read.out)["moves"];
+  for (const auto& m : moves) {
+    if (m["kind"] != "arc") continue;
+    const double radius = std::hypot(m["end"][0].get<double>() - m["center"][0].get<double>(),
+                                     m["end"][1].get<double>() - m["center"][1].get<double>());
+    if (radii.empty() || std::abs(radii.back() - radius) > 1e-3) radii.push_back(radius);
+  }
+  ASSERT_EQ(radii.size(), 3u) << read.out.substr(0, 1000);
+  EXPECT_NEAR(radii[0], 40.0, 1e-3);
+  EXPECT_NEAR(radii[1], 60.0, 1e-3);
+  EXPECT_NEAR(radii[2], 100.0, 1e-3);
+  const test::CliResult run = test::Cli().run("run '" + program + "' --machine thermal_gantry --json");
+  ASSERT_EQ(run.code, 0) << run.err;
+  const nlohmann::json rj = nlohmann::json::parse(run.out);
+  EXPECT_EQ(rj["status"], "done");
+  EXPECT_EQ(rj["cuts"].size(), 3u);
+  EXPECT_LT(rj["max_contour_error_mm"].get<double>(), 0.1);
 }
 
 TEST(NestCli, ACopyThatFitsNowhereIsNamedTheRestIsNestedAndTheExitIs3) {
   test::TempDir dir;
   const std::string bracket = dir.write("bracket.dxf", kBracket);
   const std::string wide = dir.write("wide.dxf", dxf(circle(0, 0, 300)));
-  const test::CliResult r = test::Cli().run("nest '" + bracket + "':2 '" + wide + "' --sheet 500x400 --time 0.2 --json");
+  const test::CliResult r = test::Cli().run("nest '" + bracket + "':2 '" + wide + "' --sheet 500x400 --time 0.05 --json");
   EXPECT_EQ(r.code, 3) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["placements"].size(), 2u);
