@@ -6,7 +6,6 @@
 // every placed copy's transform: a point (x, y) of the drawing lands on the sheet at
 // translate + R(rotation) * (x, y). Exit 3 when a copy fits on no sheet (each is named with
 // the reason; the rest is still nested) or the certificate fails.
-#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -24,6 +23,7 @@
 #include "engine/programs/gcode_writer.h"
 #include "solvers/motion/cut_order.h"
 #include "solvers/nesting/bottom_left.h"
+#include "solvers/nesting/nest_job.h"
 #include "solvers/nesting/sheet_program.h"
 
 namespace machplan::cli {
@@ -42,8 +42,8 @@ std::pair<std::string, int> part_spec(const std::string& s) {
   return {s.substr(0, colon), std::stoi(q)};
 }
 
-// "WxH" or "WxH:COUNT".
-void sheet_spec(const std::string& s, nesting::Sheet& sheet, int& count) {
+// "WxH" or "WxH:COUNT": that many sheets alike.
+std::vector<nesting::Sheet> sheet_spec(const std::string& s, double margin_mm) {
   double w = 0, h = 0;
   int n = 1, used = 0;
   const bool with_count = std::sscanf(s.c_str(), "%lfx%lf:%d%n", &w, &h, &n, &used) == 3 && used == static_cast<int>(s.size());
@@ -52,32 +52,15 @@ void sheet_spec(const std::string& s, nesting::Sheet& sheet, int& count) {
     throw InputError("--sheet", 0, fmt::format("'{}' is not WIDTHxHEIGHT[:COUNT] in mm (e.g. 2500x1250:2)", excerpt(s)));
   if (!(w > 0 && h > 0 && w <= 1e5 && h <= 1e5) || n < 1 || n > 1000)
     throw InputError("--sheet", 0, fmt::format("'{}': sizes in (0, 100000] mm and 1 .. 1000 sheets", excerpt(s)));
-  sheet.width_mm = w, sheet.height_mm = h;
-  count = n;
-}
-
-std::vector<double> rotation_list(const std::string& s) {
-  if (s == "none") return {0.0};
-  if (s == "any") return {0, 45, 90, 135, 180, 225, 270, 315};
-  std::vector<double> out;
-  std::size_t at = 0;
-  while (at <= s.size()) {
-    const std::size_t comma = std::min(s.find(',', at), s.size());
-    const std::string item = s.substr(at, comma - at);
-    double d = 0;
-    const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), d);
-    if (item.empty() || ec != std::errc() || end != item.data() + item.size() || !(d >= -360 && d <= 360))
-      throw InputError("--rotations", 0, fmt::format("'{}': any, none, or degrees in [-360, 360] separated by commas", excerpt(s)));
-    out.push_back(d);
-    at = comma + 1;
-  }
-  return out;
+  nesting::Sheet sheet;
+  sheet.width_mm = w, sheet.height_mm = h, sheet.margin_mm = margin_mm;
+  return std::vector<nesting::Sheet>(static_cast<std::size_t>(n), sheet);
 }
 
 json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, const nesting::Certificate& cert, const Termination& t) {
   json sheets = json::array(), placements = json::array(), unplaced = json::array();
-  std::vector<double> area(static_cast<std::size_t>(n.sheets_used), 0.0);
-  std::vector<int> count(static_cast<std::size_t>(n.sheets_used), 0);
+  std::vector<double> area(r.sheets.size(), 0.0);
+  std::vector<int> count(r.sheets.size(), 0);
   for (const nesting::Placement& p : n.placements) {
     area[static_cast<std::size_t>(p.sheet)] += r.parts[p.part].area_mm2;
     ++count[static_cast<std::size_t>(p.sheet)];
@@ -88,37 +71,43 @@ json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, cons
                           {"mirrored", p.mirrored},
                           {"translate_mm", {p.translate_mm.x(), p.translate_mm.y()}}});
   }
-  for (int k = 0; k < n.sheets_used; ++k) {
-    const double used = n.used_length_mm[static_cast<std::size_t>(k)];
+  for (std::size_t k = 0; k < r.sheets.size(); ++k) {
+    if (count[k] == 0) continue;
+    const nesting::Sheet& sh = r.sheets[k];
+    const double used = n.used_length_mm[k];
     sheets.push_back({{"sheet", k + 1},
-                      {"width_mm", r.sheet.width_mm},
-                      {"height_mm", r.sheet.height_mm},
-                      {"parts", count[static_cast<std::size_t>(k)]},
+                      {"width_mm", sh.width_mm},
+                      {"height_mm", sh.height_mm},
+                      {"margin_mm", sh.margin_mm},
+                      {"parts", count[k]},
                       {"used_length_mm", used},
-                      {"utilisation", area[static_cast<std::size_t>(k)] / (used * r.sheet.height_mm)},
-                      {"remnant_mm", {r.sheet.width_mm - used, r.sheet.height_mm}}});
+                      {"utilisation", area[k] / (used * sh.height_mm)},
+                      {"remnant_mm", {sh.width_mm - used, sh.height_mm}}});
   }
   for (const nesting::Unplaced& u : n.unplaced)
     unplaced.push_back({{"file", r.parts[u.part].file}, {"copy", u.copy + 1}, {"reason", u.reason}});
-  return {{"units", "mm"},       {"spacing_mm", r.spacing_mm}, {"margin_mm", r.sheet.margin_mm},
-          {"fills", n.fills},     {"search_s", t.work_s_spent()}, {"search_ended", t.describe()},
+  return {{"units", "mm"},       {"spacing_mm", r.spacing_mm}, {"fills", n.fills},
+          {"search_s", t.work_s_spent()}, {"search_ended", t.describe()},
           {"certified", cert.certified}, {"violations", cert.violations}, {"sheets", sheets},
           {"placements", placements},    {"unplaced", unplaced}};
 }
 
 // Each sheet's cut program, its cuts ordered as `machplan order` orders them, written to
 // DIR/sheet_K.ngc; the paths, per sheet.
+// DIR/sheet_K.ngc; the paths, per sheet used.
 std::vector<std::string> write_programs(const nesting::NestRequest& r, const nesting::NestResult& n, const std::string& dir,
                                         const nesting::SheetProgramOptions& o) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw OutputError(dir, ec.message());
   std::vector<std::string> paths;
-  for (int k = 0; k < n.sheets_used; ++k) {
+  for (int k = 0; k < static_cast<int>(r.sheets.size()); ++k) {
+    if (n.used_length_mm[static_cast<std::size_t>(k)] <= 0.0) continue;
     const Program p = nesting::sheet_program(r.parts, n.placements, k, o);
     const motion::OrderedProgram ordered = motion::order_cuts(p, {});
+    const nesting::Sheet& sh = r.sheets[static_cast<std::size_t>(k)];
     std::string header = fmt::format("sheet {} of {}, {:.0f} x {:.0f} mm, nested by machplan nest; spacing {:g} mm\n", k + 1,
-                                     n.sheets_used, r.sheet.width_mm, r.sheet.height_mm, r.spacing_mm);
+                                     r.sheets.size(), sh.width_mm, sh.height_mm, r.spacing_mm);
     for (const nesting::Placement& pl : n.placements)
       if (pl.sheet == k)
         header += fmt::format("{} copy {}: at X {:.3f} Y {:.3f}, turned {:g} deg\n", std::filesystem::path(r.parts[pl.part].file).filename().string(),
@@ -132,9 +121,9 @@ std::vector<std::string> write_programs(const nesting::NestRequest& r, const nes
 }
 
 void print_nest_report(const json& j) {
-  std::printf("nest: %zu copies placed on %zu sheet(s), spacing %g mm, margin %g mm; best of %d bottom-left fills (%s)\n",
-              j["placements"].size(), j["sheets"].size(), j["spacing_mm"].get<double>(), j["margin_mm"].get<double>(),
-              j["fills"].get<int>(), j["search_ended"].get<std::string>().c_str());
+  std::printf("nest: %zu copies placed on %zu sheet(s), spacing %g mm; best of %d bottom-left fills (%s)\n",
+              j["placements"].size(), j["sheets"].size(), j["spacing_mm"].get<double>(), j["fills"].get<int>(),
+              j["search_ended"].get<std::string>().c_str());
   for (const json& s : j["sheets"]) {
     std::printf("  sheet %d: %d parts, used length %.1f mm of %.0f, utilisation %.1f %% of the area used, remnant %.1f x %.1f mm\n",
                 s["sheet"].get<int>(), s["parts"].get<int>(), s["used_length_mm"].get<double>(), s["width_mm"].get<double>(),
@@ -150,19 +139,44 @@ void print_nest_report(const json& j) {
                 u["reason"].get<std::string>().c_str());
 }
 
+struct NestArgs {
+  std::vector<std::string> parts;
+  std::string sheet, rotations = "any", out;
+  double feed = 2000.0, lead_in = 5.0;
+  double spacing = 6.0, margin = 10.0, time = 2.0;
+  std::uint64_t seed = 1;
+  bool split = false, json = false;
+};
+
+// The request from a job file, or from the drawings and the flags.
+nesting::NestRequest request_of(const NestArgs& a) {
+  const bool job = a.parts.size() == 1 && (a.parts[0].ends_with(".yaml") || a.parts[0].ends_with(".yml"));
+  if (job) {
+    if (!a.sheet.empty()) throw InputError("--sheet", 0, "the job file lists the sheets");
+    return nesting::read_nest_job(a.parts[0]);
+  }
+  if (a.sheet.empty()) throw InputError("--sheet", 0, "give the sheets (WIDTHxHEIGHT[:COUNT]), or a job file");
+  if (!(a.margin >= 0 && a.margin <= 1000)) throw InputError("--margin", 0, fmt::format("{} must be in [0, 1000] mm", a.margin));
+  if (!(a.spacing >= 0 && a.spacing <= 1000)) throw InputError("--spacing", 0, fmt::format("{} must be in [0, 1000] mm", a.spacing));
+  nesting::NestRequest r;
+  r.sheets = sheet_spec(a.sheet, a.margin);
+  r.spacing_mm = a.spacing;
+  r.rotations_deg = nesting::rotations_from_text(a.rotations, "--rotations");
+  for (const std::string& s : a.parts) {
+    const auto [file, qty] = part_spec(s);
+    for (nesting::NestPart& p : nesting::read_nest_parts(file, a.split)) {
+      r.parts.push_back(std::move(p));
+      r.quantity.push_back(qty);
+    }
+  }
+  return r;
+}
+
 void add_nest(CLI::App& app) {
-  struct Args {
-    std::vector<std::string> parts;
-    std::string sheet, rotations = "any", out;
-    double feed = 2000.0, lead_in = 5.0;
-    double spacing = 6.0, margin = 10.0, time = 2.0;
-    std::uint64_t seed = 1;
-    bool split = false, json = false;
-  };
-  auto a = std::make_shared<Args>();
+  auto a = std::make_shared<NestArgs>();
   auto* cmd = app.add_subcommand("nest", "Nest parts from DXF drawings on sheets (bottom-left fill, certified)");
-  cmd->add_option("parts", a->parts, "DXF drawings, each FILE or FILE:QUANTITY")->required();
-  cmd->add_option("--sheet", a->sheet, "the sheets: WIDTHxHEIGHT[:COUNT] in mm, x along the width")->required();
+  cmd->add_option("parts", a->parts, "a job file JOB.yaml, or DXF drawings, each FILE or FILE:QUANTITY")->required();
+  cmd->add_option("--sheet", a->sheet, "the sheets: WIDTHxHEIGHT[:COUNT] in mm, x along the width (no job file)");
   cmd->add_option("--spacing", a->spacing, "least distance between parts, mm (the kerf plus a clearance)")->capture_default_str();
   cmd->add_option("--margin", a->margin, "kept clear along every sheet edge, mm")->capture_default_str();
   cmd->add_option("--rotations", a->rotations, "any (every 45 deg), none, or degrees separated by commas")->capture_default_str();
@@ -175,34 +189,19 @@ void add_nest(CLI::App& app) {
   cmd->add_flag("--split", a->split, "a drawing with several outer contours is one part per contour (else refused)");
   cmd->add_flag("--json", a->json, "print JSON instead of the readable report");
   cmd->callback([a] {
-    nesting::NestRequest r;
-    sheet_spec(a->sheet, r.sheet, r.sheet_count);
-    if (!(a->margin >= 0 && a->margin <= 1000)) throw InputError("--margin", 0, fmt::format("{} must be in [0, 1000] mm", a->margin));
-    if (!(a->spacing >= 0 && a->spacing <= 1000)) throw InputError("--spacing", 0, fmt::format("{} must be in [0, 1000] mm", a->spacing));
-    r.sheet.margin_mm = a->margin;
-    r.spacing_mm = a->spacing;
-    r.rotations_deg = rotation_list(a->rotations);
-    for (const std::string& s : a->parts) {
-      const auto [file, qty] = part_spec(s);
-      for (nesting::NestPart& p : nesting::read_nest_parts(file, a->split)) {
-        r.parts.push_back(std::move(p));
-        r.quantity.push_back(qty);
-      }
-    }
+    nesting::NestRequest r = request_of(*a);
     if (!(a->time >= 0 && a->time <= 86400)) throw InputError("--time", 0, fmt::format("{} must be in [0, 86400] s", a->time));
     Termination t(StopOnSignals::stop_token());
     if (a->time > 0) t.set_deadline(a->time, "nominal search time");
     else t.set_budget(1, "fills");
     const nesting::NestResult n = nesting::bottom_left_nest(r, t, a->seed);
-    const nesting::Certificate cert =
-        nesting::certify(r.parts, n.placements, std::vector<nesting::Sheet>(static_cast<std::size_t>(r.sheet_count), r.sheet),
-                         r.spacing_mm);
+    const nesting::Certificate cert = nesting::certify(r.parts, n.placements, r.sheets, r.spacing_mm);
     json j = nest_json(r, n, cert, t);
     if (!a->out.empty()) {
       if (!(a->feed > 0 && a->feed <= 100000)) throw InputError("--feed", 0, fmt::format("{} must be in (0, 100000] mm/min", a->feed));
       if (!(a->lead_in >= 0 && a->lead_in <= 100)) throw InputError("--lead-in", 0, fmt::format("{} must be in [0, 100] mm", a->lead_in));
       const std::vector<std::string> paths = write_programs(r, n, a->out, {a->feed, a->lead_in});
-      for (std::size_t k = 0; k < paths.size(); ++k) j["sheets"][k]["program"] = paths[k];
+      for (std::size_t k = 0; k < paths.size(); ++k) j["sheets"][k]["program"] = paths[k];  // both per sheet used, in order
     }
     if (a->json) print_json(j);
     else print_nest_report(j);

@@ -32,6 +32,7 @@ using Box = bg::model::box<Pt>;
 // box and the true part's box.
 struct Shape {
   double rotation_deg = 0.0;
+  bool mirrored = false;
   Poly poly;
   Box box;
   Eigen::AlignedBox2d part_box;
@@ -39,9 +40,10 @@ struct Shape {
 
 constexpr double kExtraMm = 1e-5;
 
-Shape make_shape(const NestPart& part, double deg, double spacing, double tol) {
+Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing, double tol) {
   Placement turn;
   turn.rotation_deg = deg;
+  turn.mirrored = mirrored;
   const Contour outer = place(part.outer, turn);
   // Grown a little more than half the spacing: the certificate counts parts closer than a
   // micrometre past the spacing as too close, and so must the search.
@@ -54,6 +56,7 @@ Shape make_shape(const NestPart& part, double deg, double spacing, double tol) {
   }
   Shape s;
   s.rotation_deg = deg;
+  s.mirrored = mirrored;
   for (const Eigen::Vector2d& v : outside_polygon(grown, tol)) s.poly.outer().push_back(Pt(v.x(), v.y()));
   // Each hole shrunk by as much (where the grown neighbours may lie), kept clockwise: the
   // polygon's hole inside it. A hole too small for that is left out: filled.
@@ -163,12 +166,15 @@ void check(const NestRequest& r) {
   for (int q : r.quantity)
     if (q < 1 || q > 100000) throw InputError::field("quantity", fmt::format("{} must be 1 .. 100000", q));
   if (r.rotations_deg.empty()) throw InputError::field("rotations", "at least one rotation (0: as drawn)");
-  const Sheet& s = r.sheet;
-  if (!(s.margin_mm >= 0 && s.width_mm > 2 * s.margin_mm && s.height_mm > 2 * s.margin_mm && std::isfinite(s.width_mm) &&
-        std::isfinite(s.height_mm)))
-    throw InputError::field("sheet", fmt::format("{} x {} mm with a margin of {} mm leaves no usable area", s.width_mm,
-                                                 s.height_mm, s.margin_mm));
-  if (r.sheet_count < 1) throw InputError::field("sheet", fmt::format("{} sheets: at least 1", r.sheet_count));
+  if (!r.rotations.empty() && r.rotations.size() != r.parts.size()) throw InputError::field("rotations", "one list per part");
+  if (!r.priority.empty() && r.priority.size() != r.parts.size()) throw InputError::field("priority", "one per part");
+  if (!r.mirror.empty() && r.mirror.size() != r.parts.size()) throw InputError::field("mirror", "one per part");
+  if (r.sheets.empty()) throw InputError::field("sheets", "no sheet to nest on");
+  for (const Sheet& s : r.sheets)
+    if (!(s.margin_mm >= 0 && s.width_mm > 2 * s.margin_mm && s.height_mm > 2 * s.margin_mm && std::isfinite(s.width_mm) &&
+          std::isfinite(s.height_mm)))
+      throw InputError::field("sheet", fmt::format("{} x {} mm with a margin of {} mm leaves no usable area", s.width_mm,
+                                                   s.height_mm, s.margin_mm));
   if (!(r.spacing_mm >= 0 && r.spacing_mm <= 1000)) throw InputError::field("spacing_mm", fmt::format("{} must be in [0, 1000] mm", r.spacing_mm));
   if (!(r.tolerance_mm > 0)) throw InputError::field("tolerance_mm", "must be > 0");
 }
@@ -178,26 +184,27 @@ using Copy = std::pair<std::size_t, int>;
 // One bottom-left fill of the copies in `order`; `tests` counts its collision tests.
 NestResult fill(const NestRequest& r, const std::vector<std::vector<Shape>>& shapes, const std::vector<Copy>& order,
                 std::int64_t& tests) {
-  const Sheet& sh = r.sheet;
-  const Eigen::AlignedBox2d usable(Eigen::Vector2d::Constant(sh.margin_mm),
-                                   Eigen::Vector2d(sh.width_mm - sh.margin_mm, sh.height_mm - sh.margin_mm));
-  std::vector<SheetLayout> sheets;
+  std::vector<Eigen::AlignedBox2d> usable;
+  for (const Sheet& sh : r.sheets)
+    usable.emplace_back(Eigen::Vector2d::Constant(sh.margin_mm), Eigen::Vector2d(sh.width_mm - sh.margin_mm, sh.height_mm - sh.margin_mm));
+  std::vector<SheetLayout> sheets(r.sheets.size());
   NestResult out;
   for (const auto& [p, c] : order) {
     std::optional<Spot> best;
     int on = -1;
-    for (int k = 0; k < r.sheet_count && !best; ++k) {
-      if (k == static_cast<int>(sheets.size())) sheets.emplace_back();
+    for (std::size_t k = 0; k < sheets.size() && !best; ++k) {
       for (const Shape& s : shapes[p]) {
-        const std::optional<Spot> spot = leftmost(sheets[static_cast<std::size_t>(k)], s, usable);
+        const std::optional<Spot> spot = leftmost(sheets[k], s, usable[k]);
         const auto right = [](const Spot& a) { return a.x + a.shape->part_box.max().x(); };
         if (spot && (!best || right(*spot) < right(*best) - 1e-9 || (right(*spot) <= right(*best) + 1e-9 && spot->y < best->y)))
-          best = spot, on = k;
+          best = spot, on = static_cast<int>(k);
       }
     }
     if (!best) {
       const bool larger = std::none_of(shapes[p].begin(), shapes[p].end(), [&](const Shape& s) {
-        return s.part_box.sizes().x() <= usable.sizes().x() && s.part_box.sizes().y() <= usable.sizes().y();
+        return std::any_of(usable.begin(), usable.end(), [&](const Eigen::AlignedBox2d& u) {
+          return s.part_box.sizes().x() <= u.sizes().x() && s.part_box.sizes().y() <= u.sizes().y();
+        });
       });
       const Eigen::Vector2d size = bounding_box(r.parts[p].outer).sizes();
       out.unplaced.push_back({p, c, larger ? fmt::format("{:.1f} x {:.1f} mm: larger than the sheet's usable area in every rotation allowed",
@@ -211,14 +218,14 @@ NestResult fill(const NestRequest& r, const std::vector<std::vector<Shape>>& sha
     pl.copy = c;
     pl.sheet = on;
     pl.rotation_deg = best->shape->rotation_deg;
+    pl.mirrored = best->shape->mirrored;
     pl.translate_mm = {best->x, best->y};
     out.placements.push_back(pl);
   }
   for (const SheetLayout& s : sheets) {
     tests += s.tests;
-    if (s.polys.empty()) continue;
-    ++out.sheets_used;
-    out.used_length_mm.push_back(s.right_mm);
+    out.sheets_used += !s.polys.empty();
+    out.used_length_mm.push_back(s.polys.empty() ? 0.0 : s.right_mm);
   }
   out.fills = 1;
   return out;
@@ -228,12 +235,16 @@ NestResult fill(const NestRequest& r, const std::vector<std::vector<Shape>>& sha
 bool better(const NestResult& a, const NestResult& b) {
   if (a.unplaced.size() != b.unplaced.size()) return a.unplaced.size() < b.unplaced.size();
   if (a.sheets_used != b.sheets_used) return a.sheets_used < b.sheets_used;
-  const double la = a.used_length_mm.empty() ? 0.0 : a.used_length_mm.back();
-  const double lb = b.used_length_mm.empty() ? 0.0 : b.used_length_mm.back();
-  return la < lb - 1e-9;
+  return a.last_length_mm() < b.last_length_mm() - 1e-9;
 }
 
 }  // namespace
+
+double NestResult::last_length_mm() const {
+  for (auto it = used_length_mm.rbegin(); it != used_length_mm.rend(); ++it)
+    if (*it > 0.0) return *it;
+  return 0.0;
+}
 
 NestResult bottom_left_nest(const NestRequest& r) {
   Termination one;
@@ -245,13 +256,19 @@ NestResult bottom_left_nest(const NestRequest& r, Termination& t, std::uint64_t 
   check(r);
   std::vector<std::vector<Shape>> shapes(r.parts.size());
   for (std::size_t p = 0; p < r.parts.size(); ++p)
-    for (double deg : r.rotations_deg) shapes[p].push_back(make_shape(r.parts[p], deg, r.spacing_mm, r.tolerance_mm));
-  // The copies, largest part first (ties: the order given).
+    for (const bool mirrored : {false, true})
+      if (!mirrored || (!r.mirror.empty() && r.mirror[p]))
+        for (double deg : r.rotations.empty() || r.rotations[p].empty() ? r.rotations_deg : r.rotations[p])
+          shapes[p].push_back(make_shape(r.parts[p], deg, mirrored, r.spacing_mm, r.tolerance_mm));
+  // The copies by priority, then largest part first (ties: the order given).
+  const auto priority = [&](std::size_t p) { return r.priority.empty() ? 1 : r.priority[p]; };
   std::vector<Copy> order;
   for (std::size_t p = 0; p < r.parts.size(); ++p)
     for (int c = 0; c < r.quantity[p]; ++c) order.emplace_back(p, c);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](const Copy& a, const Copy& b) { return r.parts[a.first].area_mm2 > r.parts[b.first].area_mm2; });
+  std::stable_sort(order.begin(), order.end(), [&](const Copy& a, const Copy& b) {
+    if (priority(a.first) != priority(b.first)) return priority(a.first) < priority(b.first);
+    return r.parts[a.first].area_mm2 > r.parts[b.first].area_mm2;
+  });
   std::int64_t tests = 0;
   NestResult best = fill(r, shapes, order, tests);
   t.charge(1, static_cast<double>(tests) * kTestCostS);
@@ -261,7 +278,11 @@ NestResult bottom_left_nest(const NestRequest& r, Termination& t, std::uint64_t 
     std::vector<Copy> tried = order;
     std::uniform_int_distribution<std::size_t> pick(0, tried.size() - 1);
     const int swaps = 1 + static_cast<int>(rng() % 3);
-    for (int k = 0; k < swaps; ++k) std::swap(tried[pick(rng)], tried[pick(rng)]);
+    for (int k = 0; k < swaps; ++k) {
+      // Two copies of one priority: the must-nest parts stay ahead of the fillers.
+      const std::size_t i = pick(rng), j = pick(rng);
+      if (priority(tried[i].first) == priority(tried[j].first)) std::swap(tried[i], tried[j]);
+    }
     tests = 0;
     NestResult n = fill(r, shapes, tried, tests);
     t.charge(1, static_cast<double>(tests) * kTestCostS);

@@ -37,9 +37,11 @@ namespace machplan::nesting {
 struct NestRequest {
   std::vector<NestPart> parts;
   std::vector<int> quantity;            // per part, >= 1
-  std::vector<double> rotations_deg{0.0};  // tried for every part
-  Sheet sheet;                          // every sheet alike
-  int sheet_count = 1;
+  std::vector<double> rotations_deg{0.0};  // tried for every part without rotations of its own
+  std::vector<std::vector<double>> rotations;  // per part, when given (an empty one: rotations_deg)
+  std::vector<int> priority;            // per part, when given: lower first (must-nest parts), then fillers
+  std::vector<bool> mirror;             // per part, when given: mirrored copies tried too
+  std::vector<Sheet> sheets;            // one each, filled in this order
   double spacing_mm = 0.0;
   double tolerance_mm = 0.05;           // of the outside polygons (more spacing, never less)
 };
@@ -53,8 +55,9 @@ struct Unplaced {
 struct NestResult {
   std::vector<Placement> placements;
   std::vector<Unplaced> unplaced;
-  int sheets_used = 0;
-  std::vector<double> used_length_mm;   // per sheet used: the parts' right edge (from x 0)
+  int sheets_used = 0;                  // sheets with a part on them
+  std::vector<double> used_length_mm;   // per sheet of the request: the parts' right edge (0: none)
+  double last_length_mm() const;        // of the last sheet with a part
   int fills = 0;                        // bottom-left fills made (restarts + 1)
 };
 
@@ -62,7 +65,7 @@ struct NestResult {
 constexpr double kTestCostS = 2e-6;
 
 // Throws InputError naming the field for a request it cannot take (no part, a quantity < 1,
-// a sheet without a usable area, a negative spacing, no rotation).
+// a sheet without a usable area, a negative spacing, no rotation, no sheet).
 NestResult bottom_left_nest(const NestRequest& request);
 // With restarts until `t` ends (see the file comment), from `seed`.
 NestResult bottom_left_nest(const NestRequest& request, Termination& t, std::uint64_t seed);

@@ -101,6 +101,55 @@ TEST(NestCli, TheSheetsProgramCutsAPartInAHoleBeforeTheHoleAndRunsOnTheGantry) {
   EXPECT_LT(rj["max_contour_error_mm"].get<double>(), 0.1);
 }
 
+// A job file: two sheet sizes filled in order, per-part rotations, a must-nest part first, and
+// drawings found beside the job file.
+TEST(NestCli, AJobFileGivesTheSheetsAndEachPartsQuantityRotationsAndPriority) {
+  test::TempDir dir;
+  dir.write("bracket.dxf", kBracket);
+  dir.write("disc.dxf", dxf(circle(0, 0, 40)));
+  const std::string job = dir.write("job.yaml",
+                                    "sheets:\n"
+                                    "  - {width_mm: 450, height_mm: 300, margin_mm: 5}\n"
+                                    "  - {width_mm: 800, height_mm: 400, count: 2}\n"
+                                    "spacing_mm: 8\n"
+                                    "parts:\n"
+                                    "  - {file: disc.dxf, quantity: 6, priority: 2}\n"
+                                    "  - {file: bracket.dxf, quantity: 4, rotations: [0, 180], mirror: true, priority: 1}\n");
+  const test::CliResult r = test::Cli().run("nest '" + job + "' --time 0.05 --json");
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["certified"], true) << j["violations"];
+  EXPECT_EQ(j["spacing_mm"], 8.0);
+  ASSERT_EQ(j["placements"].size(), 10u);
+  ASSERT_FALSE(j["sheets"].empty());
+  EXPECT_EQ(j["sheets"][0]["sheet"], 1) << "the first sheet is filled first";
+  EXPECT_EQ(j["sheets"][0]["margin_mm"], 5.0);
+  for (const auto& p : j["placements"])
+    if (p["file"].get<std::string>().find("bracket") != std::string::npos) {
+      const double deg = p["rotation_deg"].get<double>();
+      EXPECT_TRUE(deg == 0.0 || deg == 180.0) << deg;
+    }
+  // The brackets (priority 1) were placed before the discs: the first sheet holds brackets.
+  bool bracket_on_first = false;
+  for (const auto& p : j["placements"])
+    bracket_on_first |= p["sheet"] == 1 && p["file"].get<std::string>().find("bracket") != std::string::npos;
+  EXPECT_TRUE(bracket_on_first);
+  // A remnant outline, an unknown key, and --sheet beside a job file are refused.
+  const std::string remnant = dir.write("remnant.yaml", "sheets:\n  - {outline: r.dxf}\nparts:\n  - {file: disc.dxf}\n");
+  const test::CliResult rem = test::Cli().run("nest '" + remnant + "'");
+  EXPECT_EQ(rem.code, 2);
+  EXPECT_THAT(rem.err, HasSubstr("remnant.yaml:2"));
+  EXPECT_THAT(rem.err, HasSubstr("remnant outlines are not nested yet"));
+  const std::string unknown = dir.write("unknown.yaml", "sheets:\n  - {width_mm: 100, height_mm: 100}\nparts:\n  - {file: disc.dxf, qty: 2}\n");
+  const test::CliResult unk = test::Cli().run("nest '" + unknown + "'");
+  EXPECT_EQ(unk.code, 2);
+  EXPECT_THAT(unk.err, HasSubstr("unknown.yaml:4"));
+  EXPECT_THAT(unk.err, HasSubstr("qty"));
+  const test::CliResult both = test::Cli().run("nest '" + job + "' --sheet 100x100");
+  EXPECT_EQ(both.code, 2);
+  EXPECT_THAT(both.err, HasSubstr("--sheet: the job file lists the sheets"));
+}
+
 TEST(NestCli, ACopyThatFitsNowhereIsNamedTheRestIsNestedAndTheExitIs3) {
   test::TempDir dir;
   const std::string bracket = dir.write("bracket.dxf", kBracket);

@@ -18,21 +18,21 @@ using test::disc;
 using test::rect;
 
 Certificate certificate_of(const NestRequest& r, const NestResult& n) {
-  return certify(r.parts, n.placements, std::vector<Sheet>(static_cast<std::size_t>(r.sheet_count), r.sheet), r.spacing_mm);
+  return certify(r.parts, n.placements, r.sheets, r.spacing_mm);
 }
 
 TEST(BottomLeft, FourSquaresFillTwoByTwoAgainstTheLeftEdgeAtTheSpacing) {
   NestRequest r;
   r.parts = {rect(100, 100)};
   r.quantity = {4};
-  r.sheet = {400, 220, 0};
+  r.sheets = {Sheet{400, 220, 0}};
   r.spacing_mm = 10;
   const NestResult n = bottom_left_nest(r);
   ASSERT_EQ(n.placements.size(), 4u);
   EXPECT_TRUE(n.unplaced.empty());
   EXPECT_EQ(n.sheets_used, 1);
   // Two columns of two: 100 + 10 + 100, within the outside polygons' tolerance.
-  EXPECT_NEAR(n.used_length_mm[0], 210.0, 0.2);
+  EXPECT_NEAR(n.last_length_mm(), 210.0, 0.2);
   EXPECT_TRUE(certificate_of(r, n).certified);
 }
 
@@ -41,7 +41,7 @@ TEST(BottomLeft, APartThatFitsOnlyTurnedIsTurnedAndOneThatFitsNoWayIsNamed) {
   r.parts = {rect(300, 50, "long"), rect(600, 10, "too long")};
   r.quantity = {1, 1};
   r.rotations_deg = {0, 90};
-  r.sheet = {200, 400, 5};
+  r.sheets = {Sheet{200, 400, 5}};
   r.spacing_mm = 6;
   const NestResult n = bottom_left_nest(r);
   ASSERT_EQ(n.placements.size(), 1u);
@@ -57,8 +57,7 @@ TEST(BottomLeft, CopiesThatOverflowASheetGoToTheNextAndTheNestIsCertified) {
   r.parts = {disc(45), rect(120, 70)};
   r.quantity = {9, 5};
   r.rotations_deg = {0, 45, 90, 135};
-  r.sheet = {400, 300, 10};
-  r.sheet_count = 3;
+  r.sheets = std::vector<Sheet>(3, Sheet{400, 300, 10});
   r.spacing_mm = 6;
   const NestResult n = bottom_left_nest(r);
   EXPECT_EQ(n.placements.size(), 14u);
@@ -67,7 +66,7 @@ TEST(BottomLeft, CopiesThatOverflowASheetGoToTheNextAndTheNestIsCertified) {
   const Certificate c = certificate_of(r, n);
   EXPECT_TRUE(c.certified) << (c.violations.empty() ? "" : c.violations.front());
   // With one sheet only, what is left over is named as having no room.
-  r.sheet_count = 1;
+  r.sheets.resize(1);
   const NestResult one = bottom_left_nest(r);
   ASSERT_FALSE(one.unplaced.empty());
   EXPECT_EQ(one.unplaced[0].reason, "no room left on the sheets");
@@ -79,7 +78,7 @@ TEST(BottomLeft, RestartsKeepTheBestNestAndTheSameSeedAndWorkGiveTheSameNest) {
   r.parts = {disc(30), rect(90, 40), rect(50, 50)};
   r.quantity = {5, 6, 4};
   r.rotations_deg = {0, 90};
-  r.sheet = {1000, 150, 5};
+  r.sheets = {Sheet{1000, 150, 5}};
   r.spacing_mm = 4;
   const NestResult one = bottom_left_nest(r);
   EXPECT_EQ(one.fills, 1);
@@ -90,14 +89,14 @@ TEST(BottomLeft, RestartsKeepTheBestNestAndTheSameSeedAndWorkGiveTheSameNest) {
   };
   const NestResult a = search(7), b = search(7);
   EXPECT_GT(a.fills, 1);
-  EXPECT_LE(a.used_length_mm.back(), one.used_length_mm.back() + 1e-9) << "never worse than the first fill";
+  EXPECT_LE(a.last_length_mm(), one.last_length_mm() + 1e-9) << "never worse than the first fill";
   ASSERT_EQ(a.placements.size(), b.placements.size());
   EXPECT_EQ(a.fills, b.fills);
   for (std::size_t i = 0; i < a.placements.size(); ++i) {
     EXPECT_EQ(a.placements[i].part, b.placements[i].part);
     EXPECT_EQ(a.placements[i].translate_mm, b.placements[i].translate_mm);
   }
-  std::printf("one fill %.1f mm, %d fills %.1f mm\n", one.used_length_mm.back(), a.fills, a.used_length_mm.back());
+  std::printf("one fill %.1f mm, %d fills %.1f mm\n", one.last_length_mm(), a.fills, a.last_length_mm());
   EXPECT_TRUE(certificate_of(r, a).certified);
 }
 
@@ -109,7 +108,7 @@ TEST(BottomLeft, SmallPartsGoInTheHolesOfLargeOnesKeepingTheSpacingFromTheEdge) 
   NestRequest r;
   r.parts = {frame, disc(20)};
   r.quantity = {1, 3};
-  r.sheet = {1000, 120, 10};
+  r.sheets = {Sheet{1000, 120, 10}};
   r.spacing_mm = 6;
   const NestResult n = bottom_left_nest(r);
   ASSERT_EQ(n.placements.size(), 4u);
@@ -120,7 +119,7 @@ TEST(BottomLeft, SmallPartsGoInTheHolesOfLargeOnesKeepingTheSpacingFromTheEdge) 
       EXPECT_LT(at.x(), 180 - 26 + 1e-6);
       EXPECT_NEAR(at.y(), 50, 4.0 + 1e-6) << "in the window, 6 mm from its edges";
     }
-  EXPECT_NEAR(n.used_length_mm[0], 210.0, 1e-6) << "the discs add no length";
+  EXPECT_NEAR(n.last_length_mm(), 210.0, 1e-6) << "the discs add no length";
   const Certificate c = certificate_of(r, n);
   EXPECT_TRUE(c.certified) << (c.violations.empty() ? "" : c.violations.front());
 }
@@ -129,12 +128,12 @@ TEST(BottomLeft, ARequestItCannotTakeIsRefusedNamingTheField) {
   NestRequest r;
   r.parts = {rect(10, 10)};
   r.quantity = {0};
-  r.sheet = {100, 100, 0};
+  r.sheets = {Sheet{100, 100, 0}};
   EXPECT_THROW(bottom_left_nest(r), InputError);
   r.quantity = {1};
-  r.sheet = {100, 100, 50};
+  r.sheets = {Sheet{100, 100, 50}};
   EXPECT_THROW(bottom_left_nest(r), InputError);
-  r.sheet = {100, 100, 0};
+  r.sheets = {Sheet{100, 100, 0}};
   r.rotations_deg.clear();
   EXPECT_THROW(bottom_left_nest(r), InputError);
 }

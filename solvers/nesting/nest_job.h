@@ -1,0 +1,31 @@
+// A nesting job file (`machplan nest JOB.yaml`):
+//
+//   sheets:
+//     - {width_mm: 2500, height_mm: 1250, count: 2, margin_mm: 10}   # x along width_mm
+//   spacing_mm: 6
+//   parts:
+//     - {file: bracket.dxf, quantity: 12, rotations: any, mirror: false, priority: 1}
+//     - {file: gusset.dxf, quantity: 6, rotations: [0, 90, 180, 270], split: false}
+//
+// Sheets are filled in the order given (count: that many alike, default 1; margin_mm default
+// 10). spacing_mm defaults to 6. A part's file is a DXF drawing, its path relative to the job
+// file; quantity defaults to 1; rotations `any` (every 45 degrees, the default), `none`, or a
+// list of degrees; mirror: mirrored copies are tried too; priority: lower numbers are nested
+// first (must-nest parts before fillers; default 1); split: a drawing with several outer
+// contours gives one part per contour. A sheet given by an `outline` (a remnant) is refused:
+// not nested yet. Unknown keys and bad values are refused naming the file, line and key.
+#pragma once
+
+#include <string>
+
+#include "solvers/nesting/bottom_left.h"
+
+namespace machplan::nesting {
+
+NestRequest read_nest_job(const std::string& path);
+
+// "any", "none" or a list: the rotations to try, degrees in [-360, 360]. InputError naming
+// `field` otherwise.
+std::vector<double> rotations_from_text(const std::string& text, const std::string& field);
+
+}  // namespace machplan::nesting
