@@ -6,7 +6,6 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
-#include "engine/config/yaml.h"
 
 namespace machplan::nesting {
 
@@ -45,9 +44,12 @@ std::vector<double> rotations_of(const Yaml& y) {
 }  // namespace
 
 NestRequest read_nest_job(const std::string& path) {
-  const Yaml root = Yaml::load_file(path);
+  return read_nest_job(Yaml::load_file(path), std::filesystem::path(path).parent_path().string());
+}
+
+NestRequest read_nest_job(const Yaml& root, const std::string& folder_path) {
   root.reject_unknown_keys({"sheets", "spacing_mm", "parts"});
-  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  const std::filesystem::path folder = folder_path;
   NestRequest r;
   r.spacing_mm = root.number_or("spacing_mm", 6.0, {.min = 0, .max = 1000});
   for (const Yaml& s : root.at("sheets").items()) {

@@ -18,11 +18,14 @@
 
 #include <string>
 
+#include "engine/config/yaml.h"
 #include "solvers/nesting/bottom_left.h"
 
 namespace machplan::nesting {
 
 NestRequest read_nest_job(const std::string& path);
+// The same from a file already parsed; part files are found relative to `folder`.
+NestRequest read_nest_job(const Yaml& root, const std::string& folder);
 
 // "any", "none" or a list: the rotations to try, degrees in [-360, 360]. InputError naming
 // `field` otherwise.
