@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """machplan nest on the ESICUP strip-packing instances, for comparison with other nesters.
 
-    bench/nest_esicup.py --machplan build/release/cli/machplan --instances DIR [NAME...]
+    bench/nest_esicup.py --machplan build/release/cli/machplan --instances DIR [--time S] [NAME...]
 
 DIR holds the instances in the jagua-rs / sparrow JSON format (`data/input/<name>.json` of
 github:JeroenGar/sparrow) and, optionally, `records.tsv` (instance, strip_width, best_length,
@@ -31,6 +31,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--machplan", required=True)
     ap.add_argument("--instances", required=True)
+    ap.add_argument("--time", default="2", help="machplan nest --time (seconds of nominal work)")
     ap.add_argument("names", nargs="*")
     a = ap.parse_args()
     names = a.names or sorted(f[:-5] for f in os.listdir(a.instances) if f.endswith(".json"))
@@ -60,7 +61,7 @@ def main():
             length = 3 * total / h + 2 * h
             t0 = time.monotonic()
             r = subprocess.run([a.machplan, "nest", *args, "--sheet", f"{length}x{h}", "--spacing", "0", "--margin", "0",
-                                "--rotations", ",".join(str(x) for x in sorted(rotations)), "--json"],
+                                "--rotations", ",".join(str(x) for x in sorted(rotations)), "--time", a.time, "--json"],
                                capture_output=True, text=True)
             seconds = time.monotonic() - t0
         if r.returncode != 0:
