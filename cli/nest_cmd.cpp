@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,7 +22,9 @@
 #include "engine/common/error.h"
 #include "engine/common/output_file.h"
 #include "engine/programs/gcode_writer.h"
+#include "models/cutting/machine_config.h"
 #include "solvers/motion/cut_order.h"
+#include "solvers/motion/run.h"
 #include "solvers/nesting/bottom_left.h"
 #include "solvers/nesting/nest_job.h"
 #include "solvers/nesting/sheet_program.h"
@@ -93,14 +96,16 @@ json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, cons
 }
 
 // Each sheet's cut program, its cuts ordered as `machplan order` orders them, written to
-// DIR/sheet_K.ngc; the paths, per sheet.
-// DIR/sheet_K.ngc; the paths, per sheet used.
-std::vector<std::string> write_programs(const nesting::NestRequest& r, const nesting::NestResult& n, const std::string& dir,
-                                        const nesting::SheetProgramOptions& o) {
+// DIR/sheet_K.ngc; per sheet used, its path, cut length, pierces and rapid length, and with a
+// machine the cycle `machplan run` plans for it there.
+json write_programs(const nesting::NestRequest& r, const nesting::NestResult& n, const std::string& dir,
+                    const nesting::SheetProgramOptions& o, const std::string& machine) {
+  std::optional<cutting::MachineConfig> m;
+  if (!machine.empty()) m = cutting::load_machine(cutting::find_machine(machine));
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw OutputError(dir, ec.message());
-  std::vector<std::string> paths;
+  json out = json::array();
   for (int k = 0; k < static_cast<int>(r.sheets.size()); ++k) {
     if (n.used_length_mm[static_cast<std::size_t>(k)] <= 0.0) continue;
     const Program p = nesting::sheet_program(r.parts, n.placements, k, o);
@@ -114,10 +119,22 @@ std::vector<std::string> write_programs(const nesting::NestRequest& r, const nes
                               pl.copy + 1, pl.translate_mm.x(), pl.translate_mm.y(), pl.rotation_deg);
     header += "kerf not compensated here: machplan run --kerf WIDTH compensates it\n";
     header += ordered.report.summary.done() ? ordered.report.summary.brief_report() : "cuts in the nest's order: " + ordered.report.summary.message;
-    paths.push_back((std::filesystem::path(dir) / fmt::format("sheet_{}.ngc", k + 1)).string());
-    write_file_atomically(paths.back(), write_gcode(ordered.report.summary.done() ? ordered.program : p, header));
+    const std::string path = (std::filesystem::path(dir) / fmt::format("sheet_{}.ngc", k + 1)).string();
+    const Program& written = ordered.report.summary.done() ? ordered.program : p;
+    write_file_atomically(path, write_gcode(written, header));
+    const ProgramSummary sum = summarize(written);
+    json sheet = {{"program", path}, {"cut_length_mm", sum.feed_length_mm}, {"pierces", sum.torch_on_count},
+                  {"rapid_mm", sum.rapid_length_mm}};
+    if (m) {
+      motion::RunOptions ro;
+      ro.session.machine_config = *m;
+      const motion::PlannedRun plan = motion::plan_program(path, ro, *m);
+      if (!plan.summary.done()) throw InputError("--machine", 0, fmt::format("sheet {} on {}: {}", k + 1, m->name, plan.summary.message));
+      sheet["cycle_s"] = plan.expected_s();
+    }
+    out.push_back(sheet);
   }
-  return paths;
+  return out;
 }
 
 void print_nest_report(const json& j) {
@@ -128,7 +145,10 @@ void print_nest_report(const json& j) {
     std::printf("  sheet %d: %d parts, used length %.1f mm of %.0f, utilisation %.1f %% of the area used, remnant %.1f x %.1f mm\n",
                 s["sheet"].get<int>(), s["parts"].get<int>(), s["used_length_mm"].get<double>(), s["width_mm"].get<double>(),
                 100.0 * s["utilisation"].get<double>(), s["remnant_mm"][0].get<double>(), s["remnant_mm"][1].get<double>());
-    if (s.contains("program")) std::printf("    program: %s\n", s["program"].get<std::string>().c_str());
+    if (s.contains("program"))
+      std::printf("    program: %s: cut length %.0f mm, %d pierces, rapids %.0f mm%s\n", s["program"].get<std::string>().c_str(),
+                  s["cut_length_mm"].get<double>(), s["pierces"].get<int>(), s["rapid_mm"].get<double>(),
+                  s.contains("cycle_s") ? fmt::format(", cycle {:.1f} s planned", s["cycle_s"].get<double>()).c_str() : "");
   }
   std::printf("  %s\n", j["certified"].get<bool>() ? "certified: every pair of parts at least the spacing apart on the true "
                                                       "lines and arcs, every part inside the usable area"
@@ -141,7 +161,7 @@ void print_nest_report(const json& j) {
 
 struct NestArgs {
   std::vector<std::string> parts;
-  std::string sheet, rotations = "any", out;
+  std::string sheet, rotations = "any", out, machine;
   double feed = 2000.0, lead_in = 5.0;
   double spacing = 6.0, margin = 10.0, time = 2.0;
   std::uint64_t seed = 1;
@@ -184,6 +204,7 @@ void add_nest(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the search's restarts")->capture_default_str();
   cmd->add_option("--out", a->out, "write each sheet's cut program here, as sheet_K.ngc (the folder is made)");
+  cmd->add_option("--machine", a->machine, "with --out: the machine the programs are planned on for their cycle time (a name or a file)");
   cmd->add_option("--feed", a->feed, "the cuts' feed in the programs, mm/min")->capture_default_str();
   cmd->add_option("--lead-in", a->lead_in, "length of the straight lead-in from the waste side, mm")->capture_default_str();
   cmd->add_flag("--split", a->split, "a drawing with several outer contours is one part per contour (else refused)");
@@ -200,8 +221,8 @@ void add_nest(CLI::App& app) {
     if (!a->out.empty()) {
       if (!(a->feed > 0 && a->feed <= 100000)) throw InputError("--feed", 0, fmt::format("{} must be in (0, 100000] mm/min", a->feed));
       if (!(a->lead_in >= 0 && a->lead_in <= 100)) throw InputError("--lead-in", 0, fmt::format("{} must be in [0, 100] mm", a->lead_in));
-      const std::vector<std::string> paths = write_programs(r, n, a->out, {a->feed, a->lead_in});
-      for (std::size_t k = 0; k < paths.size(); ++k) j["sheets"][k]["program"] = paths[k];  // both per sheet used, in order
+      const json programs = write_programs(r, n, a->out, {a->feed, a->lead_in}, a->machine);
+      for (std::size_t k = 0; k < programs.size(); ++k) j["sheets"][k].update(programs[k]);  // both per sheet used, in order
     }
     if (a->json) print_json(j);
     else print_nest_report(j);

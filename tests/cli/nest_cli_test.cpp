@@ -67,7 +67,7 @@ TEST(NestCli, TheSheetsProgramCutsAPartInAHoleBeforeTheHoleAndRunsOnTheGantry) {
   const std::string disc = dir.write("disc.dxf", dxf(circle(0, 0, 40)));
   const std::string out = (dir.path() / "programs").string();
   const test::CliResult r =
-      test::Cli().run("nest '" + ring + "' '" + disc + "' --sheet 600x300 --time 0 --out '" + out + "' --json");
+      test::Cli().run("nest '" + ring + "' '" + disc + "' --sheet 600x300 --time 0 --out '" + out + "' --machine thermal_gantry --json");
   ASSERT_EQ(r.code, 0) << r.err << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   ASSERT_EQ(j["sheets"].size(), 1u);
@@ -99,6 +99,14 @@ TEST(NestCli, TheSheetsProgramCutsAPartInAHoleBeforeTheHoleAndRunsOnTheGantry) {
   EXPECT_EQ(rj["status"], "done");
   EXPECT_EQ(rj["cuts"].size(), 3u);
   EXPECT_LT(rj["max_contour_error_mm"].get<double>(), 0.1);
+  // The sheet's figures: three pierces, the cut length (the three circles and their lead-ins),
+  // and the cycle planned on the machine, which the run takes.
+  const auto& sheet = j["sheets"][0];
+  EXPECT_EQ(sheet["pierces"], 3);
+  const double circles = 2 * M_PI * (40 + 60 + 100);
+  EXPECT_GT(sheet["cut_length_mm"].get<double>(), circles);
+  EXPECT_LT(sheet["cut_length_mm"].get<double>(), circles + 3 * 5.0 + 1e-6);
+  EXPECT_NEAR(rj["cycle_time_s"].get<double>(), sheet["cycle_s"].get<double>(), 0.02 * sheet["cycle_s"].get<double>());
 }
 
 // A job file: two sheet sizes filled in order, per-part rotations, a must-nest part first, and
