@@ -27,6 +27,7 @@
 #include "solvers/motion/run.h"
 #include "solvers/nesting/bottom_left.h"
 #include "solvers/nesting/nest_job.h"
+#include "solvers/nesting/sheet_plot.h"
 #include "solvers/nesting/sheet_program.h"
 
 namespace machplan::cli {
@@ -123,8 +124,12 @@ json write_programs(const nesting::NestRequest& r, const nesting::NestResult& n,
     const Program& written = ordered.report.summary.done() ? ordered.program : p;
     write_file_atomically(path, write_gcode(written, header));
     const ProgramSummary sum = summarize(written);
-    json sheet = {{"program", path}, {"cut_length_mm", sum.feed_length_mm}, {"pierces", sum.torch_on_count},
-                  {"rapid_mm", sum.rapid_length_mm}};
+    const std::string picture = (std::filesystem::path(dir) / fmt::format("sheet_{}.png", k + 1)).string();
+    nesting::plot_sheet(picture, r.parts, n.placements, k, sh, written,
+                        fmt::format("sheet {}: {:.0f} x {:.0f} mm, used length {:.1f} mm; {} pierces in cut order, rapids dashed", k + 1,
+                                    sh.width_mm, sh.height_mm, n.used_length_mm[static_cast<std::size_t>(k)], sum.torch_on_count));
+    json sheet = {{"program", path}, {"picture", picture}, {"cut_length_mm", sum.feed_length_mm},
+                  {"pierces", sum.torch_on_count}, {"rapid_mm", sum.rapid_length_mm}};
     if (m) {
       motion::RunOptions ro;
       ro.session.machine_config = *m;

@@ -1,6 +1,7 @@
 // `machplan nest`: DXF parts nested on sheets, the nest certified, every copy's transform in
 // the JSON checkable from the drawings alone; copies that fit nowhere and bad flags named.
 #include <cmath>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -72,6 +73,8 @@ TEST(NestCli, TheSheetsProgramCutsAPartInAHoleBeforeTheHoleAndRunsOnTheGantry) {
   const nlohmann::json j = nlohmann::json::parse(r.out);
   ASSERT_EQ(j["sheets"].size(), 1u);
   const std::string program = j["sheets"][0]["program"];
+  const std::string picture = j["sheets"][0]["picture"];
+  EXPECT_GT(std::filesystem::file_size(picture), 1000u) << "the sheet's picture";
   // The disc in the ring's hole: its centre within 14 mm of the ring's (60 - 40 - 6).
   const auto& p = j["placements"];
   ASSERT_EQ(p.size(), 2u);

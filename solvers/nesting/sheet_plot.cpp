@@ -1,0 +1,85 @@
+#include "solvers/nesting/sheet_plot.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "solvers/common/picture.h"
+
+namespace machplan::nesting {
+
+void plot_sheet(const std::string& path, const std::vector<NestPart>& parts, const std::vector<Placement>& placements,
+                int sheet, const Sheet& s, const Program& cuts, const std::string& title) {
+  constexpr double kWidth = 1400, kMargin = 40, kTop = 50;
+  const double scale = (kWidth - 2 * kMargin) / s.width_mm;
+  const double height = kTop + kMargin + scale * s.height_mm;
+  const PlotView v{kMargin, kTop + scale * s.height_mm, scale};
+  write_picture(path, "out", kWidth, height, [&](Canvas& c) {
+    c.set_source_rgb(1, 1, 1);
+    c.paint();
+    c.set_source_rgb(0.93, 0.93, 0.93);
+    c.rectangle(v.sx(0), v.sy(s.height_mm), scale * s.width_mm, scale * s.height_mm);
+    c.fill();
+    const double dash[] = {4, 3};
+    c.set_dash(dash, 2, 0);
+    c.set_source_rgb(0.6, 0.6, 0.6);
+    c.set_line_width(1);
+    c.rectangle(v.sx(s.margin_mm), v.sy(s.height_mm - s.margin_mm), scale * (s.width_mm - 2 * s.margin_mm),
+                scale * (s.height_mm - 2 * s.margin_mm));
+    c.stroke();
+    c.set_dash(nullptr, 0, 0);
+    // The parts: material shaded, holes open.
+    c.set_fill_rule(Canvas::FillRule::even_odd);
+    for (const Placement& p : placements) {
+      if (p.sheet != sheet) continue;
+      trace_contour(c, v, place(parts[p.part].outer, p));
+      for (const Contour& h : parts[p.part].holes) trace_contour(c, v, place(h, p));
+      c.set_source_rgb(0.62, 0.74, 0.84);
+      c.fill_preserve();
+      c.set_source_rgb(0.1, 0.2, 0.35);
+      c.set_line_width(1);
+      c.stroke();
+    }
+    // The cut program: rapids dashed, pierces numbered in cut order, lead-ins and cuts in red.
+    Eigen::Vector3d at = cuts.start;
+    int pierce = 0;
+    for (const Move& m : cuts.moves) {
+      if (m.kind == Move::Kind::rapid) {
+        const double d[] = {3, 3};
+        c.set_dash(d, 2, 0);
+        c.set_source_rgba(0.2, 0.35, 0.9, 0.7);
+        c.set_line_width(0.8);
+        c.move_to(v.sx(at.x()), v.sy(at.y()));
+        c.line_to(v.sx(m.end.x()), v.sy(m.end.y()));
+        c.stroke();
+        c.set_dash(nullptr, 0, 0);
+      } else if (m.kind == Move::Kind::torch_on) {
+        c.set_source_rgb(0.8, 0.1, 0.1);
+        c.arc(v.sx(at.x()), v.sy(at.y()), 2.5, 0, 2 * M_PI);
+        c.fill();
+        draw_text(c, v.sx(at.x()) + 3, v.sy(at.y()) - 3, std::to_string(++pierce), 9);
+      } else if (m.kind == Move::Kind::line || m.kind == Move::Kind::arc) {
+        c.set_source_rgb(0.8, 0.1, 0.1);
+        c.set_line_width(1);
+        if (m.kind == Move::Kind::line) {
+          c.move_to(v.sx(at.x()), v.sy(at.y()));
+          c.line_to(v.sx(m.end.x()), v.sy(m.end.y()));
+        } else {
+          const Eigen::Vector2d a = at.head<2>() - m.center, b = m.end.head<2>() - m.center;
+          const double r = a.norm(), a0 = std::atan2(a.y(), a.x()), a1 = std::atan2(b.y(), b.x());
+          // The picture's y runs down: a counter-clockwise arc is drawn with decreasing angles.
+          if (m.clockwise) c.arc(v.sx(m.center.x()), v.sy(m.center.y()), scale * r, -a0, -a1 <= -a0 ? -a1 + 2 * M_PI : -a1);
+          else c.arc_negative(v.sx(m.center.x()), v.sy(m.center.y()), scale * r, -a0, -a1 >= -a0 ? -a1 - 2 * M_PI : -a1);
+        }
+        c.stroke();
+      }
+      if (m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc) at = m.end;
+    }
+    c.set_source_rgb(0, 0, 0);
+    draw_text(c, kMargin, 30, title, 15);
+    draw_scale_bar(c, kWidth - kMargin - 120, height - 12, scale, round_step(100.0 / scale));
+  });
+}
+
+}  // namespace machplan::nesting
