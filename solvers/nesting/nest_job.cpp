@@ -36,7 +36,7 @@ std::vector<double> rotations_of(const Yaml& y) {
     return rotations_from_text(s, "rotations");
   }
   std::vector<double> out;
-  for (const Yaml& d : y.items()) out.push_back(d.number({.min = -360, .max = 360}));
+  for (const Yaml& d : y.items()) out.push_back(d.number(NumberRule{.min = -360, .max = 360}));
   if (out.empty()) y.fail("lists no rotation (none: as drawn)");
   return out;
 }

@@ -161,6 +161,16 @@ TEST(NestCli, AJobFileGivesTheSheetsAndEachPartsQuantityRotationsAndPriority) {
   EXPECT_THAT(both.err, HasSubstr("--sheet: the job file lists the sheets"));
 }
 
+TEST(NestCli, TheBundledJobNestsItsProfilesCertifiedOnOneSheet) {
+  const test::CliResult r = test::Cli().run("nest datasets/nesting/sheet_job.yaml --time 0 --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["certified"], true) << j["violations"];
+  EXPECT_EQ(j["placements"].size(), 22u);
+  EXPECT_TRUE(j["unplaced"].empty());
+  EXPECT_EQ(j["sheets"].size(), 1u);
+}
+
 TEST(NestCli, ACopyThatFitsNowhereIsNamedTheRestIsNestedAndTheExitIs3) {
   test::TempDir dir;
   const std::string bracket = dir.write("bracket.dxf", kBracket);
