@@ -271,13 +271,14 @@ hardware::Health SimBackend::exchange(const hardware::Outputs& out, hardware::In
       t0_ = now;
       started_ = true;
     } else if (!watchdog_ && !lost_) {
-      // Exchanges that came too late on the wall clock: the machine ran without a controller.
+      // Exchanges that came too late on the wall clock: the whole process stalled (the
+      // simulated machine lives in it and did not move meanwhile). Past the watchdog the
+      // simulated machine waits with the program, and the stall is told after the run, where
+      // a real machine's watchdog would have stopped it.
       const double gap_s = std::chrono::duration<double>(now - last_return_).count();
       const long missed = static_cast<long>(gap_s * opt_.realtime_speed / period_s_);
       if (missed > opt_.watchdog_periods) {
-        // Drives enabled: the machine ran without a controller. Disabled (between two jobs of
-        // one session, after a run ended): nothing moved, the machine waited.
-        if (last_out_.drives_enabled) watchdog_ = true;
+        if (last_out_.drives_enabled) ++stalls_, longest_stall_s_ = std::max(longest_stall_s_, gap_s);
         t0_ += now - last_return_;  // keep pacing from here
       }
     }
@@ -296,6 +297,11 @@ hardware::Health SimBackend::exchange(const hardware::Outputs& out, hardware::In
 
 std::vector<std::string> SimBackend::notes() const {
   std::vector<std::string> out;
+  if (stalls_ > 0)
+    out.push_back(fmt::format("the program stalled {} time(s) past the watchdog's {} periods with the drives on (longest {:.0f} ms of "
+                              "wall clock): the simulated machine, paced by the same process, waited; a real machine's watchdog "
+                              "would have stopped it",
+                              stalls_, opt_.watchdog_periods, 1e3 * longest_stall_s_));
   for (std::size_t k = 0; k < pending_.size(); ++k) {
     const FaultInjection& f = pending_[k];
     if (!fired_[k])

@@ -278,6 +278,32 @@ TEST_P(BackendContract, LostIsFinal) {
 INSTANTIATE_TEST_SUITE_P(EveryBackend, BackendContract, ::testing::ValuesIn(kBackends),
                          [](const auto& info) { return std::string(info.param.name); });
 
+// Paced to the wall clock, the simulator lives in the program's process: a stall of the process
+// stalls the simulated machine too, so nothing moved and nothing trips; the stall is told.
+TEST(SimPaced, AStallOfTheProcessIsToldNotTrippedOn) {
+  sim::SimOptions o;
+  o.realtime = true;
+  o.watchdog_periods = 20;
+  sim::SimBackend sim(gantry(), o);
+  Outputs out;
+  out.drives_enabled = true;
+  Inputs in = sim.initial_inputs();
+  for (int i = 0; i < 5; ++i) ASSERT_EQ(sim.exchange(out, in), Health::ok);
+  std::this_thread::sleep_for(std::chrono::milliseconds(60));  // 60 periods, past the watchdog's 20
+  ASSERT_EQ(sim.exchange(out, in), Health::ok);
+  EXPECT_FALSE(in.watchdog_tripped);
+  const std::vector<std::string> notes = sim.notes();
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("stalled 1 time(s) past the watchdog's 20 periods"), std::string::npos) << notes[0];
+  // An injected watchdog still trips it.
+  sim::FaultInjection f;
+  f.kind = sim::FaultInjection::Kind::watchdog;
+  f.at_s = 0.0;
+  sim.inject(f);
+  for (int i = 0; i < 3; ++i) sim.exchange(out, in);
+  EXPECT_TRUE(in.watchdog_tripped);
+}
+
 TEST(BackendFactory, UnknownNameListsTheKnownOnes) {
   backends::BackendOptions o;
   o.name = "linuxcnc-typo";
