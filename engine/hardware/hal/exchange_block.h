@@ -31,7 +31,7 @@
 #define MACHPLAN_EXCHANGE_KEY 0x4d504c48 /* "MPLH" */
 #define MACHPLAN_EXCHANGE_MAGIC 0x6d706c68u
 #define MACHPLAN_EXCHANGE_VERSION 5u /* 2: the probing inputs, ohmic-enable and the operator's other pins; 3: paused-motion-speed, torch-enable, laser-on; 4: positions planned ahead; 5: offset-probe */
-#define MACHPLAN_RING 256u /* slots per ring: a power of two, more than any watchdog allows */
+#define MACHPLAN_RING 512u /* slots per ring: a power of two; half of it (how far behind the program may read back) more than any watchdog allows (200) */
 #define MACHPLAN_AHEAD_MAX 100u /* periods the program may write ahead of a command */
 #define MACHPLAN_HAL_AXES 2
 
