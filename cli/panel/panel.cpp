@@ -399,7 +399,9 @@ json Panel::frame(std::optional<double> feed_mm_per_s, std::optional<double> mar
 void Panel::press(bool hardware::OperatorInputs::*button) {
   const std::lock_guard<std::mutex> lock(op_mutex_);
   op_.*button = true;
-  press_tick_ = session_->live().read().tick;
+  const executor::LiveState l = session_->live().read();
+  press_session_ = l.session;
+  press_tick_ = l.tick;
   press_time_ = Clock::now();
   publish_inputs();
 }
@@ -600,9 +602,13 @@ void Panel::service() {
   const std::lock_guard<std::mutex> lock(op_mutex_);
   bool changed = false;
   if (op_.feed_hold || op_.cycle_start) {
-    const std::uint64_t tick = session_->live().read().tick;
-    const bool seen = activity_.load() == Activity::running && tick >= press_tick_ + 2;
-    if (seen || now - press_time_ > std::chrono::milliseconds(250)) {
+    // Seen: a run read its inputs twice since the press (a run that started after the press, its
+    // own first periods). Until then it stays pressed while a job runs, which may still be
+    // planning; with nothing running it is let go after 250 ms.
+    const executor::LiveState l = session_->live().read();
+    const bool running = activity_.load() == Activity::running;
+    const bool seen = running && (l.session != press_session_ ? l.tick >= 2 : l.tick >= press_tick_ + 2);
+    if (seen || (!running && now - press_time_ > std::chrono::milliseconds(250))) {
       op_.feed_hold = op_.cycle_start = false;
       changed = true;
     }

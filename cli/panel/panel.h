@@ -249,6 +249,7 @@ class Panel {
   // The operator's inputs (op_mutex_).
   mutable std::mutex op_mutex_;
   hardware::OperatorInputs op_{};
+  std::uint32_t press_session_ = 0;  // the live state's session and tick at the last press
   std::uint64_t press_tick_ = 0;
   std::chrono::steady_clock::time_point press_time_{}, jog_time_{}, paused_speed_time_{};
   std::atomic<bool> estop_{false};

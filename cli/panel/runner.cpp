@@ -70,7 +70,7 @@ void Panel::runner_loop() {
     planning_ = false;
     {
       const std::lock_guard<std::mutex> lock(op_mutex_);
-      op_.stop = false;  // the stop button, held since it was pressed, is let go
+      op_.stop = op_.feed_hold = op_.cycle_start = false;  // buttons held for this activity are let go
       publish_inputs();
     }
     {

@@ -4,6 +4,7 @@
 // and the messages are composed after the run (report.cpp). tests/executor/realtime_test.cpp
 // counts the allocations; bench/executor_bench.cpp measures the time per tick.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -761,9 +762,15 @@ bool Session::Impl::tick() noexcept {
   return true;
 }
 
+std::uint32_t Session::Impl::next_session_id() noexcept {
+  static std::atomic<std::uint32_t> sessions{0};
+  return sessions.fetch_add(1, std::memory_order_relaxed) + 1;
+}
+
 void Session::Impl::publish_live() noexcept {
   if (!parts.live) return;
   LiveState l;
+  l.session = session_id;
   l.run = sup.faulted() ? (sup.stopping() ? LiveState::Run::stopping : LiveState::Run::faulted)
           : held        ? LiveState::Run::held
           : over        ? LiveState::Run::done

@@ -12,6 +12,10 @@ namespace machplan::executor {
 struct LiveState {
   enum class Run : std::uint8_t { idle, running, held, stopping, faulted, done };
   Run run = Run::idle;
+  // Which executor session published it: a new number for every session of the process, from
+  // 1 (0: none yet). With `tick`, what a reader needs to know whether the run it sees is the
+  // one it spoke to.
+  std::uint32_t session = 0;
   std::uint64_t tick = 0;
   double t_s = 0.0;                 // since the start of the run
   int step = -1;                    // into the job's steps (-1: none)

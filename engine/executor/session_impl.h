@@ -22,7 +22,8 @@ struct Session::Impl {
 
   Impl(Executor& ex, const motion::Job& job, const Trajectories& trajs, hardware::Backend& be, const RunParts& parts)
       : ms(ex.setup_), opt(ex.options_), job(job), trajs(trajs), be(be), parts(parts),
-        dt(be.period_s()) {}
+        dt(be.period_s()), session_id(next_session_id()) {}
+  static std::uint32_t next_session_id() noexcept;
 
   void prepare(double machine_period_s);
   bool tick() noexcept;
@@ -120,6 +121,7 @@ struct Session::Impl {
   std::vector<double> stretch_len;
   bool over = false;
   // The operator: feed hold, resume, overrides, stop.
+  const std::uint32_t session_id;  // LiveState::session
   hardware::OperatorInputs prev_op{};
   double feed_rate = 1.0, rapid_rate = 1.0;  // the overrides as rates of the plan
   bool held = false;              // a hold is in force
