@@ -60,6 +60,22 @@ struct LineMove {
   }
 };
 
+// Times `run_once` (one whole run; returns its cycle time) each iteration: the time per tick
+// of 1 ms (ns_per_tick) and the ticks of a run.
+template <class Run>
+void time_ticks(benchmark::State& state, Run&& run_once) {
+  std::int64_t ticks = 0;
+  for (auto _ : state) {
+    const double cycle_s = run_once();
+    ticks += static_cast<std::int64_t>(std::llround(cycle_s / 0.001));
+    benchmark::DoNotOptimize(cycle_s);
+  }
+  state.counters["ns_per_tick"] =
+      benchmark::Counter(static_cast<double>(ticks), benchmark::Counter::kIsRate | benchmark::Counter::kInvert,
+                         benchmark::Counter::kIs1000);
+  state.counters["ticks"] = static_cast<double>(ticks) / state.iterations();
+}
+
 void run_ticks(benchmark::State& state, bool trace) {
   const auto m = gantry();
   auto setup = m.setup();
@@ -72,18 +88,11 @@ void run_ticks(benchmark::State& state, bool trace) {
   const executor::Trajectories& tr = move.tr;
   executor::ExecutorOptions o;
   o.record_trace = trace;
-  std::int64_t ticks = 0;
-  for (auto _ : state) {
+  time_ticks(state, [&] {
     test::IdealDacBackend be(m, a);
     executor::Executor ex(setup, o);
-    const auto r = ex.run(job, tr, be);
-    ticks += static_cast<std::int64_t>(std::llround(r.cycle_time_s / 0.001));
-    benchmark::DoNotOptimize(r.cycle_time_s);
-  }
-  state.counters["ns_per_tick"] =
-      benchmark::Counter(static_cast<double>(ticks), benchmark::Counter::kIsRate | benchmark::Counter::kInvert,
-                         benchmark::Counter::kIs1000);
-  state.counters["ticks"] = static_cast<double>(ticks) / state.iterations();
+    return ex.run(job, tr, be).cycle_time_s;
+  });
 }
 // The same move, position commands, the trace off; `ahead`: the backend plays positions
 // planned ahead.
@@ -100,19 +109,13 @@ void run_position_ticks(benchmark::State& state, bool ahead) {
     int n = 0;
     int plays_ahead_periods() const override { return n; }
   };
-  std::int64_t ticks = 0;
-  for (auto _ : state) {
+  time_ticks(state, [&] {
     test::IdealPositionBackend inner(m, a);
     PlaysAhead be(inner);
     be.n = ahead ? hardware::Outputs::kMaxAhead : 0;
     executor::Executor ex(m.setup(), o);
-    const auto r = ex.run(job, tr, be);
-    ticks += static_cast<std::int64_t>(std::llround(r.cycle_time_s / 0.001));
-    benchmark::DoNotOptimize(r.cycle_time_s);
-  }
-  state.counters["ns_per_tick"] =
-      benchmark::Counter(static_cast<double>(ticks), benchmark::Counter::kIsRate | benchmark::Counter::kInvert,
-                         benchmark::Counter::kIs1000);
+    return ex.run(job, tr, be).cycle_time_s;
+  });
 }
 void BM_ExecutorTick(benchmark::State& s) { run_ticks(s, true); }
 void BM_ExecutorTickNoTrace(benchmark::State& s) { run_ticks(s, false); }

@@ -76,7 +76,7 @@ json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, cons
                           {"translate_mm", {p.translate_mm.x(), p.translate_mm.y()}}});
   }
   for (std::size_t k = 0; k < r.sheets.size(); ++k) {
-    if (count[k] == 0) continue;
+    if (n.used_length_mm[k] <= 0.0) continue;  // no part on it (as write_programs skips it)
     const nesting::Sheet& sh = r.sheets[k];
     const double used = n.used_length_mm[k];
     sheets.push_back({{"sheet", k + 1},

@@ -47,13 +47,7 @@ Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing
   const Contour outer = place(part.outer, turn);
   // Grown a little more than half the spacing: the certificate counts parts closer than a
   // micrometre past the spacing as too close, and so must the search.
-  Contour grown = outer;
-  {
-    const OffsetResult g = offset_contour(outer, spacing / 2 + kExtraMm);
-    grown = *std::max_element(g.contours.begin(), g.contours.end(), [](const Contour& a, const Contour& b) {
-      return std::abs(signed_area(a)) < std::abs(signed_area(b));
-    });
-  }
+  const Contour grown = grown_outline(outer, spacing / 2 + kExtraMm);
   Shape s;
   s.rotation_deg = deg;
   s.mirrored = mirrored;

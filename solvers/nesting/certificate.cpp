@@ -9,6 +9,7 @@
 
 #include "engine/common/error.h"
 #include "engine/geometry/offset.h"
+#include "solvers/nesting/outline.h"
 
 namespace machplan::nesting {
 
@@ -26,16 +27,11 @@ struct Placed {
   std::string name;
 };
 
-Contour largest(const std::vector<Contour>& cs) {
-  return *std::max_element(cs.begin(), cs.end(),
-                           [](const Contour& a, const Contour& b) { return std::abs(signed_area(a)) < std::abs(signed_area(b)); });
-}
-
 Placed place_copy(const NestPart& part, const Placement& p, double half) {
   Placed c;
   c.outer = place(part.outer, p);
   for (const Contour& h : part.holes) c.holes.push_back(place(h, p));
-  c.grown = half > 0 ? largest(offset_contour(c.outer, half).contours) : c.outer;
+  c.grown = grown_outline(c.outer, half);
   for (const Contour& h : c.holes) c.roomy.push_back(half > 0 ? offset_contour(h, -half).contours : std::vector<Contour>{h});
   c.box = bounding_box(c.grown);
   c.name = fmt::format("{} copy {}", part.file, p.copy + 1);

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/geometry/offset.h"
 
 namespace machplan::nesting {
 
@@ -41,6 +42,14 @@ std::vector<Eigen::Vector2d> outside_polygon(const Contour& c, double tolerance_
     }
   }
   return out;
+}
+
+Contour grown_outline(const Contour& outer, double distance_mm) {
+  if (distance_mm == 0.0) return outer;
+  const OffsetResult g = offset_contour(outer, distance_mm);
+  return *std::max_element(g.contours.begin(), g.contours.end(), [](const Contour& a, const Contour& b) {
+    return std::abs(signed_area(a)) < std::abs(signed_area(b));
+  });
 }
 
 }  // namespace machplan::nesting

@@ -19,4 +19,8 @@ namespace machplan::nesting {
 // The vertices of the polygon, in the contour's order. `tolerance_mm` > 0.
 std::vector<Eigen::Vector2d> outside_polygon(const Contour& c, double tolerance_mm);
 
+// An outer contour grown by `distance_mm` (exact, engine/geometry/offset.h): the outer boundary
+// of the grown region (a void that growing closes off is left out); the contour itself at 0.
+Contour grown_outline(const Contour& outer, double distance_mm);
+
 }  // namespace machplan::nesting

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include <fmt/format.h>
 
+#include "engine/motion/make_job.h"
 #include "solvers/common/picture.h"
 
 namespace machplan::nesting {
@@ -62,16 +64,8 @@ void plot_sheet(const std::string& path, const std::vector<NestPart>& parts, con
       } else if (m.kind == Move::Kind::line || m.kind == Move::Kind::arc) {
         c.set_source_rgb(0.8, 0.1, 0.1);
         c.set_line_width(1);
-        if (m.kind == Move::Kind::line) {
-          c.move_to(v.sx(at.x()), v.sy(at.y()));
-          c.line_to(v.sx(m.end.x()), v.sy(m.end.y()));
-        } else {
-          const Eigen::Vector2d a = at.head<2>() - m.center, b = m.end.head<2>() - m.center;
-          const double r = a.norm(), a0 = std::atan2(a.y(), a.x()), a1 = std::atan2(b.y(), b.x());
-          // The picture's y runs down: a counter-clockwise arc is drawn with decreasing angles.
-          if (m.clockwise) c.arc(v.sx(m.center.x()), v.sy(m.center.y()), scale * r, -a0, -a1 <= -a0 ? -a1 + 2 * M_PI : -a1);
-          else c.arc_negative(v.sx(m.center.x()), v.sy(m.center.y()), scale * r, -a0, -a1 >= -a0 ? -a1 - 2 * M_PI : -a1);
-        }
+        bool first = true;
+        for (const Segment& g : motion::move_segments(m, at.head<2>())) trace_segment(c, v, g, std::exchange(first, false));
         c.stroke();
       }
       if (m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc) at = m.end;
