@@ -25,7 +25,7 @@
 #include "models/cutting/machine_config.h"
 #include "solvers/motion/cut_order.h"
 #include "solvers/motion/run.h"
-#include "solvers/nesting/bottom_left.h"
+#include "solvers/nesting/strip_search.h"
 #include "solvers/nesting/nest_job.h"
 #include "solvers/nesting/sheet_plot.h"
 #include "solvers/nesting/sheet_program.h"
@@ -61,7 +61,8 @@ std::vector<nesting::Sheet> sheet_spec(const std::string& s, double margin_mm) {
   return std::vector<nesting::Sheet>(static_cast<std::size_t>(n), sheet);
 }
 
-json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, const nesting::Certificate& cert, const Termination& t) {
+json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, const nesting::StripSearchStats& search,
+               const nesting::Certificate& cert, const Termination& t) {
   json sheets = json::array(), placements = json::array(), unplaced = json::array();
   std::vector<double> area(r.sheets.size(), 0.0);
   std::vector<int> count(r.sheets.size(), 0);
@@ -92,6 +93,8 @@ json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, cons
     unplaced.push_back({{"file", r.parts[u.part].file}, {"copy", u.copy + 1}, {"reason", u.reason}});
   return {{"units", "mm"},       {"spacing_mm", r.spacing_mm}, {"fills", n.fills},
           {"search_s", t.work_s_spent()}, {"search_ended", t.describe()},
+          {"strip_search", {{"start_length_mm", search.start_length_mm}, {"shrinks_tried", search.shrinks_tried},
+                            {"shrinks_kept", search.shrinks_kept}, {"moves", search.moves}}},
           {"certified", cert.certified}, {"violations", cert.violations}, {"sheets", sheets},
           {"placements", placements},    {"unplaced", unplaced}};
 }
@@ -146,6 +149,10 @@ void print_nest_report(const json& j) {
   std::printf("nest: %zu copies placed on %zu sheet(s), spacing %g mm; best of %d bottom-left fills (%s)\n",
               j["placements"].size(), j["sheets"].size(), j["spacing_mm"].get<double>(), j["fills"].get<int>(),
               j["search_ended"].get<std::string>().c_str());
+  if (const json& ss = j["strip_search"]; ss["shrinks_tried"].get<int>() > 0)
+    std::printf("  strip search: the last sheet's used length from %.1f to %.1f mm (%d of %d shrinks kept, %lld moves)\n",
+                ss["start_length_mm"].get<double>(), j["sheets"].back()["used_length_mm"].get<double>(), ss["shrinks_kept"].get<int>(),
+                ss["shrinks_tried"].get<int>(), ss["moves"].get<long long>());
   for (const json& s : j["sheets"]) {
     std::printf("  sheet %d: %d parts, used length %.1f mm of %.0f, utilisation %.1f %% of the area used, remnant %.1f x %.1f mm\n",
                 s["sheet"].get<int>(), s["parts"].get<int>(), s["used_length_mm"].get<double>(), s["width_mm"].get<double>(),
@@ -199,13 +206,13 @@ nesting::NestRequest request_of(const NestArgs& a) {
 
 void add_nest(CLI::App& app) {
   auto a = std::make_shared<NestArgs>();
-  auto* cmd = app.add_subcommand("nest", "Nest parts from DXF drawings on sheets (bottom-left fill, certified)");
+  auto* cmd = app.add_subcommand("nest", "Nest parts from DXF drawings on sheets (bottom-left fill, then the strip search; certified)");
   cmd->add_option("parts", a->parts, "a job file JOB.yaml, or DXF drawings, each FILE or FILE:QUANTITY")->required();
   cmd->add_option("--sheet", a->sheet, "the sheets: WIDTHxHEIGHT[:COUNT] in mm, x along the width (no job file)");
   cmd->add_option("--spacing", a->spacing, "least distance between parts, mm (the kerf plus a clearance)")->capture_default_str();
   cmd->add_option("--margin", a->margin, "kept clear along every sheet edge, mm")->capture_default_str();
   cmd->add_option("--rotations", a->rotations, "any (every 45 deg), none, or degrees separated by commas")->capture_default_str();
-  cmd->add_option("--time", a->time, "search time, s of nominal work (each collision test counts 2 us): the same nest on any machine; 0: one fill")
+  cmd->add_option("--time", a->time, "search time, s of nominal work (about the wall clock on 2 cores): the same nest on any machine; 0: one fill")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the search's restarts")->capture_default_str();
   cmd->add_option("--out", a->out, "write each sheet's cut program here, as sheet_K.ngc (the folder is made)");
@@ -220,9 +227,10 @@ void add_nest(CLI::App& app) {
     Termination t(StopOnSignals::stop_token());
     if (a->time > 0) t.set_deadline(a->time, "nominal search time");
     else t.set_budget(1, "fills");
-    const nesting::NestResult n = nesting::bottom_left_nest(r, t, a->seed);
+    nesting::StripSearchStats search;
+    const nesting::NestResult n = nesting::nest(r, t, a->seed, 2, &search);
     const nesting::Certificate cert = nesting::certify(r.parts, n.placements, r.sheets, r.spacing_mm);
-    json j = nest_json(r, n, cert, t);
+    json j = nest_json(r, n, search, cert, t);
     if (!a->out.empty()) {
       if (!(a->feed > 0 && a->feed <= 100000)) throw InputError("--feed", 0, fmt::format("{} must be in (0, 100000] mm/min", a->feed));
       if (!(a->lead_in >= 0 && a->lead_in <= 100)) throw InputError("--lead-in", 0, fmt::format("{} must be in [0, 100] mm", a->lead_in));

@@ -7,66 +7,16 @@
 #include <optional>
 #include <random>
 
-#include <boost/geometry.hpp>
-#include <boost/geometry/geometries/box.hpp>
-#include <boost/geometry/geometries/point_xy.hpp>
-#include <boost/geometry/geometries/polygon.hpp>
 #include <boost/geometry/index/rtree.hpp>
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
-#include "engine/geometry/offset.h"
-#include "solvers/nesting/outline.h"
 
 namespace machplan::nesting {
 
 namespace {
 
-namespace bg = boost::geometry;
 namespace bgi = boost::geometry::index;
-using Pt = bg::model::d2::point_xy<double>;
-using Poly = bg::model::polygon<Pt>;  // clockwise, closed (Boost's default)
-using Box = bg::model::box<Pt>;
-
-// One part turned one way: its grown polygon about the part's reference point, the polygon's
-// box and the true part's box.
-struct Shape {
-  double rotation_deg = 0.0;
-  bool mirrored = false;
-  Poly poly;
-  Box box;
-  Eigen::AlignedBox2d part_box;
-};
-
-constexpr double kExtraMm = 1e-5;
-
-Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing, double tol) {
-  Placement turn;
-  turn.rotation_deg = deg;
-  turn.mirrored = mirrored;
-  const Contour outer = place(part.outer, turn);
-  // Grown a little more than half the spacing: the certificate counts parts closer than a
-  // micrometre past the spacing as too close, and so must the search.
-  const Contour grown = grown_outline(outer, spacing / 2 + kExtraMm);
-  Shape s;
-  s.rotation_deg = deg;
-  s.mirrored = mirrored;
-  for (const Eigen::Vector2d& v : outside_polygon(grown, tol)) s.poly.outer().push_back(Pt(v.x(), v.y()));
-  // Each hole shrunk by as much (where the grown neighbours may lie), kept clockwise: the
-  // polygon's hole inside it. A hole too small for that is left out: filled.
-  for (const Contour& h : part.holes) {
-    const OffsetResult room = offset_contour(place(h, turn), -(spacing / 2 + kExtraMm));
-    for (const Contour& r : room.contours) {
-      Poly::ring_type ring;
-      for (const Eigen::Vector2d& v : outside_polygon(r, tol)) ring.push_back(Pt(v.x(), v.y()));
-      s.poly.inners().push_back(std::move(ring));
-    }
-  }
-  bg::correct(s.poly);
-  s.box = bg::return_envelope<Box>(s.poly);
-  s.part_box = bounding_box(outer);
-  return s;
-}
 
 // One sheet's parts so far.
 struct SheetLayout {
@@ -77,19 +27,14 @@ struct SheetLayout {
 
   bool fits(const Shape& s, double x, double y) const {
     ++tests;
-    Poly moved;
-    bg::transform(s.poly, moved, bg::strategy::transform::translate_transformer<double, 2, 2>(x, y));
-    const Box b(Pt(s.box.min_corner().x() + x, s.box.min_corner().y() + y),
-                Pt(s.box.max_corner().x() + x, s.box.max_corner().y() + y));
-    for (auto it = boxes.qbegin(bgi::intersects(b)); it != boxes.qend(); ++it)
-      if (bg::intersects(moved, polys[it->second])) return false;
+    const Poly m = moved(s, x, y);
+    for (auto it = boxes.qbegin(bgi::intersects(moved(s.box, x, y))); it != boxes.qend(); ++it)
+      if (bg::intersects(m, polys[it->second])) return false;
     return true;
   }
   void add(const Shape& s, double x, double y) {
-    Poly moved;
-    bg::transform(s.poly, moved, bg::strategy::transform::translate_transformer<double, 2, 2>(x, y));
-    boxes.insert({bg::return_envelope<Box>(moved), polys.size()});
-    polys.push_back(std::move(moved));
+    boxes.insert({moved(s.box, x, y), polys.size()});
+    polys.push_back(moved(s, x, y));
     right_mm = std::max(right_mm, s.part_box.max().x() + x);
   }
 };
@@ -176,7 +121,7 @@ void check(const NestRequest& r) {
 using Copy = std::pair<std::size_t, int>;
 
 // One bottom-left fill of the copies in `order`; `tests` counts its collision tests.
-NestResult fill(const NestRequest& r, const std::vector<std::vector<Shape>>& shapes, const std::vector<Copy>& order,
+NestResult fill(const NestRequest& r, const ShapeSet& shapes, const std::vector<Copy>& order,
                 std::int64_t& tests) {
   std::vector<Eigen::AlignedBox2d> usable;
   for (const Sheet& sh : r.sheets)
@@ -247,13 +192,19 @@ NestResult bottom_left_nest(const NestRequest& r) {
 }
 
 NestResult bottom_left_nest(const NestRequest& r, Termination& t, std::uint64_t seed) {
+  return bottom_left_nest(r, shapes_of(r), t, seed);
+}
+
+ShapeSet shapes_of(const NestRequest& r) {
   check(r);
-  std::vector<std::vector<Shape>> shapes(r.parts.size());
+  ShapeSet shapes;
   for (std::size_t p = 0; p < r.parts.size(); ++p)
-    for (const bool mirrored : {false, true})
-      if (!mirrored || (!r.mirror.empty() && r.mirror[p]))
-        for (double deg : r.rotations.empty() || r.rotations[p].empty() ? r.rotations_deg : r.rotations[p])
-          shapes[p].push_back(make_shape(r.parts[p], deg, mirrored, r.spacing_mm, r.tolerance_mm));
+    shapes.push_back(make_shapes(r.parts[p], r.rotations.empty() || r.rotations[p].empty() ? r.rotations_deg : r.rotations[p],
+                                 !r.mirror.empty() && r.mirror[p], r.spacing_mm, r.tolerance_mm));
+  return shapes;
+}
+
+NestResult bottom_left_nest(const NestRequest& r, const ShapeSet& shapes, Termination& t, std::uint64_t seed) {
   // The copies by priority, then largest part first (ties: the order given).
   const auto priority = [&](std::size_t p) { return r.priority.empty() ? 1 : r.priority[p]; };
   std::vector<Copy> order;

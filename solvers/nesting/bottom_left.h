@@ -31,6 +31,7 @@
 #include "solvers/nesting/certificate.h"
 #include "solvers/nesting/part.h"
 #include "solvers/nesting/placement.h"
+#include "solvers/nesting/shape.h"
 
 namespace machplan::nesting {
 
@@ -69,5 +70,11 @@ constexpr double kTestCostS = 2e-6;
 NestResult bottom_left_nest(const NestRequest& request);
 // With restarts until `t` ends (see the file comment), from `seed`.
 NestResult bottom_left_nest(const NestRequest& request, Termination& t, std::uint64_t seed);
+
+// Every way each part may be turned (shape.h), per part; checks the request as above.
+using ShapeSet = std::vector<std::vector<Shape>>;
+ShapeSet shapes_of(const NestRequest& request);
+// The same with the shapes made.
+NestResult bottom_left_nest(const NestRequest& request, const ShapeSet& shapes, Termination& t, std::uint64_t seed);
 
 }  // namespace machplan::nesting

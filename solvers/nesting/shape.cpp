@@ -1,0 +1,156 @@
+#include "solvers/nesting/shape.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "engine/geometry/offset.h"
+#include "solvers/nesting/outline.h"
+#include "solvers/nesting/placement.h"
+
+namespace machplan::nesting {
+
+namespace {
+
+// A little more than half the spacing: the certificate counts parts closer than a micrometre
+// past the spacing as too close, and so must the searches.
+constexpr double kExtraMm = 1e-5;
+
+double distance_to_segment(const Eigen::Vector2d& p, const Pt& a, const Pt& b) {
+  const Eigen::Vector2d u(a.x(), a.y()), d = Eigen::Vector2d(b.x(), b.y()) - u;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - u).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (p - u - t * d).norm();
+}
+
+double distance_to_boundary(const Eigen::Vector2d& p, const Poly& poly) {
+  double best = std::numeric_limits<double>::infinity();
+  const auto ring = [&](const Poly::ring_type& r) {
+    for (std::size_t i = 0; i + 1 < r.size(); ++i) best = std::min(best, distance_to_segment(p, r[i], r[i + 1]));
+  };
+  ring(poly.outer());
+  for (const auto& h : poly.inners()) ring(h);
+  return best;
+}
+
+// The poles of a polygon: see the file comment of shape.h. Found on a grid of about kGrid x
+// kGrid points over its box.
+Poles poles_of(const Poly& poly, const Box& box) {
+  constexpr int kGrid = 48;
+  constexpr std::size_t kMaxPoles = 32;
+  const double w = box.max_corner().x() - box.min_corner().x(), h = box.max_corner().y() - box.min_corner().y();
+  const double step = std::max(w, h) / kGrid;
+  std::vector<Eigen::Vector2d> pts;
+  std::vector<double> room;
+  for (double y = box.min_corner().y() + step / 2; y < box.max_corner().y(); y += step)
+    for (double x = box.min_corner().x() + step / 2; x < box.max_corner().x(); x += step) {
+      if (!bg::within(Pt(x, y), poly)) continue;
+      pts.emplace_back(x, y);
+      room.push_back(distance_to_boundary(pts.back(), poly));
+    }
+  std::vector<Eigen::Vector2d> centres;
+  std::vector<double> radii;
+  std::vector<bool> covered(pts.size(), false);
+  std::size_t n_covered = 0;
+  while (centres.size() < kMaxPoles && !pts.empty()) {
+    const std::size_t best = static_cast<std::size_t>(std::max_element(room.begin(), room.end()) - room.begin());
+    const double r = room[best];
+    if (r <= 0 || (!radii.empty() && (r < 0.1 * radii.front() || r < step / 2))) break;
+    centres.push_back(pts[best]);
+    radii.push_back(r);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const double d = (pts[i] - pts[best]).norm();
+      room[i] = std::min(room[i], d - r);
+      if (!covered[i] && d <= r) covered[i] = true, ++n_covered;
+    }
+    const double share = static_cast<double>(n_covered) / static_cast<double>(pts.size());
+    if ((centres.size() >= 8 && share >= 0.9 && centres.size() <= 8) || (centres.size() == 16 && share >= 0.8)) break;
+  }
+  if (centres.empty()) {  // thinner than the grid: one small pole at the box's centre
+    centres.emplace_back(box.min_corner().x() + w / 2, box.min_corner().y() + h / 2);
+    radii.push_back(1e-3);
+  }
+  Poles p;
+  p.x.resize(static_cast<Eigen::Index>(centres.size()));
+  p.y.resizeLike(p.x);
+  p.radius.resizeLike(p.x);
+  for (std::size_t i = 0; i < centres.size(); ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    p.x[k] = static_cast<float>(centres[i].x()), p.y[k] = static_cast<float>(centres[i].y()), p.radius[k] = static_cast<float>(radii[i]);
+  }
+  return p;
+}
+
+Eigen::Vector2d turned(const Eigen::Vector2d& p, double deg) {
+  Placement t;
+  t.rotation_deg = deg;
+  return t.apply(p);
+}
+
+}  // namespace
+
+Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing, double tol) {
+  Placement turn;
+  turn.rotation_deg = deg;
+  turn.mirrored = mirrored;
+  const Contour outer = place(part.outer, turn);
+  const Contour grown = grown_outline(outer, spacing / 2 + kExtraMm);
+  Shape s;
+  s.rotation_deg = deg;
+  s.mirrored = mirrored;
+  for (const Eigen::Vector2d& v : outside_polygon(grown, tol)) s.poly.outer().push_back(Pt(v.x(), v.y()));
+  // Each hole shrunk by as much (where the grown neighbours may lie), kept clockwise: the
+  // polygon's hole inside it. A hole too small for that is left out: filled.
+  for (const Contour& hole : part.holes) {
+    const OffsetResult room = offset_contour(place(hole, turn), -(spacing / 2 + kExtraMm));
+    for (const Contour& r : room.contours) {
+      Poly::ring_type ring;
+      for (const Eigen::Vector2d& v : outside_polygon(r, tol)) ring.push_back(Pt(v.x(), v.y()));
+      s.poly.inners().push_back(std::move(ring));
+    }
+  }
+  bg::correct(s.poly);
+  s.box = bg::return_envelope<Box>(s.poly);
+  s.part_box = bounding_box(outer);
+  s.area_mm2 = bg::area(s.poly);
+  Poly hull;
+  bg::convex_hull(s.poly, hull);
+  s.hull_area_mm2 = bg::area(hull);
+  s.diameter_mm = bg::distance(s.box.min_corner(), s.box.max_corner());
+  return s;
+}
+
+std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& rotations, bool mirror, double spacing,
+                               double tol) {
+  std::vector<Shape> out;
+  for (const bool mirrored : {false, true}) {
+    if (mirrored && !mirror) continue;
+    // The poles of the first rotation, turned for the others: a pole may then stand out of a
+    // turned polygon by the tolerance, which only makes the search count a collision that is
+    // not there (its exact test decides the other way).
+    Poles poles;
+    for (std::size_t k = 0; k < rotations.size(); ++k) {
+      Shape s = make_shape(part, rotations[k], mirrored, spacing, tol);
+      if (k == 0) poles = poles_of(s.poly, s.box);
+      s.poles = poles;
+      for (Eigen::Index i = 0; i < poles.size(); ++i) {
+        const Eigen::Vector2d c = turned(Eigen::Vector2d(poles.x[i], poles.y[i]), rotations[k] - rotations[0]);
+        s.poles.x[i] = static_cast<float>(c.x()), s.poles.y[i] = static_cast<float>(c.y());
+      }
+      out.push_back(std::move(s));
+    }
+  }
+  return out;
+}
+
+Poly moved(const Shape& s, double x, double y) {
+  Poly m;
+  bg::transform(s.poly, m, bg::strategy::transform::translate_transformer<double, 2, 2>(x, y));
+  return m;
+}
+
+Box moved(const Box& b, double x, double y) {
+  return Box(Pt(b.min_corner().x() + x, b.min_corner().y() + y), Pt(b.max_corner().x() + x, b.max_corner().y() + y));
+}
+
+}  // namespace machplan::nesting

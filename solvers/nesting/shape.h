@@ -1,0 +1,63 @@
+// A part turned one way, as the searches see it: its polygon grown by half the spacing and
+// approximated from outside (outline.h), with its holes shrunk by as much as holes of the
+// polygon, about the part's reference point. Two parts whose polygons do not meet keep the
+// spacing on their true lines and arcs (the certificate checks it on those).
+//
+// The poles: circles inside the polygon's material, the largest first, each the largest that
+// fits beside the ones before (found on a grid), until they cover enough of it (90 % with 8 or
+// fewer, 80 % with 16 or fewer, else what 32 cover) or are small against the part. Two
+// parts whose poles overlap surely collide, and how deep the poles of two colliding parts go
+// into each other measures their collision smoothly (strip_search.h), as in the sparrow nester
+// of Gardeyn and Wauters ("An open-source heuristic to reboot 2D nesting research", 2025).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <boost/geometry.hpp>
+#include <boost/geometry/geometries/box.hpp>
+#include <boost/geometry/geometries/point_xy.hpp>
+#include <boost/geometry/geometries/polygon.hpp>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "solvers/nesting/part.h"
+
+namespace machplan::nesting {
+
+namespace bg = boost::geometry;
+using Pt = bg::model::d2::point_xy<double>;
+using Poly = bg::model::polygon<Pt>;  // clockwise, closed (Boost's default)
+using Box = bg::model::box<Pt>;
+
+// Circles inside a shape, as arrays of their centres' x and y and their radii (about the part's
+// reference point), so that the overlap of two sets vectorises.
+struct Poles {
+  Eigen::ArrayXf x, y, radius;
+  Eigen::Index size() const { return radius.size(); }
+};
+
+struct Shape {
+  double rotation_deg = 0.0;
+  bool mirrored = false;
+  Poly poly;
+  Box box;                       // the polygon's
+  Eigen::AlignedBox2d part_box;  // the true part's (what must lie in the sheet's usable area)
+  Poles poles;
+  double area_mm2 = 0.0;         // the polygon's
+  double hull_area_mm2 = 0.0;    // its convex hull's
+  double diameter_mm = 0.0;      // its box's diagonal
+};
+
+// The part turned by `deg` (mirrored first when asked), grown by spacing / 2.
+Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing_mm, double tolerance_mm);
+
+// Every way a part may be turned: `rotations` (each mirrored too when `mirror`).
+std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& rotations, bool mirror, double spacing_mm,
+                               double tolerance_mm);
+
+// The shape's polygon moved by (x, y).
+Poly moved(const Shape& s, double x, double y);
+Box moved(const Box& b, double x, double y);
+
+}  // namespace machplan::nesting

@@ -1,0 +1,491 @@
+#include "solvers/nesting/strip_search.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <numeric>
+#include <random>
+
+#include <boost/geometry/index/rtree.hpp>
+#include <tbb/parallel_for.h>
+
+namespace machplan::nesting {
+
+namespace {
+
+namespace bgi = boost::geometry::index;
+using Tree = bgi::rtree<std::pair<Box, std::size_t>, bgi::quadratic<16>>;
+
+// The search's settings (after sparrow's, checked on the ESICUP strip-packing instances).
+constexpr int kContainerSamples = 50;   // places anywhere in the strip, per move
+constexpr int kFocusSamples = 25;       // places over the part's own box, per move
+constexpr int kDescents = 3;            // of the best distinct samples, refined by coordinate descent
+constexpr double kDistinct = 0.05;      // of the part's smaller side: samples closer are one
+constexpr double kFirstSteps[2] = {0.25, 0.02};   // of the smaller side: the descents' first and last step
+constexpr double kFinalSteps[2] = {0.01, 0.001};  // the best one's final refinement
+constexpr int kStale = 200;             // separation rounds without 2 % less overlap before a strike
+constexpr int kStrikes = 3;             // strikes in a row before separation gives up
+constexpr double kExploreShrink = 0.001;                  // exploring: the cut of the length after each success
+constexpr double kCompressShrink[2] = {0.0005, 0.00001};  // compressing: the cut, falling with the time spent
+constexpr double kExploreShare = 0.8;   // of the work: exploring, then compressing the best
+constexpr double kEpsRatio = 0.01;      // of the larger diameter: where the poles' overlap starts to fade
+constexpr double kWeightLeast = 1.2, kWeightMost = 2.0, kWeightDecay = 0.95;  // guided local search
+constexpr double kLargeShare = 0.75;    // disruption swaps parts among the largest holding this share of hull area
+
+struct Item {
+  std::size_t placement = 0;  // index into the nest's placements
+  std::size_t part = 0;
+  int shape = 0;              // index into the part's shapes
+  Eigen::Vector2d at = Eigen::Vector2d::Zero();
+};
+
+struct Candidate {
+  int shape = 0;
+  Eigen::Vector2d at;
+  double value = std::numeric_limits<double>::infinity();
+};
+
+struct Collision {
+  std::size_t i = 0, j = 0;
+  double value = 0.0;
+};
+
+// The best few distinct candidates seen.
+struct BestFew {
+  std::vector<Candidate> kept;
+  double distinct = 0.0;
+  double bound() const { return kept.size() < kDescents ? std::numeric_limits<double>::infinity() : kept.back().value; }
+  void offer(const Candidate& c) {
+    for (Candidate& k : kept)
+      if (k.shape == c.shape && (k.at - c.at).norm() < distinct) {
+        if (c.value < k.value) k = c;
+        std::sort(kept.begin(), kept.end(), [](const Candidate& a, const Candidate& b) { return a.value < b.value; });
+        return;
+      }
+    if (c.value >= bound()) return;
+    kept.push_back(c);
+    std::sort(kept.begin(), kept.end(), [](const Candidate& a, const Candidate& b) { return a.value < b.value; });
+    if (kept.size() > kDescents) kept.pop_back();
+  }
+};
+
+// One worker's strip: the last sheet's parts in a usable area whose end moves.
+class Strip {
+ public:
+  Strip(const ShapeSet& shapes, std::vector<Item> items, const Eigen::AlignedBox2d& usable, double end_x, std::uint64_t seed,
+        Termination& t)
+      : shapes_(shapes), usable_(usable), end_(end_x), rng_(seed), t_(t), weights_(items.size() * items.size(), 1.0f) {
+    load(std::move(items));
+  }
+
+  // Shrinks the strip until the work ends; the shortest feasible nest found, its end in `best_end`.
+  std::vector<Item> search(double& best_end, StripSearchStats& stats);
+
+ private:
+  const Shape& shape_of(std::size_t part, int s) const { return shapes_[part][static_cast<std::size_t>(s)]; }
+  const Shape& shape(std::size_t i) const { return shape_of(items_[i].part, items_[i].shape); }
+  float& weight(std::size_t i, std::size_t j) { return weights_[i * items_.size() + j]; }
+  double right(std::size_t i) const { return items_[i].at.x() + shape(i).part_box.max().x(); }
+  double end_of_parts() const;
+
+  // The places a shape's reference point may take in the strip (empty when it is too long).
+  Eigen::AlignedBox2d range(const Shape& s) const {
+    return Eigen::AlignedBox2d(usable_.min() - s.part_box.min(),
+                               Eigen::Vector2d(end_ - s.part_box.max().x(), usable_.max().y() - s.part_box.max().y()));
+  }
+
+  void load(std::vector<Item> items);
+  void put(std::size_t i, int s, const Eigen::Vector2d& at);
+  double overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j, std::optional<Poly>& poly, const Poly* known);
+  double evaluate(std::size_t i, int s, const Eigen::Vector2d& at, double bound);
+  Candidate candidate(std::size_t i, int s, Eigen::Vector2d at, double bound);
+  Candidate descend(std::size_t i, Candidate c, const double (&steps)[2]);
+  void move(std::size_t i);
+  std::vector<Collision> collisions();
+  void reweigh(const std::vector<Collision>& c);
+  double separate();
+  bool resize(double end_x, double split_x);
+  void disrupt();
+  void charge();
+
+  const ShapeSet& shapes_;
+  Eigen::AlignedBox2d usable_;
+  double end_;
+  std::mt19937_64 rng_;
+  Termination& t_;
+  std::vector<float> weights_;
+  std::vector<Item> items_;
+  std::vector<Poly> polys_;
+  std::vector<Box> boxes_;
+  Tree tree_;
+  std::int64_t tests_ = 0, pole_pairs_ = 0, moves_ = 0;
+};
+
+void Strip::load(std::vector<Item> items) {
+  items_ = std::move(items);
+  polys_.clear();
+  boxes_.clear();
+  tree_.clear();
+  for (std::size_t i = 0; i < items_.size(); ++i) {
+    const Shape& s = shape(i);
+    polys_.push_back(moved(s, items_[i].at.x(), items_[i].at.y()));
+    boxes_.push_back(moved(s.box, items_[i].at.x(), items_[i].at.y()));
+    tree_.insert({boxes_[i], i});
+  }
+}
+
+void Strip::put(std::size_t i, int s, const Eigen::Vector2d& at) {
+  tree_.remove(std::make_pair(boxes_[i], i));
+  items_[i].shape = s;
+  items_[i].at = at;
+  polys_[i] = moved(shape(i), at.x(), at.y());
+  boxes_[i] = moved(shape(i).box, at.x(), at.y());
+  tree_.insert({boxes_[i], i});
+}
+
+double Strip::end_of_parts() const {
+  double e = usable_.min().x();
+  for (std::size_t i = 0; i < items_.size(); ++i) e = std::max(e, right(i));
+  return e;
+}
+
+// How much `a` at `at` overlaps part j: 0 when they do not collide (decided exactly), else
+// the depth of their poles in each other, each pair of poles weighed by the smaller radius; a
+// pair apart adds a little that fades with its distance, so the measure stays above 0 and still
+// falls as the parts part. Its root, scaled by the parts' sizes (larger parts weigh more).
+double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j, std::optional<Poly>& poly, const Poly* known) {
+  const Shape& b = shape(j);
+  const Eigen::Vector2d d = at - items_[j].at;
+  const float eps = static_cast<float>(kEpsRatio * std::max(a.diameter_mm, b.diameter_mm));
+  // Per pole of a, its depth in each of b's, vectorised over b's; at most 32 poles (shape.h).
+  Eigen::Array<float, Eigen::Dynamic, 1, 0, 64, 1> pd(b.poles.size());
+  float deepest = -std::numeric_limits<float>::infinity();
+  double sum = 0.0;
+  for (Eigen::Index k = 0; k < a.poles.size(); ++k) {
+    const float cx = a.poles.x[k] + static_cast<float>(d.x()), cy = a.poles.y[k] + static_cast<float>(d.y());
+    pd = (b.poles.radius + a.poles.radius[k]) - ((b.poles.x - cx).square() + (b.poles.y - cy).square()).sqrt();
+    deepest = std::max(deepest, pd.maxCoeff());
+    sum += ((pd >= eps).select(pd, eps * eps / (2 * eps - pd)) * b.poles.radius.min(a.poles.radius[k])).sum();
+  }
+  const bool deep = deepest > 0;
+  pole_pairs_ += static_cast<std::int64_t>(a.poles.size() * b.poles.size());
+  if (!deep) {  // the poles do not say: the polygons do
+    ++tests_;
+    if (!known && !poly) poly = moved(a, at.x(), at.y());
+    if (!bg::intersects(known ? *known : *poly, polys_[j])) return 0.0;
+  }
+  return std::sqrt(sum + static_cast<double>(eps) * eps) * std::sqrt(std::sqrt(a.hull_area_mm2 * b.hull_area_mm2));
+}
+
+// The weighted overlap of part i as shape s at `at` with the others; stops once past `bound`.
+double Strip::evaluate(std::size_t i, int s, const Eigen::Vector2d& at, double bound) {
+  const Shape& a = shape_of(items_[i].part, s);
+  std::optional<Poly> poly;
+  double sum = 0.0;
+  for (auto it = tree_.qbegin(bgi::intersects(moved(a.box, at.x(), at.y()))); it != tree_.qend() && sum <= bound; ++it)
+    if (it->second != i) sum += weight(i, it->second) * overlap(a, at, it->second, poly, nullptr);
+  return sum;
+}
+
+// Part i as shape s at `at` kept in the strip, evaluated (infinite when it does not fit).
+Candidate Strip::candidate(std::size_t i, int s, Eigen::Vector2d at, double bound) {
+  const Eigen::AlignedBox2d r = range(shape_of(items_[i].part, s));
+  if (r.isEmpty()) return {s, at};
+  at = at.cwiseMax(r.min()).cwiseMin(r.max());
+  return {s, at, evaluate(i, s, at, bound)};
+}
+
+// Coordinate descent: a step both ways along an axis (x, y or a diagonal); on success the
+// step grows a little and the axis stays, else it halves and another axis is drawn.
+Candidate Strip::descend(std::size_t i, Candidate c, const double (&steps)[2]) {
+  const Eigen::Vector2d size = shape_of(items_[i].part, c.shape).part_box.sizes();
+  const double side = std::min(size.x(), size.y()), last = steps[1] * side;
+  Eigen::Vector2d step = Eigen::Vector2d::Constant(steps[0] * side);
+  static const Eigen::Vector2d kAxes[4] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
+  std::uniform_int_distribution<int> axis_of(0, 3);
+  int axis = axis_of(rng_);
+  while ((step.x() >= last || step.y() >= last) && c.value > 0) {
+    const Eigen::Vector2d d = kAxes[axis].cwiseProduct(step);
+    Candidate best = c;
+    for (const Eigen::Vector2d& at : {Eigen::Vector2d(c.at + d), Eigen::Vector2d(c.at - d)}) {
+      const Candidate n = candidate(i, c.shape, at, best.value);
+      if (n.value < best.value) best = n;
+    }
+    const Eigen::Vector2d on(axis == 1 ? 0.0 : 1.0, axis == 0 ? 0.0 : 1.0);  // the coordinates the axis moves
+    const Eigen::Vector2d keep = Eigen::Vector2d::Ones() - on;
+    if (best.value < c.value) {
+      c = best;
+      step = step.cwiseProduct(keep + 1.1 * on);
+    } else {
+      step = step.cwiseProduct(keep + 0.5 * on);
+      axis = axis_of(rng_);
+    }
+  }
+  return c;
+}
+
+// Moves part i to the best place found: its own, samples over its box and over the strip, the
+// best few refined by coordinate descent and the best of those refined again.
+void Strip::move(std::size_t i) {
+  const Item now = items_[i];
+  const Eigen::Vector2d size = shape(i).part_box.sizes();
+  BestFew best;
+  best.distinct = kDistinct * std::min(size.x(), size.y());
+  if (!range(shape(i)).isEmpty()) best.offer(candidate(i, now.shape, now.at, best.bound()));
+  std::uniform_int_distribution<int> any_shape(0, static_cast<int>(shapes_[now.part].size()) - 1);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const Eigen::Vector2d centre = now.at + shape(i).part_box.center();
+  for (int k = 0; k < kFocusSamples + kContainerSamples; ++k) {
+    const int s = any_shape(rng_);
+    const Shape& sh = shape_of(now.part, s);
+    const Eigen::AlignedBox2d r = range(sh);
+    if (r.isEmpty()) continue;
+    const Eigen::Vector2d u(unit(rng_), unit(rng_));
+    const Eigen::Vector2d at = k < kFocusSamples ? Eigen::Vector2d(centre - sh.part_box.center() + (u - Eigen::Vector2d::Constant(0.5)).cwiseProduct(size))
+                                                 : Eigen::Vector2d(r.min() + r.sizes().cwiseProduct(u));
+    best.offer(candidate(i, s, at, best.bound()));
+  }
+  if (best.kept.empty()) return;  // no shape of it fits the strip: resize keeps that from happening
+  for (std::size_t k = 0, n = best.kept.size(); k < n; ++k) best.offer(descend(i, best.kept[k], kFirstSteps));
+  const Candidate c = descend(i, best.kept.front(), kFinalSteps);
+  if (c.shape != now.shape || c.at != now.at) put(i, c.shape, c.at);
+  ++moves_;
+  charge();
+}
+
+void Strip::charge() {
+  t_.charge(0, static_cast<double>(tests_) * kSearchTestCostS + static_cast<double>(pole_pairs_) * kPoleCostS);
+  tests_ = pole_pairs_ = 0;
+}
+
+std::vector<Collision> Strip::collisions() {
+  std::vector<Collision> out;
+  for (std::size_t i = 0; i < items_.size(); ++i) {
+    std::optional<Poly> unused;
+    for (auto it = tree_.qbegin(bgi::intersects(boxes_[i])); it != tree_.qend(); ++it)
+      if (it->second > i)
+        if (const double v = overlap(shape(i), items_[i].at, it->second, unused, &polys_[i]); v > 0) out.push_back({i, it->second, v});
+  }
+  charge();
+  return out;
+}
+
+void Strip::reweigh(const std::vector<Collision>& c) {
+  for (float& w : weights_) w = std::max(1.0f, w * static_cast<float>(kWeightDecay));
+  double most = 0.0;
+  for (const Collision& k : c) most = std::max(most, k.value);
+  for (const Collision& k : c) {
+    const double grow = kWeightLeast + (kWeightMost - kWeightLeast) * k.value / most;
+    // The decay above is undone for the colliding pairs: they grow from where they were.
+    const float w = static_cast<float>(std::max(1.0, weight(k.i, k.j) / kWeightDecay * grow));
+    weight(k.i, k.j) = weight(k.j, k.i) = w;
+  }
+}
+
+// Moves colliding parts until none collides, or separation stalls, or the work ends; leaves the
+// parts at the least overlap found and returns it (0: separated).
+double Strip::separate() {
+  std::vector<Collision> c = collisions();
+  const auto total_of = [](const std::vector<Collision>& cs) {
+    double total = 0.0;
+    for (const Collision& k : cs) total += k.value;
+    return total;
+  };
+  std::vector<Item> best = items_;
+  double least = total_of(c);
+  for (int strike = 0; strike < kStrikes && least > 0 && !t_.should_end();) {
+    const double at_strike = least;
+    for (int stale = 0; stale < kStale && !t_.should_end();) {
+      std::vector<std::size_t> who;
+      for (const Collision& k : c) who.push_back(k.i), who.push_back(k.j);
+      std::sort(who.begin(), who.end());
+      who.erase(std::unique(who.begin(), who.end()), who.end());
+      std::shuffle(who.begin(), who.end(), rng_);
+      for (std::size_t i : who)
+        if (evaluate(i, items_[i].shape, items_[i].at, 0.0) > 0) move(i);
+      c = collisions();
+      const double total = total_of(c);
+      if (total == 0) return 0.0;
+      if (total < least) {
+        if (total < 0.98 * least) stale = 0;
+        else ++stale;
+        least = total, best = items_;
+      } else {
+        ++stale;
+      }
+      reweigh(c);
+    }
+    strike = least < 0.98 * at_strike ? 0 : strike + 1;
+    load(best);
+    c = collisions();
+  }
+  return least;
+}
+
+// The strip ends at `end_x`: the parts whose centre lies right of `split_x` move by the change
+// (and into the strip where that leaves them out of it). False when a part fits it in no rotation.
+bool Strip::resize(double end_x, double split_x) {
+  const double delta = end_x - end_;
+  end_ = end_x;
+  for (std::size_t i = 0; i < items_.size(); ++i) {
+    const auto& shapes = shapes_[items_[i].part];
+    if (std::none_of(shapes.begin(), shapes.end(), [&](const Shape& s) { return !range(s).isEmpty(); })) return false;
+  }
+  for (std::size_t i = 0; i < items_.size(); ++i) {
+    Eigen::Vector2d at = items_[i].at;
+    if (at.x() + shape(i).part_box.center().x() > split_x) at.x() += delta;
+    int s = items_[i].shape;
+    if (range(shape(i)).isEmpty())  // too long in this rotation for the strip now: the first that fits
+      for (s = 0; range(shape_of(items_[i].part, s)).isEmpty(); ++s) {
+      }
+    const Eigen::AlignedBox2d r = range(shape_of(items_[i].part, s));
+    put(i, s, at.cwiseMax(r.min()).cwiseMin(r.max()));
+  }
+  std::fill(weights_.begin(), weights_.end(), 1.0f);
+  return true;
+}
+
+// Two large parts of different sizes trade places (their boxes' centres), to leave a stalled
+// separation somewhere new.
+void Strip::disrupt() {
+  std::vector<double> hulls;
+  for (std::size_t i = 0; i < items_.size(); ++i) hulls.push_back(shape(i).hull_area_mm2);
+  std::vector<double> sorted = hulls;
+  std::sort(sorted.rbegin(), sorted.rend());
+  const double total = std::accumulate(sorted.begin(), sorted.end(), 0.0);
+  double sum = 0.0, cutoff = sorted.back();
+  for (double h : sorted)
+    if ((sum += h) > kLargeShare * total) {
+      cutoff = h;
+      break;
+    }
+  std::vector<std::size_t> large;
+  for (std::size_t i = 0; i < items_.size(); ++i)
+    if (hulls[i] >= cutoff) large.push_back(i);
+  if (large.size() < 2) return;
+  const std::size_t a = large[std::uniform_int_distribution<std::size_t>(0, large.size() - 1)(rng_)];
+  std::vector<std::size_t> others;
+  for (std::size_t i : large)
+    if (std::abs(hulls[i] - hulls[a]) > 0.01 * hulls[a]) others.push_back(i);
+  if (others.empty())
+    for (std::size_t i : large)
+      if (i != a) others.push_back(i);
+  const std::size_t b = others[std::uniform_int_distribution<std::size_t>(0, others.size() - 1)(rng_)];
+  const Eigen::Vector2d ca = items_[a].at + shape(a).part_box.center(), cb = items_[b].at + shape(b).part_box.center();
+  for (const auto& [i, to] : {std::pair{a, cb}, std::pair{b, ca}}) {
+    const Eigen::AlignedBox2d r = range(shape(i));
+    put(i, items_[i].shape, (to - shape(i).part_box.center()).cwiseMax(r.min()).cwiseMin(r.max()));
+  }
+}
+
+// Exploring: shrink by kExploreShrink after every success; after a failure go on from one of the
+// nests that failed at this length (the less overlap, the likelier), disrupted. Then compressing
+// the best: shrink by a ratio that falls with the work spent, from the split at a random x;
+// after a failure go back to the best.
+std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats) {
+  std::vector<Item> best = items_;
+  const double start = usable_.min().x(), work = t_.deadline_s();
+  const auto length = [&] { return best_end - start; };
+  std::vector<std::pair<double, std::vector<Item>>> failed;
+  std::normal_distribution<double> pick(0.0, 0.25);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  bool resized = resize(start + length() * (1 - kExploreShrink), start + length() / 2);
+  while (!t_.should_end() && t_.work_s_spent() < kExploreShare * work) {
+    if (!resized) break;
+    ++stats.shrinks_tried;
+    const double loss = separate();
+    if (loss == 0) {
+      best = items_, best_end = end_of_parts(), ++stats.shrinks_kept;
+      failed.clear();
+      resized = resize(start + length() * (1 - kExploreShrink), start + length() / 2);
+      continue;
+    }
+    if (t_.should_end()) break;
+    failed.emplace_back(loss, items_);
+    std::sort(failed.begin(), failed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    const auto k = static_cast<std::size_t>(std::min(0.999, std::abs(pick(rng_))) * static_cast<double>(failed.size()));
+    load(failed[k].second);
+    disrupt();
+  }
+  while (!t_.should_end()) {
+    const double spent = std::clamp((t_.work_s_spent() / work - kExploreShare) / (1 - kExploreShare), 0.0, 1.0);
+    const double ratio = kCompressShrink[0] + (kCompressShrink[1] - kCompressShrink[0]) * spent;
+    end_ = best_end;
+    load(best);
+    if (!resize(start + length() * (1 - ratio), start + unit(rng_) * length())) break;
+    ++stats.shrinks_tried;
+    if (separate() == 0) best = items_, best_end = end_of_parts(), ++stats.shrinks_kept;
+  }
+  stats.moves += moves_;
+  return best;
+}
+
+}  // namespace
+
+StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes, NestResult& nest, Termination& t,
+                                    std::uint64_t seed, int workers) {
+  StripSearchStats stats;
+  int last = -1;
+  for (std::size_t k = 0; k < nest.used_length_mm.size(); ++k)
+    if (nest.used_length_mm[k] > 0) last = static_cast<int>(k);
+  if (last < 0) return stats;
+  const Sheet& sheet = r.sheets[static_cast<std::size_t>(last)];
+  const Eigen::AlignedBox2d usable(Eigen::Vector2d::Constant(sheet.margin_mm),
+                                   Eigen::Vector2d(sheet.width_mm - sheet.margin_mm, sheet.height_mm - sheet.margin_mm));
+  std::vector<Item> items;
+  for (std::size_t k = 0; k < nest.placements.size(); ++k) {
+    const Placement& p = nest.placements[k];
+    if (p.sheet != last) continue;
+    const auto& ss = shapes[p.part];
+    const auto s = std::find_if(ss.begin(), ss.end(), [&](const Shape& x) { return x.rotation_deg == p.rotation_deg && x.mirrored == p.mirrored; });
+    items.push_back({k, p.part, static_cast<int>(s - ss.begin()), p.translate_mm});
+  }
+  if (items.size() < 2) return stats;
+  stats.start_length_mm = nest.used_length_mm[static_cast<std::size_t>(last)];
+  const double work = t.deadline_s() - t.work_s_spent();
+  workers = std::max(1, workers);
+  std::vector<std::vector<Item>> found(static_cast<std::size_t>(workers));
+  std::vector<double> ends(found.size(), stats.start_length_mm);
+  std::vector<StripSearchStats> each(found.size());
+  std::vector<double> spent(found.size(), 0.0);
+  tbb::parallel_for(0, workers, [&](int w) {
+    // Each worker its own deadline (so its answer does not depend on the others' pace), and the
+    // caller's stop request.
+    Termination own(t.stop_token());
+    if (std::isfinite(work)) own.set_deadline(std::max(work, 1e-9), "nominal search time");
+    Strip strip(shapes, items, usable, ends[static_cast<std::size_t>(w)], seed * 7919 + static_cast<std::uint64_t>(w), own);
+    found[static_cast<std::size_t>(w)] = strip.search(ends[static_cast<std::size_t>(w)], each[static_cast<std::size_t>(w)]);
+    spent[static_cast<std::size_t>(w)] = own.work_s_spent();
+  });
+  const std::size_t w = static_cast<std::size_t>(std::min_element(ends.begin(), ends.end()) - ends.begin());
+  for (const StripSearchStats& e : each) {
+    stats.shrinks_tried += e.shrinks_tried;
+    stats.shrinks_kept += e.shrinks_kept;
+    stats.moves += e.moves;
+  }
+  t.charge(0, *std::max_element(spent.begin(), spent.end()));
+  t.should_end();  // records what ended the work, for the report
+  for (const Item& it : found[w]) {
+    Placement& p = nest.placements[it.placement];
+    const Shape& s = shapes[it.part][static_cast<std::size_t>(it.shape)];
+    p.rotation_deg = s.rotation_deg;
+    p.mirrored = s.mirrored;
+    p.translate_mm = it.at;
+  }
+  nest.used_length_mm[static_cast<std::size_t>(last)] = ends[w];
+  return stats;
+}
+
+NestResult nest(const NestRequest& r, Termination& t, std::uint64_t seed, int workers, StripSearchStats* stats) {
+  const ShapeSet shapes = shapes_of(r);
+  if (!std::isfinite(t.deadline_s())) return bottom_left_nest(r, shapes, t, seed);
+  Termination fill(t);
+  fill.set_deadline(0.1 * t.deadline_s(), "nominal search time");
+  NestResult n = bottom_left_nest(r, shapes, fill, seed);
+  const StripSearchStats s = shorten_last_sheet(r, shapes, n, t, seed, workers);
+  if (stats) *stats = s;
+  return n;
+}
+
+}  // namespace machplan::nesting

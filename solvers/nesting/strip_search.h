@@ -1,0 +1,55 @@
+// Shortening the last sheet by overlap minimisation with a shrinking strip, after Egeblad et al.
+// (2007), Umetani et al. (2009) and the sparrow nester of Gardeyn and Wauters (2025).
+//
+// The search starts from a feasible nest (the bottom-left fill). Over and over it cuts the used
+// length of the last sheet by a ratio, moves the parts that stood out past the new end back in
+// (overlapping others), and then separates: every part that collides moves to the best of
+// sampled places (anywhere in the strip, near where it is, then refined by coordinate descent,
+// in every rotation allowed), the best being the least weighted overlap with the others. Pairs
+// that keep colliding weigh more each round (guided local search), so the parts stop trading
+// the same overlaps. When no pair collides, the shorter nest is the new best and the strip
+// shrinks again; when separation stalls, the search goes back to the best nest and shrinks by
+// less (then again by more, from a nest with two parts swapped).
+//
+// Collisions are decided exactly, on the shapes' polygons (shape.h) as the bottom-left fill
+// decides them, so every nest the search keeps is one the certificate accepts. Only how much two
+// colliding parts overlap is estimated, from how deep their poles go into each other: a measure
+// that is smooth, cheap, and zero only when they part.
+//
+// Work: each exact collision test counts kSearchTestCostS, each pole pair kPoleCostS (of nominal
+// work), so a seed and a deadline give the same nest on any machine. Several workers (threads)
+// search from different seeds, each with the whole deadline of its own; the shortest nest wins.
+#pragma once
+
+#include <cstdint>
+
+#include "engine/common/termination.h"
+
+#include "solvers/nesting/bottom_left.h"
+
+namespace machplan::nesting {
+
+// The nominal work of one exact collision test here and of one pair of poles (about what they
+// take on a 2.6 GHz core).
+constexpr double kSearchTestCostS = 1.3e-6;
+constexpr double kPoleCostS = 0.7e-9;
+
+struct StripSearchStats {
+  int shrinks_tried = 0, shrinks_kept = 0;  // of all workers
+  std::int64_t moves = 0;
+  double start_length_mm = 0.0;  // the last sheet's used length before the search
+};
+
+// Shortens the used length of `nest`'s last used sheet in place until `t` ends (a deadline of
+// nominal work, or a stop request: the best so far is kept). `nest` must be feasible, as the
+// bottom-left fill makes it; the other sheets are left as they are.
+StripSearchStats shorten_last_sheet(const NestRequest& request, const ShapeSet& shapes, NestResult& nest, Termination& t,
+                                    std::uint64_t seed, int workers);
+
+// The nest machplan gives: the bottom-left fill with restarts for a tenth of `t`'s deadline,
+// then the strip search for the rest, on `workers` threads, each with that much work of its own.
+// Without a deadline (a budget, or nothing): one fill.
+NestResult nest(const NestRequest& request, Termination& t, std::uint64_t seed, int workers = 2,
+                StripSearchStats* stats = nullptr);
+
+}  // namespace machplan::nesting
