@@ -87,7 +87,73 @@ Eigen::Vector2d turned(const Eigen::Vector2d& p, double deg) {
   return t.apply(p);
 }
 
+using Edge = std::pair<Eigen::Vector2d, Eigen::Vector2d>;
+
+double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+// Whether two segments meet, touching included. The boxes' test settles the collinear case
+// (where every orientation is 0).
+bool segments_meet(const Edge& p, const Edge& q) {
+  if (std::max(p.first.x(), p.second.x()) < std::min(q.first.x(), q.second.x()) ||
+      std::max(q.first.x(), q.second.x()) < std::min(p.first.x(), p.second.x()) ||
+      std::max(p.first.y(), p.second.y()) < std::min(q.first.y(), q.second.y()) ||
+      std::max(q.first.y(), q.second.y()) < std::min(p.first.y(), p.second.y()))
+    return false;
+  const Eigen::Vector2d dq = q.second - q.first, dp = p.second - p.first;
+  const double d1 = cross(dq, p.first - q.first), d2 = cross(dq, p.second - q.first);
+  const double d3 = cross(dp, q.first - p.first), d4 = cross(dp, q.second - p.first);
+  return d1 * d2 <= 0 && d3 * d4 <= 0;
+}
+
+// The edges of `rings` moved by `o` whose boxes meet `box` (where any crossing must lie).
+void edges_in(const std::vector<std::vector<Eigen::Vector2d>>& rings, const Eigen::Vector2d& o, const Eigen::AlignedBox2d& box,
+              std::vector<Edge>& out) {
+  out.clear();
+  for (const auto& r : rings)
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      const Eigen::Vector2d a = r[i] + o, b = r[(i + 1) % r.size()] + o;
+      if (std::max(a.x(), b.x()) < box.min().x() || std::min(a.x(), b.x()) > box.max().x() ||
+          std::max(a.y(), b.y()) < box.min().y() || std::min(a.y(), b.y()) > box.max().y())
+        continue;
+      out.emplace_back(a, b);
+    }
+}
+
+bool inside_ring(const std::vector<Eigen::Vector2d>& r, const Eigen::Vector2d& p) {
+  bool in = false;
+  for (std::size_t i = 0, j = r.size() - 1; i < r.size(); j = i++)
+    if ((r[i].y() > p.y()) != (r[j].y() > p.y()) &&
+        p.x() < (r[j].x() - r[i].x()) * (p.y() - r[i].y()) / (r[j].y() - r[i].y()) + r[i].x())
+      in = !in;
+  return in;
+}
+
+bool in_material(const std::vector<std::vector<Eigen::Vector2d>>& rings, const Eigen::Vector2d& p) {
+  if (!inside_ring(rings[0], p)) return false;
+  for (std::size_t k = 1; k < rings.size(); ++k)
+    if (inside_ring(rings[k], p)) return false;
+  return true;
+}
+
 }  // namespace
+
+bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Eigen::Vector2d& at_b) {
+  const Eigen::Vector2d o = at_b - at_a;  // b in a's frame
+  const Eigen::AlignedBox2d box_a(Eigen::Vector2d(a.box.min_corner().x(), a.box.min_corner().y()),
+                                  Eigen::Vector2d(a.box.max_corner().x(), a.box.max_corner().y()));
+  const Eigen::AlignedBox2d box_b(Eigen::Vector2d(b.box.min_corner().x(), b.box.min_corner().y()) + o,
+                                  Eigen::Vector2d(b.box.max_corner().x(), b.box.max_corner().y()) + o);
+  const Eigen::AlignedBox2d both = box_a.intersection(box_b);
+  if (both.isEmpty()) return false;
+  thread_local std::vector<Edge> ea, eb;
+  edges_in(a.rings, Eigen::Vector2d::Zero(), both, ea);
+  edges_in(b.rings, o, both, eb);
+  for (const Edge& e : ea)
+    for (const Edge& f : eb)
+      if (segments_meet(e, f)) return true;
+  // No edges meet: one lies in the other's material, or they are apart.
+  return in_material(b.rings, a.rings[0][0] - o) || in_material(a.rings, b.rings[0][0] + o);
+}
 
 Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing, double tol) {
   Placement turn;
@@ -113,6 +179,13 @@ Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing
   s.box = bg::return_envelope<Box>(s.poly);
   s.part_box = bounding_box(outer);
   s.area_mm2 = bg::area(s.poly);
+  const auto ring_of = [](const Poly::ring_type& r) {
+    std::vector<Eigen::Vector2d> v;
+    for (std::size_t i = 0; i + 1 < r.size(); ++i) v.emplace_back(r[i].x(), r[i].y());
+    return v;
+  };
+  s.rings.push_back(ring_of(s.poly.outer()));
+  for (const auto& h : s.poly.inners()) s.rings.push_back(ring_of(h));
   Poly hull;
   bg::convex_hull(s.poly, hull);
   s.hull_area_mm2 = bg::area(hull);

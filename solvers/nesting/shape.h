@@ -44,6 +44,7 @@ struct Shape {
   Box box;                       // the polygon's
   Eigen::AlignedBox2d part_box;  // the true part's (what must lie in the sheet's usable area)
   Poles poles;
+  std::vector<std::vector<Eigen::Vector2d>> rings;  // the polygon's: the outer first, then the holes (not closed)
   double area_mm2 = 0.0;         // the polygon's
   double hull_area_mm2 = 0.0;    // its convex hull's
   double diameter_mm = 0.0;      // its box's diagonal
@@ -55,6 +56,11 @@ Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing
 // Every way a part may be turned: `rotations` (each mirrored too when `mirror`).
 std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& rotations, bool mirror, double spacing_mm,
                                double tolerance_mm);
+
+// Whether the polygons of `a` at `at_a` and of `b` at `at_b` meet, touching included (what
+// bg::intersects says of the moved polygons, without moving them): a pair of edges that meet,
+// or a vertex of one inside the other's material. Thread-safe.
+bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Eigen::Vector2d& at_b);
 
 // The shape's polygon moved by (x, y).
 Poly moved(const Shape& s, double x, double y);

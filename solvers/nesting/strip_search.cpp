@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <numeric>
 #include <random>
 
@@ -97,7 +96,7 @@ class Strip {
 
   void load(std::vector<Item> items);
   void put(std::size_t i, int s, const Eigen::Vector2d& at);
-  double overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j, std::optional<Poly>& poly, const Poly* known);
+  double overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j);
   double evaluate(std::size_t i, int s, const Eigen::Vector2d& at, double bound);
   Candidate candidate(std::size_t i, int s, Eigen::Vector2d at, double bound);
   Candidate descend(std::size_t i, Candidate c, const double (&steps)[2]);
@@ -116,7 +115,6 @@ class Strip {
   Termination& t_;
   std::vector<float> weights_;
   std::vector<Item> items_;
-  std::vector<Poly> polys_;
   std::vector<Box> boxes_;
   Tree tree_;
   std::int64_t tests_ = 0, pole_pairs_ = 0, moves_ = 0;
@@ -124,12 +122,10 @@ class Strip {
 
 void Strip::load(std::vector<Item> items) {
   items_ = std::move(items);
-  polys_.clear();
   boxes_.clear();
   tree_.clear();
   for (std::size_t i = 0; i < items_.size(); ++i) {
     const Shape& s = shape(i);
-    polys_.push_back(moved(s, items_[i].at.x(), items_[i].at.y()));
     boxes_.push_back(moved(s.box, items_[i].at.x(), items_[i].at.y()));
     tree_.insert({boxes_[i], i});
   }
@@ -139,7 +135,6 @@ void Strip::put(std::size_t i, int s, const Eigen::Vector2d& at) {
   tree_.remove(std::make_pair(boxes_[i], i));
   items_[i].shape = s;
   items_[i].at = at;
-  polys_[i] = moved(shape(i), at.x(), at.y());
   boxes_[i] = moved(shape(i).box, at.x(), at.y());
   tree_.insert({boxes_[i], i});
 }
@@ -150,41 +145,44 @@ double Strip::end_of_parts() const {
   return e;
 }
 
-// How much `a` at `at` overlaps part j: 0 when they do not collide (decided exactly), else
-// the depth of their poles in each other, each pair of poles weighed by the smaller radius; a
-// pair apart adds a little that fades with its distance, so the measure stays above 0 and still
-// falls as the parts part. Its root, scaled by the parts' sizes (larger parts weigh more).
-double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j, std::optional<Poly>& poly, const Poly* known) {
+// How much `a` at `at` overlaps part j: 0 when they do not collide, else the depth of their
+// poles in each other, each pair of poles weighed by the smaller radius; a pair apart adds a
+// little that fades with its distance, so the measure stays above 0 and still falls as the parts
+// part. Its root, scaled by the parts' sizes (larger parts weigh more).
+double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j) {
   const Shape& b = shape(j);
   const Eigen::Vector2d d = at - items_[j].at;
+  const float dx = static_cast<float>(d.x()), dy = static_cast<float>(d.y());
+  // Whether they collide: two poles that overlap say so at once, else the polygons decide.
+  bool deep = false;
+  for (Eigen::Index k = 0; k < a.poles.size() && !deep; ++k) {
+    const float cx = a.poles.x[k] + dx, cy = a.poles.y[k] + dy;
+    deep = ((b.poles.x - cx).square() + (b.poles.y - cy).square() < (b.poles.radius + a.poles.radius[k]).square()).any();
+    pole_pairs_ += b.poles.size();
+  }
+  if (!deep) {
+    ++tests_;
+    if (!meets(a, at, b, items_[j].at)) return 0.0;
+  }
   const float eps = static_cast<float>(kEpsRatio * std::max(a.diameter_mm, b.diameter_mm));
-  // Per pole of a, its depth in each of b's, vectorised over b's; at most 32 poles (shape.h).
-  Eigen::Array<float, Eigen::Dynamic, 1, 0, 64, 1> pd(b.poles.size());
-  float deepest = -std::numeric_limits<float>::infinity();
+  // Per pole of a, its depth in each of b's, vectorised over b's.
+  Eigen::Array<float, Eigen::Dynamic, 1, 0, 64, 1> pd(b.poles.size());  // at most 64 poles (shape.h)
   double sum = 0.0;
   for (Eigen::Index k = 0; k < a.poles.size(); ++k) {
-    const float cx = a.poles.x[k] + static_cast<float>(d.x()), cy = a.poles.y[k] + static_cast<float>(d.y());
+    const float cx = a.poles.x[k] + dx, cy = a.poles.y[k] + dy;
     pd = (b.poles.radius + a.poles.radius[k]) - ((b.poles.x - cx).square() + (b.poles.y - cy).square()).sqrt();
-    deepest = std::max(deepest, pd.maxCoeff());
     sum += ((pd >= eps).select(pd, eps * eps / (2 * eps - pd)) * b.poles.radius.min(a.poles.radius[k])).sum();
   }
-  const bool deep = deepest > 0;
-  pole_pairs_ += static_cast<std::int64_t>(a.poles.size() * b.poles.size());
-  if (!deep) {  // the poles do not say: the polygons do
-    ++tests_;
-    if (!known && !poly) poly = moved(a, at.x(), at.y());
-    if (!bg::intersects(known ? *known : *poly, polys_[j])) return 0.0;
-  }
+  pole_pairs_ += a.poles.size() * b.poles.size();
   return std::sqrt(sum + static_cast<double>(eps) * eps) * std::sqrt(std::sqrt(a.hull_area_mm2 * b.hull_area_mm2));
 }
 
 // The weighted overlap of part i as shape s at `at` with the others; stops once past `bound`.
 double Strip::evaluate(std::size_t i, int s, const Eigen::Vector2d& at, double bound) {
   const Shape& a = shape_of(items_[i].part, s);
-  std::optional<Poly> poly;
   double sum = 0.0;
   for (auto it = tree_.qbegin(bgi::intersects(moved(a.box, at.x(), at.y()))); it != tree_.qend() && sum <= bound; ++it)
-    if (it->second != i) sum += weight(i, it->second) * overlap(a, at, it->second, poly, nullptr);
+    if (it->second != i) sum += weight(i, it->second) * overlap(a, at, it->second);
   return sum;
 }
 
@@ -262,10 +260,9 @@ void Strip::charge() {
 std::vector<Collision> Strip::collisions() {
   std::vector<Collision> out;
   for (std::size_t i = 0; i < items_.size(); ++i) {
-    std::optional<Poly> unused;
     for (auto it = tree_.qbegin(bgi::intersects(boxes_[i])); it != tree_.qend(); ++it)
       if (it->second > i)
-        if (const double v = overlap(shape(i), items_[i].at, it->second, unused, &polys_[i]); v > 0) out.push_back({i, it->second, v});
+        if (const double v = overlap(shape(i), items_[i].at, it->second); v > 0) out.push_back({i, it->second, v});
   }
   charge();
   return out;

@@ -31,8 +31,8 @@ namespace machplan::nesting {
 
 // The nominal work of one exact collision test here and of one pair of poles (about what they
 // take on a 2.6 GHz core).
-constexpr double kSearchTestCostS = 1.3e-6;
-constexpr double kPoleCostS = 0.7e-9;
+constexpr double kSearchTestCostS = 0.75e-6;
+constexpr double kPoleCostS = 0.4e-9;
 
 struct StripSearchStats {
   int shrinks_tried = 0, shrinks_kept = 0;  // of all workers

@@ -1,0 +1,76 @@
+// The shapes the searches test collisions on (solvers/nesting/shape.h): meets() answers as
+// Boost.Geometry's intersects on the moved polygons, touching included, and the poles lie
+// inside the material.
+#include <algorithm>
+#include <random>
+
+#include <boost/geometry/geometries/linestring.hpp>
+
+#include <gtest/gtest.h>
+
+#include "solvers/nesting/shape.h"
+#include "tests/nesting/shapes.h"
+
+namespace machplan::nesting {
+namespace {
+
+// A 60 x 40 plate with a 30 x 20 window: parts can lie in the hole.
+NestPart frame() {
+  NestPart p = test::rect(60, 40, "frame");
+  p.holes.push_back(Contour({{15, 10}, {15, 30}, {45, 30}, {45, 10}}, {0, 0, 0, 0}));
+  p.area_mm2 -= 600;
+  return p;
+}
+
+NestPart ell() {
+  NestPart p;
+  p.file = "ell";
+  p.outer = Contour({{0, 0}, {30, 0}, {30, 8}, {8, 8}, {8, 30}, {0, 30}}, {0, 0, 0, 0, 0, 0});
+  p.area_mm2 = 30 * 8 + 22 * 8;
+  return p;
+}
+
+TEST(NestShape, MeetsAnswersAsBoostGeometryOnTheMovedPolygons) {
+  std::vector<Shape> shapes;
+  for (const NestPart& p : {frame(), ell(), test::disc(7), test::rect(12, 5)})
+    for (const Shape& s : make_shapes(p, {0, 45, 90, 200}, true, 2.0, 0.05)) shapes.push_back(s);
+  std::mt19937_64 rng(3);
+  std::uniform_int_distribution<std::size_t> any(0, shapes.size() - 1);
+  std::uniform_real_distribution<double> at(-40, 40);
+  int met = 0, apart = 0;
+  for (int k = 0; k < 4000; ++k) {
+    const Shape &a = shapes[any(rng)], &b = shapes[any(rng)];
+    const Eigen::Vector2d pa(at(rng), at(rng)), pb(at(rng), at(rng));
+    const bool boost = bg::intersects(moved(a, pa.x(), pa.y()), moved(b, pb.x(), pb.y()));
+    ASSERT_EQ(meets(a, pa, b, pb), boost) << k;
+    (boost ? met : apart) += 1;
+  }
+  EXPECT_GT(met, 400);
+  EXPECT_GT(apart, 400);
+  // A small part in the frame's window meets nothing; on the window's edge it meets the frame.
+  const Shape f = make_shape(frame(), 0, false, 0, 0.05), r = make_shape(test::rect(12, 5), 0, false, 0, 0.05);
+  EXPECT_FALSE(meets(f, {0, 0}, r, {20, 15}));
+  EXPECT_TRUE(meets(f, {0, 0}, r, {20, 5.5}));
+  // Two plates touching along an edge meet; a micrometre apart they do not.
+  const Shape p = make_shape(test::rect(10, 10), 0, false, 0, 0.05);
+  EXPECT_TRUE(meets(p, {0, 0}, p, {10 + 2e-5, 3}));
+  EXPECT_FALSE(meets(p, {0, 0}, p, {10 + 2e-5 + 1e-3, 3}));
+}
+
+TEST(NestShape, EveryPoleLiesInsideThePolygon) {
+  for (const NestPart& part : {frame(), ell(), test::disc(7)})
+    for (const Shape& s : make_shapes(part, {0, 90, 33}, false, 1.0, 0.05)) {
+      ASSERT_GT(s.poles.size(), 0);
+      for (Eigen::Index k = 0; k < s.poles.size(); ++k) {
+        const Pt c(s.poles.x[k], s.poles.y[k]);
+        EXPECT_TRUE(bg::within(c, s.poly)) << part.file << " pole " << k;
+        // Its circle stays inside too, within the tolerance the turned poles may stand out by.
+        double room = bg::distance(c, bg::model::linestring<Pt>(s.poly.outer().begin(), s.poly.outer().end()));
+        for (const auto& h : s.poly.inners()) room = std::min(room, bg::distance(c, bg::model::linestring<Pt>(h.begin(), h.end())));
+        EXPECT_GE(room + 0.06, s.poles.radius[k]) << part.file << " pole " << k;
+      }
+    }
+}
+
+}  // namespace
+}  // namespace machplan::nesting
