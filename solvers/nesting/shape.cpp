@@ -71,13 +71,11 @@ Poles poles_of(const Poly& poly, const Box& box) {
     radii.push_back(1e-3);
   }
   Poles p;
-  p.x.resize(static_cast<Eigen::Index>(centres.size()));
-  p.y.resizeLike(p.x);
-  p.radius.resizeLike(p.x);
-  for (std::size_t i = 0; i < centres.size(); ++i) {
-    const auto k = static_cast<Eigen::Index>(i);
-    p.x[k] = static_cast<float>(centres[i].x()), p.y[k] = static_cast<float>(centres[i].y()), p.radius[k] = static_cast<float>(radii[i]);
-  }
+  p.count = centres.size();
+  const std::size_t padded = (p.count + Poles::kLanes - 1) / Poles::kLanes * Poles::kLanes;
+  p.x.assign(padded, 1e6f), p.y.assign(padded, 1e6f), p.radius.assign(padded, 0.0f);
+  for (std::size_t i = 0; i < centres.size(); ++i)
+    p.x[i] = static_cast<float>(centres[i].x()), p.y[i] = static_cast<float>(centres[i].y()), p.radius[i] = static_cast<float>(radii[i]);
   return p;
 }
 
@@ -206,7 +204,7 @@ std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& 
       Shape s = make_shape(part, rotations[k], mirrored, spacing, tol);
       if (k == 0) poles = poles_of(s.poly, s.box);
       s.poles = poles;
-      for (Eigen::Index i = 0; i < poles.size(); ++i) {
+      for (std::size_t i = 0; i < poles.size(); ++i) {
         const Eigen::Vector2d c = turned(Eigen::Vector2d(poles.x[i], poles.y[i]), rotations[k] - rotations[0]);
         s.poles.x[i] = static_cast<float>(c.x()), s.poles.y[i] = static_cast<float>(c.y());
       }

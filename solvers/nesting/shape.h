@@ -31,10 +31,14 @@ using Poly = bg::model::polygon<Pt>;  // clockwise, closed (Boost's default)
 using Box = bg::model::box<Pt>;
 
 // Circles inside a shape, as arrays of their centres' x and y and their radii (about the part's
-// reference point), so that the overlap of two sets vectorises.
+// reference point), so that the overlap of two sets vectorises: `count` poles, the arrays padded
+// to a multiple of kLanes with circles of radius 0 far away (which add nothing to an overlap).
 struct Poles {
-  Eigen::ArrayXf x, y, radius;
-  Eigen::Index size() const { return radius.size(); }
+  static constexpr std::size_t kLanes = 8;
+  std::size_t count = 0;
+  std::vector<float> x, y, radius;
+  std::size_t size() const { return count; }
+  std::size_t padded() const { return radius.size(); }
 };
 
 struct Shape {

@@ -117,7 +117,7 @@ class Strip {
   std::vector<Item> items_;
   std::vector<Box> boxes_;
   Tree tree_;
-  std::int64_t tests_ = 0, pole_pairs_ = 0, moves_ = 0;
+  std::int64_t tests_ = 0, pole_pairs_ = 0, moves_ = 0, all_tests_ = 0, all_pole_pairs_ = 0;
 };
 
 void Strip::load(std::vector<Item> items) {
@@ -153,27 +153,35 @@ double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j) 
   const Shape& b = shape(j);
   const Eigen::Vector2d d = at - items_[j].at;
   const float dx = static_cast<float>(d.x()), dy = static_cast<float>(d.y());
+  const std::size_t nb = b.poles.padded();
+  // b's poles kLanes at a time, as Eigen packets (vectorised).
+  using Lane = Eigen::Array<float, Poles::kLanes, 1>;
+  const auto lanes = [](const std::vector<float>& v, std::size_t q0) { return Eigen::Map<const Lane>(v.data() + q0); };
   // Whether they collide: two poles that overlap say so at once, else the polygons decide.
   bool deep = false;
-  for (Eigen::Index k = 0; k < a.poles.size() && !deep; ++k) {
-    const float cx = a.poles.x[k] + dx, cy = a.poles.y[k] + dy;
-    deep = ((b.poles.x - cx).square() + (b.poles.y - cy).square() < (b.poles.radius + a.poles.radius[k]).square()).any();
-    pole_pairs_ += b.poles.size();
+  for (std::size_t k = 0; k < a.poles.size() && !deep; ++k) {
+    const float cx = a.poles.x[k] + dx, cy = a.poles.y[k] + dy, ra = a.poles.radius[k];
+    for (std::size_t q0 = 0; q0 < nb && !deep; q0 += Poles::kLanes)
+      deep = ((lanes(b.poles.x, q0) - cx).square() + (lanes(b.poles.y, q0) - cy).square() < (lanes(b.poles.radius, q0) + ra).square()).any();
+    pole_pairs_ += static_cast<std::int64_t>(nb);
   }
   if (!deep) {
     ++tests_;
     if (!meets(a, at, b, items_[j].at)) return 0.0;
   }
   const float eps = static_cast<float>(kEpsRatio * std::max(a.diameter_mm, b.diameter_mm));
-  // Per pole of a, its depth in each of b's, vectorised over b's.
-  Eigen::Array<float, Eigen::Dynamic, 1, 0, 64, 1> pd(b.poles.size());  // at most 64 poles (shape.h)
-  double sum = 0.0;
-  for (Eigen::Index k = 0; k < a.poles.size(); ++k) {
-    const float cx = a.poles.x[k] + dx, cy = a.poles.y[k] + dy;
-    pd = (b.poles.radius + a.poles.radius[k]) - ((b.poles.x - cx).square() + (b.poles.y - cy).square()).sqrt();
-    sum += ((pd >= eps).select(pd, eps * eps / (2 * eps - pd)) * b.poles.radius.min(a.poles.radius[k])).sum();
+  Lane lane = Lane::Zero();
+  for (std::size_t k = 0; k < a.poles.size(); ++k) {
+    const float cx = a.poles.x[k] + dx, cy = a.poles.y[k] + dy, ra = a.poles.radius[k];
+    for (std::size_t q0 = 0; q0 < nb; q0 += Poles::kLanes) {
+      const Lane rb = lanes(b.poles.radius, q0);
+      const Lane pd = (rb + ra) - ((lanes(b.poles.x, q0) - cx).square() + (lanes(b.poles.y, q0) - cy).square()).sqrt();
+      const Lane fade = (eps * eps) / (2 * eps - pd).max(eps);
+      lane += (pd >= eps).select(pd, fade) * rb.min(ra);
+    }
   }
-  pole_pairs_ += a.poles.size() * b.poles.size();
+  const double sum = lane.sum();
+  pole_pairs_ += static_cast<std::int64_t>(a.poles.size() * nb);
   return std::sqrt(sum + static_cast<double>(eps) * eps) * std::sqrt(std::sqrt(a.hull_area_mm2 * b.hull_area_mm2));
 }
 
@@ -254,6 +262,7 @@ void Strip::move(std::size_t i) {
 
 void Strip::charge() {
   t_.charge(0, static_cast<double>(tests_) * kSearchTestCostS + static_cast<double>(pole_pairs_) * kPoleCostS);
+  all_tests_ += tests_, all_pole_pairs_ += pole_pairs_;
   tests_ = pole_pairs_ = 0;
 }
 
@@ -415,6 +424,8 @@ std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats) {
     if (separate() == 0) best = items_, best_end = end_of_parts(), ++stats.shrinks_kept;
   }
   stats.moves += moves_;
+  stats.tests += all_tests_;
+  stats.pole_pairs += all_pole_pairs_;
   return best;
 }
 
@@ -460,6 +471,8 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
     stats.shrinks_tried += e.shrinks_tried;
     stats.shrinks_kept += e.shrinks_kept;
     stats.moves += e.moves;
+    stats.tests += e.tests;
+    stats.pole_pairs += e.pole_pairs;
   }
   t.charge(0, *std::max_element(spent.begin(), spent.end()));
   t.should_end();  // records what ended the work, for the report

@@ -31,12 +31,13 @@ namespace machplan::nesting {
 
 // The nominal work of one exact collision test here and of one pair of poles (about what they
 // take on a 2.6 GHz core).
-constexpr double kSearchTestCostS = 0.75e-6;
-constexpr double kPoleCostS = 0.4e-9;
+constexpr double kSearchTestCostS = 0.55e-6;
+constexpr double kPoleCostS = 0.9e-9;
 
 struct StripSearchStats {
   int shrinks_tried = 0, shrinks_kept = 0;  // of all workers
   std::int64_t moves = 0;
+  std::int64_t tests = 0, pole_pairs = 0;  // exact collision tests and pairs of poles looked at
   double start_length_mm = 0.0;  // the last sheet's used length before the search
 };
 

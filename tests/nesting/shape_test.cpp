@@ -60,8 +60,9 @@ TEST(NestShape, MeetsAnswersAsBoostGeometryOnTheMovedPolygons) {
 TEST(NestShape, EveryPoleLiesInsideThePolygon) {
   for (const NestPart& part : {frame(), ell(), test::disc(7)})
     for (const Shape& s : make_shapes(part, {0, 90, 33}, false, 1.0, 0.05)) {
-      ASSERT_GT(s.poles.size(), 0);
-      for (Eigen::Index k = 0; k < s.poles.size(); ++k) {
+      ASSERT_GT(s.poles.size(), 0u);
+      ASSERT_EQ(s.poles.padded() % Poles::kLanes, 0u);
+      for (std::size_t k = 0; k < s.poles.size(); ++k) {
         const Pt c(s.poles.x[k], s.poles.y[k]);
         EXPECT_TRUE(bg::within(c, s.poly)) << part.file << " pole " << k;
         // Its circle stays inside too, within the tolerance the turned poles may stand out by.
