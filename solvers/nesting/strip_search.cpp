@@ -117,7 +117,7 @@ class Strip {
   std::vector<Item> items_;
   std::vector<Box> boxes_;
   Tree tree_;
-  std::int64_t tests_ = 0, pole_pairs_ = 0, moves_ = 0, all_tests_ = 0, all_pole_pairs_ = 0;
+  std::int64_t tests_ = 0, pole_pairs_ = 0, deep_pairs_ = 0, moves_ = 0, all_tests_ = 0, all_pole_pairs_ = 0, all_deep_pairs_ = 0;
 };
 
 void Strip::load(std::vector<Item> items) {
@@ -163,7 +163,7 @@ double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j) 
     const float cx = a.poles.x[k] + dx, cy = a.poles.y[k] + dy, ra = a.poles.radius[k];
     for (std::size_t q0 = 0; q0 < nb && !deep; q0 += Poles::kLanes)
       deep = ((lanes(b.poles.x, q0) - cx).square() + (lanes(b.poles.y, q0) - cy).square() < (lanes(b.poles.radius, q0) + ra).square()).any();
-    pole_pairs_ += static_cast<std::int64_t>(nb);
+    deep_pairs_ += static_cast<std::int64_t>(nb);
   }
   if (!deep) {
     ++tests_;
@@ -171,9 +171,10 @@ double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j) 
   }
   const float eps = static_cast<float>(kEpsRatio * std::max(a.diameter_mm, b.diameter_mm));
   Lane lane = Lane::Zero();
-  for (std::size_t k = 0; k < a.poles.size(); ++k) {
+  const std::size_t na16 = std::min<std::size_t>(a.poles.size(), 8), nb16 = std::min<std::size_t>(nb, 8);
+  for (std::size_t k = 0; k < na16; ++k) {
     const float cx = a.poles.x[k] + dx, cy = a.poles.y[k] + dy, ra = a.poles.radius[k];
-    for (std::size_t q0 = 0; q0 < nb; q0 += Poles::kLanes) {
+    for (std::size_t q0 = 0; q0 < nb16; q0 += Poles::kLanes) {
       const Lane rb = lanes(b.poles.radius, q0);
       const Lane pd = (rb + ra) - ((lanes(b.poles.x, q0) - cx).square() + (lanes(b.poles.y, q0) - cy).square()).sqrt();
       const Lane fade = (eps * eps) / (2 * eps - pd).max(eps);
@@ -181,7 +182,7 @@ double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j) 
     }
   }
   const double sum = lane.sum();
-  pole_pairs_ += static_cast<std::int64_t>(a.poles.size() * nb);
+  pole_pairs_ += static_cast<std::int64_t>(na16 * nb16);
   return std::sqrt(sum + static_cast<double>(eps) * eps) * std::sqrt(std::sqrt(a.hull_area_mm2 * b.hull_area_mm2));
 }
 
@@ -261,9 +262,10 @@ void Strip::move(std::size_t i) {
 }
 
 void Strip::charge() {
-  t_.charge(0, static_cast<double>(tests_) * kSearchTestCostS + static_cast<double>(pole_pairs_) * kPoleCostS);
-  all_tests_ += tests_, all_pole_pairs_ += pole_pairs_;
-  tests_ = pole_pairs_ = 0;
+  t_.charge(0, static_cast<double>(tests_) * kSearchTestCostS + static_cast<double>(pole_pairs_) * kPoleCostS +
+                  static_cast<double>(deep_pairs_) * kDeepPairCostS);
+  all_tests_ += tests_, all_pole_pairs_ += pole_pairs_, all_deep_pairs_ += deep_pairs_;
+  tests_ = pole_pairs_ = deep_pairs_ = 0;
 }
 
 std::vector<Collision> Strip::collisions() {
@@ -426,6 +428,7 @@ std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats) {
   stats.moves += moves_;
   stats.tests += all_tests_;
   stats.pole_pairs += all_pole_pairs_;
+  stats.deep_pairs += all_deep_pairs_;
   return best;
 }
 
@@ -473,6 +476,7 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
     stats.moves += e.moves;
     stats.tests += e.tests;
     stats.pole_pairs += e.pole_pairs;
+    stats.deep_pairs += e.deep_pairs;
   }
   t.charge(0, *std::max_element(spent.begin(), spent.end()));
   t.should_end();  // records what ended the work, for the report
@@ -490,8 +494,12 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
 NestResult nest(const NestRequest& r, Termination& t, std::uint64_t seed, int workers, StripSearchStats* stats) {
   const ShapeSet shapes = shapes_of(r);
   if (!std::isfinite(t.deadline_s())) return bottom_left_nest(r, shapes, t, seed);
+  // The fills' restarts matter where they may save a sheet; on one sheet the search does better.
+  Termination first(t);
+  first.set_budget(1, "fills");
+  const NestResult one = bottom_left_nest(r, shapes, first, seed);
   Termination fill(t);
-  fill.set_deadline(0.1 * t.deadline_s(), "nominal search time");
+  fill.set_deadline((one.sheets_used > 1 || !one.unplaced.empty() ? 0.1 : 0.02) * t.deadline_s(), "nominal search time");
   NestResult n = bottom_left_nest(r, shapes, fill, seed);
   const StripSearchStats s = shorten_last_sheet(r, shapes, n, t, seed, workers);
   if (stats) *stats = s;

@@ -16,7 +16,7 @@
 // colliding parts overlap is estimated, from how deep their poles go into each other: a measure
 // that is smooth, cheap, and zero only when they part.
 //
-// Work: each exact collision test counts kSearchTestCostS, each pole pair kPoleCostS (of nominal
+// Work: each exact collision test and pair of poles counts as set below (of nominal
 // work), so a seed and a deadline give the same nest on any machine. Several workers (threads)
 // search from different seeds, each with the whole deadline of its own; the shortest nest wins.
 #pragma once
@@ -29,15 +29,18 @@
 
 namespace machplan::nesting {
 
-// The nominal work of one exact collision test here and of one pair of poles (about what they
-// take on a 2.6 GHz core).
+// The nominal work of one exact collision test here, of one pair of poles tested for overlap and
+// of one measured (about what they take on a 2.6 GHz core).
 constexpr double kSearchTestCostS = 0.55e-6;
+constexpr double kDeepPairCostS = 0.4e-9;
 constexpr double kPoleCostS = 0.9e-9;
 
 struct StripSearchStats {
   int shrinks_tried = 0, shrinks_kept = 0;  // of all workers
   std::int64_t moves = 0;
-  std::int64_t tests = 0, pole_pairs = 0;  // exact collision tests and pairs of poles looked at
+  std::int64_t tests = 0;       // exact collision tests
+  std::int64_t deep_pairs = 0;  // pairs of poles tested for overlap (whether two parts surely collide)
+  std::int64_t pole_pairs = 0;  // pairs of poles measured (how much two colliding parts overlap)
   double start_length_mm = 0.0;  // the last sheet's used length before the search
 };
 
@@ -47,8 +50,10 @@ struct StripSearchStats {
 StripSearchStats shorten_last_sheet(const NestRequest& request, const ShapeSet& shapes, NestResult& nest, Termination& t,
                                     std::uint64_t seed, int workers);
 
-// The nest machplan gives: the bottom-left fill with restarts for a tenth of `t`'s deadline,
-// then the strip search for the rest, on `workers` threads, each with that much work of its own.
+// The nest machplan gives: the bottom-left fill with restarts for a tenth of `t`'s deadline
+// (a fiftieth when one fill puts every part on one sheet: restarts then only shorten it, which
+// the search does better), then the strip search for the rest, on `workers` threads, each with
+// that much work of its own.
 // Without a deadline (a budget, or nothing): one fill.
 NestResult nest(const NestRequest& request, Termination& t, std::uint64_t seed, int workers = 2,
                 StripSearchStats* stats = nullptr);
