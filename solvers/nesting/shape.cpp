@@ -34,10 +34,9 @@ double distance_to_boundary(const Eigen::Vector2d& p, const Poly& poly) {
 }
 
 // The poles of a polygon: see the file comment of shape.h. Found on a grid of about kGrid x
-// kGrid points over its box.
+// kGrid points over its box; at most Poles::kLanes.
 Poles poles_of(const Poly& poly, const Box& box) {
   constexpr int kGrid = 48;
-  constexpr std::size_t kMaxPoles = 32;
   const double w = box.max_corner().x() - box.min_corner().x(), h = box.max_corner().y() - box.min_corner().y();
   const double step = std::max(w, h) / kGrid;
   std::vector<Eigen::Vector2d> pts;
@@ -50,21 +49,13 @@ Poles poles_of(const Poly& poly, const Box& box) {
     }
   std::vector<Eigen::Vector2d> centres;
   std::vector<double> radii;
-  std::vector<bool> covered(pts.size(), false);
-  std::size_t n_covered = 0;
-  while (centres.size() < kMaxPoles && !pts.empty()) {
+  while (centres.size() < Poles::kLanes && !pts.empty()) {
     const std::size_t best = static_cast<std::size_t>(std::max_element(room.begin(), room.end()) - room.begin());
     const double r = room[best];
     if (r <= 0 || (!radii.empty() && (r < 0.1 * radii.front() || r < step / 2))) break;
     centres.push_back(pts[best]);
     radii.push_back(r);
-    for (std::size_t i = 0; i < pts.size(); ++i) {
-      const double d = (pts[i] - pts[best]).norm();
-      room[i] = std::min(room[i], d - r);
-      if (!covered[i] && d <= r) covered[i] = true, ++n_covered;
-    }
-    const double share = static_cast<double>(n_covered) / static_cast<double>(pts.size());
-    if ((centres.size() >= 8 && share >= 0.9 && centres.size() <= 8) || (centres.size() == 16 && share >= 0.8)) break;
+    for (std::size_t i = 0; i < pts.size(); ++i) room[i] = std::min(room[i], (pts[i] - pts[best]).norm() - r);
   }
   if (centres.empty()) {  // thinner than the grid: one small pole at the box's centre
     centres.emplace_back(box.min_corner().x() + w / 2, box.min_corner().y() + h / 2);
@@ -72,8 +63,7 @@ Poles poles_of(const Poly& poly, const Box& box) {
   }
   Poles p;
   p.count = centres.size();
-  const std::size_t padded = (p.count + Poles::kLanes - 1) / Poles::kLanes * Poles::kLanes;
-  p.x.assign(padded, 1e6f), p.y.assign(padded, 1e6f), p.radius.assign(padded, 0.0f);
+  p.x.assign(Poles::kLanes, 1e6f), p.y.assign(Poles::kLanes, 1e6f), p.radius.assign(Poles::kLanes, 0.0f);
   for (std::size_t i = 0; i < centres.size(); ++i)
     p.x[i] = static_cast<float>(centres[i].x()), p.y[i] = static_cast<float>(centres[i].y()), p.radius[i] = static_cast<float>(radii[i]);
   return p;

@@ -4,8 +4,8 @@
 // spacing on their true lines and arcs (the certificate checks it on those).
 //
 // The poles: circles inside the polygon's material, the largest first, each the largest that
-// fits beside the ones before (found on a grid), until they cover enough of it (90 % with 8 or
-// fewer, 80 % with 16 or fewer, else what 32 cover) or are small against the part. Two
+// fits beside the ones before (found on a grid), at most 8 (more made the search slower for no
+// better nests: the exact test decides what they miss), none smaller than a tenth of the first. Two
 // parts whose poles overlap surely collide, and how deep the poles of two colliding parts go
 // into each other measures their collision smoothly (strip_search.h), as in the sparrow nester
 // of Gardeyn and Wauters ("An open-source heuristic to reboot 2D nesting research", 2025).
@@ -31,8 +31,8 @@ using Poly = bg::model::polygon<Pt>;  // clockwise, closed (Boost's default)
 using Box = bg::model::box<Pt>;
 
 // Circles inside a shape, as arrays of their centres' x and y and their radii (about the part's
-// reference point), so that the overlap of two sets vectorises: `count` poles, the arrays padded
-// to a multiple of kLanes with circles of radius 0 far away (which add nothing to an overlap).
+// reference point), so that the overlap of two sets vectorises: `count` poles, at most kLanes,
+// the arrays padded to kLanes with circles of radius 0 far away (which add nothing to an overlap).
 struct Poles {
   static constexpr std::size_t kLanes = 8;
   std::size_t count = 0;

@@ -171,10 +171,9 @@ double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j) 
   }
   const float eps = static_cast<float>(kEpsRatio * std::max(a.diameter_mm, b.diameter_mm));
   Lane lane = Lane::Zero();
-  const std::size_t na16 = std::min<std::size_t>(a.poles.size(), 8), nb16 = std::min<std::size_t>(nb, 8);
-  for (std::size_t k = 0; k < na16; ++k) {
+  for (std::size_t k = 0; k < a.poles.size(); ++k) {
     const float cx = a.poles.x[k] + dx, cy = a.poles.y[k] + dy, ra = a.poles.radius[k];
-    for (std::size_t q0 = 0; q0 < nb16; q0 += Poles::kLanes) {
+    for (std::size_t q0 = 0; q0 < nb; q0 += Poles::kLanes) {
       const Lane rb = lanes(b.poles.radius, q0);
       const Lane pd = (rb + ra) - ((lanes(b.poles.x, q0) - cx).square() + (lanes(b.poles.y, q0) - cy).square()).sqrt();
       const Lane fade = (eps * eps) / (2 * eps - pd).max(eps);
@@ -182,7 +181,7 @@ double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j) 
     }
   }
   const double sum = lane.sum();
-  pole_pairs_ += static_cast<std::int64_t>(na16 * nb16);
+  pole_pairs_ += static_cast<std::int64_t>(a.poles.size() * nb);
   return std::sqrt(sum + static_cast<double>(eps) * eps) * std::sqrt(std::sqrt(a.hull_area_mm2 * b.hull_area_mm2));
 }
 
