@@ -95,7 +95,8 @@ json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, cons
           {"search_s", t.work_s_spent()}, {"search_ended", t.describe()},
           {"strip_search", {{"start_length_mm", search.start_length_mm}, {"shrinks_tried", search.shrinks_tried},
                             {"shrinks_kept", search.shrinks_kept}, {"moves", search.moves},
-                            {"collision_tests", search.tests}, {"deep_pairs", search.deep_pairs}, {"pole_pairs", search.pole_pairs}}},
+                            {"collision_tests", search.tests}, {"deep_pairs", search.deep_pairs}, {"pole_pairs", search.pole_pairs},
+                            {"note", search.note}}},
           {"certified", cert.certified}, {"violations", cert.violations}, {"sheets", sheets},
           {"placements", placements},    {"unplaced", unplaced}};
 }
@@ -154,6 +155,7 @@ void print_nest_report(const json& j) {
     std::printf("  strip search: the last sheet's used length from %.1f to %.1f mm (%d of %d shrinks kept, %lld moves)\n",
                 ss["start_length_mm"].get<double>(), j["sheets"].back()["used_length_mm"].get<double>(), ss["shrinks_kept"].get<int>(),
                 ss["shrinks_tried"].get<int>(), ss["moves"].get<long long>());
+  if (const std::string note = j["strip_search"]["note"]; !note.empty()) std::printf("  strip search not run: %s\n", note.c_str());
   for (const json& s : j["sheets"]) {
     std::printf("  sheet %d: %d parts, used length %.1f mm of %.0f, utilisation %.1f %% of the area used, remnant %.1f x %.1f mm\n",
                 s["sheet"].get<int>(), s["parts"].get<int>(), s["used_length_mm"].get<double>(), s["width_mm"].get<double>(),

@@ -7,6 +7,7 @@
 #include <random>
 
 #include <boost/geometry/index/rtree.hpp>
+#include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
 namespace machplan::nesting {
@@ -31,6 +32,7 @@ constexpr double kExploreShare = 0.8;   // of the work: exploring, then compress
 constexpr double kEpsRatio = 0.01;      // of the larger diameter: where the poles' overlap starts to fade
 constexpr double kWeightLeast = 1.2, kWeightMost = 2.0, kWeightDecay = 0.95;  // guided local search
 constexpr double kLargeShare = 0.75;    // disruption swaps parts among the largest holding this share of hull area
+constexpr std::size_t kPool = 64;       // exploring: the failed nests kept to go on from (the least overlap)
 
 struct Item {
   std::size_t placement = 0;  // index into the nest's placements
@@ -411,6 +413,7 @@ std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats) {
     if (t_.should_end()) break;
     failed.emplace_back(loss, items_);
     std::sort(failed.begin(), failed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    if (failed.size() > kPool) failed.pop_back();
     const auto k = static_cast<std::size_t>(std::min(0.999, std::abs(pick(rng_))) * static_cast<double>(failed.size()));
     load(failed[k].second);
     disrupt();
@@ -452,6 +455,10 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
     items.push_back({k, p.part, static_cast<int>(s - ss.begin()), p.translate_mm});
   }
   if (items.size() < 2) return stats;
+  if (items.size() > kMostParts) {
+    stats.note = fmt::format("the last sheet holds {} parts; the strip search takes at most {}", items.size(), kMostParts);
+    return stats;
+  }
   stats.start_length_mm = nest.used_length_mm[static_cast<std::size_t>(last)];
   const double work = t.deadline_s() - t.work_s_spent();
   workers = std::max(1, workers);

@@ -22,6 +22,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 #include "engine/common/termination.h"
 
@@ -42,7 +43,11 @@ struct StripSearchStats {
   std::int64_t deep_pairs = 0;  // pairs of poles tested for overlap (whether two parts surely collide)
   std::int64_t pole_pairs = 0;  // pairs of poles measured (how much two colliding parts overlap)
   double start_length_mm = 0.0;  // the last sheet's used length before the search
+  std::string note;              // why the search did not run, when it did not
 };
+
+// The most parts on the last sheet the search takes (it keeps a weight per pair of them).
+constexpr std::size_t kMostParts = 2000;
 
 // Shortens the used length of `nest`'s last used sheet in place until `t` ends (a deadline of
 // nominal work, or a stop request: the best so far is kept). `nest` must be feasible, as the
