@@ -9,6 +9,10 @@ density, ...) with the best-known densities. Each instance's items become DXF dr
 closed polyline each) in a temporary folder, nested with no spacing and no margin on one sheet
 of the strip's height H and a length that holds them all; the used length L gives the density
 part area / (H x L). Prints one tab-separated row per instance.
+
+With --place DIR, each nest is also written to DIR/<name>.place, one line per part,
+`item_id rotation_deg tx ty` (the item's polygon turned about its origin, then moved), the form an
+independent checker of strip-packing layouts can read.
 """
 import argparse
 import json
@@ -32,6 +36,7 @@ def main():
     ap.add_argument("--machplan", required=True)
     ap.add_argument("--instances", required=True)
     ap.add_argument("--time", default="2", help="machplan nest --time (seconds of nominal work)")
+    ap.add_argument("--place", help="write each nest as DIR/<name>.place (item_id rotation_deg tx ty per line)")
     ap.add_argument("names", nargs="*")
     a = ap.parse_args()
     names = a.names or sorted(f[:-5] for f in os.listdir(a.instances) if f.endswith(".json"))
@@ -69,6 +74,12 @@ def main():
             continue
         out = json.loads(r.stdout)
         used = out["sheets"][0]["used_length_mm"]
+        if a.place:
+            os.makedirs(a.place, exist_ok=True)
+            with open(os.path.join(a.place, name + ".place"), "w") as f:
+                for p in out["placements"]:
+                    item = os.path.basename(p["file"])[len("i_"):-len(".dxf")]
+                    f.write(f"{item} {p['rotation_deg']!r} {p['translate_mm'][0]!r} {p['translate_mm'][1]!r}\n")
         print(f"{name}\t{parts}\t{h}\t{used:.3f}\t{total / (h * used):.3f}\t{records.get(name, '-')}\t{seconds:.2f}\t{out['certified']}")
 
 

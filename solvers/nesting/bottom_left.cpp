@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "solvers/nesting/internal/shape.h"
 
 namespace machplan::nesting {
 
@@ -20,21 +21,20 @@ namespace bgi = boost::geometry::index;
 
 // One sheet's parts so far.
 struct SheetLayout {
-  std::vector<Poly> polys;
+  std::vector<std::pair<const Shape*, Eigen::Vector2d>> parts;  // each shape and where it is
   mutable std::int64_t tests = 0;  // collision tests made
   bgi::rtree<std::pair<Box, std::size_t>, bgi::quadratic<16>> boxes;
   double right_mm = 0.0;
 
   bool fits(const Shape& s, double x, double y) const {
     ++tests;
-    const Poly m = moved(s, x, y);
     for (auto it = boxes.qbegin(bgi::intersects(moved(s.box, x, y))); it != boxes.qend(); ++it)
-      if (bg::intersects(m, polys[it->second])) return false;
+      if (meets(s, {x, y}, *parts[it->second].first, parts[it->second].second)) return false;
     return true;
   }
   void add(const Shape& s, double x, double y) {
-    boxes.insert({moved(s.box, x, y), polys.size()});
-    polys.push_back(moved(s, x, y));
+    boxes.insert({moved(s.box, x, y), parts.size()});
+    parts.emplace_back(&s, Eigen::Vector2d(x, y));
     right_mm = std::max(right_mm, s.part_box.max().x() + x);
   }
 };
@@ -70,8 +70,9 @@ std::optional<Spot> leftmost(const SheetLayout& sheet, const Shape& s, const Eig
     ys.push_back(b.max_corner().y() - s.box.min_corner().y() + kClear);
     ys.push_back(b.min_corner().y() - s.box.max_corner().y() - kClear);
     // Part in part: each of its holes' lower left corner, and its centre (a round hole).
-    for (const auto& ring : sheet.polys[i].inners()) {
-      const Box h = bg::return_envelope<Box>(ring);
+    for (const auto& ring : sheet.parts[i].first->poly.inners()) {
+      const Eigen::Vector2d& at = sheet.parts[i].second;
+      const Box h = moved(bg::return_envelope<Box>(ring), at.x(), at.y());
       xs.push_back(h.min_corner().x() - s.box.min_corner().x() + kClear);
       ys.push_back(h.min_corner().y() - s.box.min_corner().y() + kClear);
       xs.push_back(0.5 * (h.min_corner().x() + h.max_corner().x() - s.box.min_corner().x() - s.box.max_corner().x()));
@@ -163,8 +164,8 @@ NestResult fill(const NestRequest& r, const ShapeSet& shapes, const std::vector<
   }
   for (const SheetLayout& s : sheets) {
     tests += s.tests;
-    out.sheets_used += !s.polys.empty();
-    out.used_length_mm.push_back(s.polys.empty() ? 0.0 : s.right_mm);
+    out.sheets_used += !s.parts.empty();
+    out.used_length_mm.push_back(s.parts.empty() ? 0.0 : s.right_mm);
   }
   out.fills = 1;
   return out;

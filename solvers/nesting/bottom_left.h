@@ -5,7 +5,7 @@
 // what the objective keeps short after the number of sheets (the remnant left is the rest).
 //
 // Collisions are tested on the parts grown by half the spacing and approximated from outside
-// (outline.h), with Boost.Geometry's polygon tests behind an R-tree of their boxes: two parts
+// (outline.h), with meets() (internal/shape.h) behind an R-tree of their boxes: two parts
 // whose polygons do not meet are at least the spacing apart. A part's holes, shrunk by half the
 // spacing and approximated from inside, are holes of its polygon: smaller parts go in them
 // (part in part) when they keep the spacing from the hole's edge.
@@ -31,7 +31,6 @@
 #include "solvers/nesting/certificate.h"
 #include "solvers/nesting/part.h"
 #include "solvers/nesting/placement.h"
-#include "solvers/nesting/shape.h"
 
 namespace machplan::nesting {
 
@@ -70,11 +69,5 @@ constexpr double kTestCostS = 2e-6;
 NestResult bottom_left_nest(const NestRequest& request);
 // With restarts until `t` ends (see the file comment), from `seed`.
 NestResult bottom_left_nest(const NestRequest& request, Termination& t, std::uint64_t seed);
-
-// Every way each part may be turned (shape.h), per part; checks the request as above.
-using ShapeSet = std::vector<std::vector<Shape>>;
-ShapeSet shapes_of(const NestRequest& request);
-// The same with the shapes made.
-NestResult bottom_left_nest(const NestRequest& request, const ShapeSet& shapes, Termination& t, std::uint64_t seed);
 
 }  // namespace machplan::nesting

@@ -10,6 +10,8 @@
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
+#include "solvers/nesting/internal/shape.h"
+
 namespace machplan::nesting {
 
 namespace {

@@ -11,7 +11,7 @@
 // shrinks again; when separation stalls, the search goes back to the best nest and shrinks by
 // less (then again by more, from a nest with two parts swapped).
 //
-// Collisions are decided exactly, on the shapes' polygons (shape.h) as the bottom-left fill
+// Collisions are decided exactly, on the shapes' polygons (internal/shape.h) as the bottom-left fill
 // decides them, so every nest the search keeps is one the certificate accepts. Only how much two
 // colliding parts overlap is estimated, from how deep their poles go into each other: a measure
 // that is smooth, cheap, and zero only when they part.
@@ -48,12 +48,6 @@ struct StripSearchStats {
 
 // The most parts on the last sheet the search takes (it keeps a weight per pair of them).
 constexpr std::size_t kMostParts = 2000;
-
-// Shortens the used length of `nest`'s last used sheet in place until `t` ends (a deadline of
-// nominal work, or a stop request: the best so far is kept). `nest` must be feasible, as the
-// bottom-left fill makes it; the other sheets are left as they are.
-StripSearchStats shorten_last_sheet(const NestRequest& request, const ShapeSet& shapes, NestResult& nest, Termination& t,
-                                    std::uint64_t seed, int workers);
 
 // The nest machplan gives: the bottom-left fill with restarts for a tenth of `t`'s deadline
 // (a fiftieth when one fill puts every part on one sheet: restarts then only shorten it, which

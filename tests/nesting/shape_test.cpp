@@ -1,4 +1,4 @@
-// The shapes the searches test collisions on (solvers/nesting/shape.h): meets() answers as
+// The shapes the searches test collisions on (solvers/nesting/internal/shape.h): meets() answers as
 // Boost.Geometry's intersects on the moved polygons, touching included, and the poles lie
 // inside the material.
 #include <algorithm>
@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "solvers/nesting/shape.h"
+#include "solvers/nesting/internal/shape.h"
 #include "tests/nesting/shapes.h"
 
 namespace machplan::nesting {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/common/stop.h"
+#include "solvers/nesting/internal/shape.h"
 #include "solvers/nesting/strip_search.h"
 #include "tests/nesting/shapes.h"
 

@@ -1,4 +1,4 @@
-#include "solvers/nesting/shape.h"
+#include "solvers/nesting/internal/shape.h"
 
 #include <algorithm>
 #include <cmath>
@@ -33,7 +33,7 @@ double distance_to_boundary(const Eigen::Vector2d& p, const Poly& poly) {
   return best;
 }
 
-// The poles of a polygon: see the file comment of shape.h. Found on a grid of about kGrid x
+// The poles of a polygon: see the file comment of internal/shape.h. Found on a grid of about kGrid x
 // kGrid points over its box; at most Poles::kLanes.
 Poles poles_of(const Poly& poly, const Box& box) {
   constexpr int kGrid = 48;

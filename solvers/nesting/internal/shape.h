@@ -21,7 +21,10 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "engine/common/termination.h"
+#include "solvers/nesting/bottom_left.h"
 #include "solvers/nesting/part.h"
+#include "solvers/nesting/strip_search.h"
 
 namespace machplan::nesting {
 
@@ -69,5 +72,20 @@ bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Ei
 // The shape's polygon moved by (x, y).
 Poly moved(const Shape& s, double x, double y);
 Box moved(const Box& b, double x, double y);
+
+// The searches on shapes made once for a request (bottom_left.cpp, strip_search.cpp).
+
+// Every way each part may be turned, per part; checks the request as bottom_left_nest does.
+using ShapeSet = std::vector<std::vector<Shape>>;
+ShapeSet shapes_of(const NestRequest& request);
+
+// bottom_left_nest with restarts (bottom_left.h) on those shapes.
+NestResult bottom_left_nest(const NestRequest& request, const ShapeSet& shapes, Termination& t, std::uint64_t seed);
+
+// Shortens the used length of `nest`'s last used sheet in place until `t` ends (a deadline of
+// nominal work, or a stop request: the best so far is kept). `nest` must be feasible, as the
+// bottom-left fill makes it; the other sheets are left as they are (strip_search.h).
+StripSearchStats shorten_last_sheet(const NestRequest& request, const ShapeSet& shapes, NestResult& nest, Termination& t,
+                                    std::uint64_t seed, int workers);
 
 }  // namespace machplan::nesting
