@@ -30,6 +30,12 @@ NestPart ell() {
   return p;
 }
 
+Poly moved(const Shape& s, double x, double y) {
+  Poly m;
+  bg::transform(s.poly, m, bg::strategy::transform::translate_transformer<double, 2, 2>(x, y));
+  return m;
+}
+
 TEST(NestShape, MeetsAnswersAsBoostGeometryOnTheMovedPolygons) {
   std::vector<Shape> shapes;
   for (const NestPart& p : {frame(), ell(), test::disc(7), test::rect(12, 5)})

@@ -16,26 +16,18 @@ namespace {
 // past the spacing as too close, and so must the searches.
 constexpr double kExtraMm = 1e-5;
 
-double distance_to_segment(const Eigen::Vector2d& p, const Pt& a, const Pt& b) {
-  const Eigen::Vector2d u(a.x(), a.y()), d = Eigen::Vector2d(b.x(), b.y()) - u;
-  const double len2 = d.squaredNorm();
-  const double t = len2 > 0 ? std::clamp((p - u).dot(d) / len2, 0.0, 1.0) : 0.0;
-  return (p - u - t * d).norm();
-}
-
-double distance_to_boundary(const Eigen::Vector2d& p, const Poly& poly) {
+// From p to the nearest edge of the shape's rings.
+double distance_to_boundary(const Eigen::Vector2d& p, const std::vector<std::vector<Eigen::Vector2d>>& rings) {
   double best = std::numeric_limits<double>::infinity();
-  const auto ring = [&](const Poly::ring_type& r) {
-    for (std::size_t i = 0; i + 1 < r.size(); ++i) best = std::min(best, distance_to_segment(p, r[i], r[i + 1]));
-  };
-  ring(poly.outer());
-  for (const auto& h : poly.inners()) ring(h);
+  for (const auto& r : rings)
+    for (std::size_t i = 0; i < r.size(); ++i) best = std::min(best, point_segment_distance(p, r[i], r[(i + 1) % r.size()]));
   return best;
 }
 
 // The poles of a polygon: see the file comment of internal/shape.h. Found on a grid of about kGrid x
 // kGrid points over its box; at most Poles::kLanes.
-Poles poles_of(const Poly& poly, const Box& box) {
+Poles poles_of(const Shape& s) {
+  const Box& box = s.box;
   constexpr int kGrid = 48;
   const double w = box.max_corner().x() - box.min_corner().x(), h = box.max_corner().y() - box.min_corner().y();
   const double step = std::max(w, h) / kGrid;
@@ -43,9 +35,9 @@ Poles poles_of(const Poly& poly, const Box& box) {
   std::vector<double> room;
   for (double y = box.min_corner().y() + step / 2; y < box.max_corner().y(); y += step)
     for (double x = box.min_corner().x() + step / 2; x < box.max_corner().x(); x += step) {
-      if (!bg::within(Pt(x, y), poly)) continue;
+      if (!bg::within(Pt(x, y), s.poly)) continue;
       pts.emplace_back(x, y);
-      room.push_back(distance_to_boundary(pts.back(), poly));
+      room.push_back(distance_to_boundary(pts.back(), s.rings));
     }
   std::vector<Eigen::Vector2d> centres;
   std::vector<double> radii;
@@ -76,8 +68,6 @@ Eigen::Vector2d turned(const Eigen::Vector2d& p, double deg) {
 }
 
 using Edge = std::pair<Eigen::Vector2d, Eigen::Vector2d>;
-
-double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
 
 // Whether two segments meet, touching included. The boxes' test settles the collinear case
 // (where every orientation is 0).
@@ -192,7 +182,7 @@ std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& 
     Poles poles;
     for (std::size_t k = 0; k < rotations.size(); ++k) {
       Shape s = make_shape(part, rotations[k], mirrored, spacing, tol);
-      if (k == 0) poles = poles_of(s.poly, s.box);
+      if (k == 0) poles = poles_of(s);
       s.poles = poles;
       for (std::size_t i = 0; i < poles.size(); ++i) {
         const Eigen::Vector2d c = turned(Eigen::Vector2d(poles.x[i], poles.y[i]), rotations[k] - rotations[0]);
@@ -202,12 +192,6 @@ std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& 
     }
   }
   return out;
-}
-
-Poly moved(const Shape& s, double x, double y) {
-  Poly m;
-  bg::transform(s.poly, m, bg::strategy::transform::translate_transformer<double, 2, 2>(x, y));
-  return m;
 }
 
 Box moved(const Box& b, double x, double y) {

@@ -69,8 +69,7 @@ std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& 
 // or a vertex of one inside the other's material. Thread-safe.
 bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Eigen::Vector2d& at_b);
 
-// The shape's polygon moved by (x, y).
-Poly moved(const Shape& s, double x, double y);
+// The box moved by (x, y).
 Box moved(const Box& b, double x, double y);
 
 // The searches on shapes made once for a request (bottom_left.cpp, strip_search.cpp).
