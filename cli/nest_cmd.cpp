@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/command.h"
+#include "cli/field_flags.h"
 #include "cli/interrupt.h"
 #include "cli/output.h"
 #include "engine/common/error.h"
@@ -101,43 +102,61 @@ json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, cons
           {"placements", placements},    {"unplaced", unplaced}};
 }
 
-// Each sheet's cut program, its cuts ordered as `machplan order` orders them, written to
-// DIR/sheet_K.ngc; per sheet used, its path, cut length, pierces and rapid length, and with a
-// machine the cycle `machplan run` plans for it there.
-json write_programs(const nesting::NestRequest& r, const nesting::NestResult& n, const std::string& dir,
-                    const nesting::SheetProgramOptions& o, const std::string& machine) {
+// What the nest's programs are made with, besides SheetProgramOptions.
+struct ProgramArgs {
+  nesting::SheetProgramOptions sheet;
+  GcodeDialect dialect = GcodeDialect::linuxcnc;
+  std::string machine, materials;
+};
+
+// The header of a sheet's program: the sheet, every part and where it went, the kerf.
+std::string program_header(const nesting::NestRequest& r, const nesting::NestResult& n, int k, const nesting::SheetProgram& sp,
+                           const nesting::SheetProgramOptions& o) {
+  const nesting::Sheet& sh = r.sheets[static_cast<std::size_t>(k)];
+  std::string h = fmt::format("sheet {} of {}, {:.0f} x {:.0f} mm, nested by machplan nest; spacing {:g} mm\n", k + 1, r.sheets.size(),
+                              sh.width_mm, sh.height_mm, r.spacing_mm);
+  for (const nesting::Placement& pl : n.placements)
+    if (pl.sheet == k)
+      h += fmt::format("{} copy {}: at X {:.3f} Y {:.3f}, turned {:g} deg{}\n", std::filesystem::path(r.parts[pl.part].file).filename().string(),
+                       pl.copy + 1, pl.translate_mm.x(), pl.translate_mm.y(), pl.rotation_deg, pl.mirrored ? ", mirrored" : "");
+  if (o.kerf_mm <= 0) h += "kerf not compensated: machplan run --kerf WIDTH compensates it\n";
+  else if (o.compensate_kerf) h += fmt::format("kerf {:g} mm compensated here: outlines grown and holes shrunk by {:g} mm\n", o.kerf_mm, o.kerf_mm / 2);
+  else h += fmt::format("kerf {:g} mm NOT compensated here: run it with machplan run --kerf {:g}\n", o.kerf_mm, o.kerf_mm);
+  h += fmt::format("lead-in {} {:g} mm, lead-out {} {:g} mm, overcut {:g} mm; part on the {} of the travel\n", to_string(o.lead_in.shape),
+                   o.lead_in.length_mm, to_string(o.lead_out.shape), o.lead_out.length_mm, o.overcut_mm, o.part_on_right ? "right" : "left");
+  for (const std::string& w : sp.warnings) h += w + "\n";
+  return h + sp.order_summary;
+}
+
+// Each sheet's cut program (solvers/nesting/sheet_program.h), written to DIR/sheet_K.ngc; per
+// sheet used, its path, cut length, pierces and rapid length, the leads it had to shorten, and
+// with a machine the cycle `machplan run` plans for it there.
+json write_programs(const nesting::NestRequest& r, const nesting::NestResult& n, const std::string& dir, const ProgramArgs& a) {
   std::optional<cutting::MachineConfig> m;
-  if (!machine.empty()) m = cutting::load_machine(cutting::find_machine(machine));
+  if (!a.machine.empty()) m = cutting::load_machine(cutting::find_machine(a.machine));
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw OutputError(dir, ec.message());
   json out = json::array();
   for (int k = 0; k < static_cast<int>(r.sheets.size()); ++k) {
     if (n.used_length_mm[static_cast<std::size_t>(k)] <= 0.0) continue;
-    const Program p = nesting::sheet_program(r.parts, n.placements, k, o);
-    const motion::OrderedProgram ordered = motion::order_cuts(p, {});
     const nesting::Sheet& sh = r.sheets[static_cast<std::size_t>(k)];
-    std::string header = fmt::format("sheet {} of {}, {:.0f} x {:.0f} mm, nested by machplan nest; spacing {:g} mm\n", k + 1,
-                                     r.sheets.size(), sh.width_mm, sh.height_mm, r.spacing_mm);
-    for (const nesting::Placement& pl : n.placements)
-      if (pl.sheet == k)
-        header += fmt::format("{} copy {}: at X {:.3f} Y {:.3f}, turned {:g} deg\n", std::filesystem::path(r.parts[pl.part].file).filename().string(),
-                              pl.copy + 1, pl.translate_mm.x(), pl.translate_mm.y(), pl.rotation_deg);
-    header += "kerf not compensated here: machplan run --kerf WIDTH compensates it\n";
-    header += ordered.report.summary.done() ? ordered.report.summary.brief_report() : "cuts in the nest's order: " + ordered.report.summary.message;
+    const nesting::SheetProgram sp = nesting::sheet_program(r.parts, n.placements, k, sh, a.sheet);
     const std::string path = (std::filesystem::path(dir) / fmt::format("sheet_{}.ngc", k + 1)).string();
-    const Program& written = ordered.report.summary.done() ? ordered.program : p;
-    write_file_atomically(path, write_gcode(written, header));
-    const ProgramSummary sum = summarize(written);
+    write_file_atomically(path, write_gcode(sp.program, program_header(r, n, k, sp, a.sheet), a.dialect));
+    const ProgramSummary sum = summarize(sp.program);
     const std::string picture = (std::filesystem::path(dir) / fmt::format("sheet_{}.png", k + 1)).string();
-    nesting::plot_sheet(picture, r.parts, n.placements, k, sh, written,
+    nesting::plot_sheet(picture, r.parts, n.placements, k, sh, sp.program,
                         fmt::format("sheet {}: {:.0f} x {:.0f} mm, used length {:.1f} mm; {} pierces in cut order, rapids dashed", k + 1,
                                     sh.width_mm, sh.height_mm, n.used_length_mm[static_cast<std::size_t>(k)], sum.torch_on_count));
-    json sheet = {{"program", path}, {"picture", picture}, {"cut_length_mm", sum.feed_length_mm},
-                  {"pierces", sum.torch_on_count}, {"rapid_mm", sum.rapid_length_mm}};
+    json sheet = {{"program", path}, {"picture", picture}, {"cut_length_mm", sum.feed_length_mm}, {"pierces", sum.torch_on_count},
+                  {"rapid_mm", sum.rapid_length_mm}, {"leads_shortened", sp.shortened}, {"leads_cramped", sp.cramped},
+                  {"warnings", sp.warnings}};
     if (m) {
       motion::RunOptions ro;
       ro.session.machine_config = *m;
+      ro.materials_path = a.materials;
+      ro.gcode.dialect = a.dialect;
       const motion::PlannedRun plan = motion::plan_program(path, ro, *m);
       if (!plan.summary.done()) throw InputError("--machine", 0, fmt::format("sheet {} on {}: {}", k + 1, m->name, plan.summary.message));
       sheet["cycle_s"] = plan.expected_s();
@@ -164,6 +183,11 @@ void print_nest_report(const json& j) {
       std::printf("    program: %s: cut length %.0f mm, %d pierces, rapids %.0f mm%s\n", s["program"].get<std::string>().c_str(),
                   s["cut_length_mm"].get<double>(), s["pierces"].get<int>(), s["rapid_mm"].get<double>(),
                   s.contains("cycle_s") ? fmt::format(", cycle {:.1f} s planned", s["cycle_s"].get<double>()).c_str() : "");
+    if (s.contains("leads_shortened") && s["leads_shortened"].get<int>() + s["leads_cramped"].get<int>() > 0)
+      std::printf("    leads shortened for want of room: %d; with less room than the clearance even so: %d\n",
+                  s["leads_shortened"].get<int>(), s["leads_cramped"].get<int>());
+    if (s.contains("warnings"))
+      for (const json& w : s["warnings"]) std::printf("    warning: %s\n", w.get<std::string>().c_str());
   }
   std::printf("  %s\n", j["certified"].get<bool>() ? "certified: every pair of parts at least the spacing apart on the true "
                                                       "lines and arcs, every part inside the usable area"
@@ -176,12 +200,40 @@ void print_nest_report(const json& j) {
 
 struct NestArgs {
   std::vector<std::string> parts;
-  std::string sheet, rotations = "any", out, machine;
-  double feed = 2000.0, lead_in = 5.0;
+  std::string sheet, rotations = "any", out;
+  std::string lead_in_shape = "arc", lead_out_shape = "line", kerf_by = "program", part_side = "right", dialect = "linuxcnc";
+  ProgramArgs program;
   double spacing = 6.0, margin = 10.0, time = 2.0;
   std::uint64_t seed = 1;
   bool split = false, json = false;
 };
+
+// The program options from the flags, checked (names and what GRBL cannot say) before the search.
+ProgramArgs program_args(const NestArgs& a, const CLI::App* cmd) {
+  ProgramArgs p = a.program;
+  auto shape = [](const std::string& flag, const std::string& name) {
+    if (const auto s = nesting::lead_shape_from(name)) return *s;
+    throw InputError(flag, 0, fmt::format("'{}' is not a lead shape: arc or line", excerpt(name)));
+  };
+  p.sheet.lead_in.shape = shape("--lead-in-shape", a.lead_in_shape);
+  p.sheet.lead_out.shape = shape("--lead-out-shape", a.lead_out_shape);
+  if (a.kerf_by != "program" && a.kerf_by != "controller")
+    throw InputError("--kerf-by", 0, fmt::format("'{}': program or controller", excerpt(a.kerf_by)));
+  p.sheet.compensate_kerf = a.kerf_by == "program";
+  if (a.part_side != "right" && a.part_side != "left")
+    throw InputError("--part-side", 0, fmt::format("'{}': right or left", excerpt(a.part_side)));
+  p.sheet.part_on_right = a.part_side == "right";
+  if (a.dialect != "linuxcnc" && a.dialect != "grbl")
+    throw InputError("--dialect", 0, fmt::format("'{}': linuxcnc or grbl", excerpt(a.dialect)));
+  p.dialect = a.dialect == "grbl" ? GcodeDialect::grbl : GcodeDialect::linuxcnc;
+  if (p.sheet.material > 0 && cmd->count("--feed") == 0) p.sheet.feed_mm_per_min = kMaterialCutFeed;
+  if (p.dialect == GcodeDialect::grbl && p.sheet.material > 0) throw InputError("--material", 0, "GRBL has no M190: drop it or write linuxcnc");
+  if (p.dialect == GcodeDialect::grbl && p.sheet.hole_mode > 0)
+    throw InputError("--holes", 0, "GRBL has no named parameters for QtPlasmaC's hole rules: drop it or write linuxcnc");
+  if (!p.materials.empty() && p.machine.empty()) throw InputError("--materials", 0, "the material file is read with --machine");
+  p.sheet.validate();
+  return p;
+}
 
 // The request from a job file, or from the drawings and the flags.
 nesting::NestRequest request_of(const NestArgs& a) {
@@ -219,13 +271,36 @@ void add_nest(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the search's restarts")->capture_default_str();
   cmd->add_option("--out", a->out, "write each sheet's cut program here, as sheet_K.ngc (the folder is made)");
-  cmd->add_option("--machine", a->machine, "with --out: the machine the programs are planned on for their cycle time (a name or a file)");
-  cmd->add_option("--feed", a->feed, "the cuts' feed in the programs, mm/min")->capture_default_str();
-  cmd->add_option("--lead-in", a->lead_in, "length of the straight lead-in from the waste side, mm")->capture_default_str();
+  cmd->add_option("--machine", a->program.machine, "with --out: the machine the programs are planned on for their cycle time (a name or a file)");
+  cmd->add_option("--materials", a->program.materials, "with --machine: the material file (QtPlasmaC's) the planner reads for --material");
+  nesting::SheetProgramOptions& po = a->program.sheet;
+  cmd->add_option("--feed", po.feed_mm_per_min, "the cuts' feed in the programs, mm/min (with --material, default: the material's feed)")
+      ->capture_default_str();
+  cmd->add_option("--lead-in", po.lead_in.length_mm, "how far from the contour the torch pierces, mm (the lead-in's radius or length)")
+      ->capture_default_str();
+  cmd->add_option("--lead-in-shape", a->lead_in_shape, "arc (a quarter circle, tangent) or line (square to the contour)")->capture_default_str();
+  cmd->add_option("--lead-out", po.lead_out.length_mm, "length (line) or radius (arc) of the lead-out into the waste, mm")->capture_default_str();
+  cmd->add_option("--lead-out-shape", a->lead_out_shape, "arc or line")->capture_default_str();
+  cmd->add_option("--overcut", po.overcut_mm, "cut this far past the start again before leaving the contour, mm")->capture_default_str();
+  cmd->add_option("--clearance", po.clearance_mm, "least distance of a lead from any other cut, mm (else the lead is shortened)")
+      ->capture_default_str();
+  cmd->add_option("--kerf", po.kerf_mm, "kerf width, mm (0: unknown, not compensated)")->capture_default_str();
+  cmd->add_option("--kerf-by", a->kerf_by, "program: compensated in the program; controller: written in a comment for run --kerf")
+      ->capture_default_str();
+  cmd->add_option("--part-side", a->part_side, "right: outlines clockwise, holes counter-clockwise (a clockwise-swirl torch); left")
+      ->capture_default_str();
+  cmd->add_option("--material", po.material, "QtPlasmaC material number: M190 P N and its wait at the top (0: none)")->capture_default_str();
+  cmd->add_option("--holes", po.hole_mode, "QtPlasmaC hole rules #<holes> 0-4 (1 slow small holes, 2 also over cut them; 3, 4 arcs too)")
+      ->capture_default_str();
+  cmd->add_option("--hole-diameter", po.hole_diameter_mm, "with --holes: holes up to this diameter are small, mm")->capture_default_str();
+  cmd->add_option("--hole-velocity", po.hole_velocity_pct, "with --holes: their speed, % of the feed")->capture_default_str();
+  cmd->add_option("--hole-overcut", po.hole_overcut_mm, "with --holes 2 or 4: the over cut with the torch off, mm")->capture_default_str();
+  cmd->add_option("--dialect", a->dialect, "the programs' G-code: linuxcnc (QtPlasmaC) or grbl")->capture_default_str();
   cmd->add_flag("--split", a->split, "a drawing with several outer contours is one part per contour (else refused)");
   cmd->add_flag("--json", a->json, "print JSON instead of the readable report");
-  cmd->callback([a] {
+  cmd->callback([a, cmd] {
     nesting::NestRequest r = request_of(*a);
+    (void)program_args(*a, cmd);  // bad program flags refused before the search
     if (!(a->time >= 0 && a->time <= 86400)) throw InputError("--time", 0, fmt::format("{} must be in [0, 86400] s", a->time));
     Termination t(StopOnSignals::stop_token());
     if (a->time > 0) t.set_deadline(a->time, "nominal search time");
@@ -235,15 +310,17 @@ void add_nest(CLI::App& app) {
     const nesting::Certificate cert = nesting::certify(r.parts, n.placements, r.sheets, r.spacing_mm);
     json j = nest_json(r, n, search, cert, t);
     if (!a->out.empty()) {
-      if (!(a->feed > 0 && a->feed <= 100000)) throw InputError("--feed", 0, fmt::format("{} must be in (0, 100000] mm/min", a->feed));
-      if (!(a->lead_in >= 0 && a->lead_in <= 100)) throw InputError("--lead-in", 0, fmt::format("{} must be in [0, 100] mm", a->lead_in));
-      const json programs = write_programs(r, n, a->out, {a->feed, a->lead_in}, a->machine);
+      const json programs = write_programs(r, n, a->out, program_args(*a, cmd));
       for (std::size_t k = 0; k < programs.size(); ++k) j["sheets"][k].update(programs[k]);  // both per sheet used, in order
     }
     if (a->json) print_json(j);
     else print_nest_report(j);
     if (!n.unplaced.empty() || !cert.certified) set_exit_code(3);
   });
+  field_flags(cmd, {{"feed_mm_per_min", "--feed"}, {"lead_in.length_mm", "--lead-in"}, {"lead_out.length_mm", "--lead-out"},
+                    {"overcut_mm", "--overcut"}, {"kerf_mm", "--kerf"}, {"clearance_mm", "--clearance"}, {"material", "--material"},
+                    {"hole_mode", "--holes"}, {"hole_diameter_mm", "--hole-diameter"}, {"hole_velocity_pct", "--hole-velocity"},
+                    {"hole_overcut_mm", "--hole-overcut"}});
 }
 
 const Registration reg_nest(16, add_nest);

@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "engine/common/error.h"
+
 namespace machplan {
 namespace {
 
@@ -26,12 +28,12 @@ std::string comment_text(const std::string& text) {
 
 class Writer {
  public:
-  explicit Writer(const Program& p) : p_(p), at_(p.start) {}
+  Writer(const Program& p, GcodeDialect d) : p_(p), grbl_(d == GcodeDialect::grbl), at_(p.start) {}
 
   std::string run(const std::string& header) {
     std::istringstream lines(header);
     for (std::string l; std::getline(lines, l);) out_ += fmt::format("({})\n", comment_text(l));
-    out_ += "G21 G90 G91.1 G94\n";
+    out_ += grbl_ ? "G21 G90 G94\n" : "G21 G90 G91.1 G94\n";
     std::size_t e = 0;
     for (std::size_t i = 0; i < p_.moves.size(); ++i) {
       for (; e < p_.events.size() && p_.events[e].before_move <= i; ++e) event(p_.events[e]);
@@ -50,7 +52,13 @@ class Writer {
     out_ += "\n";
   }
 
+  // InputError for what GRBL has no word for.
+  void no_grbl(int source_line, const std::string& what) const {
+    if (grbl_) throw InputError(p_.source, source_line, fmt::format("GRBL has no {}: write it in the linuxcnc dialect", what));
+  }
+
   void path_mode(const Move& m) {
+    if (grbl_) return;
     if (m.path_mode == mode_ && m.path_tolerance_mm == tolerance_) return;
     mode_ = m.path_mode;
     tolerance_ = m.path_tolerance_mm;
@@ -84,17 +92,24 @@ class Writer {
       case Move::Kind::arc: arc(m); break;
       case Move::Kind::dwell: line(fmt::format("G4 P{}", num(m.seconds)), m.line); break;
       case Move::Kind::torch_on:
-        line(fmt::format("{}M3 S{}", spindle(m.spindle), num(m.spindle_speed)), m.line);
+        line(fmt::format("{}M3 S{}", spindle(m), num(m.spindle_speed)), m.line);
         break;
-      case Move::Kind::torch_off: line(fmt::format("{}M5", spindle(m.spindle)), m.line); break;
+      case Move::Kind::torch_off: line(fmt::format("{}M5", spindle(m)), m.line); break;
     }
   }
 
-  static std::string spindle(int n) { return n == 0 ? std::string() : fmt::format("${} ", n); }
+  std::string spindle(const Move& m) const {
+    if (m.spindle != 0) no_grbl(m.line, "spindle numbers ($n M3)");
+    return m.spindle == 0 ? std::string() : fmt::format("${} ", m.spindle);
+  }
 
   std::string feed(const Move& m) {
     if (m.feed_mm_per_min == feed_) return "";
     feed_ = m.feed_mm_per_min;
+    if (feed_ == kMaterialCutFeed) {
+      no_grbl(m.line, "material feed (F#<_hal[plasmac.cut-feed-rate]>)");
+      return " F#<_hal[plasmac.cut-feed-rate]>";
+    }
     return fmt::format(" F{}", num(feed_));
   }
 
@@ -120,6 +135,7 @@ class Writer {
     const std::string f = feed(m);
     std::string end = fmt::format(" X{} Y{}", num(m.end.x()), num(m.end.y()));
     if (std::abs(m.end.z() - at_.z()) > 5e-7 || m.plane != Move::Plane::xy) end += fmt::format(" Z{}", num(m.end.z()));
+    if (m.turns > 0) no_grbl(m.line, "arcs of several turns (P on G2 / G3)");
     const std::string turns = m.turns > 0 ? fmt::format(" P{}", m.turns + 1) : std::string();
     line(fmt::format("{}{}{}{}{}", m.clockwise ? "G2" : "G3", end, centre, turns, f), m.line);
     at_ = m.end;
@@ -127,6 +143,9 @@ class Writer {
 
   void event(const ProgramEvent& e) {
     using K = ProgramEvent::Kind;
+    if (grbl_ && e.kind == K::controller_command) return line(e.text, e.line);
+    if (grbl_ && e.kind != K::coolant && e.kind != K::program_stop && e.kind != K::magic_comment)
+      no_grbl(e.line, fmt::format("word for a {} event", to_string(e.kind)));
     switch (e.kind) {
       case K::tool_select: line(fmt::format("T{}", e.number), e.line); break;
       case K::tool_change: line(fmt::format("M61 Q{}", e.number), e.line); break;
@@ -141,7 +160,9 @@ class Writer {
         break;
       case K::analog_output: line(fmt::format("M{} E{} Q{}", e.synchronized ? 67 : 68, e.number, num(e.value)), e.line); break;
       case K::wait_input: line(fmt::format("M66 P{} L{} Q{}", e.number, e.mode, num(e.value)), e.line); break;
-      case K::user_m_code: line(fmt::format("M{} P{} Q{}", e.number, num(e.value), num(e.value2)), e.line); break;
+      case K::user_m_code:
+        line(fmt::format("M{} P{}{}", e.number, num(e.value), e.value2 != 0 ? " Q" + num(e.value2) : std::string()), e.line);
+        break;
       case K::program_stop: line(fmt::format("M{}", e.number), e.line); break;
       case K::controller_command: line(fmt::format("(controller command: {})", comment_text(e.text)), e.line); break;
       case K::parameter: line(fmt::format("#<{}> = {}", e.text, num(e.value)), e.line); break;
@@ -150,6 +171,7 @@ class Writer {
   }
 
   const Program& p_;
+  bool grbl_ = false;
   std::string out_;
   Eigen::Vector3d at_;
   double feed_ = -1.0;
@@ -161,6 +183,8 @@ class Writer {
 
 }  // namespace
 
-std::string write_gcode(const Program& program, const std::string& header) { return Writer(program).run(header); }
+std::string write_gcode(const Program& program, const std::string& header, GcodeDialect dialect) {
+  return Writer(program, dialect).run(header);
+}
 
 }  // namespace machplan

@@ -18,6 +18,15 @@
 // M66 P L Q, M67 / M68 E Q, M100-M199 P Q, M0 / M1; a GRBL controller command becomes a
 // comment (rs274 reads no '$' line). The program ends with M2.
 //
+// A feed of kMaterialCutFeed is written F#<_hal[plasmac.cut-feed-rate]>, QtPlasmaC's
+// material feed.
+//
+// The grbl dialect writes what GRBL 1.1 reads to the same moves: G21 G90 G94 first (GRBL's
+// arc centres are always incremental), no path modes (GRBL has only G61), and a controller
+// command as its '$' line. What GRBL has no word for (tool changes, tool length offsets,
+// M48-M53, M62-M68, user M codes, named parameters, arcs of several turns, $n spindles, the
+// material feed) throws InputError naming the program and line.
+//
 // Numbers are written with 6 decimals at most (trailing zeros dropped): 1 nm in mm, far below
 // the 1 um to which the conformance test compares moves.
 //
@@ -30,7 +39,9 @@
 
 namespace machplan {
 
-// `header` lines are written as comments at the top (each line in parentheses).
-std::string write_gcode(const Program& program, const std::string& header = "");
+// `header` lines are written as comments at the top (each line in parentheses). `dialect`:
+// linuxcnc or grbl (automatic is taken as linuxcnc).
+std::string write_gcode(const Program& program, const std::string& header = "",
+                        GcodeDialect dialect = GcodeDialect::linuxcnc);
 
 }  // namespace machplan

@@ -95,6 +95,11 @@ const char* to_string(Move::Kind kind);
 enum class GcodeDialect { linuxcnc, grbl, automatic };
 const char* to_string(GcodeDialect d);
 
+// A feed that asks for the material's cut feed: what F#<_hal[plasmac.cut-feed-rate]> (QtPlasmaC's
+// way of saying it) reads while a program is run, and what the G-code writer writes back as that
+// parameter. No program writes this number (mm/min).
+inline constexpr double kMaterialCutFeed = 987654.321;
+
 struct Program {
   std::string source;                 // file name, for messages
   GcodeDialect dialect = GcodeDialect::linuxcnc;  // as which it was read

@@ -23,10 +23,6 @@ namespace {
 
 using executor::Mode;
 
-// What F#<_hal[plasmac.cut-feed-rate]> reads while the program is read (mm/min): a value no
-// program writes, so that make_job knows the moves that ask for the material's feed.
-constexpr double kMaterialFeedMarker = 987654.321;
-
 void check_range(const char* field, double v, double lo, double hi, bool lo_open, const char* unit) {
   const bool ok = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
   if (!ok)
@@ -457,10 +453,10 @@ PlannedRun plan_program(const std::string& program_path, const RunOptions& optio
   const std::string feed_param = "_hal[plasmac.cut-feed-rate]";
   JobOptions jo;
   if (!gcode.params.count(feed_param)) {
-    jo.material_feed_marker_mm_per_min = kMaterialFeedMarker;
+    jo.material_feed_marker_mm_per_min = kMaterialCutFeed;
     for (const auto& [name, value] : machine.gcode_params)
       if (name == feed_param) jo.machine_cut_feed_mm_per_s = value / 60.0;
-    gcode.params[feed_param] = kMaterialFeedMarker;
+    gcode.params[feed_param] = kMaterialCutFeed;
   }
   std::optional<MaterialTable> materials;
   if (!options.materials_path.empty()) materials = read_materials_file(options.materials_path);

@@ -2,6 +2,8 @@
 // the JSON checkable from the drawings alone; copies that fit nowhere and bad flags named.
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -16,12 +18,24 @@ namespace machplan {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 std::string dxf(const std::string& entities) {
   return "0\nSECTION\n2\nHEADER\n9\n$INSUNITS\n70\n4\n0\nENDSEC\n0\nSECTION\n2\nENTITIES\n" + entities + "0\nENDSEC\n0\nEOF\n";
 }
 std::string circle(double x, double y, double r) {
   return "0\nCIRCLE\n8\nCUT\n10\n" + std::to_string(x) + "\n20\n" + std::to_string(y) + "\n40\n" + std::to_string(r) + "\n";
+}
+// A closed rectangle as one LWPOLYLINE.
+std::string rect(double x0, double y0, double x1, double y1) {
+  std::string s = "0\nLWPOLYLINE\n8\nCUT\n90\n4\n70\n1\n";
+  for (const auto& [x, y] : {std::pair{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}})
+    s += "10\n" + std::to_string(x) + "\n20\n" + std::to_string(y) + "\n";
+  return s;
+}
+std::string text_of(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), {});
 }
 // An L-shaped bracket, 200 x 150 with legs 60 wide, and a hole in each corner.
 const std::string kBracket = dxf(
@@ -90,6 +104,7 @@ TEST(NestCli, TheSheetsProgramCutsAPartInAHoleBeforeTheHoleAndRunsOnTheGantry) {
     if (m["kind"] != "arc") continue;
     const double radius = std::hypot(m["end"][0].get<double>() - m["center"][0].get<double>(),
                                      m["end"][1].get<double>() - m["center"][1].get<double>());
+    if (radius <= 5.0 + 1e-6) continue;  // a lead-in's quarter circle
     if (radii.empty() || std::abs(radii.back() - radius) > 1e-3) radii.push_back(radius);
   }
   ASSERT_EQ(radii.size(), 3u) << read.out.substr(0, 1000);
@@ -102,14 +117,45 @@ TEST(NestCli, TheSheetsProgramCutsAPartInAHoleBeforeTheHoleAndRunsOnTheGantry) {
   EXPECT_EQ(rj["status"], "done");
   EXPECT_EQ(rj["cuts"].size(), 3u);
   EXPECT_LT(rj["max_contour_error_mm"].get<double>(), 0.1);
-  // The sheet's figures: three pierces, the cut length (the three circles and their lead-ins),
-  // and the cycle planned on the machine, which the run takes.
+  // The sheet's figures: three pierces, the cut length (the three circles and their lead-ins,
+  // quarter circles of 5 mm at most), and the cycle planned on the machine, which the run takes.
   const auto& sheet = j["sheets"][0];
   EXPECT_EQ(sheet["pierces"], 3);
   const double circles = 2 * M_PI * (40 + 60 + 100);
   EXPECT_GT(sheet["cut_length_mm"].get<double>(), circles);
-  EXPECT_LT(sheet["cut_length_mm"].get<double>(), circles + 3 * 5.0 + 1e-6);
+  EXPECT_LT(sheet["cut_length_mm"].get<double>(), circles + 3 * 5.0 * M_PI / 2 + 1e-6);
   EXPECT_NEAR(rj["cycle_time_s"].get<double>(), sheet["cycle_s"].get<double>(), 0.02 * sheet["cycle_s"].get<double>());
+}
+
+// QtPlasmaC's words (the material, its feed, the hole rules) and GRBL's dialect: each sheet
+// program runs to completion on the simulated gantry as written.
+TEST(NestCli, TheProgramsCarryQtPlasmaCsWordsOrGrblsAndRunOnTheGantry) {
+  test::TempDir dir;
+  const std::string plate = dir.write("plate.dxf", dxf(rect(0, 0, 120, 80) + circle(30, 40, 8) + circle(90, 40, 20)));
+  const std::string qt = (dir.path() / "qt").string(), grbl = (dir.path() / "grbl").string();
+  const test::CliResult r = test::Cli().run("nest '" + plate + "':3 --sheet 600x300 --time 0 --out '" + qt +
+                                            "' --machine thermal_gantry --materials datasets/materials/thermal_gantry_material.cfg"
+                                            " --material 1 --holes 2 --kerf 1.5 --overcut 2 --lead-out 2 --json");
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  const std::string program = nlohmann::json::parse(r.out)["sheets"][0]["program"];
+  const std::string text = text_of(program);
+  for (const char* word : {"M190 P1", "M66 P3 L3 Q1", "#<holes> = 2", "F#<_hal[plasmac.cut-feed-rate]>", "kerf 1.5 mm compensated"})
+    EXPECT_THAT(text, HasSubstr(word));
+  const test::CliResult run = test::Cli().run("run '" + program + "' --machine thermal_gantry --materials datasets/materials/thermal_gantry_material.cfg --json");
+  ASSERT_EQ(run.code, 0) << run.err;
+  EXPECT_EQ(nlohmann::json::parse(run.out)["status"], "done");
+  const test::CliResult g = test::Cli().run("nest '" + plate + "':3 --sheet 600x300 --time 0 --out '" + grbl +
+                                            "' --dialect grbl --machine thermal_gantry --json");
+  ASSERT_EQ(g.code, 0) << g.err << g.out;
+  const std::string gp = nlohmann::json::parse(g.out)["sheets"][0]["program"];
+  EXPECT_THAT(text_of(gp), Not(HasSubstr("G91.1")));
+  const test::CliResult grun = test::Cli().run("run '" + gp + "' --machine thermal_gantry --dialect grbl --json");
+  ASSERT_EQ(grun.code, 0) << grun.err;
+  EXPECT_EQ(nlohmann::json::parse(grun.out)["status"], "done");
+  // What GRBL cannot say is refused before the search, naming the flag.
+  const test::CliResult bad = test::Cli().run("nest '" + plate + "' --sheet 600x300 --out '" + grbl + "' --dialect grbl --holes 2");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_THAT(bad.err, HasSubstr("--holes"));
 }
 
 // A job file: two sheet sizes filled in order, per-part rotations, a must-nest part first, and
