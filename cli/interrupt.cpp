@@ -38,11 +38,11 @@ ProgressBar::ProgressBar(std::string label, bool wanted)
 ProgressBar::~ProgressBar() { done(); }
 
 void ProgressBar::done() {
-  if (drawn_) std::fprintf(stderr, "\r%*s\r", static_cast<int>(label_.size()) + 40, "");
+  if (drawn_) std::fprintf(stderr, "\r%*s\r", drawn_width_, "");
   drawn_ = on_ = false;
 }
 
-void ProgressBar::update(double fraction) {
+void ProgressBar::update(double fraction, const std::string& detail) {
   if (!on_) return;
   const double t = now_s();
   // Quiet for the first second (short work shows nothing), then at most ten redraws a second.
@@ -50,14 +50,16 @@ void ProgressBar::update(double fraction) {
   last_s_ = t;
   const double f = std::isfinite(fraction) ? std::clamp(fraction, 0.0, 1.0) : 0.0;
   const int width = 30, full = static_cast<int>(f * width);
-  std::fprintf(stderr, "\r%s [%.*s%*s] %3.0f %%", label_.c_str(), full, "##############################", width - full, "",
-               100 * f);
+  const int w = std::fprintf(stderr, "\r%s [%.*s%*s] %3.0f %% %s", label_.c_str(), full, "##############################",
+                             width - full, "", 100 * f, detail.c_str());
+  if (w - 1 < drawn_width_) std::fprintf(stderr, "%*s", drawn_width_ - (w - 1), "");  // what the last line had more
+  drawn_width_ = std::max(drawn_width_, w - 1);
   std::fflush(stderr);
   drawn_ = true;
 }
 
-ProgressWatch::ProgressWatch(std::string label, bool wanted, const Progress& progress)
-    : bar_(std::move(label), wanted), read_([&progress] { return progress.share(); }), clear_at_one_(true) {
+ProgressWatch::ProgressWatch(std::string label, bool wanted, const Progress& progress, std::function<std::string()> detail)
+    : bar_(std::move(label), wanted), read_([&progress] { return progress.share(); }), detail_(std::move(detail)), clear_at_one_(true) {
   start();
 }
 
@@ -70,7 +72,7 @@ void ProgressWatch::start() {
         bar_.done();
         return;
       }
-      bar_.update(share);
+      bar_.update(share, detail_ ? detail_() : std::string());
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   });

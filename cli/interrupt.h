@@ -40,7 +40,8 @@ class ProgressBar {
  public:
   ProgressBar(std::string label, bool wanted);
   ~ProgressBar();
-  void update(double fraction);
+  // `detail` follows the percentage (the best figure so far, say).
+  void update(double fraction, const std::string& detail = "");
   // Clears the bar now (the work is over but the command goes on); later updates draw nothing.
   void done();
   // Whether it draws at all (wanted, and stderr is a terminal).
@@ -49,13 +50,15 @@ class ProgressBar {
  private:
   std::string label_;
   bool on_ = false, drawn_ = false;
+  int drawn_width_ = 0;  // characters of the widest line drawn
   double last_s_ = -1.0, start_s_ = 0.0;
 };
 
 class ProgressWatch {
  public:
-  // Watches a Progress (engine/common/progress.h); the bar is cleared once it reads 1.
-  ProgressWatch(std::string label, bool wanted, const Progress& progress);
+  // Watches a Progress (engine/common/progress.h); the bar is cleared once it reads 1. `detail`
+  // (from the watching thread) is drawn after the percentage.
+  ProgressWatch(std::string label, bool wanted, const Progress& progress, std::function<std::string()> detail = {});
   ~ProgressWatch();
   ProgressWatch(const ProgressWatch&) = delete;
   ProgressWatch& operator=(const ProgressWatch&) = delete;
@@ -64,6 +67,7 @@ class ProgressWatch {
   void start();
   ProgressBar bar_;
   std::function<double()> read_;
+  std::function<std::string()> detail_;
   bool clear_at_one_ = false;
   std::atomic<bool> over_{false};
   std::thread thread_;

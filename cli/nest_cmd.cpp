@@ -306,7 +306,15 @@ void add_nest(CLI::App& app) {
     if (a->time > 0) t.set_deadline(a->time, "nominal search time");
     else t.set_budget(1, "fills");
     nesting::StripSearchStats search;
-    const nesting::NestResult n = nesting::nest(r, t, a->seed, 2, &search);
+    nesting::NestProgress progress;
+    nesting::NestResult n;
+    {
+      const ProgressWatch bar("nest", !a->json, progress.share, [&progress] {
+        const double mm = progress.last_length_mm.load();
+        return mm > 0 ? fmt::format("{} sheet(s), the last used to {:.1f} mm", progress.sheets.load(), mm) : std::string();
+      });
+      n = nesting::nest(r, t, a->seed, 2, &search, &progress);
+    }
     const nesting::Certificate cert = nesting::certify(r.parts, n.placements, r.sheets, r.spacing_mm);
     json j = nest_json(r, n, search, cert, t);
     if (!a->out.empty()) {

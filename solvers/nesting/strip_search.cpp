@@ -83,7 +83,9 @@ class Strip {
   }
 
   // Shrinks the strip until the work ends; the shortest feasible nest found, its end in `best_end`.
-  std::vector<Item> search(double& best_end, StripSearchStats& stats);
+  // Each one found is offered to `progress` (when not null), and the first worker reports the
+  // share of its work spent.
+  std::vector<Item> search(double& best_end, StripSearchStats& stats, NestProgress* progress, bool reports_share);
 
  private:
   const Shape& shape_of(std::size_t part, int s) const { return shapes_[part][static_cast<std::size_t>(s)]; }
@@ -394,15 +396,21 @@ void Strip::disrupt() {
 // nests that failed at this length (the less overlap, the likelier), disrupted. Then compressing
 // the best: shrink by a ratio that falls with the work spent, from the split at a random x;
 // after a failure go back to the best.
-std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats) {
+std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats, NestProgress* progress, bool reports_share) {
   std::vector<Item> best = items_;
   const double start = usable_.min().x(), work = t_.deadline_s();
   const auto length = [&] { return best_end - start; };
+  const auto report = [&] {
+    if (!progress) return;
+    progress->offer_length(best_end);
+    if (reports_share) progress->share.report(t_.work_s_spent() / work);
+  };
   std::vector<std::pair<double, std::vector<Item>>> failed;
   std::normal_distribution<double> pick(0.0, 0.25);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   bool resized = resize(start + length() * (1 - kExploreShrink), start + length() / 2);
   while (!t_.should_end() && t_.work_s_spent() < kExploreShare * work) {
+    report();
     if (!resized) break;
     ++stats.shrinks_tried;
     const double loss = separate();
@@ -421,6 +429,7 @@ std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats) {
     disrupt();
   }
   while (!t_.should_end()) {
+    report();
     const double spent = std::clamp((t_.work_s_spent() / work - kExploreShare) / (1 - kExploreShare), 0.0, 1.0);
     const double ratio = kCompressShrink[0] + (kCompressShrink[1] - kCompressShrink[0]) * spent;
     end_ = best_end;
@@ -429,6 +438,7 @@ std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats) {
     ++stats.shrinks_tried;
     if (separate() == 0) best = items_, best_end = end_of_parts(), ++stats.shrinks_kept;
   }
+  report();
   stats.moves += moves_;
   stats.tests += all_tests_;
   stats.pole_pairs += all_pole_pairs_;
@@ -438,8 +448,14 @@ std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats) {
 
 }  // namespace
 
+void NestProgress::offer_length(double mm) noexcept {
+  double now = last_length_mm.load(std::memory_order_relaxed);
+  while ((now <= 0 || mm < now) && !last_length_mm.compare_exchange_weak(now, mm, std::memory_order_relaxed)) {
+  }
+}
+
 StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes, NestResult& nest, Termination& t,
-                                    std::uint64_t seed, int workers) {
+                                    std::uint64_t seed, int workers, NestProgress* progress) {
   StripSearchStats stats;
   int last = -1;
   for (std::size_t k = 0; k < nest.used_length_mm.size(); ++k)
@@ -474,7 +490,8 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
     Termination own(t.stop_token());
     if (std::isfinite(work)) own.set_deadline(std::max(work, 1e-9), "nominal search time");
     Strip strip(shapes, items, usable, ends[static_cast<std::size_t>(w)], seed * 7919 + static_cast<std::uint64_t>(w), own);
-    found[static_cast<std::size_t>(w)] = strip.search(ends[static_cast<std::size_t>(w)], each[static_cast<std::size_t>(w)]);
+    found[static_cast<std::size_t>(w)] =
+        strip.search(ends[static_cast<std::size_t>(w)], each[static_cast<std::size_t>(w)], progress, w == 0);
     spent[static_cast<std::size_t>(w)] = own.work_s_spent();
   });
   const std::size_t w = static_cast<std::size_t>(std::min_element(ends.begin(), ends.end()) - ends.begin());
@@ -499,7 +516,8 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
   return stats;
 }
 
-NestResult nest(const NestRequest& r, Termination& t, std::uint64_t seed, int workers, StripSearchStats* stats) {
+NestResult nest(const NestRequest& r, Termination& t, std::uint64_t seed, int workers, StripSearchStats* stats,
+                NestProgress* progress) {
   const ShapeSet shapes = shapes_of(r);
   if (!std::isfinite(t.deadline_s())) return bottom_left_nest(r, shapes, t, seed);
   // The fills' restarts matter where they may save a sheet; on one sheet the search does better.
@@ -509,7 +527,12 @@ NestResult nest(const NestRequest& r, Termination& t, std::uint64_t seed, int wo
   Termination fill(t);
   fill.set_deadline((one.sheets_used > 1 || !one.unplaced.empty() ? 0.1 : 0.02) * t.deadline_s(), "nominal search time");
   NestResult n = bottom_left_nest(r, shapes, fill, seed);
-  const StripSearchStats s = shorten_last_sheet(r, shapes, n, t, seed, workers);
+  if (progress) {
+    progress->sheets = n.sheets_used;
+    progress->offer_length(n.last_length_mm());
+  }
+  const StripSearchStats s = shorten_last_sheet(r, shapes, n, t, seed, workers, progress);
+  if (progress) progress->share.finish();
   if (stats) *stats = s;
   return n;
 }

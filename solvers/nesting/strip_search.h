@@ -21,9 +21,11 @@
 // search from different seeds, each with the whole deadline of its own; the shortest nest wins.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 
+#include "engine/common/progress.h"
 #include "engine/common/termination.h"
 
 #include "solvers/nesting/bottom_left.h"
@@ -46,6 +48,18 @@ struct StripSearchStats {
   std::string note;              // why the search did not run, when it did not
 };
 
+// What nest() says while it runs, read from any thread: how much of the deadline's work is
+// spent (the first worker's), how many sheets the fill used and the shortest used length of
+// the last one found so far (any worker's).
+struct NestProgress {
+  Progress share;
+  std::atomic<int> sheets{0};
+  std::atomic<double> last_length_mm{0.0};
+
+  // A shorter last sheet: kept when it is shorter than the one reported.
+  void offer_length(double mm) noexcept;
+};
+
 // The most parts on the last sheet the search takes (it keeps a weight per pair of them).
 constexpr std::size_t kMostParts = 2000;
 
@@ -55,6 +69,6 @@ constexpr std::size_t kMostParts = 2000;
 // that much work of its own.
 // Without a deadline (a budget, or nothing): one fill.
 NestResult nest(const NestRequest& request, Termination& t, std::uint64_t seed, int workers = 2,
-                StripSearchStats* stats = nullptr);
+                StripSearchStats* stats = nullptr, NestProgress* progress = nullptr);
 
 }  // namespace machplan::nesting

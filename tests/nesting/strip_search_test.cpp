@@ -54,6 +54,15 @@ TEST(StripSearch, ShortensTheBottomLeftNestAndEveryNestItReturnsIsCertified) {
   EXPECT_LT(n.last_length_mm(), 0.97 * first.last_length_mm()) << "at least 3 % shorter than the bottom-left fill";
   const Certificate c = certify(r.parts, n.placements, r.sheets, r.spacing_mm);
   EXPECT_TRUE(c.certified) << (c.violations.empty() ? "" : c.violations[0]);
+  // What it said while it ran ends where the answer is: every share spent, the same length.
+  NestProgress progress;
+  Termination t;
+  t.set_deadline(0.3, "nominal search time");
+  const NestResult watched = nest(r, t, 3, 2, nullptr, &progress);
+  EXPECT_EQ(progress.share.share(), 1.0);
+  EXPECT_EQ(progress.sheets.load(), 1);
+  EXPECT_DOUBLE_EQ(progress.last_length_mm.load(), watched.last_length_mm());
+  EXPECT_DOUBLE_EQ(watched.last_length_mm(), n.last_length_mm()) << "watching changes nothing";
   // The used length it reports is the parts' right edge.
   double right = 0.0;
   for (const Placement& p : n.placements) right = std::max(right, bounding_box(place(r.parts[p.part].outer, p)).max().x());

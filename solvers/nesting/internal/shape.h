@@ -78,13 +78,16 @@ Box moved(const Box& b, double x, double y);
 using ShapeSet = std::vector<std::vector<Shape>>;
 ShapeSet shapes_of(const NestRequest& request);
 
+struct NestProgress;
+
 // bottom_left_nest with restarts (bottom_left.h) on those shapes.
 NestResult bottom_left_nest(const NestRequest& request, const ShapeSet& shapes, Termination& t, std::uint64_t seed);
 
 // Shortens the used length of `nest`'s last used sheet in place until `t` ends (a deadline of
 // nominal work, or a stop request: the best so far is kept). `nest` must be feasible, as the
-// bottom-left fill makes it; the other sheets are left as they are (strip_search.h).
+// bottom-left fill makes it; the other sheets are left as they are (strip_search.h). Reports to
+// `progress` when it is not null.
 StripSearchStats shorten_last_sheet(const NestRequest& request, const ShapeSet& shapes, NestResult& nest, Termination& t,
-                                    std::uint64_t seed, int workers);
+                                    std::uint64_t seed, int workers, NestProgress* progress = nullptr);
 
 }  // namespace machplan::nesting
