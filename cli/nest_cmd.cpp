@@ -87,8 +87,12 @@ json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, cons
                       {"margin_mm", sh.margin_mm},
                       {"parts", count[k]},
                       {"used_length_mm", used},
-                      {"utilisation", area[k] / (used * sh.height_mm)},
+                      {"utilisation", area[k] / (sh.remnant ? sh.remnant->area_mm2 : used * sh.height_mm)},
                       {"remnant_mm", {sh.width_mm - used, sh.height_mm}}});
+    if (sh.remnant) {
+      sheets.back()["remnant"] = sh.remnant->file;
+      sheets.back()["drawn_at_mm"] = {sh.drawn_at.x(), sh.drawn_at.y()};
+    }
   }
   for (const nesting::Unplaced& u : n.unplaced)
     unplaced.push_back({{"file", r.parts[u.part].file}, {"copy", u.copy + 1}, {"reason", u.reason}});
@@ -115,6 +119,9 @@ std::string program_header(const nesting::NestRequest& r, const nesting::NestRes
   const nesting::Sheet& sh = r.sheets[static_cast<std::size_t>(k)];
   std::string h = fmt::format("sheet {} of {}, {:.0f} x {:.0f} mm, nested by machplan nest; spacing {:g} mm\n", k + 1, r.sheets.size(),
                               sh.width_mm, sh.height_mm, r.spacing_mm);
+  if (sh.remnant)
+    h += fmt::format("a remnant, {}: X0 Y0 here is X {:.3f} Y {:.3f} of its drawing (the lower-left corner of its box)\n",
+                     sh.remnant->file, sh.drawn_at.x(), sh.drawn_at.y());
   for (const nesting::Placement& pl : n.placements)
     if (pl.sheet == k)
       h += fmt::format("{} copy {}: at X {:.3f} Y {:.3f}, turned {:g} deg{}\n", std::filesystem::path(r.parts[pl.part].file).filename().string(),
@@ -176,9 +183,14 @@ void print_nest_report(const json& j) {
                 ss["shrinks_tried"].get<int>(), ss["moves"].get<long long>());
   if (const std::string note = j["strip_search"]["note"]; !note.empty()) std::printf("  strip search not run: %s\n", note.c_str());
   for (const json& s : j["sheets"]) {
-    std::printf("  sheet %d: %d parts, used length %.1f mm of %.0f, utilisation %.1f %% of the area used, remnant %.1f x %.1f mm\n",
-                s["sheet"].get<int>(), s["parts"].get<int>(), s["used_length_mm"].get<double>(), s["width_mm"].get<double>(),
-                100.0 * s["utilisation"].get<double>(), s["remnant_mm"][0].get<double>(), s["remnant_mm"][1].get<double>());
+    if (s.contains("remnant"))
+      std::printf("  sheet %d: the remnant %s: %d parts, %.1f %% of its material, used length %.1f mm of %.0f\n", s["sheet"].get<int>(),
+                  s["remnant"].get<std::string>().c_str(), s["parts"].get<int>(), 100.0 * s["utilisation"].get<double>(),
+                  s["used_length_mm"].get<double>(), s["width_mm"].get<double>());
+    else
+      std::printf("  sheet %d: %d parts, used length %.1f mm of %.0f, utilisation %.1f %% of the area used, remnant %.1f x %.1f mm\n",
+                  s["sheet"].get<int>(), s["parts"].get<int>(), s["used_length_mm"].get<double>(), s["width_mm"].get<double>(),
+                  100.0 * s["utilisation"].get<double>(), s["remnant_mm"][0].get<double>(), s["remnant_mm"][1].get<double>());
     if (s.contains("program"))
       std::printf("    program: %s: cut length %.0f mm, %d pierces, rapids %.0f mm%s\n", s["program"].get<std::string>().c_str(),
                   s["cut_length_mm"].get<double>(), s["pierces"].get<int>(), s["rapid_mm"].get<double>(),

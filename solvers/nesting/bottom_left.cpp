@@ -32,11 +32,12 @@ struct SheetLayout {
       if (meets(s, {x, y}, *parts[it->second].first, parts[it->second].second)) return false;
     return true;
   }
-  void add(const Shape& s, double x, double y) {
+  void add(const Shape& s, double x, double y, bool fixed = false) {
     boxes.insert({moved(s.box, x, y), parts.size()});
     parts.emplace_back(&s, Eigen::Vector2d(x, y));
-    right_mm = std::max(right_mm, s.part_box.max().x() + x);
+    if (!fixed) right_mm = std::max(right_mm, s.part_box.max().x() + x), ++placed;
   }
+  int placed = 0;  // parts, not counting what the sheet holds fixed
 };
 
 struct Spot {
@@ -121,13 +122,16 @@ void check(const NestRequest& r) {
 
 using Copy = std::pair<std::size_t, int>;
 
-// One bottom-left fill of the copies in `order`; `tests` counts its collision tests.
-NestResult fill(const NestRequest& r, const ShapeSet& shapes, const std::vector<Copy>& order,
+// One bottom-left fill of the copies in `order` round each sheet's `fixed` shapes; `tests`
+// counts its collision tests.
+NestResult fill(const NestRequest& r, const ShapeSet& shapes, const ShapeSet& fixed, const std::vector<Copy>& order,
                 std::int64_t& tests) {
   std::vector<Eigen::AlignedBox2d> usable;
   for (const Sheet& sh : r.sheets)
     usable.emplace_back(Eigen::Vector2d::Constant(sh.margin_mm), Eigen::Vector2d(sh.width_mm - sh.margin_mm, sh.height_mm - sh.margin_mm));
   std::vector<SheetLayout> sheets(r.sheets.size());
+  for (std::size_t k = 0; k < sheets.size(); ++k)
+    for (const Shape& f : fixed[k]) sheets[k].add(f, 0, 0, true);
   NestResult out;
   for (const auto& [p, c] : order) {
     std::optional<Spot> best;
@@ -164,8 +168,8 @@ NestResult fill(const NestRequest& r, const ShapeSet& shapes, const std::vector<
   }
   for (const SheetLayout& s : sheets) {
     tests += s.tests;
-    out.sheets_used += !s.parts.empty();
-    out.used_length_mm.push_back(s.parts.empty() ? 0.0 : s.right_mm);
+    out.sheets_used += s.placed > 0;
+    out.used_length_mm.push_back(s.placed == 0 ? 0.0 : s.right_mm);
   }
   out.fills = 1;
   return out;
@@ -205,7 +209,8 @@ ShapeSet shapes_of(const NestRequest& r) {
   return shapes;
 }
 
-NestResult bottom_left_nest(const NestRequest& r, const ShapeSet& shapes, Termination& t, std::uint64_t seed) {
+NestResult bottom_left_nest(const NestRequest& r, const ShapeSet& shapes, Termination& t, std::uint64_t seed,
+                            const NestResult* first) {
   // The copies by priority, then largest part first (ties: the order given).
   const auto priority = [&](std::size_t p) { return r.priority.empty() ? 1 : r.priority[p]; };
   std::vector<Copy> order;
@@ -215,8 +220,10 @@ NestResult bottom_left_nest(const NestRequest& r, const ShapeSet& shapes, Termin
     if (priority(a.first) != priority(b.first)) return priority(a.first) < priority(b.first);
     return r.parts[a.first].area_mm2 > r.parts[b.first].area_mm2;
   });
+  ShapeSet fixed;
+  for (const Sheet& sheet : r.sheets) fixed.push_back(sheet_obstacles(sheet, r.spacing_mm, r.tolerance_mm));
   std::int64_t tests = 0;
-  NestResult best = fill(r, shapes, order, tests);
+  NestResult best = first ? *first : fill(r, shapes, fixed, order, tests);
   t.charge(1, static_cast<double>(tests) * kTestCostS);
   std::mt19937_64 rng(seed);
   int fills = 1;
@@ -230,7 +237,7 @@ NestResult bottom_left_nest(const NestRequest& r, const ShapeSet& shapes, Termin
       if (priority(tried[i].first) == priority(tried[j].first)) std::swap(tried[i], tried[j]);
     }
     tests = 0;
-    NestResult n = fill(r, shapes, tried, tests);
+    NestResult n = fill(r, shapes, fixed, tried, tests);
     t.charge(1, static_cast<double>(tests) * kTestCostS);
     ++fills;
     if (better(n, best)) best = std::move(n), order = std::move(tried);

@@ -60,6 +60,46 @@ std::optional<std::string> too_close(const Placed& a, const Placed& b) {
   return fmt::format("{} overlaps {} (or lies in a hole too small for it with the spacing)", b.name, a.name);
 }
 
+// A remnant's usable region: its outline shrunk by the margin (maybe in pieces) and its
+// cut-outs grown by it.
+struct RemnantRoom {
+  std::vector<Contour> inside, cutouts;
+};
+
+RemnantRoom room_of(const Sheet& s) {
+  RemnantRoom r;
+  r.inside = s.margin_mm > 0 ? offset_contour(s.remnant->outer, -s.margin_mm).contours : std::vector<Contour>{s.remnant->outer};
+  for (const Contour& h : s.remnant->holes) {
+    const Contour cut = h.reversed();
+    if (s.margin_mm <= 0) {
+      r.cutouts.push_back(cut);
+      continue;
+    }
+    for (Contour& c : offset_contour(cut, s.margin_mm).contours) r.cutouts.push_back(std::move(c));
+  }
+  return r;
+}
+
+// Why copy `c` on remnant sheet `k` is off its usable region, if it is.
+std::optional<std::string> off_remnant(const Placed& c, const RemnantRoom& room, int k) {
+  const Eigen::Vector2d probe = c.outer.vertices().front();
+  const auto in = std::find_if(room.inside.begin(), room.inside.end(), [&](const Contour& r) { return contains(r, probe); });
+  if (in == room.inside.end() || !contour_intersections(*in, c.outer, kTolMm).empty())
+    return fmt::format("{} on sheet {} (a remnant) reaches past its outline less the margin near ({:.3f}, {:.3f})", c.name, k + 1,
+                       probe.x(), probe.y());
+  for (const Contour& cut : room.cutouts) {
+    const Eigen::Vector2d at = cut.vertices().front();
+    bool clear = contour_intersections(cut, c.outer, kTolMm).empty() && !contains(cut, probe);
+    if (clear && contains(c.outer, at))  // inside the part: only in one of its holes
+      clear = std::any_of(c.holes.begin(), c.holes.end(),
+                          [&](const Contour& h) { return contains(h, at) && contour_intersections(h, cut, kTolMm).empty(); });
+    if (!clear)
+      return fmt::format("{} on sheet {} (a remnant) comes nearer than the margin to its cut-out near ({:.3f}, {:.3f})", c.name,
+                         k + 1, at.x(), at.y());
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 Certificate certify(const std::vector<NestPart>& parts, const std::vector<Placement>& placements, const std::vector<Sheet>& sheets,
@@ -67,6 +107,7 @@ Certificate certify(const std::vector<NestPart>& parts, const std::vector<Placem
   if (!(spacing_mm >= 0 && std::isfinite(spacing_mm)))
     throw InputError::field("spacing_mm", fmt::format("{} must be a distance >= 0", spacing_mm));
   Certificate out;
+  std::vector<std::optional<RemnantRoom>> rooms(sheets.size());
   std::vector<Placed> placed;
   placed.reserve(placements.size());
   for (const Placement& p : placements) {
@@ -84,6 +125,10 @@ Certificate certify(const std::vector<NestPart>& parts, const std::vector<Placem
                                            placed.back().name, p.sheet + 1, usable.min().x(), usable.max().x(),
                                            usable.min().y(), usable.max().y(), b.min().x(), b.max().x(), b.min().y(),
                                            b.max().y()));
+    auto& room = rooms[static_cast<std::size_t>(p.sheet)];
+    if (s.remnant && !room) room = room_of(s);
+    if (room)
+      if (auto why = off_remnant(placed.back(), *room, p.sheet)) out.violations.push_back(*why);
   }
   // Pairs: boxes on different sheets are moved apart so that they never meet.
   std::vector<Eigen::AlignedBox2d> boxes;

@@ -3,6 +3,8 @@
 //
 //   * every part lies inside its sheet's usable area: the sheet's rectangle [0, width] x
 //     [0, height] less the margin on every side (the part's exact bounding box, arcs included);
+//     on a remnant, also inside its outline shrunk by the margin and at least the margin from
+//     each cut-out (a cut-out may lie in a part's hole with the margin from the hole's edge);
 //   * every two parts on one sheet are at least `spacing_mm` apart: their material regions,
 //     each grown by spacing / 2 (engine/geometry/offset.h: exact, arcs stay arcs), do not meet.
 //     A part may lie in another's hole when it keeps the spacing from the hole's edge: its
@@ -14,8 +16,11 @@
 // near each other.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "solvers/nesting/part.h"
 #include "solvers/nesting/placement.h"
@@ -24,7 +29,12 @@ namespace machplan::nesting {
 
 struct Sheet {
   double width_mm = 0.0, height_mm = 0.0;  // x along width_mm
-  double margin_mm = 0.0;                  // kept clear on every side
+  double margin_mm = 0.0;                  // kept clear on every side (and of a remnant's edges)
+  // A remnant: the material's outline, with its cut-outs as holes, placed so that the box
+  // round it spans [0, width_mm] x [0, height_mm]; `drawn_at` is where that box's lower-left
+  // corner lies in the remnant's drawing. Unset: the whole rectangle is material.
+  std::optional<NestPart> remnant;
+  Eigen::Vector2d drawn_at = Eigen::Vector2d::Zero();
 };
 
 struct Certificate {

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/geometry/offset.h"
 
 namespace machplan::nesting {
 
@@ -43,6 +44,26 @@ std::vector<double> rotations_of(const Yaml& y) {
 
 }  // namespace
 
+Sheet remnant_sheet(const std::string& path, double margin_mm) {
+  std::vector<NestPart> found = read_nest_parts(path, false);  // refuses open chains, several outers
+  NestPart& outline = found.front();
+  const Eigen::AlignedBox2d box = bounding_box(outline.outer);
+  Placement to_corner;
+  to_corner.translate_mm = -box.min();
+  outline.outer = place(outline.outer, to_corner);
+  for (Contour& h : outline.holes) h = place(h, to_corner);
+  Sheet s;
+  s.width_mm = box.sizes().x();
+  s.height_mm = box.sizes().y();
+  s.margin_mm = margin_mm;
+  s.drawn_at = box.min();
+  if (2 * margin_mm >= std::min(s.width_mm, s.height_mm) || offset_contour(outline.outer, -margin_mm).vanished())
+    throw InputError(path, 0, fmt::format("the remnant ({:.1f} x {:.1f} mm) leaves no usable area inside a margin of {:g} mm",
+                                          s.width_mm, s.height_mm, margin_mm));
+  s.remnant = std::move(outline);
+  return s;
+}
+
 NestRequest read_nest_job(const std::string& path) {
   return read_nest_job(Yaml::load_file(path), std::filesystem::path(path).parent_path().string());
 }
@@ -54,7 +75,20 @@ NestRequest read_nest_job(const Yaml& root, const std::string& folder_path) {
   r.spacing_mm = root.number_or("spacing_mm", 6.0, {.min = 0, .max = 1000});
   for (const Yaml& s : root.at("sheets").items()) {
     s.reject_unknown_keys({"width_mm", "height_mm", "count", "margin_mm", "outline"});
-    if (s.has("outline")) s.at("outline").fail("remnant outlines are not nested yet: give width_mm and height_mm");
+    if (s.has("outline")) {
+      s.reject_unknown_keys({"outline", "count", "margin_mm"});
+      std::filesystem::path file = s.string("outline");
+      if (file.is_relative()) file = folder / file;
+      const double margin = s.number_or("margin_mm", 10.0, {.min = 0, .max = 1000});
+      const int count = s.has("count") ? s.at("count").integer(1, 1000) : 1;
+      try {
+        const Sheet remnant = remnant_sheet(file.string(), margin);
+        for (int k = 0; k < count; ++k) r.sheets.push_back(remnant);
+      } catch (const InputError& e) {
+        s.at("outline").fail(e.what());
+      }
+      continue;
+    }
     Sheet sheet;
     sheet.width_mm = s.number("width_mm", {.min = 0, .max = 100000, .min_exclusive = true});
     sheet.height_mm = s.number("height_mm", {.min = 0, .max = 100000, .min_exclusive = true});

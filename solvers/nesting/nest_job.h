@@ -1,6 +1,7 @@
 // A nesting job file (`machplan nest JOB.yaml`):
 //
 //   sheets:
+//     - {outline: remnant.dxf, margin_mm: 10}                        # a remnant, filled first
 //     - {width_mm: 2500, height_mm: 1250, count: 2, margin_mm: 10}   # x along width_mm
 //   spacing_mm: 6
 //   parts:
@@ -12,8 +13,10 @@
 // file; quantity defaults to 1; rotations `any` (every 45 degrees, the default), `none`, or a
 // list of degrees; mirror: mirrored copies are tried too; priority: lower numbers are nested
 // first (must-nest parts before fillers; default 1); split: a drawing with several outer
-// contours gives one part per contour. A sheet given by an `outline` (a remnant) is refused:
-// not nested yet. Unknown keys and bad values are refused naming the file, line and key.
+// contours gives one part per contour. A sheet given by an `outline` is a remnant: the drawing's
+// one outer contour is the material's edge, the contours inside it are cut-outs (remnant_sheet);
+// its size is the box round it. Unknown keys and bad values are refused naming the file, line
+// and key.
 #pragma once
 
 #include <string>
@@ -26,6 +29,12 @@ namespace machplan::nesting {
 NestRequest read_nest_job(const std::string& path);
 // The same from a file already parsed; part files are found relative to `folder`.
 NestRequest read_nest_job(const Yaml& root, const std::string& folder);
+
+// The remnant drawn in `path` as a sheet (certificate.h): one closed outer contour, the contours
+// inside it its cut-outs, chained and healed as `machplan profile` reads them. InputError naming
+// the file for a drawing that does not close, holds several outer contours or leaves no usable
+// area inside `margin_mm`.
+Sheet remnant_sheet(const std::string& path, double margin_mm);
 
 // "any", "none" or a list: the rotations to try, degrees in [-360, 360]. InputError naming
 // `field` otherwise.

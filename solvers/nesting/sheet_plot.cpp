@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "engine/geometry/offset.h"
 #include "engine/motion/make_job.h"
 #include "solvers/common/picture.h"
 
@@ -20,19 +21,35 @@ void plot_sheet(const std::string& path, const std::vector<NestPart>& parts, con
   write_picture(path, "out", kWidth, height, [&](Canvas& c) {
     c.set_source_rgb(1, 1, 1);
     c.paint();
+    // The sheet's material (a remnant: its outline less its cut-outs) and, dashed, its usable area.
+    c.set_fill_rule(Canvas::FillRule::even_odd);
     c.set_source_rgb(0.93, 0.93, 0.93);
-    c.rectangle(v.sx(0), v.sy(s.height_mm), scale * s.width_mm, scale * s.height_mm);
-    c.fill();
+    if (s.remnant) {
+      trace_contour(c, v, s.remnant->outer);
+      for (const Contour& h : s.remnant->holes) trace_contour(c, v, h);
+      c.fill_preserve();
+      c.set_source_rgb(0.45, 0.45, 0.45);
+      c.set_line_width(1.2);
+      c.stroke();
+    } else {
+      c.rectangle(v.sx(0), v.sy(s.height_mm), scale * s.width_mm, scale * s.height_mm);
+      c.fill();
+    }
     const double dash[] = {4, 3};
     c.set_dash(dash, 2, 0);
     c.set_source_rgb(0.6, 0.6, 0.6);
     c.set_line_width(1);
-    c.rectangle(v.sx(s.margin_mm), v.sy(s.height_mm - s.margin_mm), scale * (s.width_mm - 2 * s.margin_mm),
-                scale * (s.height_mm - 2 * s.margin_mm));
+    if (s.remnant && s.margin_mm > 0) {
+      for (const Contour& k : offset_contour(s.remnant->outer, -s.margin_mm).contours) trace_contour(c, v, k);
+      for (const Contour& h : s.remnant->holes)
+        for (const Contour& k : offset_contour(h.reversed(), s.margin_mm).contours) trace_contour(c, v, k);
+    } else if (!s.remnant) {
+      c.rectangle(v.sx(s.margin_mm), v.sy(s.height_mm - s.margin_mm), scale * (s.width_mm - 2 * s.margin_mm),
+                  scale * (s.height_mm - 2 * s.margin_mm));
+    }
     c.stroke();
     c.set_dash(nullptr, 0, 0);
     // The parts: material shaded, holes open.
-    c.set_fill_rule(Canvas::FillRule::even_odd);
     for (const Placement& p : placements) {
       if (p.sheet != sheet) continue;
       trace_contour(c, v, place(parts[p.part].outer, p));

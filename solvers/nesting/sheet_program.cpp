@@ -132,7 +132,11 @@ double lead_depth(const LeadPath& l, double f) { return l.lead.shape == LeadShap
 class LeadPlanner {
  public:
   LeadPlanner(const std::vector<Loop>& loops, const Sheet& sheet, const SheetProgramOptions& o)
-      : loops_(loops), sheet_(sheet), o_(o) {}
+      : loops_(loops), sheet_(sheet), o_(o) {
+    if (!sheet.remnant) return;  // a remnant's edges and cut-outs: kept clear of as the other cuts
+    edges_.push_back({sheet.remnant->outer, false, bounding_box(sheet.remnant->outer)});
+    for (const Contour& h : sheet.remnant->holes) edges_.push_back({h, true, bounding_box(h)});
+  }
 
   // How much room a lead of loop k has beyond the clearance (negative: too little), or -inf
   // when it crosses its own loop or leaves the sheet.
@@ -154,16 +158,19 @@ class LeadPlanner {
  private:
   static constexpr double kInf = std::numeric_limits<double>::infinity();
 
-  // The distance from q to the nearest loop but k, when below `cap`.
+  // The distance from q to the nearest loop but k (or remnant edge), when below `cap`.
   double others_distance(std::size_t k, const Vector2d& q, double cap) const {
     for (std::size_t j = 0; j < loops_.size(); ++j) {
       if (j == k || loops_[j].box.exteriorDistance(q) >= cap) continue;
       cap = std::min(cap, distance(loops_[j].contour, q));
     }
+    for (const Loop& e : edges_)
+      if (e.box.exteriorDistance(q) < cap) cap = std::min(cap, distance(e.contour, q));
     return cap;
   }
 
   const std::vector<Loop>& loops_;
+  std::vector<Loop> edges_;
   const Sheet& sheet_;
   const SheetProgramOptions& o_;
 };

@@ -462,6 +462,10 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
     if (nest.used_length_mm[k] > 0) last = static_cast<int>(k);
   if (last < 0) return stats;
   const Sheet& sheet = r.sheets[static_cast<std::size_t>(last)];
+  if (sheet.remnant) {
+    stats.note = "the last sheet used is a remnant: the strip search shortens whole sheets only";
+    return stats;
+  }
   const Eigen::AlignedBox2d usable(Eigen::Vector2d::Constant(sheet.margin_mm),
                                    Eigen::Vector2d(sheet.width_mm - sheet.margin_mm, sheet.height_mm - sheet.margin_mm));
   std::vector<Item> items;
@@ -521,12 +525,17 @@ NestResult nest(const NestRequest& r, Termination& t, std::uint64_t seed, int wo
   const ShapeSet shapes = shapes_of(r);
   if (!std::isfinite(t.deadline_s())) return bottom_left_nest(r, shapes, t, seed);
   // The fills' restarts matter where they may save a sheet; on one sheet the search does better.
+  // Their share of the deadline counts the first fill: none when it took that much already.
   Termination first(t);
   first.set_budget(1, "fills");
   const NestResult one = bottom_left_nest(r, shapes, first, seed);
-  Termination fill(t);
-  fill.set_deadline((one.sheets_used > 1 || !one.unplaced.empty() ? 0.1 : 0.02) * t.deadline_s(), "nominal search time");
-  NestResult n = bottom_left_nest(r, shapes, fill, seed);
+  const double share = (one.sheets_used > 1 || !one.unplaced.empty() ? 0.1 : 0.02) * t.deadline_s() - first.work_s_spent();
+  NestResult n = one;
+  if (share > 0) {
+    Termination fill(t);
+    fill.set_deadline(share, "nominal search time");
+    n = bottom_left_nest(r, shapes, fill, seed, &one);
+  }
   if (progress) {
     progress->sheets = n.sheets_used;
     progress->offer_length(n.last_length_mm());

@@ -191,12 +191,18 @@ TEST(NestCli, AJobFileGivesTheSheetsAndEachPartsQuantityRotationsAndPriority) {
   for (const auto& p : j["placements"])
     bracket_on_first |= p["sheet"] == 1 && p["file"].get<std::string>().find("bracket") != std::string::npos;
   EXPECT_TRUE(bracket_on_first);
-  // A remnant outline, an unknown key, and --sheet beside a job file are refused.
+  // A remnant drawing that is missing or does not close, an unknown key, and --sheet beside a
+  // job file are refused.
   const std::string remnant = dir.write("remnant.yaml", "sheets:\n  - {outline: r.dxf}\nparts:\n  - {file: disc.dxf}\n");
   const test::CliResult rem = test::Cli().run("nest '" + remnant + "'");
   EXPECT_EQ(rem.code, 2);
   EXPECT_THAT(rem.err, HasSubstr("remnant.yaml:2"));
-  EXPECT_THAT(rem.err, HasSubstr("remnant outlines are not nested yet"));
+  EXPECT_THAT(rem.err, HasSubstr("r.dxf"));
+  dir.write("r.dxf", dxf("0\nLWPOLYLINE\n8\nCUT\n90\n3\n70\n0\n10\n0\n20\n0\n10\n500\n20\n0\n10\n500\n20\n300\n"));
+  const test::CliResult open = test::Cli().run("nest '" + remnant + "'");
+  EXPECT_EQ(open.code, 2);
+  EXPECT_THAT(open.err, HasSubstr("remnant.yaml:2"));
+  EXPECT_THAT(open.err, HasSubstr("r.dxf"));
   const std::string unknown = dir.write("unknown.yaml", "sheets:\n  - {width_mm: 100, height_mm: 100}\nparts:\n  - {file: disc.dxf, qty: 2}\n");
   const test::CliResult unk = test::Cli().run("nest '" + unknown + "'");
   EXPECT_EQ(unk.code, 2);
@@ -205,6 +211,27 @@ TEST(NestCli, AJobFileGivesTheSheetsAndEachPartsQuantityRotationsAndPriority) {
   const test::CliResult both = test::Cli().run("nest '" + job + "' --sheet 100x100");
   EXPECT_EQ(both.code, 2);
   EXPECT_THAT(both.err, HasSubstr("--sheet: the job file lists the sheets"));
+}
+
+// The bundled remnant job: the L-shaped offcut is filled first, every part on it inside its
+// outline and clear of its cut-outs (the certificate), the rest on a whole sheet.
+TEST(NestCli, ARemnantIsFilledInsideItsOutlineAndClearOfItsCutOuts) {
+  test::TempDir dir;
+  const std::string out = (dir.path() / "rem").string();
+  const test::CliResult r = test::Cli().run("nest datasets/nesting/remnant_job.yaml --time 0.3 --out '" + out + "' --json");
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["certified"], true) << j["violations"];
+  ASSERT_EQ(j["sheets"].size(), 2u);
+  const auto& rem = j["sheets"][0];
+  EXPECT_THAT(rem["remnant"].get<std::string>(), HasSubstr("remnant.dxf"));
+  EXPECT_EQ(rem["width_mm"], 900.0);
+  EXPECT_EQ(rem["height_mm"], 600.0);
+  EXPECT_EQ(rem["drawn_at_mm"][0], 100.0);
+  EXPECT_EQ(rem["drawn_at_mm"][1], 50.0);
+  EXPECT_GE(rem["parts"].get<int>(), 8) << "most of the job fits on the offcut";
+  EXPECT_EQ(j["strip_search"]["note"], "") << "the last sheet, a whole one, is searched";
+  EXPECT_THAT(text_of(rem["program"]), HasSubstr("remnant.dxf"));
 }
 
 TEST(NestCli, TheBundledJobNestsItsProfilesCertifiedOnOneSheet) {

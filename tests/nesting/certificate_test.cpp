@@ -135,6 +135,35 @@ TEST(NestCertificate, APartPastTheMarginIsReportedAndBadIndicesAreRefused) {
   EXPECT_THROW(certify(parts, {at(0, 60, 60)}, kSheet, -1.0), InputError);
 }
 
+// A remnant: an L (500 x 300 with the upper right 250 x 150 gone) with a round cut-out of
+// radius 30 at (100, 150); margin 5.
+TEST(NestCertificate, OnARemnantAPartStaysInsideItsOutlineAndClearOfItsCutOutsByTheMargin) {
+  Sheet rem{500, 300, 5};
+  NestPart l;
+  l.file = "remnant.dxf";
+  l.outer = Contour({{0, 0}, {500, 0}, {500, 150}, {250, 150}, {250, 300}, {0, 300}}, {0, 0, 0, 0, 0, 0});
+  l.holes.push_back(Contour::circle({100, 150}, 30).reversed());
+  rem.remnant = l;
+  const std::vector<Sheet> sheets{rem};
+  const std::vector<NestPart> parts{disc(20)};
+  EXPECT_TRUE(certify(parts, {at(0, 400, 75)}, sheets, 6.0).certified) << "in the lower arm";
+  EXPECT_TRUE(certify(parts, {at(0, 100, 150 - 30 - 5 - 20 - 0.01)}, sheets, 6.0).certified) << "just below the cut-out";
+  const Certificate corner = certify(parts, {at(0, 400, 225)}, sheets, 6.0);
+  ASSERT_FALSE(corner.certified) << "in the corner the remnant lacks";
+  EXPECT_NE(corner.violations[0].find("outline"), std::string::npos) << corner.violations[0];
+  const Certificate edge = certify(parts, {at(0, 400, 150 - 5 - 19.9)}, sheets, 6.0);
+  EXPECT_FALSE(edge.certified) << "0.1 mm nearer than the margin to the inner corner's edge";
+  const Certificate cut = certify(parts, {at(0, 100, 150 - 30 - 5 - 19.9)}, sheets, 6.0);
+  ASSERT_FALSE(cut.certified);
+  EXPECT_NE(cut.violations[0].find("cut-out"), std::string::npos) << cut.violations[0];
+  EXPECT_FALSE(certify(parts, {at(0, 100, 150)}, sheets, 6.0).certified) << "on the cut-out";
+  // A cut-out may lie in a part's hole, the margin kept from the hole's edge.
+  NestPart ring = disc(60);
+  ring.holes.push_back(Contour::circle({0, 0}, 36).reversed());
+  EXPECT_TRUE(certify({ring}, {at(0, 100, 150)}, sheets, 6.0).certified);
+  EXPECT_FALSE(certify({ring}, {at(0, 101.5, 150)}, sheets, 6.0).certified);
+}
+
 // The polygon holds the material and lies within the tolerance of the true contour: on the
 // rounded outline it runs outside the arcs, round the holes inside them.
 TEST(NestOutline, ThePolygonHoldsTheTrueContourAndStaysWithinTheTolerance) {

@@ -133,6 +133,23 @@ bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Ei
   return in_material(b.rings, a.rings[0][0] - o) || in_material(a.rings, b.rings[0][0] + o);
 }
 
+std::vector<Shape> sheet_obstacles(const Sheet& sheet, double spacing, double tol) {
+  if (!sheet.remnant) return {};
+  const double grow = 2 * std::max(0.0, sheet.margin_mm - spacing / 2);  // make_shape grows by half its spacing
+  const double b = sheet.margin_mm + spacing + 10.0;
+  NestPart frame;
+  frame.outer = Contour({{-b, -b}, {sheet.width_mm + b, -b}, {sheet.width_mm + b, sheet.height_mm + b}, {-b, sheet.height_mm + b}},
+                        {0, 0, 0, 0});
+  frame.holes.push_back(sheet.remnant->outer.reversed());
+  std::vector<Shape> out{make_shape(frame, 0, false, grow, tol)};
+  for (const Contour& cut : sheet.remnant->holes) {
+    NestPart c;
+    c.outer = cut.reversed();
+    out.push_back(make_shape(c, 0, false, grow, tol));
+  }
+  return out;
+}
+
 Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing, double tol) {
   Placement turn;
   turn.rotation_deg = deg;

@@ -64,6 +64,11 @@ Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing
 std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& rotations, bool mirror, double spacing_mm,
                                double tolerance_mm);
 
+// What a remnant sheet holds fixed, as shapes at (0, 0): a frame round it whose hole is the
+// outline, and each cut-out; grown so that a part's shape that does not meet them keeps the
+// sheet's margin from their true edges (at least half the spacing). None for a whole sheet.
+std::vector<Shape> sheet_obstacles(const Sheet& sheet, double spacing_mm, double tolerance_mm);
+
 // Whether the polygons of `a` at `at_a` and of `b` at `at_b` meet, touching included (what
 // bg::intersects says of the moved polygons, without moving them): a pair of edges that meet,
 // or a vertex of one inside the other's material. Thread-safe.
@@ -81,7 +86,10 @@ ShapeSet shapes_of(const NestRequest& request);
 struct NestProgress;
 
 // bottom_left_nest with restarts (bottom_left.h) on those shapes.
-NestResult bottom_left_nest(const NestRequest& request, const ShapeSet& shapes, Termination& t, std::uint64_t seed);
+// `first`, when given, is the first fill already made (restarts go on from it, as from their
+// own).
+NestResult bottom_left_nest(const NestRequest& request, const ShapeSet& shapes, Termination& t, std::uint64_t seed,
+                            const NestResult* first = nullptr);
 
 // Shortens the used length of `nest`'s last used sheet in place until `t` ends (a deadline of
 // nominal work, or a stop request: the best so far is kept). `nest` must be feasible, as the
