@@ -132,13 +132,17 @@ NestResult fill(const NestRequest& r, const ShapeSet& shapes, const ShapeSet& fi
   std::vector<SheetLayout> sheets(r.sheets.size());
   for (std::size_t k = 0; k < sheets.size(); ++k)
     for (const Shape& f : fixed[k]) sheets[k].add(f, 0, 0, true);
+  // The shapes found not to fit on each sheet: a sheet only fills up, so they never will.
+  std::vector<std::vector<const Shape*>> full(sheets.size());
   NestResult out;
   for (const auto& [p, c] : order) {
     std::optional<Spot> best;
     int on = -1;
     for (std::size_t k = 0; k < sheets.size() && !best; ++k) {
       for (const Shape& s : shapes[p]) {
+        if (std::find(full[k].begin(), full[k].end(), &s) != full[k].end()) continue;
         const std::optional<Spot> spot = leftmost(sheets[k], s, usable[k]);
+        if (!spot) full[k].push_back(&s);
         const auto right = [](const Spot& a) { return a.x + a.shape->part_box.max().x(); };
         if (spot && (!best || right(*spot) < right(*best) - 1e-9 || (right(*spot) <= right(*best) + 1e-9 && spot->y < best->y)))
           best = spot, on = static_cast<int>(k);

@@ -254,11 +254,20 @@ LeadPath fitted(const LeadPlanner& planner, const std::vector<Loop>& loops, std:
   return {{l.shape, l.length_mm * kLeadFractions[std::size(kLeadFractions) - 1]}};
 }
 
-// Loop k entered where its lead-in has room (see the file comment), as a Contour started there.
-Contour entered(const LeadPlanner& planner, const std::vector<Loop>& loops, std::size_t k, const SheetProgramOptions& o) {
+// Where loop k is entered: the loop started there, and the lead-in when it is set by the rule for
+// holes with no room (a line from the middle of the hole's box).
+struct Entry {
+  Contour loop;
+  std::optional<LeadPath> lead;
+};
+
+// Loop k entered where its lead-in has room (see the file comment). A round hole with no room
+// is entered anywhere (its lead comes from its centre, `fitted`); another hole with no room,
+// where a line from the middle of its box meets its edge, when that line has room.
+Entry entered(const LeadPlanner& planner, const std::vector<Loop>& loops, std::size_t k, const SheetProgramOptions& o) {
   const Contour& c = loops[k].contour;
   const auto cand = entries(c, o.corner_margin_mm);
-  if (o.lead_in.length_mm <= 0 || cand.empty()) return c;
+  if (o.lead_in.length_mm <= 0 || cand.empty()) return {c, std::nullopt};
   auto room = [&](std::pair<std::size_t, double> e, const LeadPath& l) {
     const Segment s = c.span(e.first);
     const Vector2d P = point_at(s, e.second);
@@ -270,22 +279,31 @@ Contour entered(const LeadPlanner& planner, const std::vector<Loop>& loops, std:
     const LeadPath l{{o.lead_in.shape, o.lead_in.length_mm * f}};
     for (const auto& e : cand) {
       const double r = room(e, l);
-      if (r >= 0) return started_at(c, e.first, e.second);
+      if (r >= 0) return {started_at(c, e.first, e.second), std::nullopt};
       if (f == kLeadFractions[std::size(kLeadFractions) - 1] && r > best_room) best_room = r, best = e;
     }
     if (f == 1.0 && centre_lead(loops, k, o.lead_in)) break;  // a round hole: from its centre
   }
-  return started_at(c, best.first, best.second);
+  if (loops[k].hole && !is_circle(c)) {
+    const Vector2d q = loops[k].box.center();
+    const ContourPoint cp = closest_point(c, q);
+    const Segment s = c.span(cp.span);
+    const std::pair<std::size_t, double> e{cp.span, parameter_at(s, cp.point)};
+    const LeadPath line{{LeadShape::line, cp.distance}};
+    if (contains(c, q) && cp.distance > 1e-3 && room(e, line) >= 0) return {started_at(c, e.first, e.second), line};
+  }
+  return {started_at(c, best.first, best.second), std::nullopt};
 }
 
 // The cut of loop k: rapid to the pierce point, lead-in, the loop, overcut, lead-out.
 void add_cut(Builder& b, const LeadPlanner& planner, const std::vector<Loop>& loops, std::size_t k,
              const SheetProgramOptions& o, SheetProgram& sp) {
-  const Contour c = entered(planner, loops, k, o);
+  const Entry entry = entered(planner, loops, k, o);
+  const Contour& c = entry.loop;
   const Vector2d P = c.vertices().front();
   const Vector2d t = start_direction(c);
   const Vector2d w = o.part_on_right ? left_of(t) : -left_of(t);
-  const LeadPath in = fitted(planner, loops, k, P, t, o.lead_in, false, sp);
+  const LeadPath in = entry.lead ? *entry.lead : fitted(planner, loops, k, P, t, o.lead_in, false, sp);
   b.rapid(in.lead.length_mm > 0 ? lead_point(P, t, w, in, false, 1.0) : P);
   b.torch(true);
   b.lead(P, t, w, in, false);

@@ -19,7 +19,10 @@
 // of the sheet, lies inside the sheet and as far from its own contour as it should (so it
 // crosses no part of its own contour). When no entry has room at full length, the lead is
 // shortened (to 3/4, 1/2, 3/10 of its length: `shortened`); when none has room even then, the
-// entry with the most room is taken at the shortest length (`cramped`). After the loop comes
+// entry with the most room is taken at the shortest length (`cramped`). A small hole is entered
+// from its middle instead: a round one from its centre (half a circle of half its radius, or a
+// line of its radius), another by a line from the middle of its box to the nearest point of its
+// edge, when that line has room. After the loop comes
 // the overcut (overcut_mm along the contour, torch on), then the lead-out, built like the
 // lead-in and leaving into the waste. Full circles are cut as one arc (as QtPlasmaC's hole
 // rules need).

@@ -61,6 +61,15 @@ TEST(NestShape, MeetsAnswersAsBoostGeometryOnTheMovedPolygons) {
   const Shape p = make_shape(test::rect(10, 10), 0, false, 0, 0.05);
   EXPECT_TRUE(meets(p, {0, 0}, p, {10 + 2e-5, 3}));
   EXPECT_FALSE(meets(p, {0, 0}, p, {10 + 2e-5 + 1e-3, 3}));
+  // A small plate inside a large one, their bottom edges on one line: no edges cross, the small
+  // one's first vertex lies on the large one's edge, and they still meet (in either order), as
+  // in a bottom-left fill that slid a part down against another's edge.
+  const Shape big = make_shapes(test::rect(700, 790), {0}, false, 0.0, 0.05)[0];
+  const Shape small = make_shapes(test::rect(38.1, 38.1), {0}, false, 0.0, 0.05)[0];
+  for (double dy : {0.0, 1e-13, -1e-13}) {
+    EXPECT_TRUE(meets(small, {20, dy}, big, {0, 0})) << dy;
+    EXPECT_TRUE(meets(big, {0, 0}, small, {20, dy})) << dy;
+  }
 }
 
 TEST(NestShape, EveryPoleLiesInsideThePolygon) {

@@ -180,6 +180,21 @@ TEST(SheetProgram, ASmallRoundHoleIsPiercedAtItsCentreAndCutAsOneFullCircle) {
   EXPECT_EQ(full_circles, 1) << "QtPlasmaC sees a hole only in one full-circle arc";
 }
 
+TEST(SheetProgram, ASlotTooNarrowForTheLeadIsPiercedInItsMiddle) {
+  NestPart p = test::rect(60, 60, "plate");
+  p.holes.push_back(Contour({{24, 29}, {24, 31}, {36, 31}, {36, 29}}, {0, 0, 0, 0}));  // 12 x 2
+  const std::vector<NestPart> parts{p};
+  const SheetProgram sp = sheet_program(parts, {at(0, 100, 100)}, 0, kSheet);
+  EXPECT_EQ(sp.cramped, 0);
+  const std::vector<Cut> cuts = cuts_of(sp.program);
+  ASSERT_EQ(cuts.size(), 2u);
+  // On the slot's middle line, 1 mm from both long sides (the cut order may move it along).
+  EXPECT_NEAR(cuts[0].pierce.y(), 130.0, 1e-6);
+  EXPECT_GT(cuts[0].pierce.x(), 124.0 + 1.0);
+  EXPECT_LT(cuts[0].pierce.x(), 136.0 - 1.0);
+  EXPECT_NEAR(cuts[0].length, 1.0 + 28.0, 1e-6) << "a line to a long side, then the slot";
+}
+
 TEST(SheetProgram, QtPlasmaCWordsComeFirstAndBadOptionsNameTheirField) {
   const std::vector<NestPart> parts{plate()};
   SheetProgramOptions o;

@@ -129,8 +129,15 @@ bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Ei
   for (const Edge& e : ea)
     for (const Edge& f : eb)
       if (segments_meet(e, f)) return true;
-  // No edges meet: one lies in the other's material, or they are apart.
-  return in_material(b.rings, a.rings[0][0] - o) || in_material(a.rings, b.rings[0][0] + o);
+  // No edges meet: one lies in the other's material, or they are apart. Tested at a point deep
+  // in each one's material (its largest pole's centre, when that is more than the polygons'
+  // tolerance from its edge, turned or not) and at a vertex: a vertex alone may sit
+  // on the other's boundary, where edges that lie on one line escape the segment test.
+  const auto deep = [](const Shape& s) {
+    return s.poles.count > 0 && s.poles.radius[0] >= 0.5f ? Eigen::Vector2d(s.poles.x[0], s.poles.y[0]) : s.rings[0][0];
+  };
+  return in_material(b.rings, deep(a) - o) || in_material(a.rings, deep(b) + o) || in_material(b.rings, a.rings[0][0] - o) ||
+         in_material(a.rings, b.rings[0][0] + o);
 }
 
 std::vector<Shape> sheet_obstacles(const Sheet& sheet, double spacing, double tol) {
@@ -147,6 +154,7 @@ std::vector<Shape> sheet_obstacles(const Sheet& sheet, double spacing, double to
     c.outer = cut.reversed();
     out.push_back(make_shape(c, 0, false, grow, tol));
   }
+  for (Shape& s : out) s.poles = poles_of(s);
   return out;
 }
 
