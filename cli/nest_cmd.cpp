@@ -247,12 +247,52 @@ ProgramArgs program_args(const NestArgs& a, const CLI::App* cmd) {
   return p;
 }
 
+// The flags a job file's `program:` section may set (its keys: the flags' names without the
+// dashes), and the options field each one sets (for an error to name its line).
+constexpr std::pair<const char*, const char*> kProgramKeys[] = {
+    {"feed", "feed_mm_per_min"},  {"lead-in", "lead_in.length_mm"}, {"lead-in-shape", ""}, {"lead-out", "lead_out.length_mm"},
+    {"lead-out-shape", ""},       {"overcut", "overcut_mm"},        {"clearance", "clearance_mm"}, {"kerf", "kerf_mm"},
+    {"kerf-by", ""},              {"part-side", ""},                {"material", "material"},     {"holes", "hole_mode"},
+    {"hole-diameter", "hole_diameter_mm"}, {"hole-velocity", "hole_velocity_pct"}, {"hole-overcut", "hole_overcut_mm"},
+    {"dialect", ""}};
+
+// A job file's `program:` section, read as if its values were given to the flags: each key sets
+// its flag unless the command line gave that flag. A bad value is refused at its line.
+void read_program_section(const Yaml& section, NestArgs& a, CLI::App* cmd) {
+  section.reject_unknown_keys({"feed", "lead-in", "lead-in-shape", "lead-out", "lead-out-shape", "overcut", "clearance", "kerf",
+                               "kerf-by", "part-side", "material", "holes", "hole-diameter", "hole-velocity", "hole-overcut",
+                               "dialect"});
+  std::vector<std::pair<const char*, const char*>> set;  // the keys that set their flag
+  for (const auto& [key, field] : kProgramKeys) {
+    CLI::Option* opt = cmd->get_option(std::string("--") + key);
+    if (!section.has(key) || opt->count() > 0) continue;
+    set.emplace_back(key, field);
+    const Yaml value = section.at(key);
+    try {
+      opt->add_result(value.string());
+      opt->run_callback();
+    } catch (const CLI::ParseError&) {
+      value.fail(fmt::format("'{}' is not a value --{} takes", excerpt(value.string()), key));
+    }
+  }
+  try {
+    (void)program_args(a, cmd);
+  } catch (const InputError& e) {
+    for (const auto& [key, field] : set)
+      if (e.where() == std::string("--") + key || (e.is_field() && e.where() == field)) section.at(key).fail(e.message());
+    throw;
+  }
+}
+
 // The request from a job file, or from the drawings and the flags.
-nesting::NestRequest request_of(const NestArgs& a) {
+nesting::NestRequest request_of(NestArgs& a, CLI::App* cmd) {
   const bool job = a.parts.size() == 1 && (a.parts[0].ends_with(".yaml") || a.parts[0].ends_with(".yml"));
   if (job) {
     if (!a.sheet.empty()) throw InputError("--sheet", 0, "the job file lists the sheets");
-    return nesting::read_nest_job(a.parts[0]);
+    const Yaml root = Yaml::load_file(a.parts[0]);
+    nesting::NestRequest r = nesting::read_nest_job(root, std::filesystem::path(a.parts[0]).parent_path().string());
+    if (root.has("program")) read_program_section(root.at("program"), a, cmd);
+    return r;
   }
   if (a.sheet.empty()) throw InputError("--sheet", 0, "give the sheets (WIDTHxHEIGHT[:COUNT]), or a job file");
   if (!(a.margin >= 0 && a.margin <= 1000)) throw InputError("--margin", 0, fmt::format("{} must be in [0, 1000] mm", a.margin));
@@ -311,7 +351,7 @@ void add_nest(CLI::App& app) {
   cmd->add_flag("--split", a->split, "a drawing with several outer contours is one part per contour (else refused)");
   cmd->add_flag("--json", a->json, "print JSON instead of the readable report");
   cmd->callback([a, cmd] {
-    nesting::NestRequest r = request_of(*a);
+    nesting::NestRequest r = request_of(*a, cmd);
     (void)program_args(*a, cmd);  // bad program flags refused before the search
     if (!(a->time >= 0 && a->time <= 86400)) throw InputError("--time", 0, fmt::format("{} must be in [0, 86400] s", a->time));
     Termination t(StopOnSignals::stop_token());

@@ -69,7 +69,7 @@ NestRequest read_nest_job(const std::string& path) {
 }
 
 NestRequest read_nest_job(const Yaml& root, const std::string& folder_path) {
-  root.reject_unknown_keys({"sheets", "spacing_mm", "parts"});
+  root.reject_unknown_keys({"sheets", "spacing_mm", "parts", "program"});  // program: read by the CLI
   const std::filesystem::path folder = folder_path;
   NestRequest r;
   r.spacing_mm = root.number_or("spacing_mm", 6.0, {.min = 0, .max = 1000});

@@ -15,8 +15,10 @@
 // first (must-nest parts before fillers; default 1); split: a drawing with several outer
 // contours gives one part per contour. A sheet given by an `outline` is a remnant: the drawing's
 // one outer contour is the material's edge, the contours inside it are cut-outs (remnant_sheet);
-// its size is the box round it. Unknown keys and bad values are refused naming the file, line
-// and key.
+// its size is the box round it. A `program:` map holds how `machplan nest` writes the sheets'
+// programs, its keys the names of that command's flags without their dashes
+// (`program: {kerf: 1.5, lead-in: 4, holes: 2}`); the command reads it, the request ignores it.
+// Unknown keys and bad values are refused naming the file, line and key.
 #pragma once
 
 #include <string>

@@ -203,6 +203,23 @@ TEST(NestCli, AJobFileGivesTheSheetsAndEachPartsQuantityRotationsAndPriority) {
   EXPECT_EQ(open.code, 2);
   EXPECT_THAT(open.err, HasSubstr("remnant.yaml:2"));
   EXPECT_THAT(open.err, HasSubstr("r.dxf"));
+  // A `program:` section sets the program flags; a flag on the command line wins; a bad value is
+  // refused at its line.
+  const std::string with_program = dir.write("program.yaml", "sheets:\n  - {width_mm: 800, height_mm: 400}\nparts:\n"
+                                                              "  - {file: disc.dxf, quantity: 2}\nprogram:\n  kerf: 1.5\n"
+                                                              "  holes: 2\n  lead-in-shape: line\n");
+  const std::string out = (dir.path() / "programmed").string();
+  ASSERT_EQ(test::Cli().run("nest '" + with_program + "' --time 0 --out '" + out + "' --kerf 2").code, 0);
+  const std::string program = text_of(out + "/sheet_1.ngc");
+  EXPECT_THAT(program, HasSubstr("#<holes> = 2"));
+  EXPECT_THAT(program, HasSubstr("lead-in line"));
+  EXPECT_THAT(program, HasSubstr("kerf 2 mm compensated")) << "the flag, not the job file's 1.5";
+  const std::string bad_program = dir.write("bad_program.yaml", "sheets:\n  - {width_mm: 800, height_mm: 400}\nparts:\n"
+                                                                "  - {file: disc.dxf}\nprogram:\n  kerf: 100\n");
+  const test::CliResult bp = test::Cli().run("nest '" + bad_program + "' --time 0");
+  EXPECT_EQ(bp.code, 2);
+  EXPECT_THAT(bp.err, HasSubstr("bad_program.yaml:6"));
+  EXPECT_THAT(bp.err, HasSubstr("program.kerf"));
   const std::string unknown = dir.write("unknown.yaml", "sheets:\n  - {width_mm: 100, height_mm: 100}\nparts:\n  - {file: disc.dxf, qty: 2}\n");
   const test::CliResult unk = test::Cli().run("nest '" + unknown + "'");
   EXPECT_EQ(unk.code, 2);
