@@ -28,6 +28,9 @@
 namespace machplan::nesting {
 
 struct Sheet {
+  Sheet() = default;
+  Sheet(double width, double height, double margin) : width_mm(width), height_mm(height), margin_mm(margin) {}
+
   double width_mm = 0.0, height_mm = 0.0;  // x along width_mm
   double margin_mm = 0.0;                  // kept clear on every side (and of a remnant's edges)
   // A remnant: the material's outline, with its cut-outs as holes, placed so that the box
