@@ -100,7 +100,7 @@ json nest_json(const nesting::NestRequest& r, const nesting::NestResult& n, cons
           {"search_s", t.work_s_spent()}, {"search_ended", t.describe()},
           {"strip_search", {{"start_length_mm", search.start_length_mm}, {"shrinks_tried", search.shrinks_tried},
                             {"shrinks_kept", search.shrinks_kept}, {"moves", search.moves},
-                            {"collision_tests", search.tests}, {"deep_pairs", search.deep_pairs}, {"pole_pairs", search.pole_pairs},
+                            {"collision_tests", search.tests}, {"collision_steps", search.meets_steps}, {"deep_pairs", search.deep_pairs}, {"pole_pairs", search.pole_pairs},
                             {"note", search.note}}},
           {"certified", cert.certified}, {"violations", cert.violations}, {"sheets", sheets},
           {"placements", placements},    {"unplaced", unplaced}};

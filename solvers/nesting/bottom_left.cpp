@@ -227,8 +227,14 @@ NestResult bottom_left_nest(const NestRequest& r, const ShapeSet& shapes, Termin
   ShapeSet fixed;
   for (const Sheet& sheet : r.sheets) fixed.push_back(sheet_obstacles(sheet, r.spacing_mm, r.tolerance_mm));
   std::int64_t tests = 0;
+  std::int64_t steps = meets_steps();
+  // Each fill's work: its collision tests and the steps of their exact tests.
+  const auto charge = [&] {
+    t.charge(1, static_cast<double>(tests) * kTestCostS + static_cast<double>(meets_steps() - steps) * kMeetsStepCostS);
+    steps = meets_steps();
+  };
   NestResult best = first ? *first : fill(r, shapes, fixed, order, tests);
-  t.charge(1, static_cast<double>(tests) * kTestCostS);
+  charge();
   std::mt19937_64 rng(seed);
   int fills = 1;
   while (order.size() > 1 && !t.should_end()) {
@@ -242,7 +248,7 @@ NestResult bottom_left_nest(const NestRequest& r, const ShapeSet& shapes, Termin
     }
     tests = 0;
     NestResult n = fill(r, shapes, fixed, tried, tests);
-    t.charge(1, static_cast<double>(tests) * kTestCostS);
+    charge();
     ++fills;
     if (better(n, best)) best = std::move(n), order = std::move(tried);
   }

@@ -124,6 +124,7 @@ class Strip {
   std::vector<Box> boxes_;
   Tree tree_;
   std::int64_t tests_ = 0, pole_pairs_ = 0, deep_pairs_ = 0, moves_ = 0, all_tests_ = 0, all_pole_pairs_ = 0, all_deep_pairs_ = 0;
+  std::int64_t steps_at_ = meets_steps(), all_steps_ = 0;  // meets()'s steps on this thread: when last charged, charged
 };
 
 void Strip::load(std::vector<Item> items) {
@@ -267,9 +268,11 @@ void Strip::move(std::size_t i) {
 }
 
 void Strip::charge() {
-  t_.charge(0, static_cast<double>(tests_) * kSearchTestCostS + static_cast<double>(pole_pairs_) * kPoleCostS +
-                  static_cast<double>(deep_pairs_) * kDeepPairCostS);
-  all_tests_ += tests_, all_pole_pairs_ += pole_pairs_, all_deep_pairs_ += deep_pairs_;
+  const std::int64_t steps = meets_steps() - steps_at_;
+  steps_at_ = meets_steps();
+  t_.charge(0, static_cast<double>(tests_) * kSearchTestCostS + static_cast<double>(steps) * kMeetsStepCostS +
+                  static_cast<double>(pole_pairs_) * kPoleCostS + static_cast<double>(deep_pairs_) * kDeepPairCostS);
+  all_tests_ += tests_, all_pole_pairs_ += pole_pairs_, all_deep_pairs_ += deep_pairs_, all_steps_ += steps;
   tests_ = pole_pairs_ = deep_pairs_ = 0;
 }
 
@@ -441,6 +444,7 @@ std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats, NestP
   report();
   stats.moves += moves_;
   stats.tests += all_tests_;
+  stats.meets_steps += all_steps_;
   stats.pole_pairs += all_pole_pairs_;
   stats.deep_pairs += all_deep_pairs_;
   return best;
@@ -504,6 +508,7 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
     stats.shrinks_kept += e.shrinks_kept;
     stats.moves += e.moves;
     stats.tests += e.tests;
+    stats.meets_steps += e.meets_steps;
     stats.pole_pairs += e.pole_pairs;
     stats.deep_pairs += e.deep_pairs;
   }

@@ -115,6 +115,11 @@ bool in_material(const std::vector<std::vector<Eigen::Vector2d>>& rings, const E
 
 }  // namespace
 
+std::int64_t& meets_steps() {
+  thread_local std::int64_t steps = 0;
+  return steps;
+}
+
 bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Eigen::Vector2d& at_b) {
   const Eigen::Vector2d o = at_b - at_a;  // b in a's frame
   const Eigen::AlignedBox2d box_a(Eigen::Vector2d(a.box.min_corner().x(), a.box.min_corner().y()),
@@ -124,11 +129,22 @@ bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Ei
   const Eigen::AlignedBox2d both = box_a.intersection(box_b);
   if (both.isEmpty()) return false;
   thread_local std::vector<Edge> ea, eb;
+  std::int64_t& steps = meets_steps();
+  const auto vertices = [](const Shape& s) {
+    std::int64_t n = 0;
+    for (const auto& r : s.rings) n += static_cast<std::int64_t>(r.size());
+    return n;
+  };
+  const std::int64_t na = vertices(a), nb = vertices(b);
+  steps += na + nb;
   edges_in(a.rings, Eigen::Vector2d::Zero(), both, ea);
   edges_in(b.rings, o, both, eb);
-  for (const Edge& e : ea)
+  for (const Edge& e : ea) {
+    steps += static_cast<std::int64_t>(eb.size());
     for (const Edge& f : eb)
       if (segments_meet(e, f)) return true;
+  }
+  steps += 2 * (na + nb);
   // No edges meet: one lies in the other's material, or they are apart. Tested at a point deep
   // in each one's material (its largest pole's centre, when that is more than the polygons'
   // tolerance from its edge, turned or not) and at a vertex: a vertex alone may sit

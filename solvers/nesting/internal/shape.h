@@ -74,6 +74,10 @@ std::vector<Shape> sheet_obstacles(const Sheet& sheet, double spacing_mm, double
 // or a vertex of one inside the other's material. Thread-safe.
 bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Eigen::Vector2d& at_b);
 
+// The steps meets() took on this thread since it started: edges scanned, pairs of edges tested
+// and vertices of the point-in-polygon tests. What its work is charged by (strip_search.cpp).
+std::int64_t& meets_steps();
+
 // The box moved by (x, y).
 Box moved(const Box& b, double x, double y);
 
