@@ -179,7 +179,9 @@ def why(d):
 
 def run_job(d, out_dir, port, token):
     wait_until(lambda: not visible(d, "login"), "logged in from the printed URL")
-    check("token" not in d.current_url, "the token left the address bar")
+    # The page drops the token from the address once its login answered; the login form may be
+    # hidden before the page's script ran at all, so this is waited for, not read at once.
+    wait_until(lambda: "token" not in d.current_url, "the token left the address bar")
     wait_until(lambda: text(d, "link") == "live", "the live stream is up")
     wait_until(lambda: "thermal_gantry" in text(d, "machine"), "the machine is named")
     check(d.find_element(By.ID, "estop").is_enabled() and state(d) == "idle", "connected: the E-STOP is live, the state idle")
