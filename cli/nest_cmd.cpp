@@ -352,7 +352,7 @@ void add_nest(CLI::App& app) {
   cmd->add_flag("--json", a->json, "print JSON instead of the readable report");
   cmd->callback([a, cmd] {
     nesting::NestRequest r = request_of(*a, cmd);
-    (void)program_args(*a, cmd);  // bad program flags refused before the search
+    const ProgramArgs programs_with = program_args(*a, cmd);  // bad program flags refused before the search
     if (!(a->time >= 0 && a->time <= 86400)) throw InputError("--time", 0, fmt::format("{} must be in [0, 86400] s", a->time));
     Termination t(StopOnSignals::stop_token());
     if (a->time > 0) t.set_deadline(a->time, "nominal search time");
@@ -370,7 +370,7 @@ void add_nest(CLI::App& app) {
     const nesting::Certificate cert = nesting::certify(r.parts, n.placements, r.sheets, r.spacing_mm);
     json j = nest_json(r, n, search, cert, t);
     if (!a->out.empty()) {
-      const json programs = write_programs(r, n, a->out, program_args(*a, cmd));
+      const json programs = write_programs(r, n, a->out, programs_with);
       for (std::size_t k = 0; k < programs.size(); ++k) j["sheets"][k].update(programs[k]);  // both per sheet used, in order
     }
     if (a->json) print_json(j);

@@ -89,6 +89,11 @@ const char* to_string(ProgramEvent::Kind kind);
 const char* to_string(Move::PathMode mode);
 
 const char* to_string(Move::Kind kind);
+// Whether `m` moves the tool (a rapid, a line or an arc): what sets the position its successor
+// starts from.
+inline bool is_motion(const Move& m) {
+  return m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc;
+}
 
 // Whose reading of G-code (engine/programs/gcode.h): LinuxCNC's RS274NGC, GRBL's, or the one
 // the text points to (a reader's option only; a Program is read as one of the first two).

@@ -22,10 +22,6 @@ namespace {
 using Eigen::Vector2d;
 constexpr double kZ = 1e-9;  // Z changes below this are none, mm
 
-bool is_motion(const Move& m) {
-  return m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc;
-}
-
 // A place on a cut's loop: segment `span` of the loop (0 = its first), at parameter t in [0, 1).
 struct Entry {
   std::size_t span = 0;

@@ -288,8 +288,7 @@ std::vector<std::string> ignored_words(const Program& program, const std::string
 void flatten_z(Program& program, const std::string& machine, std::vector<std::string>& warnings) {
   double z = program.start.z();
   for (const Move& m : program.moves) {
-    const bool motion = m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc;
-    if (!motion || m.plane != Move::Plane::xy) continue;
+    if (!is_motion(m) || m.plane != Move::Plane::xy) continue;
     if (std::abs(m.end.z() - z) > 1e-9) {
       warnings.push_back(fmt::format("{}:{}: Z words dropped from here on (Z {:.6g} -> {:.6g} mm): machine '{}' moves X "
                                      "and Y only (strict_z refuses them instead)",

@@ -60,26 +60,6 @@ std::optional<std::string> too_close(const Placed& a, const Placed& b) {
   return fmt::format("{} overlaps {} (or lies in a hole too small for it with the spacing)", b.name, a.name);
 }
 
-// A remnant's usable region: its outline shrunk by the margin (maybe in pieces) and its
-// cut-outs grown by it.
-struct RemnantRoom {
-  std::vector<Contour> inside, cutouts;
-};
-
-RemnantRoom room_of(const Sheet& s) {
-  RemnantRoom r;
-  r.inside = s.margin_mm > 0 ? offset_contour(s.remnant->outer, -s.margin_mm).contours : std::vector<Contour>{s.remnant->outer};
-  for (const Contour& h : s.remnant->holes) {
-    const Contour cut = h.reversed();
-    if (s.margin_mm <= 0) {
-      r.cutouts.push_back(cut);
-      continue;
-    }
-    for (Contour& c : offset_contour(cut, s.margin_mm).contours) r.cutouts.push_back(std::move(c));
-  }
-  return r;
-}
-
 // Why copy `c` on remnant sheet `k` is off its usable region, if it is.
 std::optional<std::string> off_remnant(const Placed& c, const RemnantRoom& room, int k) {
   const Eigen::Vector2d probe = c.outer.vertices().front();
@@ -101,6 +81,15 @@ std::optional<std::string> off_remnant(const Placed& c, const RemnantRoom& room,
 }
 
 }  // namespace
+
+RemnantRoom remnant_room(const Sheet& s) {
+  RemnantRoom r;
+  if (!s.remnant) return r;
+  r.inside = offset_contour(s.remnant->outer, -s.margin_mm).contours;  // a margin of 0: the outline itself
+  for (const Contour& h : s.remnant->holes)
+    for (Contour& c : offset_contour(h.reversed(), s.margin_mm).contours) r.cutouts.push_back(std::move(c));
+  return r;
+}
 
 Certificate certify(const std::vector<NestPart>& parts, const std::vector<Placement>& placements, const std::vector<Sheet>& sheets,
                     double spacing_mm) {
@@ -126,7 +115,7 @@ Certificate certify(const std::vector<NestPart>& parts, const std::vector<Placem
                                            usable.min().y(), usable.max().y(), b.min().x(), b.max().x(), b.min().y(),
                                            b.max().y()));
     auto& room = rooms[static_cast<std::size_t>(p.sheet)];
-    if (s.remnant && !room) room = room_of(s);
+    if (s.remnant && !room) room = remnant_room(s);
     if (room)
       if (auto why = off_remnant(placed.back(), *room, p.sheet)) out.violations.push_back(*why);
   }

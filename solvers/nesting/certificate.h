@@ -45,6 +45,13 @@ struct Certificate {
   std::vector<std::string> violations;  // one line each, naming the copies and where
 };
 
+// A remnant's usable region: its outline shrunk by the margin (maybe in pieces) and its cut-outs
+// grown by it (counter-clockwise). Empty for a whole sheet.
+struct RemnantRoom {
+  std::vector<Contour> inside, cutouts;
+};
+RemnantRoom remnant_room(const Sheet& sheet);
+
 // `placements[i].part` indexes `parts`, `.sheet` indexes `sheets`. Throws InputError for an
 // index out of range or a negative spacing.
 Certificate certify(const std::vector<NestPart>& parts, const std::vector<Placement>& placements,

@@ -6,7 +6,6 @@
 
 #include <fmt/format.h>
 
-#include "engine/geometry/offset.h"
 #include "engine/motion/make_job.h"
 #include "solvers/common/picture.h"
 
@@ -40,9 +39,9 @@ void plot_sheet(const std::string& path, const std::vector<NestPart>& parts, con
     c.set_source_rgb(0.6, 0.6, 0.6);
     c.set_line_width(1);
     if (s.remnant && s.margin_mm > 0) {
-      for (const Contour& k : offset_contour(s.remnant->outer, -s.margin_mm).contours) trace_contour(c, v, k);
-      for (const Contour& h : s.remnant->holes)
-        for (const Contour& k : offset_contour(h.reversed(), s.margin_mm).contours) trace_contour(c, v, k);
+      const RemnantRoom room = remnant_room(s);
+      for (const Contour& k : room.inside) trace_contour(c, v, k);
+      for (const Contour& k : room.cutouts) trace_contour(c, v, k);
     } else if (!s.remnant) {
       c.rectangle(v.sx(s.margin_mm), v.sy(s.height_mm - s.margin_mm), scale * (s.width_mm - 2 * s.margin_mm),
                   scale * (s.height_mm - 2 * s.margin_mm));
@@ -85,7 +84,7 @@ void plot_sheet(const std::string& path, const std::vector<NestPart>& parts, con
         for (const Segment& g : motion::move_segments(m, at.head<2>())) trace_segment(c, v, g, std::exchange(first, false));
         c.stroke();
       }
-      if (m.kind == Move::Kind::rapid || m.kind == Move::Kind::line || m.kind == Move::Kind::arc) at = m.end;
+      if (is_motion(m)) at = m.end;
     }
     c.set_source_rgb(0, 0, 0);
     draw_text(c, kMargin, 30, title, 15);

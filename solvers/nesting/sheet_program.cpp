@@ -10,6 +10,7 @@
 
 #include "engine/common/error.h"
 #include "engine/geometry/offset.h"
+#include "engine/motion/make_job.h"
 #include "solvers/motion/cut_order.h"
 
 namespace machplan::nesting {
@@ -30,6 +31,9 @@ struct Loop {
 };
 
 Vector2d left_of(const Vector2d& t) { return {-t.y(), t.x()}; }
+
+// The waste side of a cut travelling along t: left of it when the part is kept on the right.
+Vector2d waste_side(const Vector2d& t, const SheetProgramOptions& o) { return o.part_on_right ? left_of(t) : -left_of(t); }
 
 // The loops of one placed copy: its holes, then its outline.
 void add_loops(const NestPart& part, const Placement& pl, const SheetProgramOptions& o, std::vector<Loop>& loops,
@@ -143,7 +147,7 @@ class LeadPlanner {
   // A lead must stay on the waste side, and at least half as far from its own contour as
   // beside a straight one (so its pierce point is not on the part's edge).
   double room(std::size_t k, const Vector2d& P, const Vector2d& t, const LeadPath& lead, bool out) const {
-    const Vector2d w = o_.part_on_right ? left_of(t) : -left_of(t);
+    const Vector2d w = waste_side(t, o_);
     double least = std::numeric_limits<double>::infinity();
     for (double f : {0.25, 0.5, 0.75, 1.0}) {
       const Vector2d q = lead_point(P, t, w, lead, out, f);
@@ -302,7 +306,7 @@ void add_cut(Builder& b, const LeadPlanner& planner, const std::vector<Loop>& lo
   const Contour& c = entry.loop;
   const Vector2d P = c.vertices().front();
   const Vector2d t = start_direction(c);
-  const Vector2d w = o.part_on_right ? left_of(t) : -left_of(t);
+  const Vector2d w = waste_side(t, o);
   const LeadPath in = entry.lead ? *entry.lead : fitted(planner, loops, k, P, t, o.lead_in, false, sp);
   b.rapid(in.lead.length_mm > 0 ? lead_point(P, t, w, in, false, 1.0) : P);
   b.torch(true);
@@ -328,19 +332,17 @@ void add_cut(Builder& b, const LeadPlanner& planner, const std::vector<Loop>& lo
     left -= f * len;
   }
   const Vector2d Q = b.at();
-  const Vector2d wq = o.part_on_right ? left_of(tq) : -left_of(tq);
+  const Vector2d wq = waste_side(tq, o);
   b.lead(Q, tq, wq, fitted(planner, loops, k, Q, tq, o.lead_out, true, sp), true);
   b.torch(false);
   ++sp.cuts;
 }
 
-// The sweep of arc move m from `from`, rad, signed (counter-clockwise positive); a full turn when
-// it ends where it starts.
+// The sweep of arc move m from `from`, rad, signed (counter-clockwise positive), as make_job
+// reads it (a full turn when it ends where it starts).
 double arc_sweep(const Move& m, const Vector2d& from) {
-  const Vector2d a = from - m.center, b = m.end.head<2>() - m.center;
-  double sweep = std::atan2(cross(a, b), a.dot(b));
-  if (m.clockwise && sweep >= -1e-12) sweep -= 2 * std::numbers::pi;
-  if (!m.clockwise && sweep <= 1e-12) sweep += 2 * std::numbers::pi;
+  double sweep = 0.0;
+  for (const Segment& s : motion::move_segments(m, from)) sweep += s.sweep;
   return sweep;
 }
 
@@ -370,7 +372,7 @@ void join_arcs(Program& p) {
       sweep = arc ? arc_sweep(m, at) : 0.0;
       out.push_back(m);
     }
-    if (m.kind != Move::Kind::torch_on && m.kind != Move::Kind::torch_off && m.kind != Move::Kind::dwell) at = m.end.head<2>();
+    if (is_motion(m)) at = m.end.head<2>();
   }
   index[p.moves.size()] = out.size();
   for (ProgramEvent& e : p.events) e.before_move = index[e.before_move];
@@ -400,7 +402,7 @@ void hold_thc_in_small_holes(Program& p, double diameter_mm) {
         added.push_back(e);
       }
     }
-    if (m.kind != Move::Kind::torch_on && m.kind != Move::Kind::torch_off && m.kind != Move::Kind::dwell) at = m.end.head<2>();
+    if (is_motion(m)) at = m.end.head<2>();
   }
   added.insert(added.end(), p.events.begin(), p.events.end());
   std::stable_sort(added.begin(), added.end(), [](const ProgramEvent& a, const ProgramEvent& b) { return a.before_move < b.before_move; });

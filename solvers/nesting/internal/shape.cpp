@@ -130,13 +130,7 @@ bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Ei
   if (both.isEmpty()) return false;
   thread_local std::vector<Edge> ea, eb;
   std::int64_t& steps = meets_steps();
-  const auto vertices = [](const Shape& s) {
-    std::int64_t n = 0;
-    for (const auto& r : s.rings) n += static_cast<std::int64_t>(r.size());
-    return n;
-  };
-  const std::int64_t na = vertices(a), nb = vertices(b);
-  steps += na + nb;
+  steps += a.vertices + b.vertices;
   edges_in(a.rings, Eigen::Vector2d::Zero(), both, ea);
   edges_in(b.rings, o, both, eb);
   for (const Edge& e : ea) {
@@ -144,7 +138,7 @@ bool meets(const Shape& a, const Eigen::Vector2d& at_a, const Shape& b, const Ei
     for (const Edge& f : eb)
       if (segments_meet(e, f)) return true;
   }
-  steps += 2 * (na + nb);
+  steps += 2 * (a.vertices + b.vertices);
   // No edges meet: one lies in the other's material, or they are apart. Tested at a point deep
   // in each one's material (its largest pole's centre, when that is more than the polygons'
   // tolerance from its edge, turned or not) and at a vertex: a vertex alone may sit
@@ -205,6 +199,7 @@ Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing
   };
   s.rings.push_back(ring_of(s.poly.outer()));
   for (const auto& h : s.poly.inners()) s.rings.push_back(ring_of(h));
+  for (const auto& r : s.rings) s.vertices += static_cast<std::int64_t>(r.size());
   Poly hull;
   bg::convex_hull(s.poly, hull);
   s.hull_area_mm2 = bg::area(hull);

@@ -52,6 +52,7 @@ struct Shape {
   Eigen::AlignedBox2d part_box;  // the true part's (what must lie in the sheet's usable area)
   Poles poles;
   std::vector<std::vector<Eigen::Vector2d>> rings;  // the polygon's: the outer first, then the holes (not closed)
+  std::int64_t vertices = 0;     // of all its rings
   double area_mm2 = 0.0;         // the polygon's
   double hull_area_mm2 = 0.0;    // its convex hull's
   double diameter_mm = 0.0;      // its box's diagonal
