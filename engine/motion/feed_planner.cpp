@@ -9,12 +9,15 @@
 #include <fmt/format.h>
 
 #include "engine/common/error.h"
+#include "engine/motion/internal/speed_profile.h"
 #include "engine/motion/interpolator.h"
 
 namespace machplan::motion {
 namespace {
 
 using Eigen::Vector2d;
+using internal::kAccelTable;
+using internal::SpeedZone;
 constexpr double kTangentRad = 1e-9;        // planner: junctions this straight are passed as they are
 constexpr double kBoundTangentRad = 1e-6;   // bound: junctions this straight are not counted as stops
 constexpr double kMinPieceMm = 1e-9;        // shorter pieces are dropped
@@ -24,7 +27,6 @@ constexpr int kDeviationSamples = 64;
 
 Vector2d left_normal(const Vector2d& t) { return Vector2d(-t.y(), t.x()); }
 
-void require(bool ok, const char* field, double value, const char* rule) { require_field(ok, field, value, rule); }
 
 }  // namespace
 
@@ -121,13 +123,6 @@ double sampled_deviation(const std::vector<Segment>& pieces, const Segment& a, c
 
 // ---- S-curve transitions -------------------------------------------------------------
 
-// Duration of one jerk-limited speed change by dv >= 0 with acceleration <= a.
-double pulse_time(double dv, double a, double j) {
-  if (dv <= 0.0) return 0.0;
-  if (dv <= a * a / j) return 2.0 * std::sqrt(dv / j);
-  return dv / a + a / j;
-}
-
 // An arc as the acceleration box sees it: curvature and, per axis i, the range of |n_i| over
 // the arc (|n_x| = |cos th|, |n_y| = |sin th| of the radial angle th; the tangent's |u_i| is
 // sqrt(1 - |n_i|^2)).
@@ -189,107 +184,6 @@ struct PieceInfo {
   double kappa = 0.0;                                       // arcs: curvature 1/r
   double jerk = 0.0;  // path jerk limit: lines min_i J / |u_i| (a box, as a_line); arcs J
   bool stop_before = false;
-};
-
-// A run of pieces planned as one accelerate / cruise / decelerate block. Its tangential
-// acceleration cap depends on the speed through the normal acceleration v^2 kappa of its
-// arcs: A(v) = min(a_line, min over its arcs of arc_tangential_accel(v)), non-increasing in
-// v, kept as a table on kAccelTable + 1 speeds from 0 to the cap and read at the table speed
-// at or above v (so never above the true value). A speed change is made of pulses in two
-// bands, below and above v_split = 0.7 cap, each with the A of its top speed.
-constexpr int kAccelTable = 32;
-struct Zone {
-  std::size_t first = 0, last = 0;  // piece range [first, last]
-  double s0 = 0.0, length = 0.0, cap = 0.0;
-  double a_line = std::numeric_limits<double>::infinity(), kappa = 0.0;
-  double jerk = std::numeric_limits<double>::infinity();  // path jerk limit, mm/s^3
-  std::vector<double> a_arc;  // the table; empty without arcs
-
-  double accel(double v_top) const {
-    double a = a_line;
-    if (!a_arc.empty()) {
-      const double x = cap > 0.0 ? v_top / cap * kAccelTable : 0.0;
-      const int k = std::clamp(static_cast<int>(std::ceil(x - 1e-9)), 0, kAccelTable);
-      a = std::min(a, a_arc[k]);
-    }
-    return a;
-  }
-  double split() const { return kappa > 0.0 ? 0.7 * cap : cap; }
-};
-
-// Distance covered by the speed change v0 -> v1 in zone z.
-double transition_distance(double v0, double v1, const Zone& z) {
-  const double j = z.jerk;
-  const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
-  if (hi <= m || lo >= m) return 0.5 * (lo + hi) * pulse_time(hi - lo, z.accel(hi), j);
-  return 0.5 * (lo + m) * pulse_time(m - lo, z.accel(m), j) + 0.5 * (m + hi) * pulse_time(hi - m, z.accel(hi), j);
-}
-// Highest v1 in [v0, cap] that one transition from v0 reaches within the zone's length.
-double reachable(double v0, const Zone& z, double cap) {
-  if (cap <= v0) return cap;
-  if (transition_distance(v0, cap, z) <= z.length) return cap;
-  double lo = v0, hi = cap;
-  for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
-    const double mid = 0.5 * (lo + hi);
-    (transition_distance(v0, mid, z) <= z.length ? lo : hi) = mid;
-  }
-  return lo;
-}
-
-class ProfileBuilder {
- public:
-  explicit ProfileBuilder(std::vector<ProfilePhase>& out) : out_(out) {}
-  void anchor(double t, double s, double v) { t_ = t; s_ = s; v_ = v; a_ = 0.0; }
-  void phase(double jerk, double dur) {
-    if (!(dur > 0.0)) return;
-    ProfilePhase p;
-    p.t0_s = t_;
-    p.duration_s = dur;
-    p.s0_mm = s_;
-    p.v0_mm_per_s = v_;
-    p.a0_mm_per_s2 = a_;
-    p.jerk_mm_per_s3 = jerk;
-    out_.push_back(p);
-    s_ += v_ * dur + a_ * dur * dur / 2.0 + jerk * dur * dur * dur / 6.0;
-    v_ += a_ * dur + jerk * dur * dur / 2.0;
-    a_ += jerk * dur;
-    t_ += dur;
-  }
-  // One symmetric pulse from v0 to v1 with acceleration <= a.
-  void pulse(double v0, double v1, double a, double j) {
-    const double dv = std::abs(v1 - v0);
-    if (dv <= 0.0) return;
-    const double sg = v1 > v0 ? 1.0 : -1.0;
-    if (dv <= a * a / j) {
-      const double tj = std::sqrt(dv / j);
-      phase(sg * j, tj);
-      phase(-sg * j, tj);
-    } else {
-      const double tj = a / j;
-      phase(sg * j, tj);
-      phase(0.0, dv / a - a / j);
-      phase(-sg * j, tj);
-    }
-    v_ = v1;  // remove rounding: the pulse ends exactly at v1 with zero acceleration
-    a_ = 0.0;
-  }
-  void transition(double v0, double v1, const Zone& z) {
-    const double j = z.jerk;
-    const double lo = std::min(v0, v1), hi = std::max(v0, v1), m = z.split();
-    if (hi <= m || lo >= m) return pulse(v0, v1, z.accel(hi), j);
-    if (v1 > v0) {
-      pulse(v0, m, z.accel(m), j);
-      pulse(m, v1, z.accel(v1), j);
-    } else {
-      pulse(v0, m, z.accel(v0), j);
-      pulse(m, v1, z.accel(m), j);
-    }
-  }
-  double t() const { return t_; }
-
- private:
-  std::vector<ProfilePhase>& out_;
-  double t_ = 0.0, s_ = 0.0, v_ = 0.0, a_ = 0.0;
 };
 
 // Smallest |cos| (which = 0) or |sin| (which = 1) over angles [lo, hi].
@@ -449,22 +343,22 @@ int build_executed_path(const Stretch& stretch, const std::vector<std::size_t>& 
 
 // Step 3: zones, consecutive pieces whose speed caps agree within kZoneMergeRel, with the
 // tangential acceleration table of those holding arcs.
-std::vector<Zone> make_zones(const Stretch& path, const std::vector<PieceInfo>& info,
+std::vector<SpeedZone> make_zones(const Stretch& path, const std::vector<PieceInfo>& info,
                              const std::vector<double>& piece_s0, const Vector2d& amax) {
-  std::vector<Zone> zones;
+  std::vector<SpeedZone> zones;
   for (std::size_t k = 0; k < info.size(); ++k) {
     const PieceInfo& pi = info[k];
     const double l = length(path.segments[k]);
     bool join = !zones.empty() && !pi.stop_before;
     if (join) join = std::abs(pi.cap - info[zones.back().first].cap) <= kZoneMergeRel * info[zones.back().first].cap;
     if (!join) {
-      Zone z;
+      SpeedZone z;
       z.first = k;
       z.s0 = piece_s0[k];
       z.cap = pi.cap;
       zones.push_back(z);
     }
-    Zone& z = zones.back();
+    SpeedZone& z = zones.back();
     z.last = k;
     z.length += l;
     z.cap = std::min(z.cap, pi.cap);
@@ -472,7 +366,7 @@ std::vector<Zone> make_zones(const Stretch& path, const std::vector<PieceInfo>& 
     z.kappa = std::max(z.kappa, pi.kappa);
     z.jerk = std::min(z.jerk, pi.jerk);
   }
-  for (Zone& z : zones) {
+  for (SpeedZone& z : zones) {
     if (!(z.kappa > 0.0)) continue;
     z.a_arc.assign(kAccelTable + 1, std::numeric_limits<double>::infinity());
     for (std::size_t k = z.first; k <= z.last; ++k) {
@@ -482,47 +376,6 @@ std::vector<Zone> make_zones(const Stretch& path, const std::vector<PieceInfo>& 
     }
   }
   return zones;
-}
-
-// Step 3: the node speeds between zones: caps (0 at a stop), then the reverse and forward
-// passes.
-std::vector<double> node_speeds(const std::vector<Zone>& zones, const std::vector<PieceInfo>& info) {
-  const std::size_t nz = zones.size();
-  std::vector<double> node(nz + 1, 0.0);
-  for (std::size_t k = 1; k < nz; ++k)
-    node[k] = info[zones[k].first].stop_before ? 0.0 : std::min(zones[k - 1].cap, zones[k].cap);
-  for (std::size_t k = nz; k-- > 1;)
-    node[k] = std::min(node[k], reachable(node[k + 1], zones[k], node[k]));
-  for (std::size_t k = 1; k < nz; ++k)
-    node[k] = std::min(node[k], reachable(node[k - 1], zones[k - 1], node[k]));
-  return node;
-}
-
-// Step 3: one accelerate / cruise / decelerate profile per zone, at the highest peak speed
-// that fits its length, into `phases`; returns the duration.
-double build_profile(const std::vector<Zone>& zones, const std::vector<double>& node,
-                     std::vector<ProfilePhase>& phases) {
-  ProfileBuilder pb(phases);
-  for (std::size_t k = 0; k < zones.size(); ++k) {
-    const Zone& z = zones[k];
-    const double v0 = node[k], v1 = node[k + 1];
-    auto need = [&](double vp) { return transition_distance(v0, vp, z) + transition_distance(vp, v1, z); };
-    double vp = z.cap;
-    if (need(vp) > z.length) {
-      double lo = std::max(v0, v1), hi = z.cap;
-      for (int it = 0; it < 100 && hi - lo > 1e-12 * std::max(1.0, hi); ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (need(mid) <= z.length ? lo : hi) = mid;
-      }
-      vp = lo;
-    }
-    pb.anchor(pb.t(), z.s0, v0);
-    pb.transition(v0, vp, z);
-    const double cruise = z.length - need(vp);
-    if (cruise > 0.0 && vp > 0.0) pb.phase(0.0, cruise / vp);
-    pb.transition(vp, v1, z);
-  }
-  return pb.t();
 }
 
 }  // namespace
@@ -539,20 +392,20 @@ PlannerOptions PlannerOptions::xy_table() {
 
 void PlannerOptions::validate() const {
   for (int i = 0; i < 2; ++i) {
-    require(std::isfinite(max_velocity_mm_per_s[i]) && max_velocity_mm_per_s[i] > 0,
+    require_field(std::isfinite(max_velocity_mm_per_s[i]) && max_velocity_mm_per_s[i] > 0,
             i == 0 ? "max_velocity_mm_per_s.x" : "max_velocity_mm_per_s.y", max_velocity_mm_per_s[i],
             "must be finite and > 0");
-    require(std::isfinite(max_acceleration_mm_per_s2[i]) && max_acceleration_mm_per_s2[i] > 0,
+    require_field(std::isfinite(max_acceleration_mm_per_s2[i]) && max_acceleration_mm_per_s2[i] > 0,
             i == 0 ? "max_acceleration_mm_per_s2.x" : "max_acceleration_mm_per_s2.y",
             max_acceleration_mm_per_s2[i], "must be finite and > 0");
   }
-  require(std::isfinite(max_jerk_mm_per_s3) && max_jerk_mm_per_s3 > 0, "max_jerk_mm_per_s3", max_jerk_mm_per_s3,
+  require_field(std::isfinite(max_jerk_mm_per_s3) && max_jerk_mm_per_s3 > 0, "max_jerk_mm_per_s3", max_jerk_mm_per_s3,
           "must be finite and > 0");
-  require(std::isfinite(path_tolerance_mm) && path_tolerance_mm > 0, "path_tolerance_mm", path_tolerance_mm,
+  require_field(std::isfinite(path_tolerance_mm) && path_tolerance_mm > 0, "path_tolerance_mm", path_tolerance_mm,
           "must be finite and > 0");
-  require(std::isfinite(servo_period_s) && servo_period_s > 0 && servo_period_s <= 1.0, "servo_period_s",
+  require_field(std::isfinite(servo_period_s) && servo_period_s > 0 && servo_period_s <= 1.0, "servo_period_s",
           servo_period_s, "must be in (0, 1]");
-  require(curve_normal_fraction > 0 && curve_normal_fraction < 1, "curve_normal_fraction", curve_normal_fraction,
+  require_field(curve_normal_fraction > 0 && curve_normal_fraction < 1, "curve_normal_fraction", curve_normal_fraction,
           "must be in (0, 1)");
 }
 
@@ -594,9 +447,12 @@ std::unique_ptr<PlannedTrajectory> plan_stretch_detailed(const Stretch& stretch,
   traj->length_mm_ = total;
 
   // 3. Zones, node speeds (reverse and forward passes), one profile per zone.
-  const std::vector<Zone> zones = make_zones(path, info, traj->piece_s0_, o.max_acceleration_mm_per_s2);
-  const std::vector<double> node = node_speeds(zones, info);
-  traj->duration_s_ = build_profile(zones, node, traj->phases_);
+  const std::vector<SpeedZone> zones = make_zones(path, info, traj->piece_s0_, o.max_acceleration_mm_per_s2);
+  std::vector<double> node_cap(zones.size() + 1, std::numeric_limits<double>::infinity());
+  for (std::size_t k = 1; k < zones.size(); ++k)
+    if (info[zones[k].first].stop_before) node_cap[k] = 0.0;
+  const std::vector<double> node = internal::node_speeds(zones, node_cap);
+  traj->duration_s_ = internal::build_profile(zones, node, traj->phases_);
   for (const ProfilePhase& p : traj->phases_) traj->phase_t0_.push_back(p.t0_s);
   return traj;
 }
@@ -606,21 +462,8 @@ std::unique_ptr<Trajectory> plan_stretch(const Stretch& stretch, const PlannerOp
 }
 
 void PlannedTrajectory::sample(double t_s, Setpoint& out) const {
-  double s = 0.0, v = 0.0, a = 0.0;
-  if (!(t_s > 0.0)) {  // also NaN: the start state
-    s = 0.0;
-  } else if (t_s >= duration_s_ || phases_.empty()) {
-    s = length_mm_;
-  } else {
-    const auto it = std::upper_bound(phase_t0_.begin(), phase_t0_.end(), t_s);
-    const std::size_t k = it == phase_t0_.begin() ? 0 : static_cast<std::size_t>(it - phase_t0_.begin()) - 1;
-    const ProfilePhase& p = phases_[k];
-    const double tau = std::min(t_s - p.t0_s, p.duration_s);
-    s = p.s0_mm + tau * (p.v0_mm_per_s + tau * (p.a0_mm_per_s2 / 2.0 + tau * p.jerk_mm_per_s3 / 6.0));
-    v = std::max(0.0, p.v0_mm_per_s + tau * (p.a0_mm_per_s2 + tau * p.jerk_mm_per_s3 / 2.0));
-    a = p.a0_mm_per_s2 + tau * p.jerk_mm_per_s3;
-    s = std::clamp(s, 0.0, length_mm_);
-  }
+  const ProfileState st = profile_state(phases_, phase_t0_, duration_s_, length_mm_, t_s);
+  const double s = st.s, v = st.v, a = st.a;
   const auto it = std::upper_bound(piece_s0_.begin(), piece_s0_.end(), s);
   const std::size_t k = it == piece_s0_.begin() ? 0 : static_cast<std::size_t>(it - piece_s0_.begin()) - 1;
   const PathPoint pp = interpolate(path_.segments[k], s - piece_s0_[k]);
@@ -654,11 +497,13 @@ double time_lower_bound_s(const Stretch& stretch, const PlannerOptions& o) {
   const Vector2d& amax = o.max_acceleration_mm_per_s2;
 
   // Pieces with relaxed (largest over the piece) caps; `stop_before` at direction jumps.
-  struct P {
-    double len, cap, accel;
-    bool stop_before;
+  std::vector<internal::EnvelopePiece> ps;
+  const auto piece = [](double len, double cap, double accel, bool stop) {
+    internal::EnvelopePiece p;
+    p.length = len, p.cap = cap, p.accel = accel;
+    if (stop) p.node_cap2 = 0.0;
+    return p;
   };
-  std::vector<P> ps;
   bool have_prev = false;
   Vector2d prev_tangent = Vector2d::Zero();
   for (std::size_t i = 0; i < stretch.segments.size(); ++i) {
@@ -673,7 +518,7 @@ double time_lower_bound_s(const Stretch& stretch, const PlannerOptions& o) {
     have_prev = true;
     if (!s.is_arc()) {
       const double ux = std::abs(t0.x()), uy = std::abs(t0.y());
-      ps.push_back({l, std::min(feed, axis_cap(vmax, ux, uy)), axis_cap(amax, ux, uy), stop});
+      ps.push_back(piece(l, std::min(feed, axis_cap(vmax, ux, uy)), axis_cap(amax, ux, uy), stop));
       continue;
     }
     const int parts = std::max(1, static_cast<int>(std::ceil(std::abs(s.sweep) / (kPi / 32.0))));
@@ -687,35 +532,10 @@ double time_lower_bound_s(const Stretch& stretch, const PlannerOptions& o) {
       const double nx = min_abs_trig(lo, hi, 0), ny = min_abs_trig(lo, hi, 1);
       const double a_n = axis_cap(amax, nx, ny);
       const double cap = std::min({feed, axis_cap(vmax, ux, uy), std::sqrt(a_n * s.radius)});
-      ps.push_back({l / parts, cap, axis_cap(amax, ux, uy), k == 0 && stop});
+      ps.push_back(piece(l / parts, cap, axis_cap(amax, ux, uy), k == 0 && stop));
     }
   }
-  if (ps.empty()) return 0.0;
-
-  // Node values of V^2 between pieces; 0 at the ends and at stops.
-  const std::size_t m = ps.size();
-  std::vector<double> w(m + 1, 0.0);
-  for (std::size_t k = 1; k < m; ++k)
-    w[k] = ps[k].stop_before ? 0.0 : std::min(ps[k - 1].cap * ps[k - 1].cap, ps[k].cap * ps[k].cap);
-  for (std::size_t k = m; k-- > 1;) w[k] = std::min(w[k], w[k + 1] + 2.0 * ps[k].accel * ps[k].len);
-  for (std::size_t k = 1; k < m; ++k) w[k] = std::min(w[k], w[k - 1] + 2.0 * ps[k - 1].accel * ps[k - 1].len);
-
-  // integral ds / V over each piece, V = min(cap, sqrt(wa + 2 A x), sqrt(wb + 2 A (L - x))).
-  double time = 0.0;
-  for (std::size_t k = 0; k < m; ++k) {
-    const P& p = ps[k];
-    const double A = p.accel, L = p.len, c2 = p.cap * p.cap;
-    const double wa = std::min(w[k], c2), wb = std::min(w[k + 1], c2);
-    const double x1 = (c2 - wa) / (2.0 * A), x2 = L - (c2 - wb) / (2.0 * A);
-    if (x1 <= x2) {
-      time += (p.cap - std::sqrt(wa)) / A + (x2 - x1) / p.cap + (p.cap - std::sqrt(wb)) / A;
-    } else {
-      const double xm = std::clamp((wb - wa + 2.0 * A * L) / (4.0 * A), 0.0, L);
-      const double wm = wa + 2.0 * A * xm;
-      time += (std::sqrt(wm) - std::sqrt(wa)) / A + (std::sqrt(wm) - std::sqrt(wb)) / A;
-    }
-  }
-  return time;
+  return internal::envelope_time_s(ps);
 }
 
 }  // namespace machplan::motion

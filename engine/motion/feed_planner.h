@@ -108,6 +108,7 @@
 #include <Eigen/Core>
 
 #include "engine/motion/job.h"
+#include "engine/motion/profile.h"
 
 namespace machplan::motion {
 
@@ -141,13 +142,6 @@ struct PlannerOptions {
 
 // Turning angle above which a junction is a stop rather than a blend, rad (171 degrees).
 inline constexpr double kStopAngleRad = 0.95 * 3.14159265358979323846;
-
-// One phase of the path-speed profile: constant jerk for `duration_s` from the state
-// (s0, v0, a0) at time t0.
-struct ProfilePhase {
-  double t0_s = 0.0, duration_s = 0.0;
-  double s0_mm = 0.0, v0_mm_per_s = 0.0, a0_mm_per_s2 = 0.0, jerk_mm_per_s3 = 0.0;
-};
 
 // The trajectory plan_stretch builds. Beyond the Trajectory contract it exposes what it
 // planned, for tests, the executor's checks and reports.

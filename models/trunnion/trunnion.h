@@ -66,6 +66,9 @@ struct LinearAxis {
   Eigen::Vector3d direction = Eigen::Vector3d::UnitX();
   double min_mm = 0.0, max_mm = 0.0;
   double feed_mm_per_s = 0.0, rapid_mm_per_s = 0.0;  // speed limits: cutting, rapid
+  // Acceleration and jerk limits (mm/s^2, mm/s^3; `accel_mm_per_s2`, `jerk_mm_per_s3`), 0 when
+  // the file gives none (see Machine::dynamics_missing).
+  double accel_mm_per_s2 = 0.0, jerk_mm_per_s3 = 0.0;
 };
 
 struct RotaryAxis {
@@ -75,6 +78,9 @@ struct RotaryAxis {
   bool continuous = false;
   double min_rad = 0.0, max_rad = 0.0;
   double feed_rad_per_s = 0.0, rapid_rad_per_s = 0.0;
+  // Acceleration and jerk limits (rad/s^2, rad/s^3; the file's `accel_deg_per_s2`,
+  // `jerk_deg_per_s3`), 0 when it gives none.
+  double accel_rad_per_s2 = 0.0, jerk_rad_per_s3 = 0.0;
   std::vector<Solid> solids;  // the bodies it carries (not those of the axes after it)
   bool within(double angle_rad) const {
     return continuous || (angle_rad >= min_rad - 1e-12 && angle_rad <= max_rad + 1e-12);
@@ -92,6 +98,11 @@ struct Machine {
   Eigen::Vector3d table_origin_mm = Eigen::Vector3d::Zero();  // T0's origin: on the table axis at its top
   double table_radius_mm = 0.0;
   std::vector<Solid> base;  // fixed to the bed (the trunnion's end supports)
+  // Accelerations and jerks are optional in the file (an axis gives both or neither): placing
+  // and checking need only the geometry and the speeds. Timing the path by the feed planner
+  // (`machplan place --objective time`) needs them on every axis; when one lacks them this
+  // says where, as `FILE:LINE: ...` (empty when every axis has them).
+  std::string dynamics_missing;
 
   // Derived at load time.
   Eigen::Matrix3d table_frame = Eigen::Matrix3d::Identity();  // T0's rotation: z along the table axis

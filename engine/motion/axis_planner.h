@@ -1,0 +1,145 @@
+// Feed planning in joint space for a 5-axis machine (three linear axes X, Y, Z in mm, two
+// rotary axes in rad): the path as a chain of joint-space linear moves between consecutive
+// poses, timed as a control with per-axis limits would run it.
+//
+// The path. Move i goes in a straight line in joint space from q_{i-1} to q_i (what a control
+// does between two programmed 5-axis blocks). It is parametrised by a path length l_i:
+//   * the tool tip's path length relative to the workpiece over the move (`tip_mm`), when the
+//     tip moves; this is the length the programmed feed is measured on;
+//   * otherwise (a pure reorientation) the rotary axes' joint-space angle |dr| (rad, counted as
+//     mm of path).
+// Along move i every axis moves at the rate u_i = (q_i - q_{i-1}) / l_i per unit of path: at
+// path speed v axis k moves at v u_ik, accelerates at a u_ik, and so on.
+//
+// Feed. The programmed feed F caps the tip's speed relative to the workpiece: v <= F on a move
+// where the tip moves (tool centre point control: what the CAM's feed means in a 5-axis block;
+// a control given inverse-time feed F / l gets the same time l / F at most). A pure
+// reorientation has no feed cap (its axes' own limits bound it). Rapid moves (feed 0) have no
+// feed cap and run at the axes' rapid speeds.
+//
+// Caps per move (the 2-axis planner's box, engine/motion/feed_planner.h, in five dimensions):
+//   speed         v <= min(F, min_k vmax_k / |u_ik|)       (vmax: cutting or rapid speeds)
+//   acceleration  a <= min_k amax_k / |u_ik|
+//   jerk          j <= min_k jmax_k / |u_ik|
+// so no axis exceeds its speed, acceleration or jerk inside a move.
+//
+// Junctions. Between moves i and i+1 the axis velocities jump from v u_i to v u_{i+1}. A control
+// passes the corner with a short blend; we take GRBL's junction-deviation idea per axis: the
+// blend is a parabola in joint space of path length L_b centred on the corner, over which each
+// axis's velocity changes by v du_k (du = u_{i+1} - u_i) in the time L_b / v, an acceleration of
+// v^2 |du_k| / L_b; the parabola leaves the corner by L_b |du_k| / 8 on axis k. So
+//
+//   L_b = min(l_i, l_{i+1}, min_k 8 tol_k / |du_k|)      (tol: corner_tolerance, mm or rad)
+//   v_junction^2 <= min_k amax_k L_b / |du_k|
+//
+// keeps every axis within its acceleration over the corner and the blend within the tolerance
+// of it. The plan's path does not include the blend (the time over it is counted as on the
+// corner's two legs; the blend is shorter, so that errs on the slow side); sample() reports the
+// corner itself, where the velocity jumps by at most what the blend spreads over L_b / v.
+//
+// Speed profile. Consecutive moves whose speed caps agree within 0.5 % and whose junction
+// does not bind form a zone (taking the smaller caps); a junction that binds is a zone
+// boundary whose speed is at most its junction cap. The zones then go through the look-ahead
+// and jerk-limited S-curve profile the 2-axis planner uses (engine/motion/internal/
+// speed_profile.h: GRBL's reverse and forward passes with S-curve distances, then accelerate /
+// cruise / decelerate per zone at the highest peak its length allows), rest to rest.
+//
+// What it leaves out: servo lag and the blend's own path; jerk across a junction (the
+// acceleration steps there within a zone, as on the 2-axis planner's lines).
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "engine/motion/profile.h"
+
+namespace machplan::motion {
+
+inline constexpr int kJointAxes = 5;
+using JointVector = Eigen::Matrix<double, kJointAxes, 1>;
+
+// Per-axis limits: X, Y, Z (mm), then the two rotary axes (rad).
+struct AxisLimits {
+  JointVector velocity = JointVector::Zero();        // cutting moves, mm/s or rad/s
+  JointVector rapid_velocity = JointVector::Zero();  // rapid moves
+  JointVector acceleration = JointVector::Zero();    // mm/s^2, rad/s^2
+  JointVector jerk = JointVector::Zero();            // mm/s^3, rad/s^3
+  // How far a corner's blend may leave the corner: linear axes (mm), rotary axes (rad).
+  double corner_tolerance_mm = 0.01;
+  double corner_tolerance_rad = 0.0002;  // about 0.01 deg
+
+  // Throws InputError naming the field, its value and the rule (every limit finite and > 0).
+  void validate() const;
+};
+
+// One joint-space linear move, ending at `end`.
+struct JointMove {
+  JointVector end = JointVector::Zero();
+  double tip_mm = 0.0;         // the tool tip's path length relative to the workpiece
+  double feed_mm_per_s = 0.0;  // programmed feed; 0: a rapid move
+};
+
+// Axis positions, velocities and accelerations at one time.
+struct JointState {
+  JointVector position = JointVector::Zero();
+  JointVector velocity = JointVector::Zero();
+  JointVector acceleration = JointVector::Zero();
+};
+
+class JointPlan {
+ public:
+  double duration_s() const { return duration_s_; }
+  // The state at t (clamped to [0, duration]); velocity and acceleration along the move the
+  // path length at t falls in (at a corner: the later move's). No allocation, O(log n).
+  JointState sample(double t_s) const;
+  // The path length, speed and acceleration at t (path units: see the file comment).
+  ProfileState path_state(double t_s) const { return profile_state(phases_, phase_t0_, duration_s_, length_, t_s); }
+  double length() const { return length_; }
+
+  // Per planned move (moves of zero length are dropped): its path length, the speed caps and
+  // the time it would take at its speed cap (the velocity-only time), and per junction after
+  // it the speed cap of the corner rule (infinity when it does not bind).
+  struct Move {
+    double s0 = 0.0, length = 0.0;
+    JointVector start = JointVector::Zero(), rate = JointVector::Zero();  // q = start + (s - s0) rate
+    double speed_cap = 0.0, junction_cap = 0.0;
+  };
+  const std::vector<Move>& moves() const { return moves_; }
+  // Sum over moves of length / speed cap: the time with every axis at most at its speed limit
+  // and no acceleration limit, a lower bound of duration_s().
+  double velocity_only_s() const { return velocity_only_s_; }
+  const std::vector<ProfilePhase>& profile() const { return phases_; }
+  int zones() const { return zones_; }
+
+ private:
+  friend JointPlan plan_joint_moves(const JointVector&, const std::vector<JointMove>&, const AxisLimits&);
+  std::vector<Move> moves_;
+  std::vector<double> move_s0_;
+  std::vector<ProfilePhase> phases_;
+  std::vector<double> phase_t0_;
+  JointVector start_ = JointVector::Zero();
+  double duration_s_ = 0.0, length_ = 0.0, velocity_only_s_ = 0.0;
+  int zones_ = 0;
+};
+
+// Plans the chain of moves from `start` (see the file comment), rest to rest. Throws InputError
+// when the limits are invalid (AxisLimits::validate) and InternalError (the caller built it
+// wrong) when a move has a non-finite position, a negative or non-finite tip length or feed.
+// Thread safe, deterministic; O(n) in the number of moves.
+JointPlan plan_joint_moves(const JointVector& start, const std::vector<JointMove>& moves, const AxisLimits& limits);
+
+// The pieces of the file comment, for callers that bound the planner's time (the placement
+// search): a move's path length (tip_mm, or the rotary angle when the tip stands still; 0 for
+// a move that goes nowhere); its speed, acceleration and jerk caps for the absolute rates
+// |u_k| (feed 0: rapid; `tip_moves`: the feed caps it); the corner rule's speed cap for the
+// absolute rate jump |du_k| with blends up to `max_blend` long (the shorter move's length).
+// Every cap only falls when any |u_k| or |du_k| rises.
+struct MoveCaps {
+  double speed = 0.0, accel = 0.0, jerk = 0.0;
+};
+double joint_move_length(const JointVector& delta, double tip_mm);
+MoveCaps joint_move_caps(const JointVector& rate_abs, double feed_mm_per_s, bool tip_moves, const AxisLimits& limits);
+double junction_speed_cap(const JointVector& jump_abs, double max_blend, const AxisLimits& limits);
+
+}  // namespace machplan::motion
