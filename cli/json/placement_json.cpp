@@ -13,8 +13,14 @@ double finite_or(double v, double big = 1e9) { return std::isfinite(v) ? v : big
 nlohmann::json travel_json(const AxisTravel& t) {
   nlohmann::json axes;
   for (std::size_t k = 0; k < t.axes.size(); ++k) axes[t.axes[k] + (k < 3 ? "_mm" : "_deg")] = t.travel[k];
-  return {{"axes", axes}, {"linear_mm", t.linear_mm}, {"time_s", t.time_s}, {"flips", t.flips},
-          {"forced_flips", t.forced_flips}, {"flip_pose_indices", t.flip_poses}};
+  return {{"axes", axes},
+          {"linear_mm", t.linear_mm},
+          {"time_s", t.time_s},
+          {"timed_by", t.planned ? "feed planner" : "speed limits"},
+          {"velocity_only_time_s", t.velocity_only_time_s},
+          {"flips", t.flips},
+          {"forced_flips", t.forced_flips},
+          {"flip_pose_indices", t.flip_poses}};
 }
 }  // namespace
 
@@ -83,9 +89,13 @@ nlohmann::json placement_result_json(const Scene& scene, const PlacementResult& 
                         {"rotation_deg", w.rotation_deg}, {"rotation_axis", w.rotation_axis}, {"frame", w.frame}};
     if (r.objective != PlacementOptions::Objective::lowest) j["objective_value"] = r.objective_value;
   }
-  if (r.travel) j["axis_travel"] = travel_json(*r.travel);
+  if (r.travel) {
+    j["axis_travel"] = travel_json(*r.travel);
+    j["time_s"] = r.travel->time_s;
+  }
   if (r.centre_travel) {
     j["table_centre_travel"] = travel_json(*r.centre_travel);
+    j["centre_time_s"] = r.centre_travel->time_s;
     j["linear_travel_saving_percent"] = 100.0 * (1.0 - r.travel->linear_mm / r.centre_travel->linear_mm);
     j["machining_time_saving_percent"] = 100.0 * (1.0 - r.travel->time_s / r.centre_travel->time_s);
   }

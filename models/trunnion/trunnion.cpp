@@ -49,11 +49,13 @@ const NumberRule kJerk{.min = 0, .max = 1e10, .min_exclusive = true};
 // An axis's acceleration and jerk (keys `accel_<unit>_per_s2`, `jerk_<unit>_per_s3`): both or
 // neither; neither leaves 0 and notes the first such axis in `missing`.
 void read_dynamics(const Yaml& y, const std::string& unit, double scale, double& accel, double& jerk,
-                   const std::string& axis, std::string& missing) {
+                   const std::string& axis, Machine& m) {
   const std::string ka = "accel_" + unit + "_per_s2", kj = "jerk_" + unit + "_per_s3";
   if (!y.has(ka) && !y.has(kj)) {
-    if (missing.empty())
-      missing = fmt::format("{}:{}: axis {} gives no {} and {}", y.file(), y.line(), axis, ka, kj);
+    if (m.dynamics_missing.empty()) {
+      m.dynamics_missing = fmt::format("axis {} gives no {} and {}", axis, ka, kj);
+      m.dynamics_missing_line = y.line();
+    }
     return;
   }
   if (!y.has(ka)) y.at(kj).fail(fmt::format("comes without {} (give both or neither)", ka));
@@ -103,7 +105,7 @@ std::vector<Solid> read_solids(const Yaml& y, const std::string& key) {
   return out;
 }
 
-RotaryAxis read_rotary(const Yaml& y, std::initializer_list<const char*> keys, std::string& missing) {
+RotaryAxis read_rotary(const Yaml& y, std::initializer_list<const char*> keys, Machine& m) {
   y.reject_unknown_keys(keys);
   RotaryAxis r;
   r.name = y.string("name");
@@ -119,7 +121,7 @@ RotaryAxis read_rotary(const Yaml& y, std::initializer_list<const char*> keys, s
   }
   r.feed_rad_per_s = y.number("feed_deg_per_min", kSpeed) * kDeg / 60.0;
   r.rapid_rad_per_s = y.number("rapid_deg_per_min", kSpeed) * kDeg / 60.0;
-  read_dynamics(y, "deg", kDeg, r.accel_rad_per_s2, r.jerk_rad_per_s3, r.name, missing);
+  read_dynamics(y, "deg", kDeg, r.accel_rad_per_s2, r.jerk_rad_per_s3, r.name, m);
   r.solids = read_solids(y, "parts");
   return r;
 }
@@ -202,7 +204,7 @@ Machine machine_from_yaml(const Yaml& root) {
     if (a.max_mm <= a.min_mm) y.at("max_mm").fail("must be larger than min_mm");
     a.feed_mm_per_s = y.number("feed_mm_per_min", kSpeed) / 60.0;
     a.rapid_mm_per_s = y.number("rapid_mm_per_min", kSpeed) / 60.0;
-    read_dynamics(y, "mm", 1.0, a.accel_mm_per_s2, a.jerk_mm_per_s3, a.name, m.dynamics_missing);
+    read_dynamics(y, "mm", 1.0, a.accel_mm_per_s2, a.jerk_mm_per_s3, a.name, m);
   }
   for (int i = 0; i < 3; ++i)
     for (int j = i + 1; j < 3; ++j)
@@ -211,11 +213,11 @@ Machine machine_from_yaml(const Yaml& root) {
   m.tilt = read_rotary(root.at("tilt_axis"), {"name", "point_mm", "direction", "continuous", "min_deg", "max_deg",
                                               "feed_deg_per_min", "rapid_deg_per_min", "accel_deg_per_s2", "jerk_deg_per_s3",
                                               "parts"},
-                       m.dynamics_missing);
+                       m);
   const Yaml tab = root.at("rotary_table");
   m.table = read_rotary(tab, {"name", "point_mm", "direction", "continuous", "min_deg", "max_deg", "feed_deg_per_min",
                               "rapid_deg_per_min", "accel_deg_per_s2", "jerk_deg_per_s3", "parts", "radius_mm", "top_mm"},
-                        m.dynamics_missing);
+                        m);
   m.table_radius_mm = tab.number("radius_mm", kSize);
   m.table_origin_mm = position(tab, "top_mm");
   if ((m.table_origin_mm - m.table.point_mm).cross(m.table.direction).norm() > 1e-6)

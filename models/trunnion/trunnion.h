@@ -101,8 +101,9 @@ struct Machine {
   // Accelerations and jerks are optional in the file (an axis gives both or neither): placing
   // and checking need only the geometry and the speeds. Timing the path by the feed planner
   // (`machplan place --objective time`) needs them on every axis; when one lacks them this
-  // says where, as `FILE:LINE: ...` (empty when every axis has them).
+  // says which (empty when every axis has them), and the line of that axis in `source`.
   std::string dynamics_missing;
+  int dynamics_missing_line = 0;
 
   // Derived at load time.
   Eigen::Matrix3d table_frame = Eigen::Matrix3d::Identity();  // T0's rotation: z along the table axis

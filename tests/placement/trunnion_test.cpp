@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "models/trunnion/trunnion.h"
+#include "solvers/placement/search/internal/planned_time.h"
 #include "engine/common/internal/numbers.h"
 #include "solvers/placement/search/internal/objective.h"
 #include "solvers/placement/search/search.h"
@@ -159,10 +160,84 @@ TEST(Trunnion, TheBundledSceneSavesAxisTravelAgainstTheTableCentreWithoutFlips) 
                                              : fmt::format("{} {:.1f} deg", r.travel->axes[k], deg);
     EXPECT_THAT(r.summary.full_report(), HasSubstr(expected));
   }
-  // Timed at the programmed feeds, the two setups take the same time here: the report does not
-  // print a comparison that could not differ.
-  if (std::abs(r.travel->time_s - r.centre_travel->time_s) < 0.05)
-    EXPECT_THAT(r.summary.full_report(), Not(HasSubstr(" s against ")));
+  // Timed by the feed planner (the machine gives accelerations and jerks): never faster than at
+  // the speed limits alone, and both times are reported.
+  ASSERT_TRUE(r.travel->planned && r.centre_travel->planned);
+  EXPECT_GE(r.travel->time_s, r.travel->velocity_only_time_s);
+  EXPECT_GE(r.centre_travel->time_s, r.centre_travel->velocity_only_time_s);
+  EXPECT_THAT(r.summary.full_report(), HasSubstr("machining time by the feed planner"));
+}
+
+TEST(Trunnion, ThePlannedTimesBoundNeverExceedsThePlannedTime) {
+  const Scene scene = load_scene(kScene);
+  std::vector<PathPose> poses(scene.tips_mm.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {scene.tips_mm[i], scene.axes[i]};
+  ASSERT_FALSE(scene.model->prepare(poses));
+  const auto path = scene.model->axis_path(poses, scene.feeds_mm_per_min, 0.0);
+  ASSERT_TRUE(path.has_value());
+  const PlannedTime planned(*path);
+  const AxisObjective speeds(*path, AxisObjective::Kind::time);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int k = 0; k < 6; ++k) {
+    const Eigen::Vector3d c(60 * u(rng), 60 * u(rng), 40 + 40 * u(rng));
+    const Eigen::Vector3d h(20 * std::abs(u(rng)), 20 * std::abs(u(rng)), 20 * std::abs(u(rng)));
+    const double lb = planned.lower_bound(c, h);
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d o = c + Eigen::Vector3d(h.x() * u(rng), h.y() * u(rng), h.z() * u(rng));
+      const double t = planned.planned_s(o);
+      EXPECT_LE(lb, t + 1e-9);
+      // At a point the bound lies between the velocity-only time and the planned one.
+      EXPECT_LE(speeds.value(o), planned.lower_bound(o, Eigen::Vector3d::Zero()) + 1e-9);
+      EXPECT_LE(planned.lower_bound(o, Eigen::Vector3d::Zero()), t + 1e-9);
+    }
+  }
+}
+
+TEST(Trunnion, AccelerationsAndJerksAreCheckedAndTheTimeObjectiveNeedsThem) {
+  std::ifstream in(kMachine);
+  const std::string machine((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto edited = [&](const std::string& from, const std::string& to) {
+    std::string m = machine;
+    const std::size_t at = m.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return m.replace(at, from.size(), to);
+  };
+  const auto error_in = [](const std::string& text) {
+    TempDir dir;
+    const std::string file = dir.write("machine.yaml", text);
+    return test::error_of([&] { trunnion::load_machine(file); });
+  };
+  // A bad value names the file and line.
+  EXPECT_THAT(error_in(edited("accel_mm_per_s2: 3000", "accel_mm_per_s2: -3")), HasSubstr("machine.yaml:25"));
+  EXPECT_THAT(error_in(edited("jerk_deg_per_s3: 6000", "jerk_deg_per_s3: 0")), HasSubstr("machine.yaml:"));
+  EXPECT_THAT(error_in(edited("accel_deg_per_s2: 1200", "accel_deg_per_s2: .nan")), HasSubstr("accel_deg_per_s2"));
+  // One without the other.
+  EXPECT_THAT(error_in(edited("  jerk_deg_per_s3: 12000\n", "")), HasSubstr("comes without jerk_deg_per_s3"));
+  // None at all on an axis: the machine loads (placing by travel and checking need no
+  // accelerations), and the time objective refuses it naming the axis's line.
+  TempDir dir;
+  const std::string file = dir.write("machine.yaml", edited("  accel_deg_per_s2: 1200\n  jerk_deg_per_s3: 12000\n", ""));
+  const trunnion::Machine m = trunnion::load_machine(file);
+  EXPECT_THAT(m.dynamics_missing, HasSubstr("axis C"));
+  std::string path = "x,y,z,i,j,k\n0,0,25,0,0,1\n10,0,25,0,0,1\n";
+  dir.write("path.csv", path);
+  const Scene scene = load_scene(dir.write("scene.yaml", fmt::format("machine: {}\n"
+                                                                     "tooling: {{tool_diameter_mm: 6, stick_out_mm: 60, "
+                                                                     "chuck_diameter_mm: 30, chuck_length_mm: 60}}\n"
+                                                                     "workpiece: {{box: {{size: [60, 60, 20]}}}}\n"
+                                                                     "toolpath: path.csv\n",
+                                                                     file)));
+  Termination term;
+  PlacementOptions o;
+  o.objective = PlacementOptions::Objective::time;
+  const std::string msg = test::error_of([&] { place(scene, o, term); });
+  EXPECT_THAT(msg, HasSubstr("machine.yaml:"));
+  EXPECT_THAT(msg, HasSubstr("axis C gives no accel_deg_per_s2"));
+  o.objective = PlacementOptions::Objective::travel;
+  const PlacementResult r = place(scene, o, term);
+  ASSERT_TRUE(r.summary.done());
+  EXPECT_FALSE(r.travel->planned);
 }
 
 }  // namespace

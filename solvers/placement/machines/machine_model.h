@@ -36,6 +36,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "engine/motion/axis_planner.h"
 #include "models/common/tooling.h"
 #include "solvers/placement/machines/finding.h"
 
@@ -148,6 +149,12 @@ struct AxisPath {
   long flips = 0;                            // rotary flips along the path (see the model)
   long forced_flips = 0;                     // of which the machine's limits force
   std::vector<long> flip_poses;              // where (the pose after the flip)
+  // The axes' limits for the 5-axis feed planner (engine/motion/axis_planner.h), when the
+  // machine gives accelerations and jerks; else `dynamics_missing` says which axis lacks them,
+  // at `dynamics_file`:`dynamics_line`.
+  std::optional<motion::AxisLimits> limits;
+  std::string dynamics_missing, dynamics_file;
+  int dynamics_line = 0;
 };
 
 // Bounds of a constraint's value over a box of placements.

@@ -314,6 +314,19 @@ std::optional<AxisPath> TrunnionModel::axis_path(const std::vector<PathPose>& po
       m_.table.feed_rad_per_s;
   ap.rapid << m_.linear[0].rapid_mm_per_s, m_.linear[1].rapid_mm_per_s, m_.linear[2].rapid_mm_per_s, m_.tilt.rapid_rad_per_s,
       m_.table.rapid_rad_per_s;
+  if (m_.dynamics_missing.empty()) {
+    motion::AxisLimits l;
+    l.velocity = ap.speed;
+    l.rapid_velocity = ap.rapid;
+    l.acceleration << m_.linear[0].accel_mm_per_s2, m_.linear[1].accel_mm_per_s2, m_.linear[2].accel_mm_per_s2,
+        m_.tilt.accel_rad_per_s2, m_.table.accel_rad_per_s2;
+    l.jerk << m_.linear[0].jerk_mm_per_s3, m_.linear[1].jerk_mm_per_s3, m_.linear[2].jerk_mm_per_s3, m_.tilt.jerk_rad_per_s3,
+        m_.table.jerk_rad_per_s3;
+    ap.limits = l;
+  }
+  ap.dynamics_missing = m_.dynamics_missing;
+  ap.dynamics_file = m_.source;
+  ap.dynamics_line = m_.dynamics_missing_line;
   const Eigen::Matrix3d Rz = Eigen::AngleAxisd(rotation_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   Eigen::Matrix3d D;
   for (int k = 0; k < 3; ++k) D.row(k) = m_.linear[k].direction.transpose();

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <queue>
 #include <set>
@@ -17,6 +18,7 @@
 #include "engine/common/internal/parse.h"
 #include "solvers/placement/report/internal/report.h"
 #include "solvers/placement/search/internal/objective.h"
+#include "solvers/placement/search/internal/planned_time.h"
 
 namespace machplan::placement {
 
@@ -160,7 +162,11 @@ struct Screened {
   int killer = -1;              // learned interference (by id) that condemned the box
   std::vector<Box> children;    // the box split (or lifted), when undecided
   double condemned = 0.0;       // volume condemned by a lift
+  double planned_s = 0.0;       // time: the feed planner's time at a single placement left free
 };
+
+// Time: the feed planner times at most this many placements once one is certified.
+constexpr long kMaxTimed = 100;
 
 class OptimalSearch {
  public:
@@ -179,6 +185,13 @@ class OptimalSearch {
 
  private:
   bool lexicographic() const { return objective_ == PlacementOptions::Objective::lowest; }
+  bool timed() const { return objective_ == PlacementOptions::Objective::time; }
+  bool best_timed_set() const { return best_time_s_ < std::numeric_limits<double>::infinity(); }
+  // Time: the lowest bound left is no less than the best planned time found, or the planner has
+  // timed kMaxTimed placements and one of them is certified.
+  bool time_settled() const {
+    return timed() && best_timed_set() && (timed_ >= kMaxTimed || (!open_.empty() && open_.top().key.primary >= best_time_s_));
+  }
   Placement at(long x, long y, long p, int r) const {
     return {x * g_, y * g_, pad0_ + p * g_, rot_.shown[r]};
   }
@@ -210,11 +223,13 @@ class OptimalSearch {
   bool prepare(PlacementResult& res);
   // Applies a screened batch in pop order; true once a placement is certified.
   bool merge(std::vector<Box>& batch, std::vector<Screened>& screened, PlacementResult& res);
-  // Certifies a box's best point; true when it is free.
-  bool certify(Box& b, PlacementResult& res);
+  // Certifies a box's best point; true when it is free and ends the search (on `time` a free
+  // point with the least planned time so far, `planned_s`, becomes the best and the search goes on).
+  bool certify(Box& b, PlacementResult& res, double planned_s);
   void learn(const Spot& s);
   bool class1_dead(int r);
   void certify_rotation_interval(PlacementResult& res);
+  std::string time_message(const PlacementResult& res) const;
 
   const Scene& scene_;
   Checker& checker_;
@@ -226,6 +241,10 @@ class OptimalSearch {
   std::size_t batch_;
   std::vector<Learned> learned_;  // interferences met so far, most recently useful first
   std::vector<std::optional<AxisObjective>> objective_at_;  // per rotation (travel, time)
+  std::vector<std::optional<PlannedTime>> planned_at_;     // per rotation (time)
+  double best_time_s_ = std::numeric_limits<double>::infinity();  // time: the best certified placement's ...
+  Placement best_timed_;                                          // ... planned time, and where
+  long timed_ = 0;                                                // placements timed by the planner
   std::vector<int> class1_state_;  // per rotation: -1 unknown, 0 clear, 1 interferes
   std::set<std::tuple<long, long, long, int>> rejected_;  // points whose certification failed
   bool ring_clear_ = true;
@@ -252,6 +271,8 @@ Key OptimalSearch::key_of(const Box& b) const {
     const Eigen::Vector3d c((b.x0 + b.x1) * 0.5 * g_, (b.y0 + b.y1) * 0.5 * g_, pad0_ + (b.p0 + b.p1) * 0.5 * g_);
     const Eigen::Vector3d h((b.x1 - b.x0) * 0.5 * g_, (b.y1 - b.y0) * 0.5 * g_, (b.p1 - b.p0) * 0.5 * g_);
     k.primary = b.point() ? f.value(c) : f.lower_bound(c, h);
+    // Time: the planner's envelope over the box, tighter where accelerations matter.
+    if (timed()) k.primary = std::max(k.primary, planned_at_[b.r0]->lower_bound(c, h));
   }
   return k;
 }
@@ -345,6 +366,8 @@ Screened OptimalSearch::screen(const Box& b, const std::vector<Learned>& known) 
   // parallel).
   if (out.decision == Decision::unknown || (!lexicographic() && !b.point())) {
     out.children = split(b, settled, spread);
+  } else if (timed() && b.key.primary < best_time_s_) {
+    out.planned_s = planned_at_[b.r0]->planned_s(best_point(b).offset());  // here, in parallel
   }
   return out;
 }
@@ -399,6 +422,7 @@ bool OptimalSearch::prepare(PlacementResult& res) {
     for (int r = 0; r < nrot; ++r) {
       const auto path = scene_.model->axis_path(checker_.poses(), scene_.feeds_mm_per_min, rot_.shown[r] * kDeg);
       objective_at_.emplace_back(AxisObjective(*path, kind));
+      if (timed()) planned_at_.emplace_back(PlannedTime(*path));
     }
   }
   if (lexicographic()) {
@@ -410,7 +434,7 @@ bool OptimalSearch::prepare(PlacementResult& res) {
   return true;
 }
 
-bool OptimalSearch::certify(Box& b, PlacementResult& res) {
+bool OptimalSearch::certify(Box& b, PlacementResult& res, double planned_s) {
   // No interference met so far objects anywhere in the box, so its best point is the best
   // candidate left: certify it over the whole path. If that fails, the checker has found the
   // interference, which is learned, and the box is screened again; the point is out for good
@@ -424,6 +448,13 @@ bool OptimalSearch::certify(Box& b, PlacementResult& res) {
     else
       for (Box& c : split(b, 0)) open_.push(std::move(c));  // split the rotations away from the dead one
     return false;
+  }
+  if (timed() && b.point()) {
+    ++timed_;
+    if (planned_s >= best_time_s_) {  // cannot beat the best: no need to certify it
+      done_volume_ += b.volume();
+      return false;
+    }
   }
   if (!rejected_.count(point)) {
     ++res.certifications;
@@ -439,6 +470,12 @@ bool OptimalSearch::certify(Box& b, PlacementResult& res) {
     spot = Spot{};
     Finding w;
     if (checker_.decide(best, {}, term_, &w, &spot) == Decision::feasible) {
+      if (timed()) {
+        best_time_s_ = planned_s;
+        best_timed_ = best;
+        done_volume_ += b.volume();
+        return false;
+      }
       res.summary.status = Status::done;
       res.placement = best;
       res.objective_value = lexicographic() ? best.pad_mm : b.key.primary;
@@ -466,7 +503,7 @@ bool OptimalSearch::merge(std::vector<Box>& batch, std::vector<Screened>& screen
   for (std::size_t k = 0; k < batch.size(); ++k) {
     Box& b = batch[k];
     Screened& s = screened[k];
-    if (s.decision == Decision::infeasible) {
+    if (s.decision == Decision::infeasible || (timed() && b.key.primary >= best_time_s_)) {
       done_volume_ += b.volume();
       report_progress(progress_, done_volume_ / total_volume_);
       if (s.killer >= 0) {
@@ -487,7 +524,7 @@ bool OptimalSearch::merge(std::vector<Box>& batch, std::vector<Screened>& screen
       continue;
     }
     blocked = true;
-    if (certify(b, res)) return true;
+    if (certify(b, res, s.planned_s)) return true;
   }
   return false;
 }
@@ -498,7 +535,7 @@ PlacementResult OptimalSearch::run() {
   std::vector<Box> batch;
   std::vector<Screened> screened;
   bool found = false;
-  while (!open_.empty() && !found) {
+  while (!open_.empty() && !found && !time_settled()) {
     if (term_.should_end()) throw WorkEnded{term_.reason()};
     batch.clear();
     while (!open_.empty() && batch.size() < batch_) {
@@ -512,6 +549,13 @@ PlacementResult OptimalSearch::run() {
     found = merge(batch, screened, res);
   }
   const int nrot = static_cast<int>(rot_.deg.size());
+  if (timed() && best_timed_set()) {
+    found = true;
+    res.summary.status = Status::done;
+    res.placement = best_timed_;
+    res.objective_value = best_time_s_;
+    res.time_lower_bound_s = open_.empty() ? best_time_s_ : std::min(best_time_s_, open_.top().key.primary);
+  }
   if (!found) {
     res.summary.status = Status::infeasible;
     res.summary.message = fmt::format("no placement on the table with a pad up to {:.0f} mm is free of interference{}",
@@ -522,10 +566,19 @@ PlacementResult OptimalSearch::run() {
   res.summary.message = lexicographic()
                             ? fmt::format("lowest pad, then nearest the centre{}, on a {:.3g} mm grid",
                                           nrot > 1 ? ", then the smallest rotation" : "", g_)
-                            : fmt::format("least {} on a {:.3g} mm grid", to_string(objective_), g_);
+                            : timed() ? time_message(res)
+                                      : fmt::format("least {} on a {:.3g} mm grid", to_string(objective_), g_);
   res.report = checker_.report(res.placement, term_);
   if (nrot > 1) certify_rotation_interval(res);
   return res;
+}
+
+std::string OptimalSearch::time_message(const PlacementResult& res) const {
+  if (res.time_lower_bound_s >= best_time_s_)
+    return fmt::format("least planned machining time on a {:.3g} mm grid ({} placements timed by the feed planner)", g_, timed_);
+  return fmt::format("least planned machining time of the {} placements with the lowest bounds timed by the feed planner; "
+                     "no placement on the {:.3g} mm grid takes less than {:.1f} s ({:.1f} % below)",
+                     timed_, g_, res.time_lower_bound_s, 100.0 * (1.0 - res.time_lower_bound_s / best_time_s_));
 }
 
 void OptimalSearch::certify_rotation_interval(PlacementResult& res) {
@@ -638,7 +691,12 @@ std::optional<AxisTravel> axis_travel(const Scene& scene, const Placement& p) {
   t.axes = path->names;
   t.travel = f.travel_per_axis(p.offset());
   t.linear_mm = t.travel[0] + t.travel[1] + t.travel[2];
-  t.time_s = f.time_s(p.offset());
+  t.velocity_only_time_s = f.time_s(p.offset());
+  t.time_s = t.velocity_only_time_s;
+  if (path->limits) {
+    t.time_s = PlannedTime(*path).planned_s(p.offset());
+    t.planned = true;
+  }
   t.flips = path->flips;
   t.forced_flips = path->forced_flips;
   t.flip_poses = path->flip_poses;

@@ -104,7 +104,11 @@ struct AxisTravel {
   std::vector<std::string> axes;   // X, Y, Z, then the rotary axes
   std::vector<double> travel;      // mm for linear axes, degrees for rotary ones
   double linear_mm = 0.0;          // X + Y + Z
-  double time_s = 0.0;             // machining time at the axis and feed limits
+  // Machining time: the 5-axis feed planner's (engine/motion/axis_planner.h) when the machine
+  // gives accelerations and jerks (`planned`), else the velocity-only time.
+  double time_s = 0.0;
+  double velocity_only_time_s = 0.0;  // every step at its feed or an axis at its speed limit, no acceleration
+  bool planned = false;
   long flips = 0;                  // rotary-table flips (a half turn within one step)
   long forced_flips = 0;           // of which the axis limits force
   std::vector<long> flip_poses;
@@ -137,6 +141,9 @@ struct PlacementResult {
   int threads = 1;
   PlacementOptions::Objective objective = PlacementOptions::Objective::lowest;
   double objective_value = 0.0;  // travel (mm) or time (s) at the answer
+  // time: no placement on the grid takes less (the bound of those not timed); equal to
+  // objective_value when the answer is the least on the grid.
+  double time_lower_bound_s = 0.0;
   std::vector<Placement> trail;  // paper: every placement visited, in order
   Eigen::AlignedBox2d region;    // x, y range searched (workpiece origin)
   WorkOffset work_offset;        // where to set the control's work offset
