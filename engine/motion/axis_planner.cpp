@@ -61,7 +61,12 @@ MoveCaps joint_move_caps(const JointVector& u, double feed, bool tip_moves, cons
   MoveCaps c;
   const bool rapid = feed <= 0.0;
   c.speed = axis_cap(rapid ? l.rapid_velocity : l.velocity, u);
-  if (!rapid && tip_moves) c.speed = std::min(c.speed, feed);
+  if (!rapid && l.feed == AxisLimits::Feed::tip && tip_moves) c.speed = std::min(c.speed, feed);
+  if (!rapid && l.feed == AxisLimits::Feed::axes) {
+    constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+    const double combined = std::hypot(u.head<3>().norm(), kDegPerRad * u.tail<2>().norm());
+    if (combined > 0.0) c.speed = std::min(c.speed, feed / combined);
+  }
   c.accel = axis_cap(l.acceleration, u);
   c.jerk = axis_cap(l.jerk, u);
   return c;

@@ -11,11 +11,16 @@
 // Along move i every axis moves at the rate u_i = (q_i - q_{i-1}) / l_i per unit of path: at
 // path speed v axis k moves at v u_ik, accelerates at a u_ik, and so on.
 //
-// Feed. The programmed feed F caps the tip's speed relative to the workpiece: v <= F on a move
-// where the tip moves (tool centre point control: what the CAM's feed means in a 5-axis block;
-// a control given inverse-time feed F / l gets the same time l / F at most). A pure
-// reorientation has no feed cap (its axes' own limits bound it). Rapid moves (feed 0) have no
-// feed cap and run at the axes' rapid speeds.
+// Feed. What the programmed feed F caps depends on how the control reads it (AxisLimits::feed):
+//   * tip (the default): the tip's speed relative to the workpiece, v <= F on a move where the
+//     tip moves (tool centre point control, G43.4 / TRAORI: what the CAM's feed means in a
+//     5-axis block; a post-processor's inverse-time feed F / l gives the same time l / F at
+//     most). A pure reorientation has no feed cap (its axes' own limits bound it);
+//   * axes: the combined speed of all the axes in machine coordinates, rotary degrees counted
+//     as mm (G94 without tool centre point control, as Fanuc and Haas controls read a 5-axis
+//     block): v |(u_x, u_y, u_z, u_a deg, u_c deg)| <= F on every feed move. A setup that
+//     makes the axes travel further then takes longer at the same feed.
+// Rapid moves (feed 0) have no feed cap and run at the axes' rapid speeds.
 //
 // Caps per move (the 2-axis planner's box, engine/motion/feed_planner.h, in five dimensions):
 //   speed         v <= min(F, min_k vmax_k / |u_ik|)       (vmax: cutting or rapid speeds)
@@ -65,6 +70,8 @@ struct AxisLimits {
   JointVector rapid_velocity = JointVector::Zero();  // rapid moves
   JointVector acceleration = JointVector::Zero();    // mm/s^2, rad/s^2
   JointVector jerk = JointVector::Zero();            // mm/s^3, rad/s^3
+  // What the programmed feed caps (see the file comment).
+  enum class Feed { tip, axes } feed = Feed::tip;
   // How far a corner's blend may leave the corner: linear axes (mm), rotary axes (rad).
   double corner_tolerance_mm = 0.01;
   double corner_tolerance_rad = 0.0002;  // about 0.01 deg

@@ -173,10 +173,17 @@ Eigen::Vector3d axis_at(const Machine& m, double a_rad, double c_rad) {
 }
 
 Machine machine_from_yaml(const Yaml& root) {
-  root.reject_unknown_keys({"kind", "name", "reconstructed", "spindle", "linear_axes", "tilt_axis", "rotary_table", "base_parts"});
+  root.reject_unknown_keys(
+      {"kind", "name", "reconstructed", "feed_mode", "spindle", "linear_axes", "tilt_axis", "rotary_table", "base_parts"});
   Machine m;
   m.source = root.file();
   m.name = root.string_or("name", "trunnion");
+  const std::string feed_mode = root.string_or("feed_mode", "tcp");
+  if (feed_mode != "tcp" && feed_mode != "axes")
+    root.at("feed_mode").fail(fmt::format("'{}': must be tcp (the feed is the tool tip's speed relative to the workpiece) "
+                                          "or axes (the combined speed of the axes, degrees as mm)",
+                                          feed_mode.substr(0, 40)));
+  m.feed_on_axes = feed_mode == "axes";
   const Yaml sp = root.at("spindle");
   sp.reject_unknown_keys({"direction", "nose_mm", "parts"});
   m.spindle_direction = unit(sp, "direction");

@@ -104,6 +104,11 @@ struct Machine {
   // says which (empty when every axis has them), and the line of that axis in `source`.
   std::string dynamics_missing;
   int dynamics_missing_line = 0;
+  // How the control reads a program's feed in a 5-axis block (`feed_mode`): tcp (the default),
+  // the tool tip's speed relative to the workpiece (tool centre point control, or inverse-time
+  // feed); axes, the combined speed of all the axes with rotary degrees counted as mm (G94
+  // without tool centre point control). See engine/motion/axis_planner.h.
+  bool feed_on_axes = false;
 
   // Derived at load time.
   Eigen::Matrix3d table_frame = Eigen::Matrix3d::Identity();  // T0's rotation: z along the table axis

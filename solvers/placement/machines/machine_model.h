@@ -146,6 +146,9 @@ struct AxisPath {
   Eigen::Matrix<double, 5, 1> rapid;         // rapid speed per axis
   std::vector<double> feed_mm_per_s;         // per pose: the feed of the step that ends there; 0: rapid
   std::vector<double> tip_step_mm;           // per pose: the tip's distance from the pose before
+  // The programmed feed caps the combined speed of the axes (rotary degrees as mm), not the
+  // tip's speed relative to the workpiece (engine/motion/axis_planner.h, "Feed").
+  bool feed_on_axes = false;
   long flips = 0;                            // rotary flips along the path (see the model)
   long forced_flips = 0;                     // of which the machine's limits force
   std::vector<long> flip_poses;              // where (the pose after the flip)

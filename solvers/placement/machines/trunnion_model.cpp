@@ -322,8 +322,10 @@ std::optional<AxisPath> TrunnionModel::axis_path(const std::vector<PathPose>& po
         m_.tilt.accel_rad_per_s2, m_.table.accel_rad_per_s2;
     l.jerk << m_.linear[0].jerk_mm_per_s3, m_.linear[1].jerk_mm_per_s3, m_.linear[2].jerk_mm_per_s3, m_.tilt.jerk_rad_per_s3,
         m_.table.jerk_rad_per_s3;
+    l.feed = m_.feed_on_axes ? motion::AxisLimits::Feed::axes : motion::AxisLimits::Feed::tip;
     ap.limits = l;
   }
+  ap.feed_on_axes = m_.feed_on_axes;
   ap.dynamics_missing = m_.dynamics_missing;
   ap.dynamics_file = m_.source;
   ap.dynamics_line = m_.dynamics_missing_line;

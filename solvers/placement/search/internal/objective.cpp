@@ -16,7 +16,9 @@ AxisObjective::AxisObjective(const AxisPath& path, Kind kind) : kind_(kind) {
     const auto& speed = rapid ? path.rapid : path.speed;
     double fixed = std::max(dr.x() / speed(3), dr.y() / speed(4));
     // A cutting move runs at most at its programmed feed along the tip's path.
-    if (!rapid) fixed = std::max(fixed, path.tip_step_mm[i] / path.feed_mm_per_s[i]);
+    if (!rapid && !path.feed_on_axes) fixed = std::max(fixed, path.tip_step_mm[i] / path.feed_mm_per_s[i]);
+    inv_feed_.push_back(!rapid && path.feed_on_axes ? 1.0 / path.feed_mm_per_s[i] : 0.0);
+    rotary_deg2_.push_back((dr * 180.0 / M_PI).squaredNorm());
     fixed_s_.push_back(fixed);
     inv_speed_.push_back(Eigen::Vector3d(1.0 / speed(0), 1.0 / speed(1), 1.0 / speed(2)));
   }
@@ -39,8 +41,16 @@ double AxisObjective::evaluate(const Eigen::Vector3d& o, Kind kind, Eigen::Vecto
       const double tk = std::abs(d(k)) * inv_speed_[i](k);
       if (tk > t) t = tk, arg = k;
     }
+    // Feed on the axes: the combined step over the feed.
+    const double combined = std::sqrt(d.squaredNorm() + rotary_deg2_[i]);
+    const bool feed_term = inv_feed_[i] > 0.0 && combined * inv_feed_[i] > t;
+    if (feed_term) t = combined * inv_feed_[i];
     sum += t;
-    if (g && arg >= 0) *g += (d(arg) >= 0 ? 1.0 : -1.0) * inv_speed_[i](arg) * D_[i].row(arg).transpose();
+    if (g && feed_term && combined > 0.0) {
+      *g += inv_feed_[i] / combined * (D_[i].transpose() * d);
+    } else if (g && arg >= 0) {
+      *g += (d(arg) >= 0 ? 1.0 : -1.0) * inv_speed_[i](arg) * D_[i].row(arg).transpose();
+    }
   }
   return sum;
 }
@@ -59,7 +69,8 @@ double AxisObjective::lower_bound(const Eigen::Vector3d& c, const Eigen::Vector3
     if (kind_ == Kind::travel) {
       terms += low.sum();
     } else {
-      terms += std::max(fixed_s_[i], low.cwiseProduct(inv_speed_[i]).maxCoeff());
+      terms += std::max({fixed_s_[i], low.cwiseProduct(inv_speed_[i]).maxCoeff(),
+                         std::sqrt(low.squaredNorm() + rotary_deg2_[i]) * inv_feed_[i]});
     }
   }
   return std::max(plane, terms);

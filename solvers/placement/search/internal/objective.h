@@ -8,7 +8,9 @@
 //   time(o)   = sum_i max( L_i / F_i,  max_k |dq_ik(o)| / v_k,  max_r |dr_ir| / w_r )   (s)
 //
 // (L_i / F_i the step's tip length over its programmed feed, v_k and w_r the axes' speed
-// limits, rapid speeds for rapid steps). Both are convex in o, so over a box of offsets with
+// limits, rapid speeds for rapid steps). On a machine whose feed is the axes' combined speed
+// (AxisPath::feed_on_axes) the feed term is |(dq_i(o), dr_i in degrees)| / F_i instead, convex
+// too. Both are convex in o, so over a box of offsets with
 // centre c and half sizes h the larger of two lower bounds holds:
 //
 //   per step and axis:   sum over terms of max(0, |term(c)| - |grad term| . h)
@@ -47,6 +49,8 @@ class AxisObjective {
   std::vector<Eigen::Vector3d> e_;   // per step
   std::vector<double> fixed_s_;      // per step: time that does not depend on the position
   std::vector<Eigen::Vector3d> inv_speed_;  // per step: 1 / speed of each linear axis (feed or rapid)
+  std::vector<double> inv_feed_;     // per step, feed on the axes: 1 / F (0 on rapids and otherwise)
+  std::vector<double> rotary_deg2_;  // per step, feed on the axes: the rotary step in degrees, squared
   Eigen::Vector2d rotary_travel_rad_ = Eigen::Vector2d::Zero();
 };
 
