@@ -13,6 +13,9 @@
 //   BM_Paper              the paper's evasion search, scene already loaded
 //   BM_AnyRotation/T      `machplan place --rotations any --threads T`
 //   BM_Trunnion/T         the trunnion scene's least-travel search
+//   BM_TrunnionTime/T     the trunnion scene's least-planned-time search (`--objective time`)
+//   BM_WeiLeeTime/T       datasets/wei-lee-2020's least-planned-time search
+//   BM_AxisPlanner        one run of the 5-axis feed planner over the trunnion scene's path
 #include <benchmark/benchmark.h>
 
 #include "solvers/placement/search/search.h"
@@ -24,6 +27,7 @@ using namespace machplan::placement;
 
 const std::string kScene = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/hexam-paper/scene.yaml";
 const std::string kTrunnion = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/trunnion-5axis/scene.yaml";
+const std::string kWeiLee = std::string(MACHPLAN_SOURCE_DIR) + "/datasets/wei-lee-2020/scene.yaml";
 
 const Scene& scene() {
   static const Scene s = load_scene(kScene);
@@ -118,8 +122,10 @@ void run_search(benchmark::State& state, const Scene& s, PlacementOptions o) {
   state.counters["rot_deg"] = r.placement.rotation_deg;
   state.counters["placements"] = static_cast<double>(r.placements_examined);
   state.counters["verified"] = r.verified ? 1 : 0;
-  if (r.travel && r.centre_travel)
+  if (r.travel && r.centre_travel) {
     state.counters["saving_pct"] = 100.0 * (1.0 - r.travel->linear_mm / r.centre_travel->linear_mm);
+    state.counters["time_saving_pct"] = 100.0 * (1.0 - r.travel->time_s / r.centre_travel->time_s);
+  }
 }
 
 void BM_Optimal(benchmark::State& state) { run_search(state, scene(), PlacementOptions{}); }
@@ -144,6 +150,34 @@ void BM_Trunnion(benchmark::State& state) {
   run_search(state, s, PlacementOptions{});
 }
 BENCHMARK(BM_Trunnion)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+PlacementOptions least_time() {
+  PlacementOptions o;
+  o.objective = PlacementOptions::Objective::time;
+  return o;
+}
+
+void BM_TrunnionTime(benchmark::State& state) {
+  static const Scene s = load_scene(kTrunnion);
+  run_search(state, s, least_time());
+}
+BENCHMARK(BM_TrunnionTime)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_WeiLeeTime(benchmark::State& state) {
+  static const Scene s = load_scene(kWeiLee);
+  run_search(state, s, least_time());
+}
+BENCHMARK(BM_WeiLeeTime)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_AxisPlanner(benchmark::State& state) {
+  static const Scene s = load_scene(kTrunnion);
+  const Placement centre{0, 0, 0, 0};
+  double time_s = 0;
+  for (auto _ : state) time_s = axis_travel(s, centre)->time_s;  // the velocity-only time and one plan
+  state.counters["planned_s"] = time_s;
+  state.counters["poses"] = static_cast<double>(s.tips_mm.size());
+}
+BENCHMARK(BM_AxisPlanner)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include <fmt/format.h>
 
@@ -63,7 +64,7 @@ MoveCaps joint_move_caps(const JointVector& u, double feed, bool tip_moves, cons
   c.speed = axis_cap(rapid ? l.rapid_velocity : l.velocity, u);
   if (!rapid && l.feed == AxisLimits::Feed::tip && tip_moves) c.speed = std::min(c.speed, feed);
   if (!rapid && l.feed == AxisLimits::Feed::axes) {
-    constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+    constexpr double kDegPerRad = 180.0 / std::numbers::pi;
     const double combined = std::hypot(u.head<3>().norm(), kDegPerRad * u.tail<2>().norm());
     if (combined > 0.0) c.speed = std::min(c.speed, feed / combined);
   }

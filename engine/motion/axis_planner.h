@@ -104,9 +104,9 @@ class JointPlan {
   ProfileState path_state(double t_s) const { return profile_state(phases_, phase_t0_, duration_s_, length_, t_s); }
   double length() const { return length_; }
 
-  // Per planned move (moves of zero length are dropped): its path length, the speed caps and
-  // the time it would take at its speed cap (the velocity-only time), and per junction after
-  // it the speed cap of the corner rule (infinity when it does not bind).
+  // Per planned move (moves of zero length are dropped): where it starts on the path and in
+  // joint space, its rate, its speed cap, and the corner rule's speed cap at the junction after
+  // it (infinity where the rates do not change, and after the last move).
   struct Move {
     double s0 = 0.0, length = 0.0;
     JointVector start = JointVector::Zero(), rate = JointVector::Zero();  // q = start + (s - s0) rate

@@ -21,6 +21,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     // The reader's promises: unit directions, ordered limits, the table's origin on its axis.
     if (std::abs(m.tilt.direction.norm() - 1) > 1e-9 || std::abs(m.table.direction.norm() - 1) > 1e-9) std::abort();
     if (!m.tilt.continuous && !(m.tilt.max_rad > m.tilt.min_rad)) std::abort();
+    // Accelerations and jerks: positive where given, and an axis without them is named.
+    for (const auto& a : m.linear)
+      if (a.accel_mm_per_s2 < 0 || a.jerk_mm_per_s3 < 0 || (a.accel_mm_per_s2 == 0) != (a.jerk_mm_per_s3 == 0)) std::abort();
+    if ((m.linear[0].accel_mm_per_s2 == 0) && m.dynamics_missing.empty()) std::abort();
     for (const Eigen::Vector3d& a : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0.3, -0.2, 0.9).normalized(),
                                      Eigen::Vector3d(-0.7, 0.1, 0.7).normalized()})
       for (const auto& s : trunnion::solve_angles(m, a))

@@ -3,6 +3,7 @@
 // bundled scene's least-travel placement against the table centre.
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -105,12 +106,17 @@ TEST(Trunnion, TheTableTurnsContinuouslyAndFlipsOnlyWhereTheLimitsForceIt) {
   EXPECT_THAT(msg, HasSubstr("outside its travel"));
 }
 
-TEST(Trunnion, TheObjectivesBoundsNeverExceedTheirValues) {
+// The bundled scene's path as the machine runs it, at rotation 0.
+std::optional<AxisPath> bundled_axis_path() {
   const Scene scene = load_scene(kScene);
   std::vector<PathPose> poses(scene.tips_mm.size());
   for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {scene.tips_mm[i], scene.axes[i]};
-  ASSERT_FALSE(scene.model->prepare(poses));
-  const auto path = scene.model->axis_path(poses, scene.feeds_mm_per_min, 0.0);
+  if (scene.model->prepare(poses)) return std::nullopt;
+  return scene.model->axis_path(poses, scene.feeds_mm_per_min, 0.0);
+}
+
+TEST(Trunnion, TheObjectivesBoundsNeverExceedTheirValues) {
+  const auto path = bundled_axis_path();
   ASSERT_TRUE(path.has_value());
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1, 1);
@@ -169,11 +175,7 @@ TEST(Trunnion, TheBundledSceneSavesAxisTravelAgainstTheTableCentreWithoutFlips) 
 }
 
 TEST(Trunnion, ThePlannedTimesBoundNeverExceedsThePlannedTime) {
-  const Scene scene = load_scene(kScene);
-  std::vector<PathPose> poses(scene.tips_mm.size());
-  for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {scene.tips_mm[i], scene.axes[i]};
-  ASSERT_FALSE(scene.model->prepare(poses));
-  const auto path = scene.model->axis_path(poses, scene.feeds_mm_per_min, 0.0);
+  const auto path = bundled_axis_path();
   ASSERT_TRUE(path.has_value());
   const PlannedTime planned(*path);
   const AxisObjective speeds(*path, AxisObjective::Kind::time);

@@ -9,8 +9,10 @@
 //            distance each one moves), then nearest the centre (the default on a table-tilting
 //            machine; Wei and Lee, "Optimization of the setup position of a workpiece for
 //            five-axis machining to reduce machining time", 2020)
-//   time     the least machining time with every axis at most at its speed limit and every
-//            cutting move at most at its programmed feed
+//   time     the least machining time as the control's feed planner runs the path
+//            (engine/motion/axis_planner.h: joint-space moves between the poses, per-axis
+//            speed, acceleration and jerk limits, corner speeds, look-ahead, S-curves, the
+//            programmed feed as the machine file's feed_mode reads it)
 //
 // Strategies:
 //
@@ -41,6 +43,22 @@
 //         linear axes are affine in the placement) orders the boxes, and the search ends when
 //         no box left could beat the best certified placement by more than
 //         `kObjectiveTolerance`.
+//
+//         On `time` the bound that orders the boxes is the larger of two lower bounds of the
+//         planner's time: the velocity-only time's convex bound above (every step at its feed
+//         or an axis at its speed limit, which the planner never beats), and the planner's own
+//         speed envelope with every cap at its largest over the box (search/internal/
+//         planned_time.h: the planner's speed, acceleration and corner caps fall as the axes'
+//         rates grow, and the rates are affine in the placement). Placements are then taken in
+//         order of that bound and timed by the planner (a few milliseconds each, in parallel
+//         with the screening); one whose planned time beats the best so far is certified over
+//         the whole path, and becomes the best when free. The search ends when no box left has
+//         a bound below the best planned time (the answer is the least on the grid), or once
+//         kMaxTimed (100) placements are timed: the bound is a few per cent under the planned
+//         time (the jerk and the look-ahead's coupling are left out of it), so proving the
+//         optimum can need every placement near it timed when the time hardly depends on the
+//         placement. The answer is then the best of those timed, and `time_lower_bound_s` (in
+//         the report) says how much less any placement could take at most.
 //
 //         Learning interferences lazily is what makes this fast: the optimum of the bundled
 //         HexaM scene needs about 30 whole-path certifications, not one per box.
