@@ -199,6 +199,28 @@ TEST(AxisPlanner, TheVelocityOnlyTimeIsALowerBoundAndStaysBelowThePlannedOne) {
   }
 }
 
+TEST(AxisPlanner, TheFeedCapsTheTipOrTheAxesCombinedSpeed) {
+  AxisLimits tip = vmc_limits(), axes = vmc_limits();
+  axes.feed = AxisLimits::Feed::axes;
+  const double feed = 20, a = 1200 * kDegRad, j = 12000 * kDegRad;
+  // A pure turn of the table by 90 deg: with the feed on the tip it has no feed cap and runs at
+  // C's own 180 deg/s; read on the axes, 90 "mm" of degrees at 20 mm/s. Both are one long move
+  // from rest to rest: length / speed + the S-curve pulse (as in the first test).
+  const auto pulse = [&](double dv) { return dv <= a * a / j ? 2 * std::sqrt(dv / j) : dv / a + a / j; };
+  const JointVector start = JointVector::Zero();
+  const std::vector<JointMove> turn = {move_to(0, 0, 0, 0, 90 * kDegRad, 0, feed)};
+  const double v_tip = 180 * kDegRad, v_axes = feed * kDegRad;  // rad/s
+  EXPECT_NEAR(plan_joint_moves(start, turn, tip).duration_s(), 90 * kDegRad / v_tip + pulse(v_tip), 1e-9);
+  EXPECT_NEAR(plan_joint_moves(start, turn, axes).duration_s(), 90 * kDegRad / v_axes + pulse(v_axes), 1e-9);
+  // A straight cut along X: the same either way.
+  const std::vector<JointMove> cut = {move_to(100, 0, 0, 0, 0, 100, feed)};
+  EXPECT_NEAR(plan_joint_moves(start, cut, tip).duration_s(), plan_joint_moves(start, cut, axes).duration_s(), 1e-12);
+  // A cut far from the table's axis while it turns: on the axes the linear axes' travel counts,
+  // so the same tip path takes longer far from the axis than near it.
+  EXPECT_GT(plan_joint_moves(wall_start(150, 0), turning_wall(150, 0, feed), axes).duration_s(),
+            1.5 * plan_joint_moves(wall_start(0, 0), turning_wall(0, 0, feed), axes).duration_s());
+}
+
 TEST(AxisPlanner, ABadLimitIsRefusedByName) {
   AxisLimits l = vmc_limits();
   l.acceleration[4] = 0;

@@ -102,5 +102,18 @@ TEST(Threads, TheTrunnionSearchGivesTheSameAnswerOnOneAndSeveralThreads) {
   expect_same(search(scene, {}, 1), search(scene, {}, 2), "trunnion");
 }
 
+TEST(Threads, TheTimeSearchTimesTheSamePlacementsOnOneAndSeveralThreads) {
+  // The channel's first two passes: the placements are timed in the order of their bounds
+  // whatever the batches screened in parallel, so the answer, its time, the bound of the rest
+  // and the count in the message agree.
+  const Scene scene = first_poses(load_scene(test::kDatasets + "wei-lee-2020/scene.yaml"), 600);
+  PlacementOptions o;
+  o.objective = PlacementOptions::Objective::time;
+  const PlacementResult one = search(scene, o, 1), two = search(scene, o, 2);
+  expect_same(one, two, "time");
+  EXPECT_EQ(one.time_lower_bound_s, two.time_lower_bound_s);
+  EXPECT_EQ(one.summary.message, two.summary.message);
+}
+
 }  // namespace
 }  // namespace machplan::placement
