@@ -18,7 +18,11 @@ sides and every 2 deg on the corners; 1000 mm/min along the channel, 300 mm/min 
 Standard library only; the output is deterministic. Run from this folder.
 """
 import math
-import struct
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
+import cam_files  # noqa: E402  (datasets/cam_files.py: shared with the other datasets' scripts)
 
 L, W, H = 160.0, 120.0, 30.0          # plate
 CX, CY = 40.0, 25.0                   # channel centre, part frame (origin at the bottom face's centre)
@@ -77,70 +81,14 @@ def mesh():
         tris += [(ib[k], ob[k], ob[j]), (ib[k], ob[j], ib[j])]                      # channel bottom
         tris += [(ob[k], ot[k], ot[j]), (ob[k], ot[j], ob[j])]                      # drafted outer wall
 
-    def ray_hit(a):
-        dx, dy = math.cos(a), math.sin(a)
-        best = None
-        for t in [(L / 2 - CX) / dx if dx > 1e-12 else None, (-L / 2 - CX) / dx if dx < -1e-12 else None,
-                  (W / 2 - CY) / dy if dy > 1e-12 else None, (-W / 2 - CY) / dy if dy < -1e-12 else None]:
-            if t is not None and t > 0:
-                x, y = CX + t * dx, CY + t * dy
-                if -L / 2 - 1e-9 <= x <= L / 2 + 1e-9 and -W / 2 - 1e-9 <= y <= W / 2 + 1e-9:
-                    best = t if best is None or t < best else best
-        return (CX + best * dx, CY + best * dy)
-
+    # The plate's top face around the channel (star-shaped about its centre), its sides and bottom.
     angle = lambda p: math.atan2(p[1] - CY, p[0] - CX) % (2 * math.pi)
     inner = [(angle(p), p) for p in ot]
     inner[0] = (0.0, inner[0][1])
-    outer = [(angle(p), p) for p in [ray_hit(a) for a, _ in inner]]
-    for c in [(L / 2, W / 2), (-L / 2, W / 2), (-L / 2, -W / 2), (L / 2, -W / 2)]:
-        outer.append((angle(c), c))
-    outer.sort()
-    # Plate top between the channel and the plate's edge (counter-clockwise: normal up).
-    top = lambda p: (p[0], p[1], H)
-    i = j = 0
-    while i < len(inner) or j < len(outer):
-        ai = inner[i % len(inner)][0] + (2 * math.pi if i >= len(inner) else 0)
-        aj = outer[j % len(outer)][0] + (2 * math.pi if j >= len(outer) else 0)
-        a, b = inner[i % len(inner)][1], outer[j % len(outer)][1]
-        if (ai <= aj and i < len(inner)) or j >= len(outer):
-            c = inner[(i + 1) % len(inner)][1]
-            tris.append((top(a), top(b), top(c)))
-            i += 1
-        else:
-            c = outer[(j + 1) % len(outer)][1]
-            tris.append((top(a), top(b), top(c)))
-            j += 1
-    # Sides: each fans from the bottom to the top boundary points on that side.
-    ring_pts = [p for _, p in outer]
-
-    def side(sel, key):
-        pts = sorted([p for p in ring_pts if sel(p)], key=key)
-        for k in range(len(pts) - 1):
-            tris.append(((pts[k][0], pts[k][1], H), (pts[k][0], pts[k][1], 0.0), (pts[k + 1][0], pts[k + 1][1], H)))
-            tris.append(((pts[k + 1][0], pts[k + 1][1], H), (pts[k][0], pts[k][1], 0.0), (pts[k + 1][0], pts[k + 1][1], 0.0)))
-    eps = 1e-9
-    side(lambda p: abs(p[0] - L / 2) < eps, lambda p: p[1])     # +x face, y rising
-    side(lambda p: abs(p[1] - W / 2) < eps, lambda p: -p[0])    # +y face, x falling
-    side(lambda p: abs(p[0] + L / 2) < eps, lambda p: -p[1])    # -x face, y falling
-    side(lambda p: abs(p[1] + W / 2) < eps, lambda p: p[0])     # -y face, x rising
-    # Bottom: a fan from the plate's centre over the same boundary points, normal down.
-    for k in range(len(ring_pts)):
-        a, b = ring_pts[k], ring_pts[(k + 1) % len(ring_pts)]
-        tris.append(((0.0, 0.0, 0.0), (b[0], b[1], 0.0), (a[0], a[1], 0.0)))
+    face, ring_pts = cam_files.plate_top(L, W, H, CX, CY, inner)
+    tris += face
+    tris += cam_files.plate_sides_and_bottom(L, W, H, ring_pts)
     return tris
-
-
-def write_stl(path, tris):
-    with open(path, 'wb') as f:
-        f.write(b'machplan wei-lee-2020 channel plate (generate.py)'.ljust(80, b' '))
-        f.write(struct.pack('<I', len(tris)))
-        for t in tris:
-            (ax, ay, az), (bx, by, bz), (cx, cy, cz) = [(p[0] + CAM[0], p[1] + CAM[1], p[2] + CAM[2]) for p in t]
-            ux, uy, uz = bx - ax, by - ay, bz - az
-            vx, vy, vz = cx - ax, cy - ay, cz - az
-            nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-            ln = math.sqrt(nx * nx + ny * ny + nz * nz) or 1.0
-            f.write(struct.pack('<12fH', nx / ln, ny / ln, nz / ln, ax, ay, az, bx, by, bz, cx, cy, cz, 0))
 
 
 def toolpath():
@@ -165,23 +113,6 @@ def toolpath():
     return out
 
 
-def write_apt(path, poses):
-    with open(path, 'w') as f:
-        f.write('PARTNO/CHANNEL PLATE (machplan generate.py)\n')
-        f.write('UNITS/MM\n')
-        f.write('CUTTER/6,3\n')
-        f.write('MULTAX/ON\n')
-        feed = None
-        for x, y, z, i, j, k, rapid, fr in poses:
-            if rapid:
-                f.write('RAPID\n')
-            elif fr != feed:
-                f.write(f'FEDRAT/MMPM,{fr:.0f}\n')
-                feed = fr
-            f.write(f'GOTO/{x:.4f},{y:.4f},{z:.4f},{i:.6f},{j:.6f},{k:.6f}\n')
-        f.write('FINI\n')
-
-
 if __name__ == '__main__':
-    write_stl('part.stl', mesh())
-    write_apt('part.apt', toolpath())
+    cam_files.write_stl('part.stl', mesh(), 'machplan wei-lee-2020 channel plate (generate.py)', CAM)
+    cam_files.write_apt('part.apt', toolpath(), 'CHANNEL PLATE (machplan generate.py)')
