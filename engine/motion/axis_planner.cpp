@@ -14,22 +14,22 @@ namespace machplan::motion {
 namespace {
 
 using internal::SpeedZone;
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kMinMove = 1e-9;         // shorter moves (mm or rad of path) are dropped
-constexpr double kZoneMergeRel = 0.005;   // caps within 0.5 % share a zone (as feed_planner.cpp)
+constexpr double kNoCap = std::numeric_limits<double>::infinity();
+constexpr double kMinJointMove = 1e-9;         // shorter moves (mm or rad of path) are dropped
+constexpr double kJointZoneMergeRel = 0.005;   // caps within 0.5 % share a zone (as feed_planner.cpp)
 constexpr double kSameRate = 1e-12;       // junction rate jumps below this do not bind
 
-const char* kAxisNames[kJointAxes] = {"x", "y", "z", "rotary 1", "rotary 2"};
+const char* kJointAxisNames[kJointAxes] = {"x", "y", "z", "rotary 1", "rotary 2"};
 
 // min_k lim_k / |u_k| over the axes that move (infinity when none does).
-double axis_cap(const JointVector& lim, const JointVector& u_abs) {
-  double r = kInf;
+double joint_axis_cap(const JointVector& lim, const JointVector& u_abs) {
+  double r = kNoCap;
   for (int k = 0; k < kJointAxes; ++k)
     if (u_abs[k] > 0.0) r = std::min(r, lim[k] / u_abs[k]);
   return r;
 }
 
-JointVector tolerance(const AxisLimits& l) {
+JointVector corner_tolerance(const AxisLimits& l) {
   JointVector t;
   t << l.corner_tolerance_mm, l.corner_tolerance_mm, l.corner_tolerance_mm, l.corner_tolerance_rad, l.corner_tolerance_rad;
   return t;
@@ -40,7 +40,7 @@ JointVector tolerance(const AxisLimits& l) {
 void AxisLimits::validate() const {
   const auto each = [](const JointVector& v, const char* field) {
     for (int k = 0; k < kJointAxes; ++k)
-      require_field(std::isfinite(v[k]) && v[k] > 0.0, fmt::format("{}.{}", field, kAxisNames[k]), v[k],
+      require_field(std::isfinite(v[k]) && v[k] > 0.0, fmt::format("{}.{}", field, kJointAxisNames[k]), v[k],
                     "must be finite and > 0");
   };
   each(velocity, "velocity");
@@ -54,32 +54,32 @@ void AxisLimits::validate() const {
 }
 
 double joint_move_length(const JointVector& delta, double tip_mm) {
-  if (tip_mm > kMinMove) return tip_mm;
+  if (tip_mm > kMinJointMove) return tip_mm;
   return delta.tail<2>().norm();
 }
 
 MoveCaps joint_move_caps(const JointVector& u, double feed, bool tip_moves, const AxisLimits& l) {
   MoveCaps c;
   const bool rapid = feed <= 0.0;
-  c.speed = axis_cap(rapid ? l.rapid_velocity : l.velocity, u);
+  c.speed = joint_axis_cap(rapid ? l.rapid_velocity : l.velocity, u);
   if (!rapid && l.feed == AxisLimits::Feed::tip && tip_moves) c.speed = std::min(c.speed, feed);
   if (!rapid && l.feed == AxisLimits::Feed::axes) {
     constexpr double kDegPerRad = 180.0 / std::numbers::pi;
     const double combined = std::hypot(u.head<3>().norm(), kDegPerRad * u.tail<2>().norm());
     if (combined > 0.0) c.speed = std::min(c.speed, feed / combined);
   }
-  c.accel = axis_cap(l.acceleration, u);
-  c.jerk = axis_cap(l.jerk, u);
+  c.accel = joint_axis_cap(l.acceleration, u);
+  c.jerk = joint_axis_cap(l.jerk, u);
   return c;
 }
 
 double junction_speed_cap(const JointVector& du_abs, double max_blend, const AxisLimits& l) {
-  if (!(du_abs.maxCoeff() > kSameRate)) return kInf;
-  const JointVector tol = tolerance(l);
+  if (!(du_abs.maxCoeff() > kSameRate)) return kNoCap;
+  const JointVector tol = corner_tolerance(l);
   double blend = max_blend;
   for (int k = 0; k < kJointAxes; ++k)
     if (du_abs[k] > 0.0) blend = std::min(blend, 8.0 * tol[k] / du_abs[k]);
-  return std::sqrt(blend * axis_cap(l.acceleration, du_abs));
+  return std::sqrt(blend * joint_axis_cap(l.acceleration, du_abs));
 }
 
 JointPlan plan_joint_moves(const JointVector& start, const std::vector<JointMove>& moves, const AxisLimits& limits) {
@@ -98,16 +98,16 @@ JointPlan plan_joint_moves(const JointVector& start, const std::vector<JointMove
                     m.feed_mm_per_s);
     const JointVector delta = m.end - q;
     const double len = joint_move_length(delta, m.tip_mm);
-    if (!(len > kMinMove) || !(delta.cwiseAbs().maxCoeff() > 0.0)) continue;  // goes nowhere: skipped
+    if (!(len > kMinJointMove) || !(delta.cwiseAbs().maxCoeff() > 0.0)) continue;  // goes nowhere: skipped
     JointPlan::Move mv;
     mv.s0 = plan.length_;
     mv.length = len;
     mv.start = q;
     mv.rate = delta / len;
-    const MoveCaps caps = joint_move_caps(mv.rate.cwiseAbs(), m.feed_mm_per_s, m.tip_mm > kMinMove, limits);
+    const MoveCaps caps = joint_move_caps(mv.rate.cwiseAbs(), m.feed_mm_per_s, m.tip_mm > kMinJointMove, limits);
     const double cap = caps.speed;
     mv.speed_cap = cap;
-    mv.junction_cap = kInf;
+    mv.junction_cap = kNoCap;
     if (!plan.moves_.empty()) {
       JointPlan::Move& prev = plan.moves_.back();
       prev.junction_cap = junction_speed_cap((mv.rate - prev.rate).cwiseAbs(), std::min(prev.length, len), limits);
@@ -131,7 +131,7 @@ JointPlan plan_joint_moves(const JointVector& start, const std::vector<JointMove
     if (join) {
       const SpeedZone& z = zones.back();
       const double joined_cap = std::min(z.cap, mv.speed_cap);
-      join = std::abs(mv.speed_cap - z.cap) <= kZoneMergeRel * z.cap && plan.moves_[k - 1].junction_cap >= joined_cap;
+      join = std::abs(mv.speed_cap - z.cap) <= kJointZoneMergeRel * z.cap && plan.moves_[k - 1].junction_cap >= joined_cap;
     }
     if (!join) {
       if (k > 0) node_cap.push_back(plan.moves_[k - 1].junction_cap);

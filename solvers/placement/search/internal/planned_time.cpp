@@ -11,7 +11,7 @@
 namespace machplan::placement {
 
 namespace {
-constexpr double kMinMove = 1e-9;  // as engine/motion/axis_planner.cpp: shorter moves are dropped
+constexpr double kMinPlannedMove = 1e-9;  // as engine/motion/axis_planner.cpp: shorter moves are dropped
 }
 
 PlannedTime::PlannedTime(const AxisPath& path) {
@@ -24,7 +24,7 @@ PlannedTime::PlannedTime(const AxisPath& path) {
   M_ = path.M;
   b_ = path.b;
   rotary_ = path.rotary_rad;
-  // The moves the planner keeps: a move shorter than kMinMove is dropped and the next one
+  // The moves the planner keeps: a move shorter than kMinPlannedMove is dropped and the next one
   // starts where the last kept one ended.
   std::size_t from = 0;
   for (std::size_t i = 1; i < M_.size(); ++i) {
@@ -34,14 +34,14 @@ PlannedTime::PlannedTime(const AxisPath& path) {
     motion::JointVector delta = motion::JointVector::Zero();
     delta.tail<2>() = dr;
     const double len = motion::joint_move_length(delta, tip);
-    if (!(len > kMinMove)) continue;
+    if (!(len > kMinPlannedMove)) continue;
     Step s;
     s.D = (M_[i] - M_[from]) / len;
     s.e = (b_[i] - b_[from]) / len;
     s.rotary = dr / len;
     s.length = len;
     s.feed = path.feed_mm_per_s[i];
-    s.tip_moves = tip > kMinMove;
+    s.tip_moves = tip > kMinPlannedMove;
     s.pose = i;
     steps_.push_back(s);
     from = i;
