@@ -132,23 +132,30 @@ TEST(AxisPlanner, ASampledPlanKeepsEveryAxisWithinItsLimits) {
   const JointPlan p = plan_joint_moves(start, path, l);
   ASSERT_GT(p.duration_s(), 0.0);
   const auto& mv = p.moves();
-  // Per move: the speed and acceleration of every axis inside it.
+  // Per move: the speed, acceleration and jerk (between two samples in the same move) of every
+  // axis inside it.
   const double dt = 2e-4;
-  double worst_v = 0, worst_a = 0;
+  double worst_v = 0, worst_a = 0, worst_j = 0;
+  std::size_t k = 0, k_before = 0;
+  JointState before;
   for (double t = 0; t <= p.duration_s(); t += dt) {
     const ProfileState s = p.path_state(t);
     const JointState q = p.sample(t);
-    std::size_t k = 0;
     while (k + 1 < mv.size() && mv[k + 1].s0 <= s.s) ++k;
     const bool rapid = k == 0 || k + 1 == mv.size();
     for (int a = 0; a < kJointAxes; ++a) {
       const double vmax = rapid ? l.rapid_velocity[a] : l.velocity[a];
       worst_v = std::max(worst_v, std::abs(q.velocity[a]) / vmax);
       worst_a = std::max(worst_a, std::abs(q.acceleration[a]) / l.acceleration[a]);
+      if (t > 0 && k == k_before)
+        worst_j = std::max(worst_j, std::abs(q.acceleration[a] - before.acceleration[a]) / dt / l.jerk[a]);
     }
+    before = q;
+    k_before = k;
   }
   EXPECT_LE(worst_v, 1.0 + 1e-9);
   EXPECT_LE(worst_a, 1.0 + 1e-9);
+  EXPECT_LE(worst_j, 1.0 + 1e-6);
   EXPECT_GT(worst_v, 0.5);  // the limits are reached, not idle
   EXPECT_GT(worst_a, 0.5);
   // Per corner: the jump of each axis's velocity spread over a blend L_b long, at the speed
