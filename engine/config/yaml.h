@@ -49,6 +49,7 @@ class Yaml {
   Yaml at(const std::string& key) const;         // required key of a map
   std::optional<Yaml> get(const std::string& key) const;  // optional key of a map
   std::vector<Yaml> items() const;               // elements of a sequence
+  std::vector<std::string> keys() const;         // keys of a map, in the file's order
   bool is_map() const;
   bool is_sequence() const;
   bool is_scalar() const;
