@@ -72,7 +72,8 @@ std::string scene_text(const std::string& machine, const std::string& toolpath, 
       machine, tooling, toolpath);
 }
 
-const std::string kMachine = test::kHexamPaper + "machine.yaml";
+// A function, not a constant: test::kHexamPaper may be initialised after this file's globals.
+std::string hexam_machine() { return test::kHexamPaper + "machine.yaml"; }
 const std::string kHolders =
     "holder: {length_mm: 60, stick_out_mm: 30}\n"
     "tools: {1: {chuck_diameter_mm: 20}, 2: {chuck_diameter_mm: 63, flute_length_mm: 25}}";
@@ -87,7 +88,7 @@ const std::string kLargest =
 
 CheckReport check_at(const TempDir& dir, const std::string& job, const std::string& tooling, const Placement& p) {
   dir.write("job.cl", job);
-  const std::string scene_file = dir.write("scene.yaml", scene_text(kMachine, "job.cl", tooling));
+  const std::string scene_file = dir.write("scene.yaml", scene_text(hexam_machine(), "job.cl", tooling));
   const Scene scene = load_scene(scene_file);
   Termination term;
   Checker checker(scene);
@@ -135,7 +136,7 @@ TEST(Tools, ALongToolsShankHitsWhatOneToolingMissed) {
 
 // The bundled HexaM with its tool change position moved to `nose` (none when empty).
 std::string machine_with_change(const TempDir& dir, const std::string& nose) {
-  std::ifstream in(kMachine);
+  std::ifstream in(hexam_machine());
   std::string text, line;
   while (std::getline(in, line))
     if (line.rfind("tool_change:", 0) != 0) text += line + "\n";
@@ -192,7 +193,7 @@ TEST(Tools, TheBundledFourToolJobIsPlacedAndCertified) {
 
 TEST(Tools, BadToolsAreRefusedNamingTheToolAndTheLine) {
   TempDir dir;
-  auto error = [&](const std::string& job, const std::string& tooling, const std::string& machine = kMachine) {
+  auto error = [&](const std::string& job, const std::string& tooling, const std::string& machine = hexam_machine()) {
     dir.write("job.cl", job);
     const std::string f = dir.write("scene.yaml", scene_text(machine, "job.cl", tooling));
     return error_of([&] { load_scene(f); });

@@ -86,19 +86,19 @@ struct Checker::Run {
 struct Checker::Impl {
   const Scene& scene;
   std::vector<std::unique_ptr<Run>> runs;
-  std::vector<PathPose> poses;  // every run's, in path order
+  std::vector<PathPose> joined;  // every run's poses in path order, when there are several
   WorkCounts counts;
   std::mutex class1_mutex;
   std::map<double, Finding> class1_at;  // every run's worst, by rotation (deg)
   std::optional<Finding> ring;          // class 1 for every rotation at once (once asked)
 
   explicit Impl(const Scene& s) : scene(s) {
-    for (const ToolRun& r : s.runs) {
-      runs.push_back(std::make_unique<Run>(s, r));
-      const auto& p = runs.back()->tree.poses();
-      poses.insert(poses.end(), p.begin(), p.end());
-    }
+    for (const ToolRun& r : s.runs) runs.push_back(std::make_unique<Run>(s, r));
+    if (runs.size() > 1)
+      for (const auto& r : runs) joined.insert(joined.end(), r->tree.poses().begin(), r->tree.poses().end());
   }
+  // The path's poses as the machines take them (rotary angles filled in).
+  const std::vector<PathPose>& poses() const { return runs.size() > 1 ? joined : runs.front()->tree.poses(); }
 
   // The first run's model: for what no tool changes (the table, the placement-only checks).
   const MachineModel& machine() const { return *runs.front()->model; }
@@ -186,7 +186,7 @@ struct Checker::Impl {
     if (!scene.tool_change) return out;
     const Where where = Where::of(p);
     for (std::size_t k = 1; k < scene.runs.size(); ++k) {
-      ChangeMoves m = change_moves(scene, k, where, poses[scene.runs[k - 1].end - 1], poses[scene.runs[k].first]);
+      ChangeMoves m = change_moves(scene, k, where, poses()[scene.runs[k - 1].end - 1], poses()[scene.runs[k].first]);
       const ToolRun &from = scene.runs[k - 1], &to = scene.runs[k];
       const std::string& a = scene.tools[from.tool].name;
       const std::string& b = scene.tools[to.tool].name;
@@ -331,8 +331,8 @@ const Finding& Checker::class1_every_rotation(Termination& term) {
 }
 
 CheckCounts Checker::counts() const { return impl_->counts.get(); }
-std::size_t Checker::pose_count() const { return impl_->poses.size(); }
-const std::vector<PathPose>& Checker::poses() const { return impl_->poses; }
+std::size_t Checker::pose_count() const { return impl_->poses().size(); }
+const std::vector<PathPose>& Checker::poses() const { return impl_->poses(); }
 const Scene& Checker::scene() const { return impl_->scene; }
 const std::string& Checker::constraint_name(const Spot& spot) const {
   return impl_->run_of(spot.pose).model->constraints()[spot.constraint].name;
