@@ -183,6 +183,10 @@ bool Yaml::boolean_or(const std::string& key, bool fallback) const {
 }
 
 void Yaml::reject_unknown_keys(std::initializer_list<const char*> known) const {
+  reject_unknown_keys(std::vector<const char*>(known));
+}
+
+void Yaml::reject_unknown_keys(const std::vector<const char*>& known) const {
   if (!node_->yaml.IsMap()) fail("must be a map, got " + kind_name());
   for (auto it = node_->yaml.begin(); it != node_->yaml.end(); ++it) {
     const std::string key = it->first.Scalar();

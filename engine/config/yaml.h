@@ -72,6 +72,7 @@ class Yaml {
 
   // Throws naming the first key of this map that is not in `known`.
   void reject_unknown_keys(std::initializer_list<const char*> known) const;
+  void reject_unknown_keys(const std::vector<const char*>& known) const;
 
   // Throws InputError at this node's line with "key 'path' " + message.
   [[noreturn]] void fail(const std::string& message) const;
