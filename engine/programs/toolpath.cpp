@@ -18,6 +18,7 @@
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
 #include "engine/common/internal/text_scan.h"
+#include "engine/programs/gcode.h"
 
 namespace machplan {
 namespace {
@@ -755,6 +756,8 @@ ToolPath read_toolpath_file(const std::string& path, const ToolPathReadOptions& 
   const std::string ext = lower_extension(path);
   if (ext == ".cl" || ext == ".apt" || ext == ".cls") return read_apt(text, path, options);
   if (ext == ".csv") return read_toolpath_csv(text, path, options);
+  if (ext == ".ngc" || ext == ".nc" || ext == ".gcode" || ext == ".tap" || ext == ".g")
+    return toolpath_from_gcode(read_gcode(text, path), options);
   return read_toolpath(text, path, options);
 }
 

@@ -146,6 +146,8 @@ struct ToolPath {
     double flute_mm = 0.0;          // CSI_SET_FLUTE_LENGTH; 0 when not given
     double extension_mm = 0.0;      // CSI_SET_EXTENSION_LENGTH (out of the holder); 0 when not given
     std::size_t poses = 0;          // poses made with it
+    double gauge_mm = 0.0;          // from the tip to the spindle's gauge line (a tool table's Z); 0 unknown
+    std::string table;              // "FILE:LINE" of its tool table entry, when one was applied
     std::string name() const;       // "T16", or "the tool of line 4"
   };
 
@@ -212,6 +214,28 @@ ToolPath read_toolpath_csv(std::string_view text, const std::string& source,
 ToolPath read_toolpath(std::string_view text, const std::string& source,
                        const ToolPathReadOptions& options = {});
 ToolPathFormat sniff_toolpath_format(std::string_view text, const std::string& source);
+
+// A G-code job (engine/programs/gcode.h, read as LinuxCNC reads it) as a tool path: the tip at
+// the end of every rapid and feed move, and along arcs (every 0.1 rad at most, chords within
+// 0.01 mm), the tool axis +Z; each tool change (M6, M61) starts the moves of its tool (ToolPath::
+// tools, with no shape until a tool table gives one). read_toolpath_file reads files ending in
+// .ngc, .nc, .gcode, .tap or .g this way. Throws InputError.
+struct Program;
+ToolPath toolpath_from_gcode(const Program& program, const ToolPathReadOptions& options = {});
+
+// One line of a LinuxCNC tool table ("T1 P1 D6.0 Z+50.0 ;comment"): the tool, its diameter (D)
+// and its length (Z: from the tip to the spindle's gauge line), 0 when not given.
+struct ToolTableEntry {
+  int number = 0;
+  double diameter_mm = 0.0, length_mm = 0.0;
+  int line = 0;
+};
+// Reads a tool table: words T P X Y Z A B C U V W D I J Q, ';' comments. A line without its T
+// word, another letter, or a bad number is refused with the file and line (InputError).
+std::vector<ToolTableEntry> read_tool_table_file(const std::string& path);
+// Gives each tool of the path that the table lists its diameter (when no CUTTER gave one) and
+// its length (ToolPath::Tool::gauge_mm).
+void apply_tool_table(ToolPath& path, const std::vector<ToolTableEntry>& table, const std::string& table_file);
 
 // Figures for a readable report of a tool path.
 struct ToolPathSummary {

@@ -191,6 +191,40 @@ TEST(Tools, TheBundledFourToolJobIsPlacedAndCertified) {
   EXPECT_TRUE(dense.report.free()) << of(dense.report, Kind::self).what;
 }
 
+// A G-code job names its tools by M6; a LinuxCNC tool table gives their diameters and lengths.
+TEST(Tools, AGcodeJobTakesItsToolsFromTheToolTable) {
+  TempDir dir;
+  dir.write("job.ngc",
+            "G21 G90 G17\nT1 M6\nG0 X-40 Y10 Z40\nG1 Z25 F200\nG0 Z40\n"        // 1-5
+            "T2 M6\nG0 X20 Y0 Z40\nG1 Z25 F300\nG2 X30 Y0 I5 J0 F600\nG0 Z40\nM2\n");  // 6-11
+  dir.write("tool.tbl", "; the tools\nT1 P1 D6.0 Z+95.0 ;6 mm drill\nT2 P2 D10.0 Z+110.0\n");
+  const std::string scene_file = dir.write(
+      "scene.yaml", scene_text(hexam_machine(), "job.ngc", "holder: {diameter_mm: 40, length_mm: 60}\ntool_table: tool.tbl"));
+  const Scene scene = load_scene(scene_file);
+  ASSERT_EQ(scene.tools.size(), 2u);
+  EXPECT_EQ(scene.tools[0].name, "T1");
+  EXPECT_DOUBLE_EQ(scene.tools[0].tooling.tool_diameter_mm, 6.0);
+  EXPECT_DOUBLE_EQ(scene.tools[0].tooling.stick_out_mm, 35.0) << "95 mm from tip to spindle, less the 60 mm holder";
+  EXPECT_DOUBLE_EQ(scene.tools[1].tooling.stick_out_mm, 50.0);
+  ASSERT_EQ(scene.runs.size(), 2u);
+  EXPECT_EQ(scene.lines[scene.runs[1].first], 7);
+  // The half circle of line 9 as poses on its arc (5 mm about (25, 0)), the last at its end.
+  const std::size_t end = scene.runs[1].end;
+  EXPECT_GT(end - scene.runs[1].first, 10u);
+  for (std::size_t i = scene.runs[1].first + 2; i + 1 < end; ++i)
+    EXPECT_NEAR((scene.tips_mm[i] + scene.origin_in_cam_mm - Eigen::Vector3d(25, 0, 25)).head<2>().norm(), 5.0, 1e-9);
+
+  auto refused = [&](const std::string& table) {
+    dir.write("tool.tbl", table);
+    return error_of([&] { load_scene(scene_file); });
+  };
+  EXPECT_THAT(refused("T1 P1 D6 Z95\nT2 P2 K4\n"), HasSubstr("tool.tbl:2: 'K' is not a tool table word"));
+  EXPECT_THAT(refused("T1 P1 D6 Z95\nP2 D4\n"), HasSubstr("tool.tbl:2: a tool table line needs its T word"));
+  EXPECT_THAT(refused("T1 P1 D6 Z95\nT2 D1e9\n"), HasSubstr("tool.tbl:2: D: '1e9' is not a number within +-1e6"));
+  EXPECT_THAT(refused("T1 P1 D6 Z50\nT2 D10 Z110\n"), HasSubstr("T1: its length 50 mm (tool.tbl:1) does not reach past the 60 mm holder"));
+  EXPECT_THAT(refused("T1 P1 D6 Z95\n"), HasSubstr("T2 (job.ngc:6) is loaded with nothing to say what it is"));
+}
+
 TEST(Tools, BadToolsAreRefusedNamingTheToolAndTheLine) {
   TempDir dir;
   auto error = [&](const std::string& job, const std::string& tooling, const std::string& machine = hexam_machine()) {
@@ -199,7 +233,8 @@ TEST(Tools, BadToolsAreRefusedNamingTheToolAndTheLine) {
     return error_of([&] { load_scene(f); });
   };
   EXPECT_THAT(error("LOAD/TOOL,7\nGOTO/0,0,40\n", "holder: {diameter_mm: 50, length_mm: 60, stick_out_mm: 40}"),
-              HasSubstr("T7 (job.cl:1) is loaded with no CUTTER to say what it is: describe it in the scene, tools: {7:"));
+              HasSubstr("T7 (job.cl:1) is loaded with nothing to say what it is (no CUTTER, no tool table entry): "
+                        "describe it in the scene, tools: {7:"));
   EXPECT_THAT(error(kJob, "holder: {length_mm: 60, stick_out_mm: 30}"),
               HasSubstr("T1 (job.cl:3) has no holder diameter: give the scene's holder: {diameter_mm: ...}"));
   EXPECT_THAT(error(kJob, "holder: {diameter_mm: 50, length_mm: 60}"), HasSubstr("has no length out of the holder"));

@@ -128,6 +128,14 @@ Tooling tool_of(const ToolPath::Tool& t, const std::optional<Yaml>& holder, cons
   if (holder) {
     if (holder->has("diameter_mm")) chuck_d = holder->number("diameter_mm", size);
     if (holder->has("length_mm")) chuck_l = holder->number("length_mm", size);
+    // A tool table's length runs from the tip to the spindle: the holder's length is in it.
+    if (!stick && t.gauge_mm > 0 && chuck_l) {
+      if (t.gauge_mm <= *chuck_l)
+        throw InputError(root.file(), root.at("tool_table").line(),
+                         fmt::format("{}: its length {:g} mm ({}) does not reach past the {:g} mm holder", t.name(),
+                                     t.gauge_mm, t.table, *chuck_l));
+      stick = t.gauge_mm - *chuck_l;
+    }
     if (!stick && holder->has("stick_out_mm")) stick = holder->number("stick_out_mm", size);
   }
   if (entry) {
@@ -153,7 +161,7 @@ Tooling tool_of(const ToolPath::Tool& t, const std::optional<Yaml>& holder, cons
   };
   if (!d)
     throw InputError(root.file(), root.at("toolpath").line(),
-                     fmt::format("{} ({}) is loaded with no CUTTER to say what it is: describe it in the scene, "
+                     fmt::format("{} ({}) is loaded with nothing to say what it is (no CUTTER, no tool table entry): describe it in the scene, "
                                  "tools: {{{}: {{tool_diameter_mm: ..., stick_out_mm: ...}}}}",
                                  t.name(), where, n));
   missing(stick.has_value(), "length out of the holder", "stick_out_mm", "stick_out_mm");
@@ -314,6 +322,11 @@ ToolPath read_toolpath(const Yaml& root, Scene& s) {
   s.toolpath_file = root.resolve_path(root.string("toolpath"));
   ToolPath tp = read_named_file(root.at("toolpath"), [](const std::string& f) { return read_toolpath_file(f); });
   if (tp.poses.empty()) root.at("toolpath").fail("names a tool path with no poses");
+  if (root.has("tool_table")) {
+    const std::string file = root.resolve_path(root.string("tool_table"));
+    const auto table = read_named_file(root.at("tool_table"), [](const std::string& f) { return read_tool_table_file(f); });
+    apply_tool_table(tp, table, std::filesystem::path(file).filename().string());
+  }
   s.tips_mm.reserve(tp.poses.size());
   s.axes.reserve(tp.poses.size());
   for (std::size_t i = 0; i < tp.poses.size(); ++i) {
@@ -362,7 +375,7 @@ Scene load_scene_text(const std::string& text, const std::string& path) {
 namespace {
 Scene read_scene(const Yaml& root, const std::string& path) {
   root.reject_unknown_keys({"machine", "safe_distance_mm", "tooling", "holder", "tools", "workpiece", "toolpath",
-                            "peripherals", "search", "reconstructed"});
+                            "tool_table", "peripherals", "search", "reconstructed"});
   Scene s;
   s.source = path;
   s.machine.source = machine_file(root);

@@ -11,7 +11,8 @@
 //   workpiece: {mesh: part.stl,               # or {box: {size: [dx, dy, dz]}}
 //               origin_in_cam_mm: [x, y, z],  # optional, see below
 //               spoilboard_mm: 0}             # sacrificial top of the pad the tool may cut into
-//   toolpath: part.apt                        # CL (APT) or CSV, in the CAM file's coordinates
+//   toolpath: part.apt                        # CL (APT), G-code or CSV, in the CAM file's coordinates
+//   tool_table: tool.tbl                      # LinuxCNC tool table for a G-code job's tools
 //   peripherals:
 //     - {name: tool magazine, box: {center: [x, y, z], size: [dx, dy, dz], yaw_deg: 45}}
 //     - {name: fixture, mesh: fixture.stl, pose: {xyz: [x, y, z], yaw_deg: 0}}
@@ -31,7 +32,9 @@
 // its diameter, corner radius and flute length from its CUTTER, its length out of the holder
 // from the file where it says so, and the rest from `holder` (the holder's diameter and length
 // out of the spindle, and a stick-out for tools the file gives none). `tools`, keyed by the
-// tool's number, overrides any of the tooling keys for one tool. A value no source gives, a
+// tool's number, overrides any of the tooling keys for one tool. A G-code job names its tools
+// by M6; a LinuxCNC tool table (`tool_table`) gives their diameters and lengths (from the tip
+// to the spindle: the stick-out is that less the holder's length). A value no source gives, a
 // tool the file loads without describing it, a key of `tools` the file never loads, are
 // refused with the tool's name and the line that loads it. `tooling` is the one tool of a path
 // made with at most one tool (it then overrides the file's CUTTER); with a path that changes
