@@ -757,7 +757,11 @@ ToolPath read_toolpath_file(const std::string& path, const ToolPathReadOptions& 
   if (ext == ".cl" || ext == ".apt" || ext == ".cls") return read_apt(text, path, options);
   if (ext == ".csv") return read_toolpath_csv(text, path, options);
   if (ext == ".ngc" || ext == ".nc" || ext == ".gcode" || ext == ".tap" || ext == ".g")
-    return toolpath_from_gcode(read_gcode(text, path), options);
+  {
+    GcodeOptions g;
+    g.dialect = GcodeDialect::automatic;  // CAM posts for GRBL as well as for LinuxCNC
+    return toolpath_from_gcode(read_gcode(text, path, g), options);
+  }
   return read_toolpath(text, path, options);
 }
 

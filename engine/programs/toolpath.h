@@ -215,7 +215,8 @@ ToolPath read_toolpath(std::string_view text, const std::string& source,
                        const ToolPathReadOptions& options = {});
 ToolPathFormat sniff_toolpath_format(std::string_view text, const std::string& source);
 
-// A G-code job (engine/programs/gcode.h, read as LinuxCNC reads it) as a tool path: the tip at
+// A G-code job (engine/programs/gcode.h; files are read in the dialect they point to, LinuxCNC's
+// or GRBL's) as a tool path: the tip at
 // the end of every rapid and feed move, and along arcs (every 0.1 rad at most, chords within
 // 0.01 mm), the tool axis +Z; each tool change (M6, M61) starts the moves of its tool (ToolPath::
 // tools, with no shape until a tool table gives one). read_toolpath_file reads files ending in
