@@ -259,9 +259,9 @@ constexpr std::pair<const char*, const char*> kProgramKeys[] = {
 // A job file's `program:` section, read as if its values were given to the flags: each key sets
 // its flag unless the command line gave that flag. A bad value is refused at its line.
 void read_program_section(const Yaml& section, NestArgs& a, CLI::App* cmd) {
-  section.reject_unknown_keys({"feed", "lead-in", "lead-in-shape", "lead-out", "lead-out-shape", "overcut", "clearance", "kerf",
-                               "kerf-by", "part-side", "material", "holes", "hole-diameter", "hole-velocity", "hole-overcut",
-                               "dialect"});
+  std::vector<const char*> keys;
+  for (const auto& [key, field] : kProgramKeys) keys.push_back(key);
+  section.reject_unknown_keys(keys);
   std::vector<std::pair<const char*, const char*>> set;  // the keys that set their flag
   for (const auto& [key, field] : kProgramKeys) {
     CLI::Option* opt = cmd->get_option(std::string("--") + key);

@@ -57,6 +57,17 @@ void add_toolpath(CLI::App& app) {
                        {"length_mm", path.cutter->length_mm}};
       else
         j["cutter"] = nullptr;
+      j["tools"] = nlohmann::json::array();
+      for (const auto& t : path.tools) {
+        nlohmann::json tj = {{"name", t.name()}, {"line", t.line}, {"poses", t.poses}};
+        tj["number"] = t.number >= 0 ? nlohmann::json(t.number) : nlohmann::json(nullptr);
+        if (t.cutter)
+          tj["cutter"] = {{"diameter_mm", t.cutter->diameter_mm}, {"corner_radius_mm", t.cutter->corner_radius_mm},
+                          {"length_mm", t.cutter->length_mm}, {"line", t.cutter->line}};
+        if (t.flute_mm > 0) tj["flute_length_mm"] = t.flute_mm;
+        if (t.extension_mm > 0) tj["extension_mm"] = t.extension_mm;
+        j["tools"].push_back(tj);
+      }
       machplan::cli::print_json(j);
       return;
     }
@@ -72,11 +83,18 @@ void add_toolpath(CLI::App& app) {
     out += fmt::format("largest step between tips: {:.4f} mm (ending at line {})\n", s.max_step_mm, s.max_step_line);
     out += fmt::format("path length: {:.3f} mm at feed, {:.3f} mm rapid\n", s.feed_length_mm, s.rapid_length_mm);
     if (!path.arcs.empty()) out += fmt::format("circular moves: {} (poses added along them)\n", path.arcs.size());
-    if (path.cutter)
-      out += fmt::format("cutter: diameter {:.4g} mm, corner radius {:.4g} mm, length {:.4g} mm\n",
-                         path.cutter->diameter_mm, path.cutter->corner_radius_mm, path.cutter->length_mm);
-    else
-      out += "cutter: not given\n";
+    if (path.tools.empty()) out += "tools: none named, no CUTTER\n";
+    for (const auto& t : path.tools) {
+      out += fmt::format("tool {} (line {}): {} poses", t.name(), t.line, t.poses);
+      if (t.cutter)
+        out += fmt::format(", diameter {:.4g} mm, corner radius {:.4g} mm, length {:.4g} mm", t.cutter->diameter_mm,
+                           t.cutter->corner_radius_mm, t.cutter->length_mm);
+      else
+        out += ", no CUTTER";
+      if (t.flute_mm > 0) out += fmt::format(", flutes {:.4g} mm", t.flute_mm);
+      if (t.extension_mm > 0) out += fmt::format(", {:.4g} mm out of the holder", t.extension_mm);
+      out += "\n";
+    }
     std::fputs(out.c_str(), stdout);
   });
 }

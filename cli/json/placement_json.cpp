@@ -31,6 +31,14 @@ nlohmann::json finding_json(const Finding& f) {
   return j;
 }
 
+// Per tool of the job: its tightest clearance, of which kind, where.
+nlohmann::json tools_json(const CheckReport& r) {
+  nlohmann::json tools = nlohmann::json::array();
+  for (const ToolClearance& t : r.tools)
+    tools.push_back({{"tool", t.tool}, {"poses", t.poses}, {"kind", kind_name(t.kind)}, {"tightest", finding_json(t.tightest)}});
+  return tools;
+}
+
 nlohmann::json check_report_json(const CheckReport& r) {
   nlohmann::json kinds, clear;
   for (int k = 0; k < kKindCount; ++k) {
@@ -44,7 +52,8 @@ nlohmann::json check_report_json(const CheckReport& r) {
           {"min_clearance_mm", clear},
           {"interference", kinds},
           {"stroke_margin_mm", finite_or(r.stroke_margin_mm)},
-          {"joint_margin_deg", finite_or(r.joint_margin_deg)}};
+          {"joint_margin_deg", finite_or(r.joint_margin_deg)},
+          {"tools", tools_json(r)}};
 }
 
 nlohmann::json counts_json(const CheckCounts& c, std::size_t poses) {
@@ -69,6 +78,21 @@ nlohmann::json scene_json(const Scene& s) {
                    {"below_bottom", {{"poses", s.below_bottom.poses}, {"deepest_mm", s.below_bottom.deepest_mm}}}};
   if (s.below_bottom.deepest_pose >= 0)
     j["below_bottom"]["pose_index"] = s.below_bottom.deepest_pose, j["below_bottom"]["line"] = s.below_bottom.deepest_line;
+  j["tools"] = nlohmann::json::array();
+  for (const SceneTool& t : s.tools) {
+    const Tooling& g = t.tooling;
+    nlohmann::json tj = {{"name", t.name}, {"diameter_mm", g.tool_diameter_mm}, {"corner_radius_mm", g.corner_radius_mm},
+                         {"flute_length_mm", g.flute_length_mm}, {"stick_out_mm", g.stick_out_mm},
+                         {"holder_diameter_mm", g.chuck_diameter_mm}, {"holder_length_mm", g.chuck_length_mm},
+                         {"line", t.line}};
+    tj["number"] = t.number >= 0 ? nlohmann::json(t.number) : nlohmann::json(nullptr);
+    j["tools"].push_back(tj);
+  }
+  j["tool_changes"] = nlohmann::json::array();
+  for (std::size_t k = 1; k < s.runs.size(); ++k)
+    j["tool_changes"].push_back({{"to", s.tools[s.runs[k].tool].name}, {"pose_index", s.runs[k].first},
+                                 {"line", s.lines[s.runs[k].first]}});
+  j["warnings"] = s.warnings;
   return j;
 }
 

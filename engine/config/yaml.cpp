@@ -103,6 +103,16 @@ std::vector<Yaml> Yaml::items() const {
   return out;
 }
 
+std::vector<std::string> Yaml::keys() const {
+  if (!node_->yaml.IsMap()) fail("must be a map, got " + kind_name());
+  std::vector<std::string> out;
+  for (auto it = node_->yaml.begin(); it != node_->yaml.end(); ++it) {
+    if (!it->first.IsScalar()) fail("has a key that is not a name");
+    out.push_back(it->first.Scalar());
+  }
+  return out;
+}
+
 double Yaml::number(const NumberRule& rule) const {
   if (!node_->yaml.IsScalar()) fail("must be a number, got " + kind_name());
   const std::string& s = node_->yaml.Scalar();
@@ -173,6 +183,10 @@ bool Yaml::boolean_or(const std::string& key, bool fallback) const {
 }
 
 void Yaml::reject_unknown_keys(std::initializer_list<const char*> known) const {
+  reject_unknown_keys(std::vector<const char*>(known));
+}
+
+void Yaml::reject_unknown_keys(const std::vector<const char*>& known) const {
   if (!node_->yaml.IsMap()) fail("must be a map, got " + kind_name());
   for (auto it = node_->yaml.begin(); it != node_->yaml.end(); ++it) {
     const std::string key = it->first.Scalar();

@@ -49,6 +49,7 @@ class Yaml {
   Yaml at(const std::string& key) const;         // required key of a map
   std::optional<Yaml> get(const std::string& key) const;  // optional key of a map
   std::vector<Yaml> items() const;               // elements of a sequence
+  std::vector<std::string> keys() const;         // keys of a map, in the file's order
   bool is_map() const;
   bool is_sequence() const;
   bool is_scalar() const;
@@ -71,6 +72,7 @@ class Yaml {
 
   // Throws naming the first key of this map that is not in `known`.
   void reject_unknown_keys(std::initializer_list<const char*> known) const;
+  void reject_unknown_keys(const std::vector<const char*>& known) const;
 
   // Throws InputError at this node's line with "key 'path' " + message.
   [[noreturn]] void fail(const std::string& message) const;

@@ -18,6 +18,7 @@
 #include "engine/common/error.h"
 #include "engine/common/text_file.h"
 #include "engine/common/internal/text_scan.h"
+#include "engine/programs/gcode.h"
 
 namespace machplan {
 namespace {
@@ -99,7 +100,48 @@ class Reader {
     if (path_.poses.size() >= options_.max_poses)
       fail(pose.line, fmt::format("more than {} poses; the reader's limit (ToolPathReadOptions::max_poses) is {}",
                                   options_.max_poses, options_.max_poses));
+    if (pending_cutter_) {
+      // A CUTTER before this move and after the last LOAD: it describes the tool in the
+      // spindle (a numbered one must keep its shape), or a new unnumbered one when the
+      // unnumbered tool in the spindle already moved.
+      if (tool_ < 0 || (path_.tools[tool_].number < 0 && path_.tools[tool_].poses > 0))
+        tool_ = new_tool(-1, pending_cutter_->line);
+      describe_tool(pending_cutter_->line);
+    }
     path_.poses.push_back(pose);
+    path_.poses.back().tool = tool_;
+    if (tool_ >= 0) ++path_.tools[tool_].poses;
+  }
+
+  int new_tool(int number, int line) {
+    ToolPath::Tool t;
+    t.number = number;
+    t.line = line;
+    path_.tools.push_back(t);
+    return static_cast<int>(path_.tools.size()) - 1;
+  }
+
+  // Gives the tool in force the CUTTER waiting (two CUTTERs of one tool number must agree).
+  void describe_tool(int line) {
+    ToolPath::Tool& t = path_.tools[tool_];
+    if (t.cutter && t.number >= 0 && t.poses > 0) {
+      const ToolPath::Cutter &a = *t.cutter, &b = *pending_cutter_;
+      if (std::abs(a.diameter_mm - b.diameter_mm) > 1e-9 || std::abs(a.corner_radius_mm - b.corner_radius_mm) > 1e-9 ||
+          std::abs(a.length_mm - b.length_mm) > 1e-9)
+        fail(line, fmt::format("CUTTER describes tool {} unlike the CUTTER of line {} (one number, one tool)", t.number,
+                               a.line));
+    }
+    t.cutter = pending_cutter_;
+    pending_cutter_.reset();
+  }
+
+  // LOAD/TOOL, n: the moves that follow are made with tool n.
+  void load_tool(int number, int line) {
+    tool_ = -1;
+    for (std::size_t k = 0; k < path_.tools.size(); ++k)
+      if (path_.tools[k].number == number) tool_ = static_cast<int>(k);
+    if (tool_ < 0) tool_ = new_tool(number, line);
+    if (pending_cutter_) describe_tool(line);
   }
 
   ToolPath finish() {
@@ -109,6 +151,9 @@ class Reader {
 
   const ToolPathReadOptions& options_;
   ToolPath path_;
+  // The tool in force (index into path_.tools, -1 none yet) and a CUTTER not yet bound to one.
+  int tool_ = -1;
+  std::optional<ToolPath::Cutter> pending_cutter_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -179,6 +224,11 @@ class AptReader : public Reader {
         if (csys_count_++ == 0) csys_first_line_ = line;
         return;
       }
+      // Cutter compensation moves the tool off the points written by its radius.
+      if (iequals(word, "CUTCOM") && has_slash) {
+        const auto v = split_all(rest.substr(1));
+        if (!v.empty() && (iequals(v[0], "LEFT") || iequals(v[0], "RIGHT")) && cutcom_count_++ == 0) cutcom_first_line_ = line;
+      }
       return skip(word, line);
     }
     if (!rest.empty() && !has_slash)
@@ -203,6 +253,8 @@ class AptReader : public Reader {
     if (iequals(word, "TLAXIS")) return tool_axis(args, line);
     if (iequals(word, "FEDRAT")) return feed(args, line);
     if (iequals(word, "CUTTER")) return cutter(args, line);
+    if (iequals(word, "LOAD")) return load(args, line);
+    if (iequals(word, "CSI_SET_FLUTE_LENGTH") || iequals(word, "CSI_SET_EXTENSION_LENGTH")) return tool_length(word, args, line);
     if (iequals(word, "RAPID")) {
       rapid_ = true;
       if (bare_rapid) return;
@@ -233,8 +285,8 @@ class AptReader : public Reader {
   }
 
   static bool known(std::string_view word) {
-    for (const char* k : {"GOTO", "FROM", "GODLTA", "CIRCLE", "CYCLE", "TLAXIS", "FEDRAT", "CUTTER", "RAPID", "MULTAX",
-                          "UNITS", "UNIT", "FINI"})
+    for (const char* k : {"GOTO", "FROM", "GODLTA", "CIRCLE", "CYCLE", "TLAXIS", "FEDRAT", "CUTTER", "LOAD",
+                          "CSI_SET_FLUTE_LENGTH", "CSI_SET_EXTENSION_LENGTH", "RAPID", "MULTAX", "UNITS", "UNIT", "FINI"})
       if (iequals(word, k)) return true;
     return false;
   }
@@ -283,6 +335,11 @@ class AptReader : public Reader {
                                            "the poses after it are kept in the coordinates written, not transformed",
                                            path_.source, csys_first_line_,
                                            csys_count_ > 1 ? fmt::format(" ({} statements)", csys_count_) : ""));
+    if (cutcom_count_ > 0)
+      path_.warnings.push_back(fmt::format("{}:{}: cutter compensation (CUTCOM/LEFT or RIGHT){}: the control offsets "
+                                           "the tool from the points written by its radius; they are checked as written",
+                                           path_.source, cutcom_first_line_,
+                                           cutcom_count_ > 1 ? fmt::format(" ({} statements)", cutcom_count_) : ""));
   }
 
  private:
@@ -481,7 +538,30 @@ class AptReader : public Reader {
       fail(line, fmt::format("CUTTER: corner radius {} must lie between 0 and half the diameter ({})", v[1],
                              v[0] / 2));
     if (c.length_mm < 0.0) fail(line, fmt::format("CUTTER: length {} must not be negative", v[6]));
+    c.line = line;
     path_.cutter = c;
+    pending_cutter_ = c;
+    // Right after a LOAD, before any move: it describes the tool just loaded.
+    if (tool_ >= 0 && path_.tools[tool_].poses == 0) describe_tool(line);
+  }
+
+  // LOAD/TOOL, n[, ...]
+  void load(const Fields& args, int line) {
+    if (args.count < 2 || !iequals(args.at[0], "TOOL"))
+      fail(line, "LOAD: expected LOAD/TOOL, n (a tool number)");
+    const double n = number(args.at[1], line, "LOAD/TOOL");
+    if (n != std::floor(n) || n < 0 || n > 1e6)
+      fail(line, fmt::format("LOAD/TOOL: tool number {} must be an integer within 0 .. 1000000", printable(args.at[1])));
+    load_tool(static_cast<int>(n), line);
+  }
+
+  // CAMWorks' CSI_SET_FLUTE_LENGTH/l and CSI_SET_EXTENSION_LENGTH/l: of the tool loaded last.
+  void tool_length(std::string_view word, const Fields& args, int line) {
+    if (args.count != 1) fail(line, fmt::format("{}: expected one length", printable(word)));
+    const double l = number(args.at[0], line, std::string(word).c_str()) * mm_per_unit_;
+    if (!(l > 0.0)) fail(line, fmt::format("{}: length {} must be positive", printable(word), printable(args.at[0])));
+    if (tool_ < 0) tool_ = new_tool(-1, line);
+    (iequals(word, "CSI_SET_FLUTE_LENGTH") ? path_.tools[tool_].flute_mm : path_.tools[tool_].extension_mm) = l;
   }
 
   Eigen::Vector3d axis_ = Eigen::Vector3d::UnitZ();
@@ -500,6 +580,9 @@ class AptReader : public Reader {
   // CSYS statements that move the poses after them (not applied).
   int csys_first_line_ = 0;
   std::size_t csys_count_ = 0;
+  // CUTCOM/LEFT and CUTCOM/RIGHT statements (compensation not applied).
+  int cutcom_first_line_ = 0;
+  std::size_t cutcom_count_ = 0;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -673,7 +756,17 @@ ToolPath read_toolpath_file(const std::string& path, const ToolPathReadOptions& 
   const std::string ext = lower_extension(path);
   if (ext == ".cl" || ext == ".apt" || ext == ".cls") return read_apt(text, path, options);
   if (ext == ".csv") return read_toolpath_csv(text, path, options);
+  if (ext == ".ngc" || ext == ".nc" || ext == ".gcode" || ext == ".tap" || ext == ".g")
+  {
+    GcodeOptions g;
+    g.dialect = GcodeDialect::automatic;  // CAM posts for GRBL as well as for LinuxCNC
+    return toolpath_from_gcode(read_gcode(text, path, g), options);
+  }
   return read_toolpath(text, path, options);
+}
+
+std::string ToolPath::Tool::name() const {
+  return number >= 0 ? fmt::format("T{}", number) : fmt::format("the tool of line {}", line);
 }
 
 std::string skipped_summary(const ToolPath& path) {

@@ -18,6 +18,16 @@
 //   CUTTER/d[, r[, e, f, a, b, h]]
 //                                APT cutter: diameter d, corner radius r (default 0), and with
 //                                all seven values the flute length h. d > 0, 0 <= r <= d/2.
+//                                It describes the tool of the moves that follow it: the tool
+//                                the next LOAD/TOOL loads, or, when a move comes first, the
+//                                one in the spindle (then a tool of its own if that one has
+//                                already moved with another CUTTER).
+//   LOAD/TOOL, n[, ...]          a tool change: the moves that follow are made with tool n
+//                                (an integer 0 .. 1e6), kept in ToolPath::tools; a number
+//                                loaded again is the same tool (its CUTTERs must agree).
+//   CSI_SET_FLUTE_LENGTH/l, CSI_SET_EXTENSION_LENGTH/l
+//                                CAMWorks' flute length and length out of the holder of the
+//                                tool loaded last.
 //   FEDRAT/f | FEDRAT/MMPM, f | FEDRAT/f, MMPM | FEDRAT/IPM, f | FEDRAT/f, IPM
 //                                feed for the following GOTOs, per minute in the current unit
 //                                (MMPM forces mm/min, IPM inch/min); f > 0. Per-revolution
@@ -59,12 +69,13 @@
 //   $$ text                      comment (anywhere on a line; the rest of the line is ignored)
 //   ... $                        a '$' ending a line continues the statement on the next line
 //
-// Any other statement (LOAD, SELECT, SPINDL, COOLNT, CUTCOM, CSYS, TRNTYP, INSERT, PPRINT,
+// Any other statement (SELECT, SPINDL, COOLNT, CUTCOM, CSYS, TRNTYP, INSERT, PPRINT,
 // post-processor words ...) carries nothing for placement and is skipped, counted per kind in
 // ToolPath::skipped (skipped_summary() says it in one line). A CSYS that is not the identity
 // (another setup's coordinate system) is not applied either, and that changes what the path
-// means: the poses after it stay in the coordinates written. It is the one warning
-// (ToolPath::warnings, "FILE:LINE: ..." naming the first and how many).
+// means: the poses after it stay in the coordinates written. Nor is cutter compensation
+// (CUTCOM/LEFT, CUTCOM/RIGHT: the control moves the tool off the points by its radius). Those
+// are the warnings (ToolPath::warnings, "FILE:LINE: ..." naming the first and how many).
 //
 // CSV (extension .csv): one pose per line, comma separated, blanks around fields ignored,
 // lines starting with '#' and blank lines skipped. An optional header names the columns:
@@ -105,6 +116,7 @@ struct ToolPose {
   int line = 0;                  // 1-based source line of the statement or row
   bool rapid = false;            // APT: this GOTO followed a RAPID
   int arc = -1;                  // index into ToolPath::arcs when the move to here is circular
+  int tool = -1;                 // index into ToolPath::tools; -1 when the file names no tool
 };
 
 // A circular (or helical) move of an APT CIRCLE: from poses[first_pose - 1] through the
@@ -124,15 +136,29 @@ struct ToolPath {
     double diameter_mm = 0.0;
     double corner_radius_mm = 0.0;  // 0 flat end mill, diameter/2 ball end mill
     double length_mm = 0.0;         // flute length (APT h); 0 when not given
+    int line = 0;                   // of the CUTTER statement
+  };
+  // A tool the moves are made with: loaded by LOAD/TOOL, or described by a CUTTER alone.
+  struct Tool {
+    int number = -1;                // LOAD/TOOL number; -1 for a tool the file gives no number
+    int line = 0;                   // where it is first loaded (or its CUTTER's line)
+    std::optional<Cutter> cutter;   // what the file says of its shape
+    double flute_mm = 0.0;          // CSI_SET_FLUTE_LENGTH; 0 when not given
+    double extension_mm = 0.0;      // CSI_SET_EXTENSION_LENGTH (out of the holder); 0 when not given
+    std::size_t poses = 0;          // poses made with it
+    double gauge_mm = 0.0;          // from the tip to the spindle's gauge line (a tool table's Z); 0 unknown
+    std::string table;              // "FILE:LINE" of its tool table entry, when one was applied
+    std::string name() const;       // "T16", or "the tool of line 4"
   };
 
   std::string source;     // file name (or the name given to a string reader), for messages
   std::string part_name;  // APT PARTNO text, empty otherwise
   std::vector<ToolPose> poses;
   std::optional<Cutter> cutter;  // last CUTTER statement in the file, if any
+  std::vector<Tool> tools;       // every tool that makes a move, in order of first use
   bool multiaxis = false;        // MULTAX/ON seen, or some pose carried its own axis
   std::vector<ToolArc> arcs;     // APT CIRCLE moves, in order
-  // What changes the result: a CSYS that is not applied. Empty for most files.
+  // What changes the result: a CSYS or cutter compensation that is not applied. Empty for most files.
   std::vector<std::string> warnings;
   // Statements that carry nothing for the tool path, per kind ("LOAD", "SPINDL"), in order of
   // first appearance.
@@ -188,6 +214,29 @@ ToolPath read_toolpath_csv(std::string_view text, const std::string& source,
 ToolPath read_toolpath(std::string_view text, const std::string& source,
                        const ToolPathReadOptions& options = {});
 ToolPathFormat sniff_toolpath_format(std::string_view text, const std::string& source);
+
+// A G-code job (engine/programs/gcode.h; files are read in the dialect they point to, LinuxCNC's
+// or GRBL's) as a tool path: the tip at
+// the end of every rapid and feed move, and along arcs (every 0.1 rad at most, chords within
+// 0.01 mm), the tool axis +Z; each tool change (M6, M61) starts the moves of its tool (ToolPath::
+// tools, with no shape until a tool table gives one). read_toolpath_file reads files ending in
+// .ngc, .nc, .gcode, .tap or .g this way. Throws InputError.
+struct Program;
+ToolPath toolpath_from_gcode(const Program& program, const ToolPathReadOptions& options = {});
+
+// One line of a LinuxCNC tool table ("T1 P1 D6.0 Z+50.0 ;comment"): the tool, its diameter (D)
+// and its length (Z: from the tip to the spindle's gauge line), 0 when not given.
+struct ToolTableEntry {
+  int number = 0;
+  double diameter_mm = 0.0, length_mm = 0.0;
+  int line = 0;
+};
+// Reads a tool table: words T P X Y Z A B C U V W D I J Q, ';' comments. A line without its T
+// word, another letter, or a bad number is refused with the file and line (InputError).
+std::vector<ToolTableEntry> read_tool_table_file(const std::string& path);
+// Gives each tool of the path that the table lists its diameter (when no CUTTER gave one) and
+// its length (ToolPath::Tool::gauge_mm).
+void apply_tool_table(ToolPath& path, const std::vector<ToolTableEntry>& table, const std::string& table_file);
 
 // Figures for a readable report of a tool path.
 struct ToolPathSummary {

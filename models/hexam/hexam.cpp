@@ -184,7 +184,7 @@ void Machine::finalize(const Yaml* where) {
 
 Machine machine_from_yaml(const Yaml& root) {
   root.reject_unknown_keys({"kind", "name", "table_size_mm", "layout", "struts", "sliders", "spindle", "home_tip_mm",
-                            "max_tilt_deg", "reconstructed"});
+                            "max_tilt_deg", "tool_change", "reconstructed"});
   if (root.has("kind") && root.string("kind") != "hexapod") root.at("kind").fail("must be 'hexapod' in a HexaM-type machine file");
   Machine m;
   m.source = root.file();

@@ -173,8 +173,8 @@ Eigen::Vector3d axis_at(const Machine& m, double a_rad, double c_rad) {
 }
 
 Machine machine_from_yaml(const Yaml& root) {
-  root.reject_unknown_keys(
-      {"kind", "name", "reconstructed", "feed_mode", "spindle", "linear_axes", "tilt_axis", "rotary_table", "base_parts"});
+  root.reject_unknown_keys({"kind", "name", "reconstructed", "feed_mode", "spindle", "linear_axes", "tilt_axis", "rotary_table",
+                            "base_parts", "tool_change"});
   Machine m;
   m.source = root.file();
   m.name = root.string_or("name", "trunnion");

@@ -1,6 +1,7 @@
 // Fuzz target: the placement scene reader (solvers/placement/scene/scene.h), YAML plus machplan's
 // checks and bounds. The scene text comes from the fuzzer; the files it names are found in
-// tests/fuzz/scene_files/ (the bundled HexaM machine through a link, a small tool path), so
+// tests/fuzz/scene_files/ (the bundled HexaM machine through a link, a small tool path, a CL
+// file that changes tools), so
 // that seeds load completely and mutations reach every key. Any input must end in a scene
 // within the documented bounds or in machplan::InputError; anything else is a bug.
 #include <cmath>
@@ -28,6 +29,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (!(s.search.pad_max_mm >= 0 && s.search.pad_max_mm <= kMaxSceneSizeMm)) std::abort();
     for (const auto& p : s.peripherals)
       if (!p.bounds.min().allFinite() || !p.bounds.max().allFinite()) std::abort();
+    // Every pose in one run, in order, each run's tool with its model.
+    if (s.tools.empty() || s.runs.empty() || s.runs.front().first != 0 || s.runs.back().end != s.tips_mm.size()) std::abort();
+    for (std::size_t k = 0; k < s.runs.size(); ++k) {
+      const ToolRun& r = s.runs[k];
+      if (r.tool < 0 || r.tool >= static_cast<int>(s.tools.size()) || r.end <= r.first) std::abort();
+      if (k > 0 && s.runs[k - 1].end != r.first) std::abort();
+    }
+    for (const SceneTool& t : s.tools)
+      if (!t.model || !(t.tooling.flute_length_mm <= t.tooling.stick_out_mm)) std::abort();
   } catch (const machplan::InputError&) {
   }
   return 0;

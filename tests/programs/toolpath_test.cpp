@@ -107,17 +107,17 @@ TEST(Apt, InchesAreConverted) {
 }
 
 TEST(Apt, OtherStatementsAreSkippedAndCountedPerKind) {
-  const ToolPath p = read_apt("PARTNO x\nLOAD/TOOL,3\nGOTO/0,0,0\nSPINDL/1000,RPM,CLW\nPPRINT hello there\n"
-                              "COOLNT/FLOOD\nLOAD/TOOL,4\nSPINDL/OFF\nGOTO/1,1,1\nFINI\n",
+  const ToolPath p = read_apt("PARTNO x\nSELECT/TOOL,3\nGOTO/0,0,0\nSPINDL/1000,RPM,CLW\nPPRINT hello there\n"
+                              "COOLNT/FLOOD\nSELECT/TOOL,4\nSPINDL/OFF\nGOTO/1,1,1\nFINI\n",
                               "path.cl");
   ASSERT_EQ(p.poses.size(), 2u);
   EXPECT_TRUE(p.warnings.empty()) << "nothing skipped changes the path";
   ASSERT_EQ(p.skipped.size(), 4u);
-  EXPECT_EQ(p.skipped[0].statement, "LOAD");
+  EXPECT_EQ(p.skipped[0].statement, "SELECT");
   EXPECT_EQ(p.skipped[0].first_line, 2);
   EXPECT_EQ(p.skipped[0].count, 2u);
   EXPECT_EQ(p.skipped[3].statement, "COOLNT");
-  EXPECT_EQ(skipped_summary(p), "path.cl: skipped 6 statements that carry no tool-path geometry: LOAD x2 (first at line 2), "
+  EXPECT_EQ(skipped_summary(p), "path.cl: skipped 6 statements that carry no tool-path geometry: SELECT x2 (first at line 2), "
                                 "SPINDL x2 (first at line 4), PPRINT (line 5), COOLNT (line 6)");
   // A coordinate system that moves the poses is not applied: the one warning; identity ones
   // are skipped like the rest.
@@ -129,6 +129,55 @@ TEST(Apt, OtherStatementsAreSkippedAndCountedPerKind) {
                            "the poses after it are kept in the coordinates written, not transformed");
   EXPECT_EQ(skipped_summary(c), "c.cl: skipped 1 statement that carries no tool-path geometry: CSYS (line 1)");
   EXPECT_TRUE(c.poses[1].tip_mm.isApprox(Eigen::Vector3d(1, 1, 1)));
+}
+
+// Tools as CAM systems write them: a CUTTER before its LOAD/TOOL (CAMWorks), after it, or alone;
+// a tool loaded again is the same tool; each move carries the tool that makes it.
+TEST(Apt, ToolsAreBoundToTheMovesTheyMake) {
+  const ToolPath p = read_apt("GOTO/0,0,50\n"                                   // 1: before any tool
+                              "CUTTER/6,0,3,1.8,31,0,45\nLOAD/TOOL,6\n"         // 2-3: CUTTER first
+                              "CSI_SET_FLUTE_LENGTH/2.\nCSI_SET_EXTENSION_LENGTH/22.5\n"
+                              "GOTO/0,0,10\n"                                   // 6
+                              "LOAD/TOOL,2\nCUTTER/10,2\n"                      // 7-8: CUTTER after
+                              "GOTO/5,0,10\nGOTO/6,0,10\n"                     // 9-10
+                              "LOAD/TOOL,6\nGOTO/7,0,10\n",                    // 11-12: T6 again
+                              "t.cl");
+  ASSERT_EQ(p.tools.size(), 2u);
+  EXPECT_EQ(p.tools[0].name(), "T6");
+  EXPECT_EQ(p.tools[0].line, 3);
+  ASSERT_TRUE(p.tools[0].cutter);
+  EXPECT_DOUBLE_EQ(p.tools[0].cutter->diameter_mm, 6.0);
+  EXPECT_DOUBLE_EQ(p.tools[0].cutter->length_mm, 45.0);
+  EXPECT_DOUBLE_EQ(p.tools[0].flute_mm, 2.0);
+  EXPECT_DOUBLE_EQ(p.tools[0].extension_mm, 22.5);
+  EXPECT_EQ(p.tools[0].poses, 2u);
+  EXPECT_EQ(p.tools[1].name(), "T2");
+  ASSERT_TRUE(p.tools[1].cutter);
+  EXPECT_DOUBLE_EQ(p.tools[1].cutter->corner_radius_mm, 2.0);
+  EXPECT_EQ(p.tools[1].poses, 2u);
+  const int expected[] = {-1, 0, 1, 1, 0};
+  ASSERT_EQ(p.poses.size(), 5u);
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(p.poses[i].tool, expected[i]) << "pose " << i;
+
+  // A CUTTER alone describes the tool in the spindle, and a second one after moves a new tool.
+  const ToolPath c = read_apt("CUTTER/6\nGOTO/0,0,0\nCUTTER/12\nGOTO/1,0,0\n", "c.cl");
+  ASSERT_EQ(c.tools.size(), 2u);
+  EXPECT_EQ(c.tools[0].number, -1);
+  EXPECT_EQ(c.tools[1].name(), "the tool of line 3");
+  EXPECT_EQ(c.poses[1].tool, 1);
+
+  // One number, one tool; bad numbers are refused at their line.
+  EXPECT_THAT(apt_error("LOAD/TOOL,6\nCUTTER/6\nGOTO/0,0,0\nLOAD/TOOL,6\nCUTTER/8\nGOTO/1,0,0\n"),
+              HasSubstr("path.cl:5: CUTTER describes tool 6 unlike the CUTTER of line 2"));
+  EXPECT_THAT(apt_error("GOTO/0,0,0\nLOAD/TOOL,2.5\n"), HasSubstr("path.cl:2: LOAD/TOOL: tool number 2.5 must be an integer"));
+  EXPECT_THAT(apt_error("LOAD/SPINDL,3\n"), HasSubstr("path.cl:1: LOAD: expected LOAD/TOOL, n"));
+  EXPECT_THAT(apt_error("LOAD/TOOL,1\nCSI_SET_FLUTE_LENGTH/-2\n"), HasSubstr("path.cl:2: CSI_SET_FLUTE_LENGTH: length -2"));
+}
+
+TEST(Apt, CutterCompensationIsAWarning) {
+  const ToolPath p = read_apt("GOTO/0,0,0\nCUTCOM/LEFT\nGOTO/1,0,0\nCUTCOM/OFF\nCUTCOM/RIGHT\nGOTO/2,0,0\n", "k.cl");
+  ASSERT_EQ(p.warnings.size(), 1u);
+  EXPECT_THAT(p.warnings[0], HasSubstr("k.cl:2: cutter compensation (CUTCOM/LEFT or RIGHT) (2 statements)"));
 }
 
 // Distance of p from the circle of `arc` (radially and along its axis from the helix).
@@ -192,7 +241,9 @@ TEST(Apt, CamStyleFileWithUnitCirclesAndCycles) {
       "FINI\n";
   const ToolPath p = read_apt(text, "cam.apt");
   EXPECT_TRUE(p.warnings.empty());
-  EXPECT_EQ(skipped_summary(p), "cam.apt: skipped 1 statement that carries no tool-path geometry: LOAD (line 4)");
+  EXPECT_EQ(skipped_summary(p), "") << "LOAD/TOOL names the tool of the moves";
+  ASSERT_EQ(p.tools.size(), 1u);
+  EXPECT_EQ(p.tools[0].name(), "T6");
   // The cycle: from (15, 15, 25) already at the retract height, rapid to RAPTO 3, feed to
   // -10, back to 25; then the second hole adds its approach at 25 first.
   std::vector<Eigen::Vector3d> drill;
@@ -440,8 +491,8 @@ TEST(Cli, BadInputExitsWithTwoAndNamesTheLine) {
   const test::CliResult c = cli.run({"toolpath", cam_file});
   EXPECT_EQ(c.code, 0);
   EXPECT_THAT(c.err, ::testing::StartsWith("warning: " + cam_file + ":15: APT statement 'CSYS' with a transformation"));
-  EXPECT_THAT(c.err, HasSubstr("\nnote: " + cam_file + ": skipped 12 statements that carry no tool-path geometry: LOAD "
-                               "(line 2), SELECT (line 3)"));
+  EXPECT_THAT(c.err, HasSubstr("\nnote: " + cam_file + ": skipped 11 statements that carry no tool-path geometry: SELECT "
+                               "(line 3)"));
   EXPECT_EQ(std::count(c.err.begin(), c.err.end(), '\n'), 2);
   EXPECT_THAT(c.out, HasSubstr(" poses (0 rapid)\nWARNING: " + cam_file + ":15: APT statement 'CSYS'"));
   const test::CliResult cj = cli.run({"toolpath", cam_file, "--json"});

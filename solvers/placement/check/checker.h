@@ -1,7 +1,9 @@
 // Interference checking of a whole five-axis tool path at one workpiece placement, or over a
 // ball of placements, on any machine behind the model interface (machines/machine_model.h).
 //
-// The checker is the constraint model, the certifier and class 1 put together for one scene:
+// The checker is the constraint model, the certifier and class 1 put together for one scene
+// (for each run of moves one tool makes, with the machine model built with that tool; poses and
+// spots are numbered along the whole path):
 //
 //   machine model     what interferes with what at one pose, per kind (machines/hexam_model.h,
 //                     machines/trunnion_model.h)
@@ -94,8 +96,11 @@ class Checker {
   // The path's poses as the machine runs them (rotary angles filled in).
   const std::vector<PathPose>& poses() const;
   const Scene& scene() const;
+  // The name of the constraint a spot (from decide() or probe()) broke.
+  const std::string& constraint_name(const Spot& spot) const;
 
  private:
+  struct Run;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -24,6 +24,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -83,9 +84,18 @@ struct CheckCounts {
   }
 };
 
+// The tightest clearance of the moves one tool makes (a job with several tools).
+struct ToolClearance {
+  std::string tool;        // "T16"
+  long poses = 0;          // made with it
+  Finding tightest;        // its smallest distance (any kind but the placement-only one)
+  Kind kind = Kind::self;  // of which kind
+};
+
 struct CheckReport {
   Placement placement;
   std::array<Finding, kKindCount> kinds;
+  std::vector<ToolClearance> tools;  // per tool of the job, in order of first use
   double stroke_margin_mm = 0;  // smallest distance of an axis (slider, linear axis) to its travel end
   double joint_margin_deg = 0;  // smallest angle left to a joint's limit (cone, rotary axis)
   bool on_table = true;         // the workpiece's footprint lies on the table
@@ -107,6 +117,8 @@ struct Spot {
   int constraint = -1;
   double value = 0;
   bool exact = false;  // value is an exact one (else a bound that could not be raised)
+  // On a tool change's moves, which are fixed to the table: it holds at that placement alone.
+  bool tool_change = false;
 };
 
 // What screening a known interference against a box of placements found besides its decision.

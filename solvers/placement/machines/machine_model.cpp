@@ -4,6 +4,7 @@
 
 #include "engine/common/error.h"
 #include "engine/config/yaml.h"
+#include "models/trunnion/trunnion.h"
 #include "solvers/placement/machines/hexam_model.h"
 #include "solvers/placement/machines/trunnion_model.h"
 #include "solvers/placement/scene/scene.h"
@@ -27,19 +28,38 @@ Eigen::Matrix3d MachineModel::plate_rotation(const Eigen::Vector3d& axis) const 
   return Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis).toRotationMatrix();
 }
 
-std::shared_ptr<const MachineModel> make_machine_model(const Scene& scene, int tooling_line) {
+std::shared_ptr<const MachineModel> make_machine_model(const Scene& scene, const Tooling& tooling,
+                                                       const ToolingOrigin& origin) {
   const Yaml root = Yaml::load_file(scene.machine.source);
   const std::string kind = root.has("kind") ? root.string("kind") : "hexapod";
   if (kind == "hexapod") {
     hexam::Machine m = hexam::machine_from_yaml(root);
     try {
-      hexam::attach_tooling(m, scene.tooling);
+      hexam::attach_tooling(m, tooling);
     } catch (const InputError& e) {
-      throw InputError(scene.source, tooling_line, "tooling does not fit machine " + m.source + ": " + e.message());
+      throw InputError(origin.file, origin.line,
+                       fmt::format("{} does not fit machine {}: {}", origin.tool, m.source, e.message()));
     }
     return make_hexapod_model(m, scene);
   }
-  if (kind == "table_tilting") return make_trunnion_model(trunnion::machine_from_yaml(root), scene);
+  if (kind == "table_tilting") {
+    const trunnion::Machine m = trunnion::machine_from_yaml(root);
+    // The tip on the table's top at the centre, the rotary axes at zero: an axis the tool's
+    // length pushes beyond its travel there is beyond it wherever the tip is on or above the
+    // table (a higher tip only pushes it further).
+    const double gauge = tooling.stick_out_mm + tooling.chuck_length_mm;
+    const Eigen::Vector3d q0 = m.axes_for_nose(m.table_origin_mm);
+    const Eigen::Vector3d q = m.axes_for_nose(m.table_origin_mm + gauge * m.spindle_direction);
+    for (int k = 0; k < 3; ++k)
+      if ((q[k] > m.linear[k].max_mm + 1e-9 && q[k] > q0[k]) || (q[k] < m.linear[k].min_mm - 1e-9 && q[k] < q0[k]))
+        throw InputError(origin.file, origin.line,
+                         fmt::format("{} does not fit machine {}: {:.1f} mm from its tip to the spindle nose (out of "
+                                     "the holder {:.1f} + holder {:.1f}) puts {} at {:.1f} mm with the tip on the table, "
+                                     "beyond its travel {:.1f} .. {:.1f} mm",
+                                     origin.tool, m.source, gauge, tooling.stick_out_mm, tooling.chuck_length_mm,
+                                     m.linear[k].name, q[k], m.linear[k].min_mm, m.linear[k].max_mm));
+    return make_trunnion_model(m, scene, tooling);
+  }
   root.at("kind").fail(fmt::format("'{}' is not a machine kind placement knows (hexapod, table_tilting)", kind.substr(0, 40)));
 }
 

@@ -247,6 +247,25 @@ class MachineModel {
                                             double rotation_rad) const {
     return std::nullopt;
   }
+  // How high the spindle nose stands at a pose and placement with a tool `gauge_mm` from tip
+  // to nose, measured as a tool change position is (scene.h ToolChange: up the machine's
+  // spindle direction, in the table frame with the rotary axes at zero), and how much it rises
+  // for each mm the tool is drawn back along its axis. Default: a machine without rotary axes,
+  // whose table frame is fixed.
+  struct NoseHeight {
+    double height_mm = 0.0, rise_per_mm = 1.0;
+  };
+  virtual NoseHeight nose_height(const PathPose& pose, const Where& where, double gauge_mm) const {
+    const Eigen::Vector3d axis = where.R * pose.axis;
+    return {(where.R * pose.tip + where.offset).z() + gauge_mm * axis.z(), axis.z()};
+  }
+  // A move the control makes in machine coordinates (to and from a tool change: every axis
+  // interpolated linearly, no tool centre point control), from `a` to `b` (rotary angles
+  // filled in), as poses close enough that interpolate() between neighbours follows it.
+  // Default: a machine whose interpolation is already linear in its axes.
+  virtual std::vector<PathPose> axis_move(const PathPose& a, const PathPose& b, const Where& where, double gauge_mm) const {
+    return {a, b};
+  }
   // The machine's rotary table turns the workpiece about the table's z with nothing else
   // turning (a round, unlimited C table and nothing fixed on it): a rotation is then the same
   // setup as a position, and rotation searches can be skipped.
@@ -258,10 +277,17 @@ class MachineModel {
   int placement_count_ = 0;
 };
 
-// Reads the machine file the scene names (scene.machine.source) and builds its model with the
-// scene's tooling, peripherals and workpiece (a hexapod file has no `kind`, or `kind:
-// hexapod`; a trunnion file says `kind: table_tilting`). Throws InputError naming the file and
-// key, or the scene's tooling (at `tooling_line`) when the tool does not fit the machine.
-std::shared_ptr<const MachineModel> make_machine_model(const Scene& scene, int tooling_line);
+// Reads the machine file the scene names (scene.machine.source) and builds its model with one
+// tool of the job, the scene's peripherals and workpiece (a hexapod file has no `kind`, or
+// `kind: hexapod`; a trunnion file says `kind: table_tilting`). Throws InputError naming the
+// file and key, or, at `origin` (file and line), the tool that does not fit the machine (its
+// gauge length beyond what the spindle's stroke can bring down to the table).
+struct ToolingOrigin {
+  std::string tool;  // "T16", "the tooling"
+  std::string file;
+  int line = 0;
+};
+std::shared_ptr<const MachineModel> make_machine_model(const Scene& scene, const Tooling& tooling,
+                                                       const ToolingOrigin& origin);
 
 }  // namespace machplan::placement

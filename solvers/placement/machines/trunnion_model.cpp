@@ -77,10 +77,10 @@ class TrunnionEvaluator final : public PoseEvaluator {
 
 class TrunnionModel final : public MachineModel {
  public:
-  TrunnionModel(const trunnion::Machine& m, const Scene& scene)
+  TrunnionModel(const trunnion::Machine& m, const Scene& scene, const Tooling& tooling)
       : m_(m), c_(scene.safe_distance_mm), peripherals_(scene.peripherals), wp_(workpiece_solid(scene)) {
-    gauge_mm_ = scene.tooling.stick_out_mm + scene.tooling.chuck_length_mm;
-    tool_ = tool_stack(scene.tooling);
+    gauge_mm_ = tooling.stick_out_mm + tooling.chuck_length_mm;
+    tool_ = tool_stack(tooling);
     assembly_ = tool_;
     for (const auto& sp : m.spindle)
       assembly_.push_back({sp.name, gauge_mm_ + sp.from_mm, gauge_mm_ + sp.to_mm, sp.radius_mm, false, ToolPart::Class::class1});
@@ -188,6 +188,34 @@ class TrunnionModel final : public MachineModel {
   std::optional<AxisPath> axis_path(const std::vector<PathPose>& poses, const std::vector<double>& feeds,
                                     double rotation_rad) const override;
   bool rotation_is_position() const override { return m_.table.continuous; }
+  // The spindle is the tool axis: drawing the tool back raises the nose one for one.
+  NoseHeight nose_height(const PathPose& pose, const Where& where, double gauge) const override {
+    const Eigen::Vector3d nose =
+        m_.table_pose(pose.a_rad, pose.c_rad - where.rotation_rad) * (where.R * pose.tip + where.offset) +
+        gauge * m_.spindle_direction;
+    return {(m_.table_pose(0, 0).inverse() * nose).dot(m_.spindle_direction), 1.0};
+  }
+  // The axes linear from a to b: poses at most 1 deg of either rotary axis apart.
+  std::vector<PathPose> axis_move(const PathPose& a, const PathPose& b, const Where& w, double gauge) const override {
+    const double ca = a.c_rad - w.rotation_rad, cb = b.c_rad - w.rotation_rad;
+    auto nose = [&](const PathPose& p, double c) {
+      return Eigen::Vector3d(m_.table_pose(p.a_rad, c) * (w.R * p.tip + w.offset) + gauge * m_.spindle_direction);
+    };
+    const Eigen::Vector3d na = nose(a, ca), nb = nose(b, cb);
+    const double turn = std::max(std::abs(b.a_rad - a.a_rad), std::abs(cb - ca));
+    const int n = std::clamp(static_cast<int>(std::ceil(turn / (M_PI / 180.0))), 1, 720);
+    std::vector<PathPose> out;
+    for (int k = 0; k <= n; ++k) {
+      const double t = static_cast<double>(k) / n;
+      const double ak = a.a_rad + t * (b.a_rad - a.a_rad), ck = ca + t * (cb - ca);
+      const Eigen::Isometry3d T = m_.table_pose(ak, ck).inverse();
+      const Eigen::Vector3d tip = T * (na + t * (nb - na) - gauge * m_.spindle_direction);
+      out.push_back({w.R.transpose() * (tip - w.offset), w.R.transpose() * (T.linear() * m_.spindle_direction), ak,
+                     ck + w.rotation_rad});
+    }
+    out.front() = a, out.back() = b;
+    return out;
+  }
 
   double tilt_of(const Eigen::Vector3d& axis) const {
     return angle_between(axis, m_.table_frame.transpose() * m_.table.direction);
@@ -568,8 +596,9 @@ double TrunnionEvaluator::placement_value(int k, const Where& where, double enou
 
 }  // namespace
 
-std::shared_ptr<const MachineModel> make_trunnion_model(const trunnion::Machine& machine, const Scene& scene) {
-  return std::make_shared<TrunnionModel>(machine, scene);
+std::shared_ptr<const MachineModel> make_trunnion_model(const trunnion::Machine& machine, const Scene& scene,
+                                                       const Tooling& tooling) {
+  return std::make_shared<TrunnionModel>(machine, scene, tooling);
 }
 
 }  // namespace machplan::placement

@@ -37,6 +37,7 @@
 
 namespace machplan::placement {
 
-std::shared_ptr<const MachineModel> make_trunnion_model(const trunnion::Machine& machine, const Scene& scene);
+std::shared_ptr<const MachineModel> make_trunnion_model(const trunnion::Machine& machine, const Scene& scene,
+                                                       const Tooling& tooling);
 
 }  // namespace machplan::placement

@@ -1,6 +1,7 @@
 #include "solvers/placement/scene/scene.h"
 #include "engine/common/internal/numbers.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -111,6 +112,168 @@ Tooling read_tooling(const Yaml& t) {
   return tooling;
 }
 
+// A tool of a CL file that changes tools: what the file says of it, then the scene's holder for
+// what it does not say, then the scene's `tools` entry for it (see scene.h).
+Tooling tool_of(const ToolPath::Tool& t, const std::optional<Yaml>& holder, const std::optional<Yaml>& entry,
+                const Yaml& root, const std::string& where) {
+  const NumberRule size{.min = 0, .max = kMaxSceneSizeMm, .min_exclusive = true};
+  std::optional<double> d, r, stick, flute, chuck_d, chuck_l;
+  if (t.cutter) {
+    d = t.cutter->diameter_mm;
+    r = t.cutter->corner_radius_mm;
+    if (t.cutter->length_mm > 0) flute = t.cutter->length_mm;
+  }
+  if (t.flute_mm > 0) flute = t.flute_mm;
+  if (t.extension_mm > 0) stick = t.extension_mm;
+  if (holder) {
+    if (holder->has("diameter_mm")) chuck_d = holder->number("diameter_mm", size);
+    if (holder->has("length_mm")) chuck_l = holder->number("length_mm", size);
+    // A tool table's length runs from the tip to the spindle: the holder's length is in it.
+    if (!stick && t.gauge_mm > 0 && chuck_l) {
+      if (t.gauge_mm <= *chuck_l)
+        throw InputError(root.file(), root.at("tool_table").line(),
+                         fmt::format("{}: its length {:g} mm ({}) does not reach past the {:g} mm holder", t.name(),
+                                     t.gauge_mm, t.table, *chuck_l));
+      stick = t.gauge_mm - *chuck_l;
+    }
+    if (!stick && holder->has("stick_out_mm")) stick = holder->number("stick_out_mm", size);
+  }
+  if (entry) {
+    entry->reject_unknown_keys({"tool_diameter_mm", "corner_radius_mm", "stick_out_mm", "flute_length_mm",
+                                "chuck_diameter_mm", "chuck_length_mm"});
+    auto take = [&](const char* key, std::optional<double>& v, const NumberRule& rule) {
+      if (entry->has(key)) v = entry->number(key, rule);
+    };
+    take("tool_diameter_mm", d, size);
+    take("corner_radius_mm", r, {.min = 0, .max = kMaxSceneSizeMm});
+    take("stick_out_mm", stick, size);
+    take("flute_length_mm", flute, size);
+    take("chuck_diameter_mm", chuck_d, size);
+    take("chuck_length_mm", chuck_l, size);
+  }
+  const std::string n = t.number >= 0 ? std::to_string(t.number) : "N";
+  auto missing = [&](bool ok, const char* what, const char* holder_key, const char* tool_key) {
+    if (ok) return;
+    throw InputError(root.file(), root.at("toolpath").line(),
+                     fmt::format("{} ({}) has no {}: give the scene's holder: {{{}: ...}} for every tool, or tools: "
+                                 "{{{}: {{{}: ...}}}}",
+                                 t.name(), where, what, holder_key, n, tool_key));
+  };
+  if (!d)
+    throw InputError(root.file(), root.at("toolpath").line(),
+                     fmt::format("{} ({}) is loaded with nothing to say what it is (no CUTTER, no tool table entry): describe it in the scene, "
+                                 "tools: {{{}: {{tool_diameter_mm: ..., stick_out_mm: ...}}}}",
+                                 t.name(), where, n));
+  missing(stick.has_value(), "length out of the holder", "stick_out_mm", "stick_out_mm");
+  missing(chuck_d.has_value(), "holder diameter", "diameter_mm", "chuck_diameter_mm");
+  missing(chuck_l.has_value(), "holder length", "length_mm", "chuck_length_mm");
+  Tooling tooling;
+  tooling.tool_diameter_mm = *d;
+  tooling.corner_radius_mm = r.value_or(*d / 2);
+  tooling.stick_out_mm = *stick;
+  tooling.flute_length_mm = flute.value_or(*stick / 2);
+  tooling.chuck_diameter_mm = *chuck_d;
+  tooling.chuck_length_mm = *chuck_l;
+  auto refuse = [&](const std::string& why) {
+    throw InputError(root.file(), root.at("toolpath").line(), fmt::format("{} ({}): {}", t.name(), where, why));
+  };
+  if (tooling.corner_radius_mm > tooling.tool_diameter_mm / 2 + 1e-9)
+    refuse(fmt::format("corner radius {:g} mm exceeds half its diameter {:g} mm", tooling.corner_radius_mm,
+                       tooling.tool_diameter_mm));
+  if (tooling.flute_length_mm > tooling.stick_out_mm)
+    refuse(fmt::format("flutes {:g} mm long but only {:g} mm out of the holder: give tools: {{{}: {{flute_length_mm: "
+                       "...}}}} or its stick_out_mm",
+                       tooling.flute_length_mm, tooling.stick_out_mm, n));
+  return tooling;
+}
+
+// The tools of the job and the runs of poses each makes (see scene.h); `tool_of_pose` holds
+// each pose's index into tp.tools (-1: before any tool).
+void read_tools(const Yaml& root, const ToolPath& tp, const std::vector<int>& tool_of_pose, Scene& s) {
+  std::vector<int> used;  // tp.tools indices that move, in order of first use
+  for (int k : tool_of_pose)
+    if (k >= 0 && std::find(used.begin(), used.end(), k) == used.end()) used.push_back(k);
+  std::vector<int> scene_tool(tp.tools.size(), -1);
+  const std::string file = std::filesystem::path(tp.source).filename().string();
+  if (const auto t = root.get("tooling")) {
+    if (used.size() > 1) {
+      std::string names;
+      for (int k : used) names += (names.empty() ? "" : ", ") + tp.tools[k].name();
+      t->fail(fmt::format("is one tool for every move, but the tool path changes tools ({}): describe them with "
+                          "holder: and tools: instead",
+                          names));
+    }
+    for (const char* key : {"holder", "tools"})
+      if (root.has(key)) root.at(key).fail("goes with a tool path that changes tools, not with tooling:");
+    s.tools.push_back({-1, "the tooling", root.file(), t->line(), read_tooling(*t), nullptr});
+    std::fill(scene_tool.begin(), scene_tool.end(), 0);
+  } else {
+    if (used.empty())
+      root.fail(fmt::format("needs tooling: {} names no tool (no CUTTER, no LOAD/TOOL)", file));
+    const auto holder = root.get("holder");
+    if (holder) holder->reject_unknown_keys({"diameter_mm", "length_mm", "stick_out_mm"});
+    const auto tools = root.get("tools");
+    if (tools)
+      for (const std::string& key : tools->keys()) {
+        bool loaded = false;
+        for (int k : used) loaded = loaded || std::to_string(tp.tools[k].number) == key;
+        if (!loaded) {
+          std::string names;
+          for (int k : used) names += (names.empty() ? "" : ", ") + tp.tools[k].name();
+          tools->at(key).fail(fmt::format("{} makes no move with a tool numbered '{}' (its tools: {})", file,
+                                          key.substr(0, 20), names));
+        }
+      }
+    for (int k : used) {
+      const ToolPath::Tool& t = tp.tools[k];
+      const std::string where = fmt::format("{}:{}", file, t.line);
+      std::optional<Yaml> entry;
+      if (tools && t.number >= 0) entry = tools->get(std::to_string(t.number));
+      scene_tool[k] = static_cast<int>(s.tools.size());
+      s.tools.push_back({t.number, t.name(), tp.source, t.line, tool_of(t, holder, entry, root, where), nullptr});
+    }
+  }
+  // Runs: a pose before any tool is made with the first one.
+  for (std::size_t i = 0; i < tool_of_pose.size(); ++i) {
+    const int k = tool_of_pose[i] >= 0 ? scene_tool[tool_of_pose[i]] : 0;
+    if (s.runs.empty() || s.runs.back().tool != k) s.runs.push_back({k, i, i});
+    s.runs.back().end = i + 1;
+  }
+  s.tooling = s.tools[s.runs.front().tool].tooling;
+}
+
+// The machine file's tool change position (scene.h ToolChange), when the job changes tools.
+// With the tool vertical at that position the machine stands as it would whatever the
+// workpiece's placement, so each tool is tried there once: a position beyond the travel or into
+// a peripheral is refused here rather than found at every placement.
+void read_tool_change(Scene& s) {
+  const Yaml root = Yaml::load_file(s.machine.source);
+  const auto tc = root.get("tool_change");
+  if (!tc) return;
+  tc->reject_unknown_keys({"nose_mm"});
+  ToolChange c{tc->vec3("nose_mm"), tc->file(), tc->line()};
+  if ((c.nose_mm.array().abs() > kMaxScenePositionMm).any())
+    tc->at("nose_mm").fail(fmt::format("must lie within +-{} mm", kMaxScenePositionMm));
+  s.tool_change = c;
+  if (s.runs.size() < 2) return;
+  for (const SceneTool& t : s.tools) {
+    const double gauge = t.tooling.stick_out_mm + t.tooling.chuck_length_mm;
+    std::vector<PathPose> pose{{c.nose_mm - gauge * Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ()}};
+    if (const auto refused = t.model->prepare(pose))
+      tc->at("nose_mm").fail(fmt::format("the machine cannot hold {} vertical there: {}", t.name, refused->second));
+    const MachineModel& m = *t.model;
+    std::vector<double> v(m.stride());
+    m.evaluator()->evaluate(pose[0], Where::of(Placement{}), m.all_mask(), v.data());
+    for (int k = 0; k < m.count(); ++k) {
+      const Constraint& con = m.constraints()[k];
+      if ((con.kind == Kind::self || con.kind == Kind::machine_peripheral) && v[k] < con.limit)
+        tc->at("nose_mm").fail(fmt::format("puts {} ({:g} mm from its tip to the spindle nose) where '{}' is broken: {:.2f} "
+                                           "against a limit of {:g}",
+                                           t.name, gauge, con.name, v[k], con.limit));
+    }
+  }
+}
+
 // The workpiece solid, moved into its own frame (origin at the centre of the bottom face of
 // its bounds, or origin_in_cam_mm); records the move in the scene.
 void read_workpiece(const Yaml& root, Scene& s) {
@@ -155,10 +318,15 @@ void read_workpiece(const Yaml& root, Scene& s) {
   s.spoilboard_mm = w.number_or("spoilboard_mm", 0.0, {.min = 0, .max = kMaxSceneSizeMm});
 }
 
-void read_toolpath(const Yaml& root, Scene& s) {
+ToolPath read_toolpath(const Yaml& root, Scene& s) {
   s.toolpath_file = root.resolve_path(root.string("toolpath"));
   ToolPath tp = read_named_file(root.at("toolpath"), [](const std::string& f) { return read_toolpath_file(f); });
   if (tp.poses.empty()) root.at("toolpath").fail("names a tool path with no poses");
+  if (root.has("tool_table")) {
+    const std::string file = root.resolve_path(root.string("tool_table"));
+    const auto table = read_named_file(root.at("tool_table"), [](const std::string& f) { return read_tool_table_file(f); });
+    apply_tool_table(tp, table, std::filesystem::path(file).filename().string());
+  }
   s.tips_mm.reserve(tp.poses.size());
   s.axes.reserve(tp.poses.size());
   for (std::size_t i = 0; i < tp.poses.size(); ++i) {
@@ -174,6 +342,8 @@ void read_toolpath(const Yaml& root, Scene& s) {
         s.below_bottom = {s.below_bottom.poses, below, static_cast<long>(i), p.line};
     }
   }
+  s.warnings = tp.warnings;
+  return tp;
 }
 
 void read_search(const Yaml& root, Scene& s) {
@@ -204,16 +374,19 @@ Scene load_scene_text(const std::string& text, const std::string& path) {
 
 namespace {
 Scene read_scene(const Yaml& root, const std::string& path) {
-  root.reject_unknown_keys({"machine", "safe_distance_mm", "tooling", "workpiece", "toolpath", "peripherals",
-                            "search", "reconstructed"});
+  root.reject_unknown_keys({"machine", "safe_distance_mm", "tooling", "holder", "tools", "workpiece", "toolpath",
+                            "tool_table", "peripherals", "search", "reconstructed"});
   Scene s;
   s.source = path;
   s.machine.source = machine_file(root);
   s.safe_distance_mm = root.number_or("safe_distance_mm", 5.0, {.min = 0, .max = 1000});
-  const Yaml t = root.at("tooling");
-  s.tooling = read_tooling(t);
   read_workpiece(root, s);
-  read_toolpath(root, s);
+  {
+    const ToolPath tp = read_toolpath(root, s);
+    std::vector<int> tool_of_pose(tp.poses.size());
+    for (std::size_t i = 0; i < tp.poses.size(); ++i) tool_of_pose[i] = tp.poses[i].tool;
+    read_tools(root, tp, tool_of_pose, s);
+  }
   if (const auto per = root.get("peripherals")) {
     for (const Yaml& item : per->items()) s.peripherals.push_back(read_peripheral(item));
     if (s.peripherals.size() > kMaxPeripherals)
@@ -222,22 +395,29 @@ Scene read_scene(const Yaml& root, const std::string& path) {
   read_search(root, s);
   if (s.spoilboard_mm > s.search.pad_max_mm)
     root.at("workpiece").at("spoilboard_mm").fail("is thicker than the highest pad (search.pad_max_mm)");
-  try {
-    s.model = make_machine_model(s, t.line());
-  } catch (const InputError& e) {
-    // The machine file's own errors (missing, unreadable, malformed) under the scene's key.
-    if (e.where() != s.machine.source) throw;
-    const Yaml key = root.at("machine");
-    throw InputError(key.file(), key.line(), fmt::format("key '{}': {}", key.key_path(), e.what()));
+  for (SceneTool& tool : s.tools) {
+    try {
+      tool.model = make_machine_model(s, tool.tooling, {tool.name, tool.file, tool.line});
+    } catch (const InputError& e) {
+      // The machine file's own errors (missing, unreadable, malformed) under the scene's key.
+      if (e.where() != s.machine.source) throw;
+      const Yaml key = root.at("machine");
+      throw InputError(key.file(), key.line(), fmt::format("key '{}': {}", key.key_path(), e.what()));
+    }
   }
+  s.model = s.tools[s.runs.front().tool].model;
+  read_tool_change(s);
   s.machine.kind = s.model->kind();
   const TableShape table = s.model->table();
   s.machine.table_size_mm = 2 * table.half_mm;
   s.machine.name = s.model->name();
   // The path as the machine runs it: a pose it cannot take is refused at its line.
-  std::vector<PathPose> poses(s.tips_mm.size());
-  for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {s.tips_mm[i], s.axes[i]};
-  if (const auto refused = s.model->prepare(poses)) throw InputError(s.toolpath_file, s.lines[refused->first], refused->second);
+  for (const ToolRun& run : s.runs) {
+    std::vector<PathPose> poses;
+    for (std::size_t i = run.first; i < run.end; ++i) poses.push_back({s.tips_mm[i], s.axes[i]});
+    if (const auto refused = s.tools[run.tool].model->prepare(poses))
+      throw InputError(s.toolpath_file, s.lines[run.first + refused->first], refused->second);
+  }
   return s;
 }
 }  // namespace

@@ -5,11 +5,14 @@
 //   machine: machine.yaml            # a file, or the name of a bundled machine (trunnion_ac)
 //   safe_distance_mm: 5              # objects are grown by this much (the paper's safe distance)
 //   tooling: {tool_diameter_mm: 10, corner_radius_mm: 5, stick_out_mm: 50, flute_length_mm: 20,
-//             chuck_diameter_mm: 60, chuck_length_mm: 45}
+//             chuck_diameter_mm: 60, chuck_length_mm: 45}   # one tool for every move, or:
+//   holder: {diameter_mm: 50, length_mm: 60, stick_out_mm: 40}  # every tool of the CL file
+//   tools: {16: {stick_out_mm: 170, chuck_diameter_mm: 63}}    # by number: tooling keys
 //   workpiece: {mesh: part.stl,               # or {box: {size: [dx, dy, dz]}}
 //               origin_in_cam_mm: [x, y, z],  # optional, see below
 //               spoilboard_mm: 0}             # sacrificial top of the pad the tool may cut into
-//   toolpath: part.apt                        # CL (APT) or CSV, in the CAM file's coordinates
+//   toolpath: part.apt                        # CL (APT), G-code or CSV, in the CAM file's coordinates
+//   tool_table: tool.tbl                      # LinuxCNC tool table for a G-code job's tools
 //   peripherals:
 //     - {name: tool magazine, box: {center: [x, y, z], size: [dx, dy, dz], yaw_deg: 45}}
 //     - {name: fixture, mesh: fixture.stl, pose: {xyz: [x, y, z], yaw_deg: 0}}
@@ -23,6 +26,19 @@
 // the point that becomes the origin) overrides where that is. `origin_in_cam_mm` below records
 // what was used, so reports can say by how much the CAM frame moved and give the work offset of
 // the CAM zero. Nothing of the solid may lie below the origin's z.
+//
+// Tools. A CL file that loads tools (LOAD/TOOL) and describes them (CUTTER, CAMWorks' flute
+// and extension lengths) is checked move by move with the tool that makes it: each tool gets
+// its diameter, corner radius and flute length from its CUTTER, its length out of the holder
+// from the file where it says so, and the rest from `holder` (the holder's diameter and length
+// out of the spindle, and a stick-out for tools the file gives none). `tools`, keyed by the
+// tool's number, overrides any of the tooling keys for one tool. A G-code job names its tools
+// by M6; a LinuxCNC tool table (`tool_table`) gives their diameters and lengths (from the tip
+// to the spindle: the stick-out is that less the holder's length). A value no source gives, a
+// tool the file loads without describing it, a key of `tools` the file never loads, are
+// refused with the tool's name and the line that loads it. `tooling` is the one tool of a path
+// made with at most one tool (it then overrides the file's CUTTER); with a path that changes
+// tools it is refused. Moves before the first LOAD are made with the first tool loaded.
 //
 // Tool poses whose tip lies below the bottom face (through cuts, drilling) are counted in
 // `below_bottom`; the pad or fixture under the part then stands in the tool's way (kind
@@ -108,11 +124,44 @@ struct BelowBottom {
   int deepest_line = 0;
 };
 
+// Where the machine changes tools, from the machine file's `tool_change: {nose_mm: [x, y, z]}`:
+// the spindle nose (where the holder meets the spindle) in the table frame, the tool vertical
+// (on a table-tilting machine, with the rotary axes at zero). A job that changes tools goes
+// there and back at each change, and those moves are checked with the rest
+// (check/internal/tool_change.h).
+struct ToolChange {
+  Eigen::Vector3d nose_mm = Eigen::Vector3d::Zero();
+  std::string file;  // the machine file ...
+  int line = 0;      // ... and the key's line
+};
+
+// One tool of the job and the machine model built with it.
+struct SceneTool {
+  int number = -1;          // the CL file's tool number; -1 when it has none
+  std::string name;         // "T16", "the tooling"
+  std::string file;         // where it is loaded or described (for messages) ...
+  int line = 0;             // ... and the line
+  Tooling tooling;
+  std::shared_ptr<const MachineModel> model;  // the machine with this tool
+};
+
+// Poses [first, end) of the path are made with tools[tool]; each tool change starts a run.
+struct ToolRun {
+  int tool = 0;
+  std::size_t first = 0, end = 0;
+};
+
 struct Scene {
   std::string source;
   MachineInfo machine;
-  std::shared_ptr<const MachineModel> model;  // the machine with this scene's tooling and peripherals
-  Tooling tooling;
+  // The machine with the first run's tool: for what does not depend on the tool (the table,
+  // the work offset, the placement-only checks).
+  std::shared_ptr<const MachineModel> model;
+  Tooling tooling;                 // the first run's tool
+  std::vector<SceneTool> tools;    // at least one
+  std::vector<ToolRun> runs;       // cover every pose, in order
+  std::vector<std::string> warnings;  // the tool path's (ToolPath::warnings)
+  std::optional<ToolChange> tool_change;  // the machine's, when it names one
   double safe_distance_mm = 5.0;
   std::string toolpath_file;
   std::string workpiece_file;  // the STL, when the workpiece is a mesh; empty for a box

@@ -178,7 +178,9 @@ class OptimalSearch {
     for (const auto& t : scene.tips_mm) radius_ = std::max(radius_, t.head<2>().norm());
     // A turn moves the machine's parts about as far as the tips' distance from the axis plus the
     // tool assembly's reach: that is how long a rotation side is, against x, y and pad.
-    radius_ += scene.model->assembly_reach_mm();
+    double reach = 0;
+    for (const SceneTool& t : scene.tools) reach = std::max(reach, t.model->assembly_reach_mm());
+    radius_ += reach;
   }
 
   PlacementResult run();
@@ -247,6 +249,10 @@ class OptimalSearch {
   long timed_ = 0;                                                // placements timed by the planner
   std::vector<int> class1_state_;  // per rotation: -1 unknown, 0 clear, 1 interferes
   std::set<std::tuple<long, long, long, int>> rejected_;  // points whose certification failed
+  // Candidates refused on a tool change's moves, which teach the search nothing about their
+  // neighbours: past kMaxChangeRefusals the search gives up rather than try every point.
+  long change_refusals_ = 0;
+  static constexpr long kMaxChangeRefusals = 200;
   bool ring_clear_ = true;
   double radius_ = 0.0;  // farthest tip from the workpiece's z axis
   std::priority_queue<Box, std::vector<Box>, std::greater<>> open_;
@@ -463,7 +469,7 @@ bool OptimalSearch::certify(Box& b, PlacementResult& res, double planned_s) {
       learn(spot);
       rejected_.insert(point);
       last_ = Finding{};
-      last_.what = scene_.model->constraints()[spot.constraint].name;
+      last_.what = checker_.constraint_name(spot);
       open_.push(b);
       return false;
     }
@@ -488,9 +494,10 @@ bool OptimalSearch::certify(Box& b, PlacementResult& res, double planned_s) {
       open_.push(b);
       return false;
     }
-    // Refused without an exact interfering pose (an interval that could not be proven): the
-    // point is out, and the rest of the box is split as usual.
+    // Refused without an exact interfering pose (an interval that could not be proven, or a
+    // tool change's moves): the point is out, and the rest of the box is split as usual.
     rejected_.insert(point);
+    if (spot.tool_change) ++change_refusals_;
   }
   if (!b.point())
     for (Box& c : split(b, b.settled)) open_.push(std::move(c));
@@ -535,7 +542,7 @@ PlacementResult OptimalSearch::run() {
   std::vector<Box> batch;
   std::vector<Screened> screened;
   bool found = false;
-  while (!open_.empty() && !found && !time_settled()) {
+  while (!open_.empty() && !found && change_refusals_ < kMaxChangeRefusals && !time_settled()) {
     if (term_.should_end()) throw WorkEnded{term_.reason()};
     batch.clear();
     while (!open_.empty() && batch.size() < batch_) {
@@ -555,6 +562,14 @@ PlacementResult OptimalSearch::run() {
     res.placement = best_timed_;
     res.objective_value = best_time_s_;
     res.time_lower_bound_s = open_.empty() ? best_time_s_ : std::min(best_time_s_, open_.top().key.primary);
+  }
+  if (!found && change_refusals_ >= kMaxChangeRefusals) {
+    res.summary.status = Status::budget;
+    res.summary.message = fmt::format("gave up after {} candidate placements refused on the tool changes' moves (the "
+                                      "last: {}); the machine's tool_change position may be out of reach of this job",
+                                      change_refusals_, last_.what);
+    res.report = checker_.report(at(0, 0, 0, rot_.best(0, nrot - 1)), term_);
+    return res;
   }
   if (!found) {
     res.summary.status = Status::infeasible;

@@ -36,6 +36,20 @@ std::string frame_lines(const Scene& s) {
                        "spoilboard {:.1f} mm\n",
                        s.below_bottom.poses, s.below_bottom.deepest_mm, s.below_bottom.deepest_pose, s.below_bottom.deepest_line,
                        s.spoilboard_mm);
+  for (const std::string& w : s.warnings) out += fmt::format("WARNING: {}\n", w);
+  if (s.tools.size() > 1 || s.tools.front().number >= 0) {
+    out += "tools:";
+    for (const SceneTool& t : s.tools) {
+      const Tooling& g = t.tooling;
+      out += fmt::format(" {} ({:g} mm, flutes {:g} mm, {:g} mm out of a {:g} x {:g} mm holder){}", t.name,
+                         g.tool_diameter_mm, g.flute_length_mm, g.stick_out_mm, g.chuck_diameter_mm, g.chuck_length_mm,
+                         &t == &s.tools.back() ? "" : ";");
+    }
+    out += "\n";
+  }
+  for (std::size_t k = 1; k < s.runs.size(); ++k)
+    out += fmt::format("tool change to {} before tool-path index {} (line {})\n", s.tools[s.runs[k].tool].name,
+                       s.runs[k].first, s.lines[s.runs[k].first]);
   return out;
 }
 
@@ -103,6 +117,10 @@ std::string kinds_table(const Scene& scene, const CheckReport& r) {
                      hexapod ? "slider stroke" : "linear axis travel", r.stroke_margin_mm,
                      hexapod ? "joint cone" : "rotary axis", r.joint_margin_deg, scene.safe_distance_mm);
   if (!r.on_table) out += "  the workpiece overhangs the table\n";
+  if (r.tools.size() > 1)
+    for (const ToolClearance& t : r.tools)
+      out += fmt::format("  {:<8} {:>6} poses, tightest {} ({}): {}\n", t.tool, t.poses, clearance_text(t.tightest.clearance_mm),
+                         kind_name(t.kind), where_text(t.tightest));
   return out;
 }
 
