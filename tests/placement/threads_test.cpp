@@ -48,6 +48,8 @@ Scene first_poses(Scene s, std::size_t n) {
   s.axes.resize(n);
   s.lines.resize(n);
   s.feeds_mm_per_min.resize(n);
+  while (s.runs.back().first >= n) s.runs.pop_back();
+  s.runs.back().end = n;
   return s;
 }
 

@@ -23,12 +23,13 @@ namespace machplan::placement {
 
 namespace {
 
-// The poses of one run as its tool's machine takes them.
-std::vector<PathPose> poses_of(const Scene& scene, const ToolRun& run, const MachineModel& model) {
-  std::vector<PathPose> poses;
-  poses.reserve(run.end - run.first);
-  for (std::size_t i = run.first; i < run.end; ++i) poses.push_back({scene.tips_mm[i], scene.axes[i]});
-  const auto refused = model.prepare(poses);
+// The path's poses as the machine takes them. The rotary angles depend on the tool axis alone:
+// they are taken along the whole path at once, so that a tool change does not restart the
+// table's turns.
+std::vector<PathPose> poses_of(const Scene& scene) {
+  std::vector<PathPose> poses(scene.tips_mm.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {scene.tips_mm[i], scene.axes[i]};
+  const auto refused = scene.model->prepare(poses);
   MACHPLAN_ASSERT(!refused, "the scene reader let through a pose the machine refuses: {}", refused ? refused->second : "");
   return poses;
 }
@@ -62,7 +63,8 @@ struct Checker::Run {
   // the path index `first` (the first pose of the run it leads to).
   std::string change;
 
-  Run(const Scene& s, const ToolRun& r) : Run(s, r.tool, r.first, poses_of(s, r, *s.tools[r.tool].model)) {}
+  Run(const Scene& s, const ToolRun& r, const std::vector<PathPose>& all)
+      : Run(s, r.tool, r.first, std::vector<PathPose>(all.begin() + r.first, all.begin() + r.end)) {}
   Run(const Scene& s, int tool_index, std::size_t first_pose, std::vector<PathPose> poses)
       : model(s.tools[tool_index].model), first(first_pose), tool(tool_index), wp(model->workpiece()),
         tree(*model, std::move(poses)), class1(*model, tree, wp, s.safe_distance_mm),
@@ -93,7 +95,12 @@ struct Checker::Impl {
   std::optional<Finding> ring;          // class 1 for every rotation at once (once asked)
 
   explicit Impl(const Scene& s) : scene(s) {
-    for (const ToolRun& r : s.runs) runs.push_back(std::make_unique<Run>(s, r));
+    MACHPLAN_ASSERT(!s.runs.empty() && s.runs.front().first == 0 && s.runs.back().end == s.tips_mm.size(),
+                    "the scene's runs do not cover its {} poses", s.tips_mm.size());
+    {
+      const std::vector<PathPose> all = poses_of(s);
+      for (const ToolRun& r : s.runs) runs.push_back(std::make_unique<Run>(s, r, all));
+    }
     if (runs.size() > 1)
       for (const auto& r : runs) joined.insert(joined.end(), r->tree.poses().begin(), r->tree.poses().end());
   }

@@ -411,13 +411,11 @@ Scene read_scene(const Yaml& root, const std::string& path) {
   const TableShape table = s.model->table();
   s.machine.table_size_mm = 2 * table.half_mm;
   s.machine.name = s.model->name();
-  // The path as the machine runs it: a pose it cannot take is refused at its line.
-  for (const ToolRun& run : s.runs) {
-    std::vector<PathPose> poses;
-    for (std::size_t i = run.first; i < run.end; ++i) poses.push_back({s.tips_mm[i], s.axes[i]});
-    if (const auto refused = s.tools[run.tool].model->prepare(poses))
-      throw InputError(s.toolpath_file, s.lines[run.first + refused->first], refused->second);
-  }
+  // The path as the machine runs it (the rotary angles depend on the tool axis alone): a pose it
+  // cannot take is refused at its line.
+  std::vector<PathPose> poses(s.tips_mm.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {s.tips_mm[i], s.axes[i]};
+  if (const auto refused = s.model->prepare(poses)) throw InputError(s.toolpath_file, s.lines[refused->first], refused->second);
   return s;
 }
 }  // namespace

@@ -24,6 +24,40 @@ namespace machplan::placement {
 
 namespace {
 
+// The axes along the whole job at a rotation: each run of moves with the model of the tool that
+// makes it (its length moves the linear axes), joined in path order; nullopt when the machine
+// gives no axis path or refuses a pose.
+std::optional<AxisPath> job_axis_path(const Scene& scene, double rotation_rad) {
+  // The rotary angles depend on the tool axis alone: taken along the whole path at once, so that
+  // a tool change does not restart the table's turns.
+  std::vector<PathPose> all(scene.tips_mm.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = {scene.tips_mm[i], scene.axes[i]};
+  if (scene.model->prepare(all)) return std::nullopt;
+  std::optional<AxisPath> job;
+  for (const ToolRun& run : scene.runs) {
+    const MachineModel& model = *scene.tools[run.tool].model;
+    const std::vector<PathPose> poses(all.begin() + run.first, all.begin() + run.end);
+    const std::vector<double> feeds(scene.feeds_mm_per_min.begin() + run.first, scene.feeds_mm_per_min.begin() + run.end);
+    std::optional<AxisPath> part = model.axis_path(poses, feeds, rotation_rad);
+    if (!part) return std::nullopt;
+    if (!job) {
+      job = std::move(part);
+      continue;
+    }
+    const long offset = static_cast<long>(job->M.size());
+    job->M.insert(job->M.end(), part->M.begin(), part->M.end());
+    job->b.insert(job->b.end(), part->b.begin(), part->b.end());
+    job->rotary_rad.insert(job->rotary_rad.end(), part->rotary_rad.begin(), part->rotary_rad.end());
+    job->feed_mm_per_s.insert(job->feed_mm_per_s.end(), part->feed_mm_per_s.begin(), part->feed_mm_per_s.end());
+    part->tip_step_mm.front() = (scene.tips_mm[run.first] - scene.tips_mm[run.first - 1]).norm();
+    job->tip_step_mm.insert(job->tip_step_mm.end(), part->tip_step_mm.begin(), part->tip_step_mm.end());
+    job->flips += part->flips;
+    job->forced_flips += part->forced_flips;
+    for (long f : part->flip_poses) job->flip_poses.push_back(f + offset);
+  }
+  return job;
+}
+
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -426,7 +460,7 @@ bool OptimalSearch::prepare(PlacementResult& res) {
   if (!lexicographic()) {
     const auto kind = objective_ == PlacementOptions::Objective::travel ? AxisObjective::Kind::travel : AxisObjective::Kind::time;
     for (int r = 0; r < nrot; ++r) {
-      const auto path = scene_.model->axis_path(checker_.poses(), scene_.feeds_mm_per_min, rot_.shown[r] * kDeg);
+      const auto path = job_axis_path(scene_, rot_.shown[r] * kDeg);
       objective_at_.emplace_back(AxisObjective(*path, kind));
       if (timed()) planned_at_.emplace_back(PlannedTime(*path));
     }
@@ -696,10 +730,7 @@ PlacementResult place(const Scene& scene, const PlacementOptions& o, Termination
 }
 
 std::optional<AxisTravel> axis_travel(const Scene& scene, const Placement& p) {
-  std::vector<PathPose> poses(scene.tips_mm.size());
-  for (std::size_t i = 0; i < poses.size(); ++i) poses[i] = {scene.tips_mm[i], scene.axes[i]};
-  if (scene.model->prepare(poses)) return std::nullopt;
-  const auto path = scene.model->axis_path(poses, scene.feeds_mm_per_min, p.rotation_deg * kDeg);
+  const auto path = job_axis_path(scene, p.rotation_deg * kDeg);
   if (!path) return std::nullopt;
   const AxisObjective f(*path, AxisObjective::Kind::travel);
   AxisTravel t;
