@@ -13,7 +13,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "engine/common/error.h"
+#include "tests/support/cli_run.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan::placement {
@@ -189,6 +192,27 @@ TEST(Tools, TheBundledFourToolJobIsPlacedAndCertified) {
   const CheckResult dense = check(scene, r.placement, {.dense = true, .dense_step_mm = 1.0}, dense_term);
   ASSERT_TRUE(dense.summary.done());
   EXPECT_TRUE(dense.report.free()) << of(dense.report, Kind::self).what;
+}
+
+// What `check --json` says of the tools: the scene's tools and changes, each tool's tightest.
+TEST(Tools, TheJsonNamesEachToolItsTightestClearanceAndTheChanges) {
+  TempDir dir;
+  dir.write("job.cl", kJob);
+  const std::string scene = dir.write("scene.yaml", scene_text(hexam_machine(), "job.cl", kHolders));
+  const test::Cli cli;
+  const test::CliResult r = cli.run(fmt::format("check '{}' --at 0,0,60 --json", scene));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["scene"]["tools"].size(), 2u);
+  EXPECT_EQ(j["scene"]["tools"][1]["name"], "T2");
+  EXPECT_EQ(j["scene"]["tools"][1]["holder_diameter_mm"], 63.0);
+  ASSERT_EQ(j["scene"]["tool_changes"].size(), 1u);
+  EXPECT_EQ(j["scene"]["tool_changes"][0]["to"], "T2");
+  EXPECT_EQ(j["scene"]["tool_changes"][0]["line"], 8 + 1);
+  ASSERT_EQ(j["tools"].size(), 2u);
+  EXPECT_EQ(j["tools"][0]["tool"], "T1");
+  EXPECT_EQ(j["tools"][0]["poses"], 3);
+  EXPECT_GE(j["tools"][0]["tightest"]["clearance_mm"].get<double>(), 5.0);
 }
 
 // A G-code job names its tools by M6; a LinuxCNC tool table gives their diameters and lengths.
