@@ -19,6 +19,7 @@
 
 #include "solvers/motion/run.h"
 #include "tests/panel/panel_test_rig.h"
+#include "tests/support/cli_run.h"
 
 namespace machplan {
 namespace {
@@ -447,6 +448,27 @@ TEST(PanelApi, TheTriangleRunsHoldsResumesAndReports) {
   ASSERT_EQ(rig.post("/api/run").status, 200);
   ASSERT_TRUE(rig.wait_for([&](const json&) { return rig.panel->runs_finished() == 2; }));
   EXPECT_EQ(json::parse(rig.get("/api/report").body)["status"], "done");
+}
+
+// A sheet program `machplan nest` wrote loads like any program: every pierce and the parts drawn,
+// within the sheet.
+TEST(PanelApi, ASheetProgramFromNestLoadsLikeAnyProgram) {
+  test::TempDir jobs;
+  const test::Cli cli;
+  const test::CliResult n = cli.run(fmt::format("nest '{}' --time 1 --out '{}' --json",
+                                                test::source_path("datasets/nesting/sheet_job.yaml"), jobs.path().string()));
+  ASSERT_EQ(n.code, 0) << n.err;
+  const json nest = json::parse(n.out);
+  const std::string program = nest["sheets"][0]["program"];
+  PanelRig rig(0, "thermal_gantry", [&](panel::PanelOptions& po) { po.job_folder = jobs.path().string(); });
+  rig.take_control();
+  const json job = rig.load({{"program", program}});
+  EXPECT_EQ(job["source"], program);
+  const json drawing = json::parse(rig.get("/api/job").body);
+  EXPECT_EQ(drawing["pierces"].size(), nest["sheets"][0]["pierces"].get<std::size_t>());
+  EXPECT_GT(drawing["parts"].size(), 0u);
+  EXPECT_LE(drawing["bounds"]["max"][0].get<double>(), nest["sheets"][0]["width_mm"].get<double>());
+  EXPECT_GE(drawing["bounds"]["min"][0].get<double>(), 0.0);
 }
 
 TEST(PanelApi, TheEstopMidCutEndsTorchOffAndLatchesUntilReset) {
