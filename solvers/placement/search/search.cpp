@@ -632,7 +632,9 @@ std::string OptimalSearch::time_message(const PlacementResult& res) const {
 
 void OptimalSearch::certify_rotation_interval(PlacementResult& res) {
   // The widest turn around the answer, up to half the rotation grid's step, over which the
-  // answer is certified free.
+  // answer is certified free; none with tool changes, whose moves are certified at single
+  // placements (Checker::decide).
+  if (scene_.tool_change && scene_.runs.size() > 1) return;
   double step = 360.0;
   for (std::size_t k = 1; k < rot_.deg.size(); ++k) step = std::min(step, rot_.deg[k] - rot_.deg[k - 1]);
   for (double turn = std::min(step, 1.0) / 2; turn >= 0.004; turn /= 2)

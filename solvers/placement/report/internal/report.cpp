@@ -169,7 +169,10 @@ void write_place_summary(const Scene& scene, const PlacementOptions& o, bool rot
                           r.rotation_tolerance_deg > 0
                               ? fmt::format("for every rotation from {:.3f} to {:.3f} deg", p.rotation_deg - r.rotation_tolerance_deg,
                                             p.rotation_deg + r.rotation_tolerance_deg)
-                              : fmt::format("at {:g} deg exactly (no turn around it could be proven free)", p.rotation_deg));
+                              : fmt::format("at {:g} deg exactly ({})", p.rotation_deg,
+                                            scene.tool_change && scene.runs.size() > 1
+                                                ? "the tool changes' moves are certified at single placements"
+                                                : "no turn around it could be proven free"));
     if (rotations_reduced)
       full += "rotations: on this machine a turn of the rotary table is the same setup as a position, so one rotation "
               "was searched\n";
