@@ -19,6 +19,7 @@
 #include "engine/common/text_file.h"
 #include "engine/common/internal/text_scan.h"
 #include "engine/programs/gcode.h"
+#include "engine/programs/internal/arc_walk.h"
 
 namespace machplan {
 namespace {
@@ -417,18 +418,14 @@ class AptReader : public Reader {
     arc.sweep_rad = sweep;
     arc.line = line;
     arc.first_pose = path_.poses.size();
-    // Steps: the chord of angle h stays within r (1 - cos(h / 2)) of the arc.
-    const double by_tol = 2 * std::acos(std::max(-1.0, 1 - options_.arc_tolerance_mm / r));
-    const double step = std::min(options_.arc_step_rad, by_tol > 0 ? by_tol : options_.arc_step_rad);
-    const auto n = static_cast<std::size_t>(std::ceil(sweep / step));
+    const toolpath_internal::ArcWalk walk(circle_center_, a, start.tip_mm, end.tip_mm, sweep, options_);
+    const std::size_t n = walk.n;
     if (n > options_.max_poses) fail(line, fmt::format("CIRCLE needs {} poses, beyond the reader's limit", n));
-    const Eigen::Vector3d u = vs / r, w = a.cross(u);
-    const double h0 = rs.dot(a), h1 = re.dot(a);
     const int index = static_cast<int>(path_.arcs.size());
     for (std::size_t k = 1; k < n; ++k) {
-      const double f = static_cast<double>(k) / static_cast<double>(n), t = f * sweep;
+      const double f = static_cast<double>(k) / static_cast<double>(n);
       ToolPose p = end;
-      p.tip_mm = circle_center_ + r * (std::cos(t) * u + std::sin(t) * w) + (h0 + f * (h1 - h0)) * a;
+      p.tip_mm = walk.at(k);
       p.axis = (start.axis + f * (end.axis - start.axis)).normalized();
       p.arc = index;
       add_pose(p);

@@ -12,6 +12,7 @@
 #include "engine/common/text_file.h"
 #include "engine/common/internal/text_scan.h"
 #include "engine/programs/gcode.h"
+#include "engine/programs/internal/arc_walk.h"
 #include "engine/programs/toolpath.h"
 
 namespace machplan {
@@ -20,30 +21,28 @@ namespace {
 
 using text_scan::printable;
 
-// The tip's positions along an arc move from `from`, every 0.1 rad at most and close enough that
-// each chord stays within 0.01 mm of the arc; the last is the move's end.
-std::vector<Eigen::Vector3d> arc_points(const Move& m, const Eigen::Vector3d& from) {
-  int a = 0, b = 1, n = 2;  // the plane's axes in the centre's order, and its normal
+// The tip's positions along an arc move from `from`, as the APT reader places them along a
+// CIRCLE (internal/arc_walk.h); the last is the move's end.
+std::vector<Eigen::Vector3d> arc_points(const Move& m, const Eigen::Vector3d& from, const ToolPathReadOptions& options,
+                                        const std::string& source) {
+  int a = 0, b = 1, n = 2;  // the plane's axes in the centre's order, and its normal (a x b)
   if (m.plane == Move::Plane::xz) a = 2, b = 0, n = 1;
   if (m.plane == Move::Plane::yz) a = 1, b = 2, n = 0;
-  const double r = std::hypot(from[a] - m.center.x(), from[b] - m.center.y());
   const double t0 = std::atan2(from[b] - m.center.y(), from[a] - m.center.x());
   const double t1 = std::atan2(m.end[b] - m.center.y(), m.end[a] - m.center.x());
   double sweep = m.clockwise ? t0 - t1 : t1 - t0;  // >= 0 once wrapped
   while (sweep <= 1e-12) sweep += 2 * M_PI;
   sweep += 2 * M_PI * m.turns;
-  const double chord = r > 0.01 ? 2 * std::acos(1 - 0.01 / r) : 0.1;
-  const int steps = std::clamp(static_cast<int>(std::ceil(sweep / std::min(0.1, chord))), 1, 100000);
+  Eigen::Vector3d centre = from, axis = Eigen::Vector3d::Zero();
+  centre[a] = m.center.x();
+  centre[b] = m.center.y();
+  axis[n] = m.clockwise ? -1.0 : 1.0;
+  const toolpath_internal::ArcWalk walk(centre, axis, from, m.end, sweep, options);
+  if (walk.n > options.max_poses)
+    throw InputError(source, m.line, fmt::format("an arc needing {} poses, beyond the reader's limit", walk.n));
   std::vector<Eigen::Vector3d> out;
-  for (int k = 1; k <= steps; ++k) {
-    const double f = static_cast<double>(k) / steps;
-    const double t = t0 + (m.clockwise ? -1 : 1) * f * sweep;
-    Eigen::Vector3d p;
-    p[a] = m.center.x() + r * std::cos(t);
-    p[b] = m.center.y() + r * std::sin(t);
-    p[n] = from[n] + f * (m.end[n] - from[n]);
-    out.push_back(k == steps ? m.end : p);
-  }
+  for (std::size_t k = 1; k < walk.n; ++k) out.push_back(walk.at(k));
+  out.push_back(m.end);
   return out;
 }
 }  // namespace
@@ -71,7 +70,7 @@ ToolPath toolpath_from_gcode(const Program& program, const ToolPathReadOptions& 
     }
     const Move& m = program.moves[i];
     if (!is_motion(m)) continue;
-    const std::vector<Eigen::Vector3d> tips = m.kind == Move::Kind::arc ? arc_points(m, at) : std::vector{m.end};
+    const std::vector<Eigen::Vector3d> tips = m.kind == Move::Kind::arc ? arc_points(m, at, options, program.source) : std::vector{m.end};
     for (const Eigen::Vector3d& tip : tips) {
       if (path.poses.size() >= options.max_poses)
         throw InputError(program.source, m.line, fmt::format("more than {} poses", options.max_poses));
