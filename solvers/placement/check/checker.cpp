@@ -48,7 +48,7 @@ struct Checker::Run {
   std::shared_ptr<const MachineModel> model;
   std::size_t first = 0;  // the path index of its first pose
   int tool = 0;           // index into scene.tools
-  WorkpieceSolid wp;
+  const WorkpieceSolid& wp;  // the model's, which lives as long as `model`
   PoseTree tree;
   Class1Check class1;
   Certifier certifier;
@@ -172,6 +172,21 @@ struct Checker::Impl {
     return plate.clearance_mm < run.axial->clearance_mm ? plate : *run.axial;
   }
 
+  // Class 1 of a run at a rotation: a path run's is kept per rotation, a tool change's (whose
+  // poses hold at one placement) is walked afresh.
+  Finding class1_of(Run& run, double rotation_deg, Termination& term) {
+    if (!run.change.empty()) return run_class1_walk(run, rotation_deg * kDeg, term);
+    return run_class1(run, run.class1.has_ring() ? rotation_deg : 0.0, term);
+  }
+
+  // The path's runs, then the tool changes' at one placement.
+  std::vector<Run*> with_changes(const std::vector<std::unique_ptr<Run>>& changes) const {
+    std::vector<Run*> all;
+    for (const auto& r : runs) all.push_back(r.get());
+    for (const auto& r : changes) all.push_back(r.get());
+    return all;
+  }
+
   // A run's finding with its pose as a path index, its line, and its tool when the job has
   // several (a tool change's: the first pose after the change, and the move named).
   Finding in_path(const Run& run, Finding f) const {
@@ -276,7 +291,7 @@ struct Checker::Impl {
 
   // The job's report from its runs' reports: per kind the worst, per tool its tightest
   // clearance, then the placement-only checks.
-  CheckReport assemble(const Where& where, const std::vector<CheckReport>& per_run, const std::vector<const Run*>& of) {
+  CheckReport assemble(const Where& where, const std::vector<CheckReport>& per_run, const std::vector<Run*>& of) {
     CheckReport r = per_run.front();
     for (std::size_t k = 1; k < per_run.size(); ++k) {
       for (int kind = 0; kind < kKindCount; ++kind) keep_worse(r.kinds[kind], per_run[k].kinds[kind]);
@@ -348,23 +363,15 @@ const std::string& Checker::constraint_name(const Spot& spot) const {
 CheckReport Checker::report(const Placement& p, Termination& term) {
   Impl& m = *impl_;
   const CheckCounts before = m.counts.get();
-  class1(p.rotation_deg, term);
   Impl::Call call(term, m.budget());
   const Where where = Where::of(p);
-  std::vector<CheckReport> per_run;
-  std::vector<const Run*> of;
-  for (auto& run : m.runs) {
-    const Finding& c1 = m.run_class1(*run, run->class1.has_ring() ? p.rotation_deg : 0.0, term);
-    const std::vector<Minimum> mins = run->certifier.report(where, call.term, run->eval_fn(), m.counts);
-    per_run.push_back(m.assemble_run(*run, p, where, mins, c1));
-    of.push_back(run.get());
-  }
   const auto changes = m.change_runs(p);
-  for (auto& run : changes) {
-    const Finding c1 = m.run_class1_walk(*run, p.rotation_deg * kDeg, term);
+  const std::vector<Run*> of = m.with_changes(changes);
+  std::vector<CheckReport> per_run;
+  for (Run* run : of) {
+    const Finding c1 = m.class1_of(*run, p.rotation_deg, term);
     const std::vector<Minimum> mins = run->certifier.report(where, call.term, run->eval_fn(), m.counts);
     per_run.push_back(m.assemble_run(*run, p, where, mins, c1));
-    of.push_back(run.get());
   }
   CheckReport r = m.assemble(where, per_run, of);
   const CheckCounts after = m.counts.get();
@@ -421,6 +428,25 @@ Decision Checker::decide(const Placement& p, const Ball& ball, Termination& term
   }
   Impl::Call call(term, m.budget());
   const Where where = Where::of(p);
+  // One run's constraints in `mask`: nullopt when certified, else the decision (infeasible, or
+  // unknown over a ball where an interval could not be proven).
+  auto certify = [&](Run& run, Mask mask) -> std::optional<Decision> {
+    Spot fail;
+    if (run.certifier.decide(where, ball, mask, call.term, run.eval_fn(), m.counts, &fail)) return std::nullopt;
+    // Refused by an exact interference deep enough, or, at a single placement, by an interval
+    // that could not be proven at the finest subdivision: the checker never calls free what it
+    // could not prove.
+    if (!fail.exact && !ball.point()) return Decision::unknown;
+    if (witness) {
+      *witness = m.describe(run, fail.constraint, fail.pose, fail.t, where, fail.value);
+      witness->interferes = true;
+    }
+    fail.pose += static_cast<long>(run.first);
+    // A spot on a tool change holds at this placement alone: nothing the searches could learn.
+    if (!run.change.empty()) fail = Spot{}, fail.tool_change = true;
+    if (spot) *spot = fail;
+    return Decision::infeasible;
+  };
   // Every run's peripheral constraints first (when asked), then all of every run.
   for (const bool periph_pass : {true, false}) {
     if (periph_pass && !peripherals_first) continue;
@@ -432,40 +458,21 @@ Decision Checker::decide(const Placement& p, const Ball& ball, Termination& term
           if (run->model->constraints()[c].kind == Kind::machine_peripheral) mask |= bit(c);
         if (!mask) continue;
       }
-      Spot fail;
-      if (run->certifier.decide(where, ball, mask, call.term, run->eval_fn(), m.counts, &fail)) continue;
-      // Refused by an exact interference deep enough, or, at a single placement, by an
-      // interval that could not be proven at the finest subdivision: the checker never calls
-      // free what it could not prove.
-      if (!fail.exact && !ball.point()) return Decision::unknown;
-      if (witness) {
-        *witness = m.describe(*run, fail.constraint, fail.pose, fail.t, where, fail.value);
-        witness->interferes = true;
-      }
-      fail.pose += static_cast<long>(run->first);
-      if (spot) *spot = fail;
-      return Decision::infeasible;
+      if (const auto d = certify(*run, mask)) return *d;
     }
   }
   if (!m.scene.tool_change || m.scene.runs.size() < 2) return all_clear ? Decision::feasible : Decision::unknown;
   // The tool changes' moves, which are fixed to the table rather than to the workpiece, are
-  // certified at single placements only.
+  // certified at single placements only, each with its class 1.
   if (!ball.point()) return Decision::unknown;
-  // Nothing the searches could learn from: a finding there holds at this placement alone.
-  if (spot) *spot = Spot{}, spot->tool_change = true;
   for (auto& run : m.change_runs(p)) {
-    Finding c1 = m.run_class1_walk(*run, p.rotation_deg * kDeg, term);
+    const Finding c1 = m.class1_of(*run, p.rotation_deg, term);
     if (c1.interferes) {
       if (witness) *witness = c1;
+      if (spot) *spot = Spot{}, spot->tool_change = true;
       return Decision::infeasible;
     }
-    Spot fail;
-    if (run->certifier.decide(where, ball, run->model->all_mask(), call.term, run->eval_fn(), m.counts, &fail)) continue;
-    if (witness) {
-      *witness = m.describe(*run, fail.constraint, fail.pose, fail.t, where, fail.value);
-      witness->interferes = true;
-    }
-    return Decision::infeasible;
+    if (const auto d = certify(*run, run->model->all_mask())) return *d;
   }
   return all_clear ? Decision::feasible : Decision::unknown;
 }
@@ -557,14 +564,10 @@ CheckReport Checker::dense_check(const Placement& p, double step_mm, Termination
   Impl& m = *impl_;
   const Where where = Where::of(p);
   std::vector<CheckReport> per_run;
-  std::vector<const Run*> of;
-  auto changes = m.change_runs(p);
-  std::vector<Run*> all;
-  for (auto& r : m.runs) all.push_back(r.get());
-  for (auto& r : changes) all.push_back(r.get());
-  for (Run* run_ptr : all) {
+  const auto changes = m.change_runs(p);
+  const std::vector<Run*> of = m.with_changes(changes);
+  for (Run* run_ptr : of) {
     Run& run = *run_ptr;
-    of.push_back(run_ptr);
     const std::optional<double> rot =
         run.class1.has_ring() ? std::optional<double>(p.rotation_deg * kDeg) : std::optional<double>(0.0);
     auto extra = [&](const PathPose& pose) { return run.class1.exact(pose, rot, run.shapes(), nullptr); };
