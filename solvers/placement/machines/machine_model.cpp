@@ -28,9 +28,8 @@ Eigen::Matrix3d MachineModel::plate_rotation(const Eigen::Vector3d& axis) const 
   return Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis).toRotationMatrix();
 }
 
-std::shared_ptr<const MachineModel> make_machine_model(const Scene& scene, const Tooling& tooling,
+std::shared_ptr<const MachineModel> make_machine_model(const Scene& scene, const Yaml& root, const Tooling& tooling,
                                                        const ToolingOrigin& origin) {
-  const Yaml root = Yaml::load_file(scene.machine.source);
   const std::string kind = root.has("kind") ? root.string("kind") : "hexapod";
   if (kind == "hexapod") {
     hexam::Machine m = hexam::machine_from_yaml(root);

@@ -40,6 +40,10 @@
 #include "models/common/tooling.h"
 #include "solvers/placement/machines/finding.h"
 
+namespace machplan {
+class Yaml;
+}  // namespace machplan
+
 namespace machplan::placement {
 
 struct Scene;
@@ -277,8 +281,8 @@ class MachineModel {
   int placement_count_ = 0;
 };
 
-// Reads the machine file the scene names (scene.machine.source) and builds its model with one
-// tool of the job, the scene's peripherals and workpiece (a hexapod file has no `kind`, or
+// Builds the model of the machine file the scene names (scene.machine.source, read as `root`)
+// with one tool of the job, the scene's peripherals and workpiece (a hexapod file has no `kind`, or
 // `kind: hexapod`; a trunnion file says `kind: table_tilting`). Throws InputError naming the
 // file and key, or, at `origin` (file and line), the tool that does not fit the machine (its
 // gauge length beyond what the spindle's stroke can bring down to the table).
@@ -287,7 +291,7 @@ struct ToolingOrigin {
   std::string file;
   int line = 0;
 };
-std::shared_ptr<const MachineModel> make_machine_model(const Scene& scene, const Tooling& tooling,
+std::shared_ptr<const MachineModel> make_machine_model(const Scene& scene, const Yaml& root, const Tooling& tooling,
                                                        const ToolingOrigin& origin);
 
 }  // namespace machplan::placement

@@ -187,22 +187,21 @@ Tooling tool_of(const ToolPath::Tool& t, const std::optional<Yaml>& holder, cons
   return tooling;
 }
 
-// The tools of the job and the runs of poses each makes (see scene.h); `tool_of_pose` holds
-// each pose's index into tp.tools (-1: before any tool).
-void read_tools(const Yaml& root, const ToolPath& tp, const std::vector<int>& tool_of_pose, Scene& s) {
+// The tools of the job and the runs of poses each makes (see scene.h); a pose's ToolPose::tool
+// is its index into tp.tools (-1: before any tool).
+void read_tools(const Yaml& root, const ToolPath& tp, Scene& s) {
   std::vector<int> used;  // tp.tools indices that move, in order of first use
-  for (int k : tool_of_pose)
-    if (k >= 0 && std::find(used.begin(), used.end(), k) == used.end()) used.push_back(k);
+  for (const ToolPose& p : tp.poses)
+    if (p.tool >= 0 && std::find(used.begin(), used.end(), p.tool) == used.end()) used.push_back(p.tool);
+  std::string names;  // "T6, T16, T2"
+  for (int k : used) names += (names.empty() ? "" : ", ") + tp.tools[k].name();
   std::vector<int> scene_tool(tp.tools.size(), -1);
   const std::string file = std::filesystem::path(tp.source).filename().string();
   if (const auto t = root.get("tooling")) {
-    if (used.size() > 1) {
-      std::string names;
-      for (int k : used) names += (names.empty() ? "" : ", ") + tp.tools[k].name();
+    if (used.size() > 1)
       t->fail(fmt::format("is one tool for every move, but the tool path changes tools ({}): describe them with "
                           "holder: and tools: instead",
                           names));
-    }
     for (const char* key : {"holder", "tools"})
       if (root.has(key)) root.at(key).fail("goes with a tool path that changes tools, not with tooling:");
     s.tools.push_back({-1, "the tooling", root.file(), t->line(), read_tooling(*t), nullptr});
@@ -217,12 +216,9 @@ void read_tools(const Yaml& root, const ToolPath& tp, const std::vector<int>& to
       for (const std::string& key : tools->keys()) {
         bool loaded = false;
         for (int k : used) loaded = loaded || std::to_string(tp.tools[k].number) == key;
-        if (!loaded) {
-          std::string names;
-          for (int k : used) names += (names.empty() ? "" : ", ") + tp.tools[k].name();
+        if (!loaded)
           tools->at(key).fail(fmt::format("{} makes no move with a tool numbered '{}' (its tools: {})", file,
                                           key.substr(0, 20), names));
-        }
       }
     for (int k : used) {
       const ToolPath::Tool& t = tp.tools[k];
@@ -234,8 +230,8 @@ void read_tools(const Yaml& root, const ToolPath& tp, const std::vector<int>& to
     }
   }
   // Runs: a pose before any tool is made with the first one.
-  for (std::size_t i = 0; i < tool_of_pose.size(); ++i) {
-    const int k = tool_of_pose[i] >= 0 ? scene_tool[tool_of_pose[i]] : 0;
+  for (std::size_t i = 0; i < tp.poses.size(); ++i) {
+    const int k = tp.poses[i].tool >= 0 ? scene_tool[tp.poses[i].tool] : 0;
     if (s.runs.empty() || s.runs.back().tool != k) s.runs.push_back({k, i, i});
     s.runs.back().end = i + 1;
   }
@@ -246,9 +242,8 @@ void read_tools(const Yaml& root, const ToolPath& tp, const std::vector<int>& to
 // With the tool vertical at that position the machine stands as it would whatever the
 // workpiece's placement, so each tool is tried there once: a position beyond the travel or into
 // a peripheral is refused here rather than found at every placement.
-void read_tool_change(Scene& s) {
-  const Yaml root = Yaml::load_file(s.machine.source);
-  const auto tc = root.get("tool_change");
+void read_tool_change(const Yaml& machine, Scene& s) {
+  const auto tc = machine.get("tool_change");
   if (!tc) return;
   tc->reject_unknown_keys({"nose_mm"});
   ToolChange c{tc->vec3("nose_mm"), tc->file(), tc->line()};
@@ -381,12 +376,7 @@ Scene read_scene(const Yaml& root, const std::string& path) {
   s.machine.source = machine_file(root);
   s.safe_distance_mm = root.number_or("safe_distance_mm", 5.0, {.min = 0, .max = 1000});
   read_workpiece(root, s);
-  {
-    const ToolPath tp = read_toolpath(root, s);
-    std::vector<int> tool_of_pose(tp.poses.size());
-    for (std::size_t i = 0; i < tp.poses.size(); ++i) tool_of_pose[i] = tp.poses[i].tool;
-    read_tools(root, tp, tool_of_pose, s);
-  }
+  read_tools(root, read_toolpath(root, s), s);
   if (const auto per = root.get("peripherals")) {
     for (const Yaml& item : per->items()) s.peripherals.push_back(read_peripheral(item));
     if (s.peripherals.size() > kMaxPeripherals)
@@ -395,18 +385,19 @@ Scene read_scene(const Yaml& root, const std::string& path) {
   read_search(root, s);
   if (s.spoilboard_mm > s.search.pad_max_mm)
     root.at("workpiece").at("spoilboard_mm").fail("is thicker than the highest pad (search.pad_max_mm)");
-  for (SceneTool& tool : s.tools) {
-    try {
-      tool.model = make_machine_model(s, tool.tooling, {tool.name, tool.file, tool.line});
-    } catch (const InputError& e) {
-      // The machine file's own errors (missing, unreadable, malformed) under the scene's key.
-      if (e.where() != s.machine.source) throw;
-      const Yaml key = root.at("machine");
-      throw InputError(key.file(), key.line(), fmt::format("key '{}': {}", key.key_path(), e.what()));
-    }
+  // The machine file, read once for every tool's model and its tool change position.
+  std::optional<Yaml> machine;
+  try {
+    machine = Yaml::load_file(s.machine.source);
+    for (SceneTool& tool : s.tools) tool.model = make_machine_model(s, *machine, tool.tooling, {tool.name, tool.file, tool.line});
+  } catch (const InputError& e) {
+    // The machine file's own errors (missing, unreadable, malformed) under the scene's key.
+    if (e.where() != s.machine.source) throw;
+    const Yaml key = root.at("machine");
+    throw InputError(key.file(), key.line(), fmt::format("key '{}': {}", key.key_path(), e.what()));
   }
   s.model = s.tools[s.runs.front().tool].model;
-  read_tool_change(s);
+  read_tool_change(*machine, s);
   s.machine.kind = s.model->kind();
   const TableShape table = s.model->table();
   s.machine.table_size_mm = 2 * table.half_mm;
