@@ -1,9 +1,48 @@
-"""What the datasets' generate.py scripts share (trunnion-5axis, wei-lee-2020): the top face of a
-plate with a star-shaped opening, the plate's sides and bottom, and the STL and APT/CLDATA
-writers. Standard library only; deterministic.
+"""What the datasets' generate.py scripts share (trunnion-5axis, multi-tool, wei-lee-2020): the
+top face of a plate with a star-shaped opening, the plate's sides and bottom, the STL and
+APT/CLDATA writers, and the dome block that trunnion-5axis draws and multi-tool machines again
+(its sizes, its facing rows and its dome's rings). Standard library only; deterministic.
 """
 import math
 import struct
+
+
+# The dome block (trunnion-5axis/part.stl): a 110 x 70 x 30 mm block with a spherical dome (a cap
+# of a 30 mm sphere, cut where its surface leans 50 deg) whose axis stands 30 mm off the block's
+# centre along x; part frame: origin at the bottom face's centre. CAM coordinates = part + CAM.
+class DomeBlock:
+    L, W, H = 110.0, 70.0, 30.0          # block
+    R = 30.0                             # dome sphere radius
+    CX, CY = 30.0, 0.0                   # dome axis
+    BASE = math.radians(50.0)            # the cap ends where the surface leans 50 deg
+    CZ = H - R * math.cos(BASE)          # sphere centre height
+    RB = R * math.sin(BASE)              # base circle radius on the top face
+    CAM = (L / 2, W / 2, -H)             # the CAM zero on the top face at the stock's corner
+
+
+def outside_circle(xs, y, cx, cy, keep_out):
+    """The stretches of the row (x in xs, at y) that stay `keep_out` or more from (cx, cy), in
+    order: a facing pass split around the dome."""
+    seg = []
+    for x in xs + [None]:
+        if x is not None and math.hypot(x - cx, y - cy) >= keep_out:
+            seg.append(x)
+            continue
+        if seg:
+            yield seg
+            seg = []
+
+
+def dome_rings(b, step, per_ring):
+    """(point, normal) on the dome of DomeBlock-like `b`, ring of latitude by ring from its base
+    up to near the apex, `step` rad apart, `per_ring` points each."""
+    polar = b.BASE
+    while polar > 0.5 * step:
+        for k in range(per_ring):
+            lon = 2 * math.pi * k / per_ring
+            n = (math.sin(polar) * math.cos(lon), math.sin(polar) * math.sin(lon), math.cos(polar))
+            yield (b.CX + b.R * n[0], b.CY + b.R * n[1], b.CZ + b.R * n[2]), n
+        polar -= step
 
 
 def plate_top(L, W, H, cx, cy, inner):

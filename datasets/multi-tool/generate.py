@@ -15,14 +15,14 @@ along x; the CAM zero on the top face at the stock's corner (x 0 .. 110, y 0 .. 
 Standard library only; the output is deterministic. Run from this folder.
 """
 import math
+import os
+import sys
 
-L, W, H = 110.0, 70.0, 30.0
-R = 30.0
-CX, CY = 30.0, 0.0
-BASE = math.radians(50.0)
-CZ = H - R * math.cos(BASE)
-RB = R * math.sin(BASE)
-CAM = (L / 2, W / 2, -H)             # CAM coordinates = part coordinates + CAM
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
+import cam_files  # noqa: E402  (datasets/cam_files.py: the dome block, shared with trunnion-5axis)
+
+B = cam_files.DomeBlock
+L, W, H, R, CX, CY, BASE, CZ, RB, CAM = B.L, B.W, B.H, B.R, B.CX, B.CY, B.BASE, B.CZ, B.RB, B.CAM
 SAFE = H + 25                        # clearance plane, part frame
 HOLES = [(-45.0, -25.0), (-45.0, 25.0), (45.0, -25.0), (45.0, 25.0)]
 
@@ -55,33 +55,21 @@ def facing(lines):
         xs = [-L / 2 - r - 2.0 + 5.0 * k for k in range(int((L + 2 * r + 4.0) / 5.0) + 1)]
         if row % 2:
             xs.reverse()
-        seg = []
-        for x in xs + [None]:
-            if x is not None and math.hypot(x - CX, y - CY) >= keep_out:
-                seg.append(x)
-                continue
-            if seg:
-                lines += ["RAPID", goto(cam(seg[0], y, SAFE)), "RAPID", goto(cam(seg[0], y, H + 2.0)),
-                          "FEDRAT/MMPM,400", goto(cam(seg[0], y, H)), "FEDRAT/MMPM,1600"]
-                lines += [goto(cam(x2, y, H)) for x2 in seg[1:]]
-                lines += ["RAPID", goto(cam(seg[-1], y, SAFE))]
-                seg = []
+        for seg in cam_files.outside_circle(xs, y, CX, CY, keep_out):
+            lines += ["RAPID", goto(cam(seg[0], y, SAFE)), "RAPID", goto(cam(seg[0], y, H + 2.0)),
+                      "FEDRAT/MMPM,400", goto(cam(seg[0], y, H)), "FEDRAT/MMPM,1600"]
+            lines += [goto(cam(x2, y, H)) for x2 in seg[1:]]
+            lines += ["RAPID", goto(cam(seg[-1], y, SAFE))]
 
 
 def dome(lines):
     lines += ["MULTAX/ON", "FEDRAT/MMPM,900"]
     first = True
-    polar = BASE
-    while polar > 0.5 * math.radians(3.0):
-        for k in range(120):
-            lon = 2 * math.pi * k / 120
-            n = (math.sin(polar) * math.cos(lon), math.sin(polar) * math.sin(lon), math.cos(polar))
-            p = (CX + R * n[0], CY + R * n[1], CZ + R * n[2])
-            if first:
-                lines += ["RAPID", goto(cam(p[0] + 25 * n[0], p[1] + 25 * n[1], p[2] + 25 * n[2]), n)]
-                first = False
-            lines.append(goto(cam(*p), n))
-        polar -= math.radians(3.0)
+    for p, n in cam_files.dome_rings(B, math.radians(3.0), 120):
+        if first:
+            lines += ["RAPID", goto(cam(p[0] + 25 * n[0], p[1] + 25 * n[1], p[2] + 25 * n[2]), n)]
+            first = False
+        lines.append(goto(cam(*p), n))
     apex = (CX, CY, CZ + R)
     lines += [goto(cam(*apex), (0.0, 0.0, 1.0)), "RAPID", goto(cam(apex[0], apex[1], SAFE), (0.0, 0.0, 1.0))]
 

@@ -19,14 +19,9 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
 import cam_files  # noqa: E402  (datasets/cam_files.py: shared with the other datasets' scripts)
 
-L, W, H = 110.0, 70.0, 30.0          # block
-R = 30.0                             # dome sphere radius
-CX, CY = 30.0, 0.0                   # dome axis, part frame (origin at the bottom face's centre)
-BASE = math.radians(50.0)            # the cap ends where the surface leans 50 deg
-CZ = H - R * math.cos(BASE)          # sphere centre height
-RB = R * math.sin(BASE)              # base circle radius on the top face
+B = cam_files.DomeBlock               # the part's sizes (datasets/cam_files.py)
+L, W, H, R, CX, CY, BASE, CZ, RB, CAM = B.L, B.W, B.H, B.R, B.CX, B.CY, B.BASE, B.CZ, B.RB, B.CAM
 TOOL_R = 3.0
-CAM = (L / 2, W / 2, -H)             # CAM coordinates = part coordinates + CAM
 
 
 def mesh():
@@ -76,32 +71,20 @@ def toolpath():
         xs = [-L / 2 + TOOL_R + 2.0 * k for k in range(int((L - 2 * TOOL_R) / 2.0) + 1)]
         if row % 2:
             xs.reverse()
-        segment = []
-        for x in xs + [None]:
-            if x is not None and math.hypot(x - CX, y - CY) >= keep_out:
-                segment.append(x)
-                continue
-            if segment:
-                out.append((*cam(segment[0], y, safe), 0, 0, 1, True, 0))
-                for sx in segment:
-                    out.append((*cam(sx, y, H), 0, 0, 1, False, 1200))
-                out.append((*cam(segment[-1], y, safe), 0, 0, 1, True, 0))
-                segment = []
+        for segment in cam_files.outside_circle(xs, y, CX, CY, keep_out):
+            out.append((*cam(segment[0], y, safe), 0, 0, 1, True, 0))
+            for sx in segment:
+                out.append((*cam(sx, y, H), 0, 0, 1, False, 1200))
+            out.append((*cam(segment[-1], y, safe), 0, 0, 1, True, 0))
         y += 3.0
         row += 1
     # 2. the dome, from its base up, tool along the normal.
     first = True
-    polar = BASE
-    while polar > 0.5 * math.radians(1.5):
-        for k in range(180):
-            lon = 2 * math.pi * k / 180
-            n = (math.sin(polar) * math.cos(lon), math.sin(polar) * math.sin(lon), math.cos(polar))
-            p = (CX + R * n[0], CY + R * n[1], CZ + R * n[2])
-            if first:
-                out.append((*cam(p[0] + 25 * n[0], p[1] + 25 * n[1], p[2] + 25 * n[2]), *n, True, 0))
-                first = False
-            out.append((*cam(*p), *n, False, 900))
-        polar -= math.radians(1.5)
+    for p, n in cam_files.dome_rings(B, math.radians(1.5), 180):
+        if first:
+            out.append((*cam(p[0] + 25 * n[0], p[1] + 25 * n[1], p[2] + 25 * n[2]), *n, True, 0))
+            first = False
+        out.append((*cam(*p), *n, False, 900))
     apex = (CX, CY, CZ + R)
     out.append((*cam(*apex), 0, 0, 1, False, 900))
     out.append((*cam(apex[0], apex[1], safe), 0, 0, 1, True, 0))
