@@ -49,6 +49,7 @@ void add_place(CLI::App& app) {
   struct Opts {
     std::string scene, strategy = "optimal", plot, rotations = "0", objective = "automatic";
     int threads = 0;
+    double time_gap = 1.0;
     bool json = false, verify = false;
   };
   auto o = std::make_shared<Opts>();
@@ -61,6 +62,9 @@ void add_place(CLI::App& app) {
                   "lowest (pad, then nearest the centre), travel (least linear axis travel) or time (least machining "
                   "time); automatic: lowest on a hexapod, travel on a trunnion")
 ;
+  cmd->add_option("--time-gap", o->time_gap,
+                  "time: stop once no setup left can be more than this many per cent faster than the best found "
+                  "(default 1; 0: prove the best on the grid)");
   cmd->add_option("--threads", o->threads, "worker threads (0: every core)")->check(CLI::Range(0, 1024));
   cmd->add_option("--plot", o->plot, "write a top and side view (.png or .svg)");
   cmd->add_flag("--json", o->json, "machine-readable output");
@@ -75,12 +79,14 @@ void add_place(CLI::App& app) {
                     {"rotations", "--rotations"},
                     {"objective", "--objective"},
                     {"threads", "--threads"},
+                    {"time_gap_pct", "--time-gap"},
                     {"strategy", "--strategy"},
                     {"plot", "--plot"}});
   cmd->callback([o] {
     PlacementOptions po;
     po.strategy = accept(parse_placement_strategy(o->strategy), "--strategy");
     po.threads = o->threads;
+    po.time_gap_pct = o->time_gap;
     parse_rotations(o->rotations, po);
     po.objective = parse_objective(o->objective);
     po.validate();

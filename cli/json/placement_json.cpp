@@ -12,7 +12,7 @@ double finite_or(double v, double big = 1e9) { return std::isfinite(v) ? v : big
 
 nlohmann::json travel_json(const AxisTravel& t) {
   nlohmann::json axes;
-  for (std::size_t k = 0; k < t.axes.size(); ++k) axes[t.axes[k] + (k < 3 ? "_mm" : "_deg")] = t.travel[k];
+  for (std::size_t k = 0; k < t.axes.size(); ++k) axes[t.axes[k] + (static_cast<int>(k) < t.linear_axes ? "_mm" : "_deg")] = t.travel[k];
   return {{"axes", axes},
           {"linear_mm", t.linear_mm},
           {"time_s", t.time_s},

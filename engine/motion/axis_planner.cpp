@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -19,29 +20,27 @@ constexpr double kMinJointMove = 1e-9;         // shorter moves (mm or rad of pa
 constexpr double kJointZoneMergeRel = 0.005;   // caps within 0.5 % share a zone (as feed_planner.cpp)
 constexpr double kSameRate = 1e-12;       // junction rate jumps below this do not bind
 
-const char* kJointAxisNames[kJointAxes] = {"x", "y", "z", "rotary 1", "rotary 2"};
 
-// min_k lim_k / |u_k| over the axes that move (infinity when none does).
-double joint_axis_cap(const JointVector& lim, const JointVector& u_abs) {
-  double r = kNoCap;
-  for (int k = 0; k < kJointAxes; ++k)
-    if (u_abs[k] > 0.0) r = std::min(r, lim[k] / u_abs[k]);
-  return r;
-}
-
-JointVector corner_tolerance(const AxisLimits& l) {
-  JointVector t;
-  t << l.corner_tolerance_mm, l.corner_tolerance_mm, l.corner_tolerance_mm, l.corner_tolerance_rad, l.corner_tolerance_rad;
-  return t;
+// The norms of a vector's linear and rotary parts.
+std::pair<double, double> linear_rotary_norms(const JointVector& v, const AxisLimits& l) {
+  double lin = 0.0, rot = 0.0;
+  for (int k = 0; k < l.axes(); ++k) (l.rotary(k) ? rot : lin) += v[k] * v[k];
+  return {std::sqrt(lin), std::sqrt(rot)};
 }
 
 }  // namespace
 
+JointVector five_axis(double x, double y, double z, double a, double c) {
+  JointVector q;
+  q << x, y, z, a, c, 0.0;
+  return q;
+}
+
 void AxisLimits::validate() const {
-  const auto each = [](const JointVector& v, const char* field) {
-    for (int k = 0; k < kJointAxes; ++k)
-      require_field(std::isfinite(v[k]) && v[k] > 0.0, fmt::format("{}.{}", field, kJointAxisNames[k]), v[k],
-                    "must be finite and > 0");
+  MACHPLAN_ASSERT(axes() >= 1 && axes() <= kJointAxes, "AxisLimits: {} axes (1 to {})", axes(), kJointAxes);
+  const auto each = [this](const JointVector& v, const char* field) {
+    for (int k = 0; k < axes(); ++k)
+      require_field(std::isfinite(v[k]) && v[k] > 0.0, fmt::format("{}.{}", field, names[k]), v[k], "must be finite and > 0");
   };
   each(velocity, "velocity");
   each(rapid_velocity, "rapid_velocity");
@@ -53,51 +52,68 @@ void AxisLimits::validate() const {
                 corner_tolerance_rad, "must be finite and > 0");
 }
 
-double joint_move_length(const JointVector& delta, double tip_mm) {
+double joint_move_length(const JointVector& delta, double tip_mm, double turn_rad, const AxisLimits& l) {
   if (tip_mm > kMinJointMove) return tip_mm;
-  return delta.tail<2>().norm();
+  return l.rotary_axes != 0 ? linear_rotary_norms(delta, l).second : turn_rad;
 }
 
 MoveCaps joint_move_caps(const JointVector& u, double feed, bool tip_moves, const AxisLimits& l) {
-  MoveCaps c;
+  // min_k limit_k / |u_k| over the axes that move (infinity when none does).
+  MoveCaps c{kNoCap, kNoCap, kNoCap};
   const bool rapid = feed <= 0.0;
-  c.speed = joint_axis_cap(rapid ? l.rapid_velocity : l.velocity, u);
+  const JointVector& v = rapid ? l.rapid_velocity : l.velocity;
+  for (int k = 0; k < l.axes(); ++k)
+    if (u[k] > 0.0) {
+      const double inv = 1.0 / u[k];
+      c.speed = std::min(c.speed, v[k] * inv);
+      c.accel = std::min(c.accel, l.acceleration[k] * inv);
+      c.jerk = std::min(c.jerk, l.jerk[k] * inv);
+    }
   if (!rapid && l.feed == AxisLimits::Feed::tip && tip_moves) c.speed = std::min(c.speed, feed);
   if (!rapid && l.feed == AxisLimits::Feed::axes) {
     constexpr double kDegPerRad = 180.0 / std::numbers::pi;
-    const double combined = std::hypot(u.head<3>().norm(), kDegPerRad * u.tail<2>().norm());
+    const auto [lin, rot] = linear_rotary_norms(u, l);
+    const double combined = std::hypot(lin, kDegPerRad * rot);
     if (combined > 0.0) c.speed = std::min(c.speed, feed / combined);
   }
-  c.accel = joint_axis_cap(l.acceleration, u);
-  c.jerk = joint_axis_cap(l.jerk, u);
   return c;
 }
 
 double junction_speed_cap(const JointVector& du_abs, double max_blend, const AxisLimits& l) {
   if (!(du_abs.maxCoeff() > kSameRate)) return kNoCap;
-  const JointVector tol = corner_tolerance(l);
-  double blend = max_blend;
-  for (int k = 0; k < kJointAxes; ++k)
-    if (du_abs[k] > 0.0) blend = std::min(blend, 8.0 * tol[k] / du_abs[k]);
-  return std::sqrt(blend * joint_axis_cap(l.acceleration, du_abs));
+  // The blend within every axis's corner tolerance, and the axes' accelerations over it.
+  double blend = max_blend, accel = kNoCap;
+  for (int k = 0; k < l.axes(); ++k)
+    if (du_abs[k] > 0.0) {
+      blend = std::min(blend, 8.0 * (l.rotary(k) ? l.corner_tolerance_rad : l.corner_tolerance_mm) / du_abs[k]);
+      accel = std::min(accel, l.acceleration[k] / du_abs[k]);
+    }
+  return std::sqrt(blend * accel);
 }
 
 JointPlan plan_joint_moves(const JointVector& start, const std::vector<JointMove>& moves, const AxisLimits& limits) {
   limits.validate();
-  MACHPLAN_ASSERT(start.allFinite(), "plan_joint_moves: the start is not finite");
+  const auto unused = [&](const JointVector& q) { return q.tail(kJointAxes - limits.axes()).isZero(0.0); };
+  MACHPLAN_ASSERT(start.allFinite() && unused(start), "plan_joint_moves: the start is not finite, or moves an axis the "
+                                                      "machine does not have");
   JointPlan plan;
   plan.start_ = start;
   // The moves with their rates and caps; the jerk and acceleration caps kept beside them.
   std::vector<double> accel, jerk;
+  accel.reserve(moves.size());
+  jerk.reserve(moves.size());
+  plan.moves_.reserve(moves.size());
+  plan.move_s0_.reserve(moves.size());
   JointVector q = start;
   for (std::size_t i = 0; i < moves.size(); ++i) {
     const JointMove& m = moves[i];
-    MACHPLAN_ASSERT(m.end.allFinite() && std::isfinite(m.tip_mm) && m.tip_mm >= 0.0 && std::isfinite(m.feed_mm_per_s) &&
-                        m.feed_mm_per_s >= 0.0,
-                    "plan_joint_moves: move {} has a non-finite position, or tip length {} or feed {}", i, m.tip_mm,
-                    m.feed_mm_per_s);
+    MACHPLAN_ASSERT(m.end.allFinite() && std::isfinite(m.tip_mm) && m.tip_mm >= 0.0 && std::isfinite(m.turn_rad) &&
+                        m.turn_rad >= 0.0 && std::isfinite(m.feed_mm_per_s) && m.feed_mm_per_s >= 0.0 && unused(m.end),
+                    "plan_joint_moves: move {} has a non-finite position or one on an axis the machine does not "
+                    "have, or tip length {}, turn {} or feed {}", i,
+                    m.tip_mm, m.turn_rad, m.feed_mm_per_s);
     const JointVector delta = m.end - q;
-    const double len = joint_move_length(delta, m.tip_mm);
+    const double len = joint_move_length(delta, m.tip_mm, m.turn_rad, limits);
     if (!(len > kMinJointMove) || !(delta.cwiseAbs().maxCoeff() > 0.0)) continue;  // goes nowhere: skipped
     JointPlan::Move mv;
     mv.s0 = plan.length_;

@@ -1,13 +1,14 @@
-// Feed planning in joint space for a 5-axis machine (three linear axes X, Y, Z in mm, two
-// rotary axes in rad): the path as a chain of joint-space linear moves between consecutive
-// poses, timed as a control with per-axis limits would run it.
+// Feed planning in joint space for a machine of up to six axes, linear (mm) or rotary (rad): a
+// 5-axis machine's X, Y, Z and two rotary axes, or a hexapod's six sliders. The path is a chain
+// of joint-space linear moves between consecutive poses, timed as a control with per-axis limits
+// would run it.
 //
 // The path. Move i goes in a straight line in joint space from q_{i-1} to q_i (what a control
 // does between two programmed 5-axis blocks). It is parametrised by a path length l_i:
 //   * the tool tip's path length relative to the workpiece over the move (`tip_mm`), when the
 //     tip moves; this is the length the programmed feed is measured on;
 //   * otherwise (a pure reorientation) the rotary axes' joint-space angle |dr| (rad, counted as
-//     mm of path).
+//     mm of path); on a machine without rotary axes, the tool axis's turn (`turn_rad`).
 // Along move i every axis moves at the rate u_i = (q_i - q_{i-1}) / l_i per unit of path: at
 // path speed v axis k moves at v u_ik, accelerates at a u_ik, and so on.
 //
@@ -53,6 +54,7 @@
 // acceleration steps there within a zone, as on the 2-axis planner's lines).
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -61,11 +63,22 @@
 
 namespace machplan::motion {
 
-inline constexpr int kJointAxes = 5;
+// At most this many axes; a machine with fewer leaves the rest at 0 (AxisLimits::names).
+inline constexpr int kJointAxes = 6;
 using JointVector = Eigen::Matrix<double, kJointAxes, 1>;
 
-// Per-axis limits: X, Y, Z (mm), then the two rotary axes (rad).
+// A 5-axis position (X, Y, Z, then the two rotary axes), the sixth entry 0.
+JointVector five_axis(double x, double y, double z, double a, double c);
+
+// Per-axis limits.
 struct AxisLimits {
+  // The machine's axes, at most kJointAxes, in JointVector order, and which of them are rotary
+  // (bit k: axis k, in rad) rather than linear (mm). Default: X, Y, Z and two rotary axes.
+  std::vector<std::string> names = {"x", "y", "z", "rotary 1", "rotary 2"};
+  unsigned rotary_axes = 0b11000;
+  int axes() const { return static_cast<int>(names.size()); }
+  bool rotary(int k) const { return ((rotary_axes >> k) & 1u) != 0; }
+
   JointVector velocity = JointVector::Zero();        // cutting moves, mm/s or rad/s
   JointVector rapid_velocity = JointVector::Zero();  // rapid moves
   JointVector acceleration = JointVector::Zero();    // mm/s^2, rad/s^2
@@ -76,7 +89,8 @@ struct AxisLimits {
   double corner_tolerance_mm = 0.01;
   double corner_tolerance_rad = 0.0002;  // about 0.01 deg
 
-  // Throws InputError naming the field, its value and the rule (every limit finite and > 0).
+  // Throws InputError naming the field, its value and the rule (every limit of the machine's
+  // axes finite and > 0); InternalError when there are no axes or more than kJointAxes.
   void validate() const;
 };
 
@@ -84,6 +98,8 @@ struct AxisLimits {
 struct JointMove {
   JointVector end = JointVector::Zero();
   double tip_mm = 0.0;         // the tool tip's path length relative to the workpiece
+  double turn_rad = 0.0;       // the tool axis's turn relative to the workpiece (used on a
+                               // machine without rotary axes when the tip stands still)
   double feed_mm_per_s = 0.0;  // programmed feed; 0: a rapid move
 };
 
@@ -137,15 +153,15 @@ class JointPlan {
 JointPlan plan_joint_moves(const JointVector& start, const std::vector<JointMove>& moves, const AxisLimits& limits);
 
 // The pieces of the file comment, for callers that bound the planner's time (the placement
-// search): a move's path length (tip_mm, or the rotary angle when the tip stands still; 0 for
-// a move that goes nowhere); its speed, acceleration and jerk caps for the absolute rates
+// search): a move's path length (tip_mm, or the rotary angle when the tip stands still, or on a
+// machine without rotary axes turn_rad; 0 for a move that goes nowhere); its speed, acceleration and jerk caps for the absolute rates
 // |u_k| (feed 0: rapid; `tip_moves`: the feed caps it); the corner rule's speed cap for the
 // absolute rate jump |du_k| with blends up to `max_blend` long (the shorter move's length).
 // Every cap only falls when any |u_k| or |du_k| rises.
 struct MoveCaps {
   double speed = 0.0, accel = 0.0, jerk = 0.0;
 };
-double joint_move_length(const JointVector& delta, double tip_mm);
+double joint_move_length(const JointVector& delta, double tip_mm, double turn_rad, const AxisLimits& limits);
 MoveCaps joint_move_caps(const JointVector& rate_abs, double feed_mm_per_s, bool tip_moves, const AxisLimits& limits);
 double junction_speed_cap(const JointVector& jump_abs, double max_blend, const AxisLimits& limits);
 

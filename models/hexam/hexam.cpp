@@ -228,10 +228,25 @@ Machine machine_from_yaml(const Yaml& root) {
   m.slider_joint_half_angle_rad = struts.number("slider_joint_half_angle_deg", {.min = 1, .max = 89}) * kDeg;
   m.plate_joint_half_angle_rad = struts.number("plate_joint_half_angle_deg", {.min = 1, .max = 89}) * kDeg;
   const Yaml sl = root.at("sliders");
-  sl.reject_unknown_keys({"stroke_min_mm", "stroke_max_mm"});
+  const std::vector<const char*> dynamics = {"feed_mm_per_min", "rapid_mm_per_min", "accel_mm_per_s2", "jerk_mm_per_s3"};
+  std::vector<const char*> keys = {"stroke_min_mm", "stroke_max_mm"};
+  keys.insert(keys.end(), dynamics.begin(), dynamics.end());
+  sl.reject_unknown_keys(keys);
   m.stroke_min_mm = sl.number("stroke_min_mm");
   m.stroke_max_mm = sl.number("stroke_max_mm");
   if (m.stroke_max_mm <= m.stroke_min_mm) sl.at("stroke_max_mm").fail("must be larger than stroke_min_mm");
+  m.sliders_line = sl.line();
+  const long given = std::count_if(dynamics.begin(), dynamics.end(), [&](const char* k) { return sl.has(k); });
+  if (given > 0) {
+    for (const char* k : dynamics)
+      if (!sl.has(k)) sl.fail(fmt::format("gives {} of the sliders' feed_mm_per_min, rapid_mm_per_min, accel_mm_per_s2 "
+                                          "and jerk_mm_per_s3 but not {}: give all four or none", given, k));
+    const NumberRule rate{.min = 0, .max = 1e10, .min_exclusive = true};
+    m.slider_feed_mm_per_s = sl.number("feed_mm_per_min", rate) / 60.0;
+    m.slider_rapid_mm_per_s = sl.number("rapid_mm_per_min", rate) / 60.0;
+    m.slider_accel_mm_per_s2 = sl.number("accel_mm_per_s2", rate);
+    m.slider_jerk_mm_per_s3 = sl.number("jerk_mm_per_s3", rate);
+  }
   const Yaml sp = root.at("spindle");
   sp.reject_unknown_keys({"head_diameter_mm", "head_length_mm", "plate_diameter_mm", "plate_thickness_mm",
                           "hinge_radius_mm"});

@@ -78,6 +78,13 @@ struct Machine {
   Eigen::Vector3d home_tip_mm = Eigen::Vector3d::Zero();  // home pose: axis +z at this tip
   Eigen::Vector2d table_size_mm = Eigen::Vector2d::Zero();  // table top, centred at the origin
   double max_tilt_rad = 0.0;        // largest tool tilt from +z the controller accepts
+  // The sliders' limits for the feed planner (`sliders:` feed_mm_per_min, rapid_mm_per_min,
+  // accel_mm_per_s2 and jerk_mm_per_s3, all or none): 0 when the file gives none; then
+  // `sliders_line` is the line of the `sliders:` block.
+  double slider_feed_mm_per_s = 0.0, slider_rapid_mm_per_s = 0.0;
+  double slider_accel_mm_per_s2 = 0.0, slider_jerk_mm_per_s3 = 0.0;
+  int sliders_line = 0;
+  bool slider_dynamics() const { return slider_jerk_mm_per_s3 > 0.0; }
 
   // Derived at load time.
   std::array<Eigen::Vector3d, 6> home_dir_base;   // strut direction (slider -> plate) at home

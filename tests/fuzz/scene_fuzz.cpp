@@ -24,7 +24,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     // The reader's promises to the checker.
     if (!(s.safe_distance_mm >= 0 && s.safe_distance_mm <= 1000)) std::abort();
     if (s.peripherals.size() > kMaxPeripherals) std::abort();
-    if (s.tips_mm.empty() || s.tips_mm.size() != s.axes.size()) std::abort();
+    if (s.tips_mm.empty() || s.tips_mm.size() != s.axes.size() || s.feeds_mm_per_min.size() != s.tips_mm.size()) std::abort();
+    for (double f : s.feeds_mm_per_min)
+      if (!(f >= 0 && std::isfinite(f))) std::abort();
     if (!(s.search.max_pose_queries >= 1)) std::abort();
     if (!(s.search.pad_max_mm >= 0 && s.search.pad_max_mm <= kMaxSceneSizeMm)) std::abort();
     for (const auto& p : s.peripherals)

@@ -21,16 +21,16 @@ constexpr double kDegRad = std::numbers::pi / 180.0;
 
 AxisLimits vmc_limits() {
   AxisLimits l;
-  l.velocity << 250, 250, 250, 90 * kDegRad, 180 * kDegRad;
-  l.rapid_velocity << 500, 500, 500, 150 * kDegRad, 300 * kDegRad;
-  l.acceleration << 3000, 3000, 3000, 600 * kDegRad, 1200 * kDegRad;
-  l.jerk << 50000, 50000, 50000, 6000 * kDegRad, 12000 * kDegRad;
+  l.velocity = five_axis(250, 250, 250, 90 * kDegRad, 180 * kDegRad);
+  l.rapid_velocity = five_axis(500, 500, 500, 150 * kDegRad, 300 * kDegRad);
+  l.acceleration = five_axis(3000, 3000, 3000, 600 * kDegRad, 1200 * kDegRad);
+  l.jerk = five_axis(50000, 50000, 50000, 6000 * kDegRad, 12000 * kDegRad);
   return l;
 }
 
 JointMove move_to(double x, double y, double z, double a, double c, double tip, double feed) {
   JointMove m;
-  m.end << x, y, z, a, c;
+  m.end = five_axis(x, y, z, a, c);
   m.tip_mm = tip;
   m.feed_mm_per_s = feed;
   return m;
@@ -75,7 +75,7 @@ std::vector<JointMove> turning_wall(double cx, double cy, double feed) {
 
 JointVector wall_start(double cx, double cy) {
   JointVector q;
-  q << cx + 20, cy, 0, 20 * kDegRad, 0;
+  q = five_axis(cx + 20, cy, 0, 20 * kDegRad, 0);
   return q;
 }
 
@@ -113,7 +113,7 @@ std::vector<JointMove> mixed_path(JointVector& start) {
   JointVector q = turn.end;
   for (int k = 0; k < 200; ++k) {
     JointVector d;
-    d << 2 * u(rng), 2 * u(rng), 0.5 * u(rng), 2 * kDegRad * u(rng), 5 * kDegRad * u(rng);
+    d = five_axis(2 * u(rng), 2 * u(rng), 0.5 * u(rng), 2 * kDegRad * u(rng), 5 * kDegRad * u(rng));
     q += d;
     JointMove mv;
     mv.end = q;
@@ -162,7 +162,7 @@ TEST(AxisPlanner, ASampledPlanKeepsEveryAxisWithinItsLimits) {
   // the plan passes the corner with, needs at most the axis's acceleration, where L_b is at
   // most the shorter leg and keeps the blend within the corner tolerance (computed here from
   // the file comment, not by the planner's own function).
-  const JointVector tol = (JointVector() << 0.01, 0.01, 0.01, 0.0002, 0.0002).finished();
+  const JointVector tol = five_axis(0.01, 0.01, 0.01, 0.0002, 0.0002);
   int corners = 0;
   double t = 0;
   for (std::size_t k = 0; k + 1 < mv.size(); ++k) {
@@ -236,6 +236,38 @@ TEST(AxisPlanner, ABadLimitIsRefusedByName) {
   l = vmc_limits();
   l.jerk[0] = std::nan("");
   EXPECT_THAT(test::error_of([&] { l.validate(); }), testing::HasSubstr("jerk.x"));
+}
+
+// A hexapod: six linear sliders and no rotary axis. A move where the tip stands still and the
+// tool turns is measured by the turn, and every slider keeps its own limits.
+TEST(AxisPlanner, SixLinearSlidersAreTimedByTheirOwnLimitsAndATurnByItsAngle) {
+  AxisLimits l;
+  l.names = {"slider 1", "slider 2", "slider 3", "slider 4", "slider 5", "slider 6"};
+  l.rotary_axes = 0;
+  l.velocity.setConstant(500);
+  l.rapid_velocity.setConstant(1000);
+  l.acceleration.setConstant(5000);
+  l.jerk.setConstant(1e9);
+  JointMove turn;
+  turn.end << 0, 0, 0, 0, 0, 80;  // slider 6 moves 80 mm ...
+  turn.turn_rad = 0.2;            // ... while the tool turns 0.2 rad about its tip
+  turn.feed_mm_per_s = 30;        // no feed cap: the tip stands still
+  const JointPlan p = plan_joint_moves(JointVector::Zero(), {turn}, l);
+  ASSERT_EQ(p.moves().size(), 1u);
+  EXPECT_DOUBLE_EQ(p.length(), 0.2);
+  EXPECT_NEAR(p.moves()[0].rate[5], 400.0, 1e-9);
+  // Rest to rest over 80 mm at 5000 mm/s^2 and 500 mm/s: 0.1 s to speed and back (25 mm each),
+  // 30 mm at speed.
+  EXPECT_NEAR(p.duration_s(), 0.2 + 30.0 / 500.0, 1e-3);
+  // Feed on the axes counts the sliders' combined speed, all linear.
+  l.feed = AxisLimits::Feed::axes;
+  JointMove cut;
+  cut.end << 30, 40, 0, 0, 0, 0;  // 50 mm of the sliders' combined travel for 10 mm of tip path
+  cut.tip_mm = 10;
+  cut.feed_mm_per_s = 25;
+  EXPECT_NEAR(plan_joint_moves(JointVector::Zero(), {cut}, l).velocity_only_s(), 50.0 / 25.0, 1e-9);
+  l.velocity[5] = -1;
+  EXPECT_THAT(test::error_of([&] { l.validate(); }), testing::HasSubstr("velocity.slider 6"));
 }
 
 }  // namespace

@@ -305,6 +305,10 @@ class HexapodModel final : public MachineModel {
     return hexam::slider_rate_bound(m_, v[count()] + (m_.kappa + 1) * move_mm / L_min_);
   }
 
+  bool has_axis_path() const override { return true; }
+  std::optional<AxisPath> axis_path(const std::vector<PathPose>& poses, const std::vector<double>& feeds,
+                                    double rotation_rad) const override;
+
   const hexam::Machine& machine() const { return m_; }
   double safe() const { return c_; }
   int support() const { return support_; }
@@ -319,6 +323,40 @@ class HexapodModel final : public MachineModel {
   double rot_factor_ = 1.0, L_min_ = 0.0;
   int support_ = 0;
 };
+
+std::optional<AxisPath> HexapodModel::axis_path(const std::vector<PathPose>& poses, const std::vector<double>& feeds,
+                                                double rotation_rad) const {
+  AxisPath ap;
+  for (int k = 0; k < 6; ++k) ap.names.push_back(fmt::format("slider {}", k + 1));
+  ap.speed.setZero();
+  ap.rapid.setZero();
+  ap.rails.assign(m_.struts.begin(), m_.struts.end());
+  if (m_.slider_dynamics()) {
+    motion::AxisLimits l;
+    l.names = ap.names;
+    l.rotary_axes = 0;
+    l.velocity.setConstant(m_.slider_feed_mm_per_s);
+    l.rapid_velocity.setConstant(m_.slider_rapid_mm_per_s);
+    l.acceleration.setConstant(m_.slider_accel_mm_per_s2);
+    l.jerk.setConstant(m_.slider_jerk_mm_per_s3);
+    ap.limits = l;
+  } else {
+    ap.dynamics_missing = "the sliders give no feed_mm_per_min, rapid_mm_per_min, accel_mm_per_s2 and jerk_mm_per_s3";
+  }
+  ap.dynamics_file = m_.source;
+  ap.dynamics_line = m_.sliders_line;
+  const Eigen::Matrix3d Rz = Eigen::AngleAxisd(rotation_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const hexam::IkResult ik = hexam::inverse_kinematics(m_, Rz * poses[i].tip, Rz * poses[i].axis);
+    std::array<Eigen::Vector3d, 6> joints;
+    for (int k = 0; k < 6; ++k) joints[k] = ik.struts[k].plate_mm - m_.struts[k].rail_foot_mm;
+    ap.joints_mm.push_back(joints);
+    ap.feed_mm_per_s.push_back(i < feeds.size() ? feeds[i] / 60.0 : 0.0);
+    ap.tip_step_mm.push_back(i > 0 ? (poses[i].tip - poses[i - 1].tip).norm() : 0.0);
+    ap.turn_rad.push_back(i > 0 ? angle_between(poses[i - 1].axis, poses[i].axis) : 0.0);
+  }
+  return ap;
+}
 
 HexapodEvaluator::HexapodEvaluator(const HexapodModel& model)
     : model_(model), workpiece_(interference::Shape::sphere(1.0)) {

@@ -26,6 +26,7 @@
 // its own PoseEvaluator, which owns its collision objects.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -38,6 +39,7 @@
 
 #include "engine/motion/axis_planner.h"
 #include "models/common/tooling.h"
+#include "models/hexam/hexam.h"
 #include "solvers/placement/machines/finding.h"
 
 namespace machplan {
@@ -139,8 +141,14 @@ struct WorkOffset {
   std::string rotation_axis;   // how the control applies the rotation ("G68", "C")
 };
 
-// Axis positions along the path for a machine whose linear axes are affine in the placement:
-// q_i(offset) = M_i offset + b_i (mm), and its rotary axes (rad), for one rotation.
+// Axis positions along the path at one rotation, as functions of the workpiece's offset o (x,
+// y, pad), in one of two forms:
+//   * affine (a table-tilting machine): the linear axes at q_i(o) = M_i o + b_i (mm), the rotary
+//     axes at rotary_rad[i], whatever o;
+//   * rails (a hexapod, `rails` not empty; M, b, rotary_rad, speed and rapid empty or unused): six
+//     sliders on the rails of models/hexam/hexam.h. At pose i plate joint k lies at
+//     joints_mm[i][k] + o from its rail's foot (the machine's frame is the table's), and the
+//     slider where hexam::slider_on_rail puts it: concave in o, not affine.
 struct AxisPath {
   std::vector<std::string> names;            // the linear axes, then the rotary ones
   std::vector<Eigen::Matrix3d> M;            // per pose
@@ -148,6 +156,10 @@ struct AxisPath {
   std::vector<Eigen::Vector2d> rotary_rad;   // per pose: the two rotary axes
   Eigen::Matrix<double, 5, 1> speed;         // largest speed per axis: mm/s, rad/s
   Eigen::Matrix<double, 5, 1> rapid;         // rapid speed per axis
+  std::vector<hexam::Strut> rails;           // rails: the struts, in slider order
+  std::vector<std::array<Eigen::Vector3d, 6>> joints_mm;  // rails: per pose, plate joints from the feet
+  std::vector<double> turn_rad;              // rails: per pose, the tool axis's turn from the pose before
+  bool on_rails() const { return !rails.empty(); }
   std::vector<double> feed_mm_per_s;         // per pose: the feed of the step that ends there; 0: rapid
   std::vector<double> tip_step_mm;           // per pose: the tip's distance from the pose before
   // The programmed feed caps the combined speed of the axes (rotary degrees as mm), not the
@@ -243,10 +255,12 @@ class MachineModel {
 
   virtual TableShape table() const = 0;
   virtual WorkOffset work_offset(const Placement& p, const Eigen::Vector3d& origin_in_workpiece) const = 0;
-  // Whether axis_path() gives anything (the travel and time objectives need it).
+  // Whether axis_path() gives an affine path (the travel objective needs it), or any (the time
+  // objective).
   virtual bool affine_axes() const { return false; }
-  // Axis positions along the path at a rotation, for machines whose linear axes are affine in
-  // the placement (table-tilting); nullopt otherwise.
+  virtual bool has_axis_path() const { return affine_axes(); }
+  // Axis positions along the path at a rotation (AxisPath: affine on a table-tilting machine,
+  // rails on a hexapod); nullopt for a machine that gives none.
   virtual std::optional<AxisPath> axis_path(const std::vector<PathPose>& poses, const std::vector<double>& feeds,
                                             double rotation_rad) const {
     return std::nullopt;

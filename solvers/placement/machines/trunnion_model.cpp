@@ -344,12 +344,13 @@ std::optional<AxisPath> TrunnionModel::axis_path(const std::vector<PathPose>& po
       m_.table.rapid_rad_per_s;
   if (m_.dynamics_missing.empty()) {
     motion::AxisLimits l;
-    l.velocity = ap.speed;
-    l.rapid_velocity = ap.rapid;
-    l.acceleration << m_.linear[0].accel_mm_per_s2, m_.linear[1].accel_mm_per_s2, m_.linear[2].accel_mm_per_s2,
-        m_.tilt.accel_rad_per_s2, m_.table.accel_rad_per_s2;
-    l.jerk << m_.linear[0].jerk_mm_per_s3, m_.linear[1].jerk_mm_per_s3, m_.linear[2].jerk_mm_per_s3, m_.tilt.jerk_rad_per_s3,
-        m_.table.jerk_rad_per_s3;
+    l.names = ap.names;
+    l.velocity.head<5>() = ap.speed;
+    l.rapid_velocity.head<5>() = ap.rapid;
+    l.acceleration = motion::five_axis(m_.linear[0].accel_mm_per_s2, m_.linear[1].accel_mm_per_s2,
+                                       m_.linear[2].accel_mm_per_s2, m_.tilt.accel_rad_per_s2, m_.table.accel_rad_per_s2);
+    l.jerk = motion::five_axis(m_.linear[0].jerk_mm_per_s3, m_.linear[1].jerk_mm_per_s3, m_.linear[2].jerk_mm_per_s3,
+                               m_.tilt.jerk_rad_per_s3, m_.table.jerk_rad_per_s3);
     l.feed = m_.feed_on_axes ? motion::AxisLimits::Feed::axes : motion::AxisLimits::Feed::tip;
     ap.limits = l;
   }

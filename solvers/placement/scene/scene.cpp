@@ -322,6 +322,8 @@ ToolPath read_toolpath(const Yaml& root, Scene& s) {
     const auto table = read_named_file(root.at("tool_table"), [](const std::string& f) { return read_tool_table_file(f); });
     apply_tool_table(tp, table, std::filesystem::path(file).filename().string());
   }
+  // The feed of every move the file gives none for (a CSV without a feed column).
+  const double feed = root.number_or("feed_mm_per_min", 0.0, {.min = 0, .max = 1e7});
   s.tips_mm.reserve(tp.poses.size());
   s.axes.reserve(tp.poses.size());
   for (std::size_t i = 0; i < tp.poses.size(); ++i) {
@@ -329,7 +331,7 @@ ToolPath read_toolpath(const Yaml& root, Scene& s) {
     s.tips_mm.push_back(p.tip_mm - s.origin_in_cam_mm);
     s.axes.push_back(p.axis);
     s.lines.push_back(p.line);
-    s.feeds_mm_per_min.push_back(p.rapid ? 0.0 : p.feed_mm_per_min);
+    s.feeds_mm_per_min.push_back(p.rapid ? 0.0 : p.feed_mm_per_min > 0.0 ? p.feed_mm_per_min : feed);
     const double below = -s.tips_mm.back().z();
     if (below > 1e-6) {
       ++s.below_bottom.poses;
@@ -370,7 +372,7 @@ Scene load_scene_text(const std::string& text, const std::string& path) {
 namespace {
 Scene read_scene(const Yaml& root, const std::string& path) {
   root.reject_unknown_keys({"machine", "safe_distance_mm", "tooling", "holder", "tools", "workpiece", "toolpath",
-                            "tool_table", "peripherals", "search", "reconstructed"});
+                            "tool_table", "feed_mm_per_min", "peripherals", "search", "reconstructed"});
   Scene s;
   s.source = path;
   s.machine.source = machine_file(root);

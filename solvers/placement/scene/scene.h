@@ -13,6 +13,7 @@
 //               spoilboard_mm: 0}             # sacrificial top of the pad the tool may cut into
 //   toolpath: part.apt                        # CL (APT), G-code or CSV, in the CAM file's coordinates
 //   tool_table: tool.tbl                      # LinuxCNC tool table for a G-code job's tools
+//   feed_mm_per_min: 3000                     # the feed of moves the file gives none for (CSV)
 //   peripherals:
 //     - {name: tool magazine, box: {center: [x, y, z], size: [dx, dy, dz], yaw_deg: 45}}
 //     - {name: fixture, mesh: fixture.stl, pose: {xyz: [x, y, z], yaw_deg: 0}}

@@ -17,46 +17,13 @@
 #include "engine/common/error.h"
 #include "engine/common/internal/parse.h"
 #include "solvers/placement/report/internal/report.h"
+#include "solvers/placement/search/internal/job_axes.h"
 #include "solvers/placement/search/internal/objective.h"
 #include "solvers/placement/search/internal/planned_time.h"
 
 namespace machplan::placement {
 
 namespace {
-
-// The axes along the whole job at a rotation: each run of moves with the model of the tool that
-// makes it (its length moves the linear axes), joined in path order; nullopt when the machine
-// gives no axis path or refuses a pose.
-std::optional<AxisPath> job_axis_path(const Scene& scene, double rotation_rad) {
-  // The rotary angles depend on the tool axis alone: taken along the whole path at once, so that
-  // a tool change does not restart the table's turns.
-  std::vector<PathPose> all(scene.tips_mm.size());
-  for (std::size_t i = 0; i < all.size(); ++i) all[i] = {scene.tips_mm[i], scene.axes[i]};
-  if (scene.model->prepare(all)) return std::nullopt;
-  std::optional<AxisPath> job;
-  for (const ToolRun& run : scene.runs) {
-    const MachineModel& model = *scene.tools[run.tool].model;
-    const std::vector<PathPose> poses(all.begin() + run.first, all.begin() + run.end);
-    const std::vector<double> feeds(scene.feeds_mm_per_min.begin() + run.first, scene.feeds_mm_per_min.begin() + run.end);
-    std::optional<AxisPath> part = model.axis_path(poses, feeds, rotation_rad);
-    if (!part) return std::nullopt;
-    if (!job) {
-      job = std::move(part);
-      continue;
-    }
-    const long offset = static_cast<long>(job->M.size());
-    job->M.insert(job->M.end(), part->M.begin(), part->M.end());
-    job->b.insert(job->b.end(), part->b.begin(), part->b.end());
-    job->rotary_rad.insert(job->rotary_rad.end(), part->rotary_rad.begin(), part->rotary_rad.end());
-    job->feed_mm_per_s.insert(job->feed_mm_per_s.end(), part->feed_mm_per_s.begin(), part->feed_mm_per_s.end());
-    part->tip_step_mm.front() = (scene.tips_mm[run.first] - scene.tips_mm[run.first - 1]).norm();
-    job->tip_step_mm.insert(job->tip_step_mm.end(), part->tip_step_mm.begin(), part->tip_step_mm.end());
-    job->flips += part->flips;
-    job->forced_flips += part->forced_flips;
-    for (long f : part->flip_poses) job->flip_poses.push_back(f + offset);
-  }
-  return job;
-}
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -205,10 +172,10 @@ constexpr long kMaxTimed = 100;
 class OptimalSearch {
  public:
   OptimalSearch(const Scene& scene, Checker& checker, PlacementOptions::Objective objective, Rotations rotations,
-                int threads, Termination& term, Progress* progress)
+                int threads, double time_gap_pct, Termination& term, Progress* progress)
       : scene_(scene), checker_(checker), objective_(objective), rot_(std::move(rotations)), term_(term),
-        progress_(progress), g_(scene.search.resolution_mm), pad0_(scene.pad_min_mm()),
-        batch_(threads > 1 ? 8 * threads : 1) {
+        progress_(progress), g_(scene.search.resolution_mm), pad0_(scene.pad_min_mm()), threads_(threads),
+        batch_(threads > 1 ? 8 * threads : 1), time_keep_(1.0 - time_gap_pct / 100.0) {
     for (const auto& t : scene.tips_mm) radius_ = std::max(radius_, t.head<2>().norm());
     // A turn moves the machine's parts about as far as the tips' distance from the axis plus the
     // tool assembly's reach: that is how long a rotation side is, against x, y and pad.
@@ -223,11 +190,15 @@ class OptimalSearch {
   bool lexicographic() const { return objective_ == PlacementOptions::Objective::lowest; }
   bool timed() const { return objective_ == PlacementOptions::Objective::time; }
   bool best_timed_set() const { return best_time_s_ < std::numeric_limits<double>::infinity(); }
-  // Time: the lowest bound left is no less than the best planned time found, or the planner has
-  // timed kMaxTimed placements and one of them is certified.
+  // Time: what a box's bound must stay below to be searched, the best planned time less the gap.
+  double time_cutoff() const { return best_time_s_ * time_keep_; }
+  // Time: the lowest bound left is no less than the cutoff, or the planner has timed kMaxTimed
+  // placements and one of them is certified.
   bool time_settled() const {
-    return timed() && best_timed_set() && (timed_ >= kMaxTimed || (!open_.empty() && open_.top().key.primary >= best_time_s_));
+    return timed() && best_timed_set() && (timed_ >= kMaxTimed || (!open_.empty() && open_.top().key.primary >= time_cutoff()));
   }
+  // Time: the lowest placement, found by a quick search of its own and timed, is the first best.
+  void time_lowest_first(PlacementResult& res);
   Placement at(long x, long y, long p, int r) const {
     return {x * g_, y * g_, pad0_ + p * g_, rot_.shown[r]};
   }
@@ -274,13 +245,17 @@ class OptimalSearch {
   Termination& term_;
   Progress* progress_;
   double g_, pad0_;
+  int threads_;
   std::size_t batch_;
+  double time_keep_;  // time: 1 less the gap
+  bool bare_ = false;  // the answer alone: no report of it, no rotation interval
   std::vector<Learned> learned_;  // interferences met so far, most recently useful first
   std::vector<std::optional<AxisObjective>> objective_at_;  // per rotation (travel, time)
   std::vector<std::optional<PlannedTime>> planned_at_;     // per rotation (time)
   double best_time_s_ = std::numeric_limits<double>::infinity();  // time: the best certified placement's ...
   Placement best_timed_;                                          // ... planned time, and where
   long timed_ = 0;                                                // placements timed by the planner
+  double time_left_bound_s_ = std::numeric_limits<double>::infinity();  // least bound of the boxes left
   std::vector<int> class1_state_;  // per rotation: -1 unknown, 0 clear, 1 interferes
   std::set<std::tuple<long, long, long, int>> rejected_;  // points whose certification failed
   // Candidates refused on a tool change's moves, which teach the search nothing about their
@@ -307,11 +282,12 @@ Key OptimalSearch::key_of(const Box& b) const {
     k.primary = static_cast<double>(b.p0);
   } else {
     // Travel and time boxes never span rotations (the root boxes are one per rotation).
-    const AxisObjective& f = *objective_at_[b.r0];
     const Eigen::Vector3d c((b.x0 + b.x1) * 0.5 * g_, (b.y0 + b.y1) * 0.5 * g_, pad0_ + (b.p0 + b.p1) * 0.5 * g_);
     const Eigen::Vector3d h((b.x1 - b.x0) * 0.5 * g_, (b.y1 - b.y0) * 0.5 * g_, (b.p1 - b.p0) * 0.5 * g_);
-    k.primary = b.point() ? f.value(c) : f.lower_bound(c, h);
-    // Time: the planner's envelope over the box, tighter where accelerations matter.
+    k.primary = 0.0;
+    if (const auto& f = objective_at_[b.r0]) k.primary = b.point() ? f->value(c) : f->lower_bound(c, h);
+    // Time: the planner's envelope over the box, tighter where accelerations matter (and the
+    // only bound on a hexapod, whose sliders are not affine in the placement).
     if (timed()) k.primary = std::max(k.primary, planned_at_[b.r0]->lower_bound(c, h));
   }
   return k;
@@ -461,7 +437,8 @@ bool OptimalSearch::prepare(PlacementResult& res) {
     const auto kind = objective_ == PlacementOptions::Objective::travel ? AxisObjective::Kind::travel : AxisObjective::Kind::time;
     for (int r = 0; r < nrot; ++r) {
       const auto path = job_axis_path(scene_, rot_.shown[r] * kDeg);
-      objective_at_.emplace_back(AxisObjective(*path, kind));
+      objective_at_.emplace_back();
+      if (!path->on_rails()) objective_at_.back().emplace(*path, kind);
       if (timed()) planned_at_.emplace_back(PlannedTime(*path));
     }
   }
@@ -544,7 +521,10 @@ bool OptimalSearch::merge(std::vector<Box>& batch, std::vector<Screened>& screen
   for (std::size_t k = 0; k < batch.size(); ++k) {
     Box& b = batch[k];
     Screened& s = screened[k];
-    if (s.decision == Decision::infeasible || (timed() && b.key.primary >= best_time_s_)) {
+    if (s.decision == Decision::infeasible || (timed() && b.key.primary >= time_cutoff())) {
+      // A box left for its bound may hold faster placements than the best (by less than the
+      // gap): its bound stays part of the bound the report gives.
+      if (s.decision != Decision::infeasible) time_left_bound_s_ = std::min(time_left_bound_s_, b.key.primary);
       done_volume_ += b.volume();
       report_progress(progress_, done_volume_ / total_volume_);
       if (s.killer >= 0) {
@@ -570,9 +550,29 @@ bool OptimalSearch::merge(std::vector<Box>& batch, std::vector<Screened>& screen
   return false;
 }
 
+void OptimalSearch::time_lowest_first(PlacementResult& res) {
+  // Without a first time, every box whose bound lies below the first point's time is split
+  // before any point is timed; where the bound is loose (a hexapod's sliders, a path the feeds
+  // set) that is the whole grid.
+  OptimalSearch lowest(scene_, checker_, PlacementOptions::Objective::lowest, rot_, threads_, 0.0, term_, nullptr);
+  lowest.bare_ = true;
+  const PlacementResult first = lowest.run();
+  res.certifications += first.certifications;
+  res.placements_examined += first.placements_examined;
+  learned_ = lowest.learned_;
+  if (!first.summary.done()) return;
+  for (std::size_t r = 0; r < rot_.shown.size(); ++r)
+    if (rot_.shown[r] == first.placement.rotation_deg) {
+      best_time_s_ = planned_at_[r]->planned_s(first.placement.offset());
+      best_timed_ = first.placement;
+      ++timed_;
+    }
+}
+
 PlacementResult OptimalSearch::run() {
   PlacementResult res;
   if (!prepare(res)) return res;
+  if (timed()) time_lowest_first(res);
   std::vector<Box> batch;
   std::vector<Screened> screened;
   bool found = false;
@@ -595,7 +595,8 @@ PlacementResult OptimalSearch::run() {
     res.summary.status = Status::done;
     res.placement = best_timed_;
     res.objective_value = best_time_s_;
-    res.time_lower_bound_s = open_.empty() ? best_time_s_ : std::min(best_time_s_, open_.top().key.primary);
+    res.time_lower_bound_s = std::min(best_time_s_, time_left_bound_s_);
+    if (!open_.empty()) res.time_lower_bound_s = std::min(res.time_lower_bound_s, open_.top().key.primary);
   }
   if (!found && change_refusals_ >= kMaxChangeRefusals) {
     res.summary.status = Status::budget;
@@ -617,17 +618,19 @@ PlacementResult OptimalSearch::run() {
                                           nrot > 1 ? ", then the smallest rotation" : "", g_)
                             : timed() ? time_message(res)
                                       : fmt::format("least {} on a {:.3g} mm grid", to_string(objective_), g_);
+  if (bare_) return res;
   res.report = checker_.report(res.placement, term_);
   if (nrot > 1) certify_rotation_interval(res);
   return res;
 }
 
 std::string OptimalSearch::time_message(const PlacementResult& res) const {
+  const std::string timed = fmt::format("{} placement{} timed by the feed planner", timed_, timed_ == 1 ? "" : "s");
   if (res.time_lower_bound_s >= best_time_s_)
-    return fmt::format("least planned machining time on a {:.3g} mm grid ({} placements timed by the feed planner)", g_, timed_);
-  return fmt::format("least planned machining time of the {} placements with the lowest bounds timed by the feed planner; "
-                     "no placement on the {:.3g} mm grid takes less than {:.1f} s ({:.1f} % below)",
-                     timed_, g_, res.time_lower_bound_s, 100.0 * (1.0 - res.time_lower_bound_s / best_time_s_));
+    return fmt::format("least planned machining time on a {:.3g} mm grid ({})", g_, timed);
+  return fmt::format("least planned machining time of {} (the lowest placement first, then by their bounds); no "
+                     "placement on the {:.3g} mm grid takes less than {:.1f} s ({:.1f} % below)",
+                     timed, g_, res.time_lower_bound_s, 100.0 * (1.0 - res.time_lower_bound_s / best_time_s_));
 }
 
 void OptimalSearch::certify_rotation_interval(PlacementResult& res) {
@@ -690,10 +693,15 @@ PlacementResult place(const Scene& scene, const PlacementOptions& o, Termination
   PlacementOptions::Objective objective = o.objective;
   if (objective == PlacementOptions::Objective::automatic)
     objective = scene.model->affine_axes() ? PlacementOptions::Objective::travel : PlacementOptions::Objective::lowest;
-  if (objective != PlacementOptions::Objective::lowest && !scene.model->affine_axes())
-    throw InputError::field("objective", fmt::format("'{}' needs a machine whose axis positions follow the placement "
-                                                     "(a table-tilting machine); the {} machine '{}' is placed by 'lowest'",
-                                                     to_string(objective), scene.machine.kind, scene.machine.name));
+  if (objective == PlacementOptions::Objective::travel && !scene.model->affine_axes())
+    throw InputError::field("objective", fmt::format("'travel' needs a machine whose axis positions are affine in the "
+                                                     "placement (a table-tilting machine); the {} machine '{}' is placed "
+                                                     "by 'lowest' or 'time'",
+                                                     scene.machine.kind, scene.machine.name));
+  if (objective == PlacementOptions::Objective::time && !scene.model->has_axis_path())
+    throw InputError::field("objective", fmt::format("'time' needs a machine whose axes the feed planner can time; the {} "
+                                                     "machine '{}' is placed by 'lowest'",
+                                                     scene.machine.kind, scene.machine.name));
   if (o.strategy == PlacementOptions::Strategy::paper && scene.machine.kind != "hexapod")
     throw InputError::field("strategy", "'paper' is the HexaM study's evasion search, defined for the hexapod only");
   const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
@@ -707,7 +715,8 @@ PlacementResult place(const Scene& scene, const PlacementOptions& o, Termination
       if (o.strategy == PlacementOptions::Strategy::paper) {
         best = paper_search(scene, checker, term);
       } else {
-        OptimalSearch search(scene, checker, objective, rotations_for(scene, o, &reduced), threads, term, progress);
+        OptimalSearch search(scene, checker, objective, rotations_for(scene, o, &reduced), threads, o.time_gap_pct, term,
+                             progress);
         best = search.run();
       }
       best.counts = checker.counts();
@@ -723,32 +732,16 @@ PlacementResult place(const Scene& scene, const PlacementOptions& o, Termination
   best.verified = best.summary.done() && best.report.free();
   if (best.summary.done()) {
     best.work_offset = scene.model->work_offset(best.placement, -scene.origin_in_cam_mm);
-    best.travel = axis_travel(scene, best.placement);
-    if (best.travel) best.centre_travel = axis_travel(scene, {0, 0, scene.pad_min_mm(), best.placement.rotation_deg});
+    // On a hexapod the sliders' travel and time cost the inverse kinematics of every pose twice:
+    // reported when the time was the objective.
+    if (scene.model->affine_axes() || objective == PlacementOptions::Objective::time) {
+      best.travel = axis_travel(scene, best.placement);
+      if (best.travel) best.centre_travel = axis_travel(scene, {0, 0, scene.pad_min_mm(), best.placement.rotation_deg});
+    }
   }
   best.seconds = now_s() - t0;
   write_place_summary(scene, o, reduced, best);
   return best;
-}
-
-std::optional<AxisTravel> axis_travel(const Scene& scene, const Placement& p) {
-  const auto path = job_axis_path(scene, p.rotation_deg * kDeg);
-  if (!path) return std::nullopt;
-  const AxisObjective f(*path, AxisObjective::Kind::travel);
-  AxisTravel t;
-  t.axes = path->names;
-  t.travel = f.travel_per_axis(p.offset());
-  t.linear_mm = t.travel[0] + t.travel[1] + t.travel[2];
-  t.velocity_only_time_s = f.time_s(p.offset());
-  t.time_s = t.velocity_only_time_s;
-  if (path->limits) {
-    t.time_s = PlannedTime(*path).planned_s(p.offset());
-    t.planned = true;
-  }
-  t.flips = path->flips;
-  t.forced_flips = path->forced_flips;
-  t.flip_poses = path->flip_poses;
-  return t;
 }
 
 const char* to_string(PlacementOptions::Objective o) {
@@ -811,6 +804,8 @@ void parse_rotations(std::string_view text, PlacementOptions& o) {
 
 void PlacementOptions::validate() const {
   if (threads < 0 || threads > 1024) throw InputError::field("threads", fmt::format("{}: must lie within 0 .. 1024", threads));
+  if (!(time_gap_pct >= 0.0 && time_gap_pct <= 50.0))
+    throw InputError::field("time_gap_pct", fmt::format("{}: must lie within 0 .. 50 (per cent)", time_gap_pct));
   if (strategy == Strategy::paper && (any_rotation || rotations_deg != std::vector<double>{0.0}))
     throw InputError::field("rotations_deg", "the paper strategy searches the workpiece as given (rotation 0); "
                                              "other rotations need the optimal strategy");

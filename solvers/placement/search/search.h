@@ -97,11 +97,14 @@ struct PlacementOptions {
   bool any_rotation = false;
   // Worker threads; 0 uses every core.
   int threads = 0;
+  // Time: the search stops once no setup left can be more than this many per cent faster than
+  // the best one timed (0: only when none can be faster, or after the timing budget).
+  double time_gap_pct = 1.0;
 
   // Rotation lists are bounded (a range 0:360:0.1 is 3600 rotations).
   static constexpr std::size_t kMaxRotations = 3600;
 
-  // Throws InputError naming the field (rotations_deg, threads) and the rule broken.
+  // Throws InputError naming the field (rotations_deg, threads, time_gap_pct) and the rule broken.
   void validate() const;
 };
 
@@ -119,9 +122,10 @@ Parsed<PlacementOptions::Strategy> parse_placement_strategy(std::string_view tex
 
 // Axis travel of a table-tilting machine over the whole path at one placement.
 struct AxisTravel {
-  std::vector<std::string> axes;   // X, Y, Z, then the rotary axes
+  std::vector<std::string> axes;   // X, Y, Z, then the rotary axes; or a hexapod's sliders
+  int linear_axes = 3;             // the first ones are linear
   std::vector<double> travel;      // mm for linear axes, degrees for rotary ones
-  double linear_mm = 0.0;          // X + Y + Z
+  double linear_mm = 0.0;          // the linear axes' sum (X + Y + Z)
   // Machining time: the 5-axis feed planner's (engine/motion/axis_planner.h) when the machine
   // gives accelerations and jerks (`planned`), else the velocity-only time.
   double time_s = 0.0;

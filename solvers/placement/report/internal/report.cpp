@@ -64,12 +64,14 @@ std::string travel_lines(const PlacementResult& r) {
   std::string axes;
   for (std::size_t k = 0; k < t.axes.size(); ++k)
     axes += fmt::format("{}{} {}", k ? ", " : "", t.axes[k],
-                        k < 3 ? fmt::format("{:.1f} mm", t.travel[k]) : rotary_travel_text(t.travel[k]));
+                        static_cast<int>(k) < t.linear_axes ? fmt::format("{:.1f} mm", t.travel[k])
+                                                            : rotary_travel_text(t.travel[k]));
   std::string out = fmt::format("axis travel: {}\n", axes);
+  const bool rotary = t.linear_axes < static_cast<int>(t.axes.size());
   if (r.centre_travel) {
     const AxisTravel& c = *r.centre_travel;
-    out += fmt::format("linear travel {:.1f} mm against {:.1f} mm at the table centre ({:.1f} % less)\n", t.linear_mm,
-                       c.linear_mm, 100.0 * (1.0 - t.linear_mm / c.linear_mm));
+    out += fmt::format("{} travel {:.1f} mm against {:.1f} mm at the table centre ({:.1f} % less)\n",
+                       rotary ? "linear" : "slider", t.linear_mm, c.linear_mm, 100.0 * (1.0 - t.linear_mm / c.linear_mm));
     // The time is each step's programmed feed unless a linear axis would need more than its
     // speed limit; only then can the workpiece's place change it. A comparison of two equal
     // feed-set times would only look like a result.
@@ -87,6 +89,7 @@ std::string travel_lines(const PlacementResult& r) {
                          "axis reaches its speed limit)\n",
                          t.time_s);
   }
+  if (!rotary) return out;
   out += t.flips == 0 ? std::string("rotary flips: none\n")
                       : fmt::format("rotary flips: {} ({} forced by the axis limits), first at tool-path index {}\n", t.flips,
                                     t.forced_flips, t.flip_poses.empty() ? -1 : t.flip_poses.front());
