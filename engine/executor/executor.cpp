@@ -525,6 +525,8 @@ void Session::Impl::use_material(int index) noexcept {
   const motion::CutParameters* m = material >= 0 ? &job.materials[static_cast<std::size_t>(material)] : nullptr;
   torch.use_material(m);
   thc.reset(m ? m->cut_volts : 0.0);
+  out.chart_volts_v = m ? m->cut_volts : 0.0;
+  out.chart_height_mm = m ? m->cut_height_mm : 0.0;
 }
 
 void Session::Impl::next_step() noexcept {

@@ -101,6 +101,11 @@ struct Outputs {
   bool offset_probe = false;
   // The laser pointer on (framing with it: motion::Job::laser_pointer).
   bool laser_on = false;
+  // Plasma: the cut chart of the material in force, the arc voltage it gives at its cut height
+  // (0: no material, or one without CUT_VOLTS). A real arc's voltage is physics; the simulated
+  // source and plate take the chart as theirs (models/sim/sim_backend.h), as a shop's chart is
+  // made for its own source and plate. Real hardware ignores it.
+  double chart_volts_v = 0.0, chart_height_mm = 0.0;
   // Position mode: where the plan puts the axes 1 .. ahead_count periods after this command,
   // for a backend whose hardware runs on without waiting for the program (HAL): when a command
   // comes late, the machine takes the planned position instead of coasting off the path. 0

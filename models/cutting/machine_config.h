@@ -58,7 +58,8 @@ struct PlasmaConfig {
   // The arc's voltage: arc_volts_base_v + volts_per_mm x the torch's distance to the plate
   // (about 0.1 mm per volt), with Gaussian noise; over a kerf cut earlier (or a void) the arc
   // stretches and the voltage jumps by kerf_crossing_rise_v. Simulation only, but for
-  // volts_per_mm, which THC uses to turn volts into millimetres.
+  // volts_per_mm, which THC uses to turn volts into millimetres. A material's cut chart in
+  // force replaces the base (models/sim/sim_backend.h).
   double arc_volts_base_v = 70.0;
   double volts_per_mm = 10.0;
   double arc_voltage_noise_v = 0.3;

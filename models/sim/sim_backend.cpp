@@ -117,7 +117,12 @@ hardware::Inputs SimBackend::sample() {
   return in;
 }
 
-hardware::Inputs SimBackend::initial_inputs() { return sample(); }
+hardware::Inputs SimBackend::initial_inputs() {
+  // A session starts on a fresh sheet: the kerfs of an earlier run on this machine (the panel
+  // runs many) are not under the torch.
+  std::fill(kerf_cells_.begin(), kerf_cells_.end(), std::uint16_t{0});
+  return sample();
+}
 
 void SimBackend::advance(const hardware::Outputs& out) {
   const double dt = period_s_;
@@ -192,7 +197,7 @@ void SimBackend::advance(const hardware::Outputs& out) {
     height_mm_ += std::clamp(height_target_mm_ - height_mm_, -step, step);
     sense_plate(alive && out.ohmic_enable, alive && out.offset_probe, dt);
   }
-  burn_and_measure(dt);
+  burn_and_measure(out);
   time_s_ += dt;
   ++ticks_;
 }
@@ -237,7 +242,7 @@ bool SimBackend::true_torch_gap(double& gap_mm) const noexcept {
 }
 
 // The arc marks the cells it burns; over a kerf another cut left, its voltage jumps.
-void SimBackend::burn_and_measure(double) noexcept {
+void SimBackend::burn_and_measure(const hardware::Outputs& out) noexcept {
   arc_voltage_v_ = 0.0;
   over_kerf_ = false;
   if (!arc_burning_ || m_.torch.kind != executor::TorchSetup::Kind::plasma) return;
@@ -252,7 +257,11 @@ void SimBackend::burn_and_measure(double) noexcept {
   double gap = m_.torch_height.cut_height_mm;
   true_torch_gap(gap);
   const auto& pc = m_.torch.plasma;
-  arc_voltage_v_ = pc.arc_volts_base_v + pc.volts_per_mm * std::max(0.0, gap) + pc.arc_voltage_noise_v * axis::gaussian(process_rng_) +
+  // With a material's cut chart in force the arc reads its CUT_VOLTS at its CUT_HEIGHT (the
+  // chart's current sets the arc's base voltage); else the machine's base.
+  const double base =
+      out.chart_volts_v > 0.0 ? out.chart_volts_v - pc.volts_per_mm * out.chart_height_mm : pc.arc_volts_base_v;
+  arc_voltage_v_ = base + pc.volts_per_mm * std::max(0.0, gap) + pc.arc_voltage_noise_v * axis::gaussian(process_rng_) +
                    (over_kerf_ ? pc.kerf_crossing_rise_v : 0.0);
 }
 

@@ -7,7 +7,13 @@
 // RNG), and `arc_ok` is reported while the arc burns; dropping `torch_fire` ends the arc at
 // once. Oxy-fuel: the cutting oxygen follows `torch_fire`; there is no arc-OK signal (the
 // input reads true while firing). The height axis moves to its target at `speed_mm_per_s`, in
-// the height frame of engine/hardware/backend.h (0: the sheet's nominal surface).
+// the height frame of engine/hardware/backend.h (0: the sheet's nominal surface). The arc's
+// voltage grows by `volts_per_mm` per mm of gap from the machine's `arc_volts_base_v`, or,
+// while a material's cut chart is in force (Outputs::chart_volts_v), from the base that gives
+// the chart's CUT_VOLTS at its CUT_HEIGHT: the simulated source and plate are the ones the
+// chart was made for, so THC holds the torch at the chart's height. Over a kerf cut earlier in
+// the session the voltage rises by `kerf_crossing_rise_v`; each session starts on a fresh sheet
+// (initial_inputs()), as an operator loads one for each job.
 //
 // The sheet and its sensors: the plate's surface is flat at 0 or warped (plate_z_mm); the
 // torch's gap is its height minus the surface under it. With the machine's probe sensors
@@ -201,7 +207,7 @@ class SimBackend final : public hardware::Backend {
   long kerf_nx_ = 0, kerf_ny_ = 0;
   std::uint16_t cut_id_ = 0;
   bool over_kerf_ = false;
-  void burn_and_measure(double dt) noexcept;
+  void burn_and_measure(const hardware::Outputs& out) noexcept;
   std::chrono::steady_clock::time_point t0_;
   bool started_ = false;
 };

@@ -101,5 +101,34 @@ TEST(MaterialsCli, ProgramsThatChangeMaterialKeepTheirOrder) {
   EXPECT_THAT(r.out, HasSubstr("parts.ngc:3: cuts left in program order"));
 }
 
+// A cut chart's volts far from the machine's own arc (its 70 V base and 10 V/mm): the simulated
+// arc takes the chart in force as its physics, so THC holds each cut at that material's height.
+// Before, a chart of 130 V at 1 mm held the torch 5 mm too high: the machine's arc reads 130 V at
+// 6 mm.
+TEST(MaterialsCli, THCHoldsEachCutAtItsChartsHeight) {
+  test::Cli cli;
+  const std::string mats = cli.write("volts.cfg",
+                                     "[MATERIAL_NUMBER_1]\nNAME = High volts\nPIERCE_HEIGHT = 3\nPIERCE_DELAY = 0.2\n"
+                                     "CUT_HEIGHT = 1\nCUT_SPEED = 2000\nCUT_VOLTS = 130\nTHC = 1\n\n"
+                                     "[MATERIAL_NUMBER_2]\nNAME = Low volts\nPIERCE_HEIGHT = 4\nPIERCE_DELAY = 0.2\n"
+                                     "CUT_HEIGHT = 2\nCUT_SPEED = 2000\nCUT_VOLTS = 95\nTHC = 1\n");
+  const std::string prog = cli.write("volts.ngc", "G21\nM190 P1\nM66 P3 L3 Q1\nF#<_hal[plasmac.cut-feed-rate]>\n"
+                                                  "G0 X0 Y0\nM3 $0 S1\nG1 X300\nG1 Y100\nM5 $0\n"
+                                                  "M190 P2\nM66 P3 L3 Q1\nF#<_hal[plasmac.cut-feed-rate]>\n"
+                                                  "G0 X0 Y150\nM3 $0 S1\nG1 X300\nG1 Y250\nM5 $0\nG0 X0 Y0\nM2\n");
+  const test::CliResult r =
+      cli.run("run '" + prog + "' --machine thermal_gantry --materials '" + mats + "' --origin 100,100 --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["cuts"].size(), 2u);
+  for (const auto& cut : j["cuts"]) {
+    ASSERT_TRUE(cut["thc"].is_object()) << cut.dump();
+    EXPECT_TRUE(cut["complete"].get<bool>());
+    EXPECT_LT(cut["thc"]["max_height_error_mm"].get<double>(), 0.1) << cut.dump();
+  }
+  EXPECT_DOUBLE_EQ(j["cuts"][0]["thc"]["target_v"].get<double>(), 130.0);
+  EXPECT_DOUBLE_EQ(j["cuts"][1]["thc"]["target_v"].get<double>(), 95.0);
+}
+
 }  // namespace
 }  // namespace machplan
