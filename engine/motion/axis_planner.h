@@ -154,9 +154,10 @@ JointPlan plan_joint_moves(const JointVector& start, const std::vector<JointMove
 
 // The pieces of the file comment, for callers that bound the planner's time (the placement
 // search): a move's path length (tip_mm, or the rotary angle when the tip stands still, or on a
-// machine without rotary axes turn_rad; 0 for a move that goes nowhere); its speed, acceleration and jerk caps for the absolute rates
-// |u_k| (feed 0: rapid; `tip_moves`: the feed caps it); the corner rule's speed cap for the
-// absolute rate jump |du_k| with blends up to `max_blend` long (the shorter move's length).
+// machine without rotary axes turn_rad; 0 for a move that goes nowhere); its speed,
+// acceleration and jerk caps for the absolute rates |u_k| (feed 0: rapid; `tip_moves`: the feed
+// caps it); the corner rule's speed cap for the absolute rate jump |du_k| with blends up to
+// `max_blend` long (the shorter move's length).
 // Every cap only falls when any |u_k| or |du_k| rises.
 struct MoveCaps {
   double speed = 0.0, accel = 0.0, jerk = 0.0;

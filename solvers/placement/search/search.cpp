@@ -439,7 +439,7 @@ bool OptimalSearch::prepare(PlacementResult& res) {
       const auto path = job_axis_path(scene_, rot_.shown[r] * kDeg);
       objective_at_.emplace_back();
       if (!path->on_rails()) objective_at_.back().emplace(*path, kind);
-      if (timed()) planned_at_.emplace_back(PlannedTime(*path));
+      if (timed()) planned_at_.emplace_back(PlannedTime(std::move(*path)));
     }
   }
   if (lexicographic()) {
@@ -732,11 +732,12 @@ PlacementResult place(const Scene& scene, const PlacementOptions& o, Termination
   best.verified = best.summary.done() && best.report.free();
   if (best.summary.done()) {
     best.work_offset = scene.model->work_offset(best.placement, -scene.origin_in_cam_mm);
-    // On a hexapod the sliders' travel and time cost the inverse kinematics of every pose twice:
+    // On a hexapod the sliders' travel and time cost the inverse kinematics of every pose:
     // reported when the time was the objective.
     if (scene.model->affine_axes() || objective == PlacementOptions::Objective::time) {
-      best.travel = axis_travel(scene, best.placement);
-      if (best.travel) best.centre_travel = axis_travel(scene, {0, 0, scene.pad_min_mm(), best.placement.rotation_deg});
+      const Eigen::Vector3d centre(0, 0, scene.pad_min_mm());
+      std::vector<AxisTravel> t = axis_travel(scene, best.placement.rotation_deg, {best.placement.offset(), centre});
+      if (!t.empty()) best.travel = t[0], best.centre_travel = t[1];
     }
   }
   best.seconds = now_s() - t0;

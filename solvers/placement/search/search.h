@@ -180,7 +180,10 @@ PlacementResult place(const Scene& scene, const PlacementOptions& options, Termi
 Eigen::AlignedBox2d placement_region(const Scene& scene, double rotation_deg);
 
 // Axis travel along the path at one placement, for a machine that has an AxisPath
-// (machines/machine_model.h); nullopt otherwise.
+// (machines/machine_model.h; on a hexapod, with the sliders' limits); nullopt otherwise.
 std::optional<AxisTravel> axis_travel(const Scene& scene, const Placement& p);
+// The same at several workpiece offsets of one rotation, the path built once: one per offset,
+// or none.
+std::vector<AxisTravel> axis_travel(const Scene& scene, double rotation_deg, const std::vector<Eigen::Vector3d>& offsets);
 
 }  // namespace machplan::placement

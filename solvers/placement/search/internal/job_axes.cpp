@@ -1,6 +1,8 @@
 #include "solvers/placement/search/internal/job_axes.h"
 
 #include <cmath>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include "engine/common/internal/numbers.h"
@@ -47,49 +49,53 @@ std::optional<AxisPath> job_axis_path(const Scene& scene, double rotation_rad) {
   return job;
 }
 
-namespace {
-// A hexapod's slider travel and planned time; nothing when the machine gives no slider limits.
-std::optional<AxisTravel> rail_travel(const AxisPath& path, const Eigen::Vector3d& offset) {
-  if (!path.limits) return std::nullopt;
-  const PlannedTime planner(path);
-  AxisTravel t;
-  t.axes = path.names;
-  t.linear_axes = static_cast<int>(path.names.size());
-  t.travel.assign(path.names.size(), 0.0);
-  motion::JointVector q = planner.position(0, offset);
-  for (std::size_t i = 1; i < planner.poses(); ++i) {
-    const motion::JointVector next = planner.position(i, offset);
-    for (std::size_t k = 0; k < t.travel.size(); ++k) t.travel[k] += std::abs(next[k] - q[k]);
-    q = next;
+std::vector<AxisTravel> axis_travel(const Scene& scene, double rotation_deg, const std::vector<Eigen::Vector3d>& offsets) {
+  std::optional<AxisPath> path = job_axis_path(scene, rotation_deg * kDeg);
+  // A hexapod's sliders are reported with their limits only (their time is the planner's).
+  if (!path || (path->on_rails() && !path->limits)) return {};
+  AxisTravel base;
+  base.axes = path->names;
+  base.flips = path->flips;
+  base.forced_flips = path->forced_flips;
+  base.flip_poses = path->flip_poses;
+  std::optional<AxisObjective> f;  // an affine path's travel and velocity-only time
+  if (!path->on_rails()) f.emplace(*path, AxisObjective::Kind::travel);
+  std::optional<PlannedTime> planner;
+  if (path->limits) planner.emplace(std::move(*path));
+  std::vector<AxisTravel> out;
+  for (const Eigen::Vector3d& o : offsets) {
+    AxisTravel t = base;
+    if (f) {
+      t.travel = f->travel_per_axis(o);
+      t.linear_mm = t.travel[0] + t.travel[1] + t.travel[2];
+      t.velocity_only_time_s = t.time_s = f->time_s(o);
+    } else {
+      // A hexapod's sliders, pose by pose.
+      t.linear_axes = static_cast<int>(t.axes.size());
+      t.travel.assign(t.axes.size(), 0.0);
+      motion::JointVector q = planner->position(0, o);
+      for (std::size_t i = 1; i < planner->poses(); ++i) {
+        const motion::JointVector next = planner->position(i, o);
+        for (std::size_t k = 0; k < t.travel.size(); ++k) t.travel[k] += std::abs(next[k] - q[k]);
+        q = next;
+      }
+      for (double v : t.travel) t.linear_mm += v;
+    }
+    if (planner) {
+      const motion::JointPlan plan = planner->plan(o);
+      t.time_s = plan.duration_s();
+      if (!f) t.velocity_only_time_s = plan.velocity_only_s();
+      t.planned = true;
+    }
+    out.push_back(std::move(t));
   }
-  for (double v : t.travel) t.linear_mm += v;
-  const motion::JointPlan plan = planner.plan(offset);
-  t.time_s = plan.duration_s();
-  t.velocity_only_time_s = plan.velocity_only_s();
-  t.planned = true;
-  return t;
+  return out;
 }
-}  // namespace
 
 std::optional<AxisTravel> axis_travel(const Scene& scene, const Placement& p) {
-  const auto path = job_axis_path(scene, p.rotation_deg * kDeg);
-  if (!path) return std::nullopt;
-  if (path->on_rails()) return rail_travel(*path, p.offset());
-  const AxisObjective f(*path, AxisObjective::Kind::travel);
-  AxisTravel t;
-  t.axes = path->names;
-  t.travel = f.travel_per_axis(p.offset());
-  t.linear_mm = t.travel[0] + t.travel[1] + t.travel[2];
-  t.velocity_only_time_s = f.time_s(p.offset());
-  t.time_s = t.velocity_only_time_s;
-  if (path->limits) {
-    t.time_s = PlannedTime(*path).planned_s(p.offset());
-    t.planned = true;
-  }
-  t.flips = path->flips;
-  t.forced_flips = path->forced_flips;
-  t.flip_poses = path->flip_poses;
-  return t;
+  std::vector<AxisTravel> t = axis_travel(scene, p.rotation_deg, {p.offset()});
+  if (t.empty()) return std::nullopt;
+  return std::move(t.front());
 }
 
 }  // namespace machplan::placement

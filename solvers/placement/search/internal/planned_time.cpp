@@ -19,31 +19,32 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 double least_abs(double lo, double hi) { return std::max({0.0, lo, -hi}); }
 }  // namespace
 
-PlannedTime::PlannedTime(const AxisPath& path) {
+PlannedTime::PlannedTime(AxisPath path) {
   if (!path.limits)
     throw InputError(path.dynamics_file, path.dynamics_line,
                      fmt::format("{}: the time objective times the path by the feed planner, which needs every axis's "
                                  "acceleration and jerk",
                                  path.dynamics_missing));
   limits_ = *path.limits;
-  M_ = path.M;
-  b_ = path.b;
-  rotary_ = path.rotary_rad;
-  rails_ = path.rails;
-  joints_ = path.joints_mm;
-  turn_ = path.on_rails() ? path.turn_rad : std::vector<double>(M_.size(), 0.0);
+  const bool rails = path.on_rails();
+  poses_ = path.feed_mm_per_s.size();
+  M_ = std::move(path.M);
+  b_ = std::move(path.b);
+  rotary_ = std::move(path.rotary_rad);
+  rails_ = std::move(path.rails);
+  joints_ = std::move(path.joints_mm);
   // The moves the planner keeps: a move shorter than kMinPlannedMove is dropped and the next one
   // starts where the last kept one ended.
   std::size_t from = 0;
-  for (std::size_t i = 1; i < turn_.size(); ++i) {
+  for (std::size_t i = 1; i < poses_; ++i) {
     double tip = 0.0, turn = 0.0;
-    for (std::size_t k = from + 1; k <= i; ++k) tip += path.tip_step_mm[k], turn += turn_[k];
+    for (std::size_t k = from + 1; k <= i; ++k) tip += path.tip_step_mm[k], turn += rails ? path.turn_rad[k] : 0.0;
     motion::JointVector delta = motion::JointVector::Zero();
-    if (!path.on_rails()) delta.segment<2>(3) = rotary_[i] - rotary_[from];
+    if (!rails) delta.segment<2>(3) = rotary_[i] - rotary_[from];
     const double len = motion::joint_move_length(delta, tip, turn, limits_);
     if (!(len > kMinPlannedMove)) continue;
     Step s;
-    if (!path.on_rails()) {
+    if (!rails) {
       s.D = (M_[i] - M_[from]) / len;
       s.e = (b_[i] - b_[from]) / len;
       s.rotary = (rotary_[i] - rotary_[from]) / len;

@@ -42,8 +42,8 @@ namespace machplan::placement {
 class PlannedTime {
  public:
   // Throws InputError (the machine file's line) when the machine gives no accelerations and
-  // jerks (path.dynamics_missing).
-  explicit PlannedTime(const AxisPath& path);
+  // jerks (path.dynamics_missing). Keeps the path's poses (moved in when the caller is done).
+  explicit PlannedTime(AxisPath path);
 
   // The planner's time at an offset, s.
   double planned_s(const Eigen::Vector3d& offset) const { return plan(offset).duration_s(); }
@@ -52,7 +52,7 @@ class PlannedTime {
   double lower_bound(const Eigen::Vector3d& centre, const Eigen::Vector3d& half) const;
   // The axes at pose i (mm, rad), the unused entries 0.
   motion::JointVector position(std::size_t i, const Eigen::Vector3d& offset) const;
-  std::size_t poses() const { return turn_.size(); }
+  std::size_t poses() const { return poses_; }
   const motion::AxisLimits& limits() const { return limits_; }
 
  private:
@@ -79,8 +79,8 @@ class PlannedTime {
   std::vector<Eigen::Vector2d> rotary_;
   std::vector<hexam::Strut> rails_;
   std::vector<std::array<Eigen::Vector3d, 6>> joints_;
-  std::vector<double> turn_;  // per pose (0 on an affine path)
-  std::vector<Step> steps_;   // the moves the planner keeps (see axis_planner.cpp)
+  std::size_t poses_ = 0;
+  std::vector<Step> steps_;  // the moves the planner keeps (see axis_planner.cpp)
 };
 
 }  // namespace machplan::placement
