@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """machplan nest on the ESICUP strip-packing instances, for comparison with other nesters.
 
-    bench/nest_esicup.py --machplan build/release/cli/machplan --instances DIR [--time S] [NAME...]
+    bench/nest_esicup.py --machplan build/release/cli/machplan --instances DIR [--time S] [--seed N] [NAME...]
 
 DIR holds the instances in the jagua-rs / sparrow JSON format (`data/input/<name>.json` of
 github:JeroenGar/sparrow) and, optionally, `records.tsv` (instance, strip_width, best_length,
@@ -36,6 +36,7 @@ def main():
     ap.add_argument("--machplan", required=True)
     ap.add_argument("--instances", required=True)
     ap.add_argument("--time", default="2", help="machplan nest --time (seconds of nominal work)")
+    ap.add_argument("--seed", default="1", help="machplan nest --seed")
     ap.add_argument("--place", help="write each nest as DIR/<name>.place (item_id rotation_deg tx ty per line)")
     ap.add_argument("names", nargs="*")
     a = ap.parse_args()
@@ -66,7 +67,7 @@ def main():
             length = 3 * total / h + 2 * h
             t0 = time.monotonic()
             r = subprocess.run([a.machplan, "nest", *args, "--sheet", f"{length}x{h}", "--spacing", "0", "--margin", "0",
-                                "--rotations", ",".join(str(x) for x in sorted(rotations)), "--time", a.time, "--json"],
+                                "--rotations", ",".join(str(x) for x in sorted(rotations)), "--time", a.time, "--seed", a.seed, "--json"],
                                capture_output=True, text=True)
             seconds = time.monotonic() - t0
         if r.returncode != 0:

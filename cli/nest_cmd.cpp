@@ -301,6 +301,7 @@ nesting::NestRequest request_of(NestArgs& a, CLI::App* cmd) {
   r.sheets = sheet_spec(a.sheet, a.margin);
   r.spacing_mm = a.spacing;
   r.rotations_deg = nesting::rotations_from_text(a.rotations, "--rotations");
+  r.any_rotation = a.rotations == "any";
   for (const std::string& s : a.parts) {
     const auto [file, qty] = part_spec(s);
     for (nesting::NestPart& p : nesting::read_nest_parts(file, a.split)) {
@@ -318,7 +319,7 @@ void add_nest(CLI::App& app) {
   cmd->add_option("--sheet", a->sheet, "the sheets: WIDTHxHEIGHT[:COUNT] in mm, x along the width (no job file)");
   cmd->add_option("--spacing", a->spacing, "least distance between parts, mm (the kerf plus a clearance)")->capture_default_str();
   cmd->add_option("--margin", a->margin, "kept clear along every sheet edge, mm")->capture_default_str();
-  cmd->add_option("--rotations", a->rotations, "any (every 45 deg), none, or degrees separated by commas")->capture_default_str();
+  cmd->add_option("--rotations", a->rotations, "any (any angle), none, or degrees separated by commas")->capture_default_str();
   cmd->add_option("--time", a->time, "search time, s of nominal work (about the wall clock on 2 cores): the same nest on any machine; 0: one fill")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the search's restarts")->capture_default_str();

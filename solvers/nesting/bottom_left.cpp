@@ -110,6 +110,7 @@ void check(const NestRequest& r) {
   if (!r.rotations.empty() && r.rotations.size() != r.parts.size()) throw InputError::field("rotations", "one list per part");
   if (!r.priority.empty() && r.priority.size() != r.parts.size()) throw InputError::field("priority", "one per part");
   if (!r.mirror.empty() && r.mirror.size() != r.parts.size()) throw InputError::field("mirror", "one per part");
+  if (!r.any_rotations.empty() && r.any_rotations.size() != r.parts.size()) throw InputError::field("rotations", "one per part");
   if (r.sheets.empty()) throw InputError::field("sheets", "no sheet to nest on");
   for (const Sheet& s : r.sheets)
     if (!(s.margin_mm >= 0 && s.width_mm > 2 * s.margin_mm && s.height_mm > 2 * s.margin_mm && std::isfinite(s.width_mm) &&
@@ -207,9 +208,14 @@ NestResult bottom_left_nest(const NestRequest& r, Termination& t, std::uint64_t 
 ShapeSet shapes_of(const NestRequest& r) {
   check(r);
   ShapeSet shapes;
-  for (std::size_t p = 0; p < r.parts.size(); ++p)
-    shapes.push_back(make_shapes(r.parts[p], r.rotations.empty() || r.rotations[p].empty() ? r.rotations_deg : r.rotations[p],
-                                 !r.mirror.empty() && r.mirror[p], r.spacing_mm, r.tolerance_mm));
+  for (std::size_t p = 0; p < r.parts.size(); ++p) {
+    std::vector<double> turns = r.rotations.empty() || r.rotations[p].empty() ? r.rotations_deg : r.rotations[p];
+    if (r.turns_freely(p))
+      for (double a : squaring_rotations(r.parts[p], r.tolerance_mm))
+        if (std::none_of(turns.begin(), turns.end(), [&](double b) { return std::abs(std::remainder(a - b, 360.0)) < 1e-6; }))
+          turns.push_back(a);
+    shapes.push_back(make_shapes(r.parts[p], turns, !r.mirror.empty() && r.mirror[p], r.spacing_mm, r.tolerance_mm));
+  }
   return shapes;
 }
 

@@ -40,6 +40,11 @@ struct NestRequest {
   std::vector<int> quantity;            // per part, >= 1
   std::vector<double> rotations_deg{0.0};  // tried for every part without rotations of its own
   std::vector<std::vector<double>> rotations;  // per part, when given (an empty one: rotations_deg)
+  // Parts that turn freely: by any angle in the strip search, and by their rotations and the four
+  // that square their box (squaring_rotations) in the fill. Per part when given, else `any_rotation`.
+  bool any_rotation = false;
+  std::vector<bool> any_rotations;
+  bool turns_freely(std::size_t part) const { return any_rotations.empty() ? any_rotation : any_rotations[part]; }
   std::vector<int> priority;            // per part, when given: lower first (must-nest parts), then fillers
   std::vector<bool> mirror;             // per part, when given: mirrored copies tried too
   std::vector<Sheet> sheets;            // one each, filled in this order

@@ -104,6 +104,7 @@ NestRequest read_nest_job(const Yaml& root, const std::string& folder_path) {
     if (file.is_relative()) file = folder / file;
     const int quantity = p.has("quantity") ? p.at("quantity").integer(1, 100000) : 1;
     const std::vector<double> rotations = p.has("rotations") ? rotations_of(p.at("rotations")) : rotations_from_text("any", "rotations");
+    const bool any = !p.has("rotations") || (p.at("rotations").is_scalar() && p.at("rotations").string() == "any");
     const bool mirror = p.boolean_or("mirror", false), split = p.boolean_or("split", false);
     const int priority = p.has("priority") ? p.at("priority").integer(0, 1000) : 1;
     std::vector<NestPart> parts;
@@ -116,6 +117,7 @@ NestRequest read_nest_job(const Yaml& root, const std::string& folder_path) {
       r.parts.push_back(std::move(part));
       r.quantity.push_back(quantity);
       r.rotations.push_back(rotations);
+      r.any_rotations.push_back(any);
       r.mirror.push_back(mirror);
       r.priority.push_back(priority);
     }

@@ -10,7 +10,8 @@
 //
 // Sheets are filled in the order given (count: that many alike, default 1; margin_mm default
 // 10). spacing_mm defaults to 6. A part's file is a DXF drawing, its path relative to the job
-// file; quantity defaults to 1; rotations `any` (every 45 degrees, the default), `none`, or a
+// file; quantity defaults to 1; rotations `any` (any angle, the default: the fill tries every 45
+// degrees and the four that square the part's box, the strip search any angle), `none`, or a
 // list of degrees; mirror: mirrored copies are tried too; priority: lower numbers are nested
 // first (must-nest parts before fillers; default 1); split: a drawing with several outer
 // contours gives one part per contour. A sheet given by an `outline` is a remnant: the drawing's
@@ -38,8 +39,8 @@ NestRequest read_nest_job(const Yaml& root, const std::string& folder);
 // area inside `margin_mm`.
 Sheet remnant_sheet(const std::string& path, double margin_mm);
 
-// "any", "none" or a list: the rotations to try, degrees in [-360, 360]. InputError naming
-// `field` otherwise.
+// "any", "none" or a list: the rotations to try, degrees in [-360, 360] ("any": every 45 degrees,
+// the fill's; the request's any_rotation says the rest). InputError naming `field` otherwise.
 std::vector<double> rotations_from_text(const std::string& text, const std::string& field);
 
 }  // namespace machplan::nesting

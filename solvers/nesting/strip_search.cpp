@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <random>
 
@@ -24,8 +25,14 @@ constexpr int kContainerSamples = 50;   // places anywhere in the strip, per mov
 constexpr int kFocusSamples = 25;       // places over the part's own box, per move
 constexpr int kDescents = 3;            // of the best distinct samples, refined by coordinate descent
 constexpr double kDistinct = 0.05;      // of the part's smaller side: samples closer are one
-constexpr double kFirstSteps[2] = {0.25, 0.02};   // of the smaller side: the descents' first and last step
-constexpr double kFinalSteps[2] = {0.01, 0.001};  // the best one's final refinement
+// A descent's steps: along x and y, of the part's smaller side, first and last; of a part that
+// turns freely, in degrees, first and last.
+struct Steps {
+  double first, last, first_deg, last_deg;
+};
+constexpr Steps kFirstSteps{0.25, 0.02, 5.0, 1.0};    // the best few samples'
+constexpr Steps kFinalSteps{0.01, 0.001, 0.5, 0.05};  // the best one's final refinement
+constexpr double kFreeTurnShare = 0.5;  // of the samples of a part that turns freely: at a random angle
 constexpr int kStale = 200;             // separation rounds without 2 % less overlap before a strike
 constexpr int kStrikes = 3;             // strikes in a row before separation gives up
 constexpr double kExploreShrink = 0.001;                  // exploring: the cut of the length after each success
@@ -36,15 +43,30 @@ constexpr double kWeightLeast = 1.2, kWeightMost = 2.0, kWeightDecay = 0.95;  //
 constexpr double kLargeShare = 0.75;    // disruption swaps parts among the largest holding this share of hull area
 constexpr std::size_t kPool = 64;       // exploring: the failed nests kept to go on from (the least overlap)
 
+// A part's shape in the strip: one of the part's shapes (made once), or one turned freely to an
+// angle of its own.
+struct Turn {
+  int shape = 0;                      // index into the part's shapes, when `own` is null
+  std::shared_ptr<const Shape> own;   // turned by the search (a part that turns freely)
+  bool same(const Turn& o) const {
+    return own || o.own ? own && o.own && own->mirrored == o.own->mirrored && std::abs(own->rotation_deg - o.own->rotation_deg) < 1.0
+                        : shape == o.shape;
+  }
+};
+
+const Shape& shape_of(const ShapeSet& shapes, std::size_t part, const Turn& t) {
+  return t.own ? *t.own : shapes[part][static_cast<std::size_t>(t.shape)];
+}
+
 struct Item {
   std::size_t placement = 0;  // index into the nest's placements
   std::size_t part = 0;
-  int shape = 0;              // index into the part's shapes
+  Turn turn;
   Eigen::Vector2d at = Eigen::Vector2d::Zero();
 };
 
 struct Candidate {
-  int shape = 0;
+  Turn turn;
   Eigen::Vector2d at;
   double value = std::numeric_limits<double>::infinity();
 };
@@ -61,7 +83,7 @@ struct BestFew {
   double bound() const { return kept.size() < kDescents ? std::numeric_limits<double>::infinity() : kept.back().value; }
   void offer(const Candidate& c) {
     for (Candidate& k : kept)
-      if (k.shape == c.shape && (k.at - c.at).norm() < distinct) {
+      if (k.turn.same(c.turn) && (k.at - c.at).norm() < distinct) {
         if (c.value < k.value) k = c;
         std::sort(kept.begin(), kept.end(), [](const Candidate& a, const Candidate& b) { return a.value < b.value; });
         return;
@@ -76,9 +98,10 @@ struct BestFew {
 // One worker's strip: the last sheet's parts in a usable area whose end moves.
 class Strip {
  public:
-  Strip(const ShapeSet& shapes, std::vector<Item> items, const Eigen::AlignedBox2d& usable, double end_x, std::uint64_t seed,
-        Termination& t)
-      : shapes_(shapes), usable_(usable), end_(end_x), rng_(seed), t_(t), weights_(items.size() * items.size(), 1.0f) {
+  Strip(const ShapeSet& shapes, std::vector<bool> free, std::vector<Item> items, const Eigen::AlignedBox2d& usable, double end_x,
+        std::uint64_t seed, Termination& t)
+      : shapes_(shapes), free_(std::move(free)), usable_(usable), end_(end_x), rng_(seed), t_(t),
+        weights_(items.size() * items.size(), 1.0f) {
     load(std::move(items));
   }
 
@@ -89,7 +112,8 @@ class Strip {
 
  private:
   const Shape& shape_of(std::size_t part, int s) const { return shapes_[part][static_cast<std::size_t>(s)]; }
-  const Shape& shape(std::size_t i) const { return shape_of(items_[i].part, items_[i].shape); }
+  const Shape& shape_of(std::size_t part, const Turn& t) const { return nesting::shape_of(shapes_, part, t); }
+  const Shape& shape(std::size_t i) const { return shape_of(items_[i].part, items_[i].turn); }
   float& weight(std::size_t i, std::size_t j) { return weights_[i * items_.size() + j]; }
   double right(std::size_t i) const { return items_[i].at.x() + shape(i).part_box.max().x(); }
   double end_of_parts() const;
@@ -101,11 +125,12 @@ class Strip {
   }
 
   void load(std::vector<Item> items);
-  void put(std::size_t i, int s, const Eigen::Vector2d& at);
+  void put(std::size_t i, const Turn& turn, const Eigen::Vector2d& at);
+  Turn turned(const Shape& base, double deg);
   double overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j);
-  double evaluate(std::size_t i, int s, const Eigen::Vector2d& at, double bound);
-  Candidate candidate(std::size_t i, int s, Eigen::Vector2d at, double bound);
-  Candidate descend(std::size_t i, Candidate c, const double (&steps)[2]);
+  double evaluate(std::size_t i, const Shape& a, const Eigen::Vector2d& at, double bound);
+  Candidate candidate(std::size_t i, Turn turn, Eigen::Vector2d at, double bound);
+  Candidate descend(std::size_t i, Candidate c, const Steps& steps);
   void move(std::size_t i);
   std::vector<Collision> collisions();
   void reweigh(const std::vector<Collision>& c);
@@ -115,6 +140,7 @@ class Strip {
   void charge();
 
   const ShapeSet& shapes_;
+  std::vector<bool> free_;  // per part: whether it turns freely
   Eigen::AlignedBox2d usable_;
   double end_;
   std::mt19937_64 rng_;
@@ -138,9 +164,9 @@ void Strip::load(std::vector<Item> items) {
   }
 }
 
-void Strip::put(std::size_t i, int s, const Eigen::Vector2d& at) {
+void Strip::put(std::size_t i, const Turn& turn, const Eigen::Vector2d& at) {
   tree_.remove(std::make_pair(boxes_[i], i));
-  items_[i].shape = s;
+  items_[i].turn = turn;
   items_[i].at = at;
   boxes_[i] = moved(shape(i).box, at.x(), at.y());
   tree_.insert({boxes_[i], i});
@@ -192,48 +218,65 @@ double Strip::overlap(const Shape& a, const Eigen::Vector2d& at, std::size_t j) 
   return std::sqrt(sum + static_cast<double>(eps) * eps) * std::sqrt(std::sqrt(a.hull_area_mm2 * b.hull_area_mm2));
 }
 
-// The weighted overlap of part i as shape s at `at` with the others; stops once past `bound`.
-double Strip::evaluate(std::size_t i, int s, const Eigen::Vector2d& at, double bound) {
-  const Shape& a = shape_of(items_[i].part, s);
+// `base` turned to `deg`, its vertices counted as steps of work.
+Turn Strip::turned(const Shape& base, double deg) {
+  meets_steps() += base.vertices;
+  return {0, std::make_shared<const Shape>(turned_shape(base, deg))};
+}
+
+// The weighted overlap of part i as `a` at `at` with the others; stops once past `bound`.
+double Strip::evaluate(std::size_t i, const Shape& a, const Eigen::Vector2d& at, double bound) {
   double sum = 0.0;
   for (auto it = tree_.qbegin(bgi::intersects(moved(a.box, at.x(), at.y()))); it != tree_.qend() && sum <= bound; ++it)
     if (it->second != i) sum += weight(i, it->second) * overlap(a, at, it->second);
   return sum;
 }
 
-// Part i as shape s at `at` kept in the strip, evaluated (infinite when it does not fit).
-Candidate Strip::candidate(std::size_t i, int s, Eigen::Vector2d at, double bound) {
-  const Eigen::AlignedBox2d r = range(shape_of(items_[i].part, s));
-  if (r.isEmpty()) return {s, at};
+// Part i turned so at `at` kept in the strip, evaluated (infinite when it does not fit).
+Candidate Strip::candidate(std::size_t i, Turn turn, Eigen::Vector2d at, double bound) {
+  const Shape& a = shape_of(items_[i].part, turn);
+  const Eigen::AlignedBox2d r = range(a);
+  if (r.isEmpty()) return {std::move(turn), at};
   at = at.cwiseMax(r.min()).cwiseMin(r.max());
-  return {s, at, evaluate(i, s, at, bound)};
+  const double value = evaluate(i, a, at, bound);
+  return {std::move(turn), at, value};
 }
 
-// Coordinate descent: a step both ways along an axis (x, y or a diagonal); on success the
-// step grows a little and the axis stays, else it halves and another axis is drawn.
-Candidate Strip::descend(std::size_t i, Candidate c, const double (&steps)[2]) {
-  const Eigen::Vector2d size = shape_of(items_[i].part, c.shape).part_box.sizes();
-  const double side = std::min(size.x(), size.y()), last = steps[1] * side;
-  Eigen::Vector2d step = Eigen::Vector2d::Constant(steps[0] * side);
+// Coordinate descent: a step both ways along an axis (x, y, a diagonal, or for a part that
+// turns freely its angle, about its box's centre); on success the step grows a little and the
+// axis stays, else it halves and another axis is drawn.
+Candidate Strip::descend(std::size_t i, Candidate c, const Steps& steps) {
+  const std::size_t part = items_[i].part;
+  const Eigen::Vector2d size = shape_of(part, c.turn).part_box.sizes();
+  const double side = std::min(size.x(), size.y()), last = steps.last * side;
+  Eigen::Vector2d step = Eigen::Vector2d::Constant(steps.first * side);
+  double turn_step = free_[part] ? steps.first_deg : 0.0;
   static const Eigen::Vector2d kAxes[4] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
-  std::uniform_int_distribution<int> axis_of(0, 3);
+  std::uniform_int_distribution<int> axis_of(0, free_[part] ? 4 : 3);
   int axis = axis_of(rng_);
-  while ((step.x() >= last || step.y() >= last) && c.value > 0) {
-    const Eigen::Vector2d d = kAxes[axis].cwiseProduct(step);
+  while ((step.x() >= last || step.y() >= last || turn_step >= steps.last_deg) && c.value > 0) {
     Candidate best = c;
-    for (const Eigen::Vector2d& at : {Eigen::Vector2d(c.at + d), Eigen::Vector2d(c.at - d)}) {
-      const Candidate n = candidate(i, c.shape, at, best.value);
-      if (n.value < best.value) best = n;
-    }
-    const Eigen::Vector2d on(axis == 1 ? 0.0 : 1.0, axis == 0 ? 0.0 : 1.0);  // the coordinates the axis moves
-    const Eigen::Vector2d keep = Eigen::Vector2d::Ones() - on;
-    if (best.value < c.value) {
-      c = best;
-      step = step.cwiseProduct(keep + 1.1 * on);
+    if (axis == 4) {
+      const Shape& now = shape_of(part, c.turn);
+      for (const double sign : {1.0, -1.0}) {
+        Turn t = turned(now, now.rotation_deg + sign * turn_step);
+        const Eigen::Vector2d at = c.at + now.part_box.center() - t.own->part_box.center();
+        Candidate n = candidate(i, std::move(t), at, best.value);
+        if (n.value < best.value) best = std::move(n);
+      }
+      turn_step *= best.value < c.value ? 1.1 : 0.5;
     } else {
-      step = step.cwiseProduct(keep + 0.5 * on);
-      axis = axis_of(rng_);
+      const Eigen::Vector2d d = kAxes[axis].cwiseProduct(step);
+      for (const Eigen::Vector2d& at : {Eigen::Vector2d(c.at + d), Eigen::Vector2d(c.at - d)}) {
+        Candidate n = candidate(i, c.turn, at, best.value);
+        if (n.value < best.value) best = std::move(n);
+      }
+      const Eigen::Vector2d on(axis == 1 ? 0.0 : 1.0, axis == 0 ? 0.0 : 1.0);  // the coordinates the axis moves
+      const Eigen::Vector2d keep = Eigen::Vector2d::Ones() - on;
+      step = step.cwiseProduct(keep + (best.value < c.value ? 1.1 : 0.5) * on);
     }
+    if (best.value < c.value) c = std::move(best);
+    else axis = axis_of(rng_);
   }
   return c;
 }
@@ -245,24 +288,25 @@ void Strip::move(std::size_t i) {
   const Eigen::Vector2d size = shape(i).part_box.sizes();
   BestFew best;
   best.distinct = kDistinct * std::min(size.x(), size.y());
-  if (!range(shape(i)).isEmpty()) best.offer(candidate(i, now.shape, now.at, best.bound()));
+  if (!range(shape(i)).isEmpty()) best.offer(candidate(i, now.turn, now.at, best.bound()));
   std::uniform_int_distribution<int> any_shape(0, static_cast<int>(shapes_[now.part].size()) - 1);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const Eigen::Vector2d centre = now.at + shape(i).part_box.center();
   for (int k = 0; k < kFocusSamples + kContainerSamples; ++k) {
-    const int s = any_shape(rng_);
-    const Shape& sh = shape_of(now.part, s);
+    Turn turn{any_shape(rng_), nullptr};
+    if (free_[now.part] && unit(rng_) < kFreeTurnShare) turn = turned(shape_of(now.part, turn.shape), 360.0 * unit(rng_));
+    const Shape& sh = shape_of(now.part, turn);
     const Eigen::AlignedBox2d r = range(sh);
     if (r.isEmpty()) continue;
     const Eigen::Vector2d u(unit(rng_), unit(rng_));
     const Eigen::Vector2d at = k < kFocusSamples ? Eigen::Vector2d(centre - sh.part_box.center() + (u - Eigen::Vector2d::Constant(0.5)).cwiseProduct(size))
                                                  : Eigen::Vector2d(r.min() + r.sizes().cwiseProduct(u));
-    best.offer(candidate(i, s, at, best.bound()));
+    best.offer(candidate(i, std::move(turn), at, best.bound()));
   }
   if (best.kept.empty()) return;  // no shape of it fits the strip: resize keeps that from happening
   for (std::size_t k = 0, n = best.kept.size(); k < n; ++k) best.offer(descend(i, best.kept[k], kFirstSteps));
   const Candidate c = descend(i, best.kept.front(), kFinalSteps);
-  if (c.shape != now.shape || c.at != now.at) put(i, c.shape, c.at);
+  if (c.turn.own != now.turn.own || c.turn.shape != now.turn.shape || c.at != now.at) put(i, c.turn, c.at);
   ++moves_;
   charge();
 }
@@ -319,7 +363,7 @@ double Strip::separate() {
       who.erase(std::unique(who.begin(), who.end()), who.end());
       std::shuffle(who.begin(), who.end(), rng_);
       for (std::size_t i : who)
-        if (evaluate(i, items_[i].shape, items_[i].at, 0.0) > 0) move(i);
+        if (evaluate(i, shape(i), items_[i].at, 0.0) > 0) move(i);
       c = collisions();
       const double total = total_of(c);
       if (total == 0) return 0.0;
@@ -351,12 +395,12 @@ bool Strip::resize(double end_x, double split_x) {
   for (std::size_t i = 0; i < items_.size(); ++i) {
     Eigen::Vector2d at = items_[i].at;
     if (at.x() + shape(i).part_box.center().x() > split_x) at.x() += delta;
-    int s = items_[i].shape;
+    Turn turn = items_[i].turn;
     if (range(shape(i)).isEmpty())  // too long in this rotation for the strip now: the first that fits
-      for (s = 0; range(shape_of(items_[i].part, s)).isEmpty(); ++s) {
+      for (turn = Turn{}; range(shape_of(items_[i].part, turn)).isEmpty(); ++turn.shape) {
       }
-    const Eigen::AlignedBox2d r = range(shape_of(items_[i].part, s));
-    put(i, s, at.cwiseMax(r.min()).cwiseMin(r.max()));
+    const Eigen::AlignedBox2d r = range(shape_of(items_[i].part, turn));
+    put(i, turn, at.cwiseMax(r.min()).cwiseMin(r.max()));
   }
   std::fill(weights_.begin(), weights_.end(), 1.0f);
   return true;
@@ -391,7 +435,7 @@ void Strip::disrupt() {
   const Eigen::Vector2d ca = items_[a].at + shape(a).part_box.center(), cb = items_[b].at + shape(b).part_box.center();
   for (const auto& [i, to] : {std::pair{a, cb}, std::pair{b, ca}}) {
     const Eigen::AlignedBox2d r = range(shape(i));
-    put(i, items_[i].shape, (to - shape(i).part_box.center()).cwiseMax(r.min()).cwiseMin(r.max()));
+    put(i, items_[i].turn, (to - shape(i).part_box.center()).cwiseMax(r.min()).cwiseMin(r.max()));
   }
 }
 
@@ -472,13 +516,15 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
   }
   const Eigen::AlignedBox2d usable(Eigen::Vector2d::Constant(sheet.margin_mm),
                                    Eigen::Vector2d(sheet.width_mm - sheet.margin_mm, sheet.height_mm - sheet.margin_mm));
+  std::vector<bool> free;
+  for (std::size_t p = 0; p < r.parts.size(); ++p) free.push_back(r.turns_freely(p));
   std::vector<Item> items;
   for (std::size_t k = 0; k < nest.placements.size(); ++k) {
     const Placement& p = nest.placements[k];
     if (p.sheet != last) continue;
     const auto& ss = shapes[p.part];
     const auto s = std::find_if(ss.begin(), ss.end(), [&](const Shape& x) { return x.rotation_deg == p.rotation_deg && x.mirrored == p.mirrored; });
-    items.push_back({k, p.part, static_cast<int>(s - ss.begin()), p.translate_mm});
+    items.push_back({k, p.part, Turn{static_cast<int>(s - ss.begin()), nullptr}, p.translate_mm});
   }
   if (items.size() < 2) return stats;
   if (items.size() > kMostParts) {
@@ -497,7 +543,7 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
     // caller's stop request.
     Termination own(t.stop_token());
     if (std::isfinite(work)) own.set_deadline(std::max(work, 1e-9), "nominal search time");
-    Strip strip(shapes, items, usable, ends[static_cast<std::size_t>(w)], seed * 7919 + static_cast<std::uint64_t>(w), own);
+    Strip strip(shapes, free, items, usable, ends[static_cast<std::size_t>(w)], seed * 7919 + static_cast<std::uint64_t>(w), own);
     found[static_cast<std::size_t>(w)] =
         strip.search(ends[static_cast<std::size_t>(w)], each[static_cast<std::size_t>(w)], progress, w == 0);
     spent[static_cast<std::size_t>(w)] = own.work_s_spent();
@@ -516,7 +562,7 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
   t.should_end();  // records what ended the work, for the report
   for (const Item& it : found[w]) {
     Placement& p = nest.placements[it.placement];
-    const Shape& s = shapes[it.part][static_cast<std::size_t>(it.shape)];
+    const Shape& s = shape_of(shapes, it.part, it.turn);
     p.rotation_deg = s.rotation_deg;
     p.mirrored = s.mirrored;
     p.translate_mm = it.at;

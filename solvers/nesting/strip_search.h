@@ -5,7 +5,8 @@
 // length of the last sheet by a ratio, moves the parts that stood out past the new end back in
 // (overlapping others), and then separates: every part that collides moves to the best of
 // sampled places (anywhere in the strip, near where it is, then refined by coordinate descent,
-// in every rotation allowed), the best being the least weighted overlap with the others. Pairs
+// in every rotation allowed; a part that turns freely also at random angles, its angle refined
+// with its place), the best being the least weighted overlap with the others. Pairs
 // that keep colliding weigh more each round (guided local search), so the parts stop trading
 // the same overlaps. When no pair collides, the shorter nest is the new best and the strip
 // shrinks again; when separation stalls, the search goes back to the best nest and shrinks by

@@ -2,6 +2,7 @@
 // Boost.Geometry's intersects on the moved polygons, touching included, and the poles lie
 // inside the material.
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 #include <boost/geometry/geometries/linestring.hpp>
@@ -86,6 +87,45 @@ TEST(NestShape, EveryPoleLiesInsideThePolygon) {
         EXPECT_GE(room + 0.06, s.poles.radius[k]) << part.file << " pole " << k;
       }
     }
+}
+
+TEST(NestShape, ATurnedShapeIsTheShapeMadeAtThatAngle) {
+  // Arcs, a hole and a mirror: turning the shape made at 0 degrees gives the rings, poles and
+  // boxes of the shape made at the angle (its part box from the hull: holding the part, within
+  // the tolerance), and meets() answers the same for both.
+  NestPart p = frame();
+  p.outer = Contour({{0, 0}, {60, 0}, {60, 40}, {0, 40}}, {0, 0.4, 0, 0});
+  for (const bool mirrored : {false, true}) {
+    const Shape base = make_shape(p, 0, mirrored, 2.0, 0.05);
+    for (const double deg : {37.0, 200.5, -73.25}) {
+      const Shape made = make_shape(p, deg, mirrored, 2.0, 0.05), turned = turned_shape(base, deg);
+      EXPECT_NEAR(turned.rotation_deg, std::fmod(deg + 360.0, 360.0), 1e-12);
+      ASSERT_EQ(turned.rings.size(), made.rings.size());
+      for (std::size_t k = 0; k < made.rings.size(); ++k) {
+        ASSERT_EQ(turned.rings[k].size(), made.rings[k].size());
+        for (std::size_t i = 0; i < made.rings[k].size(); ++i) EXPECT_LT((turned.rings[k][i] - made.rings[k][i]).norm(), 1e-9);
+      }
+      EXPECT_TRUE(turned.part_box.contains(made.part_box));
+      EXPECT_LT((turned.part_box.sizes() - made.part_box.sizes()).maxCoeff(), 2 * 0.05);
+      EXPECT_NEAR(bg::area(made.poly), turned.area_mm2, 1e-6);
+      const Shape other = make_shape(ell(), 0, false, 2.0, 0.05);
+      std::mt19937 rng(7);
+      std::uniform_real_distribution<double> u(-60, 60);
+      for (int k = 0; k < 200; ++k) {
+        const Eigen::Vector2d at(u(rng), u(rng));
+        EXPECT_EQ(meets(turned, Eigen::Vector2d::Zero(), other, at), meets(made, Eigen::Vector2d::Zero(), other, at)) << at.transpose();
+      }
+    }
+  }
+  // A rectangle drawn 20 degrees askew is squared at -20 degrees and every quarter turn from it.
+  Placement askew;
+  askew.rotation_deg = 20;
+  NestPart r = test::rect(100, 50);
+  r.outer = place(r.outer, askew);
+  std::vector<double> sq = squaring_rotations(r, 0.05);
+  std::sort(sq.begin(), sq.end());
+  ASSERT_EQ(sq.size(), 4u);
+  for (std::size_t k = 0; k < 4; ++k) EXPECT_NEAR(sq[k], 70.0 + 90.0 * static_cast<double>(k), 1e-6);
 }
 
 }  // namespace

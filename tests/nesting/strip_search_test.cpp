@@ -1,6 +1,7 @@
 // The strip search (solvers/nesting/strip_search.h): it shortens the bottom-left nest's last
 // sheet, every nest it returns passes the certificate, the same seed and work give the same
 // nest, a stop returns the best so far, and the sheets before the last are left alone.
+#include <cmath>
 #include <cstdio>
 
 #include <gtest/gtest.h>
@@ -110,6 +111,60 @@ TEST(StripSearch, OnlyTheLastSheetIsShortenedAndTheOthersStayAsFilled) {
   EXPECT_EQ(n.used_length_mm[0], first.used_length_mm[0]);
   EXPECT_LT(n.used_length_mm[1], first.used_length_mm[1]);
   EXPECT_TRUE(certify(r.parts, n.placements, r.sheets, r.spacing_mm).certified);
+}
+
+// A part drawn askew: `p` turned by `deg` about the origin.
+NestPart askew(NestPart p, double deg) {
+  Placement turn;
+  turn.rotation_deg = deg;
+  p.outer = place(p.outer, turn);
+  return p;
+}
+
+NestRequest askew_rectangles() {
+  NestRequest r;
+  r.parts = {askew(rect(100, 50), 20)};
+  r.quantity = {8};
+  r.rotations_deg = {0, 45, 90, 135, 180, 225, 270, 315};
+  r.sheets = {Sheet{2000, 110, 0}};
+  return r;
+}
+
+TEST(StripSearch, APartThatTurnsFreelySquaresWithTheStripAndTurnsByAnyAngle) {
+  // Eight 100 x 50 rectangles drawn 20 degrees askew in a strip 110 high: squared, two rows of
+  // four, 400 mm; every 45 degrees, never squared.
+  NestRequest r = askew_rectangles();
+  const NestResult steps = searched(r, 0.3, 3);
+  r.any_rotation = true;
+  const NestResult any = searched(r, 0.3, 3);
+  std::printf("every 45 deg %.1f mm, any angle %.1f mm\n", steps.last_length_mm(), any.last_length_mm());
+  EXPECT_LT(any.last_length_mm(), 410.0);
+  EXPECT_GT(steps.last_length_mm(), 1.25 * any.last_length_mm());
+  for (const NestResult* n : {&steps, &any}) {
+    const Certificate c = certify(r.parts, n->placements, r.sheets, r.spacing_mm);
+    EXPECT_TRUE(c.certified) << (c.violations.empty() ? "" : c.violations[0]);
+  }
+  // Ells drawn askew beside them, with spacing: the search turns parts to angles the fill never
+  // tries (neither a multiple of 45 degrees nor a squaring one), and the nest is still certified
+  // on the true lines and the same for the same seed.
+  r.parts.push_back(askew(ell(60, 15), 31));
+  r.quantity.push_back(6);
+  r.spacing_mm = 2;
+  const NestResult a = searched(r, 0.3, 5), b = searched(r, 0.3, 5);
+  const Certificate c = certify(r.parts, a.placements, r.sheets, r.spacing_mm);
+  EXPECT_TRUE(c.certified) << (c.violations.empty() ? "" : c.violations[0]);
+  int off_grid = 0;
+  for (const Placement& p : a.placements) {
+    bool tried = std::abs(std::remainder(p.rotation_deg, 45.0)) < 1e-6;
+    for (const double sq : squaring_rotations(r.parts[p.part], r.tolerance_mm)) tried |= std::abs(std::remainder(p.rotation_deg - sq, 360.0)) < 1e-6;
+    off_grid += tried ? 0 : 1;
+  }
+  EXPECT_GT(off_grid, 0);
+  ASSERT_EQ(a.placements.size(), b.placements.size());
+  for (std::size_t i = 0; i < a.placements.size(); ++i) {
+    EXPECT_EQ(a.placements[i].translate_mm, b.placements[i].translate_mm) << i;
+    EXPECT_EQ(a.placements[i].rotation_deg, b.placements[i].rotation_deg) << i;
+  }
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include "engine/geometry/offset.h"
 #include "solvers/nesting/outline.h"
@@ -113,6 +114,24 @@ bool in_material(const std::vector<std::vector<Eigen::Vector2d>>& rings, const E
   return true;
 }
 
+// The convex hull of points, counter-clockwise (not closed).
+std::vector<Eigen::Vector2d> hull_of(const std::vector<Eigen::Vector2d>& pts) {
+  bg::model::multi_point<Pt> mp;
+  for (const Eigen::Vector2d& v : pts) mp.push_back(Pt(v.x(), v.y()));
+  Poly hull;
+  bg::convex_hull(mp, hull);
+  std::vector<Eigen::Vector2d> out;
+  const auto& r = hull.outer();
+  for (std::size_t i = 0; i + 1 < r.size(); ++i) out.emplace_back(r[i].x(), r[i].y());
+  std::reverse(out.begin(), out.end());  // Boost's rings run clockwise
+  return out;
+}
+
+double normalised(double deg) {
+  deg = std::fmod(deg, 360.0);
+  return deg < 0 ? deg + 360.0 : deg;
+}
+
 }  // namespace
 
 std::int64_t& meets_steps() {
@@ -191,6 +210,7 @@ Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing
   bg::correct(s.poly);
   s.box = bg::return_envelope<Box>(s.poly);
   s.part_box = bounding_box(outer);
+  s.part_hull = hull_of(outside_polygon(outer, tol));
   s.area_mm2 = bg::area(s.poly);
   const auto ring_of = [](const Poly::ring_type& r) {
     std::vector<Eigen::Vector2d> v;
@@ -227,6 +247,47 @@ std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& 
       out.push_back(std::move(s));
     }
   }
+  return out;
+}
+
+Shape turned_shape(const Shape& base, double deg) {
+  const double a = (deg - base.rotation_deg) * std::numbers::pi / 180.0;
+  const Eigen::Rotation2Dd turn(a);
+  Shape s;
+  s.rotation_deg = normalised(deg);
+  s.mirrored = base.mirrored;
+  s.rings = base.rings;
+  Eigen::AlignedBox2d box;
+  for (auto& r : s.rings)
+    for (Eigen::Vector2d& v : r) box.extend(v = turn * v);
+  s.box = Box(Pt(box.min().x(), box.min().y()), Pt(box.max().x(), box.max().y()));
+  s.part_hull = base.part_hull;
+  for (Eigen::Vector2d& v : s.part_hull) s.part_box.extend(v = turn * v);
+  s.poles = base.poles;
+  for (std::size_t i = 0; i < s.poles.size(); ++i) {
+    const Eigen::Vector2d c = turn * Eigen::Vector2d(s.poles.x[i], s.poles.y[i]);
+    s.poles.x[i] = static_cast<float>(c.x()), s.poles.y[i] = static_cast<float>(c.y());
+  }
+  s.vertices = base.vertices;
+  s.area_mm2 = base.area_mm2;
+  s.hull_area_mm2 = base.hull_area_mm2;
+  s.diameter_mm = box.diagonal().norm();
+  return s;
+}
+
+std::vector<double> squaring_rotations(const NestPart& part, double tol) {
+  const std::vector<Eigen::Vector2d> hull = hull_of(outside_polygon(part.outer, tol));
+  double least = std::numeric_limits<double>::infinity(), best = 0.0;
+  for (std::size_t i = 0; i < hull.size(); ++i) {
+    const Eigen::Vector2d e = hull[(i + 1) % hull.size()] - hull[i];
+    if (e.norm() < 1e-9) continue;
+    const Eigen::Rotation2Dd turn(-std::atan2(e.y(), e.x()));
+    Eigen::AlignedBox2d box;
+    for (const Eigen::Vector2d& v : hull) box.extend(turn * v);
+    if (box.volume() < least * (1 - 1e-9)) least = box.volume(), best = -std::atan2(e.y(), e.x()) * 180.0 / std::numbers::pi;
+  }
+  std::vector<double> out;
+  for (int k = 0; k < 4; ++k) out.push_back(normalised(best + 90.0 * k));
   return out;
 }
 

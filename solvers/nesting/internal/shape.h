@@ -50,6 +50,7 @@ struct Shape {
   Poly poly;
   Box box;                       // the polygon's
   Eigen::AlignedBox2d part_box;  // the true part's (what must lie in the sheet's usable area)
+  std::vector<Eigen::Vector2d> part_hull;  // the convex hull of the true part's outside polygon (turned_shape's part_box)
   Poles poles;
   std::vector<std::vector<Eigen::Vector2d>> rings;  // the polygon's: the outer first, then the holes (not closed)
   std::int64_t vertices = 0;     // of all its rings
@@ -60,6 +61,15 @@ struct Shape {
 
 // The part turned by `deg` (mirrored first when asked), grown by spacing / 2.
 Shape make_shape(const NestPart& part, double deg, bool mirrored, double spacing_mm, double tolerance_mm);
+
+// `base` turned about the part's reference point to `deg` (mirrored as it is), for a part that
+// turns freely: its rings, poles and boxes turned (the true part's box from its hull, so it
+// holds the part); its Boost polygon is left empty (the strip search does not read it).
+Shape turned_shape(const Shape& base, double deg);
+
+// The angles in [0, 360) that square the part's smallest box (a hull edge along x), four of
+// them 90 degrees apart: what a part drawn askew is best tried at.
+std::vector<double> squaring_rotations(const NestPart& part, double tolerance_mm);
 
 // Every way a part may be turned: `rotations` (each mirrored too when `mirror`).
 std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& rotations, bool mirror, double spacing_mm,
