@@ -6,6 +6,7 @@
 #include <memory>
 #include <numeric>
 #include <random>
+#include <utility>
 
 #include <boost/geometry/index/rtree.hpp>
 #include <fmt/format.h>
@@ -33,8 +34,13 @@ struct Steps {
 constexpr Steps kFirstSteps{0.25, 0.02, 5.0, 1.0};    // the best few samples'
 constexpr Steps kFinalSteps{0.01, 0.001, 0.5, 0.05};  // the best one's final refinement
 constexpr double kFreeTurnShare = 0.5;  // of the samples of a part that turns freely: at a random angle
-constexpr int kStale = 200;             // separation rounds without 2 % less overlap before a strike
-constexpr int kStrikes = 3;             // strikes in a row before separation gives up
+// How long separation tries: rounds without 2 % less overlap before a strike, and strikes in a
+// row before it gives up; exploring, then compressing (shorter tries, more of them), as sparrow.
+struct Patience {
+  int stale, strikes;
+};
+constexpr Patience kExplorePatience{200, 3};
+constexpr Patience kCompressPatience{100, 5};
 constexpr double kExploreShrink = 0.001;                  // exploring: the cut of the length after each success
 constexpr double kCompressShrink[2] = {0.0005, 0.00001};  // compressing: the cut, falling with the time spent
 constexpr double kExploreShare = 0.8;   // of the work: exploring, then compressing the best
@@ -95,26 +101,35 @@ struct BestFew {
   }
 };
 
-// One worker's strip: the last sheet's parts in a usable area whose end moves.
+// The search's strip (or a mover's copy of it): the last sheet's parts in a usable area whose end moves.
 class Strip {
  public:
   Strip(const ShapeSet& shapes, std::vector<bool> free, std::vector<Item> items, const Eigen::AlignedBox2d& usable, double end_x,
         std::uint64_t seed, Termination& t)
       : shapes_(shapes), free_(std::move(free)), usable_(usable), end_(end_x), rng_(seed), t_(t),
-        weights_(items.size() * items.size(), 1.0f) {
+        weights_(std::make_shared<std::vector<float>>(items.size() * items.size(), 1.0f)) {
     load(std::move(items));
   }
 
   // Shrinks the strip until the work ends; the shortest feasible nest found, its end in `best_end`.
-  // Each one found is offered to `progress` (when not null), and the first worker reports the
-  // share of its work spent.
-  std::vector<Item> search(double& best_end, StripSearchStats& stats, NestProgress* progress, bool reports_share);
+  // Each one found is offered to `progress` (when not null), with the share of the work spent.
+  std::vector<Item> search(double& best_end, StripSearchStats& stats, NestProgress* progress);
+
+  // `n` movers (none below 2: the search then moves the parts itself), seeded from this strip's seed.
+  void add_movers(int n) {
+    for (int w = 0; w < n && n > 1; ++w) {
+      auto m = std::make_unique<Strip>(shapes_, free_, items_, usable_, end_, rng_(), t_);
+      m->weights_ = weights_;
+      m->mover_ = true;
+      movers_.push_back(std::move(m));
+    }
+  }
 
  private:
   const Shape& shape_of(std::size_t part, int s) const { return shapes_[part][static_cast<std::size_t>(s)]; }
   const Shape& shape_of(std::size_t part, const Turn& t) const { return nesting::shape_of(shapes_, part, t); }
   const Shape& shape(std::size_t i) const { return shape_of(items_[i].part, items_[i].turn); }
-  float& weight(std::size_t i, std::size_t j) { return weights_[i * items_.size() + j]; }
+  float& weight(std::size_t i, std::size_t j) { return (*weights_)[i * items_.size() + j]; }
   double right(std::size_t i) const { return items_[i].at.x() + shape(i).part_box.max().x(); }
   double end_of_parts() const;
 
@@ -134,10 +149,16 @@ class Strip {
   void move(std::size_t i);
   std::vector<Collision> collisions();
   void reweigh(const std::vector<Collision>& c);
-  double separate();
+  double separate(const Patience& patience);
   bool resize(double end_x, double split_x);
   void disrupt();
   void charge();
+  std::vector<const Strip*> all() const {  // this strip and its movers
+    std::vector<const Strip*> out{this};
+    for (const auto& m : movers_) out.push_back(m.get());
+    return out;
+  }
+  std::vector<Collision> move_all(const std::vector<Collision>& c);
 
   const ShapeSet& shapes_;
   std::vector<bool> free_;  // per part: whether it turns freely
@@ -145,7 +166,14 @@ class Strip {
   double end_;
   std::mt19937_64 rng_;
   Termination& t_;
-  std::vector<float> weights_;
+  std::shared_ptr<std::vector<float>> weights_;  // per pair of parts; the movers share the search's
+  // Movers: copies of the strip that each move the colliding parts from where the search has
+  // them, in an order of their own, on threads of their own; the search goes on from the one
+  // that leaves the least weighted overlap (as sparrow's separator does). None: the search moves
+  // them itself.
+  std::vector<std::unique_ptr<Strip>> movers_;
+  bool mover_ = false;     // whether this is a mover: its work is kept in `pending_s_`, charged by the search
+  double pending_s_ = 0.0;
   std::vector<Item> items_;
   std::vector<Box> boxes_;
   Tree tree_;
@@ -314,8 +342,10 @@ void Strip::move(std::size_t i) {
 void Strip::charge() {
   const std::int64_t steps = meets_steps() - steps_at_;
   steps_at_ = meets_steps();
-  t_.charge(0, static_cast<double>(tests_) * kSearchTestCostS + static_cast<double>(steps) * kMeetsStepCostS +
-                  static_cast<double>(pole_pairs_) * kPoleCostS + static_cast<double>(deep_pairs_) * kDeepPairCostS);
+  const double work = static_cast<double>(tests_) * kSearchTestCostS + static_cast<double>(steps) * kMeetsStepCostS +
+                      static_cast<double>(pole_pairs_) * kPoleCostS + static_cast<double>(deep_pairs_) * kDeepPairCostS;
+  if (mover_) pending_s_ += work;
+  else t_.charge(0, work);
   all_tests_ += tests_, all_pole_pairs_ += pole_pairs_, all_deep_pairs_ += deep_pairs_, all_steps_ += steps;
   tests_ = pole_pairs_ = deep_pairs_ = 0;
 }
@@ -332,7 +362,7 @@ std::vector<Collision> Strip::collisions() {
 }
 
 void Strip::reweigh(const std::vector<Collision>& c) {
-  for (float& w : weights_) w = std::max(1.0f, w * static_cast<float>(kWeightDecay));
+  for (float& w : *weights_) w = std::max(1.0f, w * static_cast<float>(kWeightDecay));
   double most = 0.0;
   for (const Collision& k : c) most = std::max(most, k.value);
   for (const Collision& k : c) {
@@ -343,9 +373,43 @@ void Strip::reweigh(const std::vector<Collision>& c) {
   }
 }
 
+// Moves each part of the collisions `c` that still collides when its turn comes, in a random
+// order, by itself or by its movers (the best of theirs kept); the collisions after.
+std::vector<Collision> Strip::move_all(const std::vector<Collision>& c) {
+  std::vector<std::size_t> who;
+  for (const Collision& k : c) who.push_back(k.i), who.push_back(k.j);
+  std::sort(who.begin(), who.end());
+  who.erase(std::unique(who.begin(), who.end()), who.end());
+  const auto move_in = [&who](Strip& s) {
+    std::vector<std::size_t> order = who;
+    std::shuffle(order.begin(), order.end(), s.rng_);
+    for (std::size_t i : order)
+      if (s.evaluate(i, s.shape(i), s.items_[i].at, 0.0) > 0) s.move(i);
+    return s.collisions();
+  };
+  if (movers_.empty()) return move_in(*this);
+  std::vector<std::vector<Collision>> after(movers_.size());
+  std::vector<double> loss(movers_.size(), 0.0);
+  tbb::parallel_for(std::size_t{0}, movers_.size(), [&](std::size_t w) {
+    Strip& m = *movers_[w];
+    m.items_ = items_, m.boxes_ = boxes_, m.tree_ = tree_, m.end_ = end_;
+    m.steps_at_ = meets_steps();  // this thread's
+    after[w] = move_in(m);
+    for (const Collision& k : after[w]) loss[w] += m.weight(k.i, k.j) * k.value;
+  });
+  // This thread may have run a mover: its steps are that mover's, charged by it.
+  steps_at_ = meets_steps();
+  const std::size_t w = static_cast<std::size_t>(std::min_element(loss.begin(), loss.end()) - loss.begin());
+  std::swap(items_, movers_[w]->items_), std::swap(boxes_, movers_[w]->boxes_), std::swap(tree_, movers_[w]->tree_);
+  double most = 0.0;  // the movers ran side by side: the work is the longest one's
+  for (auto& m : movers_) most = std::max(most, std::exchange(m->pending_s_, 0.0));
+  t_.charge(0, most);
+  return after[w];
+}
+
 // Moves colliding parts until none collides, or separation stalls, or the work ends; leaves the
 // parts at the least overlap found and returns it (0: separated).
-double Strip::separate() {
+double Strip::separate(const Patience& patience) {
   std::vector<Collision> c = collisions();
   const auto total_of = [](const std::vector<Collision>& cs) {
     double total = 0.0;
@@ -354,17 +418,10 @@ double Strip::separate() {
   };
   std::vector<Item> best = items_;
   double least = total_of(c);
-  for (int strike = 0; strike < kStrikes && least > 0 && !t_.should_end();) {
+  for (int strike = 0; strike < patience.strikes && least > 0 && !t_.should_end();) {
     const double at_strike = least;
-    for (int stale = 0; stale < kStale && !t_.should_end();) {
-      std::vector<std::size_t> who;
-      for (const Collision& k : c) who.push_back(k.i), who.push_back(k.j);
-      std::sort(who.begin(), who.end());
-      who.erase(std::unique(who.begin(), who.end()), who.end());
-      std::shuffle(who.begin(), who.end(), rng_);
-      for (std::size_t i : who)
-        if (evaluate(i, shape(i), items_[i].at, 0.0) > 0) move(i);
-      c = collisions();
+    for (int stale = 0; stale < patience.stale && !t_.should_end();) {
+      c = move_all(c);
       const double total = total_of(c);
       if (total == 0) return 0.0;
       if (total < least) {
@@ -402,7 +459,7 @@ bool Strip::resize(double end_x, double split_x) {
     const Eigen::AlignedBox2d r = range(shape_of(items_[i].part, turn));
     put(i, turn, at.cwiseMax(r.min()).cwiseMin(r.max()));
   }
-  std::fill(weights_.begin(), weights_.end(), 1.0f);
+  std::fill(weights_->begin(), weights_->end(), 1.0f);
   return true;
 }
 
@@ -443,14 +500,14 @@ void Strip::disrupt() {
 // nests that failed at this length (the less overlap, the likelier), disrupted. Then compressing
 // the best: shrink by a ratio that falls with the work spent, from the split at a random x;
 // after a failure go back to the best.
-std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats, NestProgress* progress, bool reports_share) {
+std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats, NestProgress* progress) {
   std::vector<Item> best = items_;
   const double start = usable_.min().x(), work = t_.deadline_s();
   const auto length = [&] { return best_end - start; };
   const auto report = [&] {
     if (!progress) return;
     progress->offer_length(best_end);
-    if (reports_share) progress->share.report(t_.work_s_spent() / work);
+    progress->share.report(t_.work_s_spent() / work);
   };
   std::vector<std::pair<double, std::vector<Item>>> failed;
   std::normal_distribution<double> pick(0.0, 0.25);
@@ -460,7 +517,7 @@ std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats, NestP
     report();
     if (!resized) break;
     ++stats.shrinks_tried;
-    const double loss = separate();
+    const double loss = separate(kExplorePatience);
     if (loss == 0) {
       best = items_, best_end = end_of_parts(), ++stats.shrinks_kept;
       failed.clear();
@@ -483,14 +540,16 @@ std::vector<Item> Strip::search(double& best_end, StripSearchStats& stats, NestP
     load(best);
     if (!resize(start + length() * (1 - ratio), start + unit(rng_) * length())) break;
     ++stats.shrinks_tried;
-    if (separate() == 0) best = items_, best_end = end_of_parts(), ++stats.shrinks_kept;
+    if (separate(kCompressPatience) == 0) best = items_, best_end = end_of_parts(), ++stats.shrinks_kept;
   }
   report();
-  stats.moves += moves_;
-  stats.tests += all_tests_;
-  stats.meets_steps += all_steps_;
-  stats.pole_pairs += all_pole_pairs_;
-  stats.deep_pairs += all_deep_pairs_;
+  for (const Strip* s : all()) {
+    stats.moves += s->moves_;
+    stats.tests += s->all_tests_;
+    stats.meets_steps += s->all_steps_;
+    stats.pole_pairs += s->all_pole_pairs_;
+    stats.deep_pairs += s->all_deep_pairs_;
+  }
   return best;
 }
 
@@ -532,42 +591,24 @@ StripSearchStats shorten_last_sheet(const NestRequest& r, const ShapeSet& shapes
     return stats;
   }
   stats.start_length_mm = nest.used_length_mm[static_cast<std::size_t>(last)];
+  // A deadline of its own (the fills' work is not the search's), and the caller's stop request.
   const double work = t.deadline_s() - t.work_s_spent();
-  workers = std::max(1, workers);
-  std::vector<std::vector<Item>> found(static_cast<std::size_t>(workers));
-  std::vector<double> ends(found.size(), stats.start_length_mm);
-  std::vector<StripSearchStats> each(found.size());
-  std::vector<double> spent(found.size(), 0.0);
-  tbb::parallel_for(0, workers, [&](int w) {
-    // Each worker its own deadline (so its answer does not depend on the others' pace), and the
-    // caller's stop request.
-    Termination own(t.stop_token());
-    if (std::isfinite(work)) own.set_deadline(std::max(work, 1e-9), "nominal search time");
-    Strip strip(shapes, free, items, usable, ends[static_cast<std::size_t>(w)], seed * 7919 + static_cast<std::uint64_t>(w), own);
-    found[static_cast<std::size_t>(w)] =
-        strip.search(ends[static_cast<std::size_t>(w)], each[static_cast<std::size_t>(w)], progress, w == 0);
-    spent[static_cast<std::size_t>(w)] = own.work_s_spent();
-  });
-  const std::size_t w = static_cast<std::size_t>(std::min_element(ends.begin(), ends.end()) - ends.begin());
-  for (const StripSearchStats& e : each) {
-    stats.shrinks_tried += e.shrinks_tried;
-    stats.shrinks_kept += e.shrinks_kept;
-    stats.moves += e.moves;
-    stats.tests += e.tests;
-    stats.meets_steps += e.meets_steps;
-    stats.pole_pairs += e.pole_pairs;
-    stats.deep_pairs += e.deep_pairs;
-  }
-  t.charge(0, *std::max_element(spent.begin(), spent.end()));
+  Termination own(t.stop_token());
+  if (std::isfinite(work)) own.set_deadline(std::max(work, 1e-9), "nominal search time");
+  double end = stats.start_length_mm;
+  Strip strip(shapes, free, items, usable, end, seed * 7919, own);
+  strip.add_movers(std::max(1, workers));
+  const std::vector<Item> found = strip.search(end, stats, progress);
+  t.charge(0, own.work_s_spent());
   t.should_end();  // records what ended the work, for the report
-  for (const Item& it : found[w]) {
+  for (const Item& it : found) {
     Placement& p = nest.placements[it.placement];
     const Shape& s = shape_of(shapes, it.part, it.turn);
     p.rotation_deg = s.rotation_deg;
     p.mirrored = s.mirrored;
     p.translate_mm = it.at;
   }
-  nest.used_length_mm[static_cast<std::size_t>(last)] = ends[w];
+  nest.used_length_mm[static_cast<std::size_t>(last)] = end;
   return stats;
 }
 

@@ -17,9 +17,15 @@
 // colliding parts overlap is estimated, from how deep their poles go into each other: a measure
 // that is smooth, cheap, and zero only when they part.
 //
-// Work: each exact collision test and pair of poles counts as set below (of nominal
-// work), so a seed and a deadline give the same nest on any machine. Several workers (threads)
-// search from different seeds, each with the whole deadline of its own; the shortest nest wins.
+// Movers: each round of separation, several movers (threads) each move the colliding parts from
+// the same nest, in an order of their own, and the search goes on from the one that leaves the
+// least weighted overlap, as sparrow's separator does. Against two searches side by side from
+// different seeds it gave 0.8 points more density on average over the 13 ESICUP instances at 60 s
+// (with compressing's shorter separations, as sparrow's), up to 2.9 on one, and at most 0.3 less on any.
+//
+// Work: each exact collision test, its steps and each pair of poles counts as set below (of
+// nominal work), each round the longest mover's, so a seed and a deadline give the same nest on
+// any machine.
 #pragma once
 
 #include <atomic>
@@ -42,7 +48,7 @@ constexpr double kDeepPairCostS = 0.4e-9;
 constexpr double kPoleCostS = 0.9e-9;
 
 struct StripSearchStats {
-  int shrinks_tried = 0, shrinks_kept = 0;  // of all workers
+  int shrinks_tried = 0, shrinks_kept = 0;
   std::int64_t moves = 0;
   std::int64_t tests = 0;       // exact collision tests
   std::int64_t meets_steps = 0;  // their steps: edges scanned, pairs of edges tested, vertices
@@ -53,8 +59,8 @@ struct StripSearchStats {
 };
 
 // What nest() says while it runs, read from any thread: how much of the deadline's work is
-// spent (the first worker's), how many sheets the fill used and the shortest used length of
-// the last one found so far (any worker's).
+// spent, how many sheets the fill used and the shortest used length of
+// the last one found so far.
 struct NestProgress {
   Progress share;
   std::atomic<int> sheets{0};
@@ -69,8 +75,8 @@ constexpr std::size_t kMostParts = 2000;
 
 // The nest machplan gives: the bottom-left fill with restarts for a tenth of `t`'s deadline
 // (a fiftieth when one fill puts every part on one sheet: restarts then only shorten it, which
-// the search does better), then the strip search for the rest, on `workers` threads, each with
-// that much work of its own.
+// the search does better), then the strip search for the rest, with `workers` movers on as many
+// threads (one: the search moves the parts itself).
 // Without a deadline (a budget, or nothing): one fill.
 NestResult nest(const NestRequest& request, Termination& t, std::uint64_t seed, int workers = 2,
                 StripSearchStats* stats = nullptr, NestProgress* progress = nullptr);
