@@ -62,10 +62,14 @@ Poles poles_of(const Shape& s) {
   return p;
 }
 
-Eigen::Vector2d turned(const Eigen::Vector2d& p, double deg) {
-  Placement t;
-  t.rotation_deg = deg;
-  return t.apply(p);
+// The poles turned counter-clockwise by `deg` about the reference point.
+Poles turned_poles(Poles poles, double deg) {
+  const Eigen::Rotation2Dd turn(deg * std::numbers::pi / 180.0);
+  for (std::size_t i = 0; i < poles.size(); ++i) {
+    const Eigen::Vector2d c = turn * Eigen::Vector2d(poles.x[i], poles.y[i]);
+    poles.x[i] = static_cast<float>(c.x()), poles.y[i] = static_cast<float>(c.y());
+  }
+  return poles;
 }
 
 using Edge = std::pair<Eigen::Vector2d, Eigen::Vector2d>;
@@ -239,11 +243,7 @@ std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& 
     for (std::size_t k = 0; k < rotations.size(); ++k) {
       Shape s = make_shape(part, rotations[k], mirrored, spacing, tol);
       if (k == 0) poles = poles_of(s);
-      s.poles = poles;
-      for (std::size_t i = 0; i < poles.size(); ++i) {
-        const Eigen::Vector2d c = turned(Eigen::Vector2d(poles.x[i], poles.y[i]), rotations[k] - rotations[0]);
-        s.poles.x[i] = static_cast<float>(c.x()), s.poles.y[i] = static_cast<float>(c.y());
-      }
+      s.poles = turned_poles(poles, rotations[k] - rotations[0]);
       out.push_back(std::move(s));
     }
   }
@@ -251,8 +251,7 @@ std::vector<Shape> make_shapes(const NestPart& part, const std::vector<double>& 
 }
 
 Shape turned_shape(const Shape& base, double deg) {
-  const double a = (deg - base.rotation_deg) * std::numbers::pi / 180.0;
-  const Eigen::Rotation2Dd turn(a);
+  const Eigen::Rotation2Dd turn((deg - base.rotation_deg) * std::numbers::pi / 180.0);
   Shape s;
   s.rotation_deg = normalised(deg);
   s.mirrored = base.mirrored;
@@ -263,11 +262,7 @@ Shape turned_shape(const Shape& base, double deg) {
   s.box = Box(Pt(box.min().x(), box.min().y()), Pt(box.max().x(), box.max().y()));
   s.part_hull = base.part_hull;
   for (Eigen::Vector2d& v : s.part_hull) s.part_box.extend(v = turn * v);
-  s.poles = base.poles;
-  for (std::size_t i = 0; i < s.poles.size(); ++i) {
-    const Eigen::Vector2d c = turn * Eigen::Vector2d(s.poles.x[i], s.poles.y[i]);
-    s.poles.x[i] = static_cast<float>(c.x()), s.poles.y[i] = static_cast<float>(c.y());
-  }
+  s.poles = turned_poles(base.poles, deg - base.rotation_deg);
   s.vertices = base.vertices;
   s.area_mm2 = base.area_mm2;
   s.hull_area_mm2 = base.hull_area_mm2;
