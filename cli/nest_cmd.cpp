@@ -6,6 +6,7 @@
 // every placed copy's transform: a point (x, y) of the drawing lands on the sheet at
 // translate + R(rotation) * (x, y). Exit 3 when a copy fits on no sheet (each is named with
 // the reason; the rest is still nested) or the certificate fails.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -284,22 +285,54 @@ void read_program_section(const Yaml& section, NestArgs& a, CLI::App* cmd) {
   }
 }
 
+// The spacing: --spacing, else the job file's spacing_mm, else the kerf (--kerf, or the job's
+// program: kerf) plus the clearance, so that neighbouring parts' torch paths keep the clearance
+// the leads keep; with no kerf given, 6 mm.
+double spacing_of(const NestArgs& a, const CLI::App* cmd, const std::optional<double>& from_job) {
+  if (cmd->count("--spacing") > 0) {
+    if (!(a.spacing >= 0 && a.spacing <= 1000)) throw InputError("--spacing", 0, fmt::format("{} must be in [0, 1000] mm", a.spacing));
+    return a.spacing;
+  }
+  if (from_job) return *from_job;
+  const nesting::SheetProgramOptions& o = a.program.sheet;
+  return o.kerf_mm > 0 ? o.kerf_mm + o.clearance_mm : a.spacing;
+}
+
+// A spacing longer than every sheet's longer side holds no two parts on one sheet: a mistake (mm
+// for cm, a kerf in the wrong field), refused rather than nested one part a sheet. Empty if fine.
+std::string spacing_problem(const nesting::NestRequest& r) {
+  double longest = 0.0;
+  for (const nesting::Sheet& s : r.sheets) longest = std::max({longest, s.width_mm, s.height_mm});
+  if (r.spacing_mm <= longest) return {};
+  return fmt::format("a spacing of {:g} mm is longer than every sheet (the longest side is {:g} mm)", r.spacing_mm, longest);
+}
+
 // The request from a job file, or from the drawings and the flags.
 nesting::NestRequest request_of(NestArgs& a, CLI::App* cmd) {
   const bool job = a.parts.size() == 1 && (a.parts[0].ends_with(".yaml") || a.parts[0].ends_with(".yml"));
   if (job) {
     if (!a.sheet.empty()) throw InputError("--sheet", 0, "the job file lists the sheets");
+    constexpr std::pair<const char*, const char*> kJobGives[] = {
+        {"--margin", "each sheet's margin_mm"}, {"--rotations", "each part's rotations"}, {"--split", "each part's split"}};
+    for (const auto& [flag, key] : kJobGives)
+      if (cmd->count(flag) > 0) throw InputError(flag, 0, fmt::format("the job file gives {}", key));
     const Yaml root = Yaml::load_file(a.parts[0]);
     nesting::NestRequest r = nesting::read_nest_job(root, std::filesystem::path(a.parts[0]).parent_path().string());
     if (root.has("program")) read_program_section(root.at("program"), a, cmd);
+    const bool from_job = root.has("spacing_mm") && cmd->count("--spacing") == 0;
+    r.spacing_mm = spacing_of(a, cmd, root.has("spacing_mm") ? std::optional(r.spacing_mm) : std::nullopt);
+    if (const std::string problem = spacing_problem(r); !problem.empty()) {
+      if (from_job) root.at("spacing_mm").fail(problem);
+      throw InputError("--spacing", 0, problem);
+    }
     return r;
   }
   if (a.sheet.empty()) throw InputError("--sheet", 0, "give the sheets (WIDTHxHEIGHT[:COUNT]), or a job file");
   if (!(a.margin >= 0 && a.margin <= 1000)) throw InputError("--margin", 0, fmt::format("{} must be in [0, 1000] mm", a.margin));
-  if (!(a.spacing >= 0 && a.spacing <= 1000)) throw InputError("--spacing", 0, fmt::format("{} must be in [0, 1000] mm", a.spacing));
   nesting::NestRequest r;
   r.sheets = sheet_spec(a.sheet, a.margin);
-  r.spacing_mm = a.spacing;
+  r.spacing_mm = spacing_of(a, cmd, std::nullopt);
+  if (const std::string problem = spacing_problem(r); !problem.empty()) throw InputError("--spacing", 0, problem);
   r.rotations_deg = nesting::rotations_from_text(a.rotations, "--rotations");
   r.any_rotation = a.rotations == "any";
   for (const std::string& s : a.parts) {
@@ -317,7 +350,8 @@ void add_nest(CLI::App& app) {
   auto* cmd = app.add_subcommand("nest", "Nest parts from DXF drawings on sheets (bottom-left fill, then the strip search; certified)");
   cmd->add_option("parts", a->parts, "a job file JOB.yaml, or DXF drawings, each FILE or FILE:QUANTITY")->required();
   cmd->add_option("--sheet", a->sheet, "the sheets: WIDTHxHEIGHT[:COUNT] in mm, x along the width (no job file)");
-  cmd->add_option("--spacing", a->spacing, "least distance between parts, mm (the kerf plus a clearance)")->capture_default_str();
+  cmd->add_option("--spacing", a->spacing, "least distance between parts, mm (default: the job file's spacing_mm, else --kerf plus --clearance, else 6)")
+      ->capture_default_str();
   cmd->add_option("--margin", a->margin, "kept clear along every sheet edge, mm")->capture_default_str();
   cmd->add_option("--rotations", a->rotations, "any (any angle), none, or degrees separated by commas")->capture_default_str();
   cmd->add_option("--time", a->time, "search time, s of nominal work (about the wall clock on 2 cores): the same nest on any machine; 0: one fill")

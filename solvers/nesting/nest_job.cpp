@@ -25,6 +25,8 @@ std::vector<double> rotations_from_text(const std::string& s, const std::string&
     out.push_back(d);
     at = comma + 1;
   }
+  if (out.size() > kMaxRotations)
+    throw InputError(field, 0, fmt::format("lists {} rotations; at most {} (any: any angle)", out.size(), kMaxRotations));
   return out;
 }
 
@@ -39,6 +41,7 @@ std::vector<double> rotations_of(const Yaml& y) {
   std::vector<double> out;
   for (const Yaml& d : y.items()) out.push_back(d.number(NumberRule{.min = -360, .max = 360}));
   if (out.empty()) y.fail("lists no rotation (none: as drawn)");
+  if (out.size() > kMaxRotations) y.fail(fmt::format("lists {} rotations; at most {} (any: any angle)", out.size(), kMaxRotations));
   return out;
 }
 

@@ -9,7 +9,8 @@
 //     - {file: gusset.dxf, quantity: 6, rotations: [0, 90, 180, 270], split: false}
 //
 // Sheets are filled in the order given (count: that many alike, default 1; margin_mm default
-// 10). spacing_mm defaults to 6. A part's file is a DXF drawing, its path relative to the job
+// 10). spacing_mm defaults to 6 here (`machplan nest` makes it the kerf plus the clearance when
+// the job's program gives a kerf). A part's file is a DXF drawing, its path relative to the job
 // file; quantity defaults to 1; rotations `any` (any angle, the default: the fill tries every 45
 // degrees and the four that square the part's box, the strip search any angle), `none`, or a
 // list of degrees; mirror: mirrored copies are tried too; priority: lower numbers are nested
@@ -22,6 +23,7 @@
 // Unknown keys and bad values are refused naming the file, line and key.
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "engine/config/yaml.h"
@@ -39,8 +41,13 @@ NestRequest read_nest_job(const Yaml& root, const std::string& folder);
 // area inside `margin_mm`.
 Sheet remnant_sheet(const std::string& path, double margin_mm);
 
+// The longest list of rotations a part may give: each is a shape the fill tries for every copy
+// ("any" turns a part by any angle for less).
+inline constexpr std::size_t kMaxRotations = 360;
+
 // "any", "none" or a list: the rotations to try, degrees in [-360, 360] ("any": every 45 degrees,
-// the fill's; the request's any_rotation says the rest). InputError naming `field` otherwise.
+// the fill's; the request's any_rotation says the rest), at most kMaxRotations of them.
+// InputError naming `field` otherwise.
 std::vector<double> rotations_from_text(const std::string& text, const std::string& field);
 
 }  // namespace machplan::nesting

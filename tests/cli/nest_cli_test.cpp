@@ -274,6 +274,37 @@ TEST(NestCli, ACopyThatFitsNowhereIsNamedTheRestIsNestedAndTheExitIs3) {
   EXPECT_THAT(j["unplaced"][0]["reason"].get<std::string>(), HasSubstr("600.0 x 600.0 mm: larger than the sheet's usable area"));
 }
 
+// The spacing: --spacing, else the job file's, else the kerf plus the clearance (the torch paths
+// of neighbouring parts then keep the clearance), else 6 mm. What only a job file gives is
+// refused beside one, not silently dropped.
+TEST(NestCli, TheSpacingIsTheFlagsElseTheJobsElseTheKerfPlusTheClearance) {
+  test::TempDir dir;
+  const std::string disc = dir.write("disc.dxf", dxf(circle(0, 0, 40)));
+  const auto spacing = [](const std::string& args) {
+    const test::CliResult r = test::Cli().run("nest " + args + " --time 0 --json");
+    EXPECT_EQ(r.code, 0) << args << ": " << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
+    EXPECT_EQ(j.is_discarded() ? false : j["certified"].get<bool>(), true) << args;
+    return j.is_discarded() ? -1.0 : j["spacing_mm"].get<double>();
+  };
+  const std::string parts = "'" + disc + "':3 --sheet 400x200";
+  EXPECT_EQ(spacing(parts), 6.0);
+  EXPECT_EQ(spacing(parts + " --kerf 1.5"), 3.5);
+  EXPECT_EQ(spacing(parts + " --kerf 1.5 --clearance 3"), 4.5);
+  EXPECT_EQ(spacing(parts + " --kerf 1.5 --spacing 10"), 10.0);
+  const std::string sheets = "sheets: [{width_mm: 400, height_mm: 200}]\nparts: [{file: disc.dxf, quantity: 3}]\n";
+  const std::string kerf_only = dir.write("kerf.yaml", sheets + "program: {kerf: 2}\n");
+  const std::string both = dir.write("both.yaml", sheets + "spacing_mm: 8\nprogram: {kerf: 2}\n");
+  EXPECT_EQ(spacing("'" + kerf_only + "'"), 4.0);
+  EXPECT_EQ(spacing("'" + both + "'"), 8.0);
+  EXPECT_EQ(spacing("'" + both + "' --spacing 5"), 5.0);
+  for (const std::string flag : {"--margin 5", "--rotations none", "--split"}) {
+    const test::CliResult r = test::Cli().run("nest '" + both + "' " + flag + " --time 0");
+    EXPECT_EQ(r.code, 2) << flag;
+    EXPECT_THAT(r.err, HasSubstr(flag.substr(0, flag.find(' ')) + ": the job file gives each ")) << r.err;
+  }
+}
+
 TEST(NestCli, BadFlagsAndDrawingsAreRefusedNamingThem) {
   test::TempDir dir;
   const std::string bracket = dir.write("bracket.dxf", kBracket);
@@ -287,7 +318,15 @@ TEST(NestCli, BadFlagsAndDrawingsAreRefusedNamingThem) {
   refused("'" + bracket + "' --sheet 800x400:0", "--sheet");
   refused("'" + bracket + "':0 --sheet 800x400", "the quantity after the colon must be 1 .. 100000");
   refused("'" + bracket + "' --sheet 800x400 --rotations 0,x", "--rotations");
+  std::string many = "0";  // 361 rotations: one more than a part may list
+  for (int k = 0; k < 360; ++k) many.append(",").append(std::to_string(k)).append(".5");
+  refused("'" + bracket + "' --sheet 800x400 --rotations " + many, "--rotations: lists 361 rotations; at most 360");
+  const std::string many_job = dir.write("many.yaml", "sheets: [{width_mm: 800, height_mm: 400}]\nparts:\n  - {file: bracket.dxf, rotations: [" + many + "]}\n");
+  refused("'" + many_job + "'", "many.yaml:3");
   refused("'" + bracket + "' --sheet 800x400 --spacing -1", "--spacing");
+  refused("'" + bracket + "' --sheet 800x400 --spacing 900", "--spacing: a spacing of 900 mm is longer than every sheet");
+  const std::string wide = dir.write("wide.yaml", "sheets: [{width_mm: 800, height_mm: 400}]\nspacing_mm: 850\nparts: [{file: bracket.dxf}]\n");
+  refused("'" + wide + "'", "wide.yaml:2");
   refused("'" + bracket + "' --sheet 100x100 --margin 60", "leaves no usable area");
   refused("'" + two + "' --sheet 800x400", "holds 2 outer contours");
   const test::CliResult split = test::Cli().run("nest '" + two + "' --split --sheet 800x400 --time 0 --json");
