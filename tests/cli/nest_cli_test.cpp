@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/support/cli_run.h"
+#include "tests/support/rs274.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
@@ -272,6 +273,23 @@ TEST(NestCli, ACopyThatFitsNowhereIsNamedTheRestIsNestedAndTheExitIs3) {
   ASSERT_EQ(j["unplaced"].size(), 1u);
   EXPECT_THAT(j["unplaced"][0]["file"].get<std::string>(), HasSubstr("wide.dxf"));
   EXPECT_THAT(j["unplaced"][0]["reason"].get<std::string>(), HasSubstr("600.0 x 600.0 mm: larger than the sheet's usable area"));
+}
+
+// LinuxCNC's rs274 reads a sheet's program (arc leads, overcut, the kerf compensated, a disc in
+// the bracket's corner) to the feed moves machplan reads from it. QtPlasmaC's words need its
+// M-code files, which rs274 alone lacks; those programs run on the gantry above.
+TEST(NestCli, Rs274ReadsASheetsProgramToTheSameMoves) {
+  test::TempDir dir;
+  const std::string bracket = dir.write("bracket.dxf", kBracket);
+  const std::string disc = dir.write("disc.dxf", dxf(circle(0, 0, 40) + circle(0, 0, 10)));
+  const std::string out = (dir.path() / "sheets").string();
+  const test::CliResult r = test::Cli().run("nest '" + bracket + "':3 '" + disc + "':4 --sheet 800x400 --time 0 --out '" + out +
+                                            "' --kerf 1.5 --overcut 2 --lead-out 2 --lead-out-shape arc --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string program = nlohmann::json::parse(r.out)["sheets"][0]["program"];
+  const test::FeedEnds ours = test::machplan_feeds(program);
+  EXPECT_GT(ours.size(), 40u);
+  test::expect_same_feeds(test::rs274_feeds(program), ours);
 }
 
 // The spacing: --spacing, else the job file's, else the kerf plus the clearance (the torch paths

@@ -1,8 +1,5 @@
 // `machplan order`: the reordered program is G-code LinuxCNC's rs274 reads, to the cuts
 // machplan reads from it; bad flags and programs that cannot be reordered are refused.
-#include <cstdlib>
-#include <regex>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -11,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/support/cli_run.h"
+#include "tests/support/rs274.h"
 #include "tests/support/temp_dir.h"
 
 namespace machplan {
@@ -27,18 +25,6 @@ const char* const kPlateProgram =
     "G0 X260 Y130\nM3 S1\nG4 P0.5\nG1 X270 Y130 F1500\nG3 X270 Y130 I-10 J0\nM5\n"
     "G0 X0 Y0\nM2\n";
 
-// End points (X, Y) of rs274's feed moves, in order.
-std::vector<std::pair<double, double>> rs274_feeds(const std::string& out) {
-  std::vector<std::pair<double, double>> pts;
-  static const std::regex call(R"((STRAIGHT_FEED|ARC_FEED)\(([^,]+),\s*([^,]+))");
-  std::stringstream ss(out);
-  for (std::string line; std::getline(ss, line);) {
-    std::smatch m;
-    if (std::regex_search(line, m, call)) pts.emplace_back(std::stod(m[2]), std::stod(m[3]));
-  }
-  return pts;
-}
-
 TEST(OrderCli, WritesAProgramRs274ReadsToTheSameCuts) {
   test::TempDir dir;
   const std::string in = dir.write("plate.ngc", kPlateProgram);
@@ -47,33 +33,11 @@ TEST(OrderCli, WritesAProgramRs274ReadsToTheSameCuts) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("3 cuts in optimise order"));
   // machplan's reading of the written program.
-  const test::CliResult ours = test::Cli().run("program '" + out + "' --json --dialect linuxcnc");
-  ASSERT_EQ(ours.code, 0) << ours.err;
-  const nlohmann::json j = nlohmann::json::parse(ours.out);
-  std::vector<std::pair<double, double>> feeds;
-  std::vector<std::string> kinds;
-  for (const auto& m : j["moves"]) {
-    kinds.push_back(m["kind"]);
-    if (m["kind"] == "line" || m["kind"] == "arc") feeds.emplace_back(m["end"][0], m["end"][1]);
-  }
-  // The holes before the plate: the first torch_on is followed by a hole's lead-in.
+  const test::FeedEnds feeds = test::machplan_feeds(out);
   ASSERT_GE(feeds.size(), 4u);
   EXPECT_TRUE(feeds[0].first > 140 && feeds[0].first < 290 && feeds[0].second > 110) << feeds[0].first;
   // LinuxCNC's reading: accepted, with the same feed moves.
-  const std::string lock = (std::filesystem::temp_directory_path() / "machplan_rs274.lock").string();
-  const int rc = std::system(("cd '" + dir.path().string() + "' && flock '" + lock + "' timeout 60 /usr/bin/rs274 -g '" +
-                              out + "' > rs274.out 2> rs274.err")
-                                 .c_str());
-  ASSERT_EQ(rc, 0) << "rs274 refused the written program";
-  std::ifstream f(dir.path() / "rs274.out");
-  std::stringstream text;
-  text << f.rdbuf();
-  const auto ref = rs274_feeds(text.str());
-  ASSERT_EQ(ref.size(), feeds.size());
-  for (std::size_t k = 0; k < ref.size(); ++k) {
-    EXPECT_NEAR(ref[k].first, feeds[k].first, 1e-4) << k;
-    EXPECT_NEAR(ref[k].second, feeds[k].second, 1e-4) << k;
-  }
+  test::expect_same_feeds(test::rs274_feeds(out), feeds);
 }
 
 TEST(OrderCli, ReportAsJsonAndBadInput) {
