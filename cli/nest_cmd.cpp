@@ -285,26 +285,27 @@ void read_program_section(const Yaml& section, NestArgs& a, CLI::App* cmd) {
   }
 }
 
-// The spacing: --spacing, else the job file's spacing_mm, else the kerf (--kerf, or the job's
-// program: kerf) plus the clearance, so that neighbouring parts' torch paths keep the clearance
-// the leads keep; with no kerf given, 6 mm.
-double spacing_of(const NestArgs& a, const CLI::App* cmd, const std::optional<double>& from_job) {
-  if (cmd->count("--spacing") > 0) {
+// The request's spacing: --spacing, else the job file's spacing_mm, else the kerf (--kerf, or the
+// job's program: kerf) plus the clearance, so that neighbouring parts' torch paths keep the
+// clearance the leads keep; with no kerf given, 6 mm. A spacing longer than every sheet's longer
+// side holds no two parts on one sheet: a mistake (mm for cm, a kerf in the wrong field), refused
+// (at its line when the job file gave it) rather than nested one part a sheet.
+void set_spacing(nesting::NestRequest& r, const NestArgs& a, const CLI::App* cmd, const Yaml* job) {
+  const bool flag = cmd->count("--spacing") > 0, from_job = !flag && job && job->has("spacing_mm");
+  if (flag) {
     if (!(a.spacing >= 0 && a.spacing <= 1000)) throw InputError("--spacing", 0, fmt::format("{} must be in [0, 1000] mm", a.spacing));
-    return a.spacing;
+    r.spacing_mm = a.spacing;
+  } else if (!from_job) {
+    const nesting::SheetProgramOptions& o = a.program.sheet;
+    r.spacing_mm = o.kerf_mm > 0 ? o.kerf_mm + o.clearance_mm : a.spacing;
   }
-  if (from_job) return *from_job;
-  const nesting::SheetProgramOptions& o = a.program.sheet;
-  return o.kerf_mm > 0 ? o.kerf_mm + o.clearance_mm : a.spacing;
-}
-
-// A spacing longer than every sheet's longer side holds no two parts on one sheet: a mistake (mm
-// for cm, a kerf in the wrong field), refused rather than nested one part a sheet. Empty if fine.
-std::string spacing_problem(const nesting::NestRequest& r) {
   double longest = 0.0;
   for (const nesting::Sheet& s : r.sheets) longest = std::max({longest, s.width_mm, s.height_mm});
-  if (r.spacing_mm <= longest) return {};
-  return fmt::format("a spacing of {:g} mm is longer than every sheet (the longest side is {:g} mm)", r.spacing_mm, longest);
+  if (r.spacing_mm <= longest) return;
+  const std::string problem =
+      fmt::format("a spacing of {:g} mm is longer than every sheet (the longest side is {:g} mm)", r.spacing_mm, longest);
+  if (from_job) job->at("spacing_mm").fail(problem);
+  throw InputError("--spacing", 0, problem);
 }
 
 // The request from a job file, or from the drawings and the flags.
@@ -319,20 +320,14 @@ nesting::NestRequest request_of(NestArgs& a, CLI::App* cmd) {
     const Yaml root = Yaml::load_file(a.parts[0]);
     nesting::NestRequest r = nesting::read_nest_job(root, std::filesystem::path(a.parts[0]).parent_path().string());
     if (root.has("program")) read_program_section(root.at("program"), a, cmd);
-    const bool from_job = root.has("spacing_mm") && cmd->count("--spacing") == 0;
-    r.spacing_mm = spacing_of(a, cmd, root.has("spacing_mm") ? std::optional(r.spacing_mm) : std::nullopt);
-    if (const std::string problem = spacing_problem(r); !problem.empty()) {
-      if (from_job) root.at("spacing_mm").fail(problem);
-      throw InputError("--spacing", 0, problem);
-    }
+    set_spacing(r, a, cmd, &root);
     return r;
   }
   if (a.sheet.empty()) throw InputError("--sheet", 0, "give the sheets (WIDTHxHEIGHT[:COUNT]), or a job file");
   if (!(a.margin >= 0 && a.margin <= 1000)) throw InputError("--margin", 0, fmt::format("{} must be in [0, 1000] mm", a.margin));
   nesting::NestRequest r;
   r.sheets = sheet_spec(a.sheet, a.margin);
-  r.spacing_mm = spacing_of(a, cmd, std::nullopt);
-  if (const std::string problem = spacing_problem(r); !problem.empty()) throw InputError("--spacing", 0, problem);
+  set_spacing(r, a, cmd, nullptr);
   r.rotations_deg = nesting::rotations_from_text(a.rotations, "--rotations");
   r.any_rotation = a.rotations == "any";
   for (const std::string& s : a.parts) {

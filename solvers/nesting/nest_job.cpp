@@ -10,6 +10,15 @@
 
 namespace machplan::nesting {
 
+namespace {
+
+// Why a list of n rotations is refused (more than a part may list), or empty.
+std::string rotation_count_problem(std::size_t n) {
+  return n > kMaxRotations ? fmt::format("lists {} rotations; at most {} (any: any angle)", n, kMaxRotations) : std::string();
+}
+
+}  // namespace
+
 std::vector<double> rotations_from_text(const std::string& s, const std::string& field) {
   if (s == "none") return {0.0};
   if (s == "any") return {0, 45, 90, 135, 180, 225, 270, 315};
@@ -25,8 +34,7 @@ std::vector<double> rotations_from_text(const std::string& s, const std::string&
     out.push_back(d);
     at = comma + 1;
   }
-  if (out.size() > kMaxRotations)
-    throw InputError(field, 0, fmt::format("lists {} rotations; at most {} (any: any angle)", out.size(), kMaxRotations));
+  if (const std::string problem = rotation_count_problem(out.size()); !problem.empty()) throw InputError(field, 0, problem);
   return out;
 }
 
@@ -41,7 +49,7 @@ std::vector<double> rotations_of(const Yaml& y) {
   std::vector<double> out;
   for (const Yaml& d : y.items()) out.push_back(d.number(NumberRule{.min = -360, .max = 360}));
   if (out.empty()) y.fail("lists no rotation (none: as drawn)");
-  if (out.size() > kMaxRotations) y.fail(fmt::format("lists {} rotations; at most {} (any: any angle)", out.size(), kMaxRotations));
+  if (const std::string problem = rotation_count_problem(out.size()); !problem.empty()) y.fail(problem);
   return out;
 }
 

@@ -1,7 +1,6 @@
 // `machplan order`: the reordered program is G-code LinuxCNC's rs274 reads, to the cuts
 // machplan reads from it; bad flags and programs that cannot be reordered are refused.
 #include <string>
-#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -11,8 +11,8 @@ namespace machplan::test {
 using FeedEnds = std::vector<std::pair<double, double>>;  // (X, Y) where each feed move ends
 
 // The end points of the feed moves (STRAIGHT_FEED, ARC_FEED) LinuxCNC's rs274 reads from the
-// program, in order. rs274 runs in the program's folder, one at a time (it writes files there and
-// in the working folder). Empty, with a test failure, when rs274 refuses the program.
+// program, in order. rs274 runs in the program's folder (its output goes there), one at a time
+// across test processes. Empty, with a test failure, when rs274 refuses the program.
 FeedEnds rs274_feeds(const std::string& program);
 
 // The end points of the lines and arcs `machplan program --json` reads from it, in order.
